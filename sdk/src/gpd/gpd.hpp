@@ -7,6 +7,9 @@
 
 namespace kata::gpd {
 
+// Finite-difference stencil of the kinetics block (spec section 5).
+enum class Stencil : int { kBackward = 0, kCentral = 1 };
+
 constexpr int kJoints = 16;
 constexpr int kLines = 30;
 constexpr int kPlanes = 5;

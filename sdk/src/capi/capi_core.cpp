@@ -1,0 +1,310 @@
+// C shims for versions, status strings, contexts, skeletons, clips and streams.
+#include <cmath>
+#include <cstring>
+#include <string>
+
+#include "capi/capi_internal.hpp"
+
+using kata::capi::guarded_context;
+using kata::capi::set_context_error;
+
+namespace kata::capi {
+namespace {
+thread_local std::string t_context_error;
+}
+void set_context_error(const char* message) noexcept {
+  try {
+    t_context_error = message;
+  } catch (...) {
+    // Out of memory while reporting an error: keep the previous message.
+  }
+}
+const char* context_error() noexcept { return t_context_error.c_str(); }
+}  // namespace kata::capi
+
+namespace {
+
+constexpr const char* kPresetsCStrings[] = {"cmu", "cmu-3dsmax", "daz", "bandai", "kinect2", "h36m"};
+
+kata::GpdMap resolve_map(const kata::Skeleton& skeleton, const kata_stream_desc& desc) {
+  if (desc.preset && desc.preset[0]) return kata::make_gpd_map(skeleton, kata::preset_joint_names(desc.preset));
+  if (desc.name_map_path && desc.name_map_path[0])
+    return kata::make_gpd_map(skeleton, kata::load_name_map(desc.name_map_path));
+  throw kata::Error(kata::ErrorKind::kInvalidArgument, "stream: give a preset or a name-map file");
+}
+
+}  // namespace
+
+extern "C" {
+
+KATA_API uint32_t kata_version(void) {
+  return KATA_VERSION_MAJOR * 10000u + KATA_VERSION_MINOR * 100u + KATA_VERSION_PATCH;
+}
+
+KATA_API const char* kata_status_string(kata_status status) {
+  switch (status) {
+    case KATA_OK: return "KATA_OK";
+    case KATA_NO_DATA: return "KATA_NO_DATA";
+    case KATA_E_INVALID_ARGUMENT: return "KATA_E_INVALID_ARGUMENT";
+    case KATA_E_NULL_POINTER: return "KATA_E_NULL_POINTER";
+    case KATA_E_WRONG_JOINT_COUNT: return "KATA_E_WRONG_JOINT_COUNT";
+    case KATA_E_NON_FINITE: return "KATA_E_NON_FINITE";
+    case KATA_E_TIMESTAMP_NOT_INCREASING: return "KATA_E_TIMESTAMP_NOT_INCREASING";
+    case KATA_E_PARSE: return "KATA_E_PARSE";
+    case KATA_E_IO: return "KATA_E_IO";
+    case KATA_E_MODEL: return "KATA_E_MODEL";
+    case KATA_E_NOT_FOUND: return "KATA_E_NOT_FOUND";
+    case KATA_E_OUT_OF_MEMORY: return "KATA_E_OUT_OF_MEMORY";
+    case KATA_E_BUFFER_TOO_SMALL: return "KATA_E_BUFFER_TOO_SMALL";
+    case KATA_E_INTERNAL: return "KATA_E_INTERNAL";
+    case KATA_E_STATE: return "KATA_E_STATE";
+  }
+  return "KATA_E_UNKNOWN_STATUS";
+}
+
+/* ---- context ---- */
+
+KATA_API kata_status kata_context_create(kata_context* out) {
+  if (!out) return KATA_E_NULL_POINTER;
+  *out = nullptr;
+  return guarded_context([&] {
+    *out = new kata_context_s();
+    return KATA_OK;
+  });
+}
+
+KATA_API void kata_context_destroy(kata_context context) { delete context; }
+
+KATA_API const char* kata_context_last_error(kata_context) { return kata::capi::context_error(); }
+
+/* ---- skeletons ---- */
+
+KATA_API kata_status kata_skeleton_create(kata_context context, uint32_t joint_count, const char* const* names,
+                                          const int32_t* parents, const double* rest_offsets, kata_skeleton* out) {
+  if (!out) return KATA_E_NULL_POINTER;
+  *out = nullptr;
+  if (!context || !names || !parents) {
+    set_context_error("kata_skeleton_create: context, names and parents must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  return guarded_context([&] {
+    if (joint_count == 0) throw kata::Error(kata::ErrorKind::kInvalidArgument, "skeleton: no joints");
+    kata::Skeleton s;
+    for (uint32_t i = 0; i < joint_count; ++i) {
+      if (!names[i]) throw kata::Error(kata::ErrorKind::kInvalidArgument, "skeleton: joint " + std::to_string(i) + " has a NULL name");
+      s.names.emplace_back(names[i]);
+      s.parents.push_back(parents[i]);
+      s.offsets.emplace_back(rest_offsets ? Eigen::Vector3d(rest_offsets[3 * i], rest_offsets[3 * i + 1], rest_offsets[3 * i + 2])
+                                          : Eigen::Vector3d::Zero());
+    }
+    s.has_rest_pose = rest_offsets != nullptr;
+    s.validate();
+    *out = new kata_skeleton_s{std::move(s)};
+    return KATA_OK;
+  });
+}
+
+KATA_API kata_status kata_skeleton_load_bvh(kata_context context, const char* path, kata_skeleton* out) {
+  if (!out) return KATA_E_NULL_POINTER;
+  *out = nullptr;
+  if (!context || !path) {
+    set_context_error("kata_skeleton_load_bvh: context and path must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  return guarded_context([&] {
+    kata::BvhClip clip = kata::load_bvh(path);
+    *out = new kata_skeleton_s{std::move(clip.skeleton)};
+    return KATA_OK;
+  });
+}
+
+KATA_API void kata_skeleton_destroy(kata_skeleton skeleton) { delete skeleton; }
+
+KATA_API uint32_t kata_skeleton_joint_count(kata_skeleton skeleton) {
+  return skeleton ? static_cast<uint32_t>(skeleton->skeleton.joint_count()) : 0u;
+}
+
+KATA_API const char* kata_skeleton_joint_name(kata_skeleton skeleton, uint32_t i) {
+  if (!skeleton || i >= static_cast<uint32_t>(skeleton->skeleton.joint_count())) return nullptr;
+  return skeleton->skeleton.names[i].c_str();
+}
+
+KATA_API int32_t kata_skeleton_joint_parent(kata_skeleton skeleton, uint32_t i) {
+  if (!skeleton || i >= static_cast<uint32_t>(skeleton->skeleton.joint_count())) return -2;
+  return skeleton->skeleton.parents[i];
+}
+
+/* ---- clips ---- */
+
+KATA_API kata_status kata_clip_load_bvh(kata_context context, const char* path, kata_clip* out) {
+  if (!out) return KATA_E_NULL_POINTER;
+  *out = nullptr;
+  if (!context || !path) {
+    set_context_error("kata_clip_load_bvh: context and path must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  return guarded_context([&] {
+    *out = new kata_clip_s{kata::load_bvh(path)};
+    return KATA_OK;
+  });
+}
+
+KATA_API void kata_clip_destroy(kata_clip clip) { delete clip; }
+
+KATA_API uint32_t kata_clip_frame_count(kata_clip clip) {
+  return clip ? static_cast<uint32_t>(clip->clip.frame_count()) : 0u;
+}
+
+KATA_API double kata_clip_frame_time(kata_clip clip) { return clip ? clip->clip.frame_time : 0.0; }
+
+KATA_API kata_status kata_clip_skeleton(kata_clip clip, kata_skeleton* out) {
+  if (!out) return KATA_E_NULL_POINTER;
+  *out = nullptr;
+  if (!clip) return KATA_E_NULL_POINTER;
+  return guarded_context([&] {
+    *out = new kata_skeleton_s{clip->clip.skeleton};
+    return KATA_OK;
+  });
+}
+
+KATA_API kata_status kata_clip_positions(kata_clip clip, uint32_t frame, float* out, size_t capacity) {
+  if (!clip || !out) return KATA_E_NULL_POINTER;
+  const auto& c = clip->clip;
+  const size_t n = static_cast<size_t>(c.skeleton.joint_count());
+  if (frame >= static_cast<uint32_t>(c.frame_count())) {
+    set_context_error("kata_clip_positions: frame index past the clip's last frame");
+    return KATA_E_INVALID_ARGUMENT;
+  }
+  if (capacity < 3 * n) {
+    set_context_error("kata_clip_positions: buffer smaller than 3 x joint count floats");
+    return KATA_E_BUFFER_TOO_SMALL;
+  }
+  return guarded_context([&] {
+    // Up to 256 joints the positions live on the stack (no allocation); larger rigs use the heap.
+    using Small = Eigen::Matrix<double, Eigen::Dynamic, 3, Eigen::ColMajor, 256, 3>;
+    auto copy_out = [&](const auto& m) {
+      for (size_t j = 0; j < n; ++j)
+        for (int k = 0; k < 3; ++k) out[3 * j + k] = static_cast<float>(m(static_cast<Eigen::Index>(j), k));
+    };
+    if (n <= 256) {
+      Small m(static_cast<Eigen::Index>(n), 3);
+      kata::world_positions(c, static_cast<int>(frame), m);
+      copy_out(m);
+    } else {
+      Eigen::MatrixX3d m(static_cast<Eigen::Index>(n), 3);
+      kata::world_positions(c, static_cast<int>(frame), m);
+      copy_out(m);
+    }
+    return KATA_OK;
+  });
+}
+
+/* ---- streams ---- */
+
+KATA_API void kata_stream_desc_init(kata_stream_desc* desc) {
+  if (!desc) return;
+  std::memset(desc, 0, sizeof *desc);
+  desc->struct_size = sizeof *desc;
+  desc->preset = nullptr;
+  desc->name_map_path = nullptr;
+  desc->stencil = KATA_STENCIL_BACKWARD;
+  desc->up_axis = KATA_UP_Y;
+  desc->max_gap = 0.25;
+  desc->history_capacity = 16;
+  desc->body_height = 0.0;
+  desc->calibration_frames = 8;
+}
+
+KATA_API const char* kata_preset_name(uint32_t i) {
+  return i < sizeof kPresetsCStrings / sizeof kPresetsCStrings[0] ? kPresetsCStrings[i] : nullptr;
+}
+
+KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skeleton, const kata_stream_desc* desc,
+                                      kata_stream* out) {
+  if (!out) return KATA_E_NULL_POINTER;
+  *out = nullptr;
+  if (!context || !skeleton || !desc) {
+    set_context_error("kata_stream_open: context, skeleton and desc must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  if (desc->struct_size < sizeof(kata_stream_desc)) {
+    set_context_error("kata_stream_open: desc.struct_size is too small (call kata_stream_desc_init)");
+    return KATA_E_INVALID_ARGUMENT;
+  }
+  return guarded_context([&] {
+    const kata::Skeleton& skel = skeleton->skeleton;
+    kata::StreamConfig config;
+    config.map = resolve_map(skel, *desc);
+    config.input_joints = skel.joint_count();
+    if (desc->stencil != KATA_STENCIL_BACKWARD && desc->stencil != KATA_STENCIL_CENTRAL)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, "stream: unknown stencil");
+    if (desc->up_axis != KATA_UP_Y && desc->up_axis != KATA_UP_Z)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, "stream: unknown up axis");
+    config.stencil = desc->stencil == KATA_STENCIL_CENTRAL ? kata::gpd::Stencil::kCentral : kata::gpd::Stencil::kBackward;
+    config.up_axis = desc->up_axis == KATA_UP_Z ? kata::UpAxis::kZ : kata::UpAxis::kY;
+    config.max_gap = desc->max_gap;
+    config.history = static_cast<int>(desc->history_capacity);
+    config.calibration_frames = static_cast<int>(desc->calibration_frames);
+    if (desc->body_height > 0.0) {
+      config.body_height = desc->body_height;
+    } else if (skel.has_rest_pose) {
+      // A Z-up rig's rest pose gives the same lengths: H only uses distances.
+      config.body_height = kata::rest_body_height(skel, config.map);
+    }
+    *out = new kata_stream_s(config, skel);
+    return KATA_OK;
+  });
+}
+
+KATA_API void kata_stream_close(kata_stream stream) { delete stream; }
+
+KATA_API const char* kata_stream_last_error(kata_stream stream) { return stream ? stream->error : ""; }
+
+KATA_API kata_status kata_stream_push(kata_stream stream, double timestamp, const float* positions,
+                                      uint32_t joint_count) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  // Stream::push never throws; joint counts beyond int range are simply wrong.
+  const int count = joint_count > 1000000u ? -1 : static_cast<int>(joint_count);
+  const kata::Status s = stream->stream.push(timestamp, positions, count);
+  if (s != kata::Status::kOk) stream->set_error(stream->stream.last_error());
+  return kata::capi::to_status(s);
+}
+
+KATA_API kata_status kata_stream_flush(kata_stream stream) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  stream->stream.flush();
+  return KATA_OK;
+}
+
+KATA_API kata_status kata_stream_reset(kata_stream stream) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  stream->stream.reset();
+  return KATA_OK;
+}
+
+KATA_API kata_status kata_stream_features(kata_stream stream, float* out, size_t capacity, double* timestamp,
+                                          int64_t* frame_index) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (!out) {
+    stream->set_error("kata_stream_features: out is NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  if (capacity < static_cast<size_t>(KATA_GPD_DIMS)) {
+    stream->set_error("kata_stream_features: buffer holds fewer than KATA_GPD_DIMS floats");
+    return KATA_E_BUFFER_TOO_SMALL;
+  }
+  const float* f = stream->stream.features();
+  if (!f) return KATA_NO_DATA;
+  std::memcpy(out, f, sizeof(float) * KATA_GPD_DIMS);
+  if (timestamp) *timestamp = stream->stream.feature_time();
+  if (frame_index) *frame_index = stream->stream.feature_frame();
+  return KATA_OK;
+}
+
+KATA_API int64_t kata_stream_feature_count(kata_stream stream) {
+  return stream ? stream->stream.emitted_count() : 0;
+}
+
+KATA_API double kata_stream_body_height(kata_stream stream) { return stream ? stream->stream.body_height() : 0.0; }
+
+}  // extern "C"

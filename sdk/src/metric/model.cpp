@@ -1,0 +1,242 @@
+// .kata model files: FlatBuffers (schemas/model.fbs) <-> kata::metric::Model, with every check a
+// model must pass before any of it is used.
+#include "metric/model.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <limits>
+#include <sstream>
+
+#include "common/error.hpp"
+#include "kata_schemas/model_generated.h"
+
+namespace kata::metric {
+
+namespace {
+
+constexpr uint16_t kModelSchemaVersion = 1;  // what this build writes and the newest it reads
+constexpr const char* kLayoutId = "gpd-v1";
+
+[[noreturn]] void refuse(const std::string& what) { throw Error(ErrorKind::kModel, "model refused: " + what); }
+
+// FNV-1a, 64 bit: a cheap whole-content hash. Not cryptographic; it exists to catch corruption
+// (bit flips inside float arrays or strings) that the structural verifier cannot see.
+class Fnv64 {
+ public:
+  void bytes(const void* p, size_t n) {
+    const auto* b = static_cast<const unsigned char*>(p);
+    for (size_t i = 0; i < n; ++i) h_ = (h_ ^ b[i]) * 0x100000001b3ULL;
+  }
+  template <typename T>
+  void value(T v) { bytes(&v, sizeof v); }
+  void text(const std::string& s) {
+    value<uint64_t>(s.size());
+    bytes(s.data(), s.size());
+  }
+  void floats(const std::vector<float>& v) {
+    value<uint64_t>(v.size());
+    bytes(v.data(), v.size() * sizeof(float));
+  }
+  uint64_t get() const { return h_; }
+
+ private:
+  uint64_t h_ = 0xcbf29ce484222325ULL;
+};
+
+// The checksum stored in the file: every semantic field in a fixed order (little-endian hosts;
+// FlatBuffers itself is little-endian, and kata targets x86-64 / aarch64 little-endian only).
+uint64_t checksum(const Model& m) {
+  Fnv64 h;
+  h.value<uint16_t>(kModelSchemaVersion);
+  h.text(m.layout_id);
+  h.value<int32_t>(static_cast<int32_t>(m.stencil));
+  h.value<int32_t>(static_cast<int32_t>(m.normalisation));
+  h.value<int32_t>(gpd::kDims);
+  h.value<int32_t>(m.rank);
+  h.floats(m.min);
+  h.floats(m.max);
+  h.floats(m.shift);
+  h.floats(m.scale);
+  h.floats(m.w);
+  h.value<double>(m.delta_star);
+  h.text(m.info.date);
+  h.text(m.info.data);
+  h.text(m.info.parameters);
+  h.value<uint64_t>(m.info.evaluation.size());
+  for (const auto& [name, value] : m.info.evaluation) {
+    h.text(name);
+    h.value<double>(value);
+  }
+  return h.get();
+}
+
+// First non-finite value in v, or -1.
+long first_non_finite(const std::vector<float>& v) {
+  for (size_t i = 0; i < v.size(); ++i)
+    if (!std::isfinite(v[i])) return static_cast<long>(i);
+  return -1;
+}
+
+std::string show(float v) {
+  std::ostringstream s;
+  s << v;
+  return s.str();
+}
+
+// The content checks shared by writing and reading: everything but the container.
+void validate(const Model& m) {
+  if (m.layout_id != kLayoutId)
+    refuse("layout id \"" + m.layout_id + "\" is not \"" + kLayoutId + "\" (this build computes gpd-v1 features)");
+  if (m.stencil != gpd::Stencil::kBackward && m.stencil != gpd::Stencil::kCentral)
+    refuse("unknown stencil " + std::to_string(static_cast<int>(m.stencil)));
+  if (m.normalisation != Normalisation::kMinMaxUnit && m.normalisation != Normalisation::kBlockBalanced)
+    refuse("unknown normalisation kind " + std::to_string(static_cast<int>(m.normalisation)));
+  if (m.rank <= 0) refuse("rank r = " + std::to_string(m.rank) + " (must be >= 1)");
+  if (m.rank > gpd::kDims) refuse("rank r = " + std::to_string(m.rank) + " exceeds the 1683 feature dimensions");
+  const size_t dims = gpd::kDims;
+  if (m.min.size() != dims) refuse("min has " + std::to_string(m.min.size()) + " values, expected 1683");
+  if (m.max.size() != dims) refuse("max has " + std::to_string(m.max.size()) + " values, expected 1683");
+  const size_t wsize = dims * static_cast<size_t>(m.rank);
+  if (m.w.size() != wsize)
+    refuse("W has " + std::to_string(m.w.size()) + " values, expected 1683 x r = 1683 x " + std::to_string(m.rank) +
+           " = " + std::to_string(wsize));
+  if (m.normalisation == Normalisation::kBlockBalanced) {
+    if (m.shift.size() != dims) refuse("shift has " + std::to_string(m.shift.size()) + " values, expected 1683");
+    if (m.scale.size() != dims) refuse("scale has " + std::to_string(m.scale.size()) + " values, expected 1683");
+  } else if (!m.shift.empty() || !m.scale.empty()) {
+    refuse("shift/scale are present but the normalisation is min/max (they would be ignored)");
+  }
+  const std::pair<const char*, const std::vector<float>*> arrays[] = {
+      {"min", &m.min}, {"max", &m.max}, {"shift", &m.shift}, {"scale", &m.scale}, {"W", &m.w}};
+  for (const auto& [name, v] : arrays) {
+    if (long i = first_non_finite(*v); i >= 0) {
+      std::string where = std::string(name) + "[" + std::to_string(i) + "]";
+      if (v == &m.w)
+        where = "W[" + std::to_string(i % gpd::kDims) + ", " + std::to_string(i / gpd::kDims) + "]";
+      refuse("NaN/Inf in " + where + " = " + show((*v)[static_cast<size_t>(i)]));
+    }
+  }
+  for (size_t i = 0; i < dims; ++i)
+    if (m.max[i] < m.min[i])
+      refuse("max < min at dimension " + std::to_string(i) + " (" + show(m.max[i]) + " < " + show(m.min[i]) + ")");
+  for (size_t i = 0; i < m.scale.size(); ++i)
+    if (m.scale[i] < 0.0f) refuse("negative scale at dimension " + std::to_string(i));
+  if (!std::isfinite(m.delta_star) || m.delta_star <= 0.0)
+    refuse("delta* = " + std::to_string(m.delta_star) + " (must be finite and > 0)");
+  for (const auto& [name, value] : m.info.evaluation)
+    if (!std::isfinite(value)) refuse("NaN/Inf in evaluation figure \"" + name + "\"");
+}
+
+std::vector<float> copy_floats(const flatbuffers::Vector<float>* v) {
+  return v ? std::vector<float>(v->begin(), v->end()) : std::vector<float>{};
+}
+std::string copy_string(const flatbuffers::String* s) { return s ? s->str() : std::string{}; }
+
+}  // namespace
+
+std::vector<uint8_t> serialize_model(const Model& model) {
+  validate(model);
+  flatbuffers::FlatBufferBuilder b(model.w.size() * sizeof(float) + 4 * gpd::kDims * sizeof(float) + 4096);
+  std::vector<flatbuffers::Offset<fb::Figure>> figures;
+  for (const auto& [name, value] : model.info.evaluation)
+    figures.push_back(fb::CreateFigure(b, kModelSchemaVersion, b.CreateString(name), value));
+  auto info = fb::CreateTrainingInfo(b, kModelSchemaVersion, b.CreateString(model.info.date),
+                                     b.CreateString(model.info.data), b.CreateString(model.info.parameters),
+                                     b.CreateVector(figures));
+  auto layout = b.CreateString(model.layout_id);
+  auto mn = b.CreateVector(model.min);
+  auto mx = b.CreateVector(model.max);
+  flatbuffers::Offset<flatbuffers::Vector<float>> shift, scale;
+  if (!model.shift.empty()) shift = b.CreateVector(model.shift);
+  if (!model.scale.empty()) scale = b.CreateVector(model.scale);
+  auto w = b.CreateVector(model.w);
+  auto root = fb::CreateModel(b, kModelSchemaVersion, layout, static_cast<fb::Stencil>(model.stencil),
+                              static_cast<fb::Normalisation>(model.normalisation), gpd::kDims,
+                              static_cast<uint32_t>(model.rank), mn, mx, shift, scale, w, model.delta_star, info,
+                              checksum(model));
+  fb::FinishModelBuffer(b, root);
+  return std::vector<uint8_t>(b.GetBufferPointer(), b.GetBufferPointer() + b.GetSize());
+}
+
+Model parse_model(const uint8_t* data, size_t size) {
+  if (!data) refuse("null buffer");
+  // The smallest possible buffer is a root offset plus the identifier.
+  if (size < 8) refuse("not a kata model: " + std::to_string(size) + " bytes is too small");
+  if (!fb::ModelBufferHasIdentifier(data)) {
+    std::string id;
+    for (int i = 4; i < 8; ++i) {
+      const char c = static_cast<char>(data[i]);
+      id += (c >= 0x20 && c < 0x7f) ? std::string(1, c) : "\\x" + std::to_string(static_cast<unsigned>(data[i]));
+    }
+    refuse("not a kata model: file identifier \"" + id + "\" is not \"KATA\"");
+  }
+  // Every offset, vector length and string is checked against the buffer bounds before any
+  // accessor runs: a truncated or bit-flipped buffer stops here (or at the checksum below).
+  flatbuffers::Verifier verifier(data, size, /*max_depth=*/16, /*max_tables=*/100000);
+  if (!fb::VerifyModelBuffer(verifier))
+    refuse("the FlatBuffers verifier rejects the buffer (" + std::to_string(size) + " bytes): truncated or corrupt");
+  const fb::Model* root = fb::GetModel(data);
+  if (root->schema_version() > kModelSchemaVersion || root->schema_version() == 0)
+    refuse("schema version " + std::to_string(root->schema_version()) + " (this build reads 1)");
+  if (!root->layout_id()) refuse("no layout id");
+  Model m;
+  m.layout_id = root->layout_id()->str();
+  if (m.layout_id != kLayoutId)  // checked before the sizes: another layout explains other sizes
+    refuse("layout id \"" + m.layout_id + "\" is not \"" + kLayoutId + "\" (this build computes gpd-v1 features)");
+  if (root->dims() != static_cast<uint32_t>(gpd::kDims))
+    refuse("dims = " + std::to_string(root->dims()) + ", expected 1683 (gpd-v1)");
+  if (root->rank() == 0) refuse("rank r = 0 (must be >= 1)");
+  if (root->rank() > static_cast<uint32_t>(gpd::kDims))
+    refuse("rank r = " + std::to_string(root->rank()) + " exceeds the 1683 feature dimensions");
+  m.rank = static_cast<int>(root->rank());
+  m.stencil = static_cast<gpd::Stencil>(root->stencil());
+  m.normalisation = static_cast<Normalisation>(root->normalisation());
+  m.min = copy_floats(root->min());
+  m.max = copy_floats(root->max());
+  m.shift = copy_floats(root->shift());
+  m.scale = copy_floats(root->scale());
+  m.w = copy_floats(root->w());
+  m.delta_star = root->delta_star();
+  if (const fb::TrainingInfo* info = root->info()) {
+    m.info.date = copy_string(info->date());
+    m.info.data = copy_string(info->data());
+    m.info.parameters = copy_string(info->parameters());
+    if (info->evaluation())
+      for (const fb::Figure* f : *info->evaluation()) m.info.evaluation.emplace_back(copy_string(f->name()), f->value());
+  }
+  validate(m);
+  if (checksum(m) != root->checksum()) refuse("checksum mismatch: the content is corrupt (a changed bit or byte)");
+  return m;
+}
+
+void save_model(const std::string& path, const Model& model) {
+  const std::vector<uint8_t> bytes = serialize_model(model);
+  // Write to a temporary then rename, so a reader never sees a half-written model.
+  const std::string tmp = path + ".tmp";
+  {
+    std::ofstream out(tmp, std::ios::binary | std::ios::trunc);
+    if (!out) throw Error(ErrorKind::kIo, path + ": cannot open for writing");
+    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+    if (!out.flush()) throw Error(ErrorKind::kIo, path + ": write failed");
+  }
+  if (std::rename(tmp.c_str(), path.c_str()) != 0) {
+    std::remove(tmp.c_str());
+    throw Error(ErrorKind::kIo, path + ": cannot rename the temporary file into place");
+  }
+}
+
+Model load_model(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error(ErrorKind::kIo, path + ": cannot open");
+  std::vector<uint8_t> bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) throw Error(ErrorKind::kIo, path + ": read failed");
+  try {
+    return parse_model(bytes.data(), bytes.size());
+  } catch (const Error& e) {
+    throw Error(e.kind(), path + ": " + e.what());
+  }
+}
+
+}  // namespace kata::metric

@@ -1,0 +1,53 @@
+// A learned pose metric: normalisation + W (spec gpd-v1.md section 6), as held in memory and as
+// stored in a .kata file (a FlatBuffers buffer, schemas/model.fbs, identifier "KATA").
+#pragma once
+
+#include <cstdint>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "gpd/gpd.hpp"
+
+namespace kata::metric {
+
+// How a feature vector x is normalised before projection.
+enum class Normalisation : int {
+  // The spec's: x' = (x - min) / (max - min) per dimension (0 where max == min), then unit length.
+  kMinMaxUnit = 0,
+  // Block-balanced (a documented model option): x' = (x - mean) / std per dimension (0 where
+  // std == 0) times the block weight in `scale` (so each of the nine blocks carries equal total
+  // variance), then unit length. Stored per dimension in `shift` (= mean) and `scale`.
+  kBlockBalanced = 1,
+};
+
+struct TrainingInfo {
+  std::string date;        // ISO 8601
+  std::string data;        // what it was trained on (clips, pair files)
+  std::string parameters;  // JSON text of every parameter (N', r, alpha, gamma, seed, ...)
+  std::vector<std::pair<std::string, double>> evaluation;  // named figures (precision, ...)
+};
+
+struct Model {
+  std::string layout_id = "gpd-v1";
+  gpd::Stencil stencil = gpd::Stencil::kBackward;
+  Normalisation normalisation = Normalisation::kMinMaxUnit;
+  std::vector<float> min, max;      // kDims each (always present: the spec's ranges)
+  std::vector<float> shift, scale;  // kDims each when normalisation == kBlockBalanced, else empty
+  int rank = 0;                     // r
+  std::vector<float> w;             // kDims x rank, column-major: column c = w[c*kDims .. ]
+  double delta_star = 0.0;          // decision threshold on d
+  TrainingInfo info;
+};
+
+// Serialises a model to a .kata buffer. Throws kata::Error(kModel) if the model is invalid.
+std::vector<uint8_t> serialize_model(const Model& model);
+// Verifies (FlatBuffers verifier first) and checks a .kata buffer, then copies it out. Throws
+// kata::Error(kModel) with a message naming the problem: not a model / wrong identifier,
+// another layout id, wrong dimensions, NaN/Inf, max < min, rank 0, ...
+Model parse_model(const uint8_t* data, size_t size);
+// File versions; load_model throws kata::Error(kIo) when the file cannot be read.
+void save_model(const std::string& path, const Model& model);
+Model load_model(const std::string& path);
+
+}  // namespace kata::metric

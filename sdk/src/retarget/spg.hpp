@@ -1,0 +1,69 @@
+// The weighted DGP stress sigma(X) = 1/2 sum_p w_p (|x_u - x_v| - delta_p)^2, its analytic
+// gradient, and its minimiser: the non-monotone spectral projected gradient method (Birgin,
+// Martinez, Raydan; the paper's reference [7]) with a Barzilai-Borwein step and the
+// Grippo-Lampariello-Lucidi non-monotone line search. Unconstrained here, so the projection
+// is the identity. Allocation-free once the solver is constructed.
+#pragma once
+
+#include <vector>
+
+namespace kata::retarget {
+
+// One DGP instance over caller-owned flat arrays (one entry per pair). Positions are
+// joints x 3, row-major; lengths in any unit, the stress in that unit squared.
+struct StressInstance {
+  int joints = 0;
+  int pairs = 0;
+  const int* u = nullptr;         // first endpoint of every pair
+  const int* v = nullptr;         // second endpoint
+  const double* weight = nullptr; // w_p >= 0 (the priorities pi_uv, possibly re-weighted)
+  const double* delta = nullptr;  // target distances delta_p >= 0
+};
+
+// sigma(x); when grad is not null it receives the gradient (3 x joints, overwritten). A pair
+// whose joints coincide contributes its value but no gradient (the term is not differentiable
+// there; 0 is a valid subgradient choice and keeps the result finite).
+double stress(const StressInstance& instance, const double* x, double* grad);
+// sqrt(sum_p w_p delta_p^2): the gradient's natural scale, in length units. The relative
+// gradient tolerance is measured against it, so it does not depend on units or start point.
+double stress_scale(const StressInstance& instance);
+
+// Parameters of the SPG method. Defaults are those of Birgin-Martinez-Raydan / MDjeep.
+struct SpgOptions {
+  int max_iterations = 500;          // cap on iterations (one gradient step each)
+  double gradient_tolerance = 1e-6;  // stop when |grad|_2 <= this x stress_scale()
+  int memory = 10;                   // GLL memory M: compare against the max of the last M stresses
+  double gamma = 1e-4;               // sufficient-decrease constant of the line search
+  double step_min = 1e-12;           // spectral step bounds [lambda_min, lambda_max]
+  double step_max = 1e12;
+  double initial_step = 0.0;         // first spectral step; <= 0 means 1 / |grad|_inf
+  int max_backtracks = 60;           // line-search trials per iteration before giving up
+};
+
+// What one minimisation did.
+struct SpgResult {
+  int iterations = 0;        // accepted steps
+  int evaluations = 0;       // stress + gradient evaluations (incl. the first)
+  bool converged = false;    // the gradient tolerance was met (else: cap or line-search failure)
+  double stress_start = 0.0; // sigma at the start point
+  double stress = 0.0;       // sigma at the returned point (the best one seen)
+  double gradient_norm = 0.0;// |grad|_2 at the returned point
+  double last_step = 0.0;    // last spectral step, a good initial_step for a warm start
+};
+
+// SPG minimiser with its work buffers sized for one joint count at construction.
+class SpgSolver {
+ public:
+  // Allocates the work buffers for `joints` joints (3 x joints unknowns).
+  explicit SpgSolver(int joints);
+  // Minimises sigma from x (in: start point, out: the best point seen). No allocation.
+  // instance.joints must equal the constructor's joint count.
+  SpgResult minimize(const StressInstance& instance, double* x, const SpgOptions& options);
+
+ private:
+  int size_;                        // 3 x joints
+  std::vector<double> g_, xn_, gn_, best_;  // gradient, trial point, trial gradient, best point
+  std::vector<double> history_;     // the last M stresses (ring)
+};
+
+}  // namespace kata::retarget

@@ -1,0 +1,96 @@
+// A live pose stream: frames in (timestamp + world joint positions of the input skeleton),
+// GPD v1 feature vectors out (spec gpd-v1.md). All memory is sized when the stream is opened;
+// push() and the readers never allocate. One stream is used by one thread at a time; streams
+// share nothing, so many run in parallel.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "common/status.hpp"
+#include "gpd/gpd.hpp"
+#include "skeleton/skeleton.hpp"
+
+namespace kata {
+
+enum class UpAxis : int { kY = 0, kZ = 1 };
+
+struct StreamConfig {
+  GpdMap map;                 // input joint -> GPD joint
+  int input_joints = 0;       // joints per pushed frame
+  gpd::Stencil stencil = gpd::Stencil::kBackward;
+  double max_gap = 0.25;      // seconds; a larger gap between frames starts a new segment
+  int history = 16;           // frames kept in the ring buffer (>= 3; >= calibration_frames)
+  // Body height H in input units (spec section 2, step 4). > 0: use it (e.g. from the
+  // skeleton's rest pose). <= 0: estimate it as the median of the per-frame bone lengths over
+  // the first `calibration_frames` frames; those frames are held until then.
+  double body_height = 0.0;
+  int calibration_frames = 8;
+  UpAxis up_axis = UpAxis::kY;  // Z-up input is turned to Y-up: (x, y, z) -> (x, z, -y)
+};
+
+// A stream's config for a skeleton with a rest pose (e.g. a BVH clip's): H from the rest pose.
+StreamConfig stream_config_for(const Skeleton& skeleton, const GpdMap& map, gpd::Stencil stencil);
+
+class Stream {
+ public:
+  // Allocates every buffer. Throws kata::Error(kInvalidArgument) on a bad config.
+  explicit Stream(const StreamConfig& config);
+
+  // Adds a frame: t in seconds, xyz = input_joints x 3 floats (x, y, z interleaved, input
+  // units). A refused frame (null, wrong count, NaN/Inf, t not increasing) changes nothing and
+  // its reason is in last_error(). May emit one feature vector (the frame itself with the
+  // backward stencil, the previous frame with the central one; several after calibration).
+  Status push(double t, const float* xyz, int joint_count);
+  // Ends the current segment: with the central stencil the held frame is emitted with the
+  // backward formulas (spec: end of a stream). The next frame starts a new segment.
+  void flush();
+  // The next frame starts a new segment (its kinetics restart); nothing is emitted.
+  void reset();
+
+  // The newest emitted feature vector (gpd::kDims floats), its timestamp and its frame index
+  // (0-based count of accepted frames). Valid until the next push/flush. Null before the first.
+  const float* features() const { return emitted_ ? out_.data() : nullptr; }
+  double feature_time() const { return out_time_; }
+  int64_t feature_frame() const { return out_frame_; }
+  // Number of vectors emitted so far; a caller that sees it grow by one knows it has them all.
+  int64_t emitted_count() const { return emitted_; }
+  // The newest accepted frame's mapped GPD joints (16 x 3, Y up, input units), or null.
+  const float* last_joints() const;
+  // H in input units; 0 while still calibrating.
+  double body_height() const { return height_; }
+  const StreamConfig& config() const { return config_; }
+  const char* last_error() const { return error_; }
+
+ private:
+  void process(int64_t frame);
+  // Writes frame `frame`'s vector to out_: kinetics by the backward rules (central == false)
+  // or the central stencil (needs frame + 1).
+  void emit(int64_t frame, bool central);
+  void finish_calibration();
+  Status refuse(Status status, const char* fmt, ...);
+  int slot_at(int64_t frame) const { return static_cast<int>(frame % config_.history); }
+
+  StreamConfig config_;
+  double height_ = 0.0;
+  gpd::GeometryState geometry_;
+  // Ring buffer, struct of arrays: per slot timestamp, mapped world joints, block 1 and blocks 1..8.
+  std::vector<double> time_;
+  std::vector<int> segment_pos_;   // position of the frame in its segment (0, 1, 2...)
+  std::vector<char> starts_segment_;  // set at push time: gap, reset or first frame
+  std::vector<double> calibration_;   // 7 x calibration_frames bone lengths, for the median H
+  std::vector<float> joints_;      // history x 48
+  std::vector<float> static_;      // history x kStaticDims (block 1 = first kJcDims)
+  std::vector<float> out_;         // kDims
+  int64_t accepted_ = 0;           // frames accepted so far
+  int64_t processed_ = 0;          // frames turned into static features (< accepted_ while calibrating)
+  bool pending_ = false;           // central: the newest processed frame awaits its successor
+  bool new_segment_ = true;        // the next processed frame starts a segment
+  double last_time_ = 0.0;
+  int64_t emitted_ = 0;
+  double out_time_ = 0.0;
+  int64_t out_frame_ = -1;
+  char error_[256] = {0};
+};
+
+}  // namespace kata
