@@ -124,6 +124,8 @@ static_assert(kOffsetJJd == kJcDims && kOffsetJJo == kOffsetJJd + kPairCount &&
 // independent implementation the tests check the fast kernels against. Same contract as
 // gpd::static_features (reads and updates the plane-normal memory in `state`).
 void static_features_reference(const float* local, float hip_height, GeometryState& state, double* out);
+// The same from double local positions (tests: golden vectors without float32 input rounding).
+void static_features_reference(const double* local, double hip_height, GeometryState& state, double* out);
 
 // The float32 SIMD kernels behind gpd::static_features. Each lives in its own namespace (and
 // translation unit) so that no inline function is shared between the two instruction sets.

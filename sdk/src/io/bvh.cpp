@@ -131,10 +131,12 @@ class Parser {
       ++pos_;
     }
     Token t;
-    t.line = line_;
     const size_t b = pos_;
     while (pos_ < s_.size() && !is_blank(s_[pos_]) && s_[pos_] != '\n') ++pos_;
     t.text = s_.substr(b, pos_ - b);
+    // At the end of the text, blame the last line that had something on it.
+    if (!t.text.empty()) last_token_line_ = line_;
+    t.line = t.text.empty() ? last_token_line_ : line_;
     return t;
   }
   // True when another token follows on the current line.
@@ -220,6 +222,9 @@ class Parser {
                       " (opened at line " + std::to_string(top.open_line) + ") has no OFFSET");
         }
         stack.pop_back();
+      } else if (iequals(t.text, "MOTION")) {
+        fail(t, "MOTION inside the hierarchy: unbalanced braces, the block opened at line " +
+                    std::to_string(top.open_line) + " is never closed");
       } else if (iequals(t.text, "ROOT")) {
         fail(t, "ROOT inside a joint (unbalanced braces?)");
       } else if (t.text == "{") {
@@ -318,10 +323,11 @@ class Parser {
     // Move to the line after "Frame Time:".
     while (pos_ < s_.size() && s_[pos_] != '\n') ++pos_;
     long long rows = 0;
+    int last_line = tt.line;  // line of the last row read, where a truncation is reported
     while (rows < frames) {
       if (pos_ >= s_.size()) {
-        fail(line_, "truncated MOTION block: Frames: says " + std::to_string(frames) + ", the file has " +
-                        std::to_string(rows) + " rows");
+        fail(last_line, "truncated MOTION block: Frames: says " + std::to_string(frames) + ", the file ends after " +
+                            std::to_string(rows) + " rows");
       }
       // pos_ is at a '\n' (or the start of a line just after one).
       if (s_[pos_] == '\n') {
@@ -358,6 +364,7 @@ class Parser {
                         std::to_string(cc));
       }
       ++rows;
+      last_line = line_;
     }
     // Only whitespace may follow the last row.
     while (pos_ < s_.size()) {
@@ -374,6 +381,7 @@ class Parser {
   std::string name_;
   size_t pos_ = 0;
   int line_ = 1;
+  int last_token_line_ = 1;
   std::unordered_map<std::string, int> index_;
 };
 

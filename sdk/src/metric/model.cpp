@@ -3,6 +3,8 @@
 #include "metric/model.hpp"
 
 #include <cmath>
+#include <cstdint>
+#include <cstdio>
 #include <cstring>
 #include <fstream>
 #include <iterator>
@@ -85,8 +87,10 @@ std::string show(float v) {
   return s.str();
 }
 
+}  // namespace
+
 // The content checks shared by writing and reading: everything but the container.
-void validate(const Model& m) {
+void validate_model(const Model& m) {
   if (m.layout_id != kLayoutId)
     refuse("layout id \"" + m.layout_id + "\" is not \"" + kLayoutId + "\" (this build computes gpd-v1 features)");
   if (m.stencil != gpd::Stencil::kBackward && m.stencil != gpd::Stencil::kCentral)
@@ -129,6 +133,8 @@ void validate(const Model& m) {
     if (!std::isfinite(value)) refuse("NaN/Inf in evaluation figure \"" + name + "\"");
 }
 
+namespace {
+
 std::vector<float> copy_floats(const flatbuffers::Vector<float>* v) {
   return v ? std::vector<float>(v->begin(), v->end()) : std::vector<float>{};
 }
@@ -137,7 +143,7 @@ std::string copy_string(const flatbuffers::String* s) { return s ? s->str() : st
 }  // namespace
 
 std::vector<uint8_t> serialize_model(const Model& model) {
-  validate(model);
+  validate_model(model);
   flatbuffers::FlatBufferBuilder b(model.w.size() * sizeof(float) + 4 * gpd::kDims * sizeof(float) + 4096);
   std::vector<flatbuffers::Offset<fb::Figure>> figures;
   for (const auto& [name, value] : model.info.evaluation)
@@ -162,6 +168,13 @@ std::vector<uint8_t> serialize_model(const Model& model) {
 
 Model parse_model(const uint8_t* data, size_t size) {
   if (!data) refuse("null buffer");
+  // FlatBuffers reads scalars in place and checks alignment only relative to the buffer start:
+  // a buffer from a caller (e.g. a memory-mapped or embedded blob) at an odd address is copied
+  // to an aligned one first, so float/double reads stay aligned.
+  if (reinterpret_cast<uintptr_t>(data) % alignof(double) != 0) {
+    const std::vector<uint8_t> aligned(data, data + size);  // std::allocator: aligned for double
+    return parse_model(aligned.data(), aligned.size());
+  }
   // The smallest possible buffer is a root offset plus the identifier.
   if (size < 8) refuse("not a kata model: " + std::to_string(size) + " bytes is too small");
   if (!fb::ModelBufferHasIdentifier(data)) {
@@ -206,7 +219,7 @@ Model parse_model(const uint8_t* data, size_t size) {
     if (info->evaluation())
       for (const fb::Figure* f : *info->evaluation()) m.info.evaluation.emplace_back(copy_string(f->name()), f->value());
   }
-  validate(m);
+  validate_model(m);
   if (checksum(m) != root->checksum()) refuse("checksum mismatch: the content is corrupt (a changed bit or byte)");
   return m;
 }

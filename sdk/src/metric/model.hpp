@@ -40,6 +40,12 @@ struct Model {
   TrainingInfo info;
 };
 
+// Checks a model's content (what parse_model checks after the container): layout id, rank >= 1,
+// sizes (min/max 1683, W 1683 x r, shift/scale 1683 for kBlockBalanced and empty otherwise),
+// no NaN/Inf, max >= min, scale >= 0, delta* finite and > 0. Throws kata::Error(kModel) naming
+// the first problem. (Added by the scorer for models built in memory, e.g. by the trainer.)
+void validate_model(const Model& model);
+
 // Serialises a model to a .kata buffer. Throws kata::Error(kModel) if the model is invalid.
 std::vector<uint8_t> serialize_model(const Model& model);
 // Verifies (FlatBuffers verifier first) and checks a .kata buffer, then copies it out. Throws

@@ -198,9 +198,9 @@ class JsonMapParser {
     std::string out;
     for (;;) {
       if (pos_ >= s_.size()) fail("unterminated string");
+      if (peek() == '\n') fail("unterminated string (newline inside it)");
       const char c = next();
       if (c == '"') return out;
-      if (c == '\n') fail("newline inside a string");
       if (c != '\\') {
         out += c;
         continue;

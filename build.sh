@@ -1,0 +1,65 @@
+#!/usr/bin/env bash
+# kata's one-stop script on a fresh Debian machine (run as root, or with sudo available):
+#   ./build.sh demo   install what is missing, build, run the main job (coaching demo)
+#   ./build.sh test   install what is missing, build, run the whole test suite
+#   ./build.sh deps | build | bench | asan     (the pieces; asan = tests under ASan + UBSan)
+set -euo pipefail
+cd "$(dirname "$0")"
+
+# Debian packages the build, tests, benchmarks and reports need (nothing is downloaded otherwise).
+PACKAGES=(build-essential cmake pkg-config libeigen3-dev libzmq3-dev cppzmq-dev libflatbuffers-dev
+          flatbuffers-compiler flatbuffers-compiler-dev libgtest-dev libgmock-dev libbenchmark-dev
+          libcli11-dev nlohmann-json3-dev libxsimd-dev python3 python3-numpy python3-matplotlib)
+JOBS=${JOBS:-2}
+
+deps() {
+  local missing=()
+  for p in "${PACKAGES[@]}"; do
+    dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+  done
+  [ ${#missing[@]} -eq 0 ] && return 0
+  echo "== installing: ${missing[*]}"
+  local sudo=""
+  [ "$(id -u)" -ne 0 ] && sudo="sudo"
+  $sudo apt-get update -qq
+  DEBIAN_FRONTEND=noninteractive $sudo apt-get install -y -qq --no-install-recommends "${missing[@]}"
+}
+
+build() {  # build DIR [cmake options...]
+  local dir=$1; shift
+  cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=Release -DKATA_WERROR=ON "$@" >/dev/null
+  cmake --build "$dir" -j "$JOBS"
+}
+
+run_tests() {  # run_tests DIR
+  ctest --test-dir "$1" --output-on-failure -j "$JOBS" --timeout 900
+}
+
+demo() {
+  local kata=build/bin/kata
+  echo "== GPD v1 features of a CMU walk (subject 2), every frame through a live stream"
+  "$kata" features --bvh data/cmu/02_01.bvh --preset cmu --out build/02_01-features.npy
+  if [ -f models/default.kata ]; then
+    echo "== the shipped model"
+    "$kata" model-info models/default.kata
+    echo "== scoring a student (subject 7 walking) against a teacher (subject 2 walking)"
+    "$kata" score --model models/default.kata --teacher data/cmu/02_01.bvh --student data/cmu/07_01.bvh \
+      --preset cmu --out build/scores.csv
+    head -n 5 build/scores.csv
+  fi
+  if "$kata" retarget --help >/dev/null 2>&1; then
+    echo "== the teacher's walk retargeted onto the student's body (a ghost to draw over the student)"
+    "$kata" retarget --teacher data/cmu/02_01.bvh --student data/cmu/07_01.bvh --preset cmu --out build/ghost.bvh
+  fi
+}
+
+case "${1:-}" in
+  deps) deps ;;
+  build) deps; build build ;;
+  demo) deps; build build; demo ;;
+  test) deps; build build; run_tests build ;;
+  asan) deps; build build-asan -DKATA_SANITIZE=ON -DKATA_BUILD_BENCH=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo
+        ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 run_tests build-asan ;;
+  bench) deps; build build; build/bin/kata_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true ;;
+  *) sed -n '2,6p' "$0"; exit 2 ;;
+esac

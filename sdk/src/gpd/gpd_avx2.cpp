@@ -1,0 +1,32 @@
+// GPD v1 static blocks, AVX2+FMA kernel (compiled with -march=x86-64-v3 by kata_avx2_sources;
+// called only after kata::cpu_has_avx2()).
+#include <cstdint>
+
+#include "gpd/gpd_detail.hpp"
+
+#if defined(__AVX2__) && defined(__FMA__)
+#include <xsimd/xsimd.hpp>
+
+namespace kata::gpd::detail::avx2 {
+
+using Arch = xsimd::fma3<xsimd::avx2>;
+
+#include "gpd/gpd_kernel.inl"
+
+bool compiled() noexcept { return true; }
+
+}  // namespace kata::gpd::detail::avx2
+
+#else  // not an x86 build: no AVX2 kernel; the dispatcher never calls it.
+
+namespace kata::gpd::detail::avx2 {
+
+bool compiled() noexcept { return false; }
+
+void static_features(const float* local, float hip_height, GeometryState& state, float* out) noexcept {
+  sse4::static_features(local, hip_height, state, out);
+}
+
+}  // namespace kata::gpd::detail::avx2
+
+#endif

@@ -1,0 +1,110 @@
+// Retargeter: puts a teacher's posture onto a student's body, frame after frame. Per frame:
+//   1. the teacher's normalised distances D_uv = |t_u - t_v| / tau_uv(teacher) become target
+//      distances delta_uv = tau_uv(student) D_uv, with priorities pi_uv (distance.hpp);
+//   2. the stress sigma = 1/2 sum pi_uv (|x_u - x_v| - delta_uv)^2 is minimised by SPG (spg.hpp),
+//      warm-started from the previous frame's optimum (the first frame, and any frame after
+//      reset(), starts from the forward-kinematics baseline: the student's bone lengths laid
+//      along the teacher's bone directions);
+//   3. the optimum is rotated onto the teacher about the root (a proper rotation; a mirror
+//      image, which has the same stress, is flipped back first), root on the teacher's root;
+//   4. bone-length restoring step: the paper's objective trades bone lengths against the other
+//      distances (on real CMU pairs its optimum stretches bones by several percent), so the
+//      tree is walked from the root and every bone is reset to the student's exact length along
+//      its solved direction. Directions are what the distances preserve; a joint moves only by
+//      the accumulated length corrections of its ancestors.
+// The teacher's tau are measured on each frame's own bone lengths (equal to the rest lengths for
+// BVH forward kinematics; robust to a live source whose "bones" are not rigid). All buffers are
+// allocated in the constructor; retarget() allocates nothing.
+// Thread-safety: one Retargeter per stream; calls on one object must not overlap.
+#pragma once
+
+#include <vector>
+
+#include "retarget/distance.hpp"
+#include "retarget/spg.hpp"
+
+namespace kata::retarget {
+
+// Options of a Retargeter.
+struct RetargetOptions {
+  SpgOptions solver{200, 1e-5};  // warm frames need a handful of iterations; 1e-5 relative gradient
+  bool warm_start = true;        // start each frame from the previous optimum (else FK baseline)
+  bool restore_bone_lengths = true;  // run the bone-length restoring step (4. above)
+  double bone_weight = 1.0;      // multiplier on the bone pairs' priority (1 = the paper's objective)
+};
+
+// What the last retarget() did. Lengths in the caller's units; errors relative (0.01 = 1%).
+struct RetargetReport {
+  bool warm = false;               // started from the previous optimum
+  int iterations = 0;              // SPG iterations
+  int evaluations = 0;             // stress + gradient evaluations
+  bool converged = false;          // SPG met its gradient tolerance
+  double stress_baseline = 0.0;    // sigma at the FK baseline
+  double stress_start = 0.0;       // sigma at the start point
+  double stress = 0.0;             // sigma at the SPG optimum
+  double stress_output = 0.0;      // sigma of the output (after the restoring step)
+  double max_bone_error_solved = 0.0;  // max_j ||x_j - x_parent| - L_j| / L_j at the optimum
+  double max_bone_error = 0.0;     // the same for the output
+};
+
+// Per-stream retargeting state for one (teacher tree, student bone lengths) pair.
+class Retargeter {
+ public:
+  // parents: the tree shared by teacher and student (topological, parents[0] == -1).
+  // student_lengths: per joint, the student's bone length to its parent (> 0; entry 0 unused).
+  // student_rest_directions (optional, joints x 3 row-major): fallback bone directions for a
+  // teacher bone of zero length; +Y when absent.
+  Retargeter(const std::vector<int>& parents, const std::vector<double>& student_lengths,
+             const RetargetOptions& options = {}, const std::vector<double>& student_rest_directions = {});
+  // A Retargeter for a student skeleton (its tree and rest offsets).
+  Retargeter(const Skeleton& student, const RetargetOptions& options = {});
+
+  // Retargets one teacher frame: teacher and ghost are joints x 3 row-major world positions in
+  // the student's length units. The ghost's root is on the teacher's root, oriented like the
+  // teacher. No allocation. Returns the report of this frame (valid until the next call).
+  const RetargetReport& retarget(const double* teacher, double* ghost);
+  // Forgets the previous frame: the next retarget() starts cold from the FK baseline.
+  void reset() { has_previous_ = false; }
+
+  int joint_count() const { return table_.joints; }
+  const PairTable& table() const { return table_; }
+  const RetargetOptions& options() const { return options_; }
+  void set_options(const RetargetOptions& options) { options_ = options; }
+  const std::vector<double>& student_lengths() const { return student_lengths_; }
+  // Of the last frame (joints x 3 row-major): the FK baseline, and the SPG optimum aligned on
+  // the teacher before the restoring step.
+  const double* fk_baseline() const { return baseline_.data(); }
+  const double* solved() const { return solved_.data(); }
+  // Of the last frame, per pair: target distances delta_uv and the weights the solver used.
+  const double* delta() const { return delta_.data(); }
+  const double* weights() const { return weight_.data(); }
+  // The paper's stress instance of the last frame (priorities as weights, bone_weight ignored).
+  StressInstance paper_instance() const;
+
+ private:
+  void init(const std::vector<double>& rest_directions);
+  void forward_kinematics_baseline(const double* teacher, double* out) const;
+  void align_on_teacher(const double* teacher, double* x);
+  void restore_bones(const double* reference, const double* x, double* out) const;
+  double max_bone_error(const double* x) const;
+
+  PairTable table_;
+  RetargetOptions options_;
+  std::vector<double> student_lengths_;   // per joint
+  std::vector<double> rest_dirs_;         // joints x 3 unit fallback directions
+  std::vector<double> tau_student_;       // per pair
+  std::vector<double> weight_;            // per pair: priority (x bone_weight on bones)
+  std::vector<double> teacher_lengths_, cumulative_, tau_teacher_, delta_;
+  std::vector<double> x_, baseline_, solved_;
+  SpgSolver solver_;
+  bool has_previous_ = false;
+  double last_step_ = 0.0;                 // previous frame's spectral step, to warm the next
+  RetargetReport report_;
+};
+
+// Places a ghost (joints x 3, in place) over a student's current posture: the ghost's root on the
+// student's root, then the rotation about +Y (the vertical; a proper rotation, never a
+// reflection) that best aligns the ghost's joints with the student's in the horizontal plane.
+void place_over_student(int joints, const double* student, double* ghost);
+
+}  // namespace kata::retarget

@@ -1,0 +1,87 @@
+// RDSR (paper section 4): normalisation, the scatter matrices S_W (eq. 13), X S_L X^T (eq. 17-18,
+// through the sparse codes, never an N x N dense S_L), X S_C X^T (eq. 23), A and B (eq. 26-27),
+// the trace-ratio solve, and delta* (eq. 37) — from feature matrices; no file or clip handling.
+#pragma once
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+
+#include "metric/model.hpp"
+#include "train/sparse_coding.hpp"
+#include "train/trace_ratio.hpp"
+
+namespace kata::train {
+
+// Per-dimension normalisation (the Model's), fitted on training poses.
+struct Normaliser {
+  metric::Normalisation kind = metric::Normalisation::kMinMaxUnit;
+  std::vector<float> min, max;      // kDims (always)
+  std::vector<float> shift, scale;  // kDims for block-balanced
+  // x (kDims raw floats) -> out (kDims, unit length unless all zero).
+  void apply(const float* x, double* out) const;
+  Eigen::VectorXd operator()(const float* x) const;
+};
+
+// rows: pointers to raw feature vectors (gpd::kDims floats each).
+Normaliser fit_normaliser(const std::vector<const float*>& rows, metric::Normalisation kind);
+
+// A pair of poses (as columns of some matrix) with a 1/0 label.
+struct IndexPair {
+  int a = 0, b = 0;
+  int label = 1;
+};
+
+// Eq. 37: the best proportion of correct decisions over all thresholds (d < delta => positive).
+struct Precision {
+  double precision = 0.0;
+  double threshold = 0.0;  // a delta achieving it (midway between neighbouring distances)
+  int correct = 0, total = 0;
+};
+Precision best_threshold(const std::vector<double>& distance, const std::vector<int>& label);
+
+struct RdsrOptions {
+  int rank = 50;
+  double alpha = 1.0;            // weight of S_W ...
+  bool alpha_relative = true;    // ... times Tr(X S_L X^T) / Tr(S_W) when true
+  LassoOptions lasso;            // gamma, tolerance, threads
+  int threads = 2;
+  std::string solver = "newton";  // newton | bisection | both
+};
+
+struct StageTime {
+  std::string name;
+  double seconds = 0.0;
+};
+
+struct RdsrResult {
+  Eigen::MatrixXd w;  // kDims x rank
+  double eta = 0.0, eta_bisection = 0.0;
+  TraceRatioBounds bounds;
+  int eigen_solves = 0;
+  double alpha_absolute = 0.0;
+  double trace_sl = 0.0, trace_sw = 0.0, trace_sc = 0.0;
+  SparseCodingStats coding;
+  std::vector<StageTime> stages;
+};
+
+using Log = std::function<void(const std::string&)>;
+
+// x: d x N' normalised unlabeled poses (N' may be 0: eq. 46, W = the r smallest eigenvectors of
+// S_W); pa, pb: d x P normalised ends of the positive pairs.
+RdsrResult train_rdsr(const Eigen::MatrixXd& x, const Eigen::MatrixXd& pa, const Eigen::MatrixXd& pb,
+                      const RdsrOptions& options, const Log& log = {});
+
+// S_W of eq. 13 from the pair ends.
+Eigen::MatrixXd within_scatter(const Eigen::MatrixXd& pa, const Eigen::MatrixXd& pb, int threads);
+// X S_L X^T = (X - X A)(X - X A)^T with the codes (row i = a_i).
+Eigen::MatrixXd laplacian_scatter(const Eigen::MatrixXd& x, const CsrMatrix& codes, int threads);
+// X S_C X^T = (X - mean)(X - mean)^T.
+Eigen::MatrixXd centered_scatter(const Eigen::MatrixXd& x, int threads);
+
+// Distance |W^T (x - y)| for normalised x, y.
+double projected_distance(const Eigen::MatrixXd& w, const Eigen::VectorXd& x, const Eigen::VectorXd& y);
+
+}  // namespace kata::train

@@ -1,0 +1,4 @@
+// kata.h must compile alone as C++ (and as C99: see test_capi.c).
+#include "kata/kata.h"
+
+static_assert(sizeof(kata_status) == 4, "kata_status is a 4-byte enum");

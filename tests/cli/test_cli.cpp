@@ -1,0 +1,73 @@
+// The CLI as a user runs it: `kata features` writes every frame of a clip as (frames, 1683)
+// float32 rows equal to the live stream's vectors; bad input exits non-zero with a clear message.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+#include "io/bvh.hpp"
+#include "io/npy.hpp"
+#include "stream/clip_features.hpp"
+
+namespace {
+
+struct Run {
+  int code;
+  std::string output;
+};
+
+Run run(const std::string& args) {
+  const std::string log = testing::TempDir() + "/kata_cli_test.log";
+  const std::string cmd = std::string(KATA_CLI) + " " + args + " >" + log + " 2>&1";
+  const int status = std::system(cmd.c_str());
+  std::ifstream in(log);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return {WIFEXITED(status) ? WEXITSTATUS(status) : -1, ss.str()};
+}
+
+TEST(CliFeatures, WritesEveryFrameAsTheStreamComputesIt) {
+  const std::string clip_path = std::string(KATA_DATA_DIR) + "/cmu/09_01.bvh";
+  const kata::BvhClip clip = kata::load_bvh(clip_path);
+  const kata::GpdMap map = kata::make_gpd_map(clip.skeleton, kata::preset_joint_names("cmu"));
+  for (const char* stencil : {"backward", "central"}) {
+    const std::string out = testing::TempDir() + "/kata_cli_features.npy";
+    const Run r = run("features --bvh " + clip_path + " --preset cmu --stencil " + stencil + " --out " + out);
+    ASSERT_EQ(r.code, 0) << r.output;
+    // The header says float32, C order, (frames, 1683).
+    std::ifstream f(out, std::ios::binary);
+    std::string header(128, '\0');
+    f.read(&header[0], 128);
+    EXPECT_NE(header.find("'descr': '<f4'"), std::string::npos) << header;
+    EXPECT_NE(header.find("(149, 1683)"), std::string::npos) << header;
+    std::vector<size_t> shape;
+    const std::vector<double> got = kata::read_npy(out, &shape);
+    ASSERT_EQ(shape, (std::vector<size_t>{149, 1683}));
+    const std::vector<float> want = kata::clip_features(clip, map, kata::parse_stencil(stencil));
+    ASSERT_EQ(got.size(), want.size());
+    for (size_t i = 0; i < want.size(); ++i) ASSERT_EQ(static_cast<float>(got[i]), want[i]) << "element " << i;
+    std::remove(out.c_str());
+  }
+}
+
+TEST(CliFeatures, BadInputExitsWithAClearMessage) {
+  const std::string bad = testing::TempDir() + "/kata_cli_bad.bvh";
+  {
+    std::ofstream b(bad);
+    b << "HIERARCHY\nROOT Hips\n{\n\tOFFSET 0 0 zero\n}\n";
+  }
+  Run r = run("features --bvh " + bad + " --preset cmu --out " + testing::TempDir() + "/x.npy");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find(bad + ":4"), std::string::npos) << "names file and line: " << r.output;
+  r = run("features --bvh " + std::string(KATA_DATA_DIR) + "/cmu/09_01.bvh --preset nope --out x.npy");
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find("nope"), std::string::npos) << r.output;
+  r = run("features --bvh " + std::string(KATA_DATA_DIR) + "/cmu/09_01.bvh --preset cmu --stencil sideways --out x.npy");
+  EXPECT_NE(r.code, 0);
+  std::remove(bad.c_str());
+}
+
+}  // namespace

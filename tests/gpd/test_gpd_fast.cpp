@@ -1,0 +1,190 @@
+// The float32 SIMD kernels (baseline and AVX2) against the double reference on many random
+// poses, including degenerate ones, and on streams that exercise the plane-normal memory.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdio>
+#include <random>
+#include <vector>
+
+#include "gpd_test_util.hpp"
+#include "stream/alloc_counter.hpp"
+
+namespace {
+
+using namespace gpd_test;
+using Pose = std::array<float, 48>;
+
+// A random pose built along the skeleton (bones 0.05..0.3 body heights in random directions),
+// with, at random, the degeneracies of the spec: coincident joints (zero bones and lines),
+// straight limbs (collinear planes), almost straight limbs, and the whole body on one point.
+Pose random_pose(std::mt19937& rng) {
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f), len(0.05f, 0.3f), prob(0.0f, 1.0f);
+  Pose p{};
+  for (int k = 0; k < 3; ++k) p[k] = 0.0f;  // the local frame has the hip at the origin
+  for (int j = 1; j < 16; ++j) {
+    const int par = detail::kParent[j];
+    float d[3];
+    float n2 = 0;
+    do {
+      for (float& x : d) x = unit(rng);
+      n2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+    } while (n2 < 1e-2f || n2 > 1.0f);
+    const float l = len(rng) / std::sqrt(n2);
+    const float r = prob(rng);
+    const int gp = par > 0 ? detail::kParent[par] : -1;
+    for (int k = 0; k < 3; ++k) {
+      if (r < 0.05f) {
+        p[3 * j + k] = p[3 * par + k];  // coincident with its parent
+      } else if (r < 0.15f && gp >= 0) {
+        p[3 * j + k] = p[3 * par + k] + 1.5f * (p[3 * par + k] - p[3 * gp + k]);  // straight limb
+      } else if (r < 0.20f && gp >= 0) {
+        p[3 * j + k] = p[3 * par + k] + (p[3 * par + k] - p[3 * gp + k]) + 1e-4f * d[k];  // almost
+      } else {
+        p[3 * j + k] = p[3 * par + k] + l * d[k];
+      }
+    }
+  }
+  if (prob(rng) < 0.02f) {
+    for (int j = 1; j < 16; ++j) {
+      for (int k = 0; k < 3; ++k) p[3 * j + k] = 0.0f;
+    }
+  }
+  return p;
+}
+
+// Compares one fast path with the reference over a sequence of poses (each keeping its own
+// GeometryState, as a stream would); reports the worst error per block.
+void compare_sequence(Path path, const std::vector<Pose>& poses, const char* what) {
+  GeometryState sr, sf;
+  std::vector<double> ref(kStaticDims);
+  std::vector<float> fast(kStaticDims);
+  double worst[9] = {};
+  int worst_dim[9] = {};
+  int failures = 0;
+  for (size_t f = 0; f < poses.size(); ++f) {
+    const float hip = 0.5f + 0.001f * static_cast<float>(f % 100);
+    detail::static_features_reference(poses[f].data(), hip, sr, ref.data());
+    run_fast(path, poses[f].data(), hip, sf, fast.data());
+    for (int p = 0; p < kPlanes; ++p) {
+      ASSERT_EQ(sr.has_normal[p], sf.has_normal[p]) << what << " frame " << f << " plane " << p;
+    }
+    for (int d = 0; d < kStaticDims; ++d) {
+      if (!std::isfinite(fast[d])) {
+        ADD_FAILURE() << what << " " << path_name(path) << " frame " << f << " " << block_of(d) << " not finite";
+        if (++failures > 20) return;
+        continue;
+      }
+      const double err = std::abs(fast[d] - ref[d]);
+      const int b = block_index(d);
+      if (err > worst[b]) {
+        worst[b] = err;
+        worst_dim[b] = d;
+      }
+      if (err > tolerance(d, ref[d])) {
+        ADD_FAILURE() << what << " " << path_name(path) << " frame " << f << " " << block_of(d) << ": fast "
+                      << fast[d] << " reference " << ref[d];
+        if (++failures > 20) return;
+      }
+    }
+  }
+  std::printf("  %s %-8s worst |fast - reference| per block:", what, path_name(path));
+  for (int b = 0; b < 8; ++b) std::printf(" %s %.1e", block_of(worst_dim[b]).substr(0, 3).c_str(), worst[b]);
+  std::printf("\n");
+}
+
+TEST(GpdFast, RandomPosesMatchReference) {
+  std::mt19937 rng(12345);
+  std::vector<Pose> poses;
+  for (int i = 0; i < 3000; ++i) poses.push_back(random_pose(rng));
+  for (Path p : fast_paths()) compare_sequence(p, poses, "random");
+}
+
+TEST(GpdFast, SmoothStreamMatchesReference) {
+  // A pose drifting slowly, with straight limbs every 7th frame: the previous-normal memory
+  // must evolve identically in both implementations.
+  std::mt19937 rng(777);
+  Pose base = random_pose(rng);
+  std::vector<Pose> poses;
+  std::normal_distribution<float> step(0.0f, 0.01f);
+  for (int f = 0; f < 500; ++f) {
+    for (int k = 3; k < 48; ++k) base[k] += step(rng);
+    Pose p = base;
+    if (f % 7 == 3) {
+      for (int e : {6, 9, 12, 15}) {  // hand/foot on the line through its grandparent and parent
+        const int par = detail::kParent[e], gp = detail::kParent[par];
+        for (int k = 0; k < 3; ++k) p[3 * e + k] = 2 * p[3 * par + k] - p[3 * gp + k];
+      }
+    }
+    poses.push_back(p);
+  }
+  for (Path p : fast_paths()) compare_sequence(p, poses, "stream");
+}
+
+TEST(GpdFast, LargeAndTinyScales) {
+  // Body heights are ~1, but nothing in the kernels should assume it: x1e3 and x1e-3.
+  std::mt19937 rng(99);
+  for (float scale : {1e3f, 1e-3f}) {
+    std::vector<Pose> poses;
+    for (int i = 0; i < 200; ++i) {
+      Pose p = random_pose(rng);
+      for (float& x : p) x *= scale;
+      poses.push_back(p);
+    }
+    GeometryState sr, sf;
+    std::vector<double> ref(kStaticDims);
+    std::vector<float> fast(kStaticDims);
+    for (Path path : fast_paths()) {
+      for (const Pose& p : poses) {
+        detail::static_features_reference(p.data(), 0.5f, sr, ref.data());
+        run_fast(path, p.data(), 0.5f, sf, fast.data());
+        for (int d = 0; d < kStaticDims; ++d) {
+          // Distances scale with the pose; directions and angles do not.
+          const bool length = (d < kOffsetJJo && d != 45) || (d >= kOffsetJLd && d < kOffsetLLa) ||
+                              (d >= kOffsetJPd && d < kOffsetLPa);
+          const double tol = tolerance(d, ref[d]) * (length ? scale : 1.0);
+          ASSERT_NEAR(fast[d], ref[d], tol) << path_name(path) << " scale " << scale << " " << block_of(d);
+        }
+      }
+    }
+  }
+}
+
+TEST(GpdFast, DispatchFollowsCpuCheck) {
+  // static_features() must equal the AVX2 kernel when the CPU has it (and KATA_NO_AVX2 is
+  // unset), the baseline kernel otherwise: bitwise, since it is the same code.
+  std::mt19937 rng(5);
+  const Path expected = fast_paths().back();
+  for (int i = 0; i < 50; ++i) {
+    const Pose p = random_pose(rng);
+    GeometryState s1, s2;
+    std::vector<float> a(kStaticDims), b(kStaticDims);
+    static_features(p.data(), 0.5f, s1, a.data());
+    run_fast(expected, p.data(), 0.5f, s2, b.data());
+    ASSERT_EQ(a, b) << "dispatch is not " << path_name(expected);
+  }
+  std::printf("  dispatch uses the %s kernel\n", path_name(expected));
+}
+
+TEST(GpdFast, PerFrameKernelsDoNotAllocate) {
+  if (!kata_test::kAllocCounting) GTEST_SKIP() << "allocation counting is off under the sanitizers";
+  std::mt19937 rng(3);
+  const Pose p = random_pose(rng);
+  GeometryState s;
+  std::vector<float> out(kDims);
+  float local[48], hip = 0;
+  const DifferenceWeights w = backward_weights(0.01, 0.02);
+  const std::vector<Path> paths = fast_paths();  // allocates: outside the counted region
+  const long before = kata_test::allocations();
+  to_local_frame(p.data(), 1.7, s, local, &hip);
+  static_features(local, hip, s, out.data());
+  for (Path path : paths) run_fast(path, local, hip, s, out.data());
+  kinetics(out.data(), out.data(), out.data(), w, out.data() + kOffsetJk);
+  kinetics_two_point(out.data(), out.data(), 0.01, out.data() + kOffsetJk);
+  kinetics_zero(out.data() + kOffsetJk);
+  EXPECT_EQ(kata_test::allocations(), before);
+}
+
+}  // namespace

@@ -1,0 +1,308 @@
+// Scoring against a pose reference: normalisation, projection, distance, score and the per-part
+// breakdown, each compared with an independent dense evaluation in double precision.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdlib>
+
+#include <Eigen/Dense>
+
+#include "common/cpu.hpp"
+#include "common/error.hpp"
+#include "alloc_counter.hpp"
+#include "fixtures.hpp"
+#include "gpd/gpd.hpp"
+#include "metric/kernels.hpp"
+#include "metric/parts.hpp"
+#include "metric/scorer.hpp"
+
+namespace kata {
+namespace {
+
+using metric::kParts;
+using Vec = Eigen::VectorXd;
+
+// Independent x'' in double: the spec's min/max normalisation then unit length.
+Vec normalised(const metric::Model& m, const float* x) {
+  Vec v(gpd::kDims);
+  for (int i = 0; i < gpd::kDims; ++i) {
+    const double range = double(m.max[i]) - m.min[i];
+    v[i] = range > 0.0 ? (double(x[i]) - m.min[i]) / range : 0.0;
+  }
+  const double n = v.norm();
+  return n > 0.0 ? Vec(v / n) : v;
+}
+
+Eigen::MatrixXd dense_w(const metric::Model& m) {
+  return Eigen::Map<const Eigen::MatrixXf>(m.w.data(), gpd::kDims, m.rank).cast<double>();
+}
+
+TEST(Metric, NormaliseMatchesDoublePrecision) {
+  const metric::Model& model = test::test_model();
+  const metric::Metric metric(model);
+  std::vector<float> out(gpd::kDims);
+  for (int f : {0, 100, 250}) {
+    const float* x = test::clip_row("02_01.bvh", f);
+    metric.normalise(x, out.data());
+    const Vec ref = normalised(model, x);
+    for (int i = 0; i < gpd::kDims; ++i) ASSERT_NEAR(out[i], ref[i], 1e-6) << f << " " << i;
+  }
+}
+
+TEST(Metric, ProjectionMatchesDenseProduct) {
+  const metric::Model& model = test::test_model();
+  const metric::Metric metric(model);
+  const Eigen::MatrixXd w = dense_w(model);
+  auto ws = metric.make_workspace();
+  std::vector<float> u(static_cast<size_t>(model.rank));
+  for (int f : {3, 200}) {
+    const float* x = test::clip_row("05_02.bvh", f);
+    metric.project(x, ws, u.data());
+    const Vec ref = w.transpose() * normalised(model, x);
+    for (int c = 0; c < model.rank; ++c) ASSERT_NEAR(u[c], ref[c], 2e-6 * ref.norm()) << c;
+  }
+}
+
+// d and the five parts vs the dense quadratic form e^T W W^T e, with M formed explicitly.
+TEST(Scorer, DistanceAndPartsMatchDenseQuadraticForm) {
+  const metric::Model& model = test::test_model();
+  const auto metric = std::make_shared<const metric::Metric>(model);
+  const Eigen::MatrixXd w = dense_w(model);
+  const Eigen::MatrixXd M = w * w.transpose();
+  const auto& parts = metric::dimension_parts();
+  struct Pair {
+    const char* teacher;
+    int tf;
+    const char* student;
+    int sf;
+  };
+  // Far apart poses, nearby frames (small d: cancellation), and another subject's clip.
+  const Pair pairs[] = {{"02_01.bvh", 10, "02_01.bvh", 150}, {"02_01.bvh", 100, "02_01.bvh", 103},
+                        {"05_02.bvh", 400, "02_01.bvh", 40}, {"05_02.bvh", 10, "05_02.bvh", 900},
+                        {"02_01.bvh", 50, "02_02.bvh", 50}};
+  for (const Pair& p : pairs) {
+    const float* y = test::clip_row(p.teacher, p.tf);
+    const float* x = test::clip_row(p.student, p.sf);
+    metric::Scorer scorer(std::make_shared<const metric::Reference>(metric, y));
+    const metric::ScoreRecord& r = scorer.score(x, 0.0);
+
+    const Vec e = normalised(model, x) - normalised(model, y);
+    const Vec me = M * e;
+    const double d2 = e.dot(me);
+    const double d = std::sqrt(d2);
+    SCOPED_TRACE(std::string(p.teacher) + ":" + std::to_string(p.tf) + " vs " + p.student + ":" + std::to_string(p.sf) +
+                 " d=" + std::to_string(d));
+    EXPECT_NEAR(r.distance, d, 1e-5 * d);
+    EXPECT_NEAR(r.score, 100.0 / (1.0 + (d / model.delta_star) * (d / model.delta_star)), 1e-3);
+
+    double dense_parts[kParts] = {};
+    for (int i = 0; i < gpd::kDims; ++i) {
+      const int count = __builtin_popcount(parts[i]);
+      for (int q = 0; q < kParts; ++q)
+        if (parts[i] & (1 << q)) dense_parts[q] += e[i] * me[i] / count;
+    }
+    double sum = 0.0;
+    for (int q = 0; q < kParts; ++q) {
+      EXPECT_NEAR(r.parts[q], dense_parts[q], 2e-5 * d2) << metric::part_name(q);
+      sum += r.parts[q];
+    }
+    EXPECT_NEAR(sum, d2, 1e-5 * d2);
+  }
+}
+
+TEST(Scorer, IdenticalPoseScoresHundred) {
+  const auto metric = test::test_metric();
+  for (int f : {1, 77, 300}) {
+    const float* x = test::clip_row("02_01.bvh", f);
+    metric::Scorer scorer(std::make_shared<const metric::Reference>(metric, x));
+    const metric::ScoreRecord& r = scorer.score(x, 1.0);
+    EXPECT_EQ(r.distance, 0.0f);
+    EXPECT_EQ(r.score, 100.0f);
+    for (float part : r.parts) EXPECT_EQ(part, 0.0f);
+    EXPECT_EQ(r.matched, 0);
+  }
+}
+
+TEST(Scorer, ScoreMapIsCalibratedAndMonotone) {
+  EXPECT_DOUBLE_EQ(metric::score_from_distance(0.0, 0.3), 100.0);
+  EXPECT_DOUBLE_EQ(metric::score_from_distance(0.3, 0.3), 50.0);
+  EXPECT_DOUBLE_EQ(metric::score_from_distance(0.6, 0.3), 20.0);
+  double prev = 101.0;
+  for (double d = 0.0; d < 5.0; d += 0.01) {
+    const double s = metric::score_from_distance(d, 0.3);
+    EXPECT_LT(s, prev);
+    EXPECT_GT(s, 0.0);
+    prev = s;
+  }
+}
+
+// The 16 GPD joints of a BVH frame (world, file units) and the clip's rest body height.
+struct Pose {
+  std::vector<float> joints;
+  double height = 0.0;
+};
+Pose bvh_pose(const std::string& name, int frame) {
+  const BvhClip clip = load_bvh(test::cmu(name));
+  const GpdMap map = make_gpd_map(clip.skeleton, preset_joint_names("cmu"));
+  Eigen::MatrixX3d world(clip.skeleton.joint_count(), 3);
+  world_positions(clip, frame, world);
+  Pose p;
+  for (int j = 0; j < gpd::kJoints; ++j)
+    for (int k = 0; k < 3; ++k) p.joints.push_back(static_cast<float>(world(map.source[j], k)));
+  p.height = rest_body_height(clip.skeleton, map);
+  return p;
+}
+
+// Features of a held pose, computed the way Reference::from_joints documents (kinetics zero).
+std::vector<float> pose_features(const Pose& p) {
+  std::vector<float> x(gpd::kDims), local(48);
+  gpd::GeometryState state;
+  float hip = 0.0f;
+  gpd::to_local_frame(p.joints.data(), p.height, state, local.data(), &hip);
+  gpd::static_features(local.data(), hip, state, x.data());
+  gpd::kinetics_zero(x.data() + gpd::kOffsetJk);
+  return x;
+}
+
+// Rotates joints `moved` about the vertical axis through joint `pivot` by `deg` degrees.
+void swing(Pose& p, std::initializer_list<int> moved, int pivot, double deg) {
+  const double a = deg * M_PI / 180.0, c = std::cos(a), s = std::sin(a);
+  const float px = p.joints[3 * pivot], pz = p.joints[3 * pivot + 2];
+  for (int j : moved) {
+    const double x = p.joints[3 * j] - px, z = p.joints[3 * j + 2] - pz;
+    p.joints[3 * j] = static_cast<float>(px + c * x - s * z);
+    p.joints[3 * j + 2] = static_cast<float>(pz + s * x + c * z);
+  }
+}
+
+TEST(Scorer, MovingOnlyTheLeftArmBlamesTheLeftArm) {
+  const auto metric = test::test_metric();
+  for (int frame : {40, 200}) {
+    const Pose teacher = bvh_pose("02_01.bvh", frame);
+    const auto ref = std::make_shared<const metric::Reference>(
+        metric::Reference::from_joints(metric, teacher.joints.data(), teacher.height));
+    metric::Scorer scorer(ref);
+    // The teacher's own pose through the same feature path scores 100.
+    EXPECT_EQ(scorer.score(pose_features(teacher).data(), 0.0).distance, 0.0f);
+
+    Pose student = teacher;
+    swing(student, {5, 6}, 4, 40.0);  // left elbow and hand swung about the left shoulder
+    const metric::ScoreRecord r = scorer.score(pose_features(student).data(), 0.1);
+    SCOPED_TRACE("frame " + std::to_string(frame));
+    EXPECT_GT(r.distance, 0.0f);
+    EXPECT_LT(r.score, 100.0f);
+    for (int q = 0; q < kParts; ++q)
+      if (q != static_cast<int>(metric::Part::kLeftArm)) {
+        EXPECT_GT(r.parts[1], r.parts[q]) << metric::part_name(q);
+      }
+    EXPECT_GT(r.parts[1], 0.5 * r.distance * r.distance);
+
+    // Symmetric check on the right leg.
+    Pose kick = teacher;
+    swing(kick, {14, 15}, 13, 40.0);
+    const metric::ScoreRecord k = scorer.score(pose_features(kick).data(), 0.2);
+    for (int q = 0; q < kParts; ++q)
+      if (q != static_cast<int>(metric::Part::kRightLeg)) {
+        EXPECT_GT(k.parts[4], k.parts[q]) << metric::part_name(q);
+      }
+  }
+}
+
+TEST(Scorer, BatchEqualsSingleBitForBit) {
+  const auto metric = test::test_metric();
+  const auto ref = std::make_shared<const metric::Reference>(metric, test::clip_row("02_01.bvh", 20));
+  constexpr int n = 7;  // more than one kBatch group, with a remainder
+  std::vector<std::unique_ptr<metric::Scorer>> batch, single;
+  std::vector<metric::Scorer*> ptrs;
+  std::vector<const float*> xs;
+  std::vector<double> ts;
+  for (int s = 0; s < n; ++s) {
+    batch.push_back(std::make_unique<metric::Scorer>(ref));
+    single.push_back(std::make_unique<metric::Scorer>(ref));
+    ptrs.push_back(batch.back().get());
+    xs.push_back(test::clip_row("05_02.bvh", 30 * s + 5));
+    ts.push_back(0.5 * s);
+  }
+  metric::Scorer::score_batch(ptrs.data(), xs.data(), ts.data(), n);
+  for (int s = 0; s < n; ++s) {
+    const metric::ScoreRecord& a = batch[s]->last();
+    const metric::ScoreRecord& b = single[s]->score(xs[s], ts[s]);
+    EXPECT_EQ(a.distance, b.distance) << s;
+    EXPECT_EQ(a.score, b.score) << s;
+    EXPECT_EQ(a.time, b.time) << s;
+    for (int q = 0; q < kParts; ++q) EXPECT_EQ(a.parts[q], b.parts[q]) << s;
+  }
+}
+
+// The AVX2 and baseline kernels compute the same products (up to float summation order).
+TEST(Kernels, Avx2AndBaselineAgree) {
+  if (!cpu_has_avx2()) GTEST_SKIP() << "no AVX2 on this CPU (or KATA_NO_AVX2=1)";
+  for (int rank : {50, 8, 3, 12, 20, 64, 70, 130}) {
+    // Synthetic W and input, two groups; both implementations called directly.
+    std::vector<int> begin = {0, 700, 1683};
+    std::vector<float> w(static_cast<size_t>(gpd::kDims) * rank), xp(gpd::kDims), x(gpd::kDims);
+    for (size_t i = 0; i < w.size(); ++i) w[i] = static_cast<float>(std::sin(0.37 * double(i)));
+    const std::vector<int> perm = [] {
+      std::vector<int> p(gpd::kDims);
+      for (int i = 0; i < gpd::kDims; ++i) p[i] = (i * 7) % gpd::kDims;
+      return p;
+    }();
+    std::vector<float> a(gpd::kDims, 0.1f), b(gpd::kDims, 2.0f);
+    for (int i = 0; i < gpd::kDims; ++i) x[i] = static_cast<float>(std::cos(0.11 * i));
+    metric::detail::BlockedW bw;
+    bw.data = w.data();
+    bw.rows = gpd::kDims;
+    bw.rank = rank;
+    bw.out_stride = (rank + 7) / 8 * 8;
+    bw.groups = 2;
+    bw.group_begin = begin.data();
+    std::vector<float> xp2(gpd::kDims);
+    const double s1 = metric::detail::base::gather_normalise(x.data(), perm.data(), a.data(), b.data(), gpd::kDims, xp.data());
+    const double s2 = metric::detail::avx2::gather_normalise(x.data(), perm.data(), a.data(), b.data(), gpd::kDims, xp2.data());
+    EXPECT_NEAR(s1, s2, 1e-9 * s1);
+    ASSERT_EQ(xp, xp2);
+    std::vector<float> v1(2 * bw.out_stride + 8, -1.0f), v2(v1), v3(v1), v4(v1);
+    metric::detail::base::project_groups(bw, xp.data(), v1.data());
+    metric::detail::avx2::project_groups(bw, xp.data(), v2.data());
+    const float* xps[3] = {xp.data(), xp.data(), xp.data()};
+    float* vs[3] = {v3.data(), v4.data(), v4.data()};
+    metric::detail::avx2::project_groups_batch(bw, xps, vs, 2);
+    for (size_t i = 0; i < 2u * bw.out_stride; ++i) {
+      const float tol = 1e-4f * (1.0f + std::abs(v1[i]));
+      ASSERT_NEAR(v1[i], v2[i], tol) << "rank " << rank << " i " << i;
+      ASSERT_EQ(v2[i], v3[i]) << "rank " << rank << " i " << i;
+    }
+    EXPECT_EQ(v2[2 * bw.out_stride], -1.0f) << "wrote past the output";
+    EXPECT_EQ(v3[2 * bw.out_stride], -1.0f) << "batched kernel wrote past the output";
+  }
+}
+
+TEST(Scorer, ScoringAllocatesNothing) {
+  const auto metric = test::test_metric();
+  std::vector<float> clip(test::clip_rows("02_01.bvh").begin(), test::clip_rows("02_01.bvh").begin() + 100 * gpd::kDims);
+  const auto pose = std::make_shared<const metric::Reference>(metric, clip.data());
+  const auto seq = std::make_shared<const metric::Reference>(metric, clip.data(), 100, 1.0 / 120);
+  metric::Scorer a(pose), b(seq), c(pose);
+  metric::Scorer* both[2] = {&a, &c};
+  const float* xs[2] = {clip.data(), clip.data() + gpd::kDims};
+  const double ts[2] = {0.0, 0.0};
+  test::arm_alloc_counter();
+  for (int f = 0; f < 50; ++f) {
+    a.score(clip.data() + static_cast<size_t>(f) * gpd::kDims, f / 120.0);
+    b.score(clip.data() + static_cast<size_t>(f) * gpd::kDims, f / 120.0);
+    metric::Scorer::score_batch(both, xs, ts, 2);
+  }
+  EXPECT_EQ(test::disarm_alloc_counter(), 0);
+}
+
+TEST(Scorer, ReferenceFromBadInputIsRefused) {
+  const auto metric = test::test_metric();
+  std::vector<float> x(test::clip_row("02_01.bvh", 0), test::clip_row("02_01.bvh", 0) + gpd::kDims);
+  x[10] = std::nanf("");
+  EXPECT_THROW((void)metric::Reference(metric, x.data()), Error);
+  EXPECT_THROW((void)metric::Reference(metric, test::clip_row("02_01.bvh", 0), 0, 1.0 / 120), Error);
+  EXPECT_THROW((void)metric::Reference(metric, test::clip_row("02_01.bvh", 0), 2, 0.0), Error);
+}
+
+}  // namespace
+}  // namespace kata

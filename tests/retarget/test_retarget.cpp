@@ -1,0 +1,522 @@
+// Tests of kata::retarget: distance matrices against hand-computed values, the analytic gradient
+// against finite differences, SPG against an independent gradient descent, same-skeleton
+// retargeting, the bone-length restoring step, placement, and no allocation per frame.
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <deque>
+#include <new>
+#include <random>
+#include <string>
+#include <vector>
+
+#include <gtest/gtest.h>
+
+#include "io/bvh.hpp"
+#include "retarget/distance.hpp"
+#include "retarget/retargeter.hpp"
+#include "retarget/spg.hpp"
+#include "skeleton/skeleton.hpp"
+
+// Allocation counting lives in alloc_count.cpp (its own translation unit, so the compiler
+// never sees a replaced operator new and std::free meet inline).
+#include "alloc_count.hpp"
+
+namespace {
+
+using kata::retarget::PairTable;
+using kata::retarget::Retargeter;
+using kata::retarget::RetargetOptions;
+using kata::retarget::StressInstance;
+
+// Positions as a flat joints x 3 row-major vector.
+using Pose = std::vector<double>;
+
+double dist(const Pose& x, int a, int b) {
+  const double dx = x[3 * a] - x[3 * b], dy = x[3 * a + 1] - x[3 * b + 1], dz = x[3 * a + 2] - x[3 * b + 2];
+  return std::sqrt(dx * dx + dy * dy + dz * dz);
+}
+
+// ---- An independent reference: tree paths by breadth-first search on the undirected tree. ----
+struct Reference {
+  std::vector<std::vector<int>> path;  // per (u, v) pair index, the joints from u to v
+  std::vector<double> weight;          // priority per pair
+  std::vector<double> delta;           // target distance per pair
+  std::vector<int> u, v;
+};
+
+std::vector<int> bfs_path(const std::vector<int>& parents, int from, int to) {
+  const int n = static_cast<int>(parents.size());
+  std::vector<std::vector<int>> adj(n);
+  for (int j = 1; j < n; ++j) {
+    adj[j].push_back(parents[j]);
+    adj[parents[j]].push_back(j);
+  }
+  std::vector<int> prev(n, -2);
+  std::deque<int> queue{from};
+  prev[from] = -1;
+  while (!queue.empty()) {
+    const int a = queue.front();
+    queue.pop_front();
+    for (int b : adj[a]) {
+      if (prev[b] == -2) {
+        prev[b] = a;
+        queue.push_back(b);
+      }
+    }
+  }
+  std::vector<int> p;
+  for (int a = to; a != -1; a = prev[a]) p.push_back(a);
+  std::reverse(p.begin(), p.end());
+  return p;
+}
+
+// The DGP instance of the paper, written straight from its formulas.
+Reference reference_instance(const std::vector<int>& parents, const Pose& teacher, const std::vector<double>& student_len) {
+  const int n = static_cast<int>(parents.size());
+  Reference r;
+  size_t pmax = 0;
+  for (int a = 0; a < n; ++a)
+    for (int b = a + 1; b < n; ++b) {
+      r.path.push_back(bfs_path(parents, a, b));
+      r.u.push_back(a);
+      r.v.push_back(b);
+      pmax = std::max(pmax, r.path.back().size());
+    }
+  auto edge_len = [&](const Pose& x, const std::vector<double>* lens, int a, int b) {
+    const int child = parents[a] == b ? a : b;
+    return lens ? (*lens)[child] : dist(x, a, b);
+  };
+  for (size_t p = 0; p < r.path.size(); ++p) {
+    double tau1 = 0.0, tau2 = 0.0;
+    for (size_t i = 0; i + 1 < r.path[p].size(); ++i) {
+      tau1 += edge_len(teacher, nullptr, r.path[p][i], r.path[p][i + 1]);
+      tau2 += edge_len(teacher, &student_len, r.path[p][i], r.path[p][i + 1]);
+    }
+    r.delta.push_back(tau2 * dist(teacher, r.u[p], r.v[p]) / tau1);
+    r.weight.push_back(static_cast<double>(pmax - r.path[p].size() + 2) / static_cast<double>(pmax));
+  }
+  return r;
+}
+
+// The stress written plainly, for the reference solver.
+double reference_stress(const Reference& r, const Pose& x, Pose* grad) {
+  double f = 0.0;
+  if (grad) grad->assign(x.size(), 0.0);
+  for (size_t p = 0; p < r.u.size(); ++p) {
+    const double d = dist(x, r.u[p], r.v[p]);
+    f += 0.5 * r.weight[p] * (d - r.delta[p]) * (d - r.delta[p]);
+    if (grad && d > 0.0) {
+      for (int k = 0; k < 3; ++k) {
+        const double c = r.weight[p] * (d - r.delta[p]) * (x[3 * r.u[p] + k] - x[3 * r.v[p] + k]) / d;
+        (*grad)[3 * r.u[p] + k] += c;
+        (*grad)[3 * r.v[p] + k] -= c;
+      }
+    }
+  }
+  return f;
+}
+
+// Plain monotone gradient descent with Armijo backtracking, run until the gradient vanishes.
+double gradient_descent(const Reference& r, Pose x, int* iterations, int max_iter = 400000) {
+  Pose g, xn;
+  double f = reference_stress(r, x, &g);
+  double scale = 0.0;  // sqrt(sum w delta^2): the gradient's natural size
+  for (size_t p = 0; p < r.u.size(); ++p) scale += r.weight[p] * r.delta[p] * r.delta[p];
+  scale = std::sqrt(scale);
+  double step = 1e-3;
+  for (int it = 0; it < max_iter; ++it) {
+    *iterations = it;
+    double g2 = 0.0;
+    for (double gi : g) g2 += gi * gi;
+    // Converged: past 1e-9 the Armijo test only sees rounding noise of f.
+    if (std::sqrt(g2) < 1e-9 * scale) break;
+    step *= 2.0;
+    while (true) {
+      xn = x;
+      for (size_t i = 0; i < x.size(); ++i) xn[i] -= step * g[i];
+      const double fn = reference_stress(r, xn, nullptr);
+      if (fn <= f - 0.5 * step * g2) {
+        x = xn;
+        f = reference_stress(r, x, &g);
+        break;
+      }
+      step *= 0.5;
+      if (step < 1e-20) return f;
+    }
+  }
+  return f;
+}
+
+// A random tree (each joint hangs from a random earlier joint) with a random posture.
+struct RandomCase {
+  std::vector<int> parents;
+  std::vector<double> teacher_len, student_len;
+  Pose teacher;
+};
+
+RandomCase random_case(std::mt19937& rng, int n, double length_change) {
+  std::uniform_real_distribution<double> uni(0.0, 1.0);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  RandomCase c;
+  c.parents.push_back(-1);
+  for (int j = 1; j < n; ++j) c.parents.push_back(static_cast<int>(uni(rng) * j));
+  c.teacher_len.assign(n, 0.0);
+  c.student_len.assign(n, 0.0);
+  c.teacher.assign(3 * n, 0.0);
+  for (int j = 1; j < n; ++j) {
+    c.teacher_len[j] = 0.5 + uni(rng);
+    c.student_len[j] = c.teacher_len[j] * (1.0 + length_change * (2.0 * uni(rng) - 1.0));
+    double d[3] = {normal(rng), normal(rng), normal(rng)};
+    const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int k = 0; k < 3; ++k) c.teacher[3 * j + k] = c.teacher[3 * c.parents[j] + k] + c.teacher_len[j] * d[k] / len;
+  }
+  return c;
+}
+
+Eigen::MatrixX3d to_matrix(const Pose& x) {
+  Eigen::MatrixX3d m(x.size() / 3, 3);
+  for (int j = 0; j < m.rows(); ++j) m.row(j) = Eigen::RowVector3d(x[3 * j], x[3 * j + 1], x[3 * j + 2]);
+  return m;
+}
+
+// ---- Distance matrices ----
+
+TEST(RetargetDistance, FourJointChainMatchesHandComputation) {
+  const PairTable t = kata::retarget::build_pair_table({-1, 0, 1, 2});
+  ASSERT_EQ(t.pairs, 6);
+  EXPECT_EQ(t.max_path, 4);
+  // Pairs in order (0,1) (0,2) (0,3) (1,2) (1,3) (2,3): path sizes and priorities (4 - |P| + 2) / 4.
+  const std::vector<int> sizes = {2, 3, 4, 2, 3, 2};
+  const std::vector<double> prio = {1.0, 0.75, 0.5, 1.0, 0.75, 1.0};
+  for (int p = 0; p < 6; ++p) {
+    EXPECT_EQ(t.path_size[p], sizes[p]);
+    EXPECT_DOUBLE_EQ(t.priority[p], prio[p]);
+  }
+  // Path (0, 3) = 0, 1, 2, 3.
+  const std::vector<int> p03(t.path_joints.begin() + t.path_offset[2], t.path_joints.begin() + t.path_offset[3]);
+  EXPECT_EQ(p03, (std::vector<int>{0, 1, 2, 3}));
+  // x0 = 0, x1 = (1,0,0), x2 = (1,2,0), x3 = (1,2,3): bones 1, 2, 3.
+  const Pose x = {0, 0, 0, 1, 0, 0, 1, 2, 0, 1, 2, 3};
+  std::vector<double> len(4);
+  kata::retarget::bone_lengths(t, x.data(), len.data());
+  EXPECT_EQ(len, (std::vector<double>{0, 1, 2, 3}));
+  const Eigen::MatrixXd d = kata::retarget::normalised_distance_matrix(t, to_matrix(x), len);
+  Eigen::MatrixXd expect(4, 4);
+  expect << 0, 1, std::sqrt(5.0) / 3, std::sqrt(14.0) / 6,  //
+      1, 0, 1, std::sqrt(13.0) / 5,                         //
+      std::sqrt(5.0) / 3, 1, 0, 1,                          //
+      std::sqrt(14.0) / 6, std::sqrt(13.0) / 5, 1, 0;
+  EXPECT_LT((d - expect).cwiseAbs().maxCoeff(), 1e-15);
+}
+
+TEST(RetargetDistance, SmallTreeMatchesHandComputation) {
+  // 0 root; 1 and 2 children of 0; 3 child of 1.
+  const PairTable t = kata::retarget::build_pair_table({-1, 0, 0, 1});
+  EXPECT_EQ(t.max_path, 4);  // 2 - 0 - 1 - 3
+  const int p23 = kata::retarget::pair_index(4, 2, 3);
+  const std::vector<int> path(t.path_joints.begin() + t.path_offset[p23], t.path_joints.begin() + t.path_offset[p23 + 1]);
+  EXPECT_EQ(path, (std::vector<int>{2, 0, 1, 3}));
+  EXPECT_EQ(t.lca[p23], 0);
+  EXPECT_EQ(t.lca[kata::retarget::pair_index(4, 0, 3)], 0);
+  EXPECT_EQ(t.lca[kata::retarget::pair_index(4, 1, 3)], 1);
+  // x0 = 0, x1 = (0,1,0) [bone 1], x2 = (2,0,0) [bone 2], x3 = (0,1,1) [bone 1].
+  const Pose x = {0, 0, 0, 0, 1, 0, 2, 0, 0, 0, 1, 1};
+  std::vector<double> len(4), cum(4), tau(6);
+  kata::retarget::bone_lengths(t, x.data(), len.data());
+  kata::retarget::path_weights(t, len.data(), cum.data(), tau.data());
+  // tau: (0,1)=1 (0,2)=2 (0,3)=2 (1,2)=3 (1,3)=1 (2,3)=4.
+  EXPECT_EQ(tau, (std::vector<double>{1, 2, 2, 3, 1, 4}));
+  const Eigen::MatrixXd d = kata::retarget::normalised_distance_matrix(t, to_matrix(x), len);
+  Eigen::MatrixXd expect(4, 4);
+  expect << 0, 1, 1, std::sqrt(2.0) / 2,  //
+      1, 0, std::sqrt(5.0) / 3, 1,        //
+      1, std::sqrt(5.0) / 3, 0, std::sqrt(6.0) / 4, //
+      std::sqrt(2.0) / 2, 1, std::sqrt(6.0) / 4, 0;
+  EXPECT_LT((d - expect).cwiseAbs().maxCoeff(), 1e-15);
+  // Priorities: bones 1; (0,3), (1,2): |P| = 3 -> 3/4; (2,3): |P| = 4 -> 1/2.
+  EXPECT_EQ(t.priority, (std::vector<double>{1, 1, 0.75, 0.75, 1, 0.5}));
+}
+
+TEST(RetargetDistance, BonesNormaliseToOneAndPathsMatchBfs) {
+  std::mt19937 rng(7);
+  for (int trial = 0; trial < 5; ++trial) {
+    const RandomCase c = random_case(rng, 25, 0.3);
+    const PairTable t = kata::retarget::build_pair_table(c.parents);
+    std::vector<double> len(25);
+    kata::retarget::bone_lengths(t, c.teacher.data(), len.data());
+    const Eigen::MatrixXd d = kata::retarget::normalised_distance_matrix(t, to_matrix(c.teacher), len);
+    for (int j = 1; j < 25; ++j) EXPECT_NEAR(d(j, c.parents[j]), 1.0, 1e-14);
+    // Non-bone distances are at most 1 (the triangle inequality along the path).
+    EXPECT_LE(d.maxCoeff(), 1.0 + 1e-14);
+    const Reference ref = reference_instance(c.parents, c.teacher, c.student_len);
+    for (int p = 0; p < t.pairs; ++p) {
+      const std::vector<int> path(t.path_joints.begin() + t.path_offset[p], t.path_joints.begin() + t.path_offset[p + 1]);
+      ASSERT_EQ(path, ref.path[p]);
+      EXPECT_DOUBLE_EQ(t.priority[p], ref.weight[p]);
+    }
+  }
+}
+
+TEST(RetargetDistance, CmuDropsTenCoincidentJoints) {
+  const kata::BvhClip clip = kata::load_bvh(std::string(KATA_DATA_DIR) + "/cmu/02_01.bvh");
+  ASSERT_EQ(clip.skeleton.joint_count(), 31);
+  const auto drop = kata::retarget::coincident_joints(clip.skeleton);
+  const auto reduced = kata::retarget::drop_joints(clip.skeleton, drop);
+  EXPECT_EQ(reduced.skeleton.joint_count(), 21);
+  EXPECT_EQ(kata::retarget::build_pair_table(reduced.skeleton.parents).pairs, 210);
+  // The dropped joints sit on their kept ancestor at every frame.
+  Eigen::MatrixX3d w(31, 3);
+  kata::world_positions(clip, 100, w);
+  for (int j = 0; j < 31; ++j) {
+    const int k = reduced.source[reduced.kept_position[j]];
+    EXPECT_LT((w.row(j) - w.row(k)).norm(), 1e-9) << clip.skeleton.names[j];
+  }
+  // Rest bone lengths of the reduced tree equal the distances at any frame (rigid bones).
+  const auto len = kata::retarget::rest_bone_lengths(reduced.skeleton);
+  for (int k = 1; k < 21; ++k) {
+    const double d = (w.row(reduced.source[k]) - w.row(reduced.source[reduced.skeleton.parents[k]])).norm();
+    EXPECT_NEAR(d, len[k], 1e-9 * len[k]);
+  }
+}
+
+// ---- Stress and gradient ----
+
+TEST(RetargetStress, GradientMatchesCentralDifferences) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> uni(-1.0, 1.0);
+  const int n = 12;
+  const PairTable t = kata::retarget::build_pair_table(random_case(rng, n, 0.0).parents);
+  std::vector<double> w(t.pairs), delta(t.pairs);
+  for (int p = 0; p < t.pairs; ++p) {
+    w[p] = 0.2 + std::fabs(uni(rng));
+    delta[p] = 1.0 + uni(rng);
+  }
+  const StressInstance in{n, t.pairs, t.u.data(), t.v.data(), w.data(), delta.data()};
+  Pose x(3 * n), g(3 * n);
+  for (double& xi : x) xi = 2.0 * uni(rng);
+  kata::retarget::stress(in, x.data(), g.data());
+  const double h = 1e-6;
+  for (int i = 0; i < 3 * n; ++i) {
+    Pose xp = x, xm = x;
+    xp[i] += h;
+    xm[i] -= h;
+    const double fd = (kata::retarget::stress(in, xp.data(), nullptr) - kata::retarget::stress(in, xm.data(), nullptr)) / (2 * h);
+    EXPECT_NEAR(g[i], fd, 1e-7 * std::max(1.0, std::fabs(fd))) << "coordinate " << i;
+  }
+  // The stress equals the plain formula.
+  double f = 0.0;
+  for (int p = 0; p < t.pairs; ++p) f += 0.5 * w[p] * std::pow(dist(x, t.u[p], t.v[p]) - delta[p], 2);
+  EXPECT_NEAR(kata::retarget::stress(in, x.data(), nullptr), f, 1e-12 * f);
+}
+
+TEST(RetargetStress, CoincidentJointsStayFinite) {
+  const PairTable t = kata::retarget::build_pair_table({-1, 0, 1, 2});
+  std::vector<double> delta(t.pairs, 1.0);
+  const StressInstance in{4, t.pairs, t.u.data(), t.v.data(), t.priority.data(), delta.data()};
+  Pose x(12, 0.0);  // every joint on the origin
+  Pose g(12);
+  const double f = kata::retarget::stress(in, x.data(), g.data());
+  EXPECT_TRUE(std::isfinite(f));
+  for (double gi : g) EXPECT_EQ(gi, 0.0);
+  // Two coincident joints among spread ones: SPG must stay finite and decrease the stress.
+  x = {0, 0, 0, 1, 0, 0, 1, 0, 0, 0.5, 0.5, 0};
+  kata::retarget::SpgSolver solver(4);
+  const auto r = solver.minimize(in, x.data(), kata::retarget::SpgOptions{});
+  for (double xi : x) EXPECT_TRUE(std::isfinite(xi));
+  EXPECT_LT(r.stress, r.stress_start);
+}
+
+// ---- SPG against an independent gradient descent ----
+
+void expect_same_optimum(const std::vector<int>& parents, const Pose& teacher, const std::vector<double>& student_len,
+                         const char* what) {
+  const int n = static_cast<int>(parents.size());
+  RetargetOptions opt;
+  opt.restore_bone_lengths = false;
+  opt.solver.gradient_tolerance = 1e-12;
+  opt.solver.max_iterations = 200000;
+  Retargeter rt(parents, student_len, opt);
+  Pose ghost(3 * n);
+  const auto& rep = rt.retarget(teacher.data(), ghost.data());
+  // The instance the retargeter built equals the paper's formulas evaluated independently.
+  const Reference ref = reference_instance(parents, teacher, student_len);
+  for (int p = 0; p < rt.table().pairs; ++p) {
+    ASSERT_NEAR(rt.delta()[p], ref.delta[p], 1e-12 * (1.0 + ref.delta[p])) << what;
+    ASSERT_DOUBLE_EQ(rt.weights()[p], ref.weight[p]) << what;
+  }
+  const Pose start(rt.fk_baseline(), rt.fk_baseline() + 3 * n);
+  int gd_iterations = 0;
+  const double gd = gradient_descent(ref, start, &gd_iterations);
+  std::printf("  %s: stress FK %.6g -> SPG %.12g (%d it) | GD %.12g (%d it)\n", what, rep.stress_baseline, rep.stress,
+              rep.iterations, gd, gd_iterations);
+  EXPECT_NEAR(rep.stress, gd, 1e-6 * gd) << what << ": SPG " << rep.stress << " after " << rep.iterations
+                                         << " iterations, GD " << gd;
+  EXPECT_NEAR(reference_stress(ref, ghost, nullptr), rep.stress, 1e-9 * rep.stress) << what;
+  EXPECT_LT(rep.stress, rep.stress_baseline) << what;
+}
+
+TEST(RetargetSpg, SameStressAsGradientDescentOnRandomInstances) {
+  std::mt19937 rng(3);
+  for (int trial = 0; trial < 6; ++trial) {
+    const RandomCase c = random_case(rng, 10 + 3 * trial, 0.3);
+    expect_same_optimum(c.parents, c.teacher, c.student_len, ("random " + std::to_string(trial)).c_str());
+  }
+}
+
+// Reduced CMU teacher frames and a student's reduced rest lengths.
+struct CmuPair {
+  kata::retarget::ReducedSkeleton teacher, student;
+  kata::BvhClip teacher_clip;
+  Pose frame(int f) const {
+    Eigen::MatrixX3d w(teacher_clip.skeleton.joint_count(), 3);
+    kata::world_positions(teacher_clip, f, w);
+    Pose x(3 * teacher.source.size());
+    for (size_t k = 0; k < teacher.source.size(); ++k)
+      for (int c = 0; c < 3; ++c) x[3 * k + c] = w(teacher.source[k], c);
+    return x;
+  }
+};
+
+CmuPair cmu_pair(const std::string& teacher, const std::string& student) {
+  CmuPair p;
+  p.teacher_clip = kata::load_bvh(std::string(KATA_DATA_DIR) + "/cmu/" + teacher);
+  const kata::BvhClip s = kata::load_bvh(std::string(KATA_DATA_DIR) + "/cmu/" + student);
+  auto drop = kata::retarget::coincident_joints(p.teacher_clip.skeleton);
+  const auto drop_s = kata::retarget::coincident_joints(s.skeleton);
+  for (size_t j = 0; j < drop.size(); ++j) drop[j] = drop[j] || drop_s[j];
+  p.teacher = kata::retarget::drop_joints(p.teacher_clip.skeleton, drop);
+  p.student = kata::retarget::drop_joints(s.skeleton, drop);
+  return p;
+}
+
+TEST(RetargetSpg, SameStressAsGradientDescentOnCmuFrames) {
+  const CmuPair p = cmu_pair("05_02.bvh", "02_01.bvh");
+  const auto len = kata::retarget::rest_bone_lengths(p.student.skeleton);
+  for (int f : {150, 600, 1000}) {
+    expect_same_optimum(p.student.skeleton.parents, p.frame(f), len, ("05_02 frame " + std::to_string(f)).c_str());
+  }
+  const CmuPair q = cmu_pair("09_01.bvh", "07_01.bvh");
+  expect_same_optimum(q.student.skeleton.parents, q.frame(80),
+                      kata::retarget::rest_bone_lengths(q.student.skeleton), "09_01 frame 80");
+}
+
+// ---- Retargeting ----
+
+TEST(Retarget, SameSkeletonReturnsTheOriginalPose) {
+  std::mt19937 rng(5);
+  const RandomCase a = random_case(rng, 21, 0.0);
+  // Pose b: the same tree and lengths, other directions.
+  RandomCase b = random_case(rng, 21, 0.0);
+  b.parents = a.parents;
+  std::normal_distribution<double> normal(0.0, 1.0);
+  for (int j = 1; j < 21; ++j) {
+    double d[3] = {normal(rng), normal(rng), normal(rng)};
+    const double len = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    for (int k = 0; k < 3; ++k) b.teacher[3 * j + k] = b.teacher[3 * a.parents[j] + k] + a.teacher_len[j] * d[k] / len;
+  }
+  RetargetOptions opt;
+  opt.solver.gradient_tolerance = 1e-10;
+  opt.solver.max_iterations = 100000;
+  Retargeter rt(a.parents, a.teacher_len, opt);
+  Pose ghost(63);
+  // Cold (from the FK baseline, which is the pose itself), then warm from a different pose.
+  const auto& r1 = rt.retarget(a.teacher.data(), ghost.data());
+  EXPECT_LT(r1.stress, 1e-20);
+  const auto& r2 = rt.retarget(b.teacher.data(), ghost.data());
+  EXPECT_TRUE(r2.warm);
+  EXPECT_GT(r2.stress_start, 1.0);
+  EXPECT_LT(r2.stress, 1e-12);
+  // Up to rigid motion: every pairwise distance; and the alignment puts it on the teacher.
+  for (int u = 0; u < 21; ++u)
+    for (int v = u + 1; v < 21; ++v) EXPECT_NEAR(dist(ghost, u, v), dist(b.teacher, u, v), 1e-5);
+  for (int i = 0; i < 63; ++i) EXPECT_NEAR(ghost[i], b.teacher[i], 1e-5);
+  EXPECT_LT(r2.max_bone_error, 1e-12);
+}
+
+TEST(Retarget, RestoringStepGivesExactBoneLengthsOnRealPairs) {
+  const CmuPair p = cmu_pair("05_02.bvh", "02_01.bvh");
+  Retargeter rt(p.student.skeleton);
+  const int n = rt.joint_count();
+  Pose ghost(3 * n);
+  double worst_solved = 0.0, worst = 0.0;
+  for (int f = 1; f < p.teacher_clip.frame_count(); f += 4) {
+    const Pose t = p.frame(f);
+    const auto& r = rt.retarget(t.data(), ghost.data());
+    worst_solved = std::max(worst_solved, r.max_bone_error_solved);
+    worst = std::max(worst, r.max_bone_error);
+    ASSERT_LE(r.stress, r.stress_baseline * (1 + 1e-9) + 1e-12) << "frame " << f;
+    // The root stays on the teacher's root.
+    for (int k = 0; k < 3; ++k) ASSERT_NEAR(ghost[k], t[k], 1e-9);
+  }
+  EXPECT_GT(worst_solved, 0.01);  // the paper's objective alone stretches bones (issue: ~8%)
+  EXPECT_LT(worst, 1e-9);         // the restoring step makes them exact
+  const auto& len = rt.student_lengths();
+  for (int j = 1; j < n; ++j) EXPECT_NEAR(dist(ghost, j, p.student.skeleton.parents[j]), len[j], 1e-9 * len[j]);
+}
+
+TEST(Retarget, NoAllocationPerFrame) {
+  const CmuPair p = cmu_pair("05_02.bvh", "02_01.bvh");
+  Retargeter rt(p.student.skeleton);
+  std::vector<Pose> frames;
+  for (int f = 1; f < 200; ++f) frames.push_back(p.frame(f));
+  Pose ghost(3 * rt.joint_count());
+  rt.retarget(frames[0].data(), ghost.data());
+  const long before = kata_test::retarget_allocations();
+  for (const Pose& t : frames) rt.retarget(t.data(), ghost.data());
+  rt.reset();
+  rt.retarget(frames[50].data(), ghost.data());  // a cold frame too
+  kata::retarget::place_over_student(rt.joint_count(), frames[3].data(), ghost.data());
+  EXPECT_EQ(kata_test::retarget_allocations() - before, 0);
+  if (!kata_test::kRetargetAllocCounting) GTEST_SKIP() << "allocation counting is off under AddressSanitizer";
+}
+
+TEST(Retarget, PlaceOverStudentUndoesAYawAndATranslation) {
+  std::mt19937 rng(9);
+  const RandomCase c = random_case(rng, 15, 0.0);
+  Pose moved = c.teacher;
+  const double th = 1.1, ct = std::cos(th), st = std::sin(th);
+  for (int j = 0; j < 15; ++j) {
+    const double x = c.teacher[3 * j], z = c.teacher[3 * j + 2];
+    moved[3 * j] = ct * x + st * z + 3.0;
+    moved[3 * j + 1] = c.teacher[3 * j + 1] - 2.0;
+    moved[3 * j + 2] = -st * x + ct * z + 0.5;
+  }
+  kata::retarget::place_over_student(15, c.teacher.data(), moved.data());
+  for (int i = 0; i < 45; ++i) EXPECT_NEAR(moved[i], c.teacher[i], 1e-12);
+}
+
+TEST(Retarget, WarmStreamIsSmoothAndCheap) {
+  const CmuPair p = cmu_pair("02_01.bvh", "07_01.bvh");
+  Retargeter rt(p.student.skeleton);
+  const int n = rt.joint_count();
+  Pose ghost(3 * n), prev_ghost, prev_t;
+  double worst_ratio = 0.0;
+  long iterations = 0;
+  int frames = 0;
+  for (int f = 1; f < p.teacher_clip.frame_count(); ++f) {
+    const Pose t = p.frame(f);
+    const auto& r = rt.retarget(t.data(), ghost.data());
+    iterations += r.iterations;
+    ++frames;
+    if (!prev_ghost.empty()) {
+      double jump = 0.0, tjump = 0.0;
+      for (int j = 0; j < n; ++j) {
+        jump = std::max(jump, dist(ghost, j, j) + std::sqrt(std::pow(ghost[3 * j] - prev_ghost[3 * j], 2) +
+                                                            std::pow(ghost[3 * j + 1] - prev_ghost[3 * j + 1], 2) +
+                                                            std::pow(ghost[3 * j + 2] - prev_ghost[3 * j + 2], 2)));
+        tjump = std::max(tjump, std::sqrt(std::pow(t[3 * j] - prev_t[3 * j], 2) + std::pow(t[3 * j + 1] - prev_t[3 * j + 1], 2) +
+                                          std::pow(t[3 * j + 2] - prev_t[3 * j + 2], 2)));
+      }
+      if (tjump > 1e-6) worst_ratio = std::max(worst_ratio, jump / tjump);
+    }
+    prev_ghost = ghost;
+    prev_t = t;
+  }
+  EXPECT_LT(worst_ratio, 2.0);  // no flips: a ghost joint never jumps twice as far as the teacher's
+  EXPECT_LT(static_cast<double>(iterations) / frames, 60.0);
+}
+
+}  // namespace
