@@ -14,12 +14,12 @@
 
 namespace {
 
-struct Run {
+struct CliRun {
   int code;
   std::string output;
 };
 
-Run run(const std::string& args) {
+CliRun run(const std::string& args) {
   const std::string log = testing::TempDir() + "/kata_cli_test.log";
   const std::string cmd = std::string(KATA_CLI) + " " + args + " >" + log + " 2>&1";
   const int status = std::system(cmd.c_str());
@@ -35,7 +35,7 @@ TEST(CliFeatures, WritesEveryFrameAsTheStreamComputesIt) {
   const kata::GpdMap map = kata::make_gpd_map(clip.skeleton, kata::preset_joint_names("cmu"));
   for (const char* stencil : {"backward", "central"}) {
     const std::string out = testing::TempDir() + "/kata_cli_features.npy";
-    const Run r = run("features --bvh " + clip_path + " --preset cmu --stencil " + stencil + " --out " + out);
+    const CliRun r = run("features --bvh " + clip_path + " --preset cmu --stencil " + stencil + " --out " + out);
     ASSERT_EQ(r.code, 0) << r.output;
     // The header says float32, C order, (frames, 1683).
     std::ifstream f(out, std::ios::binary);
@@ -59,7 +59,7 @@ TEST(CliFeatures, BadInputExitsWithAClearMessage) {
     std::ofstream b(bad);
     b << "HIERARCHY\nROOT Hips\n{\n\tOFFSET 0 0 zero\n}\n";
   }
-  Run r = run("features --bvh " + bad + " --preset cmu --out " + testing::TempDir() + "/x.npy");
+  CliRun r = run("features --bvh " + bad + " --preset cmu --out " + testing::TempDir() + "/x.npy");
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.output.find(bad + ":4"), std::string::npos) << "names file and line: " << r.output;
   r = run("features --bvh " + std::string(KATA_DATA_DIR) + "/cmu/09_01.bvh --preset nope --out x.npy");

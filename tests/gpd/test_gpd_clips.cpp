@@ -125,69 +125,150 @@ TEST(GpdClips, FastMatchesReferenceOnRealPoses) {
   }
 }
 
-// Tolerance of an invariance check. The inputs are float32 world joints, so a transformed clip
-// is a slightly different (re-rounded) pose: ~1e-7 body heights per coordinate. Most features
-// move by about that; a plane normal moves by it divided by the plane's sine, which reaches
-// ~0.05 on nearly straight limbs, so the plane blocks (JPd, LPa, PPa) get the spec's float32
-// tolerance for static blocks, 1e-4.
-double invariance_tolerance(int d, double x) {
-  if (d >= kOffsetJPd && !(d >= kOffsetLPa && std::sin(x) < 0.05)) return 1e-4;
-  return tolerance(d, x);
+// Sine of each plane's angle at J1 (spec section 4 notes), from a feature row's Jc block
+// (joints 1..15; no plane uses the hip).
+void plane_sines(const float* row, double* sine) {
+  auto p = [&](int j, int k) { return double(row[3 * (j - 1) + k]); };
+  for (int q = 0; q < kPlanes; ++q) {
+    const int a = kPlaneJoints[q][0], b = kPlaneJoints[q][1], c = kPlaneJoints[q][2];
+    double e1[3], e2[3];
+    for (int k = 0; k < 3; ++k) {
+      e1[k] = p(b, k) - p(a, k);
+      e2[k] = p(c, k) - p(a, k);
+    }
+    const double cx = e1[1] * e2[2] - e1[2] * e2[1], cy = e1[2] * e2[0] - e1[0] * e2[2], cz = e1[0] * e2[1] - e1[1] * e2[0];
+    const double n1 = std::sqrt(e1[0] * e1[0] + e1[1] * e1[1] + e1[2] * e1[2]);
+    const double n2 = std::sqrt(e2[0] * e2[0] + e2[1] * e2[1] + e2[2] * e2[2]);
+    sine[q] = n1 > 0 && n2 > 0 ? std::sqrt(cx * cx + cy * cy + cz * cz) / (n1 * n2) : 0.0;
+  }
+}
+
+// The planes a static dim depends on (JPd, LPa: one; PPa: two), or none.
+int planes_of(int d, int* planes) {
+  if (d >= kOffsetJPd && d < kOffsetLPa) return planes[0] = (d - kOffsetJPd) / 13, 1;
+  if (d >= kOffsetLPa && d < kOffsetPPa) return planes[0] = (d - kOffsetLPa) / 27, 1;
+  if (d >= kOffsetPPa && d < kOffsetJk) {
+    planes[0] = detail::kLayout.pp[d - kOffsetPPa][0];
+    planes[1] = detail::kLayout.pp[d - kOffsetPPa][1];
+    return 2;
+  }
+  return 0;
 }
 
 // Compares two static-feature sequences dim by dim (`skip` dim excepted).
-void expect_same_features(const std::vector<float>& a, const std::vector<float>& b, int frames, int skip,
+//
+// exact = true: the transform maps float world joints to float world joints without rounding
+// (grid-aligned clip, grid translation, quarter turns, scale 2), so only the double
+// arithmetic of the local frame differs: every dim to 1e-5 (1e-3 at an arccos near 0/pi).
+// exact = false: the transformed clip is re-rounded to float32, a slightly different pose
+// (~2e-7 body heights per coordinate). Then the spec's float32 tolerance, 1e-4, applies, and a
+// plane's normal moves by that perturbation divided by the plane's sine: plane dims get
+// 1e-4 + 4e-6 / sine, and a plane within 10% of the 1e-3 degeneracy threshold may fall on
+// either side (its dims are skipped).
+void expect_same_features(const std::vector<float>& a, const std::vector<float>& b, int frames, int skip, bool exact,
                           const std::string& what) {
-  int failures = 0;
+  int failures = 0, skipped = 0;
   double worst[8] = {};
   for (int i = 0; i < frames; ++i) {
+    const float* ra = a.data() + static_cast<size_t>(i) * kStaticDims;
+    const float* rb = b.data() + static_cast<size_t>(i) * kStaticDims;
+    double sine[kPlanes];
+    plane_sines(ra, sine);
     for (int d = 0; d < kStaticDims; ++d) {
       if (d == skip) continue;
-      const double x = a[static_cast<size_t>(i) * kStaticDims + d], y = b[static_cast<size_t>(i) * kStaticDims + d];
-      const double err = std::abs(x - y);
-      if (!(is_angle_dim(d) && std::sin(x) < 0.05)) worst[block_index(d)] = std::max(worst[block_index(d)], err);
-      if (!(err <= invariance_tolerance(d, x)) && ++failures <= 10) {
-        ADD_FAILURE() << what << " frame " << i << " " << block_of(d) << ": " << x << " vs " << y;
+      const double x = ra[d], err = std::abs(double(ra[d]) - rb[d]);
+      const bool near_pole = is_angle_dim(d) && std::sin(x) < 0.05;
+      double tol = near_pole ? 1e-3 : (exact ? 1e-5 : 1e-4);
+      int planes[2];
+      const int np = planes_of(d, planes);
+      bool borderline = false;
+      for (int k = 0; k < np && !exact; ++k) {
+        const double sn = sine[planes[k]];
+        borderline = borderline || (sn > 0.9e-3 && sn < 1.1e-3);
+        if (!near_pole) tol = std::max(tol, 1e-4 + 4e-6 / std::max(sn, 1e-3));
+      }
+      if (borderline) {
+        ++skipped;
+        continue;
+      }
+      if (!near_pole) worst[block_index(d)] = std::max(worst[block_index(d)], err);
+      if (!(err <= tol) && ++failures <= 10) {
+        ADD_FAILURE() << what << " frame " << i << " " << block_of(d) << ": " << x << " vs " << rb[d] << " (tol "
+                      << tol << ")";
       }
     }
   }
-  std::printf("  %-14s worst change per block (angles near 0/pi aside):", what.c_str());
+  std::printf("  %-22s worst change per block (angles near 0/pi aside):", what.c_str());
   for (double w : worst) std::printf(" %.1e", w);
-  std::printf("\n");
+  std::printf("%s\n", skipped ? (" [" + std::to_string(skipped) + " borderline-plane values skipped]").c_str() : "");
+}
+
+// A copy of a world sequence with f applied to each joint (x, y, z in place, in double).
+template <class F>
+std::vector<float> transformed(const std::vector<float>& world, F f) {
+  std::vector<float> out(world.size());
+  for (size_t i = 0; i < world.size(); i += 3) {
+    double p[3] = {world[i], world[i + 1], world[i + 2]};
+    f(p);
+    for (int k = 0; k < 3; ++k) out[i + k] = static_cast<float>(p[k]);
+  }
+  return out;
 }
 
 TEST(GpdClips, StaticBlocksInvariantToTranslationTurnAndScale) {
   for (const char* name : kClips) {
     const Clip& c = clip(name);
-    const std::vector<float> base = stream_static(c.world, c.frames, c.height);
-    // Translation (hip height, dim 45, moves with Y by dy / H; checked separately).
-    const double dx = 37.5, dy = 11.25, dz = -80.0;
-    std::vector<float> moved = c.world;
-    for (size_t i = 0; i < moved.size(); i += 3) {
-      moved[i] = static_cast<float>(moved[i] + dx);
-      moved[i + 1] = static_cast<float>(moved[i + 1] + dy);
-      moved[i + 2] = static_cast<float>(moved[i + 2] + dz);
+    const std::string n(name);
+    // Exact transforms on the clip snapped to a 2^-10 grid (|coordinates| < 2^13: exact floats).
+    const std::vector<float> grid = transformed(c.world, [](double* p) {
+      for (int k = 0; k < 3; ++k) p[k] = std::round(p[k] * 1024.0) / 1024.0;
+    });
+    const std::vector<float> base = stream_static(grid, c.frames, c.height);
+    const std::vector<float> moved = stream_static(
+        transformed(grid, [](double* p) { p[0] += 37.5; p[1] += 11.25; p[2] -= 80.0; }), c.frames, c.height);
+    expect_same_features(base, moved, c.frames, 45, true, n + " translated");
+    for (int i = 0; i < c.frames; ++i) {  // the hip height moves by dy / H
+      const size_t at = static_cast<size_t>(i) * kStaticDims + 45;
+      EXPECT_NEAR(moved[at] - base[at], 11.25 / c.height, 1e-6) << n << " frame " << i;
     }
-    const std::vector<float> fm = stream_static(moved, c.frames, c.height);
-    expect_same_features(base, fm, c.frames, 45, std::string(name) + " translated");
-    for (int i = 0; i < c.frames; ++i) {
-      EXPECT_NEAR(fm[static_cast<size_t>(i) * kStaticDims + 45] - base[static_cast<size_t>(i) * kStaticDims + 45],
-                  dy / c.height, 1e-5);
-    }
-    // Turn about the vertical axis (through the origin, not the hip) by 1 radian.
-    const double ct = std::cos(1.0), st = std::sin(1.0);
-    std::vector<float> turned = c.world;
-    for (size_t i = 0; i < turned.size(); i += 3) {
-      const double x = c.world[i], z = c.world[i + 2];
-      turned[i] = static_cast<float>(ct * x + st * z);
-      turned[i + 2] = static_cast<float>(-st * x + ct * z);
-    }
-    expect_same_features(base, stream_static(turned, c.frames, c.height), c.frames, -1, std::string(name) + " turned");
-    // Uniform scale of every world joint, with H scaled alike.
-    std::vector<float> scaled = c.world;
-    for (float& v : scaled) v = static_cast<float>(v * 2.54);
-    expect_same_features(base, stream_static(scaled, c.frames, c.height * 2.54), c.frames, -1,
-                         std::string(name) + " scaled");
+    expect_same_features(base, stream_static(transformed(grid, [](double* p) {
+                                               const double x = p[0];
+                                               p[0] = p[2];
+                                               p[2] = -x;
+                                             }),
+                                             c.frames, c.height),
+                         c.frames, -1, true, n + " turned 90deg");
+    expect_same_features(base, stream_static(transformed(grid, [](double* p) {
+                                               p[0] = -p[0];
+                                               p[2] = -p[2];
+                                             }),
+                                             c.frames, c.height),
+                         c.frames, -1, true, n + " turned 180deg");
+    expect_same_features(base, stream_static(transformed(grid, [](double* p) {
+                                               for (int k = 0; k < 3; ++k) p[k] *= 2.0;
+                                             }),
+                                             c.frames, 2.0 * c.height),
+                         c.frames, -1, true, n + " scaled x2");
+    // Arbitrary transforms of the original clip (re-rounded to float32).
+    const std::vector<float> orig = stream_static(c.world, c.frames, c.height);
+    expect_same_features(orig, stream_static(transformed(c.world, [](double* p) {
+                                               p[0] += 37.3;
+                                               p[2] -= 80.1;
+                                             }),
+                                             c.frames, c.height),
+                         c.frames, -1, false, n + " translated (XZ)");
+    expect_same_features(orig, stream_static(transformed(c.world, [](double* p) {
+                                               const double x = p[0], z = p[2];
+                                               p[0] = std::cos(1.0) * x + std::sin(1.0) * z;
+                                               p[2] = -std::sin(1.0) * x + std::cos(1.0) * z;
+                                             }),
+                                             c.frames, c.height),
+                         c.frames, -1, false, n + " turned 1 rad");
+    expect_same_features(orig, stream_static(transformed(c.world, [](double* p) {
+                                               for (int k = 0; k < 3; ++k) p[k] *= 2.54;
+                                             }),
+                                             c.frames, 2.54 * c.height),
+                         c.frames, -1, false, n + " scaled x2.54");
   }
 }
 
@@ -318,6 +399,18 @@ void check_golden(Stencil stencil) {
     for (int k = 0; k < kKineticDims; ++k) range[k] = std::max(range[k], std::abs(gold[r * kDims + kOffsetJk + k]));
   }
 
+  // The float32 floor of block 9: world joints rounded to float32 move each block-1 value by up
+  // to eps = 2^-22 max|world| / H (hip-relative difference of two rounded coordinates, turned),
+  // and a derivative sums its samples with weights of total size <= 4/h (v) or 4/h^2 (a). The
+  // acceleration floor is ~1e-2 body heights/s^2 at 120 fps, above 1e-3 of a quiet joint's range.
+  double max_world = 0;
+  for (float w : c.world) max_world = std::max(max_world, double(std::abs(w)));
+  const double eps = std::ldexp(max_world, -22) / c.height, h = c.frame_time;
+  auto kinetic_floor = [&](int k) {
+    const bool accel = k == 91 || (k < 90 && k % 6 >= 3);
+    return (accel ? 4.0 / (h * h) : 4.0 / h) * eps;
+  };
+
   double worst_d[9] = {}, worst_f[9] = {};
   int worst_d_dim[9] = {}, worst_d_row[9] = {};
   int failures = 0;
@@ -356,8 +449,9 @@ void check_golden(Stencil stencil) {
       // (1): the spec in double must reproduce the golden file closely (1e-6; 1e-4 at an
       // arccos near 0/pi, where the float32 normal memory of degenerate planes shows).
       const double tol_d = near_pole ? 1e-4 : 1e-6;
-      // (2): spec section 7, float32: 1e-4 static (1e-3 near 0/pi), 1e-3 relative kinetics.
-      const double tol_f = kin ? 1e-3 : (near_pole ? 1e-3 : 1e-4);
+      // (2): spec section 7, float32: 1e-4 static (1e-3 near 0/pi), 1e-3 relative kinetics,
+      // plus on block 9 the float32 input floor (see kinetic_floor).
+      const double tol_f = kin ? 1e-3 + kinetic_floor(d - kOffsetJk) / scale : (near_pole ? 1e-3 : 1e-4);
       if (!(err_d <= tol_d) && ++failures <= 15) {
         ADD_FAILURE() << "double pipeline vs " << file << " frame " << f << " " << block_of(d) << ": ours " << mine_d
                       << " golden " << g[d];

@@ -17,6 +17,10 @@
 #include "io/bvh.hpp"
 #include "skeleton/skeleton.hpp"
 
+// Calls of the global operator new so far (alloc_count.cpp), to check that world_positions
+// (the per-frame path) allocates nothing.
+long test_new_calls();
+
 namespace fs = std::filesystem;
 using kata::BvhClip;
 using kata::Channel;
@@ -225,6 +229,32 @@ TEST(BvhFk, PositionChannelSubsetReplacesOnlyItsAxis) {
   kata::world_positions(c, 0, p);
   expect_row(p, 0, 5, 100, 7);
   expect_row(p, 1, 6, 101, 8);
+}
+
+TEST(BvhFk, DoesNotAllocatePerFrame) {
+  const BvhClip c = kata::load_bvh(cmu("02_01.bvh"));
+  Eigen::MatrixX3d p(c.skeleton.joint_count(), 3);
+  const long before = test_new_calls();
+  for (int f = 0; f < c.frame_count(); ++f) kata::world_positions(c, f, p);
+  EXPECT_EQ(test_new_calls() - before, 0);
+
+  // A 300-joint chain takes the large-skeleton path: it may allocate on the first call only.
+  std::string text = "HIERARCHY\nROOT j0\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition Zposition\n";
+  for (int j = 1; j < 300; ++j) text += "JOINT j" + std::to_string(j) + "\n{\nOFFSET 0 1 0\nCHANNELS 1 Zrotation\n";
+  text += "End Site\n{\nOFFSET 0 1 0\n}\n";
+  for (int j = 0; j < 300; ++j) text += "}\n";
+  text += "MOTION\nFrames: 1\nFrame Time: 1\n5 0 0";
+  for (int j = 1; j < 300; ++j) text += j == 1 ? " 90" : " 0";
+  text += "\n";
+  const BvhClip chain = kata::parse_bvh(text, "chain.bvh");
+  Eigen::MatrixX3d q(300, 3);
+  kata::world_positions(chain, 0, q);
+  const long before_chain = test_new_calls();
+  kata::world_positions(chain, 0, q);
+  EXPECT_EQ(test_new_calls() - before_chain, 0);
+  // j1 sits at (5,1,0) and turns 90 degrees about Z, so the rest of the chain runs along -X.
+  expect_row(q, 1, 5, 1, 0);
+  expect_row(q, 299, 5 - 298, 1, 0);
 }
 
 TEST(BvhFk, RejectsBadFrameOrShape) {

@@ -64,14 +64,14 @@ std::vector<uint8_t> raw_buffer(const Raw& r) {
                               static_cast<fb::Normalisation>(r.m.normalisation), r.dims,
                               static_cast<uint32_t>(r.rank >= 0 ? r.rank : r.m.rank), mn, mx, shift, scale, w,
                               r.m.delta_star, info, r.checksum);
-  fb::FinishModelBuffer(b, root);
+  fb::FinishSizePrefixedModelBuffer(b, root);
   return {b.GetBufferPointer(), b.GetBufferPointer() + b.GetSize()};
 }
 
 TEST(Model, RoundTripThroughBufferAndFile) {
   const Model m = small_model();
   const std::vector<uint8_t> buf = metric::serialize_model(m);
-  ASSERT_TRUE(fb::ModelBufferHasIdentifier(buf.data()));
+  ASSERT_TRUE(fb::SizePrefixedModelBufferHasIdentifier(buf.data()));
   EXPECT_TRUE(same(metric::parse_model(buf.data(), buf.size()), m));
 
   const std::string path = ::testing::TempDir() + "/roundtrip.kata";
@@ -114,10 +114,25 @@ TEST(Model, TruncatedBuffersAreRefused) {
       ADD_FAILURE() << "accepted a buffer truncated to " << n << " of " << buf.size() << " bytes";
     } catch (const Error& e) {
       const std::string msg = e.what();
-      EXPECT_TRUE(msg.find("too small") != std::string::npos || msg.find("verifier") != std::string::npos)
+      EXPECT_TRUE(msg.find("too small") != std::string::npos || msg.find("empty") != std::string::npos ||
+                  msg.find("truncated: the size prefix says " + std::to_string(buf.size()) + " bytes, the buffer has " +
+                           std::to_string(n)) != std::string::npos)
           << n << ": " << msg;
     }
   }
+}
+
+TEST(Model, TrailingBytesAreRefused) {
+  std::vector<uint8_t> buf = metric::serialize_model(small_model());
+  buf.push_back(0);
+  expect_refused(buf, "trailing bytes");
+}
+
+TEST(Model, CorruptOffsetIsCaughtByTheVerifier) {
+  std::vector<uint8_t> buf = metric::serialize_model(small_model());
+  // The root offset (bytes 4..7) pointed far outside the buffer.
+  buf[7] = 0x7f;
+  expect_refused(buf, "verifier");
 }
 
 TEST(Model, TruncatedFileIsRefusedWithItsPath) {
@@ -133,7 +148,7 @@ TEST(Model, TruncatedFileIsRefusedWithItsPath) {
   } catch (const Error& e) {
     EXPECT_EQ(e.kind(), ErrorKind::kModel);
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("verifier"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
   }
   std::remove(path.c_str());
 }
@@ -161,7 +176,7 @@ TEST(Model, EveryBitFlipIsRefusedOrHarmless) {
 
 TEST(Model, BitFlipInsideWIsCaughtByTheChecksum) {
   const std::vector<uint8_t> buf = metric::serialize_model(small_model());
-  const fb::Model* root = fb::GetModel(buf.data());
+  const fb::Model* root = fb::GetSizePrefixedModel(buf.data());
   const size_t at = static_cast<size_t>(reinterpret_cast<const uint8_t*>(root->w()->data()) - buf.data()) + 4 * 1000;
   std::vector<uint8_t> bad = buf;
   bad[at] ^= 0x01;  // lowest mantissa bit of W[1000, 0]: still a finite float
@@ -170,10 +185,10 @@ TEST(Model, BitFlipInsideWIsCaughtByTheChecksum) {
 
 TEST(Model, WrongIdentifierIsRefused) {
   std::vector<uint8_t> buf = metric::serialize_model(small_model());
-  buf[4] = 'N';
-  buf[5] = 'O';
-  buf[6] = 'P';
-  buf[7] = 'E';
+  buf[8] = 'N';
+  buf[9] = 'O';
+  buf[10] = 'P';
+  buf[11] = 'E';
   expect_refused(buf, "file identifier \"NOPE\" is not \"KATA\"");
   const std::string text = "this is a text file, not a model";
   expect_refused(std::vector<uint8_t>(text.begin(), text.end()), "is not \"KATA\"");

@@ -127,18 +127,21 @@ double gradient_descent(const Reference& r, Pose x, int* iterations, int max_ite
   for (size_t p = 0; p < r.u.size(); ++p) scale += r.weight[p] * r.delta[p] * r.delta[p];
   scale = std::sqrt(scale);
   double step = 1e-3;
+  int stalled = 0;  // consecutive iterations without a relative decrease above 1e-15
   for (int it = 0; it < max_iter; ++it) {
     *iterations = it;
     double g2 = 0.0;
     for (double gi : g) g2 += gi * gi;
-    // Converged: past 1e-9 the Armijo test only sees rounding noise of f.
-    if (std::sqrt(g2) < 1e-9 * scale) break;
+    // Converged; or f no longer moves in double precision (the Armijo test then only sees
+    // rounding noise, so the step collapses without progress).
+    if (std::sqrt(g2) < 1e-9 * scale || stalled > 100) break;
     step *= 2.0;
     while (true) {
       xn = x;
       for (size_t i = 0; i < x.size(); ++i) xn[i] -= step * g[i];
       const double fn = reference_stress(r, xn, nullptr);
       if (fn <= f - 0.5 * step * g2) {
+        stalled = f - fn <= 1e-15 * f ? stalled + 1 : 0;
         x = xn;
         f = reference_stress(r, x, &g);
         break;
@@ -295,7 +298,7 @@ TEST(RetargetStress, GradientMatchesCentralDifferences) {
     delta[p] = 1.0 + uni(rng);
   }
   const StressInstance in{n, t.pairs, t.u.data(), t.v.data(), w.data(), delta.data()};
-  Pose x(3 * n), g(3 * n);
+  Pose x(3 * n), g(3 * n);  // SoA: all x, all y, all z
   for (double& xi : x) xi = 2.0 * uni(rng);
   kata::retarget::stress(in, x.data(), g.data());
   const double h = 1e-6;
@@ -307,8 +310,11 @@ TEST(RetargetStress, GradientMatchesCentralDifferences) {
     EXPECT_NEAR(g[i], fd, 1e-7 * std::max(1.0, std::fabs(fd))) << "coordinate " << i;
   }
   // The stress equals the plain formula.
+  Pose rows(3 * n);
+  for (int j = 0; j < n; ++j)
+    for (int k = 0; k < 3; ++k) rows[3 * j + k] = x[k * n + j];
   double f = 0.0;
-  for (int p = 0; p < t.pairs; ++p) f += 0.5 * w[p] * std::pow(dist(x, t.u[p], t.v[p]) - delta[p], 2);
+  for (int p = 0; p < t.pairs; ++p) f += 0.5 * w[p] * std::pow(dist(rows, t.u[p], t.v[p]) - delta[p], 2);
   EXPECT_NEAR(kata::retarget::stress(in, x.data(), nullptr), f, 1e-12 * f);
 }
 
@@ -322,7 +328,7 @@ TEST(RetargetStress, CoincidentJointsStayFinite) {
   EXPECT_TRUE(std::isfinite(f));
   for (double gi : g) EXPECT_EQ(gi, 0.0);
   // Two coincident joints among spread ones: SPG must stay finite and decrease the stress.
-  x = {0, 0, 0, 1, 0, 0, 1, 0, 0, 0.5, 0.5, 0};
+  x = {0, 1, 1, 0.5, 0, 0, 0, 0.5, 0, 0, 0, 0};  // SoA: joints 1 and 2 both at (1, 0, 0)
   kata::retarget::SpgSolver solver(4);
   const auto r = solver.minimize(in, x.data(), kata::retarget::SpgOptions{});
   for (double xi : x) EXPECT_TRUE(std::isfinite(xi));
@@ -355,6 +361,14 @@ void expect_same_optimum(const std::vector<int>& parents, const Pose& teacher, c
   EXPECT_NEAR(rep.stress, gd, 1e-6 * gd) << what << ": SPG " << rep.stress << " after " << rep.iterations
                                          << " iterations, GD " << gd;
   EXPECT_NEAR(reference_stress(ref, ghost, nullptr), rep.stress, 1e-9 * rep.stress) << what;
+  // The default (real-time) tolerance 1e-5, cold: the same optimum to 1e-5 (about 1e-6 seen).
+  RetargetOptions fast;
+  fast.restore_bone_lengths = false;
+  Retargeter rt_fast(parents, student_len, fast);
+  const auto& rep_fast = rt_fast.retarget(teacher.data(), ghost.data());
+  std::printf("    default options: SPG %.12g (%d it, %d evaluations)\n", rep_fast.stress, rep_fast.iterations,
+              rep_fast.evaluations);
+  EXPECT_NEAR(rep_fast.stress, gd, 1e-5 * gd) << what;
   EXPECT_LT(rep.stress, rep.stress_baseline) << what;
 }
 

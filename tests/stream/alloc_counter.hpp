@@ -36,6 +36,9 @@ extern "C" void* realloc(void* p, std::size_t n) {
   kata_test::g_allocations.fetch_add(1, std::memory_order_relaxed);
   return __libc_realloc(p, n);
 }
+// The replacement pair is malloc/free underneath; GCC cannot see that and warns.
+#pragma GCC diagnostic push
+#pragma GCC diagnostic ignored "-Wmismatched-new-delete"
 void* operator new(std::size_t n) {
   if (void* p = malloc(n ? n : 1)) return p;
   throw std::bad_alloc();
@@ -45,4 +48,5 @@ void operator delete(void* p) noexcept { std::free(p); }
 void operator delete[](void* p) noexcept { std::free(p); }
 void operator delete(void* p, std::size_t) noexcept { std::free(p); }
 void operator delete[](void* p, std::size_t) noexcept { std::free(p); }
+#pragma GCC diagnostic pop
 #endif

@@ -8,7 +8,10 @@
 #include <limits>
 #include <vector>
 
+#include <Eigen/Geometry>
+
 #include "alloc_counter.hpp"
+#include "common/error.hpp"
 #include "io/bvh.hpp"
 #include "stream/clip_features.hpp"
 #include "stream/stream.hpp"
@@ -313,21 +316,31 @@ std::vector<std::vector<float>> stream_transformed(const ClipFrames& c, F f, dou
   return out;
 }
 
-// Static blocks to 1e-5. Kinetics are differences of float32 positions divided by h^2 (h = 1/120 s):
-// a transform changes each position's float rounding by up to an ulp, so they are compared to
-// 1e-5 relative to the block's own magnitude plus that rounding floor.
+// Static blocks to 1e-5. Kinetics are finite differences of float32 inputs: a transform changes
+// each input coordinate's float rounding by up to an ulp (about 1e-7 body heights here), which
+// the stencils amplify by the sum of their weights' magnitudes: about 2/h for velocity and 4/h^2
+// for acceleration (h = 1/120 s). They are compared to 1e-5 relative plus that rounding floor;
+// a real invariance bug (a yaw or scale left in) moves them by whole units.
 void expect_same_features(const std::vector<std::vector<float>>& a, const std::vector<std::vector<float>>& b,
                           bool skip_hip_height, const char* what) {
   ASSERT_EQ(a.size(), b.size());
+  const double h = 1.0 / 120.0, rounding = 4e-7;
+  const double floor_v = 2.0 / h * rounding, floor_a = 4.0 / (h * h) * rounding;
   for (size_t i = 0; i < a.size(); ++i) {
     for (int d = 0; d < gpd::kOffsetJk; ++d) {
       if (skip_hip_height && d == 45) continue;
-      ASSERT_NEAR(a[i][d], b[i][d], 1e-5) << what << " frame " << i << " dim " << d;
+      // An angle near 0 or pi is acos of a cosine near +-1, where acos turns a float rounding
+      // of 1e-7 into sqrt(2e-7) ~ 5e-4 (the spec's "about 1e-3" there).
+      const bool angle = (d >= gpd::kOffsetLLa && d < gpd::kOffsetJPd) || (d >= gpd::kOffsetLPa && d < gpd::kOffsetJk);
+      const bool near_pole = angle && (a[i][d] < 0.05f || a[i][d] > 3.0916f);
+      ASSERT_NEAR(a[i][d], b[i][d], near_pole ? 1e-3 : 1e-5) << what << " frame " << i << " dim " << d;
     }
     for (int d = gpd::kOffsetJk; d < gpd::kDims; ++d) {
       if (skip_hip_height && d >= gpd::kOffsetJk + 90) continue;
-      const double scale = std::max(1.0, static_cast<double>(std::fabs(a[i][d])));
-      ASSERT_NEAR(a[i][d], b[i][d], 1e-5 * scale + 2e-3) << what << " frame " << i << " dim " << d;
+      const int k = d - gpd::kOffsetJk;
+      const bool accel = k < 90 ? (k % 6) >= 3 : k == 91;
+      const double tol = 1e-5 * std::fabs(a[i][d]) + (accel ? floor_a : floor_v);
+      ASSERT_NEAR(a[i][d], b[i][d], tol) << what << " frame " << i << " dim " << d;
     }
   }
 }
