@@ -24,8 +24,6 @@ const char* context_error() noexcept { return t_context_error.c_str(); }
 
 namespace {
 
-constexpr const char* kPresetsCStrings[] = {"cmu", "cmu-3dsmax", "daz", "bandai", "kinect2", "h36m"};
-
 kata::GpdMap resolve_map(const kata::Skeleton& skeleton, const kata_stream_desc& desc) {
   if (desc.preset && desc.preset[0]) return kata::make_gpd_map(skeleton, kata::preset_joint_names(desc.preset));
   if (desc.name_map_path && desc.name_map_path[0])
@@ -216,7 +214,12 @@ KATA_API void kata_stream_desc_init(kata_stream_desc* desc) {
 }
 
 KATA_API const char* kata_preset_name(uint32_t i) {
-  return i < sizeof kPresetsCStrings / sizeof kPresetsCStrings[0] ? kPresetsCStrings[i] : nullptr;
+  try {
+    static const std::vector<std::string> names = kata::preset_names();  // built once, kept for the process
+    return i < names.size() ? names[i].c_str() : nullptr;
+  } catch (...) {
+    return nullptr;
+  }
 }
 
 KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skeleton, const kata_stream_desc* desc,
