@@ -61,8 +61,7 @@ Stream::Stream(const StreamConfig& config) : config_(config) {
   segment_pos_.assign(h, 0);
   starts_segment_.assign(h, 0);
   joints_.assign(h * 3 * gpd::kJoints, 0.0f);
-  static_.assign(h * gpd::kStaticDims, 0.0f);
-  out_.assign(gpd::kDims, 0.0f);
+  vectors_.assign(h * gpd::kDims, 0.0f);
   if (height_ <= 0.0) calibration_.assign(7 * static_cast<size_t>(config_.calibration_frames), 0.0);
 }
 
@@ -159,7 +158,7 @@ void Stream::process(int64_t frame) {
   float hip_height = 0.0f;
   gpd::to_local_frame(joints_.data() + static_cast<size_t>(slot) * 3 * gpd::kJoints, height_, geometry_, local,
                       &hip_height);
-  gpd::static_features(local, hip_height, geometry_, static_.data() + static_cast<size_t>(slot) * gpd::kStaticDims);
+  gpd::static_features(local, hip_height, geometry_, vectors_.data() + static_cast<size_t>(slot) * gpd::kDims);
   processed_ = frame + 1;
 
   if (config_.stencil == gpd::Stencil::kBackward) {
@@ -173,11 +172,9 @@ void Stream::process(int64_t frame) {
 
 void Stream::emit(int64_t frame, bool central) {
   const int slot = slot_at(frame);
-  const float* stat = static_.data() + static_cast<size_t>(slot) * gpd::kStaticDims;
-  std::memcpy(out_.data(), stat, sizeof(float) * gpd::kStaticDims);
-  float* kin = out_.data() + gpd::kOffsetJk;
+  float* kin = vectors_.data() + static_cast<size_t>(slot) * gpd::kDims + gpd::kOffsetJk;
   const int pos = segment_pos_[slot];
-  auto jc = [&](int64_t f) { return static_.data() + static_cast<size_t>(slot_at(f)) * gpd::kStaticDims; };
+  auto jc = [&](int64_t f) { return vectors_.data() + static_cast<size_t>(slot_at(f)) * gpd::kDims; };
   if (pos == 0) {
     gpd::kinetics_zero(kin);
   } else if (central) {

@@ -50,7 +50,9 @@ class Stream {
 
   // The newest emitted feature vector (gpd::kDims floats), its timestamp and its frame index
   // (0-based count of accepted frames). Valid until the next push/flush. Null before the first.
-  const float* features() const { return emitted_ ? out_.data() : nullptr; }
+  const float* features() const {
+    return emitted_ ? vectors_.data() + static_cast<size_t>(slot_at(out_frame_)) * gpd::kDims : nullptr;
+  }
   double feature_time() const { return out_time_; }
   int64_t feature_frame() const { return out_frame_; }
   // Number of vectors emitted so far; a caller that sees it grow by one knows it has them all.
@@ -64,7 +66,7 @@ class Stream {
 
  private:
   void process(int64_t frame);
-  // Writes frame `frame`'s vector to out_: kinetics by the backward rules (central == false)
+  // Completes frame `frame`'s vector with block 9: kinetics by the backward rules (central == false)
   // or the central stencil (needs frame + 1).
   void emit(int64_t frame, bool central);
   void finish_calibration();
@@ -74,14 +76,15 @@ class Stream {
   StreamConfig config_;
   double height_ = 0.0;
   gpd::GeometryState geometry_;
-  // Ring buffer, struct of arrays: per slot timestamp, mapped world joints, block 1 and blocks 1..8.
+  // Ring buffer, struct of arrays: per slot timestamp, mapped world joints, and the whole feature
+  // vector (blocks 1..8 written when the frame arrives, block 9 when it is emitted), so reading
+  // features copies nothing.
   std::vector<double> time_;
   std::vector<int> segment_pos_;   // position of the frame in its segment (0, 1, 2...)
   std::vector<char> starts_segment_;  // set at push time: gap, reset or first frame
   std::vector<double> calibration_;   // 7 x calibration_frames bone lengths, for the median H
   std::vector<float> joints_;      // history x 48
-  std::vector<float> static_;      // history x kStaticDims (block 1 = first kJcDims)
-  std::vector<float> out_;         // kDims
+  std::vector<float> vectors_;     // history x kDims (block 1 = first kJcDims)
   int64_t accepted_ = 0;           // frames accepted so far
   int64_t processed_ = 0;          // frames turned into static features (< accepted_ while calibrating)
   bool pending_ = false;           // central: the newest processed frame awaits its successor
