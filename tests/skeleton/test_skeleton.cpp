@@ -288,6 +288,10 @@ TEST(NameMap, TextFileWithComments) {
   }
   const auto names = kata::load_name_map(dir.write("map.txt", text));
   for (int i = 0; i < kGpdJoints; ++i) EXPECT_EQ(names[static_cast<size_t>(i)], "bone " + std::to_string(i));
+  // A UTF-8 byte-order mark (Windows editors) does not become part of the first GPD name.
+  std::string bom = "\xEF\xBB\xBF";
+  for (int i = 0; i < kGpdJoints; ++i) bom += std::string(kata::kGpdJointNames[static_cast<size_t>(i)]) + "=b" + std::to_string(i) + "\n";
+  EXPECT_EQ(kata::load_name_map(dir.write("bom.txt", bom))[0], "b0");
 }
 
 TEST(NameMap, ErrorsNameFileAndLine) {

@@ -16,11 +16,11 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <cstring>
 #include <fstream>
 #include <iterator>
 #include <string_view>
 #include <unordered_map>
+#include <utility>
 
 #include <Eigen/Geometry>
 
@@ -33,8 +33,10 @@ namespace {
 // instead of on the stack (the stack buffer is 256 * 72 bytes = 18 KiB).
 constexpr int kStackJoints = 256;
 
+// Separators inside a line ('\n' is handled apart, it counts lines). '\r' makes CRLF files work.
 bool is_blank(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\f' || c == '\v'; }
 
+// ASCII case-insensitive equality: keywords and channel names are matched leniently.
 bool iequals(std::string_view a, std::string_view b) {
   if (a.size() != b.size()) return false;
   for (size_t i = 0; i < a.size(); ++i) {
@@ -50,12 +52,16 @@ bool iequals(std::string_view a, std::string_view b) {
 bool to_double(std::string_view tok, double* out) {
   const char* b = tok.data();
   const char* e = tok.data() + tok.size();
-  if (b != e && *b == '+') ++b;
+  if (b != e && *b == '+') {
+    ++b;
+    if (b != e && (*b == '+' || *b == '-')) return false;  // "++1", "+-1"
+  }
   if (b == e) return false;
   const auto r = std::from_chars(b, e, *out);
   return r.ec == std::errc() && r.ptr == e && std::isfinite(*out);
 }
 
+// The channel a CHANNELS entry names; false for anything else.
 bool channel_from_name(std::string_view s, Channel* c) {
   static constexpr std::pair<const char*, Channel> kNames[] = {
       {"Xposition", Channel::kXpos}, {"Yposition", Channel::kYpos}, {"Zposition", Channel::kZpos},
@@ -69,6 +75,7 @@ bool channel_from_name(std::string_view s, Channel* c) {
   return false;
 }
 
+// The canonical BVH spelling of a channel, for the writer.
 const char* channel_name(Channel c) {
   switch (c) {
     case Channel::kXpos: return "Xposition";
@@ -81,6 +88,7 @@ const char* channel_name(Channel c) {
   return "?";
 }
 
+// One whitespace-separated word of the text and the 1-based line it is on.
 struct Token {
   std::string_view text;  // empty at end of input
   int line = 0;
@@ -116,12 +124,16 @@ class Parser {
     bool has_channels = false;
   };
 
+  // Throws kParse "name:line: what".
   [[noreturn]] void fail(int line, const std::string& what) const {
     throw Error(ErrorKind::kParse, name_ + ":" + std::to_string(line) + ": " + what);
   }
   [[noreturn]] void fail(const Token& t, const std::string& what) const { fail(t.line, what); }
+  // A token quoted for a message (cut short: a binary file may have megabyte-long "words").
   static std::string describe(const Token& t) {
-    return t.text.empty() ? std::string("end of file") : "'" + std::string(t.text) + "'";
+    if (t.text.empty()) return "end of file";
+    if (t.text.size() > 40) return "'" + std::string(t.text.substr(0, 40)) + "...'";
+    return "'" + std::string(t.text) + "'";
   }
 
   // Next whitespace-separated token; counts newlines as it goes.
@@ -146,6 +158,7 @@ class Parser {
     return p < s_.size() && s_[p] != '\n';
   }
 
+  // The next token as a finite number; `what` names it in messages.
   double number(const char* what) {
     const Token t = next();
     double v = 0.0;
@@ -154,11 +167,13 @@ class Parser {
     return v;
   }
 
+  // The '{' that must follow ROOT/JOINT name or End Site.
   void expect_open_brace(const std::string& owner) {
     const Token t = next();
     if (t.text != "{") fail(t, "expected '{' after " + owner + ", got " + describe(t));
   }
 
+  // Appends a joint (pre-order, so parents precede children) and returns its index.
   int add_joint(BvhClip& clip, const Token& name, int parent) {
     if (name.text.empty() || name.text == "{" || name.text == "}") fail(name, "missing joint name");
     const std::string n(name.text);
@@ -173,6 +188,7 @@ class Parser {
     return static_cast<int>(clip.skeleton.names.size()) - 1;
   }
 
+  // Everything from the ROOT name to its closing brace; fills skeleton, channels, End Sites.
   void parse_hierarchy(BvhClip& clip, const Token& root_kw) {
     std::vector<Block> stack;
     const Token root_name = next();
@@ -246,6 +262,7 @@ class Parser {
     clip.channel_count = total;
   }
 
+  // "CHANNELS n name...": exactly n known, distinct channel names, all on the keyword's line.
   void parse_channels(BvhClip& clip, int joint, const Token& kw) {
     const Token count_tok = next();
     int n = -1;
@@ -287,6 +304,7 @@ class Parser {
     return v;
   }
 
+  // MOTION, Frames:, Frame Time:, then exactly Frames rows of channel_count numbers each.
   void parse_motion(BvhClip& clip) {
     const Token m = next();
     if (m.text == "}") fail(m, "unbalanced braces: '}' after the ROOT block is closed");
@@ -346,7 +364,7 @@ class Parser {
         while (p < e && !is_blank(*p)) ++p;
         double v = 0.0;
         if (!to_double(std::string_view(b, static_cast<size_t>(p - b)), &v)) {
-          fail(line_, "non-numeric value '" + std::string(b, static_cast<size_t>(p - b)) + "' in motion row " +
+          fail(line_, "non-numeric value " + describe({std::string_view(b, static_cast<size_t>(p - b)), line_}) + " in motion row " +
                           std::to_string(rows + 1));
         }
         if (got == cc) {
@@ -392,6 +410,7 @@ std::string format_double(double v) {
   return std::string(buf, r.ptr);
 }
 
+// format_double without the temporary string, for the motion rows.
 void append_double(std::string& out, double v) {
   char buf[32];
   const auto r = std::to_chars(buf, buf + sizeof buf, v);
@@ -443,6 +462,7 @@ void forward_kinematics(const BvhClip& clip, const double* row, Eigen::Ref<Eigen
   }
 }
 
+// Throws kInvalidArgument unless the clip's tables agree (a hand-assembled clip may not).
 void check_clip(const BvhClip& clip, const char* who) {
   auto fail = [&](const std::string& what) {
     throw Error(ErrorKind::kInvalidArgument, std::string(who) + ": " + what);
@@ -486,6 +506,11 @@ void world_positions(const BvhClip& clip, int i, Eigen::Ref<Eigen::MatrixX3d> ou
   if (i < 0 || i >= clip.frame_count()) {
     throw Error(ErrorKind::kInvalidArgument, "world_positions: frame " + std::to_string(i) + " out of range [0, " +
                                                  std::to_string(clip.frame_count()) + ")");
+  }
+  // O(1) guards against a hand-assembled clip whose tables do not match its skeleton.
+  if (clip.channels.size() != static_cast<size_t>(n) || clip.channel_offset.size() != static_cast<size_t>(n) ||
+      clip.skeleton.parents.size() != static_cast<size_t>(n) || clip.skeleton.offsets.size() != static_cast<size_t>(n)) {
+    throw Error(ErrorKind::kInvalidArgument, "world_positions: the clip's tables do not match its joint count");
   }
   if (out.rows() != n) {
     throw Error(ErrorKind::kInvalidArgument, "world_positions: out has " + std::to_string(out.rows()) +

@@ -39,7 +39,9 @@ BvhClip parse_bvh(const std::string& text, const std::string& name);
 
 // World positions of every joint at frame `i` (joint_count x 3, row j = joint j), in file units
 // times `unit_scale`. Rotations compose in each joint's channel order (BVH convention: the
-// matrix product of the channels as listed, applied to the child's offset).
+// matrix product of the channels as listed, applied to the child's offset). A position channel
+// replaces the OFFSET on its axis (as Blender's importer does). Does not allocate; throws
+// kata::Error(kInvalidArgument) only for a frame out of range or `out` of the wrong height.
 void world_positions(const BvhClip& clip, int i, Eigen::Ref<Eigen::MatrixX3d> out, double unit_scale = 1.0);
 // Writes a clip back as BVH text (same hierarchy, the given motion rows).
 void write_bvh(const std::string& path, const BvhClip& clip);

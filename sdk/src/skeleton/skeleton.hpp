@@ -43,8 +43,11 @@ struct GpdMap {
 };
 
 // The input-joint names of a preset, in GPD joint order. Known presets: "cmu" (the CMU
-// Motionbuilder-friendly BVH conversion). Throws kata::Error(kNotFound) for an unknown name;
-// the message lists the known presets.
+// Motionbuilder-friendly BVH conversion), "cmu-3dsmax" and "daz" (the cgspeed 3dsMax- and
+// Daz-friendly CMU conversions), "bandai" (Bandai Namco Research Motion Dataset), "kinect2"
+// (Kinect v2 JointType names), "h36m" (Human3.6M 17 joints). MediaPipe Pose is not a preset:
+// it has no pelvis, chest or neck landmark, so it is no pure name map. Throws
+// kata::Error(kNotFound) for an unknown name; the message lists the known presets.
 std::array<std::string, kGpdJoints> preset_joint_names(const std::string& preset);
 // Names of every built-in preset.
 std::vector<std::string> preset_names();
