@@ -16,6 +16,8 @@
 
 #include "io/bvh.hpp"
 #include "retarget/distance.hpp"
+#include "retarget/ghost_bvh.hpp"
+#include "retarget/joint_set.hpp"
 #include "retarget/retargeter.hpp"
 #include "retarget/spg.hpp"
 #include "skeleton/skeleton.hpp"
@@ -342,6 +344,7 @@ void expect_same_optimum(const std::vector<int>& parents, const Pose& teacher, c
   const int n = static_cast<int>(parents.size());
   RetargetOptions opt;
   opt.restore_bone_lengths = false;
+  opt.diagnostics = true;
   opt.solver.gradient_tolerance = 1e-12;
   opt.solver.max_iterations = 200000;
   Retargeter rt(parents, student_len, opt);
@@ -361,14 +364,14 @@ void expect_same_optimum(const std::vector<int>& parents, const Pose& teacher, c
   EXPECT_NEAR(rep.stress, gd, 1e-6 * gd) << what << ": SPG " << rep.stress << " after " << rep.iterations
                                          << " iterations, GD " << gd;
   EXPECT_NEAR(reference_stress(ref, ghost, nullptr), rep.stress, 1e-9 * rep.stress) << what;
-  // The default (real-time) tolerance 1e-5, cold: the same optimum to 1e-5 (about 1e-6 seen).
+  // The real-time default tolerance (3e-5 relative gradient), cold: the same optimum to 1e-4.
   RetargetOptions fast;
   fast.restore_bone_lengths = false;
   Retargeter rt_fast(parents, student_len, fast);
   const auto& rep_fast = rt_fast.retarget(teacher.data(), ghost.data());
   std::printf("    default options: SPG %.12g (%d it, %d evaluations)\n", rep_fast.stress, rep_fast.iterations,
               rep_fast.evaluations);
-  EXPECT_NEAR(rep_fast.stress, gd, 1e-5 * gd) << what;
+  EXPECT_NEAR(rep_fast.stress, gd, 1e-4 * gd) << what;
   EXPECT_LT(rep.stress, rep.stress_baseline) << what;
 }
 
@@ -434,6 +437,9 @@ TEST(Retarget, SameSkeletonReturnsTheOriginalPose) {
   RetargetOptions opt;
   opt.solver.gradient_tolerance = 1e-10;
   opt.solver.max_iterations = 100000;
+  // Without prediction the warm start is pose a itself, so the solver has to walk to pose b
+  // (with prediction, on the same skeleton, the predicted start is already exact).
+  opt.predict = false;
   Retargeter rt(a.parents, a.teacher_len, opt);
   Pose ghost(63);
   // Cold (from the FK baseline, which is the pose itself), then warm from a different pose.
@@ -448,11 +454,18 @@ TEST(Retarget, SameSkeletonReturnsTheOriginalPose) {
     for (int v = u + 1; v < 21; ++v) EXPECT_NEAR(dist(ghost, u, v), dist(b.teacher, u, v), 1e-5);
   for (int i = 0; i < 63; ++i) EXPECT_NEAR(ghost[i], b.teacher[i], 1e-5);
   EXPECT_LT(r2.max_bone_error, 1e-12);
+  // With prediction (the default) the same-skeleton warm start is exact.
+  Retargeter predicted(a.parents, a.teacher_len);
+  predicted.retarget(a.teacher.data(), ghost.data());
+  EXPECT_LT(predicted.retarget(b.teacher.data(), ghost.data()).stress_start, 1e-20);
+  for (int i = 0; i < 63; ++i) EXPECT_NEAR(ghost[i], b.teacher[i], 1e-9);
 }
 
 TEST(Retarget, RestoringStepGivesExactBoneLengthsOnRealPairs) {
   const CmuPair p = cmu_pair("05_02.bvh", "02_01.bvh");
-  Retargeter rt(p.student.skeleton);
+  RetargetOptions opt;
+  opt.diagnostics = true;
+  Retargeter rt(p.student.skeleton, opt);
   const int n = rt.joint_count();
   Pose ghost(3 * n);
   double worst_solved = 0.0, worst = 0.0;
@@ -483,8 +496,12 @@ TEST(Retarget, NoAllocationPerFrame) {
   rt.reset();
   rt.retarget(frames[50].data(), ghost.data());  // a cold frame too
   kata::retarget::place_over_student(rt.joint_count(), frames[3].data(), ghost.data());
-  EXPECT_EQ(kata_test::retarget_allocations() - before, 0);
   if (!kata_test::kRetargetAllocCounting) GTEST_SKIP() << "allocation counting is off under AddressSanitizer";
+  EXPECT_EQ(kata_test::retarget_allocations() - before, 0);
+  // The counter does see allocations (so the zero above means something).
+  std::string probe(1000, 'x');
+  probe += std::to_string(before);
+  EXPECT_GT(kata_test::retarget_allocations() - before, 0) << probe.size();
 }
 
 TEST(Retarget, PlaceOverStudentUndoesAYawAndATranslation) {
@@ -502,35 +519,91 @@ TEST(Retarget, PlaceOverStudentUndoesAYawAndATranslation) {
   for (int i = 0; i < 45; ++i) EXPECT_NEAR(moved[i], c.teacher[i], 1e-12);
 }
 
+// Largest per-frame joint move (CMU units) of a row-major posture sequence.
+double largest_jump(const Pose& a, const Pose& b) {
+  double worst = 0.0;
+  for (size_t j = 0; j < a.size() / 3; ++j)
+    worst = std::max(worst, std::sqrt(std::pow(a[3 * j] - b[3 * j], 2) + std::pow(a[3 * j + 1] - b[3 * j + 1], 2) +
+                                      std::pow(a[3 * j + 2] - b[3 * j + 2], 2)));
+  return worst;
+}
+
 TEST(Retarget, WarmStreamIsSmoothAndCheap) {
-  const CmuPair p = cmu_pair("02_01.bvh", "07_01.bvh");
-  Retargeter rt(p.student.skeleton);
-  const int n = rt.joint_count();
-  Pose ghost(3 * n), prev_ghost, prev_t;
-  double worst_ratio = 0.0;
-  long iterations = 0;
-  int frames = 0;
-  for (int f = 1; f < p.teacher_clip.frame_count(); ++f) {
-    const Pose t = p.frame(f);
-    const auto& r = rt.retarget(t.data(), ghost.data());
-    iterations += r.iterations;
-    ++frames;
-    if (!prev_ghost.empty()) {
-      double jump = 0.0, tjump = 0.0;
-      for (int j = 0; j < n; ++j) {
-        jump = std::max(jump, dist(ghost, j, j) + std::sqrt(std::pow(ghost[3 * j] - prev_ghost[3 * j], 2) +
-                                                            std::pow(ghost[3 * j + 1] - prev_ghost[3 * j + 1], 2) +
-                                                            std::pow(ghost[3 * j + 2] - prev_ghost[3 * j + 2], 2)));
-        tjump = std::max(tjump, std::sqrt(std::pow(t[3 * j] - prev_t[3 * j], 2) + std::pow(t[3 * j + 1] - prev_t[3 * j + 1], 2) +
-                                          std::pow(t[3 * j + 2] - prev_t[3 * j + 2], 2)));
+  // A walk and a dance (whose warm stream changes basin several times) on other subjects' bones:
+  // the ghost's largest per-frame joint move stays close to the teacher's own largest move.
+  for (const auto& files : {std::pair<const char*, const char*>{"02_01.bvh", "07_01.bvh"}, {"05_02.bvh", "02_01.bvh"}}) {
+    const CmuPair p = cmu_pair(files.first, files.second);
+    Retargeter rt(p.student.skeleton);
+    Pose ghost(3 * rt.joint_count()), prev_ghost, prev_t;
+    double ghost_jump = 0.0, teacher_jump = 0.0;
+    long iterations = 0;
+    int frames = 0;
+    for (int f = 1; f < p.teacher_clip.frame_count(); ++f) {
+      const Pose t = p.frame(f);
+      iterations += rt.retarget(t.data(), ghost.data()).iterations;
+      ++frames;
+      if (!prev_ghost.empty()) {
+        ghost_jump = std::max(ghost_jump, largest_jump(ghost, prev_ghost));
+        teacher_jump = std::max(teacher_jump, largest_jump(t, prev_t));
       }
-      if (tjump > 1e-6) worst_ratio = std::max(worst_ratio, jump / tjump);
+      prev_ghost = ghost;
+      prev_t = t;
     }
-    prev_ghost = ghost;
-    prev_t = t;
+    std::printf("  %s -> %s: largest joint jump ghost %.3f, teacher %.3f units; %.1f iterations per frame\n", files.first,
+                files.second, ghost_jump, teacher_jump, static_cast<double>(iterations) / frames);
+    EXPECT_LT(ghost_jump, 1.3 * teacher_jump) << files.first;  // no flips
+    EXPECT_LT(static_cast<double>(iterations) / frames, 30.0) << files.first;
   }
-  EXPECT_LT(worst_ratio, 2.0);  // no flips: a ghost joint never jumps twice as far as the teacher's
-  EXPECT_LT(static_cast<double>(iterations) / frames, 60.0);
+}
+
+}  // namespace
+
+namespace {
+
+// ---- Ghost BVH ----
+
+TEST(RetargetGhostBvh, ForwardKinematicsOfTheWrittenClipReproducesTheGhost) {
+  const kata::BvhClip teacher = kata::load_bvh(std::string(KATA_DATA_DIR) + "/cmu/05_03.bvh");
+  const kata::BvhClip student = kata::load_bvh(std::string(KATA_DATA_DIR) + "/cmu/09_01.bvh");
+  const auto sel = kata::retarget::select_joints(teacher.skeleton, student.skeleton, "cmu");
+  Retargeter rt(sel.parents, kata::retarget::selected_rest_lengths(student.skeleton, sel), RetargetOptions{},
+                kata::retarget::selected_rest_directions(student.skeleton, sel));
+  kata::retarget::GhostBvh writer(teacher, student, sel);
+  const int n = rt.joint_count();
+  kata::BvhClip ghost_clip = student;
+  ghost_clip.frame_time = teacher.frame_time;
+  ghost_clip.motion.clear();
+  std::vector<Pose> ghosts;
+  Eigen::MatrixX3d w(teacher.skeleton.joint_count(), 3);
+  Pose t(3 * n), g(3 * n);
+  std::vector<double> row(static_cast<size_t>(student.channel_count));
+  for (int f = 1; f < teacher.frame_count(); f += 3) {
+    kata::world_positions(teacher, f, w);
+    kata::retarget::gather_positions(w, sel, t.data());
+    rt.retarget(t.data(), g.data());
+    writer.motion_row(teacher, f, g.data(), row.data());
+    ghost_clip.motion.insert(ghost_clip.motion.end(), row.begin(), row.end());
+    ghosts.push_back(g);
+  }
+  // Through the file, as Blender would read it.
+  const std::string path = testing::TempDir() + "/ghost_test.bvh";
+  kata::write_bvh(path, ghost_clip);
+  const kata::BvhClip back = kata::load_bvh(path);
+  ASSERT_EQ(back.frame_count(), static_cast<int>(ghosts.size()));
+  double worst = 0.0, worst_angle_step = 0.0;
+  for (int f = 0; f < back.frame_count(); ++f) {
+    kata::world_positions(back, f, w);
+    for (int k = 0; k < n; ++k)
+      for (int c = 0; c < 3; ++c) worst = std::max(worst, std::fabs(w(sel.source[k], c) - ghosts[f][3 * k + c]));
+    if (f > 0) {
+      for (int i = 0; i < back.channel_count; ++i)
+        worst_angle_step = std::max(worst_angle_step, std::fabs(back.frame(f)[i] - back.frame(f - 1)[i]));
+    }
+  }
+  EXPECT_LT(worst, 1e-6);  // CMU units (1 unit = 5.6 cm)
+  // Continuous curves: no 360-degree wraps or Euler-branch flips between frames 3/120 s apart.
+  EXPECT_LT(worst_angle_step, 90.0);
+  std::printf("  ghost BVH: max FK error %.3g units, largest channel step %.1f\n", worst, worst_angle_step);
 }
 
 }  // namespace

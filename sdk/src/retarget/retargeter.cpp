@@ -61,12 +61,30 @@ void Retargeter::init(const std::vector<double>& rest_directions) {
   cumulative_.resize(n);
   path_weights(table_, student_lengths_.data(), cumulative_.data(), tau_student_.data());
   weight_.resize(m);
+  update_weights();
   teacher_lengths_.resize(n);
   tau_teacher_.resize(m);
   delta_.resize(m);
   x_.resize(3 * static_cast<size_t>(n));
+  soa_.resize(3 * static_cast<size_t>(n));
+  x_cold_.resize(3 * static_cast<size_t>(n));
+  predicted_.resize(3 * static_cast<size_t>(n));
+  fade_.resize(3 * static_cast<size_t>(n));
+  shown_.resize(3 * static_cast<size_t>(n));
+  max_tau_student_ = *std::max_element(tau_student_.begin(), tau_student_.end());
   baseline_.resize(3 * static_cast<size_t>(n));
+  previous_baseline_.resize(3 * static_cast<size_t>(n));
   solved_.resize(3 * static_cast<size_t>(n));
+}
+
+void Retargeter::update_weights() {
+  for (int p = 0; p < table_.pairs; ++p)
+    weight_[p] = table_.priority[p] * (table_.is_bone[p] ? options_.bone_weight : 1.0);
+}
+
+void Retargeter::set_options(const RetargetOptions& options) {
+  options_ = options;
+  update_weights();
 }
 
 StressInstance Retargeter::paper_instance() const {
@@ -157,56 +175,149 @@ double Retargeter::max_bone_error(const double* x) const {
   return worst;
 }
 
+namespace {
+// joints x 3 row-major <-> SoA (all x, all y, all z): the solver works in SoA.
+void to_soa(int n, const double* rows, double* soa) {
+  for (int j = 0; j < n; ++j)
+    for (int k = 0; k < 3; ++k) soa[k * n + j] = rows[3 * j + k];
+}
+void from_soa(int n, const double* soa, double* rows) {
+  for (int j = 0; j < n; ++j)
+    for (int k = 0; k < 3; ++k) rows[3 * j + k] = soa[k * n + j];
+}
+}  // namespace
+
+double Retargeter::paper_stress(const double* rows) {
+  to_soa(table_.joints, rows, soa_.data());
+  return stress(paper_instance(), soa_.data(), nullptr);
+}
+
 const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost) {
   const int n = table_.joints, m = table_.pairs;
-  // 1. Targets: delta = tau_student * |t_u - t_v| / tau_teacher (tau_teacher of this frame).
+  // 1. Targets: delta = tau_student * |t_u - t_v| / tau_teacher (tau_teacher of this frame),
+  // row by row over SoA teacher positions so the loop reads contiguous memory.
   bone_lengths(table_, teacher, teacher_lengths_.data());
   path_weights(table_, teacher_lengths_.data(), cumulative_.data(), tau_teacher_.data());
-  const int* pu = table_.u.data();
-  const int* pv = table_.v.data();
-  for (int p = 0; p < m; ++p) {
-    const int a = 3 * pu[p], b = 3 * pv[p];
-    const double dx = teacher[a] - teacher[b], dy = teacher[a + 1] - teacher[b + 1], dz = teacher[a + 2] - teacher[b + 2];
-    const double dist = std::sqrt(dx * dx + dy * dy + dz * dz);
-    // A teacher path of zero length (degenerate bones) carries no shape: keep the student's own.
-    delta_[p] = tau_teacher_[p] > 0.0 ? tau_student_[p] * dist / tau_teacher_[p] : tau_student_[p];
-    weight_[p] = table_.priority[p] * (table_.is_bone[p] ? options_.bone_weight : 1.0);
+  to_soa(n, teacher, soa_.data());
+  {
+    const double* tx = soa_.data();
+    const double* ty = tx + n;
+    const double* tz = ty + n;
+    const double* tau_t = tau_teacher_.data();
+    const double* tau_s = tau_student_.data();
+    double* delta = delta_.data();
+    int row = 0;
+    for (int u = 0; u + 1 < n; ++u) {
+      const double xu = tx[u], yu = ty[u], zu = tz[u];
+      const int len = n - 1 - u;
+#pragma omp simd
+      for (int i = 0; i < len; ++i) {
+        const int v = u + 1 + i;
+        const double dx = xu - tx[v], dy = yu - ty[v], dz = zu - tz[v];
+        const double dist = std::sqrt(dx * dx + dy * dy + dz * dz);
+        const double tt = tau_t[row + i];
+        // A teacher path of zero length (degenerate bones) carries no shape: keep the student's.
+        delta[row + i] = tt > 0.0 ? tau_s[row + i] * dist / tt : tau_s[row + i];
+      }
+      row += len;
+    }
   }
-  const StressInstance paper = paper_instance();
-  const StressInstance solve{n, m, pu, pv, weight_.data(), delta_.data()};
+  const StressInstance solve{n, m, table_.u.data(), table_.v.data(), weight_.data(), delta_.data()};
+  const bool paper_weights = options_.bone_weight == 1.0;
 
-  // 2. Start point and SPG.
+  // 2. Start point and SPG (in SoA layout). Warm: the previous optimum moved by what the FK
+  // baseline moved since the previous frame (first-order prediction of this frame's optimum).
+  std::copy(baseline_.begin(), baseline_.end(), previous_baseline_.begin());
   forward_kinematics_baseline(teacher, baseline_.data());
   report_ = RetargetReport{};
-  report_.stress_baseline = stress(paper, baseline_.data(), nullptr);
+  if (options_.diagnostics) report_.stress_baseline = paper_stress(baseline_.data());
   report_.warm = options_.warm_start && has_previous_;
-  if (!report_.warm) std::copy(baseline_.begin(), baseline_.end(), x_.begin());
+  if (!report_.warm) {
+    to_soa(n, baseline_.data(), x_.data());
+  } else if (options_.predict) {
+    for (int j = 0; j < n; ++j)
+      for (int k = 0; k < 3; ++k) x_[k * n + j] += baseline_[3 * j + k] - previous_baseline_[3 * j + k];
+  }
   SpgOptions spg = options_.solver;
   if (report_.warm && spg.initial_step <= 0.0) spg.initial_step = last_step_;
-  const bool paper_weights = options_.bone_weight == 1.0;
-  if (!paper_weights) report_.stress_start = stress(paper, x_.data(), nullptr);
-  const SpgResult r = solver_.minimize(solve, x_.data(), spg);
-  last_step_ = r.last_step;
+  if (!paper_weights) report_.stress_start = stress(paper_instance(), x_.data(), nullptr);
+  SpgResult r = solver_.minimize(solve, x_.data(), spg);
   report_.iterations = r.iterations;
   report_.evaluations = r.evaluations;
+  // Basin check: a warm stream can follow a local minimum that the motion slowly makes worse
+  // (on CMU dance/wash clips, up to 3x the stress the FK-started solve reaches, then a jump when
+  // it vanishes). Every cold_check_interval warm frames, also solve from the FK baseline and
+  // keep whichever optimum is lower.
+  if (report_.warm && options_.cold_check_interval > 0 && ++warm_frames_ >= options_.cold_check_interval) {
+    warm_frames_ = 0;
+    to_soa(n, baseline_.data(), x_cold_.data());
+    SpgOptions cold = options_.solver;
+    const SpgResult rc = solver_.minimize(solve, x_cold_.data(), cold);
+    report_.iterations += rc.iterations;
+    report_.evaluations += rc.evaluations;
+    report_.cold_checked = true;
+    if (rc.stress < r.stress * (1.0 - 1e-6)) {
+      std::copy(x_cold_.begin(), x_cold_.end(), x_.begin());
+      r.stress = rc.stress;
+      r.converged = rc.converged;
+      r.last_step = rc.last_step;
+      report_.switched = true;
+    }
+  }
+  last_step_ = r.last_step;
   report_.converged = r.converged;
   if (paper_weights) report_.stress_start = r.stress_start;
-  report_.stress = paper_weights ? r.stress : stress(paper, x_.data(), nullptr);
+  report_.stress = paper_weights ? r.stress : stress(paper_instance(), x_.data(), nullptr);
 
-  // 3. Rigid placement on the teacher; this aligned optimum is also the next warm start.
-  align_on_teacher(teacher, x_.data());
+  // 3. Rigid placement on the teacher; this aligned optimum is also the next warm start. The
+  // prediction of this frame from the previous optimum (in the same aligned frame) measures
+  // how far the solve moved the joints.
+  const bool had_previous = has_previous_;
+  double jump = 0.0;
+  if (had_previous) {
+    for (int i = 0; i < 3 * n; ++i) predicted_[i] = solved_[i] + baseline_[i] - previous_baseline_[i];
+  }
+  from_soa(n, x_.data(), solved_.data());
+  align_on_teacher(teacher, solved_.data());
+  to_soa(n, solved_.data(), x_.data());
   has_previous_ = true;
-  std::copy(x_.begin(), x_.end(), solved_.begin());
   report_.max_bone_error_solved = max_bone_error(solved_.data());
+  if (had_previous && report_.warm) {
+    for (int j = 0; j < n; ++j) {
+      double d2 = 0.0;
+      for (int k = 0; k < 3; ++k) d2 += (solved_[3 * j + k] - predicted_[3 * j + k]) * (solved_[3 * j + k] - predicted_[3 * j + k]);
+      jump = std::max(jump, std::sqrt(d2));
+    }
+  }
+  report_.solve_jump = jump;
+
+  // Cross-fade a basin change: the optimum itself jumps (the objective's global minimum moves
+  // from one local minimum to another), the output glides from the prediction to it.
+  const double* shown = solved_.data();
+  if (options_.fade_frames > 0 && report_.warm) {
+    if (jump > options_.jump_fraction * max_tau_student_) {
+      for (int i = 0; i < 3 * n; ++i) fade_[i] = predicted_[i] - solved_[i] + (fade_left_ > 0 ? fade_[i] * fade_left_ / (options_.fade_frames + 1.0) : 0.0);
+      fade_left_ = options_.fade_frames;
+      report_.faded = true;
+    }
+    if (fade_left_ > 0) {
+      const double weight = fade_left_ / (options_.fade_frames + 1.0);
+      for (int i = 0; i < 3 * n; ++i) shown_[i] = solved_[i] + weight * fade_[i];
+      --fade_left_;
+      shown = shown_.data();
+    }
+  } else if (!report_.warm) {
+    fade_left_ = 0;
+  }
 
   // 4. Bone-length restoring step.
   if (options_.restore_bone_lengths) {
-    restore_bones(teacher, solved_.data(), ghost);
+    restore_bones(teacher, shown, ghost);
   } else {
-    std::copy(solved_.begin(), solved_.end(), ghost);
+    std::copy(shown, shown + 3 * n, ghost);
   }
   report_.max_bone_error = max_bone_error(ghost);
-  report_.stress_output = stress(paper, ghost, nullptr);
+  if (options_.diagnostics) report_.stress_output = paper_stress(ghost);
   return report_;
 }
 

@@ -4,9 +4,13 @@
 //   2. the stress sigma = 1/2 sum pi_uv (|x_u - x_v| - delta_uv)^2 is minimised by SPG (spg.hpp),
 //      warm-started from the previous frame's optimum (the first frame, and any frame after
 //      reset(), starts from the forward-kinematics baseline: the student's bone lengths laid
-//      along the teacher's bone directions);
+//      along the teacher's bone directions); the warm start is moved by what the FK baseline
+//      moved since the previous frame, and every few frames a basin check also solves from the
+//      FK baseline and keeps the lower optimum (a warm stream can trail a worsening minimum);
 //   3. the optimum is rotated onto the teacher about the root (a proper rotation; a mirror
 //      image, which has the same stress, is flipped back first), root on the teacher's root;
+//      when it jumped from its prediction (a change of basin), the output glides to it over a
+//      few frames instead (cross-fade; the warm start keeps the true optimum);
 //   4. bone-length restoring step: the paper's objective trades bone lengths against the other
 //      distances (on real CMU pairs its optimum stretches bones by several percent), so the
 //      tree is walked from the root and every bone is reset to the student's exact length along
@@ -27,10 +31,22 @@ namespace kata::retarget {
 
 // Options of a Retargeter.
 struct RetargetOptions {
-  SpgOptions solver{200, 1e-5};  // warm frames need a handful of iterations; 1e-5 relative gradient
+  // 3e-5 relative gradient: on CMU streams ~12 warm iterations, joints within ~1-2 mm of the exact
+  // optimum (docs/retarget/README.md has the sweep).
+  SpgOptions solver{200, 3e-5};
   bool warm_start = true;        // start each frame from the previous optimum (else FK baseline)
+  bool predict = true;           // warm: move the previous optimum by the FK baseline's motion
   bool restore_bone_lengths = true;  // run the bone-length restoring step (4. above)
   double bone_weight = 1.0;      // multiplier on the bone pairs' priority (1 = the paper's objective)
+  // Warm frames between two basin checks (an extra solve from the FK baseline, the lower optimum
+  // wins; see retarget()). 0 disables them.
+  int cold_check_interval = 8;
+  // When the optimum moves a joint further than jump_fraction x the longest student path from
+  // where the previous optimum predicted it (a change of basin), the output glides to the new
+  // optimum over fade_frames frames instead of jumping. 0 frames disables it.
+  int fade_frames = 12;
+  double jump_fraction = 0.02;
+  bool diagnostics = false;      // also compute stress_baseline and stress_output (2 extra evaluations)
 };
 
 // What the last retarget() did. Lengths in the caller's units; errors relative (0.01 = 1%).
@@ -39,12 +55,16 @@ struct RetargetReport {
   int iterations = 0;              // SPG iterations
   int evaluations = 0;             // stress + gradient evaluations
   bool converged = false;          // SPG met its gradient tolerance
-  double stress_baseline = 0.0;    // sigma at the FK baseline
+  double stress_baseline = 0.0;    // sigma at the FK baseline (options.diagnostics only)
   double stress_start = 0.0;       // sigma at the start point
   double stress = 0.0;             // sigma at the SPG optimum
-  double stress_output = 0.0;      // sigma of the output (after the restoring step)
+  double stress_output = 0.0;      // sigma of the output, after the restoring step (diagnostics only)
   double max_bone_error_solved = 0.0;  // max_j ||x_j - x_parent| - L_j| / L_j at the optimum
   double max_bone_error = 0.0;     // the same for the output
+  bool cold_checked = false;       // this frame also ran the basin check (iterations include it)
+  bool switched = false;           // ... and the FK-started optimum was lower: the stream moved to it
+  double solve_jump = 0.0;         // largest joint move of the optimum from its prediction (warm)
+  bool faded = false;              // that move started a cross-fade of the output
 };
 
 // Per-stream retargeting state for one (teacher tree, student bone lengths) pair.
@@ -64,12 +84,17 @@ class Retargeter {
   // teacher. No allocation. Returns the report of this frame (valid until the next call).
   const RetargetReport& retarget(const double* teacher, double* ghost);
   // Forgets the previous frame: the next retarget() starts cold from the FK baseline.
-  void reset() { has_previous_ = false; }
+  void reset() {
+    has_previous_ = false;
+    warm_frames_ = 0;
+    fade_left_ = 0;
+  }
 
   int joint_count() const { return table_.joints; }
   const PairTable& table() const { return table_; }
   const RetargetOptions& options() const { return options_; }
-  void set_options(const RetargetOptions& options) { options_ = options; }
+  // Replaces the options (takes effect at the next frame; the warm start is kept).
+  void set_options(const RetargetOptions& options);
   const std::vector<double>& student_lengths() const { return student_lengths_; }
   // Of the last frame (joints x 3 row-major): the FK baseline, and the SPG optimum aligned on
   // the teacher before the restoring step.
@@ -78,15 +103,19 @@ class Retargeter {
   // Of the last frame, per pair: target distances delta_uv and the weights the solver used.
   const double* delta() const { return delta_.data(); }
   const double* weights() const { return weight_.data(); }
-  // The paper's stress instance of the last frame (priorities as weights, bone_weight ignored).
+  // The paper's stress instance of the last frame (priorities as weights, bone_weight ignored);
+  // stress() takes SoA positions (spg.hpp).
   StressInstance paper_instance() const;
 
  private:
   void init(const std::vector<double>& rest_directions);
+  void update_weights();
   void forward_kinematics_baseline(const double* teacher, double* out) const;
   void align_on_teacher(const double* teacher, double* x);
   void restore_bones(const double* reference, const double* x, double* out) const;
   double max_bone_error(const double* x) const;
+  double paper_stress(const double* rows);  // the paper's sigma of a joints x 3 posture
+
 
   PairTable table_;
   RetargetOptions options_;
@@ -95,9 +124,18 @@ class Retargeter {
   std::vector<double> tau_student_;       // per pair
   std::vector<double> weight_;            // per pair: priority (x bone_weight on bones)
   std::vector<double> teacher_lengths_, cumulative_, tau_teacher_, delta_;
-  std::vector<double> x_, baseline_, solved_;
+  std::vector<double> x_;                 // the solver's variable, SoA (3 blocks of joints)
+  std::vector<double> soa_;               // scratch for stress evaluations of row-major postures
+  std::vector<double> x_cold_;            // the basin check's solve (SoA)
+  std::vector<double> predicted_;         // this frame's optimum predicted from the previous one
+  std::vector<double> fade_, shown_;      // cross-fade offset and the faded optimum
+  int fade_left_ = 0;                      // frames of cross-fade still to show
+  double max_tau_student_ = 0.0;           // the longest student path (scale of a jump)
+  std::vector<double> baseline_, solved_; // joints x 3 row-major
+  std::vector<double> previous_baseline_; // the previous frame's FK baseline
   SpgSolver solver_;
   bool has_previous_ = false;
+  int warm_frames_ = 0;                    // warm frames since the last basin check
   double last_step_ = 0.0;                 // previous frame's spectral step, to warm the next
   RetargetReport report_;
 };

@@ -5,31 +5,18 @@
 #include <cmath>
 #include <cstring>
 
+#include "common/cpu.hpp"
 #include "common/error.hpp"
+#include "retarget/stress_kernel.hpp"
 
 namespace kata::retarget {
 
+// The AVX2 + FMA build of the kernel (spg_avx2.cpp), for CPUs that have it.
+double stress_avx2(const StressInstance& in, const double* x, double* grad);
+
 double stress(const StressInstance& in, const double* x, double* grad) {
-  double f = 0.0;
-  if (grad) std::memset(grad, 0, sizeof(double) * 3 * static_cast<size_t>(in.joints));
-  for (int p = 0; p < in.pairs; ++p) {
-    const int a = 3 * in.u[p], b = 3 * in.v[p];
-    const double dx = x[a] - x[b], dy = x[a + 1] - x[b + 1], dz = x[a + 2] - x[b + 2];
-    const double r = std::sqrt(dx * dx + dy * dy + dz * dz);
-    const double e = r - in.delta[p];
-    f += in.weight[p] * e * e;
-    // d sigma / d x_u = w (r - delta) (x_u - x_v) / r; undefined at r = 0, where we take 0.
-    if (grad && r > 1e-150) {
-      const double c = in.weight[p] * e / r;
-      grad[a] += c * dx;
-      grad[a + 1] += c * dy;
-      grad[a + 2] += c * dz;
-      grad[b] -= c * dx;
-      grad[b + 1] -= c * dy;
-      grad[b + 2] -= c * dz;
-    }
-  }
-  return 0.5 * f;
+  static const bool avx2 = cpu_has_avx2();
+  return avx2 ? stress_avx2(in, x, grad) : stress_kernel(in, x, grad);
 }
 
 double stress_scale(const StressInstance& in) {
@@ -53,6 +40,9 @@ double dot(const double* a, const double* b, int n) {
 
 SpgResult SpgSolver::minimize(const StressInstance& in, double* x, const SpgOptions& opt) {
   if (3 * in.joints != size_) throw Error(ErrorKind::kInvalidArgument, "SpgSolver: joint count mismatch");
+  if (in.pairs != in.joints * (in.joints - 1) / 2) {
+    throw Error(ErrorKind::kInvalidArgument, "SpgSolver: the instance must hold every pair, in lexicographic order");
+  }
   const int n = size_;
   const int memory = std::clamp(opt.memory, 1, static_cast<int>(history_.size()));
   double* g = g_.data();

@@ -9,20 +9,23 @@
 
 namespace kata::retarget {
 
-// One DGP instance over caller-owned flat arrays (one entry per pair). Positions are
-// joints x 3, row-major; lengths in any unit, the stress in that unit squared.
+// One DGP instance over caller-owned flat arrays with one entry per pair, for EVERY pair
+// (pairs = joints (joints - 1) / 2) in lexicographic order (0,1) (0,2) .. (0,n-1) (1,2) ..: the
+// order of PairTable. Positions handed to stress() and the solver are in SoA layout: 3 blocks
+// of `joints` doubles (all x, then all y, then all z), so the pair loop reads contiguous
+// memory. Lengths in any unit; the stress is in that unit squared.
 struct StressInstance {
   int joints = 0;
   int pairs = 0;
-  const int* u = nullptr;         // first endpoint of every pair
+  const int* u = nullptr;         // first endpoint of every pair (for callers; stress() needs none)
   const int* v = nullptr;         // second endpoint
   const double* weight = nullptr; // w_p >= 0 (the priorities pi_uv, possibly re-weighted)
   const double* delta = nullptr;  // target distances delta_p >= 0
 };
 
-// sigma(x); when grad is not null it receives the gradient (3 x joints, overwritten). A pair
-// whose joints coincide contributes its value but no gradient (the term is not differentiable
-// there; 0 is a valid subgradient choice and keeps the result finite).
+// sigma(x) for SoA positions x; when grad is not null it receives the gradient (SoA, 3 x joints,
+// overwritten). A pair whose joints coincide contributes its value but no gradient (the term is
+// not differentiable there; 0 is a valid subgradient choice and keeps everything finite).
 double stress(const StressInstance& instance, const double* x, double* grad);
 // sqrt(sum_p w_p delta_p^2): the gradient's natural scale, in length units. The relative
 // gradient tolerance is measured against it, so it does not depend on units or start point.

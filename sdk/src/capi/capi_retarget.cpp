@@ -1,0 +1,216 @@
+// C shims for retargeting (kata.h section "Retargeting"): a kata_retargeter wraps one
+// kata::retarget::Retargeter plus the float <-> double buffers of the frame path, all sized at
+// creation so solve/place never allocate.
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <cstdio>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "capi/capi_internal.hpp"
+#include "retarget/joint_set.hpp"
+#include "retarget/retargeter.hpp"
+
+struct kata_retargeter_s {
+  kata_retargeter_s(const kata::Skeleton& student, const kata::retarget::JointSelection& sel,
+                    const kata::retarget::RetargetOptions& options)
+      : selection(sel),
+        skeleton_joints(student.joint_count()),
+        retargeter(sel.parents, kata::retarget::selected_rest_lengths(student, sel), options,
+                   kata::retarget::selected_rest_directions(student, sel)),
+        teacher(3 * sel.source.size()),
+        ghost(3 * sel.source.size()),
+        student_pose(3 * sel.source.size()) {}
+
+  kata::retarget::JointSelection selection;  // output joint -> skeleton joint
+  int skeleton_joints;                       // joints of the student skeleton (input layout)
+  kata::retarget::Retargeter retargeter;
+  std::vector<double> teacher, ghost, student_pose;  // selected joints x 3
+  char error[256] = {0};
+
+  // Copies a message into the fixed buffer (no allocation: used on the frame path).
+  void set_error(const char* message) noexcept { std::snprintf(error, sizeof error, "%s", message); }
+};
+
+namespace {
+
+// The caller's desc over the defaults (only the part its possibly older, smaller struct has).
+kata_retarget_desc effective_desc(const kata_retarget_desc* desc) {
+  kata_retarget_desc d;
+  kata_retarget_desc_init(&d);
+  if (desc) {
+    if (desc->struct_size < sizeof(uint32_t)) {
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, "retargeter: desc->struct_size is not set");
+    }
+    std::memcpy(&d, desc, std::min<size_t>(desc->struct_size, sizeof d));
+    d.struct_size = sizeof d;
+  }
+  if (!d.preset || !d.preset[0]) d.preset = "cmu";
+  if (!(d.gradient_tolerance > 0.0) || !std::isfinite(d.gradient_tolerance) || d.max_iterations == 0) {
+    throw kata::Error(kata::ErrorKind::kInvalidArgument, "retargeter: gradient_tolerance and max_iterations must be positive");
+  }
+  return d;
+}
+
+kata_status create(const kata::Skeleton& student, const kata_retarget_desc* desc, kata_retargeter* out) {
+  if (!student.has_rest_pose) {
+    throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                      "retargeter: the student skeleton has no rest offsets (its bone lengths are unknown)");
+  }
+  const kata_retarget_desc d = effective_desc(desc);
+  kata::retarget::RetargetOptions o;
+  o.solver.gradient_tolerance = d.gradient_tolerance;
+  o.solver.max_iterations = static_cast<int>(std::min<uint32_t>(d.max_iterations, 1u << 30));
+  o.warm_start = d.warm_start != 0;
+  o.restore_bone_lengths = d.restore_bone_lengths != 0;
+  const auto sel = kata::retarget::select_joints(student, student, d.preset);
+  *out = new kata_retargeter_s(student, sel, o);
+  return KATA_OK;
+}
+
+bool all_finite(const float* p, size_t n) {
+  for (size_t i = 0; i < n; ++i)
+    if (!std::isfinite(p[i])) return false;
+  return true;
+}
+
+}  // namespace
+
+extern "C" {
+
+KATA_API void kata_retarget_desc_init(kata_retarget_desc* desc) {
+  if (!desc) return;
+  std::memset(desc, 0, sizeof *desc);
+  desc->struct_size = sizeof *desc;
+  desc->preset = "cmu";
+  desc->gradient_tolerance = 3e-5;
+  desc->max_iterations = 200;
+  desc->warm_start = 1;
+  desc->restore_bone_lengths = 1;
+}
+
+KATA_API kata_status kata_retargeter_create(kata_context context, kata_skeleton student,
+                                            const kata_retarget_desc* desc, kata_retargeter* out) {
+  return kata::capi::guarded_context([&] {
+    if (!context || !student || !out) {
+      kata::capi::set_context_error("kata_retargeter_create: context, student and out must not be NULL");
+      return KATA_E_NULL_POINTER;
+    }
+    *out = nullptr;
+    return create(student->skeleton, desc, out);
+  });
+}
+
+KATA_API kata_status kata_retargeter_create_for_stream(kata_context context, kata_stream student,
+                                                       const kata_retarget_desc* desc, kata_retargeter* out) {
+  return kata::capi::guarded_context([&] {
+    if (!context || !student || !out) {
+      kata::capi::set_context_error("kata_retargeter_create_for_stream: context, student and out must not be NULL");
+      return KATA_E_NULL_POINTER;
+    }
+    *out = nullptr;
+    return create(student->skeleton, desc, out);
+  });
+}
+
+KATA_API void kata_retargeter_destroy(kata_retargeter retargeter) { delete retargeter; }
+
+KATA_API const char* kata_retargeter_last_error(kata_retargeter retargeter) {
+  return retargeter ? retargeter->error : "";
+}
+
+KATA_API uint32_t kata_retargeter_joint_count(kata_retargeter retargeter) {
+  return retargeter ? static_cast<uint32_t>(retargeter->selection.source.size()) : 0u;
+}
+
+KATA_API int32_t kata_retargeter_joint_source(kata_retargeter retargeter, uint32_t i) {
+  if (!retargeter || i >= retargeter->selection.source.size()) return -1;
+  return retargeter->selection.source[i];
+}
+
+KATA_API kata_status kata_retargeter_solve(kata_retargeter rt, const float* teacher, uint32_t teacher_joint_count,
+                                           float* ghost, size_t capacity, kata_retarget_info* info) {
+  if (!rt) return KATA_E_NULL_POINTER;
+  if (!teacher || !ghost) {
+    rt->set_error("kata_retargeter_solve: teacher and ghost must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  if (teacher_joint_count != static_cast<uint32_t>(rt->skeleton_joints)) {
+    rt->set_error("kata_retargeter_solve: teacher_joint_count differs from the student skeleton's joint count");
+    return KATA_E_WRONG_JOINT_COUNT;
+  }
+  const size_t n = rt->selection.source.size();
+  if (capacity < 3 * n) {
+    rt->set_error("kata_retargeter_solve: ghost holds fewer than 3 x kata_retargeter_joint_count() floats");
+    return KATA_E_BUFFER_TOO_SMALL;
+  }
+  if (!all_finite(teacher, 3 * static_cast<size_t>(teacher_joint_count))) {
+    rt->set_error("kata_retargeter_solve: the teacher frame has a NaN or Inf");
+    return KATA_E_NON_FINITE;
+  }
+  if (info && info->struct_size < sizeof(uint32_t)) {
+    rt->set_error("kata_retargeter_solve: info->struct_size is not set");
+    return KATA_E_INVALID_ARGUMENT;
+  }
+  return kata::capi::guarded([rt](const char* m) { rt->set_error(m); }, [&] {
+    for (size_t k = 0; k < n; ++k)
+      for (size_t c = 0; c < 3; ++c) rt->teacher[3 * k + c] = teacher[3 * static_cast<size_t>(rt->selection.source[k]) + c];
+    const auto& r = rt->retargeter.retarget(rt->teacher.data(), rt->ghost.data());
+    for (size_t i = 0; i < 3 * n; ++i) ghost[i] = static_cast<float>(rt->ghost[i]);
+    if (info) {
+      kata_retarget_info full;
+      full.struct_size = info->struct_size;
+      full.iterations = static_cast<uint32_t>(r.iterations);
+      full.converged = r.converged ? 1 : 0;
+      full.warm = r.warm ? 1 : 0;
+      full.stress = r.stress;
+      full.max_bone_error_solved = r.max_bone_error_solved;
+      full.max_bone_error = r.max_bone_error;
+      // Fill only what the caller's (possibly older, smaller) struct has.
+      std::memcpy(info, &full, std::min<size_t>(info->struct_size, sizeof full));
+    }
+    rt->error[0] = '\0';
+    return KATA_OK;
+  });
+}
+
+KATA_API kata_status kata_retargeter_place(kata_retargeter rt, const float* student, uint32_t student_joint_count,
+                                           float* ghost, size_t capacity) {
+  if (!rt) return KATA_E_NULL_POINTER;
+  if (!student || !ghost) {
+    rt->set_error("kata_retargeter_place: student and ghost must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  if (student_joint_count != static_cast<uint32_t>(rt->skeleton_joints)) {
+    rt->set_error("kata_retargeter_place: student_joint_count differs from the student skeleton's joint count");
+    return KATA_E_WRONG_JOINT_COUNT;
+  }
+  const size_t n = rt->selection.source.size();
+  if (capacity < 3 * n) {
+    rt->set_error("kata_retargeter_place: ghost holds fewer than 3 x kata_retargeter_joint_count() floats");
+    return KATA_E_BUFFER_TOO_SMALL;
+  }
+  if (!all_finite(student, 3 * static_cast<size_t>(student_joint_count)) || !all_finite(ghost, 3 * n)) {
+    rt->set_error("kata_retargeter_place: a NaN or Inf in the student frame or the ghost");
+    return KATA_E_NON_FINITE;
+  }
+  for (size_t k = 0; k < n; ++k)
+    for (size_t c = 0; c < 3; ++c) {
+      rt->student_pose[3 * k + c] = student[3 * static_cast<size_t>(rt->selection.source[k]) + c];
+      rt->ghost[3 * k + c] = ghost[3 * k + c];
+    }
+  kata::retarget::place_over_student(static_cast<int>(n), rt->student_pose.data(), rt->ghost.data());
+  for (size_t i = 0; i < 3 * n; ++i) ghost[i] = static_cast<float>(rt->ghost[i]);
+  rt->error[0] = '\0';
+  return KATA_OK;
+}
+
+KATA_API kata_status kata_retargeter_reset(kata_retargeter rt) {
+  if (!rt) return KATA_E_NULL_POINTER;
+  rt->retargeter.reset();
+  return KATA_OK;
+}
+
+}  // extern "C"
