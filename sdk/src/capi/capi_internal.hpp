@@ -16,11 +16,10 @@
 
 namespace kata::capi {
 
-// Scoring and retargeting state a stream may carry; each is defined in the shim file of its
-// area (capi_metric.cpp, capi_retarget.cpp), which attaches it with its own deleter:
-//   stream->scoring = AttachedPtr<StreamScoring>(new StreamScoring(...), &destroy_scoring);
+// Scoring state a stream may carry, defined in capi_metric.cpp, which attaches it with its own
+// deleter: stream->scoring = AttachedPtr<StreamScoring>(new StreamScoring(...), &destroy_scoring).
+// (Retargeting has its own handle, kata_retargeter, that may be made from a stream.)
 struct StreamScoring;
-struct StreamRetarget;
 template <class T>
 using AttachedPtr = std::unique_ptr<T, void (*)(T*)>;
 
@@ -86,9 +85,8 @@ struct kata_stream_s {
   explicit kata_stream_s(const kata::StreamConfig& config, kata::Skeleton skel)
       : stream(config), skeleton(std::move(skel)) {}
   kata::Stream stream;
-  kata::Skeleton skeleton;  // the input skeleton (rest lengths for retargeting)
+  kata::Skeleton skeleton;  // the input skeleton (rest lengths for kata_retargeter_create_for_stream)
   kata::capi::AttachedPtr<kata::capi::StreamScoring> scoring{nullptr, nullptr};
-  kata::capi::AttachedPtr<kata::capi::StreamRetarget> retarget{nullptr, nullptr};
   char error[256] = {0};
 
   // Copies a message into the stream's fixed buffer (no allocation: used on the frame path).
