@@ -462,8 +462,9 @@ void check_golden(Stencil stencil) {
       }
     }
   }
-  std::printf("  golden %s, worst error per block (block 9 relative to each dim's range)\n",
-              stencil == Stencil::kBackward ? "backward" : "central");
+  std::printf("  golden %s, worst error per block (block 9 relative to each dim's range; float32 floor: "
+              "v %.1e body heights/s, a %.1e body heights/s^2)\n",
+              stencil == Stencil::kBackward ? "backward" : "central", kinetic_floor(0), kinetic_floor(3));
   std::printf("    double pipeline:");
   for (int b = 0; b < 9; ++b) std::printf(" %.1e (f%d %s)", worst_d[b], worst_d_row[b], block_of(worst_d_dim[b]).c_str());
   std::printf("\n    float32 pipeline (angles near 0/pi aside):");

@@ -152,6 +152,25 @@ TEST(GpdFast, LargeAndTinyScales) {
   }
 }
 
+TEST(GpdFast, HugeCoordinatesStayFinite) {
+  // Far beyond any body (1e25 body heights: float32 squares overflow), static_features() must
+  // still give finite numbers, equal to the reference's (it hands such frames to it).
+  std::mt19937 rng(11);
+  for (int i = 0; i < 20; ++i) {
+    Pose p = random_pose(rng);
+    for (float& x : p) x *= 1e25f;
+    GeometryState sr, sf;
+    std::vector<double> ref(kStaticDims);
+    std::vector<float> out(kStaticDims);
+    detail::static_features_reference(p.data(), 0.5f, sr, ref.data());
+    static_features(p.data(), 0.5f, sf, out.data());
+    for (int d = 0; d < kStaticDims; ++d) {
+      ASSERT_TRUE(std::isfinite(out[d])) << block_of(d);
+      ASSERT_EQ(out[d], static_cast<float>(ref[d])) << block_of(d);
+    }
+  }
+}
+
 TEST(GpdFast, DispatchFollowsCpuCheck) {
   // static_features() must equal the AVX2 kernel when the CPU has it (and KATA_NO_AVX2 is
   // unset), the baseline kernel otherwise: bitwise, since it is the same code.

@@ -1,6 +1,7 @@
 // GPD v1: local frame (spec section 2), kernel dispatch, kinetics (spec section 5).
 #include "gpd/gpd.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "common/cpu.hpp"
@@ -60,7 +61,26 @@ void to_local_frame(const float* world, double height, GeometryState& state, flo
   *hip_height = static_cast<float>(hy * inv_h);
 }
 
+namespace {
+// Static blocks of a frame too large for float32 squares, via the double reference. Out of
+// line so that its 12 KB of stack stays off the fast path's frame.
+[[gnu::noinline]] void static_features_wide(const float* local, float hip_height, GeometryState& state, float* out) {
+  double ref[kStaticDims];
+  detail::static_features_reference(local, hip_height, state, ref);
+  for (int d = 0; d < kStaticDims; ++d) out[d] = static_cast<float>(ref[d]);
+}
+}  // namespace
+
 void static_features(const float* local, float hip_height, GeometryState& state, float* out) {
+  // The float32 kernels square coordinates, which overflows beyond ~1e19 body heights; such a
+  // frame (a wild value, never a real pose) goes through the double reference, which cannot
+  // overflow on float input, so every finite input still gives finite features.
+  float extent = 0.0f;
+  for (int i = 0; i < 3 * kJoints; ++i) extent = std::max(extent, std::abs(local[i]));
+  if (!(extent < detail::kFastPathExtent)) {
+    static_features_wide(local, hip_height, state, out);
+    return;
+  }
   // cpu_has_avx2() is cached, so this is one predictable branch per frame.
   if (detail::avx2::compiled() && cpu_has_avx2()) {
     detail::avx2::static_features(local, hip_height, state, out);
@@ -94,35 +114,41 @@ DifferenceWeights central_weights(double h1, double h2) {
 }
 
 namespace {
-// Writes one block-1 value's (v, a) pair into the block-9 layout: joint coordinates go to
-// (vx, vy, vz, ax, ay, az) per joint, the hip height (index 45) to the last two dims.
-inline void put_kinetic(float* out, int i, double v, double a) {
-  if (i < 45) {
-    const int j = i / 3, c = i % 3;
-    out[6 * j + c] = static_cast<float>(v);
-    out[6 * j + 3 + c] = static_cast<float>(a);
-  } else {
-    out[90] = static_cast<float>(v);
-    out[91] = static_cast<float>(a);
+// Zeros standing in for a null sample (its weight is zero).
+constexpr float kZeroSample[kJcDims] = {};
+
+// Scatters per-value (v, a) into the block-9 layout: joint coordinates as (vx, vy, vz, ax, ay,
+// az) per joint, the hip height (value 45) last.
+inline void scatter_kinetics(const float* v, const float* a, float* out) {
+  for (int j = 0; j < 15; ++j) {
+    for (int c = 0; c < 3; ++c) {
+      out[6 * j + c] = v[3 * j + c];
+      out[6 * j + 3 + c] = a[3 * j + c];
+    }
   }
+  out[90] = v[45];
+  out[91] = a[45];
 }
 }  // namespace
 
 void kinetics(const float* f0, const float* f1, const float* f2, const DifferenceWeights& w, float* out) {
-  // Double accumulation: the weights are ~1/h^2 (~3e4 at 120 fps) and the terms cancel, so a
-  // float sum would lose about 3 digits of the acceleration.
+  // The weights are ~1/h^2 (~3e4 at 120 fps) and cancel: a float sum w0 f0 + w1 f1 + w2 f2
+  // would lose ~3 digits. Rewritten exactly as w0 (f0 - f1) + w2 (f2 - f1) + (w0 + w1 + w2) f1,
+  // the differences of close samples are exact in float and the last term vanishes for every
+  // stencil (derivatives of a constant), so float32 keeps ~7 digits and vectorises.
+  if (!f0) f0 = kZeroSample;
+  if (!f1) f1 = kZeroSample;
+  const float v0 = static_cast<float>(w.wv[0]), v2 = static_cast<float>(w.wv[2]);
+  const float vs = static_cast<float>(w.wv[0] + w.wv[1] + w.wv[2]);
+  const float a0 = static_cast<float>(w.wa[0]), a2 = static_cast<float>(w.wa[2]);
+  const float as = static_cast<float>(w.wa[0] + w.wa[1] + w.wa[2]);
+  float v[kJcDims], a[kJcDims];
   for (int i = 0; i < kJcDims; ++i) {
-    double v = w.wv[2] * f2[i], a = w.wa[2] * f2[i];
-    if (f1) {
-      v += w.wv[1] * f1[i];
-      a += w.wa[1] * f1[i];
-    }
-    if (f0) {
-      v += w.wv[0] * f0[i];
-      a += w.wa[0] * f0[i];
-    }
-    put_kinetic(out, i, v, a);
+    const float d0 = f0[i] - f1[i], d2 = f2[i] - f1[i];
+    v[i] = v0 * d0 + v2 * d2 + vs * f1[i];
+    a[i] = a0 * d0 + a2 * d2 + as * f1[i];
   }
+  scatter_kinetics(v, a, out);
 }
 
 void kinetics_zero(float* out) {
@@ -130,8 +156,13 @@ void kinetics_zero(float* out) {
 }
 
 void kinetics_two_point(const float* f0, const float* f1, double h1, float* out) {
-  const double inv = 1.0 / h1;
-  for (int i = 0; i < kJcDims; ++i) put_kinetic(out, i, (double(f1[i]) - f0[i]) * inv, 0.0);
+  const float inv = static_cast<float>(1.0 / h1);
+  float v[kJcDims], a[kJcDims];
+  for (int i = 0; i < kJcDims; ++i) {
+    v[i] = (f1[i] - f0[i]) * inv;
+    a[i] = 0.0f;
+  }
+  scatter_kinetics(v, a, out);
 }
 
 }  // namespace kata::gpd

@@ -10,8 +10,11 @@
 namespace kata::gpd::detail::avx2 {
 
 using Arch = xsimd::fma3<xsimd::avx2>;
+// Compactions and the JJo interleave use AVX2 lane permutes.
+#define KATA_GPD_PERMUTE 1
 
 #include "gpd/gpd_kernel.inl"
+#undef KATA_GPD_PERMUTE
 
 bool compiled() noexcept { return true; }
 

@@ -29,6 +29,7 @@ struct LayoutTables {
   int8_t plane[kPlanes][3];      // spec section 3 planes (J1, J2, J3)
   int16_t pair_base[kJoints];    // JJ block: index of pair (i, i+1); pairs (i, j>i) follow contiguously
   int16_t line_pair_base[kLines];  // LLa block: index of pair (l, l+1); (l, m>l) follow contiguously
+  int16_t line_pair[kLines];     // JJ pair index of each line's (first, second) joints (first < second)
   int16_t jl_src[kJLCount];      // JLd entry -> l * 16 + k (a [30][16] table of all joints per line)
   int16_t jp_src[kJPCount];      // JPd entry -> p * 16 + k (a [5][16] table)
   int16_t lp_src[kLPCount];      // LPa entry -> p * 32 + l (a [5][32] table)
@@ -67,6 +68,11 @@ constexpr LayoutTables make_layout_tables() {
   for (int i = 0; i < kLines; ++i) {
     t.line_pair_base[i] = static_cast<int16_t>(base);
     base += kLines - 1 - i;
+  }
+  for (int li = 0; li < kLines; ++li) {
+    const int a = t.line[li][0], b = t.line[li][1];
+    if (a >= b) throw "every line must run from a lower to a higher joint index";
+    t.line_pair[li] = static_cast<int16_t>(t.pair_base[a] + (b - a - 1));
   }
   int n = 0;
   for (int li = 0; li < kLines; ++li) {
@@ -111,6 +117,40 @@ constexpr LayoutTables make_layout_tables() {
 // The tables, evaluated by the compiler.
 inline constexpr LayoutTables kLayout = make_layout_tables();
 
+// Compaction of a skip block with 8-lane permutes (the AVX2 kernel): a row of the full table
+// (16 joints or 32 lines, as 8-lane batches) becomes `Out` output batches; lane j of output
+// batch k is lane idx[k][j] of input batch k, or of input batch k+1 where next[k][j] is -1.
+// Possible because a row skips at most 3 entries, so output lane 8k+j reads input 8k+j..8k+j+3.
+template <int Rows, int Out>
+struct PermuteTable {
+  int32_t idx[Rows][Out][8];
+  int32_t next[Rows][Out][8];
+};
+
+// Builds the permute table of a skip block from its source table (row r's entries read
+// r * row_in + s; row_out entries per row).
+template <int Rows, int Out>
+constexpr PermuteTable<Rows, Out> make_permute_table(const int16_t* src, int row_in, int row_out) {
+  PermuteTable<Rows, Out> t{};
+  for (int r = 0; r < Rows; ++r) {
+    for (int k = 0; k < Out; ++k) {
+      for (int j = 0; j < 8; ++j) {
+        const int o = 8 * k + j;
+        if (o >= row_out) continue;  // lanes past the row: don't care (overwritten by the next row)
+        const int s = src[r * row_out + o] - r * row_in;
+        if (s < 8 * k || s >= 8 * (k + 2) || (s >= 8 * (k + 1) && 8 * (k + 1) >= row_in)) throw "not a 2-batch window";
+        t.idx[r][k][j] = s & 7;
+        t.next[r][k][j] = s >= 8 * (k + 1) ? -1 : 0;
+      }
+    }
+  }
+  return t;
+}
+
+inline constexpr PermuteTable<kLines, 2> kJLPermute = make_permute_table<kLines, 2>(kLayout.jl_src, 16, kJoints - 2);
+inline constexpr PermuteTable<kPlanes, 2> kJPPermute = make_permute_table<kPlanes, 2>(kLayout.jp_src, 16, kJoints - 3);
+inline constexpr PermuteTable<kPlanes, 4> kLPPermute = make_permute_table<kPlanes, 4>(kLayout.lp_src, 32, kLines - 3);
+
 static_assert(kLayout.pair_base[kJoints - 1] == kPairCount, "JJ pair count");
 static_assert(kLayout.line_pair_base[kLines - 1] == kLLCount, "LLa pair count");
 static_assert(kOffsetJJd == kJcDims && kOffsetJJo == kOffsetJJd + kPairCount &&
@@ -126,6 +166,10 @@ static_assert(kOffsetJJd == kJcDims && kOffsetJJo == kOffsetJJd + kPairCount &&
 void static_features_reference(const float* local, float hip_height, GeometryState& state, double* out);
 // The same from double local positions (tests: golden vectors without float32 input rounding).
 void static_features_reference(const double* local, double hip_height, GeometryState& state, double* out);
+
+// Largest |local coordinate| (body heights) the float32 kernels take; gpd::static_features
+// sends frames beyond it to the reference (squares of 1e19 overflow float32).
+constexpr float kFastPathExtent = 1e15f;
 
 // The float32 SIMD kernels behind gpd::static_features. Each lives in its own namespace (and
 // translation unit) so that no inline function is shared between the two instruction sets.

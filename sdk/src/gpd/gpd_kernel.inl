@@ -5,15 +5,19 @@
 // translation units are compiled for different instruction sets, so they must not share any
 // inline function or template instantiation (the linker keeps one copy and could hand the
 // AVX2 one to the baseline path). Hence: everything here is in an unnamed namespace nested in
-// the ISA namespace, xsimd is used only through batch<float, Arch>, square roots are
-// __builtin_sqrt, and the tables are plain arrays (gpd_detail.hpp). No heap allocation.
+// the ISA namespace, xsimd is used only through batch<float, Arch>, scalar square roots are
+// __builtin_sqrt (not std::sqrt), and the tables are plain arrays (gpd_detail.hpp). No heap
+// allocation: all scratch is one stack struct.
 //
 // Data layout: joints, lines and normals as structure-of-arrays (x[], y[], z[]) padded past a
 // multiple of the batch width, so each block is a few contiguous batch loops:
 // - pair blocks (JJ, LLa) enumerate (i, j > i) lexicographically, so for a fixed i the
 //   partners j are contiguous in the SoA arrays and the results contiguous in the output;
-// - skip blocks (JLd, JPd, LPa) are computed for every joint/line and then compacted by a
-//   compile-time source-index table.
+// - skip blocks (JLd, JPd, LPa) are computed for every joint/line and then compacted: by lane
+//   permutes on AVX2 (KATA_GPD_PERMUTE), by a compile-time source-index table otherwise.
+// Square roots, reciprocals and arccos are polynomial/Newton code on the hardware rsqrt
+// estimate: float32 results agree with the double reference to ~1e-6 (arccos near 0 or pi:
+// ~1e-3, the float rounding of its argument, as the spec allows).
 
 namespace {
 
@@ -27,28 +31,39 @@ constexpr int padded(int n) { return (n + W - 1) / W * W; }
 inline B load(const float* p) { return B::load_unaligned(p); }
 inline void store(float* p, const B& v) { v.store_unaligned(p); }
 
-// |v| components with the spec's zero rule applied by the caller: 1/len, or 0 for len == 0.
-inline B inverse_or_zero(const B& len) { return xsimd::select(len > B(0.0f), B(1.0f) / len, B(0.0f)); }
+// 1/sqrt(x) to ~3e-7 relative: the hardware estimate (12 bits) and one Newton step, instead of
+// sqrt + divide (long-latency, low-throughput units). x is floored at 1e-37 so that x = 0 gives a
+// large finite value: then x * rsqrt(x) = 0 and v * rsqrt(|v|^2) = 0, the spec's zero-vector
+// rule, with no select. (Only |v| < 3e-19 body heights is affected by the floor.)
+inline B rsqrt_nr(const B& x) {
+  const B xs = xsimd::max(x, B(1e-37f));
+  const B y = xsimd::rsqrt(xs);
+  return y * xsimd::fnma(B(0.5f) * xs, y * y, B(1.5f));
+}
+// sqrt(x), x >= 0, from the same estimate y ~ 1/sqrt(x) with the Newton step folded into
+// g = x y: g + g (1/2 - g y/2) (one op fewer than x * rsqrt_nr(x)); 0 for x = 0.
+inline B sqrt_fast(const B& x) {
+  const B y = xsimd::rsqrt(xsimd::max(x, B(1e-37f)));
+  const B g = x * y, h = B(0.5f) * y;
+  return xsimd::fma(g, xsimd::fnma(g, h, B(0.5f)), g);
+}
 
-// arccos(clamp(x, -1, 1)) in float32, about 1 ulp of pi: the Cephes asinf polynomial on
-// [0, 0.5], with acos(x) = pi/2 - asin(x) for |x| <= 0.5 and 2 asin(sqrt((1-|x|)/2)) above.
-// Branch-free, so a batch mixing both ranges costs the same as one that does not.
+// arccos(clamp(x, -1, 1)) in float32, within ~2e-7 (a few float ulps of pi): for a = |x|,
+// acos(a) = sqrt(1 - a) P7(a) (Abramowitz & Stegun 4.4.46, |error| <= 2e-8), and
+// acos(-a) = pi - acos(a). One branch-free path for the whole range; 1 - a is exact in float.
+// The clamp to [-1, 1] matters: sqrt_fast needs 1 - a >= 0.
 inline B acos_batch(const B& x) {
-  const B one(1.0f), half(0.5f);
-  const B a = xsimd::min(xsimd::abs(x), one);
-  const auto big = a > half;
-  const B z = xsimd::select(big, half * (one - a), a * a);
-  const B s = xsimd::select(big, xsimd::sqrt(z), a);
-  B p(4.2163199048e-2f);
-  p = xsimd::fma(p, z, B(2.4181311049e-2f));
-  p = xsimd::fma(p, z, B(4.5470025998e-2f));
-  p = xsimd::fma(p, z, B(7.4953002686e-2f));
-  p = xsimd::fma(p, z, B(1.6666752422e-1f));
-  const B r = xsimd::fma(s * z, p, s);          // asin(s), s in [0, 0.5]
-  const B rs = r ^ (x & B(-0.0f));              // copysign(r, x)
-  const B pi(3.14159265358979f), half_pi(1.57079632679490f);
-  const B big_result = rs + rs + xsimd::select(x < B(0.0f), pi, B(0.0f));
-  return xsimd::select(big, big_result, half_pi - rs);
+  const B a = xsimd::min(xsimd::abs(x), B(1.0f));
+  B p(-0.0012624911f);
+  p = xsimd::fma(p, a, B(0.0066700901f));
+  p = xsimd::fma(p, a, B(-0.0170881256f));
+  p = xsimd::fma(p, a, B(0.0308918810f));
+  p = xsimd::fma(p, a, B(-0.0501743046f));
+  p = xsimd::fma(p, a, B(0.0889789874f));
+  p = xsimd::fma(p, a, B(-0.2145988016f));
+  p = xsimd::fma(p, a, B(1.5707963050f));
+  const B t = sqrt_fast(B(1.0f) - a) * p;
+  return xsimd::select(x < B(0.0f), B(3.14159265358979f) - t, t);
 }
 
 // dst[0..n) = acos(src[0..n)), n >= W. The tail is one batch ending at n (overlapping the
@@ -59,18 +74,54 @@ inline void acos_block(const float* src, int n, float* dst) {
   if (i < n) store(dst + n - W, acos_batch(load(src + n - W)));
 }
 
+#if KATA_GPD_PERMUTE
+// Writes one compacted skip-block row (see PermuteTable in gpd_detail.hpp): Out batches of 8
+// to dst, the lanes past the row's length included.
+template <int In, int Out>
+inline void compact_row(const B (&in)[In], const int32_t (*idx)[8], const int32_t (*next)[8], float* dst) {
+  for (int k = 0; k < Out; ++k) {
+    const __m256i ix = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(idx[k]));
+    __m256 v = _mm256_permutevar8x32_ps(in[k], ix);
+    if (k + 1 < In) {
+      const __m256 w = _mm256_permutevar8x32_ps(in[k + 1], ix);
+      v = _mm256_blendv_ps(v, w, _mm256_loadu_ps(reinterpret_cast<const float*>(next[k])));
+    }
+    _mm256_storeu_ps(dst + 8 * k, v);
+  }
+}
+
+// Stores 8 (x, y, z) triples from SoA batches as 24 interleaved floats
+//   x0 y0 z0 x1 y1 z1 x2 y2 | z2 x3 y3 z3 x4 y4 z4 x5 | y5 z5 x6 y6 z6 x7 y7 z7
+// with in-lane shuffles and 128-bit lane swaps only (cross-lane vpermps is the slow unit).
+// Per 128-bit lane: rxy = x0 x2 y0 y2, ryz = y1 y3 z1 z3, rzx = z0 z2 x1 x3, then
+// r03 = x0 y0 z0 x1, r14 = y1 z1 x2 y2, r25 = z2 x3 y3 z3 (upper lane: the same for 4..7).
+inline void interleave3(const B& x, const B& y, const B& z, float* dst) {
+  const __m256 rxy = _mm256_shuffle_ps(x, y, _MM_SHUFFLE(2, 0, 2, 0));
+  const __m256 ryz = _mm256_shuffle_ps(y, z, _MM_SHUFFLE(3, 1, 3, 1));
+  const __m256 rzx = _mm256_shuffle_ps(z, x, _MM_SHUFFLE(3, 1, 2, 0));
+  const __m256 r03 = _mm256_shuffle_ps(rxy, rzx, _MM_SHUFFLE(2, 0, 2, 0));
+  const __m256 r14 = _mm256_shuffle_ps(ryz, rxy, _MM_SHUFFLE(3, 1, 2, 0));
+  const __m256 r25 = _mm256_shuffle_ps(rzx, ryz, _MM_SHUFFLE(3, 1, 3, 1));
+  _mm256_storeu_ps(dst, _mm256_permute2f128_ps(r03, r14, 0x20));
+  _mm256_storeu_ps(dst + 8, _mm256_permute2f128_ps(r25, r03, 0x30));
+  _mm256_storeu_ps(dst + 16, _mm256_permute2f128_ps(r14, r25, 0x31));
+}
+#endif
+
 // Per-frame scratch, all on the stack (sizes padded for the overlapping batch stores).
 struct Scratch {
   alignas(64) float px[32], py[32], pz[32];                  // joints, zero past 16
   alignas(64) float dx[padded(kPairCount) + W], dy[padded(kPairCount) + W], dz[padded(kPairCount) + W];
   alignas(64) float ux[padded(kPairCount)], uy[padded(kPairCount)], uz[padded(kPairCount)];
-  alignas(64) float lx[40], ly[40], lz[40], llen[40];        // line vectors, zero past 30
+  alignas(64) float llen[40];                                // line lengths, zero past 30
   alignas(64) float lux[40], luy[40], luz[40];               // line unit directions
-  alignas(64) float jl[kLines * 16];                         // JLd for every joint
+  alignas(64) float ax[32], ay[32], az[32];                  // each line's first joint
+  alignas(64) float cax[32], cay[32], caz[32];               // A x u per line
+  alignas(64) float jl[kLines * 16];                         // JLd (squared) for every joint
   alignas(64) float ll[kLLCount + W];                        // LLa cosines
   alignas(64) float jp[kPlanes * 16];                        // JPd for every joint
   alignas(64) float lpfull[kPlanes * 32];                    // LPa cosines for every line
-  alignas(64) float lp[kLPCount + kPPCount];                 // LPa then PPa cosines
+  alignas(64) float lp[kLPCount + kPPCount + 8];             // LPa then PPa cosines (+ spill)
   float nx[kPlanes], ny[kPlanes], nz[kPlanes];               // plane normals
 };
 
@@ -81,16 +132,18 @@ inline void plane_normal(const Scratch& s, int p, GeometryState& state, float* n
   const double e1x = double(s.px[b]) - s.px[a], e1y = double(s.py[b]) - s.py[a], e1z = double(s.pz[b]) - s.pz[a];
   const double e2x = double(s.px[c]) - s.px[a], e2y = double(s.py[c]) - s.py[a], e2z = double(s.pz[c]) - s.pz[a];
   const double cx = e1y * e2z - e1z * e2y, cy = e1z * e2x - e1x * e2z, cz = e1x * e2y - e1y * e2x;
-  const double lc = __builtin_sqrt(cx * cx + cy * cy + cz * cz);
-  const double l1 = __builtin_sqrt(e1x * e1x + e1y * e1y + e1z * e1z);
-  const double l2 = __builtin_sqrt(e2x * e2x + e2y * e2y + e2z * e2z);
-  if (l1 == 0.0 || l2 == 0.0 || lc / (l1 * l2) < 1e-3) {
+  // |c| / (|e1| |e2|) < 1e-3 tested on squares (one square root fewer per plane; the two forms
+  // can only disagree within an ulp of the threshold).
+  const double c2 = cx * cx + cy * cy + cz * cz;
+  const double q = (e1x * e1x + e1y * e1y + e1z * e1z) * (e2x * e2x + e2y * e2y + e2z * e2z);
+  if (q == 0.0 || c2 < 1e-6 * q) {
     for (int i = 0; i < 3; ++i) n[i] = state.has_normal[p] ? state.normal[p][i] : 0.0f;
     return;
   }
-  n[0] = static_cast<float>(cx / lc);
-  n[1] = static_cast<float>(cy / lc);
-  n[2] = static_cast<float>(cz / lc);
+  const double inv = 1.0 / __builtin_sqrt(c2);
+  n[0] = static_cast<float>(cx * inv);
+  n[1] = static_cast<float>(cy * inv);
+  n[2] = static_cast<float>(cz * inv);
   state.has_normal[p] = true;
   for (int i = 0; i < 3; ++i) state.normal[p][i] = n[i];
 }
@@ -113,8 +166,33 @@ inline void kernel(const float* local, float hip_height, GeometryState& state, f
   for (int i = 0; i < 45; ++i) out[kOffsetJc + i] = local[3 + i];
   out[kOffsetJc + 45] = hip_height;
 
-  // 2-3. JJd, JJo. Pair differences: for joint i, the partners i+1..15 are contiguous; each
-  // i's batches may spill past its n entries, and the next i overwrites the spill.
+  // 2-3. JJd, JJo.
+#if KATA_GPD_PERMUTE
+  // For joint i the partners i+1..15 are contiguous in the SoA arrays and their pairs
+  // contiguous in the output, so each i is a run of whole batches written straight out; a
+  // run's last batch spills past its n pairs and the next run overwrites the spill. JJo's last
+  // spill lands in JLd (written later); JJd's last runs (i >= 12) would spill into JJo, so
+  // their batches are stored with a lane mask.
+  for (int i = 0; i < kJoints - 1; ++i) {
+    const int n = kJoints - 1 - i, base = kLayout.pair_base[i];
+    const B bx(s.px[i]), by(s.py[i]), bz(s.pz[i]);
+    for (int c = 0; c < n; c += W) {
+      const B x = load(s.px + i + 1 + c) - bx, y = load(s.py + i + 1 + c) - by, z = load(s.pz + i + 1 + c) - bz;
+      const B sq = xsimd::fma(x, x, xsimd::fma(y, y, z * z));
+      const B inv = rsqrt_nr(sq);
+      if (base + c + W <= kPairCount) {
+        store(out + kOffsetJJd + base + c, sq * inv);
+      } else {
+        const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        const __m256i keep = _mm256_cmpgt_epi32(_mm256_set1_epi32(kPairCount - base - c), lanes);
+        _mm256_maskstore_ps(out + kOffsetJJd + base + c, keep, sq * inv);
+      }
+      interleave3(x * inv, y * inv, z * inv, out + kOffsetJJo + 3 * (base + c));
+    }
+  }
+#else
+  // Pair differences: for joint i, the partners i+1..15 are contiguous; each i's batches may
+  // spill past its n entries, and the next i overwrites the spill.
   for (int i = 0; i < kJoints - 1; ++i) {
     const int n = kJoints - 1 - i, base = kLayout.pair_base[i];
     const B bx(s.px[i]), by(s.py[i]), bz(s.pz[i]);
@@ -127,9 +205,9 @@ inline void kernel(const float* local, float hip_height, GeometryState& state, f
   static_assert(kPairCount % W == 0, "JJd is written in whole batches");
   for (int b = 0; b < kPairCount; b += W) {
     const B x = load(s.dx + b), y = load(s.dy + b), z = load(s.dz + b);
-    const B len = xsimd::sqrt(xsimd::fma(x, x, xsimd::fma(y, y, z * z)));
-    const B inv = inverse_or_zero(len);
-    store(out + kOffsetJJd + b, len);
+    const B sq = xsimd::fma(x, x, xsimd::fma(y, y, z * z));
+    const B inv = rsqrt_nr(sq);
+    store(out + kOffsetJJd + b, sq * inv);
     store(s.ux + b, x * inv);
     store(s.uy + b, y * inv);
     store(s.uz + b, z * inv);
@@ -139,53 +217,68 @@ inline void kernel(const float* local, float hip_height, GeometryState& state, f
     out[kOffsetJJo + 3 * p + 1] = s.uy[p];
     out[kOffsetJJo + 3 * p + 2] = s.uz[p];
   }
+#endif
 
-  // Lines: vectors, lengths, unit directions (zero for a zero-length line).
+  // Lines: every line (a, b) has a < b, so it is JJ pair (a, b): its length and unit
+  // direction are that pair's JJd and JJo values (the same float32 numbers).
   for (int l = 0; l < kLines; ++l) {
-    const int a = kLayout.line[l][0], b = kLayout.line[l][1];
-    s.lx[l] = s.px[b] - s.px[a];
-    s.ly[l] = s.py[b] - s.py[a];
-    s.lz[l] = s.pz[b] - s.pz[a];
+    const int p = kLayout.line_pair[l];
+    s.llen[l] = out[kOffsetJJd + p];
+    s.lux[l] = out[kOffsetJJo + 3 * p];
+    s.luy[l] = out[kOffsetJJo + 3 * p + 1];
+    s.luz[l] = out[kOffsetJJo + 3 * p + 2];
   }
-  for (int l = kLines; l < 40; ++l) s.lx[l] = s.ly[l] = s.lz[l] = 0.0f;
-  for (int b = 0; b < 40; b += W) {
-    if (b >= 32) {  // entries 32..39 are padding only
-      for (int k = 0; k < W; ++k) s.lux[b + k] = s.luy[b + k] = s.luz[b + k] = s.llen[b + k] = 0.0f;
-      continue;
-    }
-    const B x = load(s.lx + b), y = load(s.ly + b), z = load(s.lz + b);
-    const B len = xsimd::sqrt(xsimd::fma(x, x, xsimd::fma(y, y, z * z)));
-    const B inv = inverse_or_zero(len);
-    store(s.llen + b, len);
-    store(s.lux + b, x * inv);
-    store(s.luy + b, y * inv);
-    store(s.luz + b, z * inv);
-  }
+  for (int l = kLines; l < 40; ++l) s.lux[l] = s.luy[l] = s.luz[l] = s.llen[l] = 0.0f;
 
-  // 4. JLd: distance of every joint to every line, |w x u| with w = P - A and u the unit
-  // direction (cross product, not |w|^2 - (w.u)^2, which cancels for joints near the line);
-  // |w| for a zero-length line. Then drop each line's two endpoints.
+  // 4. JLd: distance of every joint to every line, |(P - A) x u| with A the line's first joint
+  // and u its unit direction (a cross product, not |w|^2 - (w.u)^2, which cancels for joints
+  // near the line), expanded as P x u - A x u with A x u computed for all lines at once; |P - A|
+  // for a zero-length line. Two passes (squared distances into s.jl, then square roots and the
+  // compaction that drops each line's two endpoints) keep each loop's dependency chain short.
   for (int l = 0; l < kLines; ++l) {
     const int a = kLayout.line[l][0];
-    const B ax(s.px[a]), ay(s.py[a]), az(s.pz[a]);
+    s.ax[l] = s.px[a];
+    s.ay[l] = s.py[a];
+    s.az[l] = s.pz[a];
+  }
+  for (int l = kLines; l < 32; ++l) s.ax[l] = s.ay[l] = s.az[l] = 0.0f;
+  for (int b = 0; b < 32; b += W) {
+    const B ax = load(s.ax + b), ay = load(s.ay + b), az = load(s.az + b);
+    const B ux = load(s.lux + b), uy = load(s.luy + b), uz = load(s.luz + b);
+    store(s.cax + b, xsimd::fms(ay, uz, az * uy));
+    store(s.cay + b, xsimd::fms(az, ux, ax * uz));
+    store(s.caz + b, xsimd::fms(ax, uy, ay * ux));
+  }
+  for (int l = 0; l < kLines; ++l) {
     float* dst = s.jl + 16 * l;
     if (s.llen[l] > 0.0f) {
       const B vx(s.lux[l]), vy(s.luy[l]), vz(s.luz[l]);
+      const B cax(s.cax[l]), cay(s.cay[l]), caz(s.caz[l]);
       for (int b = 0; b < 16; b += W) {
-        const B wx = load(s.px + b) - ax, wy = load(s.py + b) - ay, wz = load(s.pz + b) - az;
-        const B cx = xsimd::fms(wy, vz, wz * vy);
-        const B cy = xsimd::fms(wz, vx, wx * vz);
-        const B cz = xsimd::fms(wx, vy, wy * vx);
-        store(dst + b, xsimd::sqrt(xsimd::fma(cx, cx, xsimd::fma(cy, cy, cz * cz))));
+        const B px = load(s.px + b), py = load(s.py + b), pz = load(s.pz + b);
+        const B cx = xsimd::fms(py, vz, xsimd::fma(pz, vy, cax));
+        const B cy = xsimd::fms(pz, vx, xsimd::fma(px, vz, cay));
+        const B cz = xsimd::fms(px, vy, xsimd::fma(py, vx, caz));
+        store(dst + b, xsimd::fma(cx, cx, xsimd::fma(cy, cy, cz * cz)));
       }
     } else {
+      const B ax(s.ax[l]), ay(s.ay[l]), az(s.az[l]);
       for (int b = 0; b < 16; b += W) {
         const B wx = load(s.px + b) - ax, wy = load(s.py + b) - ay, wz = load(s.pz + b) - az;
-        store(dst + b, xsimd::sqrt(xsimd::fma(wx, wx, xsimd::fma(wy, wy, wz * wz))));
+        store(dst + b, xsimd::fma(wx, wx, xsimd::fma(wy, wy, wz * wz)));
       }
     }
   }
+#if KATA_GPD_PERMUTE
+  for (int l = 0; l < kLines; ++l) {
+    const B row[2] = {sqrt_fast(load(s.jl + 16 * l)), sqrt_fast(load(s.jl + 16 * l + 8))};
+    // 2 floats past the row are written too; the next line (or, after line 29, LLa) overwrites them.
+    compact_row<2, 2>(row, kJLPermute.idx[l], kJLPermute.next[l], out + kOffsetJLd + (kJoints - 2) * l);
+  }
+#else
+  for (int b = 0; b < kLines * 16; b += W) store(s.jl + b, sqrt_fast(load(s.jl + b)));
   compact(s.jl, kLayout.jl_src, kJLCount, out + kOffsetJLd);
+#endif
 
   // 5. LLa cosines: for line l the partners l+1..29 are contiguous (spill overwritten as in JJ).
   for (int l = 0; l < kLines - 1; ++l) {
@@ -214,16 +307,27 @@ inline void kernel(const float* local, float hip_height, GeometryState& state, f
     const int a = kLayout.plane[p][0];
     const B nx(s.nx[p]), ny(s.ny[p]), nz(s.nz[p]);
     const B ax(s.px[a]), ay(s.py[a]), az(s.pz[a]);
+    B jrow[16 / W], lrow[32 / W];
     for (int b = 0; b < 16; b += W) {
-      store(s.jp + 16 * p + b,
-            xsimd::fma(load(s.px + b) - ax, nx, xsimd::fma(load(s.py + b) - ay, ny, (load(s.pz + b) - az) * nz)));
+      jrow[b / W] = xsimd::fma(load(s.px + b) - ax, nx, xsimd::fma(load(s.py + b) - ay, ny, (load(s.pz + b) - az) * nz));
     }
     for (int b = 0; b < 32; b += W) {
-      store(s.lpfull + 32 * p + b, xsimd::fma(load(s.lux + b), nx, xsimd::fma(load(s.luy + b), ny, load(s.luz + b) * nz)));
+      lrow[b / W] = xsimd::fma(load(s.lux + b), nx, xsimd::fma(load(s.luy + b), ny, load(s.luz + b) * nz));
     }
+#if KATA_GPD_PERMUTE
+    // Spills past a row are overwritten by the next row; JPd's last one by LPa's acos pass
+    // below, LPa's last one (into s.lp[135..140)) by the PPa cosines.
+    compact_row<2, 2>(jrow, kJPPermute.idx[p], kJPPermute.next[p], out + kOffsetJPd + (kJoints - 3) * p);
+    compact_row<4, 4>(lrow, kLPPermute.idx[p], kLPPermute.next[p], s.lp + (kLines - 3) * p);
+#else
+    for (int b = 0; b < 16; b += W) store(s.jp + 16 * p + b, jrow[b / W]);
+    for (int b = 0; b < 32; b += W) store(s.lpfull + 32 * p + b, lrow[b / W]);
+#endif
   }
+#if !KATA_GPD_PERMUTE
   compact(s.jp, kLayout.jp_src, kJPCount, out + kOffsetJPd);
   compact(s.lpfull, kLayout.lp_src, kLPCount, s.lp);
+#endif
 
   // 8. PPa cosines, after LPa's so that one acos pass covers out[1446..1591).
   for (int i = 0; i < kPPCount; ++i) {

@@ -13,7 +13,10 @@ using Arch = xsimd::sse4_2;
 #else
 using Arch = xsimd::sse2;
 #endif
+// SSE has no lane permute with a run-time index: compactions go through index tables.
+#define KATA_GPD_PERMUTE 0
 
 #include "gpd/gpd_kernel.inl"
+#undef KATA_GPD_PERMUTE
 
 }  // namespace kata::gpd::detail::sse4
