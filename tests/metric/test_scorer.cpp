@@ -256,9 +256,10 @@ TEST(Kernels, Avx2AndBaselineAgree) {
     bw.out_stride = (rank + 7) / 8 * 8;
     bw.groups = 2;
     bw.group_begin = begin.data();
+    bw.perm = perm.data();
     std::vector<float> xp2(gpd::kDims);
-    const double s1 = metric::detail::base::gather_normalise(x.data(), perm.data(), a.data(), b.data(), gpd::kDims, xp.data());
-    const double s2 = metric::detail::avx2::gather_normalise(x.data(), perm.data(), a.data(), b.data(), gpd::kDims, xp2.data());
+    const double s1 = metric::detail::base::normalise(x.data(), a.data(), b.data(), gpd::kDims, xp.data());
+    const double s2 = metric::detail::avx2::normalise(x.data(), a.data(), b.data(), gpd::kDims, xp2.data());
     EXPECT_NEAR(s1, s2, 1e-9 * s1);
     ASSERT_EQ(xp, xp2);
     std::vector<float> v1(2 * bw.out_stride + 8, -1.0f), v2(v1), v3(v1), v4(v1);

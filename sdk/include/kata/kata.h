@@ -211,10 +211,179 @@ KATA_API int64_t kata_stream_feature_count(kata_stream stream);
 KATA_API double kata_stream_body_height(kata_stream stream);
 
 /* ==== Models and scoring ================================================================== */
-/* (section: models and scoring) */
+/* (section: models and scoring)
+ * A model (.kata file: normalisation ranges, the learned W, the threshold delta*) scores a
+ * stream's frames against a teacher reference (spec gpd-v1.md section 6):
+ *   d = |W^T (x'' - y'')|   (x'', y'': normalised, unit-length GPD v1 features; d dimensionless)
+ *   score = 100 / (1 + (d / delta*)^2)   (100 at d = 0, 50 at d = delta*, 20 at 2 delta*)
+ * and splits d^2 over five body parts (they sum to d^2; a part may be slightly negative). The
+ * reference is one pose, or a teacher clip that the stream follows with an online monotone
+ * alignment (each frame is matched to the best teacher frame just ahead of the last match).
+ * Memory: loading a model and setting a reference allocate; scoring never does.
+ * Threads: a model is immutable and may be shared by any number of streams and threads; a
+ * stream keeps what it needs from the model, which may be freed while streams still use it. */
+
+/* A loaded, verified model. */
+typedef struct kata_model_s* kata_model;
+
+/* Loads a .kata file. Every check runs before anything is used: the FlatBuffers verifier, the
+ * identifier, the layout id ("gpd-v1"), the dimensions (W 1683 x r, min/max 1683), NaN/Inf,
+ * max < min, r = 0, the checksum; a refused file returns KATA_E_MODEL (KATA_E_IO when it
+ * cannot be read) with the reason in kata_context_last_error. *out is owned by the caller.
+ * [any thread] */
+KATA_API kata_status kata_model_load(kata_context context, const char* path, kata_model* out);
+/* The same from a buffer in memory (size bytes, any alignment); the buffer is copied and may
+ * be released after the call. [any thread] */
+KATA_API kata_status kata_model_load_memory(kata_context context, const void* data, size_t size, kata_model* out);
+/* Releases a model. Streams scoring with it keep working. NULL is ignored. [any thread, not
+ * concurrently with other calls on the same model] */
+KATA_API void kata_model_free(kata_model model);
+/* Rank r (columns of W); 0 for NULL. [any thread] */
+KATA_API uint32_t kata_model_rank(kata_model model);
+/* Decision threshold delta* (a distance: score 50); 0 for NULL. [any thread] */
+KATA_API double kata_model_delta_star(kata_model model);
+/* The stencil the model was trained with; streams scored with it must use the same. [any thread] */
+KATA_API kata_stencil kata_model_stencil(kata_model model);
+/* Training metadata by key: "layout", "date" (ISO 8601), "data", "parameters" (JSON). The
+ * string is owned by the model (valid until kata_model_free); NULL for an unknown key or a
+ * NULL model. [any thread] */
+KATA_API const char* kata_model_metadata(kata_model model, const char* key);
+
+/* The five body parts of a score breakdown, in array order. */
+typedef enum kata_body_part {
+  KATA_PART_TORSO_HEAD = 0, /* Hip, Chest, Neck, Head */
+  KATA_PART_LEFT_ARM = 1,   /* LShoulder, LElbow, LHand */
+  KATA_PART_RIGHT_ARM = 2,  /* RShoulder, RElbow, RHand */
+  KATA_PART_LEFT_LEG = 3,   /* LHip, LKnee, LFoot */
+  KATA_PART_RIGHT_LEG = 4,  /* RHip, RKnee, RFoot */
+  KATA_PART_COUNT = 5
+} kata_body_part;
+
+/* One scored frame. The caller sets struct_size = sizeof(kata_score_record). */
+typedef struct kata_score_record {
+  uint32_t struct_size;
+  int32_t matched_reference_frame; /* teacher clip frame matched (0-based index into the
+                                      reference's frames); 0 for a pose reference */
+  int64_t frame_index;             /* the stream frame scored (as in kata_stream_features) */
+  double timestamp;                /* that frame's timestamp, seconds */
+  float distance;                  /* d, dimensionless (>= 0) */
+  float score;                     /* 0..100 */
+  float parts[KATA_PART_COUNT];    /* split of d^2 by kata_body_part; sums to d^2 */
+} kata_score_record;
+
+/* Sets a single-pose reference on a stream: features is one GPD v1 vector (count =
+ * KATA_GPD_DIMS floats, e.g. a frame from kata_stream_features of a teacher stream), copied.
+ * Replaces any previous reference. KATA_E_INVALID_ARGUMENT when the stream's stencil differs
+ * from the model's or the features are not finite. Errors go to kata_stream_last_error.
+ * Allocates. [stream owner] */
+KATA_API kata_status kata_stream_set_reference_pose(kata_stream stream, kata_model model, const float* features,
+                                                    size_t count);
+/* Sets a single-pose reference from the 16 GPD joints' world positions (KATA_GPD_JOINTS x 3
+ * floats in GPD joint order, +Y up, any units) and the body height in the same units: a held
+ * pose (kinetics zero). [stream owner] */
+KATA_API kata_status kata_stream_set_reference_joints(kata_stream stream, kata_model model, const float* joints,
+                                                      size_t count, double body_height);
+/* Sets a clip reference: `frames` GPD v1 vectors (frames x KATA_GPD_DIMS floats, row-major),
+ * frame_time seconds apart; copied into projections computed once. [stream owner] */
+KATA_API kata_status kata_stream_set_reference_clip(kata_stream stream, kata_model model, const float* features,
+                                                    uint32_t frames, double frame_time);
+/* Sets a reference from a recorded clip, its features computed here with the model's stencil
+ * (clip frames first_frame.. end; 1 skips the CMU converter's T-pose) through the named preset
+ * ("cmu", ...). pose_frame >= 0: only that clip frame, as a pose reference; -1: the whole clip.
+ * [stream owner] */
+KATA_API kata_status kata_stream_set_reference_bvh(kata_stream stream, kata_model model, kata_clip clip,
+                                                   const char* preset, uint32_t first_frame, int32_t pose_frame);
+/* Removes the stream's reference (kata_stream_score then returns KATA_E_STATE). [stream owner] */
+KATA_API kata_status kata_stream_clear_reference(kata_stream stream);
+/* Restarts a clip reference's alignment: the next frame is matched from the clip's start.
+ * [stream owner] */
+KATA_API kata_status kata_stream_restart_reference(kata_stream stream);
+/* Scores the stream's newest feature vector against its reference and copies the record into
+ * *out. Each vector is scored once, when first read (a later call without a new push returns the
+ * same record); vectors pushed without a call in between are not scored (the alignment uses
+ * timestamps, so it copes). KATA_NO_DATA before the first feature vector; KATA_E_STATE without a
+ * reference. Does not allocate. [stream owner] */
+KATA_API kata_status kata_stream_score(kata_stream stream, kata_score_record* out);
 
 /* ==== Retargeting ========================================================================= */
-/* (section: retargeting) */
+/* Puts a teacher's posture onto a student's body, frame after frame (skeleton-independent
+ * distance matrices + a warm-started non-monotone spectral gradient solve, then exact bone
+ * lengths). The student is a skeleton with rest offsets (its bone lengths); teacher frames come
+ * in the same skeleton layout (same joints, same order: e.g. two CMU subjects) with their own
+ * bone lengths. The retargeter works on a subset of the joints chosen by a preset:
+ *   "cmu" (default): every joint that carries a bone; joints with a zero offset, sitting on their
+ *         parent, are dropped (CMU BVH: 31 -> 21 joints);
+ *   "gpd": the 16 GPD joints, read through the "cmu" name preset.
+ * Units: positions in the student skeleton's units (teacher frames must use the same unit),
+ * +Y up. Memory: kata_retargeter_create allocates everything; the per-frame calls never do.
+ * Threads: a retargeter is used by one thread at a time (different retargeters in parallel). */
+
+/* Per-student retargeting state (warm start, buffers). */
+typedef struct kata_retargeter_s* kata_retargeter;
+
+/* How a retargeter solves. Fill with kata_retarget_desc_init, then change fields. */
+typedef struct kata_retarget_desc {
+  uint32_t struct_size;        /* sizeof(kata_retarget_desc) */
+  const char* preset;          /* joint set: "cmu" (default) or "gpd" */
+  double gradient_tolerance;   /* stop when |grad| <= this x sqrt(sum pi delta^2). Default 3e-5 */
+  uint32_t max_iterations;     /* SPG iteration cap per frame. Default 200 */
+  int32_t warm_start;          /* 1 (default): start from the previous frame's solution */
+  int32_t restore_bone_lengths;/* 1 (default): reset every bone to the student's exact length */
+} kata_retarget_desc;
+
+/* What one kata_retargeter_solve did. */
+typedef struct kata_retarget_info {
+  uint32_t struct_size;         /* set by the caller: sizeof(kata_retarget_info) */
+  uint32_t iterations;          /* SPG iterations this frame */
+  int32_t converged;            /* 1 when the gradient tolerance was met (else the cap) */
+  int32_t warm;                 /* 1 when warm-started from the previous frame */
+  double stress;                /* the paper's stress at the SPG optimum, units^2 */
+  double max_bone_error_solved; /* largest relative bone-length error at the optimum (0.01 = 1%) */
+  double max_bone_error;        /* the same for the returned ghost (after the restoring step) */
+} kata_retarget_info;
+
+/* Fills desc with the defaults above (struct_size set). [any thread] */
+KATA_API void kata_retarget_desc_init(kata_retarget_desc* desc);
+/* Creates a retargeter for the student `student` (a skeleton with rest offsets; copied, may be
+ * destroyed afterwards). desc may be NULL for the defaults. Errors (unknown preset, missing
+ * joint, no rest pose, zero bone length) are reported on the context. [any thread] */
+KATA_API kata_status kata_retargeter_create(kata_context context, kata_skeleton student,
+                                            const kata_retarget_desc* desc, kata_retargeter* out);
+/* The same with a stream's skeleton as the student (its rest offsets give the bone lengths).
+ * The retargeter is independent of the stream afterwards. [stream owner] */
+KATA_API kata_status kata_retargeter_create_for_stream(kata_context context, kata_stream student,
+                                                       const kata_retarget_desc* desc, kata_retargeter* out);
+/* Releases a retargeter. NULL is ignored. [retargeter owner] */
+KATA_API void kata_retargeter_destroy(kata_retargeter retargeter);
+/* The message of the last failed call on this retargeter, or "". Valid until the next call on
+ * it. [retargeter owner] */
+KATA_API const char* kata_retargeter_last_error(kata_retargeter retargeter);
+/* Number of joints the retargeter outputs (21 for "cmu" on CMU, 16 for "gpd"); 0 for NULL.
+ * [retargeter owner] */
+KATA_API uint32_t kata_retargeter_joint_count(kata_retargeter retargeter);
+/* The skeleton joint that output joint i stands for (an index into the student skeleton), or
+ * -1 when out of range. [retargeter owner] */
+KATA_API int32_t kata_retargeter_joint_source(kata_retargeter retargeter, uint32_t i);
+
+/* Retargets one teacher frame. teacher: every joint of the skeleton (teacher_joint_count x 3
+ * floats, x, y, z interleaved, student units). ghost (capacity floats) receives
+ * kata_retargeter_joint_count() x 3 floats: the posture on the student's bones, root on the
+ * teacher's root, oriented like the teacher. info (may be NULL; set info->struct_size) receives
+ * the solve's figures. KATA_E_WRONG_JOINT_COUNT, KATA_E_NON_FINITE, KATA_E_BUFFER_TOO_SMALL and
+ * KATA_E_NULL_POINTER leave the state unchanged. Does not allocate. [retargeter owner] */
+KATA_API kata_status kata_retargeter_solve(kata_retargeter retargeter, const float* teacher,
+                                           uint32_t teacher_joint_count, float* ghost, size_t capacity,
+                                           kata_retarget_info* info);
+/* Places a ghost from kata_retargeter_solve (in/out, joint_count() x 3 floats) over the
+ * student's current posture (student: every skeleton joint, student_joint_count x 3 floats):
+ * root on the student's root, turned about +Y (a proper rotation, never a mirror) to face like
+ * the student. Does not allocate. [retargeter owner] */
+KATA_API kata_status kata_retargeter_place(kata_retargeter retargeter, const float* student,
+                                           uint32_t student_joint_count, float* ghost, size_t capacity);
+/* Forgets the previous frame: the next solve starts cold (forward-kinematics baseline: the
+ * student's bone lengths laid along the teacher's bone directions). Call at a cut in the
+ * teacher's motion. [retargeter owner] */
+KATA_API kata_status kata_retargeter_reset(kata_retargeter retargeter);
 
 #ifdef __cplusplus
 }

@@ -13,7 +13,9 @@ constexpr int kBatch = 4;
 
 // W in the scorer's layout. Rows (feature dimensions) are permuted so that the dimensions of
 // one part group (see parts.hpp) are contiguous: group g owns rows [group_begin[g],
-// group_begin[g+1]). Columns are split into chunks of kChunk (the last one narrower); chunk c
+// group_begin[g+1]), and row k multiplies input element perm[k] (the input stays in feature
+// order: one index load per row is cheaper than gathering the input into row order). Columns
+// are split into chunks of kChunk (the last one narrower); chunk c
 // holds columns [c*kChunk, c*kChunk + width_c) row-major and unpadded (row stride width_c),
 // starting at data + rows * c * kChunk. Unpadded rows keep the bytes streamed per frame at
 // exactly rows x rank floats, the limit of a memory-bound product.
@@ -24,26 +26,41 @@ struct BlockedW {
   int out_stride = 0;  // floats per output row of V: rank rounded up to a multiple of 8
   int groups = 0;
   const int* group_begin = nullptr;  // groups + 1 entries
+  const int* perm = nullptr;         // rows entries: the input element row k multiplies
 };
 
 // V (groups x out_stride floats, padding columns written as 0) = for each group g, the partial
-// product W_g^T xp_g over its rows. xp: rows floats in the permuted order.
+// product sum over its rows k of xn[perm[k]] * W[k, :]. xn: rows floats in feature order.
 void project_groups(const BlockedW& w, const float* xp, float* v);
 // The same for n <= kBatch vectors at once: xp[f], v[f] for f < n.
 void project_groups_batch(const BlockedW& w, const float* const* xp, float* const* v, int n);
-// xp[k] = (x[perm[k]] - a[k]) * b[k] for k < n; returns sum of xp[k]^2 (accumulated in double).
-double gather_normalise(const float* x, const int* perm, const float* a, const float* b, int n, float* xp);
+// How per-group products combine into output rows: output row r is the sum over k in
+// [row_begin[r], row_begin[r+1]) of weight[k] * V_{group[k]}.
+struct Combine {
+  int rows = 0;
+  const int* row_begin = nullptr;  // rows + 1 entries
+  const int* group = nullptr;
+  const float* weight = nullptr;
+};
+// out (c.rows x stride floats) = the combination above of v (groups x stride), times `scale`.
+// stride is a multiple of 8.
+void combine(const Combine& c, const float* v, int stride, float scale, float* out);
+
+// xn[i] = (x[i] - a[i]) * b[i] for i < n; returns the sum of xn[i]^2 (accumulated in double).
+double normalise(const float* x, const float* a, const float* b, int n, float* xn);
 
 // The baseline (x86-64-v2) and AVX2+FMA implementations behind the dispatching functions above.
 namespace base {
 void project_groups(const BlockedW& w, const float* xp, float* v);
 void project_groups_batch(const BlockedW& w, const float* const* xp, float* const* v, int n);
-double gather_normalise(const float* x, const int* perm, const float* a, const float* b, int n, float* xp);
+double normalise(const float* x, const float* a, const float* b, int n, float* xn);
+void combine(const Combine& c, const float* v, int stride, float scale, float* out);
 }  // namespace base
 namespace avx2 {
 void project_groups(const BlockedW& w, const float* xp, float* v);
 void project_groups_batch(const BlockedW& w, const float* const* xp, float* const* v, int n);
-double gather_normalise(const float* x, const int* perm, const float* a, const float* b, int n, float* xp);
+double normalise(const float* x, const float* a, const float* b, int n, float* xn);
+void combine(const Combine& c, const float* v, int stride, float scale, float* out);
 }  // namespace avx2
 
 }  // namespace kata::metric::detail

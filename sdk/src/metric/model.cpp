@@ -162,11 +162,12 @@ std::vector<uint8_t> serialize_model(const Model& model) {
                               static_cast<fb::Normalisation>(model.normalisation), gpd::kDims,
                               static_cast<uint32_t>(model.rank), mn, mx, shift, scale, w, model.delta_star, info,
                               checksum(model));
-  fb::FinishModelBuffer(b, root);
+  fb::FinishSizePrefixedModelBuffer(b, root);
   return std::vector<uint8_t>(b.GetBufferPointer(), b.GetBufferPointer() + b.GetSize());
 }
 
 Model parse_model(const uint8_t* data, size_t size) {
+  if (size == 0) refuse("not a kata model: the buffer is empty");
   if (!data) refuse("null buffer");
   // FlatBuffers reads scalars in place and checks alignment only relative to the buffer start:
   // a buffer from a caller (e.g. a memory-mapped or embedded blob) at an odd address is copied
@@ -175,22 +176,31 @@ Model parse_model(const uint8_t* data, size_t size) {
     const std::vector<uint8_t> aligned(data, data + size);  // std::allocator: aligned for double
     return parse_model(aligned.data(), aligned.size());
   }
-  // The smallest possible buffer is a root offset plus the identifier.
-  if (size < 8) refuse("not a kata model: " + std::to_string(size) + " bytes is too small");
-  if (!fb::ModelBufferHasIdentifier(data)) {
+  // A .kata buffer is size-prefixed: a 4-byte length, the root offset, then the identifier. The
+  // prefix makes any truncation (even of trailing padding) or appended garbage detectable.
+  if (size < 12) refuse("not a kata model: " + std::to_string(size) + " bytes is too small");
+  if (!flatbuffers::BufferHasIdentifier(data, fb::ModelIdentifier(), /*size_prefixed=*/true)) {
     std::string id;
-    for (int i = 4; i < 8; ++i) {
-      const char c = static_cast<char>(data[i]);
-      id += (c >= 0x20 && c < 0x7f) ? std::string(1, c) : "\\x" + std::to_string(static_cast<unsigned>(data[i]));
+    for (size_t i = 8; i < 12; ++i) {
+      char c[8];
+      if (data[i] >= 0x20 && data[i] < 0x7f)
+        std::snprintf(c, sizeof c, "%c", data[i]);
+      else
+        std::snprintf(c, sizeof c, "\\x%02x", data[i]);
+      id += c;
     }
     refuse("not a kata model: file identifier \"" + id + "\" is not \"KATA\"");
   }
+  const uint32_t prefix = flatbuffers::ReadScalar<uint32_t>(data);
+  if (static_cast<uint64_t>(prefix) + 4 != size)
+    refuse(std::string(prefix + uint64_t{4} > size ? "truncated" : "trailing bytes") + ": the size prefix says " +
+           std::to_string(prefix + uint64_t{4}) + " bytes, the buffer has " + std::to_string(size));
   // Every offset, vector length and string is checked against the buffer bounds before any
-  // accessor runs: a truncated or bit-flipped buffer stops here (or at the checksum below).
+  // accessor runs: a corrupt buffer stops here (or at the content checks and checksum below).
   flatbuffers::Verifier verifier(data, size, /*max_depth=*/16, /*max_tables=*/100000);
-  if (!fb::VerifyModelBuffer(verifier))
-    refuse("the FlatBuffers verifier rejects the buffer (" + std::to_string(size) + " bytes): truncated or corrupt");
-  const fb::Model* root = fb::GetModel(data);
+  if (!fb::VerifySizePrefixedModelBuffer(verifier))
+    refuse("the FlatBuffers verifier rejects the buffer (" + std::to_string(size) + " bytes): corrupt");
+  const fb::Model* root = fb::GetSizePrefixedModel(data);
   if (root->schema_version() > kModelSchemaVersion || root->schema_version() == 0)
     refuse("schema version " + std::to_string(root->schema_version()) + " (this build reads 1)");
   if (!root->layout_id()) refuse("no layout id");

@@ -40,42 +40,38 @@ Metric::Metric(const Model& model) {
   normalisation_ = model.normalisation;
 
   // Normalisation folded to x' = (x - shift) * gain.
-  shift_orig_.resize(gpd::kDims);
-  gain_orig_.resize(gpd::kDims);
+  shift_ = AlignedFloats(gpd::kDims);
+  gain_ = AlignedFloats(gpd::kDims);
   for (int i = 0; i < gpd::kDims; ++i) {
     if (normalisation_ == Normalisation::kBlockBalanced) {
-      shift_orig_[i] = model.shift[i];
-      gain_orig_[i] = model.scale[i];
+      shift_.data()[i] = model.shift[i];
+      gain_.data()[i] = model.scale[i];
     } else {
-      shift_orig_[i] = model.min[i];
+      shift_.data()[i] = model.min[i];
       const double range = static_cast<double>(model.max[i]) - model.min[i];
       const double gain = range > 0.0 ? 1.0 / range : 0.0;
       // A range so small that its inverse overflows a float carries no usable information:
       // treated like max == min (the dimension is dropped) rather than producing Inf.
-      gain_orig_[i] = gain <= std::numeric_limits<float>::max() ? static_cast<float>(gain) : 0.0f;
+      gain_.data()[i] = gain <= std::numeric_limits<float>::max() ? static_cast<float>(gain) : 0.0f;
     }
   }
 
-  // Rows grouped by part set: a stable sort of the dimensions by their part bit set.
+  // Rows grouped by (static or kinetic block, part set): a stable sort of the dimensions by that key.
   const auto& masks = dimension_parts();
+  auto key = [&](int i) { return (i < gpd::kStaticDims ? 0 : 32) | masks[i]; };
   perm_.resize(gpd::kDims);
   for (int i = 0; i < gpd::kDims; ++i) perm_[i] = i;
-  std::stable_sort(perm_.begin(), perm_.end(), [&](int a, int b) { return masks[a] < masks[b]; });
+  std::stable_sort(perm_.begin(), perm_.end(), [&](int a, int b) { return key(a) < key(b); });
+  int prev = -1;
   for (int k = 0; k < gpd::kDims; ++k) {
-    const uint8_t m = masks[perm_[k]];
-    if (group_mask_.empty() || group_mask_.back() != m) {
-      group_mask_.push_back(m);
+    if (key(perm_[k]) != prev) {
+      prev = key(perm_[k]);
+      group_mask_.push_back(masks[perm_[k]]);
+      group_static_.push_back(perm_[k] < gpd::kStaticDims ? 1 : 0);
       group_begin_.push_back(k);
     }
   }
   group_begin_.push_back(gpd::kDims);
-
-  shift_ = AlignedFloats(gpd::kDims);
-  gain_ = AlignedFloats(gpd::kDims);
-  for (int k = 0; k < gpd::kDims; ++k) {
-    shift_.data()[k] = shift_orig_[perm_[k]];
-    gain_.data()[k] = gain_orig_[perm_[k]];
-  }
 
   // W: column-major kDims x rank in the model -> chunks of kChunk columns, row-major, rows permuted.
   w_ = AlignedFloats(static_cast<size_t>(gpd::kDims) * rank_);
@@ -93,6 +89,28 @@ Metric::Metric(const Model& model) {
   blocked_.out_stride = stride_;
   blocked_.groups = groups();
   blocked_.group_begin = group_begin_.data();
+  blocked_.perm = perm_.data();
+
+  // Part row q takes each group involving part q with share 1 / (number of parts it involves);
+  // the static row takes every static-block group whole.
+  for (int r = 0; r < kProjectionRows; ++r) {
+    combine_begin_.push_back(static_cast<int>(combine_group_.size()));
+    for (int g = 0; g < groups(); ++g) {
+      const uint8_t m = group_mask_[g];
+      if (r < kParts && (m & (1u << r))) {
+        combine_group_.push_back(g);
+        combine_weight_.push_back(1.0f / static_cast<float>(__builtin_popcount(m)));
+      } else if (r == kParts && group_static_[g]) {
+        combine_group_.push_back(g);
+        combine_weight_.push_back(1.0f);
+      }
+    }
+  }
+  combine_begin_.push_back(static_cast<int>(combine_group_.size()));
+  combine_.rows = kProjectionRows;
+  combine_.row_begin = combine_begin_.data();
+  combine_.group = combine_group_.data();
+  combine_.weight = combine_weight_.data();
 }
 
 Metric::Workspace Metric::make_workspace() const {
@@ -105,33 +123,21 @@ Metric::Workspace Metric::make_workspace() const {
 void Metric::normalise(const float* x, float* out) const {
   double sumsq = 0.0;
   for (int i = 0; i < gpd::kDims; ++i) {
-    out[i] = (x[i] - shift_orig_[i]) * gain_orig_[i];
+    out[i] = (x[i] - shift_.data()[i]) * gain_.data()[i];
     sumsq += static_cast<double>(out[i]) * out[i];
   }
   const float inv = sumsq > 0.0 ? static_cast<float>(1.0 / std::sqrt(sumsq)) : 0.0f;
   for (int i = 0; i < gpd::kDims; ++i) out[i] *= inv;
 }
 
-void Metric::finish(Workspace& ws, double sumsq, float* p) const {
-  // Unit length is applied here, on kParts x stride values instead of kDims inputs.
+void Metric::finish(const Workspace& ws, double sumsq, float* p) const {
+  // Unit length is applied here, on kProjectionRows x stride values instead of kDims inputs.
   const float inv = sumsq > 0.0 ? static_cast<float>(1.0 / std::sqrt(sumsq)) : 0.0f;
-  std::fill_n(p, static_cast<size_t>(kParts) * stride_, 0.0f);
-  for (int g = 0; g < groups(); ++g) {
-    const uint8_t m = group_mask_[g];
-    const int count = __builtin_popcount(m);
-    const float share = 1.0f / static_cast<float>(count);
-    const float* vg = ws.v.data() + static_cast<size_t>(g) * stride_;
-    for (int q = 0; q < kParts; ++q) {
-      if (!(m & (1u << q))) continue;
-      float* pq = p + static_cast<size_t>(q) * stride_;
-      for (int c = 0; c < stride_; ++c) pq[c] += share * vg[c];
-    }
-  }
-  for (int i = 0; i < kParts * stride_; ++i) p[i] *= inv;
+  detail::combine(combine_, ws.v.data(), stride_, inv, p);
 }
 
 void Metric::part_projections(const float* x, Workspace& ws, float* p) const {
-  const double sumsq = detail::gather_normalise(x, perm_.data(), shift_.data(), gain_.data(), gpd::kDims, ws.xp.data());
+  const double sumsq = detail::normalise(x, shift_.data(), gain_.data(), gpd::kDims, ws.xp.data());
   detail::project_groups(blocked_, ws.xp.data(), ws.v.data());
   finish(ws, sumsq, p);
 }
@@ -144,7 +150,7 @@ void Metric::part_projections_batch(const float* const* x, Workspace* const* ws,
     float* v[detail::kBatch];
     for (int f = 0; f < m; ++f) {
       Workspace& w = *ws[f0 + f];
-      sumsq[f] = detail::gather_normalise(x[f0 + f], perm_.data(), shift_.data(), gain_.data(), gpd::kDims, w.xp.data());
+      sumsq[f] = detail::normalise(x[f0 + f], shift_.data(), gain_.data(), gpd::kDims, w.xp.data());
       xp[f] = w.xp.data();
       v[f] = w.v.data();
     }
@@ -154,7 +160,7 @@ void Metric::part_projections_batch(const float* const* x, Workspace* const* ws,
 }
 
 void Metric::project(const float* x, Workspace& ws, float* u) const {
-  const double sumsq = detail::gather_normalise(x, perm_.data(), shift_.data(), gain_.data(), gpd::kDims, ws.xp.data());
+  const double sumsq = detail::normalise(x, shift_.data(), gain_.data(), gpd::kDims, ws.xp.data());
   detail::project_groups(blocked_, ws.xp.data(), ws.v.data());
   const float inv = sumsq > 0.0 ? static_cast<float>(1.0 / std::sqrt(sumsq)) : 0.0f;
   for (int c = 0; c < rank_; ++c) {
@@ -168,7 +174,37 @@ void Metric::project(const float* x, Workspace& ws, float* u) const {
 // Reference
 
 namespace {
-// Sum of the part rows: W^T y'' (the same summation order as the scorer's, for exact zeros).
+// a . b and |a - b|^2 over n floats (n a multiple of 8: projection rows are padded with zeros),
+// in double, in eight independent lanes: one serial chain would cost n x the add latency.
+double dot(const float* a, const float* b, int n) {
+  double acc[8] = {};
+  for (int c = 0; c < n; c += 8)
+    for (int l = 0; l < 8; ++l) acc[l] += static_cast<double>(a[c + l]) * b[c + l];
+  return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+}
+double dist2(const float* a, const float* b, int n) {
+  double acc[8] = {};
+  for (int c = 0; c < n; c += 8)
+    for (int l = 0; l < 8; ++l) {
+      const double e = static_cast<double>(a[c + l]) - b[c + l];
+      acc[l] += e * e;
+    }
+  return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+}
+
+// |a - b|^2 in float (eight lanes): the alignment only ranks candidates, and float halves the
+// cost of comparing a frame with every teacher frame in the window.
+float dist2f(const float* a, const float* b, int n) {
+  float acc[8] = {};
+  for (int c = 0; c < n; c += 8)
+    for (int l = 0; l < 8; ++l) {
+      const float e = a[c + l] - b[c + l];
+      acc[l] += e * e;
+    }
+  return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+}
+
+// Sum of the part rows (u = W^T e from the per-part e-projections).
 void sum_parts(const float* p, int stride, float* u) {
   for (int c = 0; c < stride; ++c) {
     float s = 0.0f;
@@ -199,13 +235,17 @@ void Reference::build(const float* features) {
     if (!std::isfinite(features[i]))
       throw Error(ErrorKind::kInvalidArgument, "reference: NaN/Inf in the features of frame " +
                                                    std::to_string(i / gpd::kDims));
-  parts_ = AlignedFloats(static_cast<size_t>(frames_) * kParts * stride_);
-  sum_ = AlignedFloats(static_cast<size_t>(frames_) * stride_);
+  rows_ = AlignedFloats(static_cast<size_t>(frames_) * kProjectionRows * stride_);
   Metric::Workspace ws = metric_->make_workspace();
-  for (int j = 0; j < frames_; ++j) {
-    float* p = parts_.data() + static_cast<size_t>(j) * kParts * stride_;
-    metric_->part_projections(features + static_cast<size_t>(j) * gpd::kDims, ws, p);
-    sum_parts(p, stride_, sum_.data() + static_cast<size_t>(j) * stride_);
+  for (int j = 0; j < frames_; ++j)
+    metric_->part_projections(features + static_cast<size_t>(j) * gpd::kDims, ws,
+                              rows_.data() + static_cast<size_t>(j) * kProjectionRows * stride_);
+  if (frames_ > 1) {
+    std::vector<double> steps(static_cast<size_t>(frames_ - 1));
+    for (int j = 0; j + 1 < frames_; ++j)
+      steps[static_cast<size_t>(j)] = std::sqrt(dist2(alignment_projection(j + 1), alignment_projection(j), stride_));
+    std::nth_element(steps.begin(), steps.begin() + static_cast<long>(steps.size() / 2), steps.end());
+    step_cost_ = steps[steps.size() / 2];
   }
 }
 
@@ -230,11 +270,11 @@ Reference Reference::from_joints(std::shared_ptr<const Metric> metric, const flo
 Scorer::Scorer(std::shared_ptr<const Reference> reference, AlignmentOptions options)
     : reference_(std::move(reference)), options_(options) {
   if (!reference_) throw Error(ErrorKind::kInvalidArgument, "scorer: null reference");
-  if (!(options_.window > 0.0) || !(options_.max_rate > 0.0))
-    throw Error(ErrorKind::kInvalidArgument, "scorer: alignment window and max rate must be > 0");
+  if (!(options_.window > 0.0) || !(options_.max_rate > 0.0) || !(options_.step_penalty >= 0.0))
+    throw Error(ErrorKind::kInvalidArgument, "scorer: alignment window and max rate must be > 0, step penalty >= 0");
   const Metric& m = reference_->metric();
   ws_ = m.make_workspace();
-  p_ = AlignedFloats(static_cast<size_t>(kParts) * m.stride());
+  p_ = AlignedFloats(static_cast<size_t>(kProjectionRows) * m.stride());
   u_ = AlignedFloats(static_cast<size_t>(m.stride()));
   if (reference_->kind() == ReferenceKind::kClip) {
     cost_prev_.assign(static_cast<size_t>(reference_->frames()), 0.0);
@@ -271,20 +311,12 @@ void Scorer::score_batch(Scorer* const* scorers, const float* const* x, const do
   }
 }
 
-int Scorer::align(const float* u, double t) {
+int Scorer::align(const float* s, double t) {
   const Reference& ref = *reference_;
   const int last = ref.frames() - 1;
-  const int rank = ref.metric().rank();
+  const int stride = ref.metric().stride();
   const int span = std::max(1, static_cast<int>(std::ceil(options_.window / ref.frame_time())));
-  auto cost = [&](int j) {
-    const float* y = ref.projection(j);
-    double s = 0.0;
-    for (int c = 0; c < rank; ++c) {
-      const double e = static_cast<double>(u[c]) - y[c];
-      s += e * e;
-    }
-    return std::sqrt(s);
-  };
+  auto cost = [&](int j) { return std::sqrt(static_cast<double>(dist2f(s, ref.alignment_projection(j), stride))); };
   constexpr double kInf = std::numeric_limits<double>::infinity();
   if (hi_ < 0) {  // first frame after construction or reset: open begin within the window
     lo_ = 0;
@@ -292,8 +324,9 @@ int Scorer::align(const float* u, double t) {
     for (int j = lo_; j <= hi_; ++j) cost_cur_[j] = cost(j);
   } else {
     const double dt = t - last_time_;
-    const double steps = options_.max_rate * (dt > 0.0 ? dt : 0.0) / ref.frame_time();
-    const int k_max = std::max(1, static_cast<int>(std::ceil(steps)));
+    const double advance = (dt > 0.0 ? dt : 0.0) / ref.frame_time();  // expected teacher frames
+    const int k_max = std::max(1, static_cast<int>(std::ceil(options_.max_rate * advance)));
+    const double penalty = options_.step_penalty * ref.step_cost();
     const int plo = lo_, phi = hi_;
     std::swap(cost_prev_, cost_cur_);
     lo_ = match_;
@@ -303,7 +336,7 @@ int Scorer::align(const float* u, double t) {
       for (int k = 0; k <= k_max; ++k) {
         const int i = j - k;
         if (i < plo) break;
-        if (i <= phi) best = std::min(best, cost_prev_[i]);
+        if (i <= phi) best = std::min(best, cost_prev_[i] + penalty * std::max(0.0, k - advance));
       }
       cost_cur_[j] = best == kInf ? kInf : best + cost(j);
     }
@@ -324,21 +357,14 @@ void Scorer::finish(double t) {
   const Metric& m = ref.metric();
   const int stride = m.stride();
   float* p = p_.data();
-  sum_parts(p, stride, u_.data());
-  const int j = ref.kind() == ReferenceKind::kClip ? align(u_.data(), t) : 0;
+  const int j = ref.kind() == ReferenceKind::kClip ? align(p + static_cast<size_t>(kParts) * stride, t) : 0;
   // e-projections per part: D_p = P_p(x) - P_p(y_j); u = sum_p D_p; part p = u . D_p.
   const float* py = ref.part_projection(j);
   for (int i = 0; i < kParts * stride; ++i) p[i] -= py[i];
   float* u = u_.data();
   sum_parts(p, stride, u);
-  double d2 = 0.0;
-  for (int c = 0; c < stride; ++c) d2 += static_cast<double>(u[c]) * u[c];
-  for (int q = 0; q < kParts; ++q) {
-    const float* pq = p + static_cast<size_t>(q) * stride;
-    double s = 0.0;
-    for (int c = 0; c < stride; ++c) s += static_cast<double>(u[c]) * pq[c];
-    record_.parts[q] = static_cast<float>(s);
-  }
+  const double d2 = dot(u, u, stride);
+  for (int q = 0; q < kParts; ++q) record_.parts[q] = static_cast<float>(dot(u, p + static_cast<size_t>(q) * stride, stride));
   const double d = std::sqrt(d2);
   record_.time = t;
   record_.frame = count_++;

@@ -1,0 +1,225 @@
+// C shims for models and scoring (kata.h section "Models and scoring"): a kata_model holds the
+// compiled metric (shared, immutable); a stream's StreamScoring holds its reference and Scorer,
+// built when the reference is set so kata_stream_score never allocates.
+#include <algorithm>
+#include <cstring>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "capi/capi_internal.hpp"
+#include "metric/model.hpp"
+#include "metric/scorer.hpp"
+#include "stream/clip_features.hpp"
+
+struct kata_model_s {
+  std::shared_ptr<const kata::metric::Metric> metric;
+  kata::metric::TrainingInfo info;
+  std::string layout;
+};
+
+namespace kata::capi {
+
+struct StreamScoring {
+  explicit StreamScoring(std::shared_ptr<const metric::Reference> ref) : scorer(std::move(ref)) {}
+  metric::Scorer scorer;
+  int64_t scored = 0;  // the stream's emitted_count() when the newest record was made
+  kata_score_record record{};
+};
+
+}  // namespace kata::capi
+
+namespace {
+
+using kata::capi::StreamScoring;
+
+void destroy_scoring(StreamScoring* s) { delete s; }
+
+kata_status make_model(kata::metric::Model model, kata_model* out) {
+  auto m = std::make_unique<kata_model_s>();
+  m->metric = std::make_shared<const kata::metric::Metric>(model);
+  m->layout = model.layout_id;
+  m->info = std::move(model.info);
+  *out = m.release();
+  return KATA_OK;
+}
+
+// Stream-level calls: errors go to the stream's message buffer.
+template <class Body>
+kata_status guarded_stream(kata_stream stream, Body&& body) noexcept {
+  return kata::capi::guarded([stream](const char* m) { stream->set_error(m); }, std::forward<Body>(body));
+}
+
+kata_status refuse(kata_stream stream, kata_status status, const char* message) {
+  stream->set_error(message);
+  return status;
+}
+
+// Replaces the stream's reference (the old one is released only once the new one is built).
+kata_status attach(kata_stream stream, std::shared_ptr<const kata::metric::Reference> ref) {
+  stream->scoring = kata::capi::AttachedPtr<StreamScoring>(new StreamScoring(std::move(ref)), &destroy_scoring);
+  return KATA_OK;
+}
+
+kata_status check_pair(kata_stream stream, kata_model model) {
+  if (!model) return refuse(stream, KATA_E_NULL_POINTER, "set reference: model is NULL");
+  if (stream->stream.config().stencil != model->metric->stencil())
+    return refuse(stream, KATA_E_INVALID_ARGUMENT,
+                  "set reference: the stream's stencil differs from the one the model was trained with "
+                  "(kata_model_stencil); open the stream with the model's stencil");
+  return KATA_OK;
+}
+
+}  // namespace
+
+extern "C" {
+
+KATA_API kata_status kata_model_load(kata_context context, const char* path, kata_model* out) {
+  if (!context || !path || !out) {
+    kata::capi::set_context_error("kata_model_load: context, path and out must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  *out = nullptr;
+  return kata::capi::guarded_context([&] { return make_model(kata::metric::load_model(path), out); });
+}
+
+KATA_API kata_status kata_model_load_memory(kata_context context, const void* data, size_t size, kata_model* out) {
+  if (!context || !data || !out) {
+    kata::capi::set_context_error("kata_model_load_memory: context, data and out must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  *out = nullptr;
+  return kata::capi::guarded_context(
+      [&] { return make_model(kata::metric::parse_model(static_cast<const uint8_t*>(data), size), out); });
+}
+
+KATA_API void kata_model_free(kata_model model) { delete model; }
+
+KATA_API uint32_t kata_model_rank(kata_model model) {
+  return model ? static_cast<uint32_t>(model->metric->rank()) : 0u;
+}
+
+KATA_API double kata_model_delta_star(kata_model model) { return model ? model->metric->delta_star() : 0.0; }
+
+KATA_API kata_stencil kata_model_stencil(kata_model model) {
+  return model && model->metric->stencil() == kata::gpd::Stencil::kCentral ? KATA_STENCIL_CENTRAL
+                                                                            : KATA_STENCIL_BACKWARD;
+}
+
+KATA_API const char* kata_model_metadata(kata_model model, const char* key) {
+  if (!model || !key) return nullptr;
+  if (std::strcmp(key, "layout") == 0) return model->layout.c_str();
+  if (std::strcmp(key, "date") == 0) return model->info.date.c_str();
+  if (std::strcmp(key, "data") == 0) return model->info.data.c_str();
+  if (std::strcmp(key, "parameters") == 0) return model->info.parameters.c_str();
+  return nullptr;
+}
+
+KATA_API kata_status kata_stream_set_reference_pose(kata_stream stream, kata_model model, const float* features,
+                                                    size_t count) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (!features) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_set_reference_pose: features is NULL");
+  if (count != static_cast<size_t>(KATA_GPD_DIMS))
+    return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_set_reference_pose: count must be KATA_GPD_DIMS");
+  if (kata_status s = check_pair(stream, model); s != KATA_OK) return s;
+  return guarded_stream(stream, [&] {
+    return attach(stream, std::make_shared<const kata::metric::Reference>(model->metric, features));
+  });
+}
+
+KATA_API kata_status kata_stream_set_reference_joints(kata_stream stream, kata_model model, const float* joints,
+                                                      size_t count, double body_height) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (!joints) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_set_reference_joints: joints is NULL");
+  if (count != static_cast<size_t>(3 * KATA_GPD_JOINTS))
+    return refuse(stream, KATA_E_INVALID_ARGUMENT,
+                  "kata_stream_set_reference_joints: count must be 3 x KATA_GPD_JOINTS floats");
+  if (kata_status s = check_pair(stream, model); s != KATA_OK) return s;
+  return guarded_stream(stream, [&] {
+    return attach(stream,
+                  std::make_shared<const kata::metric::Reference>(
+                      kata::metric::Reference::from_joints(model->metric, joints, body_height)));
+  });
+}
+
+KATA_API kata_status kata_stream_set_reference_clip(kata_stream stream, kata_model model, const float* features,
+                                                    uint32_t frames, double frame_time) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (!features) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_set_reference_clip: features is NULL");
+  if (frames == 0 || frames > (1u << 24))
+    return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_set_reference_clip: frames must be in 1..2^24");
+  if (kata_status s = check_pair(stream, model); s != KATA_OK) return s;
+  return guarded_stream(stream, [&] {
+    return attach(stream,
+                  std::make_shared<const kata::metric::Reference>(model->metric, features, static_cast<int>(frames),
+                                                                  frame_time));
+  });
+}
+
+KATA_API kata_status kata_stream_set_reference_bvh(kata_stream stream, kata_model model, kata_clip clip,
+                                                   const char* preset, uint32_t first_frame, int32_t pose_frame) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (!clip || !preset) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_set_reference_bvh: clip and preset must not be NULL");
+  if (kata_status s = check_pair(stream, model); s != KATA_OK) return s;
+  return guarded_stream(stream, [&] {
+    const kata::BvhClip& c = clip->clip;
+    if (first_frame >= static_cast<uint32_t>(c.frame_count()))
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_stream_set_reference_bvh: first_frame is past the clip's end");
+    if (pose_frame >= 0 && (static_cast<uint32_t>(pose_frame) < first_frame || pose_frame >= c.frame_count()))
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        "kata_stream_set_reference_bvh: pose_frame must be -1 or a clip frame >= first_frame");
+    const kata::GpdMap map = kata::resolve_gpd_map(c.skeleton, preset, "");
+    const std::vector<float> f = kata::clip_features(c, map, model->metric->stencil(), static_cast<int>(first_frame));
+    std::shared_ptr<const kata::metric::Reference> ref;
+    if (pose_frame >= 0)
+      ref = std::make_shared<const kata::metric::Reference>(
+          model->metric, f.data() + static_cast<size_t>(static_cast<uint32_t>(pose_frame) - first_frame) * KATA_GPD_DIMS);
+    else
+      ref = std::make_shared<const kata::metric::Reference>(model->metric, f.data(),
+                                                            static_cast<int>(f.size() / KATA_GPD_DIMS), c.frame_time);
+    return attach(stream, std::move(ref));
+  });
+}
+
+KATA_API kata_status kata_stream_clear_reference(kata_stream stream) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  stream->scoring.reset();
+  return KATA_OK;
+}
+
+KATA_API kata_status kata_stream_restart_reference(kata_stream stream) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (!stream->scoring) return refuse(stream, KATA_E_STATE, "kata_stream_restart_reference: no reference is set");
+  stream->scoring->scorer.reset();
+  return KATA_OK;
+}
+
+KATA_API kata_status kata_stream_score(kata_stream stream, kata_score_record* out) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (!out) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_score: out is NULL");
+  if (out->struct_size < sizeof(uint32_t))
+    return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_score: out->struct_size is not set");
+  StreamScoring* s = stream->scoring.get();
+  if (!s) return refuse(stream, KATA_E_STATE, "kata_stream_score: no reference is set on this stream");
+  const kata::Stream& st = stream->stream;
+  if (!st.features()) return KATA_NO_DATA;
+  if (st.emitted_count() != s->scored) {  // a new vector since the last record: score it once
+    const kata::metric::ScoreRecord& r = s->scorer.score(st.features(), st.feature_time());
+    kata_score_record& k = s->record;
+    k.struct_size = sizeof k;
+    k.matched_reference_frame = r.matched;
+    k.frame_index = st.feature_frame();
+    k.timestamp = r.time;
+    k.distance = r.distance;
+    k.score = r.score;
+    for (int q = 0; q < KATA_PART_COUNT; ++q) k.parts[q] = r.parts[q];
+    s->scored = st.emitted_count();
+  }
+  // Copy only what the caller's (possibly older, smaller) struct holds.
+  const uint32_t caller_size = out->struct_size;
+  std::memcpy(out, &s->record, std::min<size_t>(caller_size, sizeof s->record));
+  out->struct_size = caller_size;
+  return KATA_OK;
+}
+
+}  // extern "C"

@@ -1,0 +1,105 @@
+// kata score: scores every frame of a student clip against a teacher (one pose, or the whole clip
+// followed with online alignment) with a .kata model; one CSV row per student frame.
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "command.hpp"
+#include "common/error.hpp"
+#include "io/bvh.hpp"
+#include "metric/model.hpp"
+#include "metric/parts.hpp"
+#include "metric/scorer.hpp"
+#include "stream/clip_features.hpp"
+
+namespace {
+
+struct ScoreArgs {
+  std::string model, teacher, student, preset, name_map, out;
+  int teacher_frame = -1;  // -1: the whole teacher clip is the reference
+  int first = 0;
+  double window = 0.5;
+};
+
+void run_score(const ScoreArgs& a) {
+  using namespace kata;
+  const auto metric = std::make_shared<const metric::Metric>(metric::load_model(a.model));
+  // Features must use the stencil the model was trained with.
+  const BvhClip teacher = load_bvh(a.teacher);
+  const BvhClip student = load_bvh(a.student);
+  const std::vector<float> tf = clip_features(teacher, resolve_gpd_map(teacher.skeleton, a.preset, a.name_map),
+                                              metric->stencil(), a.first);
+  const std::vector<float> sf = clip_features(student, resolve_gpd_map(student.skeleton, a.preset, a.name_map),
+                                              metric->stencil(), a.first);
+  const int teacher_frames = static_cast<int>(tf.size() / gpd::kDims);
+  const int student_frames = static_cast<int>(sf.size() / gpd::kDims);
+  if (teacher_frames < 1 || student_frames < 1) throw Error(ErrorKind::kInvalidArgument, "no frames to score");
+
+  std::shared_ptr<const metric::Reference> ref;
+  if (a.teacher_frame >= 0) {
+    if (a.teacher_frame < a.first || a.teacher_frame - a.first >= teacher_frames)
+      throw Error(ErrorKind::kInvalidArgument, "--teacher-frame " + std::to_string(a.teacher_frame) + " is outside " +
+                                                   a.teacher + " (frames " + std::to_string(a.first) + ".." +
+                                                   std::to_string(a.first + teacher_frames - 1) + ")");
+    ref = std::make_shared<const metric::Reference>(metric, tf.data() + static_cast<size_t>(a.teacher_frame - a.first) * gpd::kDims);
+  } else {
+    ref = std::make_shared<const metric::Reference>(metric, tf.data(), teacher_frames, teacher.frame_time);
+  }
+  metric::AlignmentOptions options;
+  options.window = a.window;
+  metric::Scorer scorer(ref, options);
+
+  std::FILE* out = std::fopen(a.out.c_str(), "w");
+  if (!out) throw Error(ErrorKind::kIo, a.out + ": cannot open for writing");
+  std::fprintf(out, "frame,time,distance,score");
+  for (int q = 0; q < metric::kParts; ++q) std::fprintf(out, ",%s", metric::part_name(q));
+  std::fprintf(out, ",matched_teacher_frame\n");
+  double score_sum = 0.0, part_sum[metric::kParts] = {};
+  for (int f = 0; f < student_frames; ++f) {
+    const double t = f * student.frame_time;
+    const metric::ScoreRecord& r = scorer.score(sf.data() + static_cast<size_t>(f) * gpd::kDims, t);
+    const int matched = a.teacher_frame >= 0 ? a.teacher_frame : r.matched + a.first;
+    std::fprintf(out, "%d,%.6f,%.7g,%.4f", f + a.first, t, r.distance, r.score);
+    for (float p : r.parts) std::fprintf(out, ",%.7g", p);
+    std::fprintf(out, ",%d\n", matched);
+    score_sum += r.score;
+    for (int q = 0; q < metric::kParts; ++q) part_sum[q] += r.parts[q];
+  }
+  const bool ok = std::fflush(out) == 0 && !std::ferror(out);
+  std::fclose(out);
+  if (!ok) throw Error(ErrorKind::kIo, a.out + ": write failed");
+
+  int worst = 0;
+  for (int q = 1; q < metric::kParts; ++q)
+    if (part_sum[q] > part_sum[worst]) worst = q;
+  std::printf("%s vs %s: %d frames scored against %s, mean score %.1f, most to fix: %s -> %s\n", a.student.c_str(),
+              a.teacher.c_str(), student_frames,
+              a.teacher_frame >= 0 ? ("teacher frame " + std::to_string(a.teacher_frame)).c_str() : "the teacher clip (aligned)",
+              score_sum / student_frames, metric::part_name(worst), a.out.c_str());
+}
+
+void setup(CLI::App& app) {
+  auto args = std::make_shared<ScoreArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "score", "score each student frame against a teacher pose or clip: CSV of frame, time (s), distance, score "
+               "(0-100), the five parts of distance^2, matched teacher frame");
+  cmd->add_option("--model", args->model, ".kata model")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--teacher", args->teacher, "teacher BVH clip")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--teacher-frame", args->teacher_frame,
+                  "score against this single teacher frame (clip frame index) instead of following the whole clip");
+  cmd->add_option("--student", args->student, "student BVH clip")->required()->check(CLI::ExistingFile);
+  auto* preset = cmd->add_option("--preset", args->preset, "skeleton preset for both clips (cmu, ...)");
+  cmd->add_option("--name-map", args->name_map, "name-map file for both clips instead of a preset")
+      ->excludes(preset)
+      ->check(CLI::ExistingFile);
+  cmd->add_option("--first-frame", args->first, "first frame of each clip (1 skips the CMU converter's T-pose); default 0");
+  cmd->add_option("--window", args->window, "alignment window ahead of the last match, teacher seconds (default 0.5)")
+      ->check(CLI::PositiveNumber);
+  cmd->add_option("--out", args->out, "output CSV")->required();
+  cmd->callback([args] { run_score(*args); });
+}
+
+const kata::cli::RegisterCommand reg(setup);
+
+}  // namespace

@@ -1,0 +1,161 @@
+// The C ABI's "Models and scoring" section, driven through kata.h (libkata.so); the model files
+// are written with the C++ core.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "alloc_counter.hpp"
+#include "fixtures.hpp"
+#include "kata/kata.h"
+#include "metric/model.hpp"
+
+namespace kata {
+namespace {
+
+struct CApi : ::testing::Test {
+  void SetUp() override {
+    ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+    path = ::testing::TempDir() + "/capi_model.kata";
+    metric::save_model(path, test::test_model());
+    ASSERT_EQ(kata_clip_load_bvh(ctx, test::cmu("02_01.bvh").c_str(), &clip), KATA_OK);
+    ASSERT_EQ(kata_clip_skeleton(clip, &skel), KATA_OK);
+  }
+  void TearDown() override {
+    kata_skeleton_destroy(skel);
+    kata_clip_destroy(clip);
+    kata_context_destroy(ctx);
+    std::remove(path.c_str());
+  }
+  kata_stream open(kata_stencil stencil = KATA_STENCIL_BACKWARD) {
+    kata_stream_desc d;
+    kata_stream_desc_init(&d);
+    d.preset = "cmu";
+    d.stencil = stencil;
+    kata_stream s = nullptr;
+    EXPECT_EQ(kata_stream_open(ctx, skel, &d, &s), KATA_OK) << kata_context_last_error(ctx);
+    return s;
+  }
+  std::vector<float> positions(uint32_t frame) {
+    std::vector<float> p(3 * kata_skeleton_joint_count(skel));
+    EXPECT_EQ(kata_clip_positions(clip, frame, p.data(), p.size()), KATA_OK);
+    return p;
+  }
+  kata_context ctx = nullptr;
+  kata_clip clip = nullptr;
+  kata_skeleton skel = nullptr;
+  std::string path;
+};
+
+TEST_F(CApi, LoadsAModelAndReportsIt) {
+  kata_model m = nullptr;
+  ASSERT_EQ(kata_model_load(ctx, path.c_str(), &m), KATA_OK) << kata_context_last_error(ctx);
+  EXPECT_EQ(kata_model_rank(m), 50u);
+  EXPECT_DOUBLE_EQ(kata_model_delta_star(m), test::test_model().delta_star);
+  EXPECT_EQ(kata_model_stencil(m), KATA_STENCIL_BACKWARD);
+  EXPECT_STREQ(kata_model_metadata(m, "layout"), "gpd-v1");
+  EXPECT_NE(std::string(kata_model_metadata(m, "data")).find("NOT LEARNED"), std::string::npos);
+  EXPECT_EQ(kata_model_metadata(m, "nonsense"), nullptr);
+  kata_model_free(m);
+  kata_model_free(nullptr);
+  EXPECT_EQ(kata_model_rank(nullptr), 0u);
+}
+
+TEST_F(CApi, RefusesBadModelsWithTheirReason) {
+  kata_model m = reinterpret_cast<kata_model>(1);
+  EXPECT_EQ(kata_model_load(ctx, "/nonexistent.kata", &m), KATA_E_IO);
+  EXPECT_EQ(m, nullptr);
+  std::vector<uint8_t> buf = metric::serialize_model(test::test_model(2, 1));
+  buf.resize(buf.size() - 10);
+  EXPECT_EQ(kata_model_load_memory(ctx, buf.data(), buf.size(), &m), KATA_E_MODEL);
+  EXPECT_NE(std::string(kata_context_last_error(ctx)).find("truncated"), std::string::npos) << kata_context_last_error(ctx);
+  EXPECT_EQ(m, nullptr);
+  EXPECT_EQ(kata_model_load_memory(ctx, nullptr, 10, &m), KATA_E_NULL_POINTER);
+}
+
+TEST_F(CApi, LoadsFromAnUnalignedBuffer) {
+  const std::vector<uint8_t> buf = metric::serialize_model(test::test_model(2, 1));
+  std::vector<uint8_t> shifted(buf.size() + 3);
+  std::copy(buf.begin(), buf.end(), shifted.begin() + 3);
+  kata_model m = nullptr;
+  ASSERT_EQ(kata_model_load_memory(ctx, shifted.data() + 3, buf.size(), &m), KATA_OK) << kata_context_last_error(ctx);
+  EXPECT_EQ(kata_model_rank(m), 2u);
+  kata_model_free(m);
+}
+
+// The teacher clip as reference and the same clip pushed live: every frame matches its own
+// teacher frame with distance 0, and reading scores allocates nothing.
+TEST_F(CApi, FollowsAClipReferenceFrameByFrame) {
+  kata_model m = nullptr;
+  ASSERT_EQ(kata_model_load(ctx, path.c_str(), &m), KATA_OK);
+  kata_stream s = open();
+  kata_score_record r{};
+  r.struct_size = sizeof r;
+  EXPECT_EQ(kata_stream_score(s, &r), KATA_E_STATE);
+  ASSERT_EQ(kata_stream_set_reference_bvh(s, m, clip, "cmu", 1, -1), KATA_OK) << kata_stream_last_error(s);
+  kata_model_free(m);  // the stream keeps what it needs
+  EXPECT_EQ(kata_stream_score(s, &r), KATA_NO_DATA);
+  const double dt = kata_clip_frame_time(clip);
+  const uint32_t frames = kata_clip_frame_count(clip);
+  std::vector<std::vector<float>> pos;
+  for (uint32_t f = 1; f < frames; ++f) pos.push_back(positions(f));
+  test::arm_alloc_counter();
+  for (uint32_t f = 1; f < frames; ++f) {
+    ASSERT_EQ(kata_stream_push(s, (f - 1) * dt, pos[f - 1].data(), kata_skeleton_joint_count(skel)), KATA_OK);
+    ASSERT_EQ(kata_stream_score(s, &r), KATA_OK) << kata_stream_last_error(s);
+    ASSERT_EQ(r.frame_index, static_cast<int64_t>(f - 1));
+    ASSERT_EQ(r.matched_reference_frame, static_cast<int32_t>(f - 1));
+    ASSERT_EQ(r.distance, 0.0f) << f;
+    ASSERT_EQ(r.score, 100.0f);
+  }
+  EXPECT_EQ(test::disarm_alloc_counter(), 0);
+  EXPECT_EQ(kata_stream_restart_reference(s), KATA_OK);
+  EXPECT_EQ(kata_stream_clear_reference(s), KATA_OK);
+  EXPECT_EQ(kata_stream_score(s, &r), KATA_E_STATE);
+  kata_stream_close(s);
+}
+
+TEST_F(CApi, PoseReferenceFromFeaturesScoresOtherFramesLower) {
+  kata_model m = nullptr;
+  ASSERT_EQ(kata_model_load(ctx, path.c_str(), &m), KATA_OK);
+  kata_stream teacher = open(), student = open();
+  const double dt = kata_clip_frame_time(clip);
+  std::vector<float> feats(KATA_GPD_DIMS);
+  for (uint32_t f = 1; f <= 60; ++f) ASSERT_EQ(kata_stream_push(teacher, f * dt, positions(f).data(), kata_skeleton_joint_count(skel)), KATA_OK);
+  ASSERT_EQ(kata_stream_features(teacher, feats.data(), feats.size(), nullptr, nullptr), KATA_OK);
+  EXPECT_EQ(kata_stream_set_reference_pose(student, m, feats.data(), 100), KATA_E_INVALID_ARGUMENT);
+  ASSERT_EQ(kata_stream_set_reference_pose(student, m, feats.data(), feats.size()), KATA_OK) << kata_stream_last_error(student);
+  kata_score_record r{};
+  r.struct_size = sizeof r;
+  for (uint32_t f = 1; f <= 60; ++f) {
+    ASSERT_EQ(kata_stream_push(student, f * dt, positions(f).data(), kata_skeleton_joint_count(skel)), KATA_OK);
+    ASSERT_EQ(kata_stream_score(student, &r), KATA_OK);
+    float sum = 0.0f;
+    for (float p : r.parts) sum += p;
+    EXPECT_NEAR(sum, r.distance * r.distance, 1e-5f * (1e-6f + r.distance * r.distance));
+    if (f < 60) {
+      EXPECT_LT(r.score, 100.0f);
+    }
+  }
+  EXPECT_EQ(r.distance, 0.0f);  // frame 60 is the reference pose itself
+  EXPECT_EQ(r.matched_reference_frame, 0);
+  kata_stream_close(teacher);
+  kata_stream_close(student);
+  kata_model_free(m);
+}
+
+TEST_F(CApi, RefusesAStreamWithAnotherStencil) {
+  kata_model m = nullptr;
+  ASSERT_EQ(kata_model_load(ctx, path.c_str(), &m), KATA_OK);
+  kata_stream s = open(KATA_STENCIL_CENTRAL);
+  std::vector<float> feats(KATA_GPD_DIMS, 0.5f);
+  EXPECT_EQ(kata_stream_set_reference_pose(s, m, feats.data(), feats.size()), KATA_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(kata_stream_last_error(s)).find("stencil"), std::string::npos);
+  kata_stream_close(s);
+  kata_model_free(m);
+}
+
+}  // namespace
+}  // namespace kata
