@@ -44,7 +44,7 @@ demo() {
     "$kata" model-info models/default.kata
     echo "== scoring a student (subject 7 walking) against a teacher (subject 2 walking)"
     "$kata" score --model models/default.kata --teacher data/cmu/02_01.bvh --student data/cmu/07_01.bvh \
-      --preset cmu --out build/scores.csv
+      --preset cmu --first-frame 1 --out build/scores.csv
     head -n 5 build/scores.csv
   fi
   if "$kata" retarget --help >/dev/null 2>&1; then
