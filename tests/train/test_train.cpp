@@ -234,3 +234,220 @@ TEST(Linalg, PartialEigenMatchesFullSolver) {
   EXPECT_LE((v.transpose() * v - Eigen::MatrixXd::Identity(6, 6)).norm(), 1e-10);
   EXPECT_LE((m * v - v * vals.asDiagonal()).norm(), 1e-8);
 }
+
+// ---------------------------------------------------------------------------------------------
+// Pipeline pieces on synthetic and real data.
+
+#include <cstdio>
+#include <fstream>
+#include <set>
+
+#include "train/clips.hpp"
+#include "train/evaluate.hpp"
+#include "train/pairs.hpp"
+#include "train/pipeline.hpp"
+#include "train/rdsr.hpp"
+
+namespace {
+
+const std::string kData = std::string(KATA_DATA_DIR) + "/cmu";
+const std::vector<std::string> kClips = {"02_01.bvh", "02_02.bvh", "05_02.bvh", "05_03.bvh", "07_01.bvh", "09_01.bvh"};
+
+}  // namespace
+
+TEST(Rdsr, RecoversAPlantedMetric) {
+  // Positive pairs differ only along a known k-dimensional subspace U (x_l = x_k + U z, z large):
+  // a metric that calls them similar must ignore U, so span(W) should be U's complement.
+  // Measure: |U^T W|_F^2 / k, the mean squared cosine of the principal angles between span(U)
+  // and span(W): 0 when W is orthogonal to U, r/d = 0.75 on average for a random W.
+  const int d = 16, k = 4, r = d - k, n = 300, p = 80;
+  std::mt19937 rng(42);
+  Eigen::MatrixXd u = random_orthonormal(d, k, rng);
+  Eigen::MatrixXd x = random_matrix(d, n, 1);
+  Eigen::MatrixXd pa = random_matrix(d, p, 2);
+  Eigen::MatrixXd pb = pa + u * (3.0 * random_matrix(k, p, 3));
+  RdsrOptions opt;
+  opt.rank = r;
+  opt.alpha = 10.0;  // relative to Tr(X S_L X^T) / Tr(S_W)
+  opt.lasso.gamma = 0.5;
+  const RdsrResult res = train_rdsr(x, pa, pb, opt);
+  EXPECT_LE((res.w.transpose() * res.w - Eigen::MatrixXd::Identity(r, r)).norm(), 1e-10);
+  const double overlap = (u.transpose() * res.w).squaredNorm() / k;
+  EXPECT_LT(overlap, 0.01) << "mean squared cosine between span(U) and span(W)";
+  EXPECT_LE(res.coding.max_kkt, 1e-6);
+  // Supervised only (eq. 46) recovers it too; with alpha tiny (labels ignored) it does not.
+  const RdsrResult sup = train_rdsr(Eigen::MatrixXd(d, 0), pa, pb, opt);
+  EXPECT_LT((u.transpose() * sup.w).squaredNorm() / k, 0.01);
+  opt.alpha = 1e-6;
+  const RdsrResult unsup = train_rdsr(x, pa, pb, opt);
+  EXPECT_GT((u.transpose() * unsup.w).squaredNorm() / k, 0.3);
+}
+
+TEST(Precision, HandComputedThresholds) {
+  // d < delta => predicted similar. Best delta between 0.2 and 0.3 (or 0.4 and 0.5): 5 of 6.
+  Precision p = best_threshold({0.1, 0.2, 0.3, 0.4, 0.5, 0.6}, {1, 1, 0, 1, 0, 0});
+  EXPECT_EQ(p.correct, 5);
+  EXPECT_NEAR(p.precision, 5.0 / 6.0, 1e-15);
+  // Ties move together: a tied positive/negative pair cannot be split.
+  p = best_threshold({0.5, 0.5, 0.1, 0.9}, {1, 0, 1, 0});
+  EXPECT_EQ(p.correct, 3);
+  // All negatives closer than all positives: predicting everything dissimilar is best (3 of 5).
+  p = best_threshold({0.1, 0.2, 0.3, 0.8, 0.9}, {0, 0, 0, 1, 1});
+  EXPECT_EQ(p.correct, 3);
+}
+
+TEST(SparseCoding, RealPosesSatisfyKkt) {
+  ClipStore store(kData);
+  store.load({"02_01.bvh", "05_02.bvh"}, 2);
+  std::vector<const float*> rows;
+  for (const char* c : {"02_01.bvh", "05_02.bvh"}) {
+    const ClipData& d = store.get(c);
+    for (int f = 1; f < d.frames; f += 5) rows.push_back(d.row(f));
+  }
+  const Normaliser n = fit_normaliser(rows, kata::metric::Normalisation::kMinMaxUnit);
+  const Eigen::MatrixXd x = normalised_columns(n, rows);
+  for (Eigen::Index c = 0; c < x.cols(); ++c) EXPECT_NEAR(x.col(c).norm(), 1.0, 1e-12);
+  const Eigen::MatrixXd g = x.transpose() * x;
+  LassoOptions opt;
+  opt.gamma = 0.05;
+  SparseCodingStats st;
+  const CsrMatrix a = sparse_code(g, opt, &st);
+  EXPECT_LE(st.max_kkt, 1e-6);
+  for (int i = 0; i < a.rows; i += 7) {
+    std::vector<int> idx(a.col.begin() + a.row_ptr[i], a.col.begin() + a.row_ptr[i + 1]);
+    std::vector<double> val(a.val.begin() + a.row_ptr[i], a.val.begin() + a.row_ptr[i + 1]);
+    for (int j : idx) EXPECT_NE(j, i);
+    LassoProblem p{&g, g.col(i).data(), g(i, i), i};
+    EXPECT_LE(lasso_kkt_violation(p, opt.gamma, idx, val), 1e-6);
+  }
+}
+
+TEST(Pairs, CrossBodyIsReproducibleBalancedAndValid) {
+  ClipStore store(kData);
+  CrossBodyOptions o;
+  o.per_class = 25;
+  o.seed = 7;
+  const auto p1 = cross_body_pairs(store, kClips, o, 2);
+  const auto p2 = cross_body_pairs(store, kClips, o, 2);
+  ASSERT_EQ(p1.size(), 50u);
+  ASSERT_EQ(p2.size(), p1.size());
+  int pos = 0;
+  for (size_t i = 0; i < p1.size(); ++i) {
+    EXPECT_EQ(p1[i].clip_a, p2[i].clip_a);
+    EXPECT_EQ(p1[i].frame_a, p2[i].frame_a);
+    EXPECT_EQ(p1[i].clip_b, p2[i].clip_b);
+    EXPECT_EQ(p1[i].frame_b, p2[i].frame_b);
+    EXPECT_EQ(p1[i].label, p2[i].label);
+    pos += p1[i].label;
+    const ClipSpec a = parse_clip_spec(p1[i].clip_a), b = parse_clip_spec(p1[i].clip_b);
+    EXPECT_EQ(a.file, b.file);              // the same capture ...
+    EXPECT_NE(p1[i].clip_a, p1[i].clip_b);  // ... on two bodies
+    const ClipData& da = store.get(p1[i].clip_a);
+    const ClipData& db = store.get(p1[i].clip_b);
+    if (p1[i].label == 1) {
+      EXPECT_EQ(p1[i].frame_a, p1[i].frame_b);
+    } else {
+      EXPECT_GE(std::abs(p1[i].frame_a - p1[i].frame_b), 30);  // 0.25 s at 120 fps
+      EXPECT_LT(ClipData::joint_distance(da.row(p1[i].frame_a), db.row(p1[i].frame_b)), o.tau);
+    }
+  }
+  EXPECT_EQ(pos, 25);
+  o.seed = 8;
+  const auto p3 = cross_body_pairs(store, kClips, o, 2);
+  bool differs = false;
+  for (size_t i = 0; i < p3.size(); ++i) differs |= p3[i].frame_a != p1[i].frame_a;
+  EXPECT_TRUE(differs);
+}
+
+TEST(Pairs, TransitionIsReproducibleBalancedAndFileRoundTrips) {
+  ClipStore store(kData);
+  TransitionOptions o;
+  o.per_class = 10;
+  o.seed = 3;
+  const auto p1 = transition_pairs(store, kClips, o, 2);
+  const auto p2 = transition_pairs(store, kClips, o, 2);
+  ASSERT_EQ(p1.size(), 20u);
+  int pos = 0;
+  for (size_t i = 0; i < p1.size(); ++i) {
+    EXPECT_EQ(p1[i].frame_a, p2[i].frame_a);
+    EXPECT_EQ(p1[i].clip_b, p2[i].clip_b);
+    EXPECT_NE(p1[i].clip_a, p1[i].clip_b);
+    pos += p1[i].label;
+    const ClipData& da = store.get(p1[i].clip_a);
+    const ClipData& db = store.get(p1[i].clip_b);
+    EXPECT_LT(ClipData::joint_distance(da.row(p1[i].frame_a), db.row(p1[i].frame_b)), o.tau);
+  }
+  EXPECT_EQ(pos, 10);
+  const std::string path = testing::TempDir() + "/kata_pairs_roundtrip.csv";
+  PairFile f;
+  f.comments = {"kata pairs test"};
+  f.pairs = p1;
+  write_pairs(path, f);
+  const PairFile back = read_pairs(path);
+  ASSERT_EQ(back.pairs.size(), p1.size());
+  EXPECT_EQ(back.comments[0], "kata pairs test");
+  for (size_t i = 0; i < p1.size(); ++i) {
+    EXPECT_EQ(back.pairs[i].clip_a, p1[i].clip_a);
+    EXPECT_EQ(back.pairs[i].frame_b, p1[i].frame_b);
+    EXPECT_EQ(back.pairs[i].label, p1[i].label);
+  }
+}
+
+TEST(Eval, HandMadePairFile) {
+  // Three identical pairs (distance 0) labelled similar, one identical pair labelled dissimilar,
+  // three pairs of clearly different poses labelled dissimilar: the best any threshold can do is
+  // 6 of 7 (the mislabelled identical pair is always wrong).
+  const std::string path = testing::TempDir() + "/kata_eval_hand.csv";
+  {
+    std::ofstream out(path);
+    out << "# hand-made\nclip_a,frame_a,clip_b,frame_b,label\n"
+        << "02_01.bvh,10,02_01.bvh,10,1\n05_02.bvh,200,05_02.bvh,200,1\n07_01.bvh,50,07_01.bvh,50,1\n"
+        << "09_01.bvh,40,09_01.bvh,40,0\n"
+        << "02_01.bvh,10,05_02.bvh,300,0\n05_03.bvh,100,09_01.bvh,60,0\n07_01.bvh,20,05_02.bvh,900,0\n";
+  }
+  ClipStore store(kData);
+  const PairFile f = read_pairs(path);
+  const PairRows rows = pair_rows(store, f.pairs);
+  std::vector<double> d;
+  for (size_t i = 0; i < rows.label.size(); ++i) d.push_back(jcd(rows.a[i], rows.b[i], false));
+  EXPECT_EQ(d[0], 0.0);
+  for (int i = 4; i < 7; ++i) EXPECT_GT(d[static_cast<size_t>(i)], 0.0);
+  const Precision p = best_threshold(d, rows.label);
+  EXPECT_EQ(p.correct, 6);
+  EXPECT_NEAR(p.precision, 6.0 / 7.0, 1e-15);
+  // JCD by hand for one pair from the raw features: sum of squared joint coordinate and velocity
+  // differences (hip: height only).
+  const float* a = rows.a[4];
+  const float* b = rows.b[4];
+  auto sub = [](float x, float y) { return static_cast<double>(x) - static_cast<double>(y); };
+  double hand = sub(a[45], b[45]) * sub(a[45], b[45]) + sub(a[1681], b[1681]) * sub(a[1681], b[1681]);
+  for (int j = 0; j < 15; ++j)
+    for (int c = 0; c < 3; ++c) {
+      const double dp = sub(a[3 * j + c], b[3 * j + c]);
+      const double dv = sub(a[1591 + 6 * j + c], b[1591 + 6 * j + c]);
+      hand += dp * dp + dv * dv;
+    }
+  EXPECT_NEAR(d[4], hand, 1e-9 * hand);
+}
+
+TEST(Rdsr, PcaRestriction) {
+  // W = P V stays orthonormal and inside span(P); with P = all d directions the optimum is the
+  // unrestricted one (same eta*).
+  const int d = 12, n = 200, p = 60;
+  Eigen::MatrixXd x = random_matrix(d, n, 5), pa = random_matrix(d, p, 6);
+  Eigen::MatrixXd pb = pa + 0.3 * random_matrix(d, p, 7);
+  RdsrOptions opt;
+  opt.rank = 4;
+  opt.lasso.gamma = 0.5;
+  const RdsrResult full = train_rdsr(x, pa, pb, opt);
+  opt.pca = d;
+  const RdsrResult same = train_rdsr(x, pa, pb, opt);
+  EXPECT_NEAR(same.eta, full.eta, 1e-8 * full.eta);
+  opt.pca = 6;
+  const RdsrResult sub = train_rdsr(x, pa, pb, opt);
+  EXPECT_LE((sub.w.transpose() * sub.w - Eigen::MatrixXd::Identity(4, 4)).norm(), 1e-10);
+  EXPECT_LE(sub.eta, full.eta * (1 + 1e-10));  // a restriction cannot beat the optimum
+  Eigen::MatrixXd basis;
+  top_eigen(centered_scatter(x, 1), 6, &basis);
+  EXPECT_LE((sub.w - basis * (basis.transpose() * sub.w)).norm(), 1e-8);  // inside span(P)
+}

@@ -9,7 +9,7 @@
 
 #include "common/error.hpp"
 #include "skeleton/skeleton.hpp"
-#include "stream/stream.hpp"
+#include "stream/clip_features.hpp"
 
 namespace kata::train {
 namespace {
@@ -49,9 +49,9 @@ ClipSpec parse_clip_spec(const std::string& spec) {
   if (out.file.empty()) throw Error(ErrorKind::kInvalidArgument, "clip spec '" + spec + "': no file");
   if (t == std::string::npos) return out;
   const std::string body = spec.substr(t + 1);
-  if (body.size() > 1 && body[0] == 's' && body.find(',') != std::string::npos) {
-    const size_t c1 = body.find(','), c2 = body.find(',', c1 + 1);
-    if (c2 == std::string::npos) throw Error(ErrorKind::kInvalidArgument, "clip spec '" + spec + "': expected s<arms>,<legs>,<torso>");
+  if (body.size() > 1 && body[0] == 's' && body.find(':') != std::string::npos) {
+    const size_t c1 = body.find(':'), c2 = body.find(':', c1 + 1);
+    if (c2 == std::string::npos) throw Error(ErrorKind::kInvalidArgument, "clip spec '" + spec + "': expected s<arms>:<legs>:<torso>");
     out.scaled = true;
     out.scale.arms = parse_number(body.substr(1, c1 - 1), spec);
     out.scale.legs = parse_number(body.substr(c1 + 1, c2 - c1 - 1), spec);
@@ -65,7 +65,7 @@ ClipSpec parse_clip_spec(const std::string& spec) {
 std::string format_clip_spec(const ClipSpec& s) {
   if (s.scaled) {
     char buf[96];
-    std::snprintf(buf, sizeof buf, "~s%.3f,%.3f,%.3f", s.scale.arms, s.scale.legs, s.scale.torso);
+    std::snprintf(buf, sizeof buf, "~s%.3f:%.3f:%.3f", s.scale.arms, s.scale.legs, s.scale.torso);
     return s.file + buf;
   }
   if (!s.body_file.empty()) return s.file + "~" + s.body_file;
@@ -155,36 +155,14 @@ double ClipData::joint_distance(const float* fa, const float* fb) {
   return sum / 16.0;  // the hip (joint 0) is at the origin in both poses
 }
 
-std::vector<float> clip_features(const BvhClip& clip, const std::string& preset, gpd::Stencil stencil) {
+std::vector<float> clip_feature_rows(const BvhClip& clip, const std::string& preset, gpd::Stencil stencil) {
   const GpdMap map = make_gpd_map(clip.skeleton, preset_joint_names(preset));
-  Stream stream(stream_config_for(clip.skeleton, map, stencil));
-  const int frames = clip.frame_count();
-  const int nj = clip.skeleton.joint_count();
-  std::vector<float> out(static_cast<size_t>(frames) * gpd::kDims, 0.0f);
-  Eigen::MatrixX3d pos(nj, 3);
-  std::vector<float> xyz(static_cast<size_t>(nj) * 3);
-  int64_t seen = 0;
-  auto take = [&]() {
-    if (stream.emitted_count() == seen) return;
-    seen = stream.emitted_count();
-    const int64_t f = stream.feature_frame() + 1;  // accepted frame k is file frame k + 1
-    std::copy(stream.features(), stream.features() + gpd::kDims, out.begin() + f * gpd::kDims);
-  };
-  for (int f = 1; f < frames; ++f) {
-    world_positions(clip, f, pos);
-    for (int j = 0; j < nj; ++j)
-      for (int c = 0; c < 3; ++c) xyz[static_cast<size_t>(3 * j + c)] = static_cast<float>(pos(j, c));
-    const Status st = stream.push(f * clip.frame_time, xyz.data(), nj);
-    if (st != Status::kOk)
-      throw Error(ErrorKind::kInvalidArgument, clip.path + ": frame " + std::to_string(f) + " refused by the stream: " +
-                                                   stream.last_error());
-    take();
-  }
-  stream.flush();
-  take();
-  if (seen != frames - 1)
-    throw Error(ErrorKind::kInvalidArgument, clip.path + ": the stream emitted " + std::to_string(seen) + " of " +
-                                                 std::to_string(frames - 1) + " frames");
+  // The lead's offline helper streams frames 1..F-1 through a kata::Stream (the live path).
+  const std::vector<float> rows = kata::clip_features(clip, map, stencil, 1);
+  std::vector<float> out(static_cast<size_t>(gpd::kDims), 0.0f);  // row 0: the T-pose, unused
+  out.insert(out.end(), rows.begin(), rows.end());
+  if (out.size() != static_cast<size_t>(clip.frame_count()) * gpd::kDims)
+    throw Error(ErrorKind::kInvalidArgument, clip.path + ": unexpected feature row count");
   return out;
 }
 
@@ -209,9 +187,9 @@ std::unique_ptr<ClipData> ClipStore::compute(const std::string& spec) {
   if (cs.scaled || !cs.body_file.empty()) {
     const BvhClip* body = cs.body_file.empty() ? nullptr : &bvh(cs.body_file);
     const BvhClip moved = make_body(motion, body, cs.scaled ? &cs.scale : nullptr, preset_);
-    data->features = clip_features(moved, preset_, stencil_);
+    data->features = clip_feature_rows(moved, preset_, stencil_);
   } else {
-    data->features = clip_features(motion, preset_, stencil_);
+    data->features = clip_feature_rows(motion, preset_, stencil_);
   }
   return data;
 }

@@ -3,7 +3,7 @@
 //   "05_02.bvh"                      the file as captured
 //   "05_02.bvh~07_01.bvh"            its rotation channels on 07_01.bvh's skeleton (same joint
 //                                    names), root translation scaled by the leg-length ratio
-//   "05_02.bvh~s1.100,0.900,1.200"   its own skeleton rescaled: arms, legs, torso factors; root
+//   "05_02.bvh~s1.100:0.900:1.200"   its own skeleton rescaled: arms, legs, torso factors; root
 //                                    translation scaled with the legs
 // Features come from kata::Stream (backward stencil by default), frames 1..F-1 streamed with
 // t = i x frame time: frame 0 of a CMU file is the converter's T-pose and is never streamed.
@@ -79,7 +79,7 @@ class ClipStore {
   std::map<std::string, std::unique_ptr<ClipData>> clips_;
 };
 
-// Streams a clip's frames 1..F-1 and returns frames x kDims (row 0 zero).
-std::vector<float> clip_features(const BvhClip& clip, const std::string& preset, gpd::Stencil stencil);
+// Streams a clip's frames 1..F-1 (kata::clip_features) and returns frames x kDims (row 0 zero).
+std::vector<float> clip_feature_rows(const BvhClip& clip, const std::string& preset, gpd::Stencil stencil);
 
 }  // namespace kata::train

@@ -199,24 +199,42 @@ RdsrResult train_rdsr(const Eigen::MatrixXd& x, const Eigen::MatrixXd& pa, const
           res.alpha_absolute));
   stage("B = X S_L X^T + alpha S_W");
   auto progress = [&](int it, double eta) { say(fmt("  trace ratio iteration %.0f: eta = %.15g", it, eta)); };
+  // Optional PCA restriction: solve in the basis P of the top principal directions.
+  Eigen::MatrixXd basis;
+  if (opt.pca > 0) {
+    if (opt.pca < opt.rank || opt.pca > d) throw Error(ErrorKind::kInvalidArgument, "rdsr: pca must be in [rank, d]");
+    top_eigen(a, opt.pca, &basis);
+    ++res.eigen_solves;
+    say(fmt("  PCA restriction: W in the span of the top %.0f principal directions", opt.pca));
+    stage("PCA basis");
+  }
+  const bool use_pca = opt.pca > 0;
+  const Eigen::MatrixXd a_s = use_pca ? Eigen::MatrixXd(basis.transpose() * a * basis) : Eigen::MatrixXd();
+  const Eigen::MatrixXd sl_s = use_pca ? Eigen::MatrixXd(basis.transpose() * sl * basis) : Eigen::MatrixXd();
+  const Eigen::MatrixXd sw_s = use_pca ? Eigen::MatrixXd(basis.transpose() * sw * basis) : Eigen::MatrixXd();
+  const Eigen::MatrixXd& a_use = use_pca ? a_s : a;
+  const Eigen::MatrixXd b_s = use_pca ? Eigen::MatrixXd(sl_s + res.alpha_absolute * sw_s) : Eigen::MatrixXd();
+  const Eigen::MatrixXd& b_use = use_pca ? b_s : b;
+  auto lift = [&](const Eigen::MatrixXd& v) { return use_pca ? Eigen::MatrixXd(basis * v) : v; };
   if (opt.solver == "newton" || opt.solver == "both") {
-    TraceRatioResult tr = trace_ratio_newton(a, b, opt.rank, 1e-12, 100, progress);
-    res.w = tr.w;
+    TraceRatioResult tr = trace_ratio_newton(a_use, b_use, opt.rank, 1e-11, 100, progress, opt.solver == "both");
+    res.w = lift(tr.w);
     res.eta = tr.eta;
     res.bounds = tr.bounds;
     res.eigen_solves += tr.iterations;
-    say(fmt("  Newton: eta* = %.15g, f(eta*) = %.3e, bounds [%.6g", tr.eta, tr.f_at_eta, tr.bounds.lower) +
-        fmt(", %.6g]", tr.bounds.upper));
+    say(fmt("  Newton: eta* = %.15g, f(eta*) = %.3e, ", tr.eta, tr.f_at_eta) +
+        fmt("%.0f eigen-decompositions, eq. 29 lower bound %.6g", tr.iterations, tr.bounds.lower) +
+        (tr.bounds.upper > 0 ? fmt(", eq. 30 upper bound %.6g", tr.bounds.upper) : std::string()));
     stage("trace ratio (Newton)");
   }
   if (opt.solver == "bisection" || opt.solver == "both") {
-    TraceRatioResult tb = trace_ratio_bisection(a, b, opt.rank, 1e-10, 200, progress);
+    TraceRatioResult tb = trace_ratio_bisection(a_use, b_use, opt.rank, 1e-10, 200, progress);
     res.eta_bisection = tb.eta;
     res.eigen_solves += tb.iterations;
     res.bounds = tb.bounds;
     say(fmt("  bisection: eta* = %.15g, f(eta*) = %.3e", tb.eta, tb.f_at_eta));
     if (opt.solver == "bisection") {
-      res.w = tb.w;
+      res.w = lift(tb.w);
       res.eta = tb.eta;
     } else if (std::abs(tb.eta - res.eta) > 1e-8 * std::abs(res.eta)) {
       throw Error(ErrorKind::kInvalidArgument,
@@ -226,6 +244,22 @@ RdsrResult train_rdsr(const Eigen::MatrixXd& x, const Eigen::MatrixXd& pa, const
   }
   if (opt.solver != "newton" && opt.solver != "bisection" && opt.solver != "both")
     throw Error(ErrorKind::kInvalidArgument, "unknown trace-ratio solver '" + opt.solver + "'");
+  std::vector<double> alphas = opt.sweep_alphas;
+  std::vector<int> ranks = opt.sweep_ranks;
+  if (alphas.empty() && !ranks.empty()) alphas.push_back(opt.alpha);
+  if (ranks.empty() && !alphas.empty()) ranks.push_back(opt.rank);
+  for (double al : alphas) {
+    const double abs_alpha = opt.alpha_relative ? al * res.trace_sl / std::max(res.trace_sw, 1e-300) : al;
+    const Eigen::MatrixXd bb = use_pca ? Eigen::MatrixXd(sl_s + abs_alpha * sw_s) : Eigen::MatrixXd(sl + abs_alpha * sw);
+    for (int rk : ranks) {
+      if (rk < 1 || rk > a_use.rows()) throw Error(ErrorKind::kInvalidArgument, "rdsr: sweep rank out of range");
+      TraceRatioResult tr = trace_ratio_newton(a_use, bb, rk, 1e-11, 100, {}, false);
+      res.variants.push_back({al, abs_alpha, tr.eta, rk, lift(tr.w)});
+      res.eigen_solves += tr.iterations;
+      say(fmt("  sweep alpha = %.6g, r = %.0f: ", al, rk) + fmt("eta* = %.12g (%.0f decompositions)", tr.eta, tr.iterations));
+    }
+  }
+  if (!alphas.empty()) stage("sweep");
   return res;
 }
 

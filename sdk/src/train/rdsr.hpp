@@ -49,6 +49,20 @@ struct RdsrOptions {
   LassoOptions lasso;            // gamma, tolerance, threads
   int threads = 2;
   std::string solver = "newton";  // newton | bisection | both
+  // > 0: restrict W to the span of the top `pca` principal directions of the unlabeled poses
+  // (eigenvectors of X S_C X^T), W = P V, solving the trace ratio for V on P^T A P, P^T B P.
+  // Not in the paper: the classic remedy (as PCA before LDA) for scatter matrices that are
+  // near-singular in directions the training poses barely span. 0 = the paper's problem.
+  int pca = 0;
+  // Extra (alpha, rank) combinations solved on the same scatter matrices (sweeps; Newton only).
+  std::vector<double> sweep_alphas;
+  std::vector<int> sweep_ranks;
+};
+
+struct RdsrVariant {
+  double alpha = 0.0, alpha_absolute = 0.0, eta = 0.0;
+  int rank = 0;
+  Eigen::MatrixXd w;
 };
 
 struct StageTime {
@@ -65,6 +79,7 @@ struct RdsrResult {
   double trace_sl = 0.0, trace_sw = 0.0, trace_sc = 0.0;
   SparseCodingStats coding;
   std::vector<StageTime> stages;
+  std::vector<RdsrVariant> variants;  // one per sweep_alphas x sweep_ranks
 };
 
 using Log = std::function<void(const std::string&)>;

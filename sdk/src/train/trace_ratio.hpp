@@ -36,9 +36,12 @@ struct TraceRatioResult {
 using TraceRatioProgress = std::function<void(int iteration, double eta)>;
 
 // The iterative (Newton-type) update: eta <- Tr(W^T A W) / Tr(W^T B W), W = top-r eigenvectors of
-// A - eta B, from eta = the lower bound, until the relative change is below `tol`.
+// A - eta B, until the relative change is below `tol`; started from the larger of eq. 29's bound
+// and the ratio of the ratio-trace solution (both are lower bounds). f_at_eta is f at the eta of
+// the last decomposition. The upper bound of eq. 30 costs two more decompositions.
 TraceRatioResult trace_ratio_newton(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, int r,
-                                    double tol = 1e-12, int max_iter = 100, const TraceRatioProgress& progress = {});
+                                    double tol = 1e-12, int max_iter = 100, const TraceRatioProgress& progress = {},
+                                    bool compute_upper_bound = true);
 // The paper's bisection on eta between the bounds of eq. 29-30 using the sign of f (eq. 33),
 // until (hi - lo) <= rel_tol * hi; W from the final eta.
 TraceRatioResult trace_ratio_bisection(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b, int r,
