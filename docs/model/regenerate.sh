@@ -25,3 +25,8 @@ $KATA eval --data $DATA --pairs $P/test-cross-body.csv --train-pairs $P/train-cr
 $KATA eval --data $DATA --pairs $P/test-transition.csv --train-pairs $P/train-transition.csv \
   --model models/default.kata --label default --title "transition (future agreement), test subjects 1 and 9" \
   --out-dir docs/model/eval-transition | tee docs/model/eval-transition/eval.log
+# Retrieval (paper section 6): 200 k-means pose centres per subject, all five subjects pooled.
+mkdir -p docs/model/eval-retrieval
+$KATA eval --data $DATA --pairs $P/test-cross-body.csv --train-pairs $P/train-cross-body.csv \
+  --model models/default.kata --label default --retrieval --clusters 200 --seed 1 \
+  --out-dir docs/model/eval-retrieval | tee docs/model/eval-retrieval/eval.log

@@ -1,8 +1,10 @@
 // kata eval: the paper's transition-decision precision (eq. 36-37, best threshold by exhaustive
-// search) on a test pair file, for JCD, WJCD, GPD + L2, GPD + LMS, GPD + RDSR and RDSR with N' = 0.
+// search) on a test pair file, for JCD, WJCD, GPD + L2, GPD + LMS, GPD + RDSR and RDSR with N' = 0;
+// with --retrieval also the content-based pose retrieval of the paper's section 6 (retrieval.hpp).
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -15,6 +17,7 @@
 #include "train/evaluate.hpp"
 #include "train/linalg.hpp"
 #include "train/pipeline.hpp"
+#include "train/retrieval.hpp"
 
 namespace {
 
@@ -23,6 +26,21 @@ struct EvalArgs {
   std::vector<std::string> models, labels;
   int threads = 2;
   bool plot = true;
+  // Section 6 retrieval.
+  bool retrieval = false;
+  int clusters = 200;  // per subject, as the paper
+  uint64_t seed = 1;
+  int stride = 4;      // k-means over every stride-th frame (120 fps: 30 fps)
+  std::vector<int> retrieval_subjects;  // empty: every clip of --data with a motion type
+  std::string motion_types;             // default: <data>/README.md
+};
+
+const std::vector<int> kScopes = {5, 10, 20};
+
+struct RetrRow {
+  std::string method, model, normalisation, pool;
+  int queries = 0;
+  std::vector<double> p;  // at kScopes
 };
 
 struct Row {
@@ -46,6 +64,39 @@ void run_eval(const EvalArgs& a) {
   const PairRows tr = pair_rows(store, test.pairs);
   const PairRows trn = pair_rows(store, train_pairs);
   std::vector<Row> rows;
+  // Section 6: k-means pose centres per subject, each a query against the rest of the pool.
+  kata::train::RetrievalSet rset;
+  std::vector<int> rcat, rsub;
+  std::vector<const float*> rrows;
+  std::vector<RetrRow> rrow;
+  if (a.retrieval) {
+    const auto types = read_motion_types(a.motion_types.empty() ? a.data + "/README.md" : a.motion_types);
+    std::vector<std::string> clips;
+    for (const auto& c : list_clips(a.data, a.retrieval_subjects))
+      if (types.count(c)) clips.push_back(c);
+    store.load(clips, a.threads);
+    rset = build_retrieval_set(store, clips, types, a.clusters, a.seed, a.stride);
+    for (const auto& p : rset.poses) {
+      rcat.push_back(p.category);
+      rsub.push_back(p.subject);
+      rrows.push_back(p.row);
+    }
+    std::printf("retrieval: %zu pose centres (k-means, K = %d per subject, seed %llu) from %zu clips, %zu categories\n",
+                rset.poses.size(), a.clusters, static_cast<unsigned long long>(a.seed), clips.size(),
+                rset.categories.size());
+  }
+  auto radd = [&](const std::string& method, const std::string& model, const std::string& norm,
+                  const Eigen::MatrixXd& dist) {
+    for (const auto pool : {RetrievalPool::kAll, RetrievalPool::kOtherSubjects}) {
+      RetrRow r{method, model, norm, pool == RetrievalPool::kAll ? "all (paper)" : "other subjects",
+                static_cast<int>(rcat.size()), retrieval_precision(dist, rcat, rsub, kScopes, pool)};
+      std::printf("  retrieval %-22s %-12s %-15s %-15s P@5 %.4f P@10 %.4f P@20 %.4f\n", method.c_str(), model.c_str(),
+                  norm.c_str(), r.pool.c_str(), r.p[0], r.p[1], r.p[2]);
+      rrow.push_back(std::move(r));
+    }
+    std::fflush(stdout);
+  };
+  const Eigen::Index rn = static_cast<Eigen::Index>(rrows.size());
   auto add = [&](const std::string& method, const std::string& model, const std::string& norm,
                  const std::vector<double>& d) {
     rows.push_back({method, model, norm, best_threshold(d, tr.label)});
@@ -63,6 +114,16 @@ void run_eval(const EvalArgs& a) {
     }
     add("JCD", "-", "raw", d);
     add("WJCD", "-", "raw", dw);
+    if (a.retrieval) {
+      Eigen::MatrixXd rd(rn, rn), rdw(rn, rn);
+      for (Eigen::Index i = 0; i < rn; ++i)
+        for (Eigen::Index j = 0; j < rn; ++j) {
+          rd(i, j) = jcd(rrows[static_cast<size_t>(i)], rrows[static_cast<size_t>(j)], false);
+          rdw(i, j) = jcd(rrows[static_cast<size_t>(i)], rrows[static_cast<size_t>(j)], true);
+        }
+      radd("JCD", "-", "raw", rd);
+      radd("WJCD", "-", "raw", rdw);
+    }
   }
   for (size_t m = 0; m < a.models.size(); ++m) {
     const kata::metric::Model model = kata::metric::load_model(a.models[m]);
@@ -79,12 +140,15 @@ void run_eval(const EvalArgs& a) {
     }
     const std::string nn = norm_name(model.normalisation);
     add("GPD+L2", label, nn, l2);
+    const Eigen::MatrixXd rx = a.retrieval ? normalised_columns(norm, rrows) : Eigen::MatrixXd();
+    if (a.retrieval) radd("GPD+L2", label, nn, pairwise_sq_l2(rx));
     if (!train_pairs.empty()) {
       const Eigen::MatrixXd ta = normalised_columns(norm, trn.a), tb = normalised_columns(norm, trn.b);
       const Eigen::VectorXd lw = lms_weights(ta, tb, trn.label);
       std::vector<double> lms(n);
       for (size_t i = 0; i < n; ++i) lms[i] = diff.col(static_cast<Eigen::Index>(i)).array().square().matrix().dot(lw);
       add("GPD+LMS", label, nn, lms);
+      if (a.retrieval) radd("GPD+LMS", label, nn, pairwise_diag(rx, lw));
       // RDSR with N' = 0 (eq. 46): the r smallest eigenvectors of S_W of the positive training pairs.
       std::vector<Eigen::Index> pos;
       for (size_t i = 0; i < trn.label.size(); ++i)
@@ -97,8 +161,10 @@ void run_eval(const EvalArgs& a) {
       std::vector<double> s(n);
       for (size_t i = 0; i < n; ++i) s[i] = p0.col(static_cast<Eigen::Index>(i)).norm();
       add("RDSR N'=0 (eq. 46)", label, nn, s);
+      if (a.retrieval) radd("RDSR N'=0 (eq. 46)", label, nn, pairwise_sq_l2(w0.transpose() * rx));
     }
     add("GPD+RDSR", label, nn, rd);
+    if (a.retrieval) radd("GPD+RDSR", label, nn, pairwise_sq_l2(w.transpose() * rx));
     // The model's own threshold delta* (fixed, not re-searched) on the test pairs.
     int correct = 0;
     for (size_t i = 0; i < n; ++i) correct += ((rd[i] < model.delta_star) == (tr.label[i] == 1));
@@ -120,6 +186,23 @@ void run_eval(const EvalArgs& a) {
     for (const auto& r : rows)
       out << r.method << "," << r.model << "," << r.normalisation << "," << r.p.precision << "," << r.p.threshold << ","
           << r.p.correct << "," << r.p.total << "\n";
+    // Section 6 rows: precision = P@s, threshold = the scope s, total = queries.
+    for (const auto& r : rrow)
+      for (size_t s = 0; s < kScopes.size(); ++s)
+        out << "Retrieval " << r.pool << ": " << r.method << "," << r.model << "," << r.normalisation << "," << r.p[s]
+            << "," << kScopes[s] << ",0," << r.queries << "\n";
+  }
+  const std::string rcsv = a.out_dir + "/retrieval.csv";
+  if (a.retrieval) {
+    std::ofstream out(rcsv);
+    out << "method,model,normalisation,pool,queries";
+    for (int s : kScopes) out << ",p" << s;
+    out << "\n";
+    for (const auto& r : rrow) {
+      out << r.method << "," << r.model << "," << r.normalisation << "," << r.pool << "," << r.queries;
+      for (double v : r.p) out << "," << v;
+      out << "\n";
+    }
   }
   const std::string md = a.out_dir + "/eval.md";
   {
@@ -138,13 +221,41 @@ void run_eval(const EvalArgs& a) {
       out << "| " << r.method << " | " << r.model << " | " << r.normalisation << " | " << buf << " |\n";
     }
     if (a.plot) out << "\n![precision by method](eval.png)\n";
+    if (a.retrieval) {
+      out << "\n## Retrieval (Section 6)\n\n"
+          << "Per subject, K = " << a.clusters << " k-means pose centres (seed " << a.seed
+          << ") clustered on GPD block 1 (joint coordinates in the yaw-free local frame, eq. 35's domain) over every "
+          << a.stride << "th frame; each centre is the real pose nearest its centroid. " << rcat.size()
+          << " centres";
+      std::map<int, int> per;
+      for (int s : rsub) ++per[s];
+      out << " (subjects";
+      for (const auto& [s, c] : per) out << " " << s << ":" << c;
+      out << "; categories";
+      for (const auto& c : rset.categories) {
+        int k = 0;
+        for (size_t i = 0; i < rcat.size(); ++i) k += rset.categories[static_cast<size_t>(rcat[i])] == c;
+        out << " " << c << ":" << k;
+      }
+      out << "). Every centre is a query; pool `all (paper)` = the other " << (rcat.empty() ? 0 : rcat.size() - 1)
+          << " centres (as the paper's 1 vs 2999), `other subjects` = only centres of other subjects. P@s = mean "
+             "fraction of the top s whose clip has the query's motion type (README table).\n\n";
+      out << "| method | model | normalisation | pool | P@5 | P@10 | P@20 |\n|---|---|---|---|---|---|---|\n";
+      for (const auto& r : rrow) {
+        char buf[96];
+        std::snprintf(buf, sizeof buf, "%.4f | %.4f | %.4f", r.p[0], r.p[1], r.p[2]);
+        out << "| " << r.method << " | " << r.model << " | " << r.normalisation << " | " << r.pool << " | " << buf
+            << " |\n";
+      }
+      if (a.plot) out << "\n![retrieval precision by scope](retrieval.png)\n";
+    }
   }
   std::printf("wrote %s and %s\n", csv.c_str(), md.c_str());
   if (a.plot) {
     const std::string py = a.out_dir + "/plot_eval.py";
     std::ofstream s(py);
     s << "import csv, matplotlib\nmatplotlib.use('Agg')\nimport matplotlib.pyplot as plt\n"
-         "rows = list(csv.DictReader(open('" << csv << "')))\n"
+         "rows = [r for r in csv.DictReader(open('" << csv << "')) if not r['method'].startswith('Retrieval')]\n"
          "labels = [r['method'] + ('' if r['model'] == '-' else '\\n' + r['model']) for r in rows]\n"
          "vals = [float(r['precision']) for r in rows]\n"
          "fig, ax = plt.subplots(figsize=(max(6, 0.9 * len(rows)), 4.5))\n"
@@ -156,6 +267,25 @@ void run_eval(const EvalArgs& a) {
     s.close();
     const std::string cmd = "/usr/bin/python3 '" + py + "'";
     if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "kata eval: plotting failed (%s)\n", cmd.c_str());
+    if (a.retrieval) {
+      const std::string rpy = a.out_dir + "/plot_retrieval.py";
+      std::ofstream r(rpy);
+      r << "import csv, matplotlib\nmatplotlib.use('Agg')\nimport matplotlib.pyplot as plt\n"
+           "rows = list(csv.DictReader(open('" << rcsv << "')))\n"
+           "pools = sorted(set(r['pool'] for r in rows))\n"
+           "fig, axes = plt.subplots(1, len(pools), figsize=(5.5 * len(pools), 4.2), squeeze=False)\n"
+           "for ax, pool in zip(axes[0], pools):\n"
+           "    for r in [r for r in rows if r['pool'] == pool]:\n"
+           "        lab = r['method'] + ('' if r['model'] == '-' else ' (' + r['model'] + ')')\n"
+           "        ax.plot([5, 10, 20], [float(r['p5']), float(r['p10']), float(r['p20'])], marker='o', label=lab)\n"
+           "    ax.set_xticks([5, 10, 20]); ax.set_xlabel('scope s'); ax.set_ylabel('precision (same motion type)')\n"
+           "    ax.set_title('retrieval, pool: ' + pool); ax.grid(alpha=0.3)\n"
+           "axes[0][0].legend(fontsize=7)\nfig.suptitle('" << a.title << " - Section 6 retrieval', fontsize=9)\n"
+           "fig.tight_layout()\nfig.savefig('" << a.out_dir << "/retrieval.png', dpi=110)\n";
+      r.close();
+      const std::string rcmd = "/usr/bin/python3 '" + rpy + "'";
+      if (std::system(rcmd.c_str()) != 0) std::fprintf(stderr, "kata eval: plotting failed (%s)\n", rcmd.c_str());
+    }
   }
 }
 
@@ -174,6 +304,14 @@ void setup(CLI::App& app) {
   cmd->add_option("--stencil", a->stencil, "backward | central")->check(CLI::IsMember({"backward", "central"}));
   cmd->add_option("--preset", a->preset, "skeleton preset");
   cmd->add_option("--threads", a->threads, "threads");
+  cmd->add_flag("--retrieval", a->retrieval, "also run the paper's section 6 pose retrieval (k-means centres per subject, "
+                                             "precision at s = 5, 10, 20 by motion type)");
+  cmd->add_option("--clusters", a->clusters, "retrieval: k-means centres per subject (paper: 200)");
+  cmd->add_option("--seed", a->seed, "retrieval: k-means++ seed");
+  cmd->add_option("--frame-stride", a->stride, "retrieval: cluster every n-th frame");
+  cmd->add_option("--retrieval-subjects", a->retrieval_subjects, "retrieval: CMU subjects (default: all clips)")
+      ->delimiter(',');
+  cmd->add_option("--motion-types", a->motion_types, "retrieval: README with a 'motion type' table (default <data>/README.md)");
   cmd->callback([a] { run_eval(*a); });
 }
 

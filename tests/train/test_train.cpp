@@ -451,3 +451,39 @@ TEST(Rdsr, PcaRestriction) {
   top_eigen(centered_scatter(x, 1), 6, &basis);
   EXPECT_LE((sub.w - basis * (basis.transpose() * sub.w)).norm(), 1e-8);  // inside span(P)
 }
+
+#include "train/retrieval.hpp"
+
+TEST(Retrieval, HandComputedPrecisionAtScope) {
+  // Six 1-D "poses" x = 0, 1, 2, 10, 11, 30 (padded to 2-D), categories A A B B B A, subjects
+  // 1 2 1 2 1 2; ties go to the lower index. Pool "all": top-1 correct for queries 0, 1, 3, 4 (4/6);
+  // top-2 per query 1/2, 1/2, 0, 1, 1, 0 (3/6); top-3 1/3, 1/3, 1/3, 2/3, 2/3, 0 (7/18). Pool
+  // "other subjects": top-1 4/6; top-2 1/2, 1/2, 1/2, 1, 1/2, 0 (3/6); top-3 = all three candidates
+  // 2/3, 1/3, 1/3, 2/3, 1/3, 1/3 (8/18).
+  Eigen::MatrixXd x = Eigen::MatrixXd::Zero(2, 6);
+  x.row(0) << 0, 1, 2, 10, 11, 30;
+  const std::vector<int> cat = {0, 0, 1, 1, 1, 0}, sub = {1, 2, 1, 2, 1, 2};
+  const Eigen::MatrixXd d = pairwise_sq_l2(x);
+  EXPECT_NEAR(d(0, 3), 100.0, 1e-12);
+  EXPECT_NEAR((pairwise_diag(x, Eigen::VectorXd::Ones(2)) - d).norm(), 0.0, 1e-9);
+  const std::vector<double> all = retrieval_precision(d, cat, sub, {1, 2, 3}, RetrievalPool::kAll);
+  EXPECT_NEAR(all[0], 4.0 / 6.0, 1e-15);
+  EXPECT_NEAR(all[1], 3.0 / 6.0, 1e-15);
+  EXPECT_NEAR(all[2], 7.0 / 18.0, 1e-15);
+  const std::vector<double> other = retrieval_precision(d, cat, sub, {1, 2, 3}, RetrievalPool::kOtherSubjects);
+  EXPECT_NEAR(other[0], 4.0 / 6.0, 1e-15);
+  EXPECT_NEAR(other[1], 3.0 / 6.0, 1e-15);
+  EXPECT_NEAR(other[2], 8.0 / 18.0, 1e-15);
+  // A README table with a "motion type" column (as ../shared/data/cmu's).
+  const std::string readme = testing::TempDir() + "/kata_retrieval_readme.md";
+  {
+    std::ofstream out(readme);
+    out << "# x\n\n| file | subject | motion type | fps |\n|---|---|---|---|\n| 02_05.bvh | 2 | boxing/strike | 120 |\n"
+        << "| 09_01.bvh | 9 | run | 120 |\n\nother | text |\n";
+  }
+  const auto types = read_motion_types(readme);
+  ASSERT_EQ(types.size(), 2u);
+  EXPECT_EQ(types.at("02_05.bvh"), "boxing/strike");
+  EXPECT_EQ(types.at("09_01.bvh"), "run");
+  EXPECT_EQ(clip_subject("09_12.bvh"), 9);
+}
