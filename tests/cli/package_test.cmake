@@ -5,8 +5,16 @@ execute_process(COMMAND ${CMAKE_COMMAND} --install ${BUILD_DIR} --prefix ${WORK_
 if(rc)
   message(FATAL_ERROR "install failed: ${rc}")
 endif()
+# A sanitized libkata needs the sanitizer runtime in the program that loads it.
+set(flags "-Werror")
+set(link_flags "")
+if(SANITIZE)
+  set(flags "-Werror -fsanitize=address,undefined")
+  set(link_flags "-fsanitize=address,undefined")
+endif()
 execute_process(COMMAND ${CMAKE_COMMAND} -S ${SOURCE_DIR}/samples -B ${WORK_DIR}/build
-                        -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix -DCMAKE_C_FLAGS=-Werror
+                        -DCMAKE_PREFIX_PATH=${WORK_DIR}/prefix "-DCMAKE_C_FLAGS=${flags}"
+                        "-DCMAKE_EXE_LINKER_FLAGS=${link_flags}"
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(rc)
   message(FATAL_ERROR "configuring samples against the installed package failed:\n${out}\n${err}")

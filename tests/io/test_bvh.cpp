@@ -3,7 +3,6 @@
 // round trips of real CMU clips, and the other skeletons in /work/shared/data/other.
 #include <gtest/gtest.h>
 
-#include <chrono>
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
@@ -499,17 +498,14 @@ TEST(BvhErrors, TruncationAndCorruptionNeverCrash) {
   }
 }
 
-TEST(BvhLoad, LongCmuClipIsFast) {
+// The longest developer clip loads whole (its load time is measured in kata_bench, BM_LoadBvh*).
+TEST(BvhLoad, LongCmuClipLoadsWhole) {
   const fs::path p = shared_data() / "cmu" / "01_06.bvh";
   if (!fs::exists(p)) GTEST_SKIP() << p << " not present";
-  const auto t0 = std::chrono::steady_clock::now();
   const BvhClip c = kata::load_bvh(p.string());
-  const double s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   EXPECT_EQ(c.frame_count(), 5134);
-  RecordProperty("load_seconds", std::to_string(s));
-#if defined(NDEBUG) && !defined(__SANITIZE_ADDRESS__)
-  EXPECT_LT(s, 1.0) << "loading 5134 frames took " << s << " s";
-#endif
+  EXPECT_EQ(c.skeleton.joint_count(), 31);
+  EXPECT_EQ(c.channel_count, 96);
 }
 
 // The other skeletons (shared/data/other): each loads, maps with its preset, has a plausible
