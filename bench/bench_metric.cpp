@@ -14,10 +14,10 @@
 #include "common/cpu.hpp"
 #include "io/bvh.hpp"
 #include "metric/kernels.hpp"
-#include "metric/random_model.hpp"
+#include "support/random_model.hpp"
 #include "metric/scorer.hpp"
 #include "skeleton/skeleton.hpp"
-#include "stream/clip_features.hpp"
+#include "io/clip_features.hpp"
 
 namespace {
 

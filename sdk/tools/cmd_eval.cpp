@@ -12,8 +12,9 @@
 
 #include "command.hpp"
 #include "common/error.hpp"
+#include "io/model_file.hpp"
 #include "metric/model.hpp"
-#include "stream/clip_features.hpp"
+#include "io/clip_features.hpp"
 #include "train/evaluate.hpp"
 #include "train/linalg.hpp"
 #include "train/pipeline.hpp"

@@ -6,7 +6,7 @@
 #include "command.hpp"
 #include "io/bvh.hpp"
 #include "io/npy.hpp"
-#include "stream/clip_features.hpp"
+#include "io/clip_features.hpp"
 
 namespace {
 

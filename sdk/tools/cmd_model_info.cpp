@@ -5,6 +5,7 @@
 #include <string>
 
 #include "command.hpp"
+#include "io/model_file.hpp"
 #include "metric/model.hpp"
 
 namespace {

@@ -7,7 +7,7 @@
 
 #include "command.hpp"
 #include "common/error.hpp"
-#include "stream/clip_features.hpp"
+#include "io/clip_features.hpp"
 #include "train/pipeline.hpp"
 
 namespace {

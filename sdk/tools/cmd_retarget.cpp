@@ -11,7 +11,7 @@
 #include "common/error.hpp"
 #include "io/bvh.hpp"
 #include "io/npy.hpp"
-#include "retarget/ghost_bvh.hpp"
+#include "io/ghost_bvh.hpp"
 #include "retarget/joint_set.hpp"
 #include "retarget/retargeter.hpp"
 

@@ -8,10 +8,11 @@
 #include "command.hpp"
 #include "common/error.hpp"
 #include "io/bvh.hpp"
+#include "io/model_file.hpp"
 #include "metric/model.hpp"
 #include "metric/parts.hpp"
 #include "metric/scorer.hpp"
-#include "stream/clip_features.hpp"
+#include "io/clip_features.hpp"
 
 namespace {
 

@@ -8,10 +8,10 @@
 #include <vector>
 
 #include "io/bvh.hpp"
-#include "metric/random_model.hpp"
+#include "support/random_model.hpp"
 #include "metric/scorer.hpp"
 #include "skeleton/skeleton.hpp"
-#include "stream/clip_features.hpp"
+#include "io/clip_features.hpp"
 
 namespace kata::test {
 

@@ -10,6 +10,7 @@
 #include "alloc_counter.hpp"
 #include "fixtures.hpp"
 #include "kata/kata.h"
+#include "io/model_file.hpp"
 #include "metric/model.hpp"
 
 namespace kata {

@@ -9,6 +9,7 @@
 #include "common/error.hpp"
 #include "fixtures.hpp"
 #include "kata_schemas/model_generated.h"
+#include "io/model_file.hpp"
 #include "metric/model.hpp"
 
 namespace kata {

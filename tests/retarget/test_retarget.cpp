@@ -16,7 +16,7 @@
 
 #include "io/bvh.hpp"
 #include "retarget/distance.hpp"
-#include "retarget/ghost_bvh.hpp"
+#include "io/ghost_bvh.hpp"
 #include "retarget/joint_set.hpp"
 #include "retarget/retargeter.hpp"
 #include "retarget/spg.hpp"

@@ -13,7 +13,7 @@
 #include "alloc_counter.hpp"
 #include "common/error.hpp"
 #include "io/bvh.hpp"
-#include "stream/clip_features.hpp"
+#include "io/clip_features.hpp"
 #include "stream/stream.hpp"
 
 namespace {

@@ -10,7 +10,7 @@
 
 #include "io/bvh.hpp"
 #include "io/npy.hpp"
-#include "stream/clip_features.hpp"
+#include "io/clip_features.hpp"
 
 namespace {
 

@@ -3,6 +3,7 @@
 #include <cstring>
 #include <string>
 
+#include "io/name_map.hpp"
 #include "capi/capi_internal.hpp"
 
 using kata::capi::guarded_context;

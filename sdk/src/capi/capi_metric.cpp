@@ -8,9 +8,10 @@
 #include <vector>
 
 #include "capi/capi_internal.hpp"
+#include "io/model_file.hpp"
 #include "metric/model.hpp"
 #include "metric/scorer.hpp"
-#include "stream/clip_features.hpp"
+#include "io/clip_features.hpp"
 
 struct kata_model_s {
   std::shared_ptr<const kata::metric::Metric> metric;

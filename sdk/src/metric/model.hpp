@@ -52,8 +52,5 @@ std::vector<uint8_t> serialize_model(const Model& model);
 // kata::Error(kModel) with a message naming the problem: not a model / wrong identifier,
 // another layout id, wrong dimensions, NaN/Inf, max < min, rank 0, ...
 Model parse_model(const uint8_t* data, size_t size);
-// File versions; load_model throws kata::Error(kIo) when the file cannot be read.
-void save_model(const std::string& path, const Model& model);
-Model load_model(const std::string& path);
 
 }  // namespace kata::metric

@@ -52,10 +52,8 @@ std::array<std::string, kGpdJoints> preset_joint_names(const std::string& preset
 // Names of every built-in preset.
 std::vector<std::string> preset_names();
 
-// Reads a user name map: either JSON ({"Hip": "pelvis", "Chest": "spine_02", ...}) or text
-// lines "Hip = pelvis" ('#' starts a comment). All 16 GPD joints must be present. Errors name
-// the file and line.
-std::array<std::string, kGpdJoints> load_name_map(const std::string& path);
+// User name maps (JSON or "Gpd = source" text) are parsed by io/name_map.hpp: the runtime
+// receives the 16 names, never a file.
 
 // Resolves names against a skeleton. Throws kata::Error(kNotFound) naming the missing joint.
 GpdMap make_gpd_map(const Skeleton& skeleton, const std::array<std::string, kGpdJoints>& names);

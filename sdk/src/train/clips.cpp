@@ -9,7 +9,7 @@
 
 #include "common/error.hpp"
 #include "skeleton/skeleton.hpp"
-#include "stream/clip_features.hpp"
+#include "io/clip_features.hpp"
 
 namespace kata::train {
 namespace {

@@ -1,4 +1,5 @@
-#include "stream/clip_features.hpp"
+#include "io/name_map.hpp"
+#include "io/clip_features.hpp"
 
 #include "common/error.hpp"
 #include "stream/stream.hpp"

@@ -1,5 +1,5 @@
 // Ghost BVH motion rows (see ghost_bvh.hpp).
-#include "retarget/ghost_bvh.hpp"
+#include "io/ghost_bvh.hpp"
 
 #include <cmath>
 #include <string>

@@ -1,4 +1,4 @@
-#include "metric/random_model.hpp"
+#include "support/random_model.hpp"
 
 #include <algorithm>
 #include <cmath>
