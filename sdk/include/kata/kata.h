@@ -43,7 +43,7 @@ extern "C" {
 /* ==== Versions ============================================================================ */
 
 #define KATA_VERSION_MAJOR 0
-#define KATA_VERSION_MINOR 1
+#define KATA_VERSION_MINOR 2
 #define KATA_VERSION_PATCH 0
 /* The feature layout this library computes (spec gpd-v1.md); stored in every model file. */
 #define KATA_GPD_LAYOUT "gpd-v1"
@@ -168,6 +168,9 @@ typedef struct kata_stream_desc {
    * else the median over the first calibration_frames frames (held until then). */
   double body_height;
   uint32_t calibration_frames; /* default 8 */
+  /* ---- since 0.2 (a caller built against 0.1 passes the smaller struct_size: defaults apply) */
+  uint32_t result_capacity;    /* results kept until read (kata_stream_read_results). Default 64 */
+  int32_t keep_features;       /* 1: each result also keeps its feature vector. Default 0 */
 } kata_stream_desc;
 
 /* Fills desc with the defaults above (struct_size set). [any thread] */
@@ -175,7 +178,10 @@ KATA_API void kata_stream_desc_init(kata_stream_desc* desc);
 /* The name of built-in preset i ("cmu", ...), or NULL past the last. [any thread] */
 KATA_API const char* kata_preset_name(uint32_t i);
 
-/* Opens a stream for frames of `skeleton`. Allocates all its memory now. The skeleton is
+/* Opens a stream for frames of `skeleton`: a pipeline that runs every feature vector the stream
+ * emits through the score and the ghost of an attached teacher (kata_stream_attach_teacher) in
+ * the push that emitted it, and keeps each result in a ring until read (kata_stream_read_results).
+ * Allocates all its memory now. The skeleton is
  * copied; it may be destroyed afterwards. Errors (unknown preset, a mapped joint missing from
  * the skeleton, bad values) are reported on the context. [any thread] */
 KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skeleton, const kata_stream_desc* desc,
@@ -298,11 +304,11 @@ KATA_API kata_status kata_stream_clear_reference(kata_stream stream);
 /* Restarts a clip reference's alignment: the next frame is matched from the clip's start.
  * [stream owner] */
 KATA_API kata_status kata_stream_restart_reference(kata_stream stream);
-/* Scores the stream's newest feature vector against its reference and copies the record into
- * *out. Each vector is scored once, when first read (a later call without a new push returns the
- * same record); vectors pushed without a call in between are not scored (the alignment uses
- * timestamps, so it copes). KATA_NO_DATA before the first feature vector; KATA_E_STATE without a
- * reference. Does not allocate. [stream owner] */
+/* Copies the score record of the stream's newest feature vector into *out. Every vector is
+ * scored in the push that emits it (so the alignment sees every frame, whatever the read rate);
+ * a vector emitted before the reference was set is scored by this call. A later call without a
+ * new push returns the same record. KATA_NO_DATA before the first feature vector; KATA_E_STATE
+ * without a reference. Does not allocate. [stream owner] */
 KATA_API kata_status kata_stream_score(kata_stream stream, kata_score_record* out);
 
 /* ==== Retargeting ========================================================================= */
@@ -384,6 +390,89 @@ KATA_API kata_status kata_retargeter_place(kata_retargeter retargeter, const flo
  * student's bone lengths laid along the teacher's bone directions). Call at a cut in the
  * teacher's motion. [retargeter owner] */
 KATA_API kata_status kata_retargeter_reset(kata_retargeter retargeter);
+
+/* ==== Pipeline: every frame scored, with the teacher's pose on the student's body ========= */
+/* (section: pipeline, since 0.2)
+ * A stream with a teacher attached runs, in each push, for every feature vector it emits:
+ *   score against the teacher (clip alignment picks the matched teacher frame)
+ *   -> that teacher frame retargeted onto the student's bones (warm-started solve, exact bones)
+ *   -> placed over the student's pose of the same frame: the "ghost" to draw over the student.
+ * Each emitted vector becomes one kata_result in a ring of desc.result_capacity entries; the
+ * caller drains them with kata_stream_read_results at any rate (push at 120 Hz, read at 30 Hz:
+ * nothing is lost while the ring holds what arrives between reads; when it is full the oldest
+ * unread result is overwritten and counted by kata_stream_results_dropped).
+ * Times: capture_time is the caller's timestamp of the frame (seconds); arrival_ns and
+ * computed_ns are CLOCK_MONOTONIC nanoseconds (C++ steady_clock): when the push began and when
+ * the result was complete. Memory: kata_stream_attach_teacher allocates; pushes and reads never
+ * do. Threads: [stream owner] for every call. */
+
+/* Which teacher a stream scores against and ghosts from. Fill with kata_teacher_desc_init. */
+typedef struct kata_teacher_desc {
+  uint32_t struct_size;      /* sizeof(kata_teacher_desc) */
+  kata_model model;          /* required; the stream must use the model's stencil */
+  /* The teacher's motion: a recorded clip ... */
+  kata_clip clip;            /* a BVH clip, or NULL and the three fields below */
+  /* ... or frames of joint positions: `frames` x kata_skeleton_joint_count(skeleton) x 3 floats,
+   * row-major, +Y up, frame_time seconds apart (copied). */
+  kata_skeleton skeleton;
+  const float* positions;
+  uint32_t frames;
+  double frame_time;
+  const char* preset;        /* the teacher's GPD joint map (kata_preset_name). NULL: "cmu" */
+  uint32_t first_frame;      /* teacher frames first_frame..end (1 skips CMU's T-pose). Default 0 */
+  int32_t pose_frame;        /* -1 (default): follow the whole clip; >= first_frame: that frame only */
+  int32_t ghost;             /* 1 (default): make a ghost per result (the student skeleton needs rest
+                                offsets and the same joint names as the teacher); 0: scores only */
+  const kata_retarget_desc* retarget;  /* the ghost's solver (joint set "cmu" or "gpd"); NULL: defaults */
+} kata_teacher_desc;
+
+/* Fills desc with the defaults above (struct_size set). [any thread] */
+KATA_API void kata_teacher_desc_init(kata_teacher_desc* desc);
+/* Attaches a teacher to a stream in one call: model, teacher motion, and (from the stream's own
+ * skeleton) the student's body. Replaces any reference or teacher; a refused call leaves the old
+ * one in place. The alignment starts at the teacher's first frame. Errors (stencil mismatch,
+ * unknown preset, a ghost joint missing from one skeleton, bad frames) go to
+ * kata_stream_last_error. Allocates. [stream owner] */
+KATA_API kata_status kata_stream_attach_teacher(kata_stream stream, const kata_teacher_desc* desc);
+
+/* kata_result.flags */
+#define KATA_RESULT_SCORED 1u /* the score record is valid (a teacher or reference is attached) */
+#define KATA_RESULT_GHOST 2u  /* the ghost was made */
+
+/* One emitted feature vector's result. */
+typedef struct kata_result {
+  uint32_t struct_size;        /* set by the caller in results[0]: sizeof(kata_result) */
+  uint32_t flags;              /* KATA_RESULT_* */
+  uint64_t sequence;           /* 0, 1, 2... per stream, one per emitted vector (gaps = dropped) */
+  int64_t frame_index;         /* the stream frame (as kata_stream_features reports it) */
+  double capture_time;         /* the caller's timestamp of that frame, seconds */
+  int64_t arrival_ns;          /* CLOCK_MONOTONIC ns when the push that emitted it began */
+  int64_t computed_ns;         /* CLOCK_MONOTONIC ns when this result was complete */
+  int32_t matched_teacher_frame; /* teacher frame the score matched (index from first_frame), -1 */
+  uint32_t ghost_joint_count;  /* joints in this result's ghost (0 without one) */
+} kata_result;
+
+/* Moves every unread result, oldest first (at most `capacity`), to the caller's arrays and sets
+ * *count. Each array may be NULL except results:
+ *   results  capacity entries of results[0].struct_size bytes (set it to sizeof(kata_result));
+ *   scores   capacity entries of scores[0].struct_size bytes (sizeof(kata_score_record));
+ *   ghosts   ghost_capacity floats: entry i at i x 3 x kata_stream_ghost_joint_count() (x, y, z
+ *            per ghost joint, the student's units, placed over the student; zeros without one);
+ *   features feature_capacity floats: entry i at i x KATA_GPD_DIMS (needs desc.keep_features).
+ * KATA_E_BUFFER_TOO_SMALL (nothing moved) when ghosts or features hold fewer than capacity
+ * entries. *count = 0 and KATA_OK when nothing is unread. Does not allocate. [stream owner] */
+KATA_API kata_status kata_stream_read_results(kata_stream stream, kata_result* results, kata_score_record* scores,
+                                              float* ghosts, size_t ghost_capacity, float* features,
+                                              size_t feature_capacity, uint32_t capacity, uint32_t* count);
+/* Results overwritten before they were read (a full ring), since the stream was opened; 0 for
+ * NULL. [stream owner] */
+KATA_API uint64_t kata_stream_results_dropped(kata_stream stream);
+/* Unread results in the ring; 0 for NULL. [stream owner] */
+KATA_API uint32_t kata_stream_results_pending(kata_stream stream);
+/* Joints of the stream's ghosts (0 without a ghost) and, for ghost joint i, the index of the
+ * student skeleton joint it stands for (-1 when out of range). [stream owner] */
+KATA_API uint32_t kata_stream_ghost_joint_count(kata_stream stream);
+KATA_API int32_t kata_stream_ghost_joint_source(kata_stream stream, uint32_t i);
 
 #ifdef __cplusplus
 }

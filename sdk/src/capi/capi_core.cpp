@@ -1,10 +1,12 @@
 // C shims for versions, status strings, contexts, skeletons, clips and streams.
+#include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <cstring>
 #include <string>
 
-#include "io/name_map.hpp"
 #include "capi/capi_internal.hpp"
+#include "io/name_map.hpp"
 
 using kata::capi::guarded_context;
 using kata::capi::set_context_error;
@@ -212,6 +214,8 @@ KATA_API void kata_stream_desc_init(kata_stream_desc* desc) {
   desc->history_capacity = 16;
   desc->body_height = 0.0;
   desc->calibration_frames = 8;
+  desc->result_capacity = 64;
+  desc->keep_features = 0;
 }
 
 KATA_API const char* kata_preset_name(uint32_t i) {
@@ -231,10 +235,16 @@ KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skelet
     set_context_error("kata_stream_open: context, skeleton and desc must not be NULL");
     return KATA_E_NULL_POINTER;
   }
-  if (desc->struct_size < sizeof(kata_stream_desc)) {
+  // A caller built against 0.1 passes the 0.1 struct (up to calibration_frames): defaults for the rest.
+  constexpr size_t kSize01 = offsetof(kata_stream_desc, result_capacity);
+  if (desc->struct_size < kSize01) {
     set_context_error("kata_stream_open: desc.struct_size is too small (call kata_stream_desc_init)");
     return KATA_E_INVALID_ARGUMENT;
   }
+  kata_stream_desc full;
+  kata_stream_desc_init(&full);
+  std::memcpy(&full, desc, std::min<size_t>(desc->struct_size, sizeof full));
+  desc = &full;
   return guarded_context([&] {
     const kata::Skeleton& skel = skeleton->skeleton;
     kata::StreamConfig config;
@@ -255,7 +265,12 @@ KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skelet
       // A Z-up rig's rest pose gives the same lengths: H only uses distances.
       config.body_height = kata::rest_body_height(skel, config.map);
     }
-    *out = new kata_stream_s(config, skel);
+    kata::pipeline::PipelineConfig pc;
+    pc.stream = config;
+    pc.student = skel;
+    pc.result_capacity = static_cast<int>(std::min<uint32_t>(desc->result_capacity, 1u << 20));
+    pc.keep_features = desc->keep_features != 0;
+    *out = new kata_stream_s(pc);
     return KATA_OK;
   });
 }
@@ -269,20 +284,20 @@ KATA_API kata_status kata_stream_push(kata_stream stream, double timestamp, cons
   if (!stream) return KATA_E_NULL_POINTER;
   // Stream::push never throws; joint counts beyond int range are simply wrong.
   const int count = joint_count > 1000000u ? -1 : static_cast<int>(joint_count);
-  const kata::Status s = stream->stream.push(timestamp, positions, count);
-  if (s != kata::Status::kOk) stream->set_error(stream->stream.last_error());
+  const kata::Status s = stream->pipeline.push(timestamp, positions, count);
+  if (s != kata::Status::kOk) stream->set_error(stream->pipeline.last_error());
   return kata::capi::to_status(s);
 }
 
 KATA_API kata_status kata_stream_flush(kata_stream stream) {
   if (!stream) return KATA_E_NULL_POINTER;
-  stream->stream.flush();
+  stream->pipeline.flush();
   return KATA_OK;
 }
 
 KATA_API kata_status kata_stream_reset(kata_stream stream) {
   if (!stream) return KATA_E_NULL_POINTER;
-  stream->stream.reset();
+  stream->pipeline.reset();
   return KATA_OK;
 }
 
@@ -297,18 +312,18 @@ KATA_API kata_status kata_stream_features(kata_stream stream, float* out, size_t
     stream->set_error("kata_stream_features: buffer holds fewer than KATA_GPD_DIMS floats");
     return KATA_E_BUFFER_TOO_SMALL;
   }
-  const float* f = stream->stream.features();
+  const float* f = stream->pipeline.stream().features();
   if (!f) return KATA_NO_DATA;
   std::memcpy(out, f, sizeof(float) * KATA_GPD_DIMS);
-  if (timestamp) *timestamp = stream->stream.feature_time();
-  if (frame_index) *frame_index = stream->stream.feature_frame();
+  if (timestamp) *timestamp = stream->pipeline.stream().feature_time();
+  if (frame_index) *frame_index = stream->pipeline.stream().feature_frame();
   return KATA_OK;
 }
 
 KATA_API int64_t kata_stream_feature_count(kata_stream stream) {
-  return stream ? stream->stream.emitted_count() : 0;
+  return stream ? stream->pipeline.stream().emitted_count() : 0;
 }
 
-KATA_API double kata_stream_body_height(kata_stream stream) { return stream ? stream->stream.body_height() : 0.0; }
+KATA_API double kata_stream_body_height(kata_stream stream) { return stream ? stream->pipeline.stream().body_height() : 0.0; }
 
 }  // extern "C"

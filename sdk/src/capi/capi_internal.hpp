@@ -2,7 +2,9 @@
 // Private to libkata (and the internal tests).
 #pragma once
 
+#include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <new>
 #include <string>
@@ -12,16 +14,15 @@
 #include "io/bvh.hpp"
 #include "kata/kata.h"
 #include "skeleton/skeleton.hpp"
+#include "metric/model.hpp"
+#include "pipeline/pipeline.hpp"
 #include "stream/stream.hpp"
 
 namespace kata::capi {
 
-// Scoring state a stream may carry, defined in capi_metric.cpp, which attaches it with its own
-// deleter: stream->scoring = AttachedPtr<StreamScoring>(new StreamScoring(...), &destroy_scoring).
-// (Retargeting has its own handle, kata_retargeter, that may be made from a stream.)
-struct StreamScoring;
-template <class T>
-using AttachedPtr = std::unique_ptr<T, void (*)(T*)>;
+// Options of a retargeter from a kata_retarget_desc (NULL: defaults; validated: throws
+// kata::Error), and its joint set name ("cmu", "gpd"). Defined in capi_retarget.cpp.
+kata::retarget::RetargetOptions retarget_options(const kata_retarget_desc* desc, std::string* joint_set);
 
 // Sets / reads the calling thread's context error message.
 void set_context_error(const char* message) noexcept;
@@ -81,14 +82,46 @@ struct kata_clip_s {
   kata::BvhClip clip;
 };
 
+struct kata_model_s {
+  std::shared_ptr<const kata::metric::Metric> metric;
+  kata::metric::TrainingInfo info;
+  std::string layout;
+};
+
+// A stream is its pipeline (kata::pipeline::Pipeline: stream -> score -> ghost -> result ring);
+// the shim adds only the error text of calls refused before they reach it.
 struct kata_stream_s {
-  explicit kata_stream_s(const kata::StreamConfig& config, kata::Skeleton skel)
-      : stream(config), skeleton(std::move(skel)) {}
-  kata::Stream stream;
-  kata::Skeleton skeleton;  // the input skeleton (rest lengths for kata_retargeter_create_for_stream)
-  kata::capi::AttachedPtr<kata::capi::StreamScoring> scoring{nullptr, nullptr};
+  explicit kata_stream_s(const kata::pipeline::PipelineConfig& config) : pipeline(config) {}
+  kata::pipeline::Pipeline pipeline;
   char error[256] = {0};
 
   // Copies a message into the stream's fixed buffer (no allocation: used on the frame path).
   void set_error(const char* message) noexcept { std::snprintf(error, sizeof error, "%s", message); }
 };
+
+// Stream-level calls: errors go to the stream's message buffer.
+namespace kata::capi {
+template <class Body>
+kata_status guarded_stream(kata_stream stream, Body&& body) noexcept {
+  return guarded([stream](const char* m) { stream->set_error(m); }, std::forward<Body>(body));
+}
+// Copies a result's score into the caller's record, only as much as its (possibly older,
+// smaller) struct holds.
+inline void copy_score(const kata::pipeline::Result& r, kata_score_record* out) noexcept {
+  kata_score_record k{};
+  k.struct_size = sizeof k;
+  k.matched_reference_frame = r.score.matched;
+  k.frame_index = r.frame_index;
+  k.timestamp = r.capture_time;
+  k.distance = r.score.distance;
+  k.score = r.score.score;
+  for (int q = 0; q < KATA_PART_COUNT; ++q) k.parts[q] = r.score.parts[q];
+  const uint32_t caller_size = out->struct_size;
+  std::memcpy(out, &k, std::min<size_t>(caller_size, sizeof k));
+  out->struct_size = caller_size;
+}
+inline kata_status refuse(kata_stream stream, kata_status status, const char* message) noexcept {
+  stream->set_error(message);
+  return status;
+}
+}  // namespace kata::capi

@@ -1,6 +1,6 @@
 // C shims for models and scoring (kata.h section "Models and scoring"): a kata_model holds the
-// compiled metric (shared, immutable); a stream's StreamScoring holds its reference and Scorer,
-// built when the reference is set so kata_stream_score never allocates.
+// compiled metric (shared, immutable); setting a reference attaches a score-only teacher to the
+// stream's pipeline (built when set, so pushes and kata_stream_score never allocate).
 #include <algorithm>
 #include <cstring>
 #include <memory>
@@ -12,29 +12,13 @@
 #include "metric/model.hpp"
 #include "metric/scorer.hpp"
 #include "io/clip_features.hpp"
+#include "pipeline/pipeline.hpp"
 
-struct kata_model_s {
-  std::shared_ptr<const kata::metric::Metric> metric;
-  kata::metric::TrainingInfo info;
-  std::string layout;
-};
-
-namespace kata::capi {
-
-struct StreamScoring {
-  explicit StreamScoring(std::shared_ptr<const metric::Reference> ref) : scorer(std::move(ref)) {}
-  metric::Scorer scorer;
-  int64_t scored = 0;  // the stream's emitted_count() when the newest record was made
-  kata_score_record record{};
-};
-
-}  // namespace kata::capi
 
 namespace {
 
-using kata::capi::StreamScoring;
-
-void destroy_scoring(StreamScoring* s) { delete s; }
+using kata::capi::guarded_stream;
+using kata::capi::refuse;
 
 kata_status make_model(kata::metric::Model model, kata_model* out) {
   auto m = std::make_unique<kata_model_s>();
@@ -45,26 +29,18 @@ kata_status make_model(kata::metric::Model model, kata_model* out) {
   return KATA_OK;
 }
 
-// Stream-level calls: errors go to the stream's message buffer.
-template <class Body>
-kata_status guarded_stream(kata_stream stream, Body&& body) noexcept {
-  return kata::capi::guarded([stream](const char* m) { stream->set_error(m); }, std::forward<Body>(body));
-}
-
-kata_status refuse(kata_stream stream, kata_status status, const char* message) {
-  stream->set_error(message);
-  return status;
-}
-
-// Replaces the stream's reference (the old one is released only once the new one is built).
+// Replaces the stream's reference (the old one is released only once the new one is built): a
+// teacher known by its features, scored without a ghost (kata_stream_attach_teacher makes ghosts).
 kata_status attach(kata_stream stream, std::shared_ptr<const kata::metric::Reference> ref) {
-  stream->scoring = kata::capi::AttachedPtr<StreamScoring>(new StreamScoring(std::move(ref)), &destroy_scoring);
+  kata::pipeline::TeacherOptions options;
+  options.ghost = false;
+  stream->pipeline.set_teacher(kata::pipeline::Teacher::from_reference(std::move(ref)), options);
   return KATA_OK;
 }
 
 kata_status check_pair(kata_stream stream, kata_model model) {
   if (!model) return refuse(stream, KATA_E_NULL_POINTER, "set reference: model is NULL");
-  if (stream->stream.config().stencil != model->metric->stencil())
+  if (stream->pipeline.stream().config().stencil != model->metric->stencil())
     return refuse(stream, KATA_E_INVALID_ARGUMENT,
                   "set reference: the stream's stencil differs from the one the model was trained with "
                   "(kata_model_stencil); open the stream with the model's stencil");
@@ -184,14 +160,15 @@ KATA_API kata_status kata_stream_set_reference_bvh(kata_stream stream, kata_mode
 
 KATA_API kata_status kata_stream_clear_reference(kata_stream stream) {
   if (!stream) return KATA_E_NULL_POINTER;
-  stream->scoring.reset();
+  stream->pipeline.clear_teacher();
   return KATA_OK;
 }
 
 KATA_API kata_status kata_stream_restart_reference(kata_stream stream) {
   if (!stream) return KATA_E_NULL_POINTER;
-  if (!stream->scoring) return refuse(stream, KATA_E_STATE, "kata_stream_restart_reference: no reference is set");
-  stream->scoring->scorer.reset();
+  if (!stream->pipeline.has_teacher())
+    return refuse(stream, KATA_E_STATE, "kata_stream_restart_reference: no reference is set");
+  stream->pipeline.restart_teacher();
   return KATA_OK;
 }
 
@@ -200,26 +177,11 @@ KATA_API kata_status kata_stream_score(kata_stream stream, kata_score_record* ou
   if (!out) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_score: out is NULL");
   if (out->struct_size < sizeof(uint32_t))
     return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_score: out->struct_size is not set");
-  StreamScoring* s = stream->scoring.get();
-  if (!s) return refuse(stream, KATA_E_STATE, "kata_stream_score: no reference is set on this stream");
-  const kata::Stream& st = stream->stream;
-  if (!st.features()) return KATA_NO_DATA;
-  if (st.emitted_count() != s->scored) {  // a new vector since the last record: score it once
-    const kata::metric::ScoreRecord& r = s->scorer.score(st.features(), st.feature_time());
-    kata_score_record& k = s->record;
-    k.struct_size = sizeof k;
-    k.matched_reference_frame = r.matched;
-    k.frame_index = st.feature_frame();
-    k.timestamp = r.time;
-    k.distance = r.distance;
-    k.score = r.score;
-    for (int q = 0; q < KATA_PART_COUNT; ++q) k.parts[q] = r.parts[q];
-    s->scored = st.emitted_count();
-  }
-  // Copy only what the caller's (possibly older, smaller) struct holds.
-  const uint32_t caller_size = out->struct_size;
-  std::memcpy(out, &s->record, std::min<size_t>(caller_size, sizeof s->record));
-  out->struct_size = caller_size;
+  kata::pipeline::Pipeline& p = stream->pipeline;
+  if (!p.has_teacher()) return refuse(stream, KATA_E_STATE, "kata_stream_score: no reference is set on this stream");
+  const kata::pipeline::Result* r = p.score_newest();
+  if (!r) return KATA_NO_DATA;
+  kata::capi::copy_score(*r, out);
   return KATA_OK;
 }
 

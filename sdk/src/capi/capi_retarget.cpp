@@ -34,6 +34,7 @@ struct kata_retargeter_s {
   void set_error(const char* message) noexcept { std::snprintf(error, sizeof error, "%s", message); }
 };
 
+
 namespace {
 
 // The caller's desc over the defaults (only the part its possibly older, smaller struct has).
@@ -59,13 +60,9 @@ kata_status create(const kata::Skeleton& student, const kata_retarget_desc* desc
     throw kata::Error(kata::ErrorKind::kInvalidArgument,
                       "retargeter: the student skeleton has no rest offsets (its bone lengths are unknown)");
   }
-  const kata_retarget_desc d = effective_desc(desc);
-  kata::retarget::RetargetOptions o;
-  o.solver.gradient_tolerance = d.gradient_tolerance;
-  o.solver.max_iterations = static_cast<int>(std::min<uint32_t>(d.max_iterations, 1u << 30));
-  o.warm_start = d.warm_start != 0;
-  o.restore_bone_lengths = d.restore_bone_lengths != 0;
-  const auto sel = kata::retarget::select_joints(student, student, d.preset);
+  std::string joints;
+  const kata::retarget::RetargetOptions o = kata::capi::retarget_options(desc, &joints);
+  const auto sel = kata::retarget::select_joints(student, student, joints);
   *out = new kata_retargeter_s(student, sel, o);
   return KATA_OK;
 }
@@ -77,6 +74,21 @@ bool all_finite(const float* p, size_t n) {
 }
 
 }  // namespace
+
+namespace kata::capi {
+
+kata::retarget::RetargetOptions retarget_options(const kata_retarget_desc* desc, std::string* joint_set) {
+  const kata_retarget_desc d = effective_desc(desc);
+  kata::retarget::RetargetOptions o;
+  o.solver.gradient_tolerance = d.gradient_tolerance;
+  o.solver.max_iterations = static_cast<int>(std::min<uint32_t>(d.max_iterations, 1u << 30));
+  o.warm_start = d.warm_start != 0;
+  o.restore_bone_lengths = d.restore_bone_lengths != 0;
+  *joint_set = d.preset;
+  return o;
+}
+
+}  // namespace kata::capi
 
 extern "C" {
 
@@ -111,7 +123,7 @@ KATA_API kata_status kata_retargeter_create_for_stream(kata_context context, kat
       return KATA_E_NULL_POINTER;
     }
     *out = nullptr;
-    return create(student->skeleton, desc, out);
+    return create(student->pipeline.student(), desc, out);
   });
 }
 

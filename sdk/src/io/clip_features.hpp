@@ -17,6 +17,10 @@ namespace kata {
 // `first` = 1 skips the T-pose the CMU converter put at frame 0.
 std::vector<float> clip_features(const BvhClip& clip, const GpdMap& map, gpd::Stencil stencil, int first = 0);
 
+// World positions of frames [first, frame_count) by forward kinematics: (frames - first) x
+// joints x 3 floats, row-major, file units.
+std::vector<float> clip_positions(const BvhClip& clip, int first = 0);
+
 // The map for a preset name or, when `preset` is empty, for a name-map file.
 GpdMap resolve_gpd_map(const Skeleton& skeleton, const std::string& preset, const std::string& name_map_path);
 

@@ -202,4 +202,31 @@ void Stream::flush() {
 
 void Stream::reset() { new_segment_ = true; }
 
+std::vector<float> features_of_frames(const StreamConfig& config, const float* positions, int frames,
+                                      double frame_time) {
+  if (frames < 0 || (frames > 0 && !positions))
+    throw Error(ErrorKind::kInvalidArgument, "features_of_frames: no positions");
+  if (!(frame_time > 0.0) || !std::isfinite(frame_time))
+    throw Error(ErrorKind::kInvalidArgument, "features_of_frames: frame time must be > 0 seconds");
+  Stream stream(config);
+  std::vector<float> out(static_cast<size_t>(frames) * gpd::kDims);
+  const size_t stride = 3 * static_cast<size_t>(config.input_joints);
+  int64_t copied = 0;  // vectors copied out so far (they are frames 0, 1, ... in order)
+  auto collect = [&] {
+    for (; copied < stream.emitted_count(); ++copied) {
+      const float* v = stream.vector_of(copied);
+      std::copy(v, v + gpd::kDims, out.begin() + copied * gpd::kDims);
+    }
+  };
+  for (int i = 0; i < frames; ++i) {
+    const Status s = stream.push(i * frame_time, positions + static_cast<size_t>(i) * stride, config.input_joints);
+    if (s != Status::kOk)
+      throw Error(ErrorKind::kInvalidArgument, "frame " + std::to_string(i) + ": " + stream.last_error());
+    collect();
+  }
+  stream.flush();
+  collect();
+  return out;
+}
+
 }  // namespace kata

@@ -32,6 +32,13 @@ struct StreamConfig {
 // A stream's config for a skeleton with a rest pose (e.g. a BVH clip's): H from the rest pose.
 StreamConfig stream_config_for(const Skeleton& skeleton, const GpdMap& map, gpd::Stencil stencil);
 
+// GPD v1 features of `frames` recorded frames (positions: frames x config.input_joints x 3 floats,
+// row-major, input units), `frame_time` seconds apart, pushed one by one through a Stream with
+// `config` (the live code path) and flushed after the last: frames x gpd::kDims floats. Throws
+// kata::Error(kInvalidArgument) naming the frame a stream refuses. Allocates (offline use).
+std::vector<float> features_of_frames(const StreamConfig& config, const float* positions, int frames,
+                                      double frame_time);
+
 class Stream {
  public:
   // Allocates every buffer. Throws kata::Error(kInvalidArgument) on a bad config.
@@ -57,8 +64,22 @@ class Stream {
   int64_t feature_frame() const { return out_frame_; }
   // Number of vectors emitted so far; a caller that sees it grow by one knows it has them all.
   int64_t emitted_count() const { return emitted_; }
+  // Emitted vectors are consecutive frames: the vector of frame f (emitted, and among the last
+  // `history` accepted frames) and that frame's timestamp. One push may emit several (the
+  // frames held while calibrating); a pipeline reads each right after the push.
+  const float* vector_of(int64_t frame) const {
+    return vectors_.data() + static_cast<size_t>(slot_at(frame)) * gpd::kDims;
+  }
+  double time_of(int64_t frame) const { return time_[static_cast<size_t>(slot_at(frame))]; }
+  // The mapped GPD joints of accepted frame f (16 x 3, Y up, input units), among the last
+  // `history` accepted frames.
+  const float* joints_of(int64_t frame) const {
+    return joints_.data() + static_cast<size_t>(slot_at(frame)) * 3 * gpd::kJoints;
+  }
   // The newest accepted frame's mapped GPD joints (16 x 3, Y up, input units), or null.
   const float* last_joints() const;
+  // Number of frames accepted so far (the next frame's index).
+  int64_t accepted_count() const { return accepted_; }
   // H in input units; 0 while still calibrating.
   double body_height() const { return height_; }
   const StreamConfig& config() const { return config_; }

@@ -1,0 +1,220 @@
+#include "pipeline/pipeline.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cstring>
+
+#include "common/error.hpp"
+
+namespace kata::pipeline {
+
+int64_t now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+std::shared_ptr<const Teacher> Teacher::from_positions(std::shared_ptr<const metric::Metric> metric,
+                                                       const Skeleton& skeleton, const StreamConfig& stream_config,
+                                                       const float* positions, int frames, double frame_time,
+                                                       int pose_frame) {
+  if (!metric) throw Error(ErrorKind::kInvalidArgument, "teacher: no model");
+  if (frames < 1 || !positions) throw Error(ErrorKind::kInvalidArgument, "teacher: no frames");
+  if (stream_config.input_joints != skeleton.joint_count())
+    throw Error(ErrorKind::kInvalidArgument, "teacher: the stream config's joint count differs from the skeleton's");
+  if (stream_config.stencil != metric->stencil())
+    throw Error(ErrorKind::kInvalidArgument, "teacher: the features' stencil differs from the model's");
+  if (pose_frame < -1 || pose_frame >= frames)
+    throw Error(ErrorKind::kInvalidArgument, "teacher: pose frame " + std::to_string(pose_frame) +
+                                                 " is outside -1.." + std::to_string(frames - 1));
+  const std::vector<float> features = features_of_frames(stream_config, positions, frames, frame_time);
+  auto teacher = std::make_shared<Teacher>();
+  teacher->skeleton = skeleton;
+  const size_t per_frame = 3 * static_cast<size_t>(skeleton.joint_count());
+  if (pose_frame >= 0) {
+    teacher->reference = std::make_shared<const metric::Reference>(
+        metric, features.data() + static_cast<size_t>(pose_frame) * gpd::kDims);
+    const float* p = positions + static_cast<size_t>(pose_frame) * per_frame;
+    teacher->positions.assign(p, p + per_frame);
+  } else {
+    teacher->reference = std::make_shared<const metric::Reference>(metric, features.data(), frames, frame_time);
+    teacher->positions.assign(positions, positions + static_cast<size_t>(frames) * per_frame);
+  }
+  return teacher;
+}
+
+std::shared_ptr<const Teacher> Teacher::from_reference(std::shared_ptr<const metric::Reference> reference) {
+  if (!reference) throw Error(ErrorKind::kInvalidArgument, "teacher: no reference");
+  auto teacher = std::make_shared<Teacher>();
+  teacher->reference = std::move(reference);
+  return teacher;
+}
+
+Pipeline::Pipeline(const PipelineConfig& config) : config_(config), stream_(config.stream) {
+  if (config_.result_capacity < 1 || config_.result_capacity > (1 << 20))
+    throw Error(ErrorKind::kInvalidArgument, "pipeline: result capacity must be in 1..2^20");
+  if (config_.student.joint_count() != config_.stream.input_joints)
+    throw Error(ErrorKind::kInvalidArgument, "pipeline: the student skeleton's joint count differs from the stream's");
+  history_ = config_.stream.history;
+  capacity_ = config_.result_capacity;
+  const size_t input_floats = 3 * static_cast<size_t>(config_.stream.input_joints);
+  student_ring_.assign(static_cast<size_t>(history_) * input_floats, 0.0f);
+  results_.assign(static_cast<size_t>(capacity_), Result{});
+  ghost_stride_ = static_cast<int>(input_floats);  // no joint set has more joints than the student
+  ghost_ring_.assign(static_cast<size_t>(capacity_) * input_floats, 0.0f);
+  if (config_.keep_features) feature_ring_.assign(static_cast<size_t>(capacity_) * gpd::kDims, 0.0f);
+}
+
+void Pipeline::set_teacher(std::shared_ptr<const Teacher> teacher, const TeacherOptions& options) {
+  if (!teacher || !teacher->reference) throw Error(ErrorKind::kInvalidArgument, "pipeline: no teacher");
+  if (teacher->reference->metric().stencil() != config_.stream.stencil)
+    throw Error(ErrorKind::kInvalidArgument,
+                "pipeline: the stream's stencil differs from the one the model was trained with; open the stream "
+                "with the model's stencil");
+  // Build everything first, then swap in: a refused teacher leaves the old one in place.
+  auto scorer = std::make_unique<metric::Scorer>(teacher->reference, options.alignment);
+  std::unique_ptr<retarget::Retargeter> retargeter;
+  retarget::JointSelection selection;
+  if (options.ghost && teacher->has_positions() && config_.student.has_rest_pose) {
+    selection = retarget::select_joints(teacher->skeleton, config_.student, options.ghost_joints);
+    retargeter = std::make_unique<retarget::Retargeter>(
+        selection.parents, retarget::selected_rest_lengths(config_.student, selection), options.retarget,
+        retarget::selected_rest_directions(config_.student, selection));
+  }
+  const size_t n = selection.source.size();
+  teacher_pose_.assign(3 * n, 0.0);
+  ghost_pose_.assign(3 * n, 0.0);
+  student_pose_.assign(3 * n, 0.0);
+  teacher_ = std::move(teacher);
+  scorer_ = std::move(scorer);
+  retargeter_ = std::move(retargeter);
+  selection_ = std::move(selection);
+  ghost_joints_ = static_cast<int>(n);
+}
+
+void Pipeline::clear_teacher() {
+  teacher_.reset();
+  scorer_.reset();
+  retargeter_.reset();
+  selection_ = {};
+  ghost_joints_ = 0;
+}
+
+void Pipeline::restart_teacher() {
+  if (scorer_) scorer_->reset();
+  if (retargeter_) retargeter_->reset();
+}
+
+Status Pipeline::push(double capture_time, const float* xyz, int joint_count, int64_t arrival_ns) {
+  if (arrival_ns == 0) arrival_ns = now_ns();
+  const int64_t frame = stream_.accepted_count();
+  const int64_t before = stream_.emitted_count();
+  const Status s = stream_.push(capture_time, xyz, joint_count);
+  if (s != Status::kOk) return s;
+  const size_t input_floats = 3 * static_cast<size_t>(joint_count);
+  std::memcpy(student_ring_.data() + static_cast<size_t>(frame % history_) * input_floats, xyz,
+              input_floats * sizeof(float));
+  process_emitted(before, arrival_ns);
+  return Status::kOk;
+}
+
+void Pipeline::flush() {
+  const int64_t before = stream_.emitted_count();
+  stream_.flush();
+  process_emitted(before, now_ns());
+}
+
+void Pipeline::reset() {
+  const int64_t before = stream_.emitted_count();
+  stream_.reset();
+  process_emitted(before, now_ns());
+}
+
+void Pipeline::process_emitted(int64_t before, int64_t arrival_ns) {
+  const int64_t count = stream_.emitted_count() - before;
+  if (count <= 0) return;
+  // Emitted vectors are consecutive frames ending at the newest one.
+  const int64_t last = stream_.feature_frame();
+  for (int64_t f = last - count + 1; f <= last; ++f) produce(f, arrival_ns);
+}
+
+void Pipeline::produce(int64_t frame, int64_t arrival_ns) {
+  if (written_ - read_ == static_cast<uint64_t>(capacity_)) {  // full: the oldest unread result goes
+    ++read_;
+    ++dropped_;
+  }
+  const uint64_t seq = written_;
+  const size_t k = slot(seq);
+  Result& r = results_[k];
+  r = Result{};
+  r.sequence = seq;
+  r.frame_index = frame;
+  r.capture_time = stream_.time_of(frame);
+  r.arrival_ns = arrival_ns;
+  const float* x = stream_.vector_of(frame);
+  if (config_.keep_features) std::memcpy(feature_ring_.data() + k * gpd::kDims, x, gpd::kDims * sizeof(float));
+  float* ghost = ghost_ring_.data() + k * static_cast<size_t>(ghost_stride_);
+  if (scorer_) {
+    r.score = scorer_->score(x, r.capture_time);
+    r.scored = true;
+    r.matched_frame = r.score.matched;
+    if (retargeter_) {
+      const float* t = teacher_->frame_positions(r.matched_frame);
+      const float* s = student_ring_.data() + static_cast<size_t>(frame % history_) * 3 *
+                                                  static_cast<size_t>(config_.stream.input_joints);
+      for (int j = 0; j < ghost_joints_; ++j) {
+        const size_t src = 3 * static_cast<size_t>(selection_.source[static_cast<size_t>(j)]);
+        for (int c = 0; c < 3; ++c) {
+          teacher_pose_[3 * static_cast<size_t>(j) + c] = t[src + c];
+          student_pose_[3 * static_cast<size_t>(j) + c] = s[src + c];
+        }
+      }
+      retargeter_->retarget(teacher_pose_.data(), ghost_pose_.data());
+      retarget::place_over_student(ghost_joints_, student_pose_.data(), ghost_pose_.data());
+      for (int i = 0; i < 3 * ghost_joints_; ++i) ghost[i] = static_cast<float>(ghost_pose_[static_cast<size_t>(i)]);
+      r.has_ghost = true;
+    }
+  }
+  r.computed_ns = now_ns();
+  written_ = seq + 1;
+}
+
+size_t Pipeline::read(Result* out, float* ghosts, float* features, size_t capacity) {
+  size_t n = 0;
+  const size_t g = 3 * static_cast<size_t>(ghost_joints_);
+  for (; n < capacity && read_ < written_; ++n, ++read_) {
+    const size_t k = slot(read_);
+    out[n] = results_[k];
+    if (ghosts) {
+      if (results_[k].has_ghost)
+        std::memcpy(ghosts + n * g, ghost_ring_.data() + k * static_cast<size_t>(ghost_stride_), g * sizeof(float));
+      else
+        std::fill(ghosts + n * g, ghosts + (n + 1) * g, 0.0f);
+    }
+    if (features && config_.keep_features)
+      std::memcpy(features + n * gpd::kDims, feature_ring_.data() + k * gpd::kDims, gpd::kDims * sizeof(float));
+  }
+  return n;
+}
+
+const Result* Pipeline::score_newest() {
+  if (!written_ || !scorer_) return nullptr;
+  Result& r = results_[slot(written_ - 1)];
+  if (!r.scored) {
+    r.score = scorer_->score(stream_.vector_of(r.frame_index), r.capture_time);
+    r.scored = true;
+    r.matched_frame = r.score.matched;
+  }
+  return &r;
+}
+
+const Result* Pipeline::newest() const { return written_ ? &results_[slot(written_ - 1)] : nullptr; }
+
+const float* Pipeline::newest_ghost() const {
+  return written_ ? ghost_ring_.data() + slot(written_ - 1) * static_cast<size_t>(ghost_stride_) : nullptr;
+}
+
+const float* Pipeline::newest_features() const {
+  return written_ && config_.keep_features ? feature_ring_.data() + slot(written_ - 1) * gpd::kDims : nullptr;
+}
+
+}  // namespace kata::pipeline

@@ -1,0 +1,172 @@
+// One stream, one pipeline: every feature vector a stream emits goes features -> score -> ghost
+// inside the push that produced it, and lands in a ring of per-frame results sized at open.
+//
+//   push(frame) -> Stream (map to GPD joints, local frame, static blocks, kinetics)
+//               -> for each emitted vector (one per push; several after calibration or a flush):
+//                    Scorer (normalise, project with W, score, part split, clip alignment)
+//                    -> the matched teacher frame's joint positions -> Retargeter (warm solve,
+//                       exact bones) -> placed over the student's pose of that same frame
+//                  -> Result in the ring (sequence, frame, capture / arrival / computed times,
+//                     score record, matched teacher frame, ghost)
+//   read(...)   -> drains every result since the previous read, oldest first.
+//
+// So no emitted frame goes unscored, the alignment sees every frame whatever the reader's rate,
+// and the ghost is driven by the frame the score matched. A full ring overwrites its oldest
+// unread result and counts it (dropped()).
+//
+// Memory: the constructor and set_teacher() allocate everything; push/flush/reset/read never do.
+// Threads: one pipeline is used by one thread at a time; pipelines share only immutable data
+// (Teacher, metric), so many run in parallel with no lock.
+// Clock: arrival and computed times are std::chrono::steady_clock (CLOCK_MONOTONIC on Linux)
+// nanoseconds; the capture time is the caller's timestamp of the frame, in seconds.
+#pragma once
+
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "common/status.hpp"
+#include "metric/scorer.hpp"
+#include "retarget/joint_set.hpp"
+#include "retarget/retargeter.hpp"
+#include "skeleton/skeleton.hpp"
+#include "stream/stream.hpp"
+
+namespace kata::pipeline {
+
+// steady_clock nanoseconds: the clock of Result::arrival_ns / computed_ns.
+int64_t now_ns();
+
+// A teacher: the metric reference (W^T-projections of each teacher frame, what the score compares)
+// and, frame for frame beside it, the teacher's joint positions (what the ghost is made from).
+// Immutable once built; shared by any number of pipelines and threads.
+struct Teacher {
+  std::shared_ptr<const metric::Reference> reference;
+  Skeleton skeleton;             // the teacher's joint tree; empty when only features were given
+  std::vector<float> positions;  // reference->frames() x skeleton joints x 3 (teacher units), or empty
+
+  bool has_positions() const { return !positions.empty(); }
+  int joint_count() const { return skeleton.joint_count(); }
+  const float* frame_positions(int j) const {
+    return positions.data() + static_cast<size_t>(j) * 3 * static_cast<size_t>(joint_count());
+  }
+
+  // A teacher from recorded joint positions (frames x skeleton joints x 3 floats, row-major,
+  // teacher units), `frame_time` seconds apart. Features are computed through a Stream with
+  // `stream_config` (its stencil must be the metric's). pose_frame >= 0: only that frame, as a
+  // pose reference; -1: the whole clip, followed by the online alignment. Throws kata::Error.
+  static std::shared_ptr<const Teacher> from_positions(std::shared_ptr<const metric::Metric> metric,
+                                                       const Skeleton& skeleton, const StreamConfig& stream_config,
+                                                       const float* positions, int frames, double frame_time,
+                                                       int pose_frame = -1);
+  // A teacher known only by its features (no positions: scores, no ghost).
+  static std::shared_ptr<const Teacher> from_reference(std::shared_ptr<const metric::Reference> reference);
+};
+
+struct PipelineConfig {
+  StreamConfig stream;
+  Skeleton student;          // the input skeleton; its rest offsets give the ghost's bone lengths
+  int result_capacity = 64;  // results kept until read (>= 1)
+  bool keep_features = false;  // also keep each result's feature vector (kDims floats) in the ring
+};
+
+// How the pipeline scores and ghosts against a teacher.
+struct TeacherOptions {
+  metric::AlignmentOptions alignment;
+  bool ghost = true;                  // retarget the matched teacher frame (needs positions + rest pose)
+  std::string ghost_joints = "cmu";   // retarget joint set (retarget/joint_set.hpp)
+  retarget::RetargetOptions retarget;
+};
+
+// One emitted feature vector's result.
+struct Result {
+  uint64_t sequence = 0;      // 0, 1, 2... per pipeline: one per emitted vector, never reused
+  int64_t frame_index = -1;   // the stream frame (0-based count of accepted frames)
+  double capture_time = 0.0;  // the caller's timestamp of that frame, seconds
+  int64_t arrival_ns = 0;     // steady clock: when the push that emitted it began
+  int64_t computed_ns = 0;    // steady clock: when this result was complete
+  bool scored = false;        // a teacher is attached: score holds the record
+  metric::ScoreRecord score;  // score.matched = matched teacher frame
+  int32_t matched_frame = -1; // teacher frame matched (-1 when not scored)
+  bool has_ghost = false;     // the ghost (ghost_joint_count() x 3 floats) was made
+};
+
+class Pipeline {
+ public:
+  // Allocates the stream, the ring and its buffers. Throws kata::Error(kInvalidArgument).
+  explicit Pipeline(const PipelineConfig& config);
+
+  // Attaches a teacher (replacing any): builds the scorer and, when options.ghost and the teacher
+  // has positions and the student a rest pose, the retargeter. Allocates. Throws kata::Error
+  // (kInvalidArgument: the stream's stencil differs from the metric's; the skeletons do not
+  // share the ghost joints). The alignment starts from the clip's beginning.
+  void set_teacher(std::shared_ptr<const Teacher> teacher, const TeacherOptions& options = {});
+  void clear_teacher();
+  // Restarts the alignment (next frame matched from the clip's start) and the ghost's warm start.
+  void restart_teacher();
+  bool has_teacher() const { return teacher_ != nullptr; }
+  bool has_ghost() const { return retargeter_ != nullptr; }
+
+  // Pushes a frame (Stream::push) and runs every vector it emits through score and ghost.
+  // arrival_ns: the steady-clock time the frame arrived (0: now). A refused frame changes
+  // nothing (last_error() says why). Allocation-free.
+  Status push(double capture_time, const float* xyz, int joint_count, int64_t arrival_ns = 0);
+  // Stream::flush / reset, with any vector they emit processed like a push's.
+  void flush();
+  void reset();
+
+  // Moves every unread result (oldest first, at most `capacity`) into out[0..n); ghosts, when
+  // not null, receives n x ghost_joint_count() x 3 floats (zeros for a result without a ghost);
+  // features, when not null and keep_features is set, n x kDims floats. Returns n.
+  size_t read(Result* out, float* ghosts, float* features, size_t capacity);
+  // Unread results in the ring.
+  size_t pending() const { return static_cast<size_t>(written_ - read_); }
+  // Results overwritten before they were read, since construction.
+  uint64_t dropped() const { return dropped_; }
+  // The newest result, scored now if it was emitted before the teacher was attached (no ghost
+  // then); null before the first or without a teacher. Allocation-free.
+  const Result* score_newest();
+  // The newest result (read or not), or null before the first; its ghost / features.
+  const Result* newest() const;
+  const float* newest_ghost() const;
+  const float* newest_features() const;
+
+  // Joints of a ghost (the retarget joint set; 0 without one) and the student skeleton joint each
+  // stands for.
+  int ghost_joint_count() const { return ghost_joints_; }
+  const std::vector<int>& ghost_sources() const { return selection_.source; }
+
+  const Stream& stream() const { return stream_; }
+  const Skeleton& student() const { return config_.student; }
+  const Teacher* teacher() const { return teacher_.get(); }
+  const char* last_error() const { return stream_.last_error(); }
+
+ private:
+  void process_emitted(int64_t before, int64_t arrival_ns);
+  void produce(int64_t frame, int64_t arrival_ns);
+  size_t slot(uint64_t sequence) const { return static_cast<size_t>(sequence % static_cast<uint64_t>(capacity_)); }
+
+  PipelineConfig config_;
+  Stream stream_;
+  int history_ = 0;
+  int capacity_ = 0;
+
+  // Teacher side (rebuilt by set_teacher).
+  std::shared_ptr<const Teacher> teacher_;
+  std::unique_ptr<metric::Scorer> scorer_;
+  std::unique_ptr<retarget::Retargeter> retargeter_;
+  retarget::JointSelection selection_;   // ghost joints: index into student and teacher skeletons
+  int ghost_joints_ = 0;
+  std::vector<double> teacher_pose_, ghost_pose_, student_pose_;  // ghost joints x 3
+  std::vector<float> student_ring_;      // history x input joints x 3: raw frames, for placing ghosts
+
+  // Result ring.
+  std::vector<Result> results_;
+  std::vector<float> ghost_ring_;        // capacity x (ghost joints capacity) x 3
+  std::vector<float> feature_ring_;      // capacity x kDims when keep_features
+  int ghost_stride_ = 0;                 // floats per ghost slot (sized for the largest joint set)
+  uint64_t written_ = 0, read_ = 0, dropped_ = 0;
+};
+
+}  // namespace kata::pipeline
