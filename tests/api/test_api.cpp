@@ -9,7 +9,7 @@
 #include <vector>
 
 #include "kata/kata.h"
-#include "../stream/alloc_counter.hpp"
+#include "support/alloc_counter.hpp"
 
 namespace {
 
@@ -49,7 +49,7 @@ std::vector<std::vector<float>> run(kata_stream s, const std::vector<std::vector
 }
 
 TEST(CApi, NoAllocationPerFrame) {
-  if (!kata_test::kAllocCounting) GTEST_SKIP() << "allocation counting is off under AddressSanitizer";
+  if (!kata::test::kAllocCounting) GTEST_SKIP() << "allocation counting is off under AddressSanitizer";
   Clip c;
   for (kata_stencil stencil : {KATA_STENCIL_BACKWARD, KATA_STENCIL_CENTRAL}) {
     kata_stream_desc desc;
@@ -61,7 +61,7 @@ TEST(CApi, NoAllocationPerFrame) {
     std::vector<float> f(KATA_GPD_DIMS);
     double t = 0;
     int64_t idx = 0;
-    const long before = kata_test::allocations();
+    const long before = kata::test::allocations();
     for (size_t i = 0; i < c.frames.size(); ++i) {
       kata_stream_push(s, static_cast<double>(i) / 120.0, c.frames[i].data(), c.joints());
       kata_stream_push(s, 0.0, c.frames[i].data(), c.joints());  // refused: timestamp goes back
@@ -69,7 +69,7 @@ TEST(CApi, NoAllocationPerFrame) {
     }
     kata_stream_flush(s);
     kata_stream_features(s, f.data(), f.size(), &t, &idx);
-    EXPECT_EQ(kata_test::allocations() - before, 0);
+    EXPECT_EQ(kata::test::allocations() - before, 0);
     EXPECT_EQ(idx, static_cast<int64_t>(c.frames.size()) - 1);
     kata_stream_close(s);
   }

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "gpd_test_util.hpp"
-#include "stream/alloc_counter.hpp"
+#include "support/alloc_counter.hpp"
 
 namespace {
 
@@ -188,7 +188,7 @@ TEST(GpdFast, DispatchFollowsCpuCheck) {
 }
 
 TEST(GpdFast, PerFrameKernelsDoNotAllocate) {
-  if (!kata_test::kAllocCounting) GTEST_SKIP() << "allocation counting is off under the sanitizers";
+  if (!kata::test::kAllocCounting) GTEST_SKIP() << "allocation counting is off under the sanitizers";
   std::mt19937 rng(3);
   const Pose p = random_pose(rng);
   GeometryState s;
@@ -196,14 +196,14 @@ TEST(GpdFast, PerFrameKernelsDoNotAllocate) {
   float local[48], hip = 0;
   const DifferenceWeights w = backward_weights(0.01, 0.02);
   const std::vector<Path> paths = fast_paths();  // allocates: outside the counted region
-  const long before = kata_test::allocations();
+  const long before = kata::test::allocations();
   to_local_frame(p.data(), 1.7, s, local, &hip);
   static_features(local, hip, s, out.data());
   for (Path path : paths) run_fast(path, local, hip, s, out.data());
   kinetics(out.data(), out.data(), out.data(), w, out.data() + kOffsetJk);
   kinetics_two_point(out.data(), out.data(), 0.01, out.data() + kOffsetJk);
   kinetics_zero(out.data() + kOffsetJk);
-  EXPECT_EQ(kata_test::allocations(), before);
+  EXPECT_EQ(kata::test::allocations(), before);
 }
 
 }  // namespace

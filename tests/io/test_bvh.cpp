@@ -18,7 +18,7 @@
 
 // Calls of the global operator new so far (alloc_count.cpp), to check that world_positions
 // (the per-frame path) allocates nothing.
-long test_new_calls();
+#include "support/alloc_counter.hpp"
 
 namespace fs = std::filesystem;
 using kata::BvhClip;
@@ -233,9 +233,9 @@ TEST(BvhFk, PositionChannelSubsetReplacesOnlyItsAxis) {
 TEST(BvhFk, DoesNotAllocatePerFrame) {
   const BvhClip c = kata::load_bvh(cmu("02_01.bvh"));
   Eigen::MatrixX3d p(c.skeleton.joint_count(), 3);
-  const long before = test_new_calls();
+  const long before = kata::test::allocations();
   for (int f = 0; f < c.frame_count(); ++f) kata::world_positions(c, f, p);
-  EXPECT_EQ(test_new_calls() - before, 0);
+  EXPECT_EQ(kata::test::allocations() - before, 0);
 
   // A 300-joint chain takes the large-skeleton path: it may allocate on the first call only.
   std::string text = "HIERARCHY\nROOT j0\n{\nOFFSET 0 0 0\nCHANNELS 3 Xposition Yposition Zposition\n";
@@ -248,9 +248,9 @@ TEST(BvhFk, DoesNotAllocatePerFrame) {
   const BvhClip chain = kata::parse_bvh(text, "chain.bvh");
   Eigen::MatrixX3d q(300, 3);
   kata::world_positions(chain, 0, q);
-  const long before_chain = test_new_calls();
+  const long before_chain = kata::test::allocations();
   kata::world_positions(chain, 0, q);
-  EXPECT_EQ(test_new_calls() - before_chain, 0);
+  EXPECT_EQ(kata::test::allocations() - before_chain, 0);
   // j1 sits at (5,1,0) and turns 90 degrees about Z, so the rest of the chain runs along -X.
   expect_row(q, 1, 5, 1, 0);
   expect_row(q, 299, 5 - 298, 1, 0);

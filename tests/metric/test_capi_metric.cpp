@@ -7,7 +7,7 @@
 #include <string>
 #include <vector>
 
-#include "alloc_counter.hpp"
+#include "support/alloc_counter.hpp"
 #include "fixtures.hpp"
 #include "kata/kata.h"
 #include "io/model_file.hpp"

@@ -9,7 +9,7 @@
 
 #include "common/cpu.hpp"
 #include "common/error.hpp"
-#include "alloc_counter.hpp"
+#include "support/alloc_counter.hpp"
 #include "fixtures.hpp"
 #include "gpd/gpd.hpp"
 #include "metric/kernels.hpp"

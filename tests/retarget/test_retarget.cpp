@@ -24,7 +24,7 @@
 
 // Allocation counting lives in alloc_count.cpp (its own translation unit, so the compiler
 // never sees a replaced operator new and std::free meet inline).
-#include "alloc_count.hpp"
+#include "support/alloc_counter.hpp"
 
 namespace {
 
@@ -491,17 +491,17 @@ TEST(Retarget, NoAllocationPerFrame) {
   for (int f = 1; f < 200; ++f) frames.push_back(p.frame(f));
   Pose ghost(3 * rt.joint_count());
   rt.retarget(frames[0].data(), ghost.data());
-  const long before = kata_test::retarget_allocations();
+  const long before = kata::test::allocations();
   for (const Pose& t : frames) rt.retarget(t.data(), ghost.data());
   rt.reset();
   rt.retarget(frames[50].data(), ghost.data());  // a cold frame too
   kata::retarget::place_over_student(rt.joint_count(), frames[3].data(), ghost.data());
-  if (!kata_test::kRetargetAllocCounting) GTEST_SKIP() << "allocation counting is off under AddressSanitizer";
-  EXPECT_EQ(kata_test::retarget_allocations() - before, 0);
+  if (!kata::test::kAllocCounting) GTEST_SKIP() << "allocation counting is off under AddressSanitizer";
+  EXPECT_EQ(kata::test::allocations() - before, 0);
   // The counter does see allocations (so the zero above means something).
   std::string probe(1000, 'x');
   probe += std::to_string(before);
-  EXPECT_GT(kata_test::retarget_allocations() - before, 0) << probe.size();
+  EXPECT_GT(kata::test::allocations() - before, 0) << probe.size();
 }
 
 TEST(Retarget, PlaceOverStudentUndoesAYawAndATranslation) {

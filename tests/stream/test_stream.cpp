@@ -10,7 +10,7 @@
 
 #include <Eigen/Geometry>
 
-#include "alloc_counter.hpp"
+#include "support/alloc_counter.hpp"
 #include "common/error.hpp"
 #include "io/bvh.hpp"
 #include "io/clip_features.hpp"
@@ -250,7 +250,7 @@ TEST(StreamConfigCheck, RefusesBadConfigs) {
 }
 
 TEST(StreamMemory, PushAndReadAllocateNothingAfterOpen) {
-  if (!kata_test::kAllocCounting) GTEST_SKIP() << "allocation counting is off under AddressSanitizer";
+  if (!kata::test::kAllocCounting) GTEST_SKIP() << "allocation counting is off under AddressSanitizer";
   for (auto stencil : {gpd::Stencil::kBackward, gpd::Stencil::kCentral}) {
     StreamConfig c = gpd_config(stencil, 0.05);
     c.body_height = 0.0;  // include the calibration path
@@ -258,7 +258,7 @@ TEST(StreamMemory, PushAndReadAllocateNothingAfterOpen) {
     std::vector<std::vector<float>> poses;
     for (int i = 0; i < 200; ++i) poses.push_back(pose_at(0.01 * i + (i > 100 ? 0.5 : 0.0)));
     float sink = 0.0f;
-    const long before = kata_test::allocations();
+    const long before = kata::test::allocations();
     for (int i = 0; i < 200; ++i) {
       const double t = 0.01 * i + (i > 100 ? 0.5 : 0.0);
       s.push(t, poses[i].data(), 16);
@@ -267,7 +267,7 @@ TEST(StreamMemory, PushAndReadAllocateNothingAfterOpen) {
       if (i == 150) s.reset();
     }
     s.flush();
-    const long after = kata_test::allocations();
+    const long after = kata::test::allocations();
     EXPECT_EQ(after - before, 0) << "allocations during push/read";
     EXPECT_TRUE(std::isfinite(sink));
   }

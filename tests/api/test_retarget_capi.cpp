@@ -8,7 +8,7 @@
 
 #include <gtest/gtest.h>
 
-#include "alloc_count.hpp"
+#include "support/alloc_counter.hpp"
 #include "kata/kata.h"
 
 namespace {
@@ -78,7 +78,7 @@ TEST_F(RetargetCapi, GhostHasTheStudentsBonesAndNoAllocationPerFrame) {
   for (uint32_t f = 1; f < 240; ++f) frames.push_back(teacher.frame(f));
   ASSERT_EQ(kata_retargeter_solve(rt, frames[0].data(), teacher.joints, ghost.data(), ghost.size(), &info), KATA_OK);
   EXPECT_EQ(info.warm, 0);
-  const long before = kata_test::retarget_allocations();
+  const long before = kata::test::allocations();
   float worst = 0.0f;
   for (const auto& t : frames) {
     ASSERT_EQ(kata_retargeter_solve(rt, t.data(), teacher.joints, ghost.data(), ghost.size(), &info), KATA_OK)
@@ -95,8 +95,8 @@ TEST_F(RetargetCapi, GhostHasTheStudentsBonesAndNoAllocationPerFrame) {
   ASSERT_EQ(kata_retargeter_reset(rt), KATA_OK);
   ASSERT_EQ(kata_retargeter_solve(rt, frames[5].data(), teacher.joints, ghost.data(), ghost.size(), &info), KATA_OK);
   EXPECT_EQ(info.warm, 0);
-  const long allocated = kata_test::retarget_allocations() - before;
-  if (kata_test::kRetargetAllocCounting) {
+  const long allocated = kata::test::allocations() - before;
+  if (kata::test::kAllocCounting) {
     EXPECT_EQ(allocated, 0);  // (counting is off under AddressSanitizer)
   }
   EXPECT_LT(worst, 1e-5f);                   // float output of exact bones
