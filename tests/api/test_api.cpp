@@ -2,6 +2,8 @@
 // error reporting per handle, and no allocation per frame through the ABI.
 #include <gtest/gtest.h>
 
+#include "support/temp_paths.hpp"
+
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -112,7 +114,7 @@ TEST(CApi, UserSkeletonWithNameMapAndNoRestPoseCalibratesHeight) {
   }
   kata_skeleton bare = nullptr;
   ASSERT_EQ(kata_skeleton_create(c.ctx, n, names.data(), parents.data(), nullptr, &bare), KATA_OK);
-  const std::string map_path = testing::TempDir() + "/kata_cmu_map.json";
+  const std::string map_path = kata::test::temp_path("kata_cmu_map.json");
   {
     std::ofstream m(map_path);
     m << R"({"Hip": "Hips", "Chest": "Spine1", "Neck": "Neck1", "Head": "Head",

@@ -2,6 +2,8 @@
 // float32 rows equal to the live stream's vectors; bad input exits non-zero with a clear message.
 #include <gtest/gtest.h>
 
+#include "support/temp_paths.hpp"
+
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -20,7 +22,7 @@ struct CliRun {
 };
 
 CliRun run(const std::string& args) {
-  const std::string log = testing::TempDir() + "/kata_cli_test.log";
+  const std::string log = kata::test::temp_path("kata_cli_test.log");
   const std::string cmd = std::string(KATA_CLI) + " " + args + " >" + log + " 2>&1";
   const int status = std::system(cmd.c_str());
   std::ifstream in(log);
@@ -34,7 +36,7 @@ TEST(CliFeatures, WritesEveryFrameAsTheStreamComputesIt) {
   const kata::BvhClip clip = kata::load_bvh(clip_path);
   const kata::GpdMap map = kata::make_gpd_map(clip.skeleton, kata::preset_joint_names("cmu"));
   for (const char* stencil : {"backward", "central"}) {
-    const std::string out = testing::TempDir() + "/kata_cli_features.npy";
+    const std::string out = kata::test::temp_path("kata_cli_features.npy");
     const CliRun r = run("features --bvh " + clip_path + " --preset cmu --stencil " + stencil + " --out " + out);
     ASSERT_EQ(r.code, 0) << r.output;
     // The header says float32, C order, (frames, 1683).
@@ -54,12 +56,12 @@ TEST(CliFeatures, WritesEveryFrameAsTheStreamComputesIt) {
 }
 
 TEST(CliFeatures, BadInputExitsWithAClearMessage) {
-  const std::string bad = testing::TempDir() + "/kata_cli_bad.bvh";
+  const std::string bad = kata::test::temp_path("kata_cli_bad.bvh");
   {
     std::ofstream b(bad);
     b << "HIERARCHY\nROOT Hips\n{\n\tOFFSET 0 0 zero\n}\n";
   }
-  CliRun r = run("features --bvh " + bad + " --preset cmu --out " + testing::TempDir() + "/x.npy");
+  CliRun r = run("features --bvh " + bad + " --preset cmu --out " + kata::test::temp_path("x.npy"));
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.output.find(bad + ":4"), std::string::npos) << "names file and line: " << r.output;
   r = run("features --bvh " + std::string(KATA_DATA_DIR) + "/cmu/09_01.bvh --preset nope --out x.npy");

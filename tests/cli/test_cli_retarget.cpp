@@ -3,6 +3,8 @@
 // student's hierarchy whose forward kinematics gives the same positions.
 #include <gtest/gtest.h>
 
+#include "support/temp_paths.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
@@ -22,7 +24,7 @@ int run_cli(const std::string& args) {
 
 TEST(CliRetarget, GhostHasTheStudentsBonesAndItsBvhReplaysIt) {
   const std::string data = std::string(KATA_DATA_DIR) + "/cmu/";
-  const std::string npy = testing::TempDir() + "/kata_ghost.npy", bvh = testing::TempDir() + "/kata_ghost.bvh";
+  const std::string npy = kata::test::temp_path("kata_ghost.npy"), bvh = kata::test::temp_path("kata_ghost.bvh");
   const std::string common = "retarget --teacher " + data + "05_03.bvh --student " + data + "02_01.bvh --preset cmu";
   ASSERT_EQ(run_cli(common + " --out " + npy), 0);
   ASSERT_EQ(run_cli(common + " --out " + bvh), 0);

@@ -3,6 +3,8 @@
 // round trips of real CMU clips, and the other skeletons in /work/shared/data/other.
 #include <gtest/gtest.h>
 
+#include "support/temp_paths.hpp"
+
 #include <cstdint>
 #include <cstdlib>
 #include <filesystem>
@@ -28,29 +30,7 @@ using kata::ErrorKind;
 
 namespace {
 
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() / ("kata_test_bvh_" + std::string(info->test_suite_name()) + "_" + info->name() +
-                                         "_" + std::to_string(reinterpret_cast<uintptr_t>(this)));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-  std::string write(const std::string& name, const std::string& text) const {
-    const std::string p = file(name);
-    std::ofstream(p, std::ios::binary) << text;
-    return p;
-  }
-
- private:
-  fs::path path_;
-};
+using kata::test::TempDir;
 
 std::string read_text(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

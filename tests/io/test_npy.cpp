@@ -2,6 +2,8 @@
 // description, values read back exactly, malformed files refused with the file named.
 #include <gtest/gtest.h>
 
+#include "support/temp_paths.hpp"
+
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -15,24 +17,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() / ("kata_test_npy_" + std::string(info->name()) + "_" +
-                                         std::to_string(reinterpret_cast<uintptr_t>(this)));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
-};
+using kata::test::TempDir;
 
 std::string bytes_of(const std::string& path) {
   std::ifstream in(path, std::ios::binary);

@@ -2,6 +2,8 @@
 // are written with the C++ core.
 #include <gtest/gtest.h>
 
+#include "support/temp_paths.hpp"
+
 #include <cmath>
 #include <cstdio>
 #include <string>
@@ -19,7 +21,7 @@ namespace {
 struct CApi : ::testing::Test {
   void SetUp() override {
     ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
-    path = ::testing::TempDir() + "/capi_model.kata";
+    path = kata::test::temp_path("capi_model.kata");
     metric::save_model(path, test::test_model());
     ASSERT_EQ(kata_clip_load_bvh(ctx, test::cmu("02_01.bvh").c_str(), &clip), KATA_OK);
     ASSERT_EQ(kata_clip_skeleton(clip, &skel), KATA_OK);

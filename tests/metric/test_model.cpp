@@ -1,6 +1,8 @@
 // .kata model files: round trip, and every malformed case refused with a message naming it.
 #include <gtest/gtest.h>
 
+#include "support/temp_paths.hpp"
+
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -75,7 +77,7 @@ TEST(Model, RoundTripThroughBufferAndFile) {
   ASSERT_TRUE(fb::SizePrefixedModelBufferHasIdentifier(buf.data()));
   EXPECT_TRUE(same(metric::parse_model(buf.data(), buf.size()), m));
 
-  const std::string path = ::testing::TempDir() + "/roundtrip.kata";
+  const std::string path = kata::test::temp_path("roundtrip.kata");
   metric::save_model(path, m);
   EXPECT_TRUE(same(metric::load_model(path), m));
   std::remove(path.c_str());
@@ -138,7 +140,7 @@ TEST(Model, CorruptOffsetIsCaughtByTheVerifier) {
 
 TEST(Model, TruncatedFileIsRefusedWithItsPath) {
   const std::vector<uint8_t> buf = metric::serialize_model(small_model());
-  const std::string path = ::testing::TempDir() + "/truncated.kata";
+  const std::string path = kata::test::temp_path("truncated.kata");
   {
     std::ofstream out(path, std::ios::binary);
     out.write(reinterpret_cast<const char*>(buf.data()), static_cast<std::streamsize>(buf.size() / 3));

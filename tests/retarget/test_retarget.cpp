@@ -14,6 +14,8 @@
 
 #include <gtest/gtest.h>
 
+#include "support/temp_paths.hpp"
+
 #include "io/bvh.hpp"
 #include "retarget/distance.hpp"
 #include "io/ghost_bvh.hpp"
@@ -586,7 +588,7 @@ TEST(RetargetGhostBvh, ForwardKinematicsOfTheWrittenClipReproducesTheGhost) {
     ghosts.push_back(g);
   }
   // Through the file, as Blender would read it.
-  const std::string path = testing::TempDir() + "/ghost_test.bvh";
+  const std::string path = kata::test::temp_path("ghost_test.bvh");
   kata::write_bvh(path, ghost_clip);
   const kata::BvhClip back = kata::load_bvh(path);
   ASSERT_EQ(back.frame_count(), static_cast<int>(ghosts.size()));

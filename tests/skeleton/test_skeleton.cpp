@@ -2,6 +2,8 @@
 // the body height H, against values derived independently (by hand or from the file's text).
 #include <gtest/gtest.h>
 
+#include "support/temp_paths.hpp"
+
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -21,30 +23,7 @@ using kata::kGpdJoints;
 
 namespace {
 
-// A fresh directory under the system temp dir, removed at the end of the test.
-class TempDir {
- public:
-  TempDir() {
-    const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-    path_ = fs::temp_directory_path() /
-            ("kata_test_skeleton_" + std::string(info->test_suite_name()) + "_" + info->name() + "_" +
-             std::to_string(reinterpret_cast<uintptr_t>(this)));
-    fs::remove_all(path_);
-    fs::create_directories(path_);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path_, ec);
-  }
-  std::string write(const std::string& name, const std::string& text) const {
-    const std::string p = (path_ / name).string();
-    std::ofstream(p, std::ios::binary) << text;
-    return p;
-  }
-
- private:
-  fs::path path_;
-};
+using kata::test::TempDir;
 
 // A skeleton that has the given names, all hanging from the first (enough to resolve names).
 kata::Skeleton flat_skeleton(const std::vector<std::string>& names) {

@@ -49,4 +49,20 @@ class TempDir {
   std::filesystem::path path_;
 };
 
+// A file path unique to this test process and test: <tmp>/kata_test_<pid>/<suite>.<test>.<name>.
+// The directory is made on first use (it stays after the process; files are small).
+inline std::string temp_path(const std::string& name) {
+  static const std::filesystem::path dir = [] {
+    auto d = std::filesystem::temp_directory_path() / ("kata_test_" + std::to_string(::getpid()));
+    std::filesystem::create_directories(d);
+    return d;
+  }();
+  std::string prefix;
+  if (const auto* info = ::testing::UnitTest::GetInstance()->current_test_info())
+    prefix = std::string(info->test_suite_name()) + "." + info->name() + ".";
+  for (char& c : prefix)
+    if (c == '/') c = '_';
+  return (dir / (prefix + name)).string();
+}
+
 }  // namespace kata::test

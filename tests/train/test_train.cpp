@@ -7,6 +7,8 @@
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
+#include "support/temp_paths.hpp"
+
 #include "train/linalg.hpp"
 #include "train/sparse_coding.hpp"
 #include "train/trace_ratio.hpp"
@@ -378,7 +380,7 @@ TEST(Pairs, TransitionIsReproducibleBalancedAndFileRoundTrips) {
     EXPECT_LT(ClipData::joint_distance(da.row(p1[i].frame_a), db.row(p1[i].frame_b)), o.tau);
   }
   EXPECT_EQ(pos, 10);
-  const std::string path = testing::TempDir() + "/kata_pairs_roundtrip.csv";
+  const std::string path = kata::test::temp_path("kata_pairs_roundtrip.csv");
   PairFile f;
   f.comments = {"kata pairs test"};
   f.pairs = p1;
@@ -397,7 +399,7 @@ TEST(Eval, HandMadePairFile) {
   // Three identical pairs (distance 0) labelled similar, one identical pair labelled dissimilar,
   // three pairs of clearly different poses labelled dissimilar: the best any threshold can do is
   // 6 of 7 (the mislabelled identical pair is always wrong).
-  const std::string path = testing::TempDir() + "/kata_eval_hand.csv";
+  const std::string path = kata::test::temp_path("kata_eval_hand.csv");
   {
     std::ofstream out(path);
     out << "# hand-made\nclip_a,frame_a,clip_b,frame_b,label\n"
@@ -475,7 +477,7 @@ TEST(Retrieval, HandComputedPrecisionAtScope) {
   EXPECT_NEAR(other[1], 3.0 / 6.0, 1e-15);
   EXPECT_NEAR(other[2], 8.0 / 18.0, 1e-15);
   // A README table with a "motion type" column (as ../shared/data/cmu's).
-  const std::string readme = testing::TempDir() + "/kata_retrieval_readme.md";
+  const std::string readme = kata::test::temp_path("kata_retrieval_readme.md");
   {
     std::ofstream out(readme);
     out << "# x\n\n| file | subject | motion type | fps |\n|---|---|---|---|\n| 02_05.bvh | 2 | boxing/strike | 120 |\n"
