@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Figures of docs/retarget/README.md from the .npy files `kata retarget-report --out DIR` writes.
+"""Figures of docs/retarget/README.md from the .npy files `kata_retarget_report --out DIR` writes.
 
 usage: python3 docs/retarget/plot_retarget.py DIR docs/retarget
   DIR/paper_original.npy     (22, 3)     Table I walking posture, metres

@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "command.hpp"
+#include <CLI/CLI.hpp>
 #include "common/error.hpp"
 #include "io/bvh.hpp"
 #include "io/npy.hpp"
@@ -428,15 +428,21 @@ void run_report(const ReportArgs& a) {
   tolerance_sweep(a.data_dir, "05_02.bvh", "02_01.bvh");
 }
 
-void setup(CLI::App& app) {
-  auto args = std::make_shared<ReportArgs>();
-  CLI::App* cmd = app.add_subcommand("retarget-report", "");  // hidden: an empty description
-  cmd->group("");
-  cmd->add_option("--data", args->data_dir, "folder of CMU BVH clips (shared/data/cmu)")->required()->check(CLI::ExistingDirectory);
-  cmd->add_option("--out", args->out_dir, "folder for the figure's .npy files")->check(CLI::ExistingDirectory);
-  cmd->callback([args] { run_report(*args); });
-}
-
-const kata::cli::RegisterCommand reg(setup);
-
 }  // namespace
+
+// kata_retarget_report (built beside kata_bench, never installed): the research report of
+// docs/retarget/README.md, not a product command.
+int main(int argc, char** argv) {
+  CLI::App app{"kata_retarget_report: the retargeting report of docs/retarget/README.md"};
+  ReportArgs args;
+  app.add_option("--data", args.data_dir, "folder of CMU BVH clips (shared/data/cmu)")->required()->check(CLI::ExistingDirectory);
+  app.add_option("--out", args.out_dir, "folder for the figure's .npy files")->check(CLI::ExistingDirectory);
+  CLI11_PARSE(app, argc, argv);
+  try {
+    run_report(args);
+  } catch (const std::exception& e) {
+    std::fprintf(stderr, "kata_retarget_report: %s\n", e.what());
+    return 1;
+  }
+  return 0;
+}
