@@ -252,42 +252,8 @@ void run_eval(const EvalArgs& a) {
     }
   }
   std::printf("wrote %s and %s\n", csv.c_str(), md.c_str());
-  if (a.plot) {
-    const std::string py = a.out_dir + "/plot_eval.py";
-    std::ofstream s(py);
-    s << "import csv, matplotlib\nmatplotlib.use('Agg')\nimport matplotlib.pyplot as plt\n"
-         "rows = [r for r in csv.DictReader(open('" << csv << "')) if not r['method'].startswith('Retrieval')]\n"
-         "labels = [r['method'] + ('' if r['model'] == '-' else '\\n' + r['model']) for r in rows]\n"
-         "vals = [float(r['precision']) for r in rows]\n"
-         "fig, ax = plt.subplots(figsize=(max(6, 0.9 * len(rows)), 4.5))\n"
-         "ax.bar(range(len(rows)), vals, color=['#888' if r['model'] == '-' else '#3a7' for r in rows])\n"
-         "ax.set_xticks(range(len(rows)))\nax.set_xticklabels(labels, rotation=60, ha='right', fontsize=7)\n"
-         "ax.set_ylim(0.4, 1.0)\nax.set_ylabel('precision (eq. 37)')\nax.set_title('" << a.title << "')\n"
-         "for i, v in enumerate(vals): ax.text(i, v + 0.005, '%.3f' % v, ha='center', fontsize=7)\n"
-         "fig.tight_layout()\nfig.savefig('" << a.out_dir << "/eval.png', dpi=110)\n";
-    s.close();
-    const std::string cmd = "/usr/bin/python3 '" + py + "'";
-    if (std::system(cmd.c_str()) != 0) std::fprintf(stderr, "kata eval: plotting failed (%s)\n", cmd.c_str());
-    if (a.retrieval) {
-      const std::string rpy = a.out_dir + "/plot_retrieval.py";
-      std::ofstream r(rpy);
-      r << "import csv, matplotlib\nmatplotlib.use('Agg')\nimport matplotlib.pyplot as plt\n"
-           "rows = list(csv.DictReader(open('" << rcsv << "')))\n"
-           "pools = sorted(set(r['pool'] for r in rows))\n"
-           "fig, axes = plt.subplots(1, len(pools), figsize=(5.5 * len(pools), 4.2), squeeze=False)\n"
-           "for ax, pool in zip(axes[0], pools):\n"
-           "    for r in [r for r in rows if r['pool'] == pool]:\n"
-           "        lab = r['method'] + ('' if r['model'] == '-' else ' (' + r['model'] + ')')\n"
-           "        ax.plot([5, 10, 20], [float(r['p5']), float(r['p10']), float(r['p20'])], marker='o', label=lab)\n"
-           "    ax.set_xticks([5, 10, 20]); ax.set_xlabel('scope s'); ax.set_ylabel('precision (same motion type)')\n"
-           "    ax.set_title('retrieval, pool: ' + pool); ax.grid(alpha=0.3)\n"
-           "axes[0][0].legend(fontsize=7)\nfig.suptitle('" << a.title << " - Section 6 retrieval', fontsize=9)\n"
-           "fig.tight_layout()\nfig.savefig('" << a.out_dir << "/retrieval.png', dpi=110)\n";
-      r.close();
-      const std::string rcmd = "/usr/bin/python3 '" + rpy + "'";
-      if (std::system(rcmd.c_str()) != 0) std::fprintf(stderr, "kata eval: plotting failed (%s)\n", rcmd.c_str());
-    }
-  }
+  if (a.plot)
+    std::printf("figures: /usr/bin/python3 docs/model/plot_eval.py %s '%s'\n", a.out_dir.c_str(), a.title.c_str());
 }
 
 void setup(CLI::App& app) {
@@ -301,7 +267,7 @@ void setup(CLI::App& app) {
   cmd->add_option("--label", a->labels, "a name per model");
   cmd->add_option("--out-dir", a->out_dir, "write eval.csv, eval.md and eval.png here");
   cmd->add_option("--title", a->title, "report title");
-  cmd->add_flag("!--no-plot", a->plot, "skip the matplotlib plot");
+  cmd->add_flag("!--no-plot", a->plot, "do not link the figures (docs/model/plot_eval.py draws them from the CSV)");
   cmd->add_option("--stencil", a->stencil, "backward | central")->check(CLI::IsMember({"backward", "central"}));
   cmd->add_option("--preset", a->preset, "skeleton preset");
   cmd->add_option("--threads", a->threads, "threads");
