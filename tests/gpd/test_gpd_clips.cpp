@@ -313,7 +313,8 @@ bool read_npy_file(const std::string& path, std::vector<double>* data, std::vect
   return true;
 }
 
-const std::string kGolden = "/work/shared/spec/golden/";
+// The spec's golden vectors, beside the checkout (../shared/spec/golden) when present.
+const std::string kGolden = std::string(KATA_SOURCE_DIR) + "/../shared/spec/golden/";
 
 // Spec section 2 once more, in double, for the golden comparison: hip to the origin, yaw
 // from u = (LHip - RHip) + (LShoulder - RShoulder) on XZ turned onto +X, divided by H.

@@ -1,6 +1,6 @@
 // Tests of the BVH reader/writer and forward kinematics: malformed files (every error names the
 // file and line), FK against hand-derived positions and an independent Affine3d implementation,
-// round trips of real CMU clips, and the other skeletons in /work/shared/data/other.
+// round trips of real CMU clips, and the other skeletons in ../shared/data/other (beside the checkout, when present).
 #include <gtest/gtest.h>
 
 #include "support/temp_paths.hpp"
@@ -40,7 +40,7 @@ std::string read_text(const std::string& path) {
 
 std::string cmu(const std::string& name) { return std::string(KATA_DATA_DIR) + "/cmu/" + name; }
 
-// /work/shared/data (next to the checkout) or $KATA_SHARED_DATA; absent in a user's clone.
+// ../shared/data (next to the checkout) or $KATA_SHARED_DATA; absent in a user's clone.
 fs::path shared_data() {
   if (const char* env = std::getenv("KATA_SHARED_DATA")) return env;
   return fs::path(KATA_SOURCE_DIR).parent_path() / "shared" / "data";
