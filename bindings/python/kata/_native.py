@@ -1,0 +1,203 @@
+"""ctypes declarations of the C ABI (sdk/include/kata/kata.h), one per C function, and the search
+for libkata. Nothing here is Pythonic on purpose: kata/__init__.py builds the objects on top.
+
+Library search order (like pylsl): $KATA_LIBRARY (a file), the package folder (a libkata.so
+dropped next to this file), the install prefix recorded by `cmake --install` (_install_paths.py),
+a build tree above the source package (<repo>/build/lib), then the system loader (ld.so paths).
+"""
+import ctypes
+import ctypes.util
+import os
+import sys
+
+# The C ABI major version this binding is written against (kata.h KATA_VERSION_MAJOR), and the
+# oldest minor that has every function declared below (the pipeline calls arrived in 0.2).
+EXPECTED_MAJOR = 0
+MINIMUM_MINOR = 2
+
+GPD_DIMS = 1683
+GPD_JOINTS = 16
+PART_COUNT = 5
+
+c_float_p = ctypes.POINTER(ctypes.c_float)
+
+
+def _library_file_names():
+    if sys.platform == "win32":
+        return ["kata.dll"]
+    if sys.platform == "darwin":
+        return ["libkata.dylib"]
+    return ["libkata.so", "libkata.so.%d" % EXPECTED_MAJOR]
+
+
+def _candidates():
+    """Where libkata is looked for, in order, as (how it was found, path)."""
+    env = os.environ.get("KATA_LIBRARY")
+    if env:
+        yield "KATA_LIBRARY", env
+        return  # an explicit choice is never silently replaced by another library
+    here = os.path.dirname(os.path.abspath(__file__))
+    for name in _library_file_names():
+        yield "package folder", os.path.join(here, name)
+    try:
+        from . import _install_paths  # written by `cmake --install`
+        for name in _library_file_names():
+            yield "install prefix", os.path.normpath(os.path.join(here, _install_paths.LIBDIR_FROM_PACKAGE, name))
+    except ImportError:
+        pass
+    # Used from a source checkout: bindings/python/kata -> <repo>/build/lib.
+    repo = os.path.normpath(os.path.join(here, "..", "..", ".."))
+    for name in _library_file_names():
+        yield "build tree", os.path.join(repo, "build", "lib", name)
+    found = ctypes.util.find_library("kata")
+    if found:
+        yield "system", found
+
+
+def _open_library():
+    tried = []
+    for how, path in _candidates():
+        if how != "system" and not os.path.exists(path):
+            tried.append(path)
+            continue
+        try:
+            return ctypes.CDLL(path), path, how
+        except OSError as e:
+            tried.append("%s (%s)" % (path, e))
+    raise ImportError("kata: libkata not found; set KATA_LIBRARY to its path. Tried: " + "; ".join(tried))
+
+
+lib, library_path, found_by = _open_library()
+
+
+def _check_version():
+    lib.kata_version.restype = ctypes.c_uint32
+    lib.kata_version.argtypes = []
+    v = lib.kata_version()
+    major, minor, patch = v // 10000, (v // 100) % 100, v % 100
+    if major != EXPECTED_MAJOR or minor < MINIMUM_MINOR:
+        raise ImportError("kata: %s is version %d.%d.%d; this binding needs %d.x with x >= %d "
+                          "(major versions differ in their ABI). Point KATA_LIBRARY at a matching libkata."
+                          % (library_path, major, minor, patch, EXPECTED_MAJOR, MINIMUM_MINOR))
+    return major, minor, patch
+
+
+version = _check_version()
+
+
+# ---- structs (layouts as in kata.h; struct_size is set from ctypes.sizeof) ----------------------
+
+class StreamDesc(ctypes.Structure):
+    _fields_ = [("struct_size", ctypes.c_uint32), ("preset", ctypes.c_char_p), ("name_map_path", ctypes.c_char_p),
+                ("stencil", ctypes.c_int), ("up_axis", ctypes.c_int), ("max_gap", ctypes.c_double),
+                ("history_capacity", ctypes.c_uint32), ("body_height", ctypes.c_double),
+                ("calibration_frames", ctypes.c_uint32), ("result_capacity", ctypes.c_uint32),
+                ("keep_features", ctypes.c_int32)]
+
+
+class RetargetDesc(ctypes.Structure):
+    _fields_ = [("struct_size", ctypes.c_uint32), ("preset", ctypes.c_char_p), ("gradient_tolerance", ctypes.c_double),
+                ("max_iterations", ctypes.c_uint32), ("warm_start", ctypes.c_int32),
+                ("restore_bone_lengths", ctypes.c_int32)]
+
+
+class RetargetInfo(ctypes.Structure):
+    _fields_ = [("struct_size", ctypes.c_uint32), ("iterations", ctypes.c_uint32), ("converged", ctypes.c_int32),
+                ("warm", ctypes.c_int32), ("stress", ctypes.c_double), ("max_bone_error_solved", ctypes.c_double),
+                ("max_bone_error", ctypes.c_double)]
+
+
+class TeacherDesc(ctypes.Structure):
+    _fields_ = [("struct_size", ctypes.c_uint32), ("model", ctypes.c_void_p), ("clip", ctypes.c_void_p),
+                ("skeleton", ctypes.c_void_p), ("positions", ctypes.c_void_p), ("frames", ctypes.c_uint32),
+                ("frame_time", ctypes.c_double), ("preset", ctypes.c_char_p), ("first_frame", ctypes.c_uint32),
+                ("pose_frame", ctypes.c_int32), ("ghost", ctypes.c_int32),
+                ("retarget", ctypes.POINTER(RetargetDesc))]
+
+
+class ScoreRecord(ctypes.Structure):
+    _fields_ = [("struct_size", ctypes.c_uint32), ("matched_reference_frame", ctypes.c_int32),
+                ("frame_index", ctypes.c_int64), ("timestamp", ctypes.c_double), ("distance", ctypes.c_float),
+                ("score", ctypes.c_float), ("parts", ctypes.c_float * PART_COUNT)]
+
+
+class Result(ctypes.Structure):
+    _fields_ = [("struct_size", ctypes.c_uint32), ("flags", ctypes.c_uint32), ("sequence", ctypes.c_uint64),
+                ("frame_index", ctypes.c_int64), ("capture_time", ctypes.c_double), ("arrival_ns", ctypes.c_int64),
+                ("computed_ns", ctypes.c_int64), ("matched_teacher_frame", ctypes.c_int32),
+                ("ghost_joint_count", ctypes.c_uint32)]
+
+
+# ---- functions -------------------------------------------------------------------------------------
+
+_u32, _i32, _i64, _u64 = ctypes.c_uint32, ctypes.c_int32, ctypes.c_int64, ctypes.c_uint64
+_p, _s, _d, _sz, _st = ctypes.c_void_p, ctypes.c_char_p, ctypes.c_double, ctypes.c_size_t, ctypes.c_int
+_pp = ctypes.POINTER(ctypes.c_void_p)
+
+_SIGNATURES = {
+    # name: (restype, argtypes)
+    "kata_status_string": (_s, [_st]),
+    "kata_context_create": (_st, [_pp]),
+    "kata_context_destroy": (None, [_p]),
+    "kata_context_last_error": (_s, [_p]),
+    "kata_skeleton_create": (_st, [_p, _u32, ctypes.POINTER(_s), _p, _p, _pp]),
+    "kata_skeleton_load_bvh": (_st, [_p, _s, _pp]),
+    "kata_skeleton_destroy": (None, [_p]),
+    "kata_skeleton_joint_count": (_u32, [_p]),
+    "kata_skeleton_joint_name": (_s, [_p, _u32]),
+    "kata_skeleton_joint_parent": (_i32, [_p, _u32]),
+    "kata_clip_load_bvh": (_st, [_p, _s, _pp]),
+    "kata_clip_destroy": (None, [_p]),
+    "kata_clip_frame_count": (_u32, [_p]),
+    "kata_clip_frame_time": (_d, [_p]),
+    "kata_clip_skeleton": (_st, [_p, _pp]),
+    "kata_clip_positions": (_st, [_p, _u32, _p, _sz]),
+    "kata_stream_desc_init": (None, [ctypes.POINTER(StreamDesc)]),
+    "kata_preset_name": (_s, [_u32]),
+    "kata_stream_open": (_st, [_p, _p, ctypes.POINTER(StreamDesc), _pp]),
+    "kata_stream_close": (None, [_p]),
+    "kata_stream_last_error": (_s, [_p]),
+    "kata_stream_push": (_st, [_p, _d, _p, _u32]),
+    "kata_stream_flush": (_st, [_p]),
+    "kata_stream_reset": (_st, [_p]),
+    "kata_stream_features": (_st, [_p, _p, _sz, ctypes.POINTER(_d), ctypes.POINTER(_i64)]),
+    "kata_stream_feature_count": (_i64, [_p]),
+    "kata_stream_body_height": (_d, [_p]),
+    "kata_model_load": (_st, [_p, _s, _pp]),
+    "kata_model_load_memory": (_st, [_p, _p, _sz, _pp]),
+    "kata_model_free": (None, [_p]),
+    "kata_model_rank": (_u32, [_p]),
+    "kata_model_delta_star": (_d, [_p]),
+    "kata_model_stencil": (_st, [_p]),
+    "kata_model_metadata": (_s, [_p, _s]),
+    "kata_stream_set_reference_pose": (_st, [_p, _p, _p, _sz]),
+    "kata_stream_set_reference_joints": (_st, [_p, _p, _p, _sz, _d]),
+    "kata_stream_set_reference_clip": (_st, [_p, _p, _p, _u32, _d]),
+    "kata_stream_set_reference_bvh": (_st, [_p, _p, _p, _s, _u32, _i32]),
+    "kata_stream_clear_reference": (_st, [_p]),
+    "kata_stream_restart_reference": (_st, [_p]),
+    "kata_stream_score": (_st, [_p, ctypes.POINTER(ScoreRecord)]),
+    "kata_retarget_desc_init": (None, [ctypes.POINTER(RetargetDesc)]),
+    "kata_retargeter_create": (_st, [_p, _p, ctypes.POINTER(RetargetDesc), _pp]),
+    "kata_retargeter_create_for_stream": (_st, [_p, _p, ctypes.POINTER(RetargetDesc), _pp]),
+    "kata_retargeter_destroy": (None, [_p]),
+    "kata_retargeter_last_error": (_s, [_p]),
+    "kata_retargeter_joint_count": (_u32, [_p]),
+    "kata_retargeter_joint_source": (_i32, [_p, _u32]),
+    "kata_retargeter_solve": (_st, [_p, _p, _u32, _p, _sz, ctypes.POINTER(RetargetInfo)]),
+    "kata_retargeter_place": (_st, [_p, _p, _u32, _p, _sz]),
+    "kata_retargeter_reset": (_st, [_p]),
+    "kata_teacher_desc_init": (None, [ctypes.POINTER(TeacherDesc)]),
+    "kata_stream_attach_teacher": (_st, [_p, ctypes.POINTER(TeacherDesc)]),
+    "kata_stream_read_results": (_st, [_p, _p, _p, _p, _sz, _p, _sz, _u32, ctypes.POINTER(_u32)]),
+    "kata_stream_results_dropped": (_u64, [_p]),
+    "kata_stream_results_pending": (_u32, [_p]),
+    "kata_stream_ghost_joint_count": (_u32, [_p]),
+    "kata_stream_ghost_joint_source": (_i32, [_p, _u32]),
+}
+
+for _name, (_restype, _argtypes) in _SIGNATURES.items():
+    _f = getattr(lib, _name)
+    _f.restype = _restype
+    _f.argtypes = _argtypes
+    globals()[_name[len("kata_"):]] = _f

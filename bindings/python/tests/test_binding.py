@@ -1,0 +1,255 @@
+"""The Python binding against values computed independently: the `kata` CLI's files (features .npy,
+score CSV, its error message), and the C ABI's own documented behaviour."""
+import csv
+import gc
+import os
+import subprocess
+import sys
+import tracemalloc
+
+import numpy as np
+import pytest
+
+import kata
+
+
+def run_cli(cli, *args):
+    return subprocess.run([cli, *args], check=True, capture_output=True, text=True)
+
+
+@pytest.mark.parametrize("stencil", ["backward", "central"])
+def test_features_equal_the_cli_npy_exactly(cli, data, tmp_path, stencil):
+    bvh = os.path.join(data, "05_02.bvh")
+    npy = tmp_path / "features.npy"
+    run_cli(cli, "features", "--bvh", bvh, "--preset", "cmu", "--stencil", stencil, "--out", str(npy))
+    expected = np.load(npy)
+
+    with kata.Context() as ctx, ctx.load_clip(bvh) as clip, clip.skeleton() as sk:
+        positions = clip.all_positions()
+        assert positions.shape == (clip.frame_count, sk.joint_count, 3)
+        # Every vector kept in the result ring until read: capacity for the whole clip.
+        with ctx.open_stream(sk, preset="cmu", stencil=kata.Stencil[stencil.upper()], keep_features=True,
+                             result_capacity=clip.frame_count) as s:
+            s.push_many(np.arange(clip.frame_count) * clip.frame_time, positions)
+            s.flush()
+            r = s.read_results(features=True)
+            assert s.results_dropped == 0
+    assert r.features.shape == expected.shape
+    assert np.array_equal(r.results["frame_index"], np.arange(len(expected)))
+    assert np.array_equal(r.features, expected)  # bit for bit
+
+
+def test_single_push_and_features_match_the_bulk_read(data):
+    with kata.Context() as ctx, ctx.load_clip(os.path.join(data, "02_01.bvh")) as clip, clip.skeleton() as sk:
+        with ctx.open_stream(sk, keep_features=True) as s:
+            assert s.features() is None
+            out = np.empty(kata.GPD_DIMS, dtype=np.float32)
+            for i in range(5):
+                s.push(i * clip.frame_time, clip.positions(i))
+                v, t, frame = s.features(out)
+                assert v is out and frame == i and t == pytest.approx(i * clip.frame_time)
+                r = s.read_results(features=True)
+                assert len(r) == 1 and np.array_equal(r.features[0], out)
+            assert s.feature_count == 5
+            assert s.body_height > 0
+
+
+def read_csv(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def test_scores_equal_the_cli_csv(cli, data, model_path, tmp_path):
+    teacher, student = os.path.join(data, "02_01.bvh"), os.path.join(data, "07_01.bvh")
+    out = tmp_path / "scores.csv"
+    run_cli(cli, "score", "--model", model_path, "--teacher", teacher, "--student", student, "--preset", "cmu",
+            "--first-frame", "1", "--out", str(out))
+    rows = read_csv(out)
+    parts = ["torso_head", "left_arm", "right_arm", "left_leg", "right_leg"]
+    assert list(rows[0].keys()) == ["frame", "time", "distance", "score", *parts, "matched_teacher_frame"]
+
+    with kata.Context() as ctx, ctx.load_model(model_path) as model, ctx.load_clip(teacher) as tclip, \
+            ctx.load_clip(student) as sclip, sclip.skeleton() as sk:
+        first = 1
+        positions = sclip.all_positions(first)
+        with ctx.open_stream(sk, preset="cmu", stencil=model.stencil, result_capacity=len(positions)) as s:
+            s.attach_teacher(model, clip=tclip, first_frame=first, ghost=False)
+            s.push_many(np.arange(len(positions)) * sclip.frame_time, positions)
+            r = s.read_results()
+    assert len(r) == len(rows)
+    names = list(rows[0].keys())
+    for row, res, sc in zip(rows, r.results, r.scores):
+        assert res["flags"] & kata.RESULT_SCORED
+        assert int(row["frame"]) == res["frame_index"] + first
+        assert row["time"] == "%.6f" % res["capture_time"]
+        assert row["distance"] == "%.7g" % sc["distance"]
+        assert row["score"] == "%.4f" % sc["score"]
+        assert [row[n] for n in names[4:9]] == ["%.7g" % p for p in sc["parts"]]
+        assert int(row["matched_teacher_frame"]) == res["matched_teacher_frame"] + first
+
+
+def test_score_call_matches_the_result_ring(data, model_path):
+    with kata.Context() as ctx, ctx.load_model(model_path) as model, ctx.load_clip(os.path.join(data, "02_01.bvh")) as clip, \
+            clip.skeleton() as sk, ctx.open_stream(sk) as s:
+        with pytest.raises(kata.KataError) as e:
+            s.score()
+        assert e.value.status == kata.Status.E_STATE
+        s.set_reference_bvh(model, clip, "cmu", first_frame=1)
+        for i in range(1, 6):
+            s.push(i * clip.frame_time, clip.positions(i))
+        rec = s.score()
+        ring = s.read_results()
+        assert rec.frame_index == ring.results["frame_index"][-1]
+        assert rec.score == ring.scores["score"][-1] and rec.parts == tuple(ring.scores["parts"][-1])
+        assert 0.0 <= rec.score <= 100.0
+
+
+def test_a_bad_model_file_raises_with_the_c_message(cli, tmp_path):
+    bad = tmp_path / "bad.kata"
+    bad.write_bytes(b"this is not a flatbuffer, only some bytes " * 4)
+    with kata.Context() as ctx:
+        with pytest.raises(kata.KataError) as e:
+            ctx.load_model(str(bad))
+    assert e.value.status == kata.Status.E_MODEL
+    assert e.value.message  # the reason, not an empty string
+    # The CLI (which does not go through the C ABI) reports the same reason.
+    cli_run = subprocess.run([cli, "model-info", str(bad)], capture_output=True, text=True)
+    assert cli_run.returncode != 0
+    reason = e.value.message.split(": ", 1)[-1]
+    assert reason in cli_run.stderr, (e.value.message, cli_run.stderr)
+    with kata.Context() as ctx:
+        with pytest.raises(kata.KataError) as e:
+            ctx.load_model_bytes(b"\0" * 64)
+        assert e.value.status == kata.Status.E_MODEL
+
+
+def test_a_malformed_bvh_names_file_and_line(tmp_path):
+    bad = tmp_path / "bad.bvh"
+    bad.write_text("HIERARCHY\nROOT Hips\n{\n  OFFSET 0 0\n")
+    with kata.Context() as ctx, pytest.raises(kata.KataError) as e:
+        ctx.load_clip(str(bad))
+    assert e.value.status == kata.Status.E_PARSE
+    assert str(bad) in e.value.message and ":4" in e.value.message
+
+
+def test_a_bad_frame_raises_and_leaves_the_stream_usable(data):
+    with kata.Context() as ctx, ctx.load_clip(os.path.join(data, "02_01.bvh")) as clip, clip.skeleton() as sk, \
+            ctx.open_stream(sk) as s:
+        s.push(0.0, clip.positions(0))
+        p = clip.positions(1).copy()
+        p[3, 1] = np.nan
+        with pytest.raises(kata.KataError) as e:
+            s.push(0.01, p)
+        assert e.value.status == kata.Status.E_NON_FINITE and e.value.message
+        with pytest.raises(kata.KataError) as e:
+            s.push(0.0, clip.positions(1))
+        assert e.value.status == kata.Status.E_TIMESTAMP_NOT_INCREASING
+        with pytest.raises(kata.KataError) as e:
+            s.push(0.01, clip.positions(1)[:5])
+        assert e.value.status == kata.Status.E_WRONG_JOINT_COUNT
+        s.push(0.01, clip.positions(1).astype(np.float64))  # converted, accepted
+        assert s.feature_count == 2
+        frames = np.stack([clip.positions(i) for i in range(2, 5)])
+        frames[1, 0, 0] = np.inf
+        with pytest.raises(kata.KataError, match="frame 1"):
+            s.push_many([0.02, 0.03, 0.04], frames)
+        assert s.feature_count == 3  # frame 0 of the chunk went in, the bad one did not
+
+
+def test_ghosts_come_with_the_results(data, model_path):
+    with kata.Context() as ctx, ctx.load_model(model_path) as model, ctx.load_clip(os.path.join(data, "02_01.bvh")) as t, \
+            ctx.load_clip(os.path.join(data, "07_01.bvh")) as st, st.skeleton() as sk, ctx.open_stream(sk) as s:
+        s.attach_teacher(model, clip=t, first_frame=1)
+        g = s.ghost_joint_count
+        assert g == 21 and len(s.ghost_joint_sources) == g
+        buf = s.result_buffer(8)
+        assert buf.ghosts.shape == (8, g, 3)
+        pos = st.all_positions(1)[:20]
+        s.push_many(np.arange(20) * st.frame_time, pos)
+        r = s.read_results(buf)
+        assert len(r) == 8 and s.results_pending == 12
+        assert np.all(r.results["flags"] == kata.RESULT_SCORED | kata.RESULT_GHOST)
+        # The ghost's root sits on the student's root (kata_retargeter_place).
+        root = s.ghost_joint_sources[0]
+        assert np.allclose(r.ghosts[:, 0, :], pos[:8, root, :], atol=1e-3)
+        r2 = s.read_results(buf)
+        assert len(r2) == 8 and r2.results["sequence"][0] == 8
+
+
+def test_retargeter_matches_the_stream_ghost_joint_set(data):
+    with kata.Context() as ctx, ctx.load_clip(os.path.join(data, "02_01.bvh")) as t, \
+            ctx.load_skeleton_bvh(os.path.join(data, "07_01.bvh")) as student:
+        with ctx.create_retargeter(student) as r:
+            ghost, info = r.solve(t.positions(10))
+            assert ghost.shape == (r.joint_count, 3) and r.joint_count == 21
+            assert info["max_bone_error"] < 1e-3
+            with pytest.raises(kata.KataError) as e:
+                r.solve(t.positions(10)[:3])
+            assert e.value.status == kata.Status.E_WRONG_JOINT_COUNT
+        with ctx.create_retargeter(student, preset="gpd") as r:
+            assert r.joint_count == 16
+
+
+def test_skeleton_from_arrays_round_trips():
+    with kata.Context() as ctx:
+        with ctx.create_skeleton(["a", "b", "c"], [-1, 0, 1], [[0, 0, 0], [0, 1, 0], [0, 1, 0]]) as sk:
+            assert sk.joint_count == 3 and sk.names == ["a", "b", "c"] and list(sk.parents) == [-1, 0, 1]
+        with pytest.raises(kata.KataError) as e:
+            ctx.create_skeleton(["a", "b"], [-1, 5])
+        assert e.value.status == kata.Status.E_INVALID_ARGUMENT and e.value.message
+
+
+def test_handles_close_once_and_the_context_closes_its_children(data):
+    ctx = kata.Context()
+    clip = ctx.load_clip(os.path.join(data, "02_01.bvh"))
+    sk = clip.skeleton()
+    s = ctx.open_stream(sk)
+    clip.close()
+    clip.close()  # a second close does nothing
+    assert clip.closed
+    with pytest.raises(ValueError):
+        clip.frame_count
+    ctx.close()  # closes the stream and the skeleton first, as kata.h requires
+    assert s.closed and sk.closed
+    ctx.close()
+
+
+def test_no_reference_leaks_over_10000_push_read_cycles(data, model_path):
+    with kata.Context() as ctx, ctx.load_model(model_path) as model, ctx.load_clip(os.path.join(data, "02_01.bvh")) as t, \
+            ctx.load_clip(os.path.join(data, "07_01.bvh")) as st, st.skeleton() as sk, ctx.open_stream(sk) as s:
+        s.attach_teacher(model, clip=t, first_frame=1)
+        frame = np.ascontiguousarray(st.positions(1))
+        buf = s.result_buffer(4)
+        t_now = 0.0
+
+        def cycles(n, reuse):
+            nonlocal t_now
+            for _ in range(n):
+                t_now += 0.01
+                s.push(t_now, frame)
+                r = s.read_results(buf if reuse else None)
+                assert len(r) == 1
+
+        for reuse in (True, False):
+            cycles(500, reuse)  # warm-up: caches, first allocations
+            gc.collect()
+            tracemalloc.start()
+            before = tracemalloc.take_snapshot()
+            cycles(10000, reuse)
+            gc.collect()
+            after = tracemalloc.take_snapshot()
+            tracemalloc.stop()
+            grown = sum(d.size_diff for d in after.compare_to(before, "filename"))
+            assert grown < 4096, (reuse, grown, after.compare_to(before, "lineno")[:5])
+            assert sys.getrefcount(frame) == 2  # no reference to the pushed array kept
+
+
+def test_a_library_of_another_major_version_is_refused():
+    shim = os.environ.get("KATA_WRONG_VERSION_LIBRARY")
+    if not shim:
+        pytest.skip("KATA_WRONG_VERSION_LIBRARY not set (ctest sets it)")
+    env = dict(os.environ, KATA_LIBRARY=shim)
+    p = subprocess.run([sys.executable, "-c", "import kata"], env=env, capture_output=True, text=True,
+                       cwd=os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    assert p.returncode != 0
+    assert "ImportError" in p.stderr and "version 7.0.0" in p.stderr and "needs 0.x" in p.stderr, p.stderr
