@@ -115,6 +115,19 @@ def presets():
         i += 1
 
 
+_addressof = ctypes.addressof
+_c_char_from_buffer = ctypes.c_char.from_buffer
+
+
+def _address(a):
+    """The data pointer of a C-contiguous array: 3x cheaper than a.ctypes.data (measured 0.7 vs
+    2.0 us), which also fills numpy's ctypes caches; read-only arrays take the slow path."""
+    try:
+        return _addressof(_c_char_from_buffer(a))
+    except (TypeError, ValueError):
+        return a.ctypes.data
+
+
 def _positions_f32(positions, joints=None):
     """positions as a C-contiguous float32 array (no copy when it already is one)."""
     a = np.ascontiguousarray(positions, dtype=np.float32)
@@ -400,10 +413,10 @@ class ResultBuffer:
         self.ghosts = np.zeros((self.capacity, ghost_joints, 3), dtype=np.float32) if ghost_joints else None
         self.features = np.zeros((self.capacity, GPD_DIMS), dtype=np.float32) if with_features else None
         # The C call's arguments, computed once.
-        self._args = (self.results.ctypes.data, None if self.scores is None else self.scores.ctypes.data,
-                      None if self.ghosts is None else self.ghosts.ctypes.data,
+        self._args = (_address(self.results), None if self.scores is None else _address(self.scores),
+                      None if self.ghosts is None else _address(self.ghosts),
                       0 if self.ghosts is None else self.ghosts.size,
-                      None if self.features is None else self.features.ctypes.data,
+                      None if self.features is None else _address(self.features),
                       0 if self.features is None else self.features.size, self.capacity)
         self._count = ctypes.c_uint32()
         self._count_ref = ctypes.byref(self._count)
@@ -442,7 +455,7 @@ class Stream(_Handle):
         a = positions
         if type(a) is not np.ndarray or a.dtype != np.float32 or not a.flags.c_contiguous:
             a = _positions_f32(a)
-        status = _n.stream_push(self.handle, timestamp, a.ctypes.data, a.size // 3)
+        status = _n.stream_push(self.handle, timestamp, _address(a), a.size // 3)
         if status:
             self._raise(status, "kata_stream_push")
 

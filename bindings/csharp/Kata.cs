@@ -1,0 +1,599 @@
+// Kata.cs - C# binding of kata's C ABI (sdk/include/kata/kata.h, which is the manual: units, ownership
+// and thread rules are the C functions'). One file, no unsafe code, no dependency beyond mscorlib:
+// drop it into a Unity project's Assets/ next to the native library (Assets/Plugins/...).
+//
+// Layers:
+//   Kata.Native    one [DllImport] per C function (Cdecl, blittable arguments, UTF-8 strings as byte[]).
+//   *Handle        a SafeHandle per C handle type: released exactly once, by Dispose or the finalizer.
+//                  Objects made from a context hold a reference on its handle, so the context is
+//                  destroyed only after them (kata.h requires that order).
+//   Context, Stream, ...   thin objects over the handles; a failed call throws KataException with
+//                  the status and the C message (kata_*_last_error).
+// No delegate is ever passed to native code. The first Context checks kata_version() against
+// ExpectedMajor and refuses another major with KataVersionException.
+using System;
+using System.Runtime.InteropServices;
+using System.Text;
+using System.Threading;
+using Microsoft.Win32.SafeHandles;
+
+namespace Kata
+{
+    public enum Status
+    {
+        Ok = 0, NoData = 1, InvalidArgument = 2, NullPointer = 3, WrongJointCount = 4, NonFinite = 5,
+        TimestampNotIncreasing = 6, Parse = 7, Io = 8, Model = 9, NotFound = 10, OutOfMemory = 11,
+        BufferTooSmall = 12, Internal = 13, State = 14
+    }
+
+    public enum Stencil { Backward = 0, Central = 1 }
+    public enum UpAxis { Y = 0, Z = 1 }
+    public enum BodyPart { TorsoHead = 0, LeftArm = 1, RightArm = 2, LeftLeg = 3, RightLeg = 4 }
+
+    public static class Gpd
+    {
+        public const int Dims = 1683;   // KATA_GPD_DIMS
+        public const int Joints = 16;   // KATA_GPD_JOINTS
+        public const int PartCount = 5; // KATA_PART_COUNT
+    }
+
+    // ---- structs: field for field as in kata.h (x86-64 and arm64 natural alignment) -------------------
+
+    [StructLayout(LayoutKind.Sequential)]
+    public struct StreamDesc
+    {
+        public uint StructSize;
+        public IntPtr Preset;          // const char*: set by Context.OpenStream from a string
+        public IntPtr NameMapPath;     // const char*
+        public Stencil Stencil;
+        public UpAxis UpAxis;
+        public double MaxGap;
+        public uint HistoryCapacity;
+        public double BodyHeight;
+        public uint CalibrationFrames;
+        public uint ResultCapacity;
+        public int KeepFeatures;
+    }
+
+    [StructLayout(LayoutKind.Sequential)]
+    public struct RetargetDesc
+    {
+        public uint StructSize;
+        public IntPtr Preset;          // const char*
+        public double GradientTolerance;
+        public uint MaxIterations;
+        public int WarmStart;
+        public int RestoreBoneLengths;
+    }
+
+    [StructLayout(LayoutKind.Sequential)]
+    public struct RetargetInfo
+    {
+        public uint StructSize;
+        public uint Iterations;
+        public int Converged;
+        public int Warm;
+        public double Stress;
+        public double MaxBoneErrorSolved;
+        public double MaxBoneError;
+    }
+
+    [StructLayout(LayoutKind.Sequential)]
+    public struct TeacherDesc
+    {
+        public uint StructSize;
+        public IntPtr Model;           // kata_model
+        public IntPtr Clip;            // kata_clip
+        public IntPtr Skeleton;        // kata_skeleton
+        public IntPtr Positions;       // const float*
+        public uint Frames;
+        public double FrameTime;
+        public IntPtr Preset;          // const char*
+        public uint FirstFrame;
+        public int PoseFrame;
+        public int Ghost;
+        public IntPtr Retarget;        // const kata_retarget_desc*
+    }
+
+    [StructLayout(LayoutKind.Sequential)]
+    public struct ScoreRecord
+    {
+        public uint StructSize;
+        public int MatchedReferenceFrame;
+        public long FrameIndex;
+        public double Timestamp;
+        public float Distance;
+        public float Score;
+        // float parts[KATA_PART_COUNT] as five fields: blittable without unsafe code.
+        public float PartTorsoHead, PartLeftArm, PartRightArm, PartLeftLeg, PartRightLeg;
+
+        public float Part(BodyPart p)
+        {
+            switch (p)
+            {
+                case BodyPart.TorsoHead: return PartTorsoHead;
+                case BodyPart.LeftArm: return PartLeftArm;
+                case BodyPart.RightArm: return PartRightArm;
+                case BodyPart.LeftLeg: return PartLeftLeg;
+                default: return PartRightLeg;
+            }
+        }
+    }
+
+    [StructLayout(LayoutKind.Sequential)]
+    public struct Result
+    {
+        public const uint FlagScored = 1, FlagGhost = 2; // KATA_RESULT_SCORED, KATA_RESULT_GHOST
+        public uint StructSize;
+        public uint Flags;
+        public ulong Sequence;
+        public long FrameIndex;
+        public double CaptureTime;
+        public long ArrivalNs;
+        public long ComputedNs;
+        public int MatchedTeacherFrame;
+        public uint GhostJointCount;
+    }
+
+    // ---- errors ------------------------------------------------------------------------------------------
+
+    public class KataException : Exception
+    {
+        public readonly Status Status;
+        public readonly string NativeMessage;
+        public KataException(Status status, string message, string call)
+            : base(call + ": " + Native.StatusName(status) + ": " + message)
+        {
+            Status = status;
+            NativeMessage = message;
+        }
+    }
+
+    public class KataVersionException : Exception
+    {
+        public KataVersionException(string message) : base(message) { }
+    }
+
+    // ---- the C functions ---------------------------------------------------------------------------------
+
+    public static class Native
+    {
+        // "kata": libkata.so on Linux/Android, kata.dll on Windows, libkata.dylib on macOS.
+        // iOS (IL2CPP, static linking) needs "__Internal" instead: see the README.
+        public const string Lib = "kata";
+        private const CallingConvention CC = CallingConvention.Cdecl;
+
+        [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_version();
+        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_status_string(Status status);
+
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_context_create(out ContextHandle ctx);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_context_destroy(IntPtr ctx);
+        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_context_last_error(ContextHandle ctx);
+
+        [DllImport(Lib, CallingConvention = CC)]
+        public static extern Status kata_skeleton_create(ContextHandle ctx, uint jointCount, IntPtr[] names,
+                                                         int[] parents, double[] restOffsets, out SkeletonHandle skeleton);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_skeleton_load_bvh(ContextHandle ctx, byte[] path, out SkeletonHandle skeleton);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_skeleton_destroy(IntPtr skeleton);
+        [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_skeleton_joint_count(SkeletonHandle skeleton);
+        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_skeleton_joint_name(SkeletonHandle skeleton, uint i);
+        [DllImport(Lib, CallingConvention = CC)] public static extern int kata_skeleton_joint_parent(SkeletonHandle skeleton, uint i);
+
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_clip_load_bvh(ContextHandle ctx, byte[] path, out ClipHandle clip);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_clip_destroy(IntPtr clip);
+        [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_clip_frame_count(ClipHandle clip);
+        [DllImport(Lib, CallingConvention = CC)] public static extern double kata_clip_frame_time(ClipHandle clip);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_clip_skeleton(ClipHandle clip, out SkeletonHandle skeleton);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_clip_positions(ClipHandle clip, uint frame, [Out] float[] xyz, UIntPtr capacity);
+
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_stream_desc_init(ref StreamDesc desc);
+        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_preset_name(uint i);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_open(ContextHandle ctx, SkeletonHandle skeleton, ref StreamDesc desc, out StreamHandle stream);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_stream_close(IntPtr stream);
+        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_stream_last_error(StreamHandle stream);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_push(StreamHandle stream, double timestamp, float[] xyz, uint jointCount);
+        [DllImport(Lib, CallingConvention = CC, EntryPoint = "kata_stream_push")]
+        public static extern Status kata_stream_push_ptr(StreamHandle stream, double timestamp, IntPtr xyz, uint jointCount);  // NativeArray etc.
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_flush(StreamHandle stream);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_reset(StreamHandle stream);
+        [DllImport(Lib, CallingConvention = CC)]
+        public static extern Status kata_stream_features(StreamHandle stream, [Out] float[] features, UIntPtr capacity,
+                                                         out double timestamp, out long frameIndex);
+        [DllImport(Lib, CallingConvention = CC)] public static extern long kata_stream_feature_count(StreamHandle stream);
+        [DllImport(Lib, CallingConvention = CC)] public static extern double kata_stream_body_height(StreamHandle stream);
+
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_model_load(ContextHandle ctx, byte[] path, out ModelHandle model);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_model_load_memory(ContextHandle ctx, byte[] data, UIntPtr size, out ModelHandle model);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_model_free(IntPtr model);
+        [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_model_rank(ModelHandle model);
+        [DllImport(Lib, CallingConvention = CC)] public static extern double kata_model_delta_star(ModelHandle model);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Stencil kata_model_stencil(ModelHandle model);
+        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_model_metadata(ModelHandle model, byte[] key);
+
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_set_reference_pose(StreamHandle stream, ModelHandle model, float[] features, UIntPtr count);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_set_reference_joints(StreamHandle stream, ModelHandle model, float[] joints, UIntPtr count, double bodyHeight);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_set_reference_clip(StreamHandle stream, ModelHandle model, float[] features, uint frames, double frameTime);
+        [DllImport(Lib, CallingConvention = CC)]
+        public static extern Status kata_stream_set_reference_bvh(StreamHandle stream, ModelHandle model, ClipHandle clip, byte[] preset,
+                                                                  uint firstFrame, int poseFrame);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_clear_reference(StreamHandle stream);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_restart_reference(StreamHandle stream);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_score(StreamHandle stream, ref ScoreRecord record);
+
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_retarget_desc_init(ref RetargetDesc desc);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_retargeter_create(ContextHandle ctx, SkeletonHandle student, ref RetargetDesc desc, out RetargeterHandle r);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_retargeter_create_for_stream(ContextHandle ctx, StreamHandle student, ref RetargetDesc desc, out RetargeterHandle r);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_retargeter_destroy(IntPtr r);
+        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_retargeter_last_error(RetargeterHandle r);
+        [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_retargeter_joint_count(RetargeterHandle r);
+        [DllImport(Lib, CallingConvention = CC)] public static extern int kata_retargeter_joint_source(RetargeterHandle r, uint i);
+        [DllImport(Lib, CallingConvention = CC)]
+        public static extern Status kata_retargeter_solve(RetargeterHandle r, float[] teacher, uint teacherJointCount, [Out] float[] ghost,
+                                                          UIntPtr capacity, ref RetargetInfo info);
+        [DllImport(Lib, CallingConvention = CC)]
+        public static extern Status kata_retargeter_place(RetargeterHandle r, float[] student, uint studentJointCount, [In, Out] float[] ghost, UIntPtr capacity);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_retargeter_reset(RetargeterHandle r);
+
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_teacher_desc_init(ref TeacherDesc desc);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_attach_teacher(StreamHandle stream, ref TeacherDesc desc);
+        [DllImport(Lib, CallingConvention = CC)]
+        public static extern Status kata_stream_read_results(StreamHandle stream, [In, Out] Result[] results, [In, Out] ScoreRecord[] scores,
+                                                             [Out] float[] ghosts, UIntPtr ghostCapacity, [Out] float[] features,
+                                                             UIntPtr featureCapacity, uint capacity, out uint count);
+        [DllImport(Lib, CallingConvention = CC)] public static extern ulong kata_stream_results_dropped(StreamHandle stream);
+        [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_stream_results_pending(StreamHandle stream);
+        [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_stream_ghost_joint_count(StreamHandle stream);
+        [DllImport(Lib, CallingConvention = CC)] public static extern int kata_stream_ghost_joint_source(StreamHandle stream, uint i);
+
+        // ---- helpers: UTF-8 both ways (no reliance on CharSet, which differs between runtimes) ----
+        public static byte[] Utf8(string s)
+        {
+            if (s == null) return null;
+            byte[] text = Encoding.UTF8.GetBytes(s);
+            byte[] z = new byte[text.Length + 1];
+            Buffer.BlockCopy(text, 0, z, 0, text.Length);
+            return z;
+        }
+
+        public static string FromUtf8(IntPtr p)
+        {
+            if (p == IntPtr.Zero) return null;
+            int n = 0;
+            while (Marshal.ReadByte(p, n) != 0) ++n;
+            byte[] bytes = new byte[n];
+            Marshal.Copy(p, bytes, 0, n);
+            return Encoding.UTF8.GetString(bytes);
+        }
+
+        public static string StatusName(Status s) { return FromUtf8(kata_status_string(s)); }
+    }
+
+    // ---- versions ------------------------------------------------------------------------------------
+
+    public static class Library
+    {
+        public const int ExpectedMajor = 0; // KATA_VERSION_MAJOR this binding is written against
+        public const int MinimumMinor = 2;  // the pipeline calls arrived in 0.2
+        private static int checkedOk;
+
+        public static Version LoadedVersion
+        {
+            get { uint v = Native.kata_version(); return new Version((int)(v / 10000), (int)(v / 100 % 100), (int)(v % 100)); }
+        }
+
+        // Called before the first object is made: refuses a library of another major version.
+        public static void EnsureCompatible()
+        {
+            if (Volatile.Read(ref checkedOk) != 0) return;
+            Version v = LoadedVersion;
+            if (v.Major != ExpectedMajor || v.Minor < MinimumMinor)
+                throw new KataVersionException(string.Format(
+                    "kata: the loaded native library is version {0}.{1}.{2}; this binding needs {3}.x with x >= {4} " +
+                    "(major versions differ in their ABI). Put a matching libkata next to the binding.",
+                    v.Major, v.Minor, v.Build, ExpectedMajor, MinimumMinor));
+            Volatile.Write(ref checkedOk, 1);
+        }
+    }
+
+    // ---- handles -----------------------------------------------------------------------------------------
+
+    public abstract class KataHandle : SafeHandleZeroOrMinusOneIsInvalid
+    {
+        private static long released;
+        // Native release calls made by every KataHandle so far (tests check "exactly once" with it).
+        public static long ReleasedCount { get { return Interlocked.Read(ref released); } }
+
+        private ContextHandle parent;
+
+        protected KataHandle() : base(true) { }
+
+        // Keeps the context's handle alive (and its destroy call waiting) until this handle is released.
+        internal void HoldContext(ContextHandle context)
+        {
+            if (IsInvalid || context == null) return;
+            bool added = false;
+            context.DangerousAddRef(ref added);
+            if (added) parent = context;
+        }
+
+        protected abstract void Destroy(IntPtr h);
+
+        protected override bool ReleaseHandle()
+        {
+            Destroy(handle);
+            Interlocked.Increment(ref released);
+            ContextHandle p = parent;
+            parent = null;
+            if (p != null) p.DangerousRelease();
+            return true;
+        }
+    }
+
+    public sealed class ContextHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_context_destroy(h); } }
+    public sealed class SkeletonHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_skeleton_destroy(h); } }
+    public sealed class ClipHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_clip_destroy(h); } }
+    public sealed class StreamHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_stream_close(h); } }
+    public sealed class ModelHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_model_free(h); } }
+    public sealed class RetargeterHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_retargeter_destroy(h); } }
+
+    // ---- objects ------------------------------------------------------------------------------------------
+
+    public sealed class Context : IDisposable
+    {
+        public readonly ContextHandle Handle;
+
+        public Context()
+        {
+            Library.EnsureCompatible();
+            Status s = Native.kata_context_create(out Handle);
+            if (s != Status.Ok) throw new KataException(s, "cannot create a context", "kata_context_create");
+        }
+
+        public void Dispose() { Handle.Dispose(); }
+
+        internal T Check<T>(Status s, T handle, string call) where T : KataHandle
+        {
+            if (s != Status.Ok)
+            {
+                string message = Native.FromUtf8(Native.kata_context_last_error(Handle));
+                if (handle != null) handle.Dispose();
+                throw new KataException(s, message, call);
+            }
+            handle.HoldContext(Handle);
+            return handle;
+        }
+
+        public Skeleton LoadSkeletonBvh(string path)
+        {
+            SkeletonHandle h;
+            Status s = Native.kata_skeleton_load_bvh(Handle, Native.Utf8(path), out h);
+            return new Skeleton(Check(s, h, "kata_skeleton_load_bvh"));
+        }
+
+        public Clip LoadClip(string path)
+        {
+            ClipHandle h;
+            Status s = Native.kata_clip_load_bvh(Handle, Native.Utf8(path), out h);
+            return new Clip(Check(s, h, "kata_clip_load_bvh"), this);
+        }
+
+        public Model LoadModel(string path)
+        {
+            ModelHandle h;
+            Status s = Native.kata_model_load(Handle, Native.Utf8(path), out h);
+            return new Model(Check(s, h, "kata_model_load"));
+        }
+
+        public Model LoadModel(byte[] data)
+        {
+            ModelHandle h;
+            Status s = Native.kata_model_load_memory(Handle, data, (UIntPtr)data.Length, out h);
+            return new Model(Check(s, h, "kata_model_load_memory"));
+        }
+
+        // A StreamDesc with kata_stream_desc_init's defaults (struct_size set by the library).
+        public static StreamDesc DefaultStreamDesc()
+        {
+            StreamDesc d = new StreamDesc();
+            Native.kata_stream_desc_init(ref d);
+            if (d.StructSize != Marshal.SizeOf(typeof(StreamDesc)))
+                throw new KataVersionException("kata_stream_desc is " + d.StructSize + " bytes in the library, " +
+                                               Marshal.SizeOf(typeof(StreamDesc)) + " in this binding");
+            return d;
+        }
+
+        // kata_stream_open; desc's Preset/NameMapPath are replaced by the strings given here.
+        public Stream OpenStream(Skeleton skeleton, string preset, StreamDesc desc, string nameMapPath = null)
+        {
+            GCHandle presetPin = default(GCHandle), mapPin = default(GCHandle);
+            try
+            {
+                byte[] p = Native.Utf8(nameMapPath == null ? preset : null), m = Native.Utf8(nameMapPath);
+                if (p != null) { presetPin = GCHandle.Alloc(p, GCHandleType.Pinned); desc.Preset = presetPin.AddrOfPinnedObject(); }
+                else desc.Preset = IntPtr.Zero;
+                if (m != null) { mapPin = GCHandle.Alloc(m, GCHandleType.Pinned); desc.NameMapPath = mapPin.AddrOfPinnedObject(); }
+                else desc.NameMapPath = IntPtr.Zero;
+                StreamHandle h;
+                Status s = Native.kata_stream_open(Handle, skeleton.Handle, ref desc, out h);
+                return new Stream(Check(s, h, "kata_stream_open"), (int)skeleton.JointCount);
+            }
+            finally
+            {
+                if (presetPin.IsAllocated) presetPin.Free();
+                if (mapPin.IsAllocated) mapPin.Free();
+            }
+        }
+
+        public Stream OpenStream(Skeleton skeleton, string preset = "cmu") { return OpenStream(skeleton, preset, DefaultStreamDesc()); }
+    }
+
+    public sealed class Skeleton : IDisposable
+    {
+        public readonly SkeletonHandle Handle;
+        internal Skeleton(SkeletonHandle h) { Handle = h; }
+        public void Dispose() { Handle.Dispose(); }
+        public uint JointCount { get { return Native.kata_skeleton_joint_count(Handle); } }
+        public string JointName(uint i) { return Native.FromUtf8(Native.kata_skeleton_joint_name(Handle, i)); }
+        public int JointParent(uint i) { return Native.kata_skeleton_joint_parent(Handle, i); }
+    }
+
+    public sealed class Clip : IDisposable
+    {
+        public readonly ClipHandle Handle;
+        private readonly Context context;
+        internal Clip(ClipHandle h, Context c) { Handle = h; context = c; }
+        public void Dispose() { Handle.Dispose(); }
+        public uint FrameCount { get { return Native.kata_clip_frame_count(Handle); } }
+        public double FrameTime { get { return Native.kata_clip_frame_time(Handle); } }
+
+        public Skeleton Skeleton()
+        {
+            SkeletonHandle h;
+            Status s = Native.kata_clip_skeleton(Handle, out h);
+            if (s != Status.Ok) { h.Dispose(); throw new KataException(s, "cannot copy the clip's skeleton", "kata_clip_skeleton"); }
+            h.HoldContext(context.Handle);
+            return new Skeleton(h);
+        }
+
+        // World positions (joints x 3) of one frame into xyz.
+        public void Positions(uint frame, float[] xyz)
+        {
+            Status s = Native.kata_clip_positions(Handle, frame, xyz, (UIntPtr)xyz.Length);
+            if (s != Status.Ok) throw new KataException(s, "frame " + frame + " (buffer " + xyz.Length + " floats)", "kata_clip_positions");
+        }
+    }
+
+    public sealed class Model : IDisposable
+    {
+        public readonly ModelHandle Handle;
+        internal Model(ModelHandle h) { Handle = h; }
+        public void Dispose() { Handle.Dispose(); }
+        public uint Rank { get { return Native.kata_model_rank(Handle); } }
+        public double DeltaStar { get { return Native.kata_model_delta_star(Handle); } }
+        public Stencil Stencil { get { return Native.kata_model_stencil(Handle); } }
+        public string Metadata(string key) { return Native.FromUtf8(Native.kata_model_metadata(Handle, Native.Utf8(key))); }
+    }
+
+    // Arrays kata_stream_read_results fills in place; allocate once, read every frame.
+    public sealed class ResultBatch
+    {
+        public readonly Result[] Results;
+        public readonly ScoreRecord[] Scores;
+        public readonly float[] Ghosts;      // Capacity x GhostJoints x 3, or null
+        public readonly float[] Features;    // Capacity x 1683, or null
+        public readonly int GhostJoints;
+        public int Count;                    // entries filled by the last read
+
+        public ResultBatch(int capacity, int ghostJoints, bool features = false)
+        {
+            Results = new Result[capacity];
+            Scores = new ScoreRecord[capacity];
+            for (int i = 0; i < capacity; ++i)
+            {
+                Results[i].StructSize = (uint)Marshal.SizeOf(typeof(Result));
+                Scores[i].StructSize = (uint)Marshal.SizeOf(typeof(ScoreRecord));
+            }
+            GhostJoints = ghostJoints;
+            Ghosts = ghostJoints > 0 ? new float[capacity * ghostJoints * 3] : null;
+            Features = features ? new float[capacity * Gpd.Dims] : null;
+        }
+
+        public int Capacity { get { return Results.Length; } }
+    }
+
+    public sealed class Stream : IDisposable
+    {
+        public readonly StreamHandle Handle;
+        public readonly int JointCount;
+        internal Stream(StreamHandle h, int joints) { Handle = h; JointCount = joints; }
+        public void Dispose() { Handle.Dispose(); }
+
+        private void Throw(Status s, string call) { throw new KataException(s, Native.FromUtf8(Native.kata_stream_last_error(Handle)), call); }
+
+        // kata_stream_push: xyz holds JointCount x 3 floats (pinned for the call, not copied).
+        public void Push(double timestamp, float[] xyz)
+        {
+            Status s = Native.kata_stream_push(Handle, timestamp, xyz, (uint)(xyz.Length / 3));
+            if (s != Status.Ok) Throw(s, "kata_stream_push");
+        }
+
+        public void Flush() { Status s = Native.kata_stream_flush(Handle); if (s != Status.Ok) Throw(s, "kata_stream_flush"); }
+        public void Reset() { Status s = Native.kata_stream_reset(Handle); if (s != Status.Ok) Throw(s, "kata_stream_reset"); }
+        public long FeatureCount { get { return Native.kata_stream_feature_count(Handle); } }
+        public double BodyHeight { get { return Native.kata_stream_body_height(Handle); } }
+
+        // kata_stream_features: false before the first vector.
+        public bool Features(float[] out1683, out double timestamp, out long frameIndex)
+        {
+            Status s = Native.kata_stream_features(Handle, out1683, (UIntPtr)out1683.Length, out timestamp, out frameIndex);
+            if (s == Status.NoData) return false;
+            if (s != Status.Ok) Throw(s, "kata_stream_features");
+            return true;
+        }
+
+        public void SetReferenceBvh(Model model, Clip clip, string preset = "cmu", uint firstFrame = 0, int poseFrame = -1)
+        {
+            Status s = Native.kata_stream_set_reference_bvh(Handle, model.Handle, clip.Handle, Native.Utf8(preset), firstFrame, poseFrame);
+            if (s != Status.Ok) Throw(s, "kata_stream_set_reference_bvh");
+        }
+
+        // kata_stream_score: false before the first vector.
+        public bool Score(ref ScoreRecord record)
+        {
+            record.StructSize = (uint)Marshal.SizeOf(typeof(ScoreRecord));
+            Status s = Native.kata_stream_score(Handle, ref record);
+            if (s == Status.NoData) return false;
+            if (s != Status.Ok) Throw(s, "kata_stream_score");
+            return true;
+        }
+
+        // kata_stream_attach_teacher with a recorded clip (ghost: 1 to make ghosts).
+        public void AttachTeacher(Model model, Clip clip, uint firstFrame = 0, bool ghost = true, string preset = null, int poseFrame = -1)
+        {
+            TeacherDesc d = new TeacherDesc();
+            Native.kata_teacher_desc_init(ref d);
+            GCHandle presetPin = default(GCHandle);
+            bool modelRef = false, clipRef = false;
+            try
+            {
+                // The raw handles go into a struct, so hold them explicitly for the call.
+                model.Handle.DangerousAddRef(ref modelRef);
+                clip.Handle.DangerousAddRef(ref clipRef);
+                d.Model = model.Handle.DangerousGetHandle();
+                d.Clip = clip.Handle.DangerousGetHandle();
+                d.FirstFrame = firstFrame;
+                d.PoseFrame = poseFrame;
+                d.Ghost = ghost ? 1 : 0;
+                if (preset != null) { presetPin = GCHandle.Alloc(Native.Utf8(preset), GCHandleType.Pinned); d.Preset = presetPin.AddrOfPinnedObject(); }
+                Status s = Native.kata_stream_attach_teacher(Handle, ref d);
+                if (s != Status.Ok) Throw(s, "kata_stream_attach_teacher");
+            }
+            finally
+            {
+                if (presetPin.IsAllocated) presetPin.Free();
+                if (clipRef) clip.Handle.DangerousRelease();
+                if (modelRef) model.Handle.DangerousRelease();
+            }
+        }
+
+        public uint GhostJointCount { get { return Native.kata_stream_ghost_joint_count(Handle); } }
+        public int GhostJointSource(uint i) { return Native.kata_stream_ghost_joint_source(Handle, i); }
+        public uint ResultsPending { get { return Native.kata_stream_results_pending(Handle); } }
+        public ulong ResultsDropped { get { return Native.kata_stream_results_dropped(Handle); } }
+
+        public ResultBatch NewResultBatch(int capacity, bool features = false) { return new ResultBatch(capacity, (int)GhostJointCount, features); }
+
+        // kata_stream_read_results: moves every unread result (at most batch.Capacity) into batch; returns the count.
+        public int ReadResults(ResultBatch batch)
+        {
+            uint n;
+            Status s = Native.kata_stream_read_results(Handle, batch.Results, batch.Scores, batch.Ghosts,
+                                                       (UIntPtr)(batch.Ghosts == null ? 0 : batch.Ghosts.Length), batch.Features,
+                                                       (UIntPtr)(batch.Features == null ? 0 : batch.Features.Length),
+                                                       (uint)batch.Capacity, out n);
+            if (s != Status.Ok) Throw(s, "kata_stream_read_results");
+            batch.Count = (int)n;
+            return (int)n;
+        }
+    }
+}

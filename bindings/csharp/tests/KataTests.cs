@@ -1,0 +1,224 @@
+// The C# binding against values computed independently (the `kata` CLI's .npy and CSV), plus its own
+// promises: handles released exactly once, a library of another major version refused.
+//   mono KataTests.exe REPO_DIR KATA_CLI TMP_DIR          the suite (exit 0 = all passed)
+//   mono KataTests.exe --expect-wrong-version             run against a libkata reporting 7.0.0
+using System;
+using System.Collections.Generic;
+using System.Diagnostics;
+using System.Globalization;
+using System.IO;
+using System.Text;
+using Kata;
+
+static class KataTests
+{
+    static int failures;
+
+    static void Check(bool ok, string what)
+    {
+        if (!ok) { ++failures; Console.Error.WriteLine("FAILED: " + what); }
+    }
+
+    static void RunCli(string cli, string args)
+    {
+        ProcessStartInfo psi = new ProcessStartInfo(cli, args) { UseShellExecute = false, RedirectStandardOutput = true, RedirectStandardError = true };
+        using (Process p = Process.Start(psi))
+        {
+            string err = p.StandardError.ReadToEnd();
+            p.StandardOutput.ReadToEnd();
+            p.WaitForExit();
+            if (p.ExitCode != 0) throw new Exception(cli + " " + args + " failed: " + err);
+        }
+    }
+
+    // A float32 2-D .npy (little-endian '<f4', C order) as written by `kata features`.
+    static float[] ReadNpy(string path, out int rows, out int cols)
+    {
+        byte[] b = File.ReadAllBytes(path);
+        int headerLen = b[8] | (b[9] << 8);
+        string header = Encoding.ASCII.GetString(b, 10, headerLen);
+        if (!header.Contains("'descr': '<f4'") || header.Contains("'fortran_order': True")) throw new Exception("unexpected npy " + header);
+        int open = header.IndexOf("'shape': (") + 10, close = header.IndexOf(')', open);
+        string[] dims = header.Substring(open, close - open).Split(new[] { ',' }, StringSplitOptions.RemoveEmptyEntries);
+        rows = int.Parse(dims[0].Trim());
+        cols = int.Parse(dims[1].Trim());
+        float[] data = new float[rows * cols];
+        Buffer.BlockCopy(b, 10 + headerLen, data, 0, data.Length * 4);
+        return data;
+    }
+
+    static float[] Frame(Clip clip, uint i, int joints)
+    {
+        float[] xyz = new float[joints * 3];
+        clip.Positions(i, xyz);
+        return xyz;
+    }
+
+    static void FeaturesEqualTheCli(Context ctx, string repo, string cli, string tmp)
+    {
+        string bvh = Path.Combine(repo, "data/cmu/05_02.bvh"), npy = Path.Combine(tmp, "features.npy");
+        RunCli(cli, "features --bvh " + bvh + " --preset cmu --out " + npy);
+        int rows, cols;
+        float[] expected = ReadNpy(npy, out rows, out cols);
+        using (Clip clip = ctx.LoadClip(bvh))
+        using (Skeleton sk = clip.Skeleton())
+        {
+            StreamDesc d = Context.DefaultStreamDesc();
+            d.KeepFeatures = 1;
+            d.ResultCapacity = clip.FrameCount;
+            using (Kata.Stream s = ctx.OpenStream(sk, "cmu", d))
+            {
+                int joints = (int)sk.JointCount;
+                for (uint i = 0; i < clip.FrameCount; ++i) s.Push(i * clip.FrameTime, Frame(clip, i, joints));
+                s.Flush();
+                ResultBatch batch = s.NewResultBatch((int)clip.FrameCount, true);
+                int n = s.ReadResults(batch);
+                Check(n == rows && cols == Gpd.Dims, "features: " + n + " rows vs the CLI's " + rows);
+                int differing = 0;
+                for (int k = 0; k < rows * cols; ++k)
+                    if (BitConverter.SingleToInt32Bits(batch.Features[k]) != BitConverter.SingleToInt32Bits(expected[k])) ++differing;
+                Check(differing == 0, "features: " + differing + " values differ from `kata features`");
+                for (int r = 0; r < n; ++r) Check(batch.Results[r].FrameIndex == r, "features: frame index of row " + r);
+            }
+        }
+    }
+
+    // The CSV prints distance and parts with %.7g and the score with %.4f: each must be our value
+    // rounded to that many digits (within half a unit of the last printed digit).
+    static bool SameAsPrinted(double ours, string printed, bool fixed4)
+    {
+        double p = double.Parse(printed, CultureInfo.InvariantCulture);
+        double halfUlp = fixed4 ? 0.5e-4 : (p == 0 ? 1e-45 : 0.5 * Math.Pow(10, Math.Floor(Math.Log10(Math.Abs(p))) - 6));
+        return Math.Abs(ours - p) <= halfUlp * (1 + 1e-9);
+    }
+
+    static void ScoresEqualTheCli(Context ctx, string repo, string cli, string tmp)
+    {
+        string teacher = Path.Combine(repo, "data/cmu/02_01.bvh"), student = Path.Combine(repo, "data/cmu/07_01.bvh");
+        string model = Path.Combine(repo, "models/default.kata"), csv = Path.Combine(tmp, "scores.csv");
+        RunCli(cli, "score --model " + model + " --teacher " + teacher + " --student " + student +
+                    " --preset cmu --first-frame 1 --out " + csv);
+        string[] lines = File.ReadAllLines(csv);
+        Check(lines[0] == "frame,time,distance,score,torso_head,left_arm,right_arm,left_leg,right_leg,matched_teacher_frame",
+              "score: CSV header " + lines[0]);
+        using (Model m = ctx.LoadModel(model))
+        using (Clip t = ctx.LoadClip(teacher))
+        using (Clip st = ctx.LoadClip(student))
+        using (Skeleton sk = st.Skeleton())
+        {
+            StreamDesc d = Context.DefaultStreamDesc();
+            d.Stencil = m.Stencil;
+            d.ResultCapacity = st.FrameCount;
+            using (Kata.Stream s = ctx.OpenStream(sk, "cmu", d))
+            {
+                s.AttachTeacher(m, t, 1, false);
+                int joints = (int)sk.JointCount;
+                for (uint i = 1; i < st.FrameCount; ++i) s.Push((i - 1) * st.FrameTime, Frame(st, i, joints));
+                ResultBatch batch = s.NewResultBatch((int)st.FrameCount);
+                int n = s.ReadResults(batch);
+                Check(n == lines.Length - 1, "score: " + n + " results vs " + (lines.Length - 1) + " CSV rows");
+                int bad = 0;
+                for (int r = 0; r < n && r + 1 < lines.Length; ++r)
+                {
+                    string[] f = lines[r + 1].Split(',');
+                    Result res = batch.Results[r];
+                    ScoreRecord sc = batch.Scores[r];
+                    bool ok = (res.Flags & Result.FlagScored) != 0 && long.Parse(f[0]) == res.FrameIndex + 1 &&
+                              SameAsPrinted(sc.Distance, f[2], false) && SameAsPrinted(sc.Score, f[3], true) &&
+                              int.Parse(f[9]) == res.MatchedTeacherFrame + 1;
+                    for (int q = 0; q < Gpd.PartCount; ++q) ok &= SameAsPrinted(sc.Part((BodyPart)q), f[4 + q], false);
+                    if (!ok && bad++ < 3) Console.Error.WriteLine("row " + lines[r + 1] + " vs " + sc.Distance + " " + sc.Score + " " + res.MatchedTeacherFrame);
+                }
+                Check(bad == 0, "score: " + bad + " rows differ from `kata score`");
+            }
+        }
+    }
+
+    static void ErrorsCarryTheCMessage(Context ctx, string repo, string tmp)
+    {
+        string bad = Path.Combine(tmp, "bad.kata");
+        File.WriteAllText(bad, "not a model");
+        try { ctx.LoadModel(bad).Dispose(); Check(false, "a bad model file was accepted"); }
+        catch (KataException e) { Check(e.Status == Status.Model && e.NativeMessage.Contains("model refused"), "bad model: " + e.Message); }
+        using (Clip clip = ctx.LoadClip(Path.Combine(repo, "data/cmu/02_01.bvh")))
+        using (Skeleton sk = clip.Skeleton())
+        using (Kata.Stream s = ctx.OpenStream(sk))
+        {
+            float[] xyz = Frame(clip, 0, (int)sk.JointCount);
+            s.Push(0.0, xyz);
+            xyz[4] = float.NaN;
+            try { s.Push(0.01, xyz); Check(false, "a NaN frame was accepted"); }
+            catch (KataException e) { Check(e.Status == Status.NonFinite && e.NativeMessage.Length > 0, "NaN frame: " + e.Message); }
+            s.Push(0.01, Frame(clip, 1, (int)sk.JointCount));
+            Check(s.FeatureCount == 2, "the stream stays usable after a refused frame");
+        }
+    }
+
+    static void LoadAndDrop(Context ctx, string model) { ctx.LoadModel(model); }
+
+    static void HandlesReleasedOnce(string repo)
+    {
+        long before = KataHandle.ReleasedCount;
+        Context ctx = new Context();
+        Clip clip = ctx.LoadClip(Path.Combine(repo, "data/cmu/02_01.bvh"));
+        Skeleton sk = clip.Skeleton();
+        Kata.Stream s = ctx.OpenStream(sk);
+        LoadAndDrop(ctx, Path.Combine(repo, "models/default.kata"));  // left to the finalizer
+        // The context goes first: its destroy waits for the objects made from it (SafeHandle refs).
+        ctx.Dispose();
+        ctx.Dispose();
+        Check(KataHandle.ReleasedCount == before, "the context was destroyed before its objects");
+        s.Push(0.0, Frame(clip, 0, (int)sk.JointCount));  // still usable
+        s.Dispose(); s.Dispose();
+        sk.Dispose(); clip.Dispose(); clip.Dispose();
+        Check(KataHandle.ReleasedCount == before + 3, "release count after stream, skeleton, clip: " + (KataHandle.ReleasedCount - before));
+        GC.Collect();
+        GC.WaitForPendingFinalizers();
+        GC.Collect();
+        GC.WaitForPendingFinalizers();
+        Check(KataHandle.ReleasedCount == before + 5, "model (finalizer) and context released once each: " + (KataHandle.ReleasedCount - before));
+        try { s.Push(0.1, new float[93]); Check(false, "a disposed stream was used"); }
+        catch (ObjectDisposedException) { }
+    }
+
+    static void StructSizesMatchTheLibrary()
+    {
+        StreamDesc sd = new StreamDesc(); Native.kata_stream_desc_init(ref sd);
+        RetargetDesc rd = new RetargetDesc(); Native.kata_retarget_desc_init(ref rd);
+        TeacherDesc td = new TeacherDesc(); Native.kata_teacher_desc_init(ref td);
+        Check(sd.StructSize == System.Runtime.InteropServices.Marshal.SizeOf(typeof(StreamDesc)), "sizeof kata_stream_desc " + sd.StructSize);
+        Check(rd.StructSize == System.Runtime.InteropServices.Marshal.SizeOf(typeof(RetargetDesc)), "sizeof kata_retarget_desc " + rd.StructSize);
+        Check(td.StructSize == System.Runtime.InteropServices.Marshal.SizeOf(typeof(TeacherDesc)), "sizeof kata_teacher_desc " + td.StructSize);
+        Check(sd.HistoryCapacity == 16 && sd.CalibrationFrames == 8 && sd.ResultCapacity == 64 && sd.MaxGap == 0.25,
+              "kata_stream_desc defaults read through the struct");
+        Check(td.PoseFrame == -1 && td.Ghost == 1, "kata_teacher_desc defaults read through the struct");
+        Check(rd.MaxIterations == 200 && rd.WarmStart == 1 && rd.RestoreBoneLengths == 1, "kata_retarget_desc defaults");
+    }
+
+    static int Main(string[] args)
+    {
+        if (args.Length == 1 && args[0] == "--expect-wrong-version")
+        {
+            try { new Context().Dispose(); Console.Error.WriteLine("FAILED: a 7.0.0 library was accepted"); return 1; }
+            catch (KataVersionException e)
+            {
+                bool ok = e.Message.Contains("7.0.0") && e.Message.Contains("needs 0.x");
+                Console.WriteLine((ok ? "refused as expected: " : "FAILED, wrong message: ") + e.Message);
+                return ok ? 0 : 1;
+            }
+        }
+        string repo = args[0], cli = args[1], tmp = args[2];
+        Directory.CreateDirectory(tmp);
+        Console.WriteLine("libkata " + Library.LoadedVersion);
+        StructSizesMatchTheLibrary();
+        using (Context ctx = new Context())
+        {
+            FeaturesEqualTheCli(ctx, repo, cli, tmp);
+            ScoresEqualTheCli(ctx, repo, cli, tmp);
+            ErrorsCarryTheCMessage(ctx, repo, tmp);
+        }
+        HandlesReleasedOnce(repo);
+        Console.WriteLine(failures == 0 ? "all C# binding checks passed" : failures + " checks failed");
+        return failures == 0 ? 0 : 1;
+    }
+}
