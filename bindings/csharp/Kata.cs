@@ -158,9 +158,13 @@ namespace Kata
 
     public static class Native
     {
-        // "kata": libkata.so on Linux/Android, kata.dll on Windows, libkata.dylib on macOS.
-        // iOS (IL2CPP, static linking) needs "__Internal" instead: see the README.
+        // "kata": libkata.so on Linux/Android, kata.dll on Windows, libkata.dylib on macOS. iOS links
+        // native plugins statically into the player, where P/Invoke must name "__Internal".
+#if UNITY_IOS && !UNITY_EDITOR
+        public const string Lib = "__Internal";
+#else
         public const string Lib = "kata";
+#endif
         private const CallingConvention CC = CallingConvention.Cdecl;
 
         [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_version();
