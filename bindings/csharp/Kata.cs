@@ -395,6 +395,45 @@ namespace Kata
             return new Model(Check(s, h, "kata_model_load_memory"));
         }
 
+        // kata_skeleton_create: names, parents (-1 for the root, topological order), rest offsets
+        // (joints x 3, parent-relative) or null for a bare live source.
+        public Skeleton CreateSkeleton(string[] names, int[] parents, double[] restOffsets)
+        {
+            GCHandle[] pins = new GCHandle[names.Length];
+            IntPtr[] pointers = new IntPtr[names.Length];
+            try
+            {
+                for (int i = 0; i < names.Length; ++i)
+                {
+                    pins[i] = GCHandle.Alloc(Native.Utf8(names[i]), GCHandleType.Pinned);
+                    pointers[i] = pins[i].AddrOfPinnedObject();
+                }
+                SkeletonHandle h;
+                Status s = Native.kata_skeleton_create(Handle, (uint)names.Length, pointers, parents, restOffsets, out h);
+                return new Skeleton(Check(s, h, "kata_skeleton_create"));
+            }
+            finally
+            {
+                foreach (GCHandle pin in pins) if (pin.IsAllocated) pin.Free();
+            }
+        }
+
+        // kata_retargeter_create with kata_retarget_desc_init's defaults and the given joint set ("cmu", "gpd").
+        public Retargeter CreateRetargeter(Skeleton student, string preset = "cmu")
+        {
+            RetargetDesc d = new RetargetDesc();
+            Native.kata_retarget_desc_init(ref d);
+            GCHandle pin = GCHandle.Alloc(Native.Utf8(preset), GCHandleType.Pinned);
+            try
+            {
+                d.Preset = pin.AddrOfPinnedObject();
+                RetargeterHandle h;
+                Status s = Native.kata_retargeter_create(Handle, student.Handle, ref d, out h);
+                return new Retargeter(Check(s, h, "kata_retargeter_create"));
+            }
+            finally { pin.Free(); }
+        }
+
         // A StreamDesc with kata_stream_desc_init's defaults (struct_size set by the library).
         public static StreamDesc DefaultStreamDesc()
         {
@@ -599,5 +638,35 @@ namespace Kata
             batch.Count = (int)n;
             return (int)n;
         }
+    }
+
+    public sealed class Retargeter : IDisposable
+    {
+        public readonly RetargeterHandle Handle;
+        internal Retargeter(RetargeterHandle h) { Handle = h; }
+        public void Dispose() { Handle.Dispose(); }
+        private void Throw(Status s, string call) { throw new KataException(s, Native.FromUtf8(Native.kata_retargeter_last_error(Handle)), call); }
+
+        public uint JointCount { get { return Native.kata_retargeter_joint_count(Handle); } }
+        public int JointSource(uint i) { return Native.kata_retargeter_joint_source(Handle, i); }
+
+        // kata_retargeter_solve: teacher (skeleton joints x 3) -> ghost (JointCount x 3).
+        public RetargetInfo Solve(float[] teacher, float[] ghost)
+        {
+            RetargetInfo info = new RetargetInfo();
+            info.StructSize = (uint)Marshal.SizeOf(typeof(RetargetInfo));
+            Status s = Native.kata_retargeter_solve(Handle, teacher, (uint)(teacher.Length / 3), ghost, (UIntPtr)ghost.Length, ref info);
+            if (s != Status.Ok) Throw(s, "kata_retargeter_solve");
+            return info;
+        }
+
+        // kata_retargeter_place: moves ghost over the student's posture (every skeleton joint x 3).
+        public void Place(float[] student, float[] ghost)
+        {
+            Status s = Native.kata_retargeter_place(Handle, student, (uint)(student.Length / 3), ghost, (UIntPtr)ghost.Length);
+            if (s != Status.Ok) Throw(s, "kata_retargeter_place");
+        }
+
+        public void Reset() { Status s = Native.kata_retargeter_reset(Handle); if (s != Status.Ok) Throw(s, "kata_retargeter_reset"); }
     }
 }

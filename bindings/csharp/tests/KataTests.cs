@@ -154,6 +154,27 @@ static class KataTests
         }
     }
 
+    static void SkeletonsAndRetargeting(Context ctx, string repo)
+    {
+        using (Skeleton sk = ctx.CreateSkeleton(new[] { "hips", "spine", "h\u00e9ad" }, new[] { -1, 0, 1 },
+                                                new double[] { 0, 0, 0, 0, 1, 0, 0, 1, 0 }))
+            Check(sk.JointCount == 3 && sk.JointName(2) == "h\u00e9ad" && sk.JointParent(2) == 1, "skeleton from arrays (UTF-8 name)");
+        try { ctx.CreateSkeleton(new[] { "a", "b" }, new[] { -1, 5 }, null).Dispose(); Check(false, "a bad parent was accepted"); }
+        catch (KataException e) { Check(e.Status == Status.InvalidArgument && e.NativeMessage.Length > 0, "bad parent: " + e.Message); }
+        using (Clip teacher = ctx.LoadClip(Path.Combine(repo, "data/cmu/02_01.bvh")))
+        using (Skeleton student = ctx.LoadSkeletonBvh(Path.Combine(repo, "data/cmu/07_01.bvh")))
+        using (Retargeter r = ctx.CreateRetargeter(student))
+        using (Retargeter g = ctx.CreateRetargeter(student, "gpd"))
+        {
+            Check(r.JointCount == 21 && g.JointCount == 16, "retargeter joint sets: " + r.JointCount + ", " + g.JointCount);
+            float[] ghost = new float[r.JointCount * 3];
+            RetargetInfo info = r.Solve(Frame(teacher, 10, (int)student.JointCount), ghost);
+            Check(info.MaxBoneError < 1e-3 && info.Iterations > 0, "retarget: bone error " + info.MaxBoneError);
+            try { r.Solve(new float[9], ghost); Check(false, "a 3-joint teacher frame was accepted"); }
+            catch (KataException e) { Check(e.Status == Status.WrongJointCount, "wrong joint count: " + e.Message); }
+        }
+    }
+
     static void LoadAndDrop(Context ctx, string model) { ctx.LoadModel(model); }
 
     static void HandlesReleasedOnce(string repo)
@@ -216,6 +237,7 @@ static class KataTests
             FeaturesEqualTheCli(ctx, repo, cli, tmp);
             ScoresEqualTheCli(ctx, repo, cli, tmp);
             ErrorsCarryTheCMessage(ctx, repo, tmp);
+            SkeletonsAndRetargeting(ctx, repo);
         }
         HandlesReleasedOnce(repo);
         Console.WriteLine(failures == 0 ? "all C# binding checks passed" : failures + " checks failed");
