@@ -1,6 +1,7 @@
 // kata score: scores every frame of a student clip against a teacher (one pose, or the whole clip
 // followed with online alignment) with a .kata model; one CSV row per student frame.
 #include <cstdio>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -88,7 +89,9 @@ void setup(CLI::App& app) {
   cmd->add_option("--model", args->model, ".kata model")->required()->check(CLI::ExistingFile);
   cmd->add_option("--teacher", args->teacher, "teacher BVH clip")->required()->check(CLI::ExistingFile);
   cmd->add_option("--teacher-frame", args->teacher_frame,
-                  "score against this single teacher frame (clip frame index) instead of following the whole clip");
+                  "score against this single teacher frame (clip frame index) instead of following the whole clip; "
+                  "-1 (default): the whole clip")
+      ->check(CLI::Range(-1, std::numeric_limits<int>::max()));
   cmd->add_option("--student", args->student, "student BVH clip")->required()->check(CLI::ExistingFile);
   auto* preset = cmd->add_option("--preset", args->preset, "skeleton preset for both clips (cmu, ...)");
   cmd->add_option("--name-map", args->name_map, "name-map file for both clips instead of a preset")

@@ -19,6 +19,17 @@
  *   stream readers never allocate.
  * - Units: time in seconds; positions in the units of the input (a BVH file's units), +Y up
  *   unless the stream says otherwise; features in body heights (spec GPD v1).
+ * - Strings from the caller (presets, paths, keys) are read up to KATA_MAX_STRING_BYTES: one
+ *   without a terminating NUL within that bound is refused with KATA_E_INVALID_ARGUMENT.
+ *   Messages quote caller text cut to a bounded length.
+ * - Files: a path that is a directory, a FIFO, a device or a socket, or a file larger than the
+ *   loader's bound (below), is refused with KATA_E_IO naming the path before anything is read.
+ * - Outputs are finite: every feature vector and score is checked before it is returned; a
+ *   non-finite value would be a bug in kata, and is withheld and reported as KATA_E_INTERNAL.
+ * - Caller errors that cannot be detected: passing a handle after it was destroyed (use after
+ *   destroy, double destroy), a handle of another type cast to this one, buffers smaller than
+ *   the count passed with them, or calls on one stream from two threads at once. These are
+ *   undefined behaviour, as with free() in C; the sanitizer build (KATA_SANITIZE) reports most.
  */
 #ifndef KATA_KATA_H
 #define KATA_KATA_H
@@ -53,6 +64,20 @@ extern "C" {
 
 /* The library's version at run time, as MAJOR * 10000 + MINOR * 100 + PATCH. [any thread] */
 KATA_API uint32_t kata_version(void);
+
+/* ==== Input limits ========================================================================= */
+/* The plausibility range of stream input (kata_stream_push): inside it every output is finite. */
+#define KATA_MIN_TIME_STEP 1e-5      /* seconds: frames closer than this are refused (100 kHz) */
+#define KATA_MAX_COORDINATE 1e9      /* input units: |x|, |y|, |z| of a mapped joint */
+#define KATA_MIN_BODY_HEIGHT 1e-6    /* input units: a smaller body height is refused */
+#define KATA_MAX_REACH 100.0         /* body heights: a mapped joint's distance from the hip */
+#define KATA_MAX_HISTORY 65536       /* frames: kata_stream_desc.history_capacity */
+/* Caller strings: read up to this many bytes looking for the terminating NUL. */
+#define KATA_MAX_STRING_BYTES 4096
+/* File bounds, checked from the file size before reading. */
+#define KATA_MAX_BVH_BYTES 2147483648u    /* 2 GiB */
+#define KATA_MAX_MODEL_BYTES 67108864     /* 64 MiB (a full-rank gpd-v1 model is ~11 MiB) */
+#define KATA_MAX_NAME_MAP_BYTES 1048576   /* 1 MiB */
 
 /* ==== Status codes ======================================================================== */
 
@@ -121,7 +146,8 @@ KATA_API int32_t kata_skeleton_joint_parent(kata_skeleton skeleton, uint32_t i);
 typedef struct kata_clip_s* kata_clip;
 
 /* Loads a BVH file. A malformed file is refused with KATA_E_PARSE and a message naming the
- * file and line. [any thread] */
+ * file and line; a directory, special file or a file over KATA_MAX_BVH_BYTES with KATA_E_IO.
+ * [any thread] */
 KATA_API kata_status kata_clip_load_bvh(kata_context context, const char* path, kata_clip* out);
 /* Releases a clip. NULL is ignored. */
 KATA_API void kata_clip_destroy(kata_clip clip);
@@ -157,17 +183,20 @@ typedef enum kata_up_axis {
 typedef struct kata_stream_desc {
   uint32_t struct_size;        /* sizeof(kata_stream_desc) */
   /* Joint map onto the 16 GPD joints: a preset name ("cmu", see kata_preset_name), or NULL
-   * and a name-map file (JSON {"Hip": "pelvis", ...} or "Hip = pelvis" lines). */
+   * and a name-map file (JSON {"Hip": "pelvis", ...} or "Hip = pelvis" lines, at most
+   * KATA_MAX_NAME_MAP_BYTES). Both set is refused (KATA_E_INVALID_ARGUMENT). */
   const char* preset;
   const char* name_map_path;
-  kata_stencil stencil;        /* default KATA_STENCIL_BACKWARD */
-  kata_up_axis up_axis;        /* default KATA_UP_Y */
-  double max_gap;              /* seconds; a larger gap restarts the kinetics. Default 0.25 */
-  uint32_t history_capacity;   /* frames kept in the ring buffer (>= 4). Default 16 */
-  /* Body height H in input units. 0 (default): from the skeleton's rest pose when it has one,
-   * else the median over the first calibration_frames frames (held until then). */
+  kata_stencil stencil;        /* default KATA_STENCIL_BACKWARD; other values are refused */
+  kata_up_axis up_axis;        /* default KATA_UP_Y; other values are refused */
+  double max_gap;              /* seconds (> 0); a larger gap restarts the kinetics. Default 0.25 */
+  uint32_t history_capacity;   /* frames kept in the ring buffer (4..KATA_MAX_HISTORY). Default 16 */
+  /* Body height H in input units: KATA_MIN_BODY_HEIGHT..KATA_MAX_COORDINATE, or 0 (default):
+   * from the skeleton's rest pose when it has one, else the median over the first
+   * calibration_frames frames (held until then; a collapsed body gives H = 1 input unit).
+   * Negative, NaN or out-of-range values are refused (KATA_E_INVALID_ARGUMENT). */
   double body_height;
-  uint32_t calibration_frames; /* default 8 */
+  uint32_t calibration_frames; /* 1..history_capacity - 1 when H is estimated. Default 8 */
   /* ---- since 0.2 (a caller built against 0.1 passes the smaller struct_size: defaults apply) */
   uint32_t result_capacity;    /* results kept until read (kata_stream_read_results). Default 64 */
   int32_t keep_features;       /* 1: each result also keeps its feature vector. Default 0 */
@@ -183,7 +212,10 @@ KATA_API const char* kata_preset_name(uint32_t i);
  * the push that emitted it, and keeps each result in a ring until read (kata_stream_read_results).
  * Allocates all its memory now. The skeleton is
  * copied; it may be destroyed afterwards. Errors (unknown preset, a mapped joint missing from
- * the skeleton, bad values) are reported on the context. [any thread] */
+ * the skeleton, bad values) are reported on the context. desc->struct_size must be the size
+ * of a released kata_stream_desc (0.1's or this one's, sizeof(kata_stream_desc)); any other
+ * value (an uninitialised desc, a newer kata.h) is refused with KATA_E_INVALID_ARGUMENT.
+ * [any thread] */
 KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skeleton, const kata_stream_desc* desc,
                                       kata_stream* out);
 /* Closes a stream and frees its memory. NULL is ignored. [stream owner] */
@@ -194,12 +226,21 @@ KATA_API const char* kata_stream_last_error(kata_stream stream);
 /* Pushes one frame: timestamp in seconds (must increase), positions of every joint of the
  * stream's skeleton (joint_count x 3 floats, x, y, z interleaved, input units). A refused frame
  * (KATA_E_NULL_POINTER, KATA_E_WRONG_JOINT_COUNT, KATA_E_NON_FINITE,
- * KATA_E_TIMESTAMP_NOT_INCREASING) changes nothing; the stream stays usable. Does not allocate.
- * [stream owner] */
+ * KATA_E_TIMESTAMP_NOT_INCREASING, KATA_E_INVALID_ARGUMENT) changes nothing; the stream stays
+ * usable. Plausibility range (the message names the joint):
+ * - the timestamp must be at least KATA_MIN_TIME_STEP after the previous accepted frame's
+ *   (else KATA_E_TIMESTAMP_NOT_INCREASING; merge such frames before pushing);
+ * - every coordinate of a mapped joint (one of the 16 GPD joints' sources) must be within
+ *   +-KATA_MAX_COORDINATE input units (else KATA_E_INVALID_ARGUMENT);
+ * - once H is known, every mapped joint must be within KATA_MAX_REACH body heights of the hip
+ *   (else KATA_E_INVALID_ARGUMENT): a tracker glitch is refused, not turned into features.
+ * Joints no GPD joint reads are only checked for NaN/Inf. KATA_E_INTERNAL (a bug) when a
+ * computed vector is not finite: it is withheld. Does not allocate. [stream owner] */
 KATA_API kata_status kata_stream_push(kata_stream stream, double timestamp, const float* positions,
                                       uint32_t joint_count);
 /* Ends the current segment (end of a take): with the central stencil the held frame is
- * computed now with the backward formulas. The next frame starts a new segment. [stream owner] */
+ * computed now with the backward formulas. The next frame starts a new segment. KATA_E_INTERNAL
+ * as for kata_stream_push. [stream owner] */
 KATA_API kata_status kata_stream_flush(kata_stream stream);
 /* The next frame starts a new segment (kinetics restart). [stream owner] */
 KATA_API kata_status kata_stream_reset(kata_stream stream);
@@ -235,8 +276,9 @@ typedef struct kata_model_s* kata_model;
 /* Loads a .kata file. Every check runs before anything is used: the FlatBuffers verifier, the
  * identifier, the layout id ("gpd-v1"), the dimensions (W 1683 x r, min/max 1683), NaN/Inf,
  * max < min, r = 0, the checksum; a refused file returns KATA_E_MODEL (KATA_E_IO when it
- * cannot be read) with the reason in kata_context_last_error. *out is owned by the caller.
- * [any thread] */
+ * cannot be read, is a directory or special file, or is larger than KATA_MAX_MODEL_BYTES) with
+ * the reason in kata_context_last_error. The 12-byte header (size prefix, identifier) is checked
+ * against the file size before the rest is read. *out is owned by the caller. [any thread] */
 KATA_API kata_status kata_model_load(kata_context context, const char* path, kata_model* out);
 /* The same from a buffer in memory (size bytes, any alignment); the buffer is copied and may
  * be released after the call. [any thread] */
@@ -295,8 +337,8 @@ KATA_API kata_status kata_stream_set_reference_clip(kata_stream stream, kata_mod
                                                     uint32_t frames, double frame_time);
 /* Sets a reference from a recorded clip, its features computed here with the model's stencil
  * (clip frames first_frame.. end; 1 skips the CMU converter's T-pose) through the named preset
- * ("cmu", ...). pose_frame >= 0: only that clip frame, as a pose reference; -1: the whole clip.
- * [stream owner] */
+ * ("cmu", ...). pose_frame >= 0: only that clip frame, as a pose reference; -1: the whole clip;
+ * below -1: KATA_E_INVALID_ARGUMENT. [stream owner] */
 KATA_API kata_status kata_stream_set_reference_bvh(kata_stream stream, kata_model model, kata_clip clip,
                                                    const char* preset, uint32_t first_frame, int32_t pose_frame);
 /* Removes the stream's reference (kata_stream_score then returns KATA_E_STATE). [stream owner] */
@@ -308,7 +350,8 @@ KATA_API kata_status kata_stream_restart_reference(kata_stream stream);
  * scored in the push that emits it (so the alignment sees every frame, whatever the read rate);
  * a vector emitted before the reference was set is scored by this call. A later call without a
  * new push returns the same record. KATA_NO_DATA before the first feature vector; KATA_E_STATE
- * without a reference. Does not allocate. [stream owner] */
+ * without a reference; KATA_E_INTERNAL (a bug, the record is withheld) when the score is not
+ * finite. Does not allocate. [stream owner] */
 KATA_API kata_status kata_stream_score(kata_stream stream, kata_score_record* out);
 
 /* ==== Retargeting ========================================================================= */
@@ -351,7 +394,8 @@ typedef struct kata_retarget_info {
 /* Fills desc with the defaults above (struct_size set). [any thread] */
 KATA_API void kata_retarget_desc_init(kata_retarget_desc* desc);
 /* Creates a retargeter for the student `student` (a skeleton with rest offsets; copied, may be
- * destroyed afterwards). desc may be NULL for the defaults. Errors (unknown preset, missing
+ * destroyed afterwards). desc may be NULL for the defaults; else desc->struct_size must be
+ * sizeof(kata_retarget_desc). Errors (unknown preset, missing
  * joint, no rest pose, zero bone length) are reported on the context. [any thread] */
 KATA_API kata_status kata_retargeter_create(kata_context context, kata_skeleton student,
                                             const kata_retarget_desc* desc, kata_retargeter* out);

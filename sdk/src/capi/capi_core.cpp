@@ -1,12 +1,27 @@
 // C shims for versions, status strings, contexts, skeletons, clips and streams.
 #include <algorithm>
+#include <climits>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
 #include <string>
 
 #include "capi/capi_internal.hpp"
+#include "common/text.hpp"
+#include "io/clip_features.hpp"
+#include "io/file.hpp"
 #include "io/name_map.hpp"
+#include "metric/model.hpp"
+
+// kata.h states the core's limits as macros; they must stay the same numbers.
+static_assert(KATA_MIN_TIME_STEP == kata::kMinTimeStep && KATA_MAX_COORDINATE == kata::kMaxCoordinate &&
+                  KATA_MIN_BODY_HEIGHT == kata::kMinBodyHeight && KATA_MAX_REACH == kata::kMaxReach &&
+                  KATA_MAX_HISTORY == kata::kMaxHistory,
+              "kata.h input limits differ from stream/stream.hpp");
+static_assert(KATA_MAX_STRING_BYTES == kata::kMaxCStringBytes && KATA_MAX_BVH_BYTES == kata::kMaxBvhBytes &&
+                  KATA_MAX_MODEL_BYTES == kata::metric::kMaxModelBytes &&
+                  KATA_MAX_NAME_MAP_BYTES == kata::kMaxNameMapBytes,
+              "kata.h file and string bounds differ from common/text.hpp, io/file.hpp, metric/model.hpp");
 
 using kata::capi::guarded_context;
 using kata::capi::set_context_error;
@@ -27,12 +42,18 @@ const char* context_error() noexcept { return t_context_error.c_str(); }
 
 namespace {
 
-kata::GpdMap resolve_map(const kata::Skeleton& skeleton, const kata_stream_desc& desc) {
-  if (desc.preset && desc.preset[0]) return kata::make_gpd_map(skeleton, kata::preset_joint_names(desc.preset));
-  if (desc.name_map_path && desc.name_map_path[0])
-    return kata::make_gpd_map(skeleton, kata::load_name_map(desc.name_map_path));
-  throw kata::Error(kata::ErrorKind::kInvalidArgument, "stream: give a preset or a name-map file");
+// An enum field read as the integer it holds: loading an out-of-range value through the enum
+// type is undefined behaviour, so the bytes are copied and range-checked by the core.
+template <class Enum>
+int32_t enum_bits(const Enum& e) {
+  static_assert(sizeof(Enum) == sizeof(int32_t), "C enums are 4 bytes on every supported ABI");
+  int32_t v;
+  std::memcpy(&v, &e, sizeof v);
+  return v;
 }
+
+// Unsigned counts beyond int range become INT_MAX (refused by the core's range checks).
+int clamp_count(uint32_t v) { return static_cast<int>(std::min<uint32_t>(v, INT_MAX)); }
 
 }  // namespace
 
@@ -43,7 +64,7 @@ KATA_API uint32_t kata_version(void) {
 }
 
 KATA_API const char* kata_status_string(kata_status status) {
-  switch (status) {
+  switch (enum_bits(status)) {  // an int: the caller may pass any value
     case KATA_OK: return "KATA_OK";
     case KATA_NO_DATA: return "KATA_NO_DATA";
     case KATA_E_INVALID_ARGUMENT: return "KATA_E_INVALID_ARGUMENT";
@@ -235,10 +256,14 @@ KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skelet
     set_context_error("kata_stream_open: context, skeleton and desc must not be NULL");
     return KATA_E_NULL_POINTER;
   }
-  // A caller built against 0.1 passes the 0.1 struct (up to calibration_frames): defaults for the rest.
+  // A caller built against 0.1 passes the 0.1 struct (up to calibration_frames): defaults for
+  // the rest. Any other size is an uninitialised desc or a newer kata.h: refused.
   constexpr size_t kSize01 = offsetof(kata_stream_desc, result_capacity);
-  if (desc->struct_size < kSize01) {
-    set_context_error("kata_stream_open: desc.struct_size is too small (call kata_stream_desc_init)");
+  if (desc->struct_size != kSize01 && desc->struct_size != sizeof(kata_stream_desc)) {
+    set_context_error(desc->struct_size < kSize01
+                          ? "kata_stream_open: desc.struct_size is too small (call kata_stream_desc_init)"
+                          : "kata_stream_open: desc.struct_size is not the size of a released kata_stream_desc "
+                            "(a newer kata.h, or an uninitialised desc)");
     return KATA_E_INVALID_ARGUMENT;
   }
   kata_stream_desc full;
@@ -248,23 +273,17 @@ KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skelet
   return guarded_context([&] {
     const kata::Skeleton& skel = skeleton->skeleton;
     kata::StreamConfig config;
-    config.map = resolve_map(skel, *desc);
+    config.map = kata::resolve_gpd_map(skel, kata::c_string(desc->preset, "desc.preset"),
+                                       kata::c_string(desc->name_map_path, "desc.name_map_path"));
     config.input_joints = skel.joint_count();
-    if (desc->stencil != KATA_STENCIL_BACKWARD && desc->stencil != KATA_STENCIL_CENTRAL)
-      throw kata::Error(kata::ErrorKind::kInvalidArgument, "stream: unknown stencil");
-    if (desc->up_axis != KATA_UP_Y && desc->up_axis != KATA_UP_Z)
-      throw kata::Error(kata::ErrorKind::kInvalidArgument, "stream: unknown up axis");
-    config.stencil = desc->stencil == KATA_STENCIL_CENTRAL ? kata::gpd::Stencil::kCentral : kata::gpd::Stencil::kBackward;
-    config.up_axis = desc->up_axis == KATA_UP_Z ? kata::UpAxis::kZ : kata::UpAxis::kY;
+    // Enum class values hold any int; Stream refuses those outside the enums.
+    config.stencil = static_cast<kata::gpd::Stencil>(enum_bits(desc->stencil));
+    config.up_axis = static_cast<kata::UpAxis>(enum_bits(desc->up_axis));
     config.max_gap = desc->max_gap;
-    config.history = static_cast<int>(desc->history_capacity);
-    config.calibration_frames = static_cast<int>(desc->calibration_frames);
-    if (desc->body_height > 0.0) {
-      config.body_height = desc->body_height;
-    } else if (skel.has_rest_pose) {
-      // A Z-up rig's rest pose gives the same lengths: H only uses distances.
-      config.body_height = kata::rest_body_height(skel, config.map);
-    }
+    config.history = clamp_count(desc->history_capacity);
+    config.calibration_frames = clamp_count(desc->calibration_frames);
+    // A Z-up rig's rest pose gives the same lengths: H only uses distances.
+    config.body_height = kata::stream_body_height(desc->body_height, skel, config.map);
     kata::pipeline::PipelineConfig pc;
     pc.stream = config;
     pc.student = skel;
@@ -291,8 +310,9 @@ KATA_API kata_status kata_stream_push(kata_stream stream, double timestamp, cons
 
 KATA_API kata_status kata_stream_flush(kata_stream stream) {
   if (!stream) return KATA_E_NULL_POINTER;
-  stream->pipeline.flush();
-  return KATA_OK;
+  const kata::Status s = stream->pipeline.flush();
+  if (s != kata::Status::kOk) stream->set_error(stream->pipeline.last_error());
+  return kata::capi::to_status(s);
 }
 
 KATA_API kata_status kata_stream_reset(kata_stream stream) {

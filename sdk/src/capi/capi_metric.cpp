@@ -2,12 +2,14 @@
 // compiled metric (shared, immutable); setting a reference attaches a score-only teacher to the
 // stream's pipeline (built when set, so pushes and kata_stream_score never allocate).
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "capi/capi_internal.hpp"
+#include "common/text.hpp"
 #include "io/model_file.hpp"
 #include "metric/model.hpp"
 #include "metric/scorer.hpp"
@@ -142,10 +144,14 @@ KATA_API kata_status kata_stream_set_reference_bvh(kata_stream stream, kata_mode
     const kata::BvhClip& c = clip->clip;
     if (first_frame >= static_cast<uint32_t>(c.frame_count()))
       throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_stream_set_reference_bvh: first_frame is past the clip's end");
+    if (pose_frame < -1)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        "kata_stream_set_reference_bvh: pose_frame " + std::to_string(pose_frame) +
+                            " is below -1 (-1: the whole clip)");
     if (pose_frame >= 0 && (static_cast<uint32_t>(pose_frame) < first_frame || pose_frame >= c.frame_count()))
       throw kata::Error(kata::ErrorKind::kInvalidArgument,
                         "kata_stream_set_reference_bvh: pose_frame must be -1 or a clip frame >= first_frame");
-    const kata::GpdMap map = kata::resolve_gpd_map(c.skeleton, preset, "");
+    const kata::GpdMap map = kata::resolve_gpd_map(c.skeleton, kata::c_string(preset, "preset"), "");
     const std::vector<float> f = kata::clip_features(c, map, model->metric->stencil(), static_cast<int>(first_frame));
     std::shared_ptr<const kata::metric::Reference> ref;
     if (pose_frame >= 0)
@@ -181,6 +187,12 @@ KATA_API kata_status kata_stream_score(kata_stream stream, kata_score_record* ou
   if (!p.has_teacher()) return refuse(stream, KATA_E_STATE, "kata_stream_score: no reference is set on this stream");
   const kata::pipeline::Result* r = p.score_newest();
   if (!r) return KATA_NO_DATA;
+  // Finite for finite features and a verified model; checked so a bug never hands out a NaN.
+  bool finite = std::isfinite(r->score.distance) && std::isfinite(r->score.score);
+  for (int q = 0; q < KATA_PART_COUNT; ++q) finite = finite && std::isfinite(r->score.parts[q]);
+  if (!finite)
+    return refuse(stream, KATA_E_INTERNAL,
+                  "kata_stream_score: internal error: the score is not finite; the record was withheld (please report)");
   kata::capi::copy_score(*r, out);
   return KATA_OK;
 }

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "capi/capi_internal.hpp"
+#include "common/text.hpp"
 #include "retarget/joint_set.hpp"
 #include "retarget/retargeter.hpp"
 
@@ -42,13 +43,17 @@ kata_retarget_desc effective_desc(const kata_retarget_desc* desc) {
   kata_retarget_desc d;
   kata_retarget_desc_init(&d);
   if (desc) {
-    if (desc->struct_size < sizeof(uint32_t)) {
-      throw kata::Error(kata::ErrorKind::kInvalidArgument, "retargeter: desc->struct_size is not set");
+    // A partial copy could take half of the preset pointer: only the whole v1 struct is read.
+    if (desc->struct_size != sizeof d) {
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        desc->struct_size < sizeof d
+                            ? "retargeter: desc->struct_size is too small (call kata_retarget_desc_init)"
+                            : "retargeter: desc->struct_size is larger than this library's kata_retarget_desc");
     }
-    std::memcpy(&d, desc, std::min<size_t>(desc->struct_size, sizeof d));
-    d.struct_size = sizeof d;
+    std::memcpy(&d, desc, sizeof d);
   }
   if (!d.preset || !d.preset[0]) d.preset = "cmu";
+  (void)kata::c_string(d.preset, "desc->preset");  // refuses a preset without a terminator in bounds
   if (!(d.gradient_tolerance > 0.0) || !std::isfinite(d.gradient_tolerance) || d.max_iterations == 0) {
     throw kata::Error(kata::ErrorKind::kInvalidArgument, "retargeter: gradient_tolerance and max_iterations must be positive");
   }

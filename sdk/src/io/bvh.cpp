@@ -16,7 +16,6 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
-#include <fstream>
 #include <iterator>
 #include <string_view>
 #include <unordered_map>
@@ -25,6 +24,8 @@
 #include <Eigen/Geometry>
 
 #include "common/error.hpp"
+#include "common/text.hpp"
+#include "io/file.hpp"
 
 namespace kata {
 namespace {
@@ -97,11 +98,11 @@ struct Token {
 // The whole parse, over text in memory; every error names `name` and a 1-based line.
 class Parser {
  public:
-  Parser(std::string_view text, const std::string& name) : s_(text), name_(name) {}
+  Parser(std::string_view text, const std::string& name) : s_(text), path_(name), name_(bounded(name)) {}
 
   BvhClip run() {
     BvhClip clip;
-    clip.path = name_;
+    clip.path = path_;
     // A UTF-8 byte-order mark is not part of the format.
     if (s_.substr(0, 3) == "\xEF\xBB\xBF") pos_ = 3;
     Token t = next();
@@ -178,7 +179,7 @@ class Parser {
     if (name.text.empty() || name.text == "{" || name.text == "}") fail(name, "missing joint name");
     const std::string n(name.text);
     if (!index_.emplace(n, static_cast<int>(clip.skeleton.names.size())).second) {
-      fail(name, "duplicate joint name '" + n + "'");
+      fail(name, "duplicate joint name '" + bounded(n) + "'");
     }
     clip.skeleton.names.push_back(n);
     clip.skeleton.parents.push_back(parent);
@@ -319,8 +320,8 @@ class Parser {
       const auto r = std::from_chars(b, e, frames);
       if (r.ec != std::errc() || r.ptr != e) fail(ft, "Frames: needs an integer, got " + describe(ft));
     }
-    if (frames <= 0) fail(ft, "zero frames (Frames: " + std::string(ft.text) + ")");
-    if (frames > 100000000) fail(ft, "Frames: " + std::string(ft.text) + " is implausibly large");
+    if (frames <= 0) fail(ft, "zero frames (Frames: " + bounded(ft.text) + ")");
+    if (frames > 100000000) fail(ft, "Frames: " + bounded(ft.text) + " is implausibly large");
 
     const Token frame_kw = next();
     if (!iequals(frame_kw.text, "Frame")) fail(frame_kw, "expected 'Frame Time:', got " + describe(frame_kw));
@@ -396,7 +397,8 @@ class Parser {
   }
 
   std::string_view s_;
-  std::string name_;
+  std::string path_;  // as given
+  std::string name_;  // the path cut for messages
   size_t pos_ = 0;
   int line_ = 1;
   int last_token_line_ = 1;
@@ -490,15 +492,8 @@ void check_clip(const BvhClip& clip, const char* who) {
 BvhClip parse_bvh(const std::string& text, const std::string& name) { return Parser(text, name).run(); }
 
 BvhClip load_bvh(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(ErrorKind::kIo, path + ": cannot open BVH file");
-  in.seekg(0, std::ios::end);
-  const std::streamoff size = in.tellg();
-  if (size < 0) throw Error(ErrorKind::kIo, path + ": cannot read BVH file");
-  in.seekg(0, std::ios::beg);
-  std::string text(static_cast<size_t>(size), '\0');
-  if (size > 0 && !in.read(text.data(), size)) throw Error(ErrorKind::kIo, path + ": cannot read BVH file");
-  return parse_bvh(text, path);
+  // Directories, FIFOs, devices and files over kMaxBvhBytes are refused before reading.
+  return parse_bvh(read_file_bounded(path, kMaxBvhBytes, "BVH file"), path);
 }
 
 void world_positions(const BvhClip& clip, int i, Eigen::Ref<Eigen::MatrixX3d> out, double unit_scale) {
@@ -607,11 +602,9 @@ void write_bvh(const std::string& path, const BvhClip& clip) {
     out += '\n';
   }
 
-  std::ofstream file(path, std::ios::binary | std::ios::trunc);
-  if (!file) throw Error(ErrorKind::kIo, path + ": cannot open for writing");
-  file.write(out.data(), static_cast<std::streamsize>(out.size()));
-  file.close();
-  if (!file) throw Error(ErrorKind::kIo, path + ": write failed");
+  AtomicFileWriter file(path);  // a unique temporary renamed into place
+  file.write(out.data(), out.size());
+  file.commit();
 }
 
 }  // namespace kata

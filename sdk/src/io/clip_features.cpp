@@ -3,6 +3,7 @@
 #include "io/name_map.hpp"
 
 #include "common/error.hpp"
+#include "common/text.hpp"
 #include "stream/stream.hpp"
 
 namespace kata {
@@ -13,7 +14,7 @@ std::vector<float> clip_features(const BvhClip& clip, const GpdMap& map, gpd::St
     return features_of_frames(stream_config_for(clip.skeleton, map, stencil), xyz.data(), clip.frame_count() - first,
                               clip.frame_time);
   } catch (const Error& e) {
-    throw Error(e.kind(), clip.path + ": " + e.what());
+    throw Error(e.kind(), bounded(clip.path) + ": " + e.what());
   }
 }
 
@@ -33,6 +34,10 @@ std::vector<float> clip_positions(const BvhClip& clip, int first) {
 }
 
 GpdMap resolve_gpd_map(const Skeleton& skeleton, const std::string& preset, const std::string& name_map_path) {
+  // Both set is contradictory (which one wins would be a guess): refused.
+  if (!preset.empty() && !name_map_path.empty())
+    throw Error(ErrorKind::kInvalidArgument, "give a preset or a name-map file, not both (preset '" + bounded(preset) +
+                                                 "', name map " + bounded(name_map_path) + ")");
   if (!preset.empty()) return make_gpd_map(skeleton, preset_joint_names(preset));
   if (!name_map_path.empty()) return make_gpd_map(skeleton, load_name_map(name_map_path));
   throw Error(ErrorKind::kInvalidArgument, "give a preset (--preset cmu) or a name-map file (--name-map FILE)");

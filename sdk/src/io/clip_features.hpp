@@ -21,7 +21,8 @@ std::vector<float> clip_features(const BvhClip& clip, const GpdMap& map, gpd::St
 // joints x 3 floats, row-major, file units.
 std::vector<float> clip_positions(const BvhClip& clip, int first = 0);
 
-// The map for a preset name or, when `preset` is empty, for a name-map file.
+// The map for a preset name or, when `preset` is empty, for a name-map file. Both set, or
+// neither: kata::Error(kInvalidArgument).
 GpdMap resolve_gpd_map(const Skeleton& skeleton, const std::string& preset, const std::string& name_map_path);
 
 // Parses "backward" / "central". Throws kata::Error(kInvalidArgument) otherwise.

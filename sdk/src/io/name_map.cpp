@@ -2,13 +2,13 @@
 
 #include <algorithm>
 #include <cstddef>
-#include <fstream>
-#include <iterator>
 #include <vector>
 
 #include <nlohmann/json.hpp>
 
 #include "common/error.hpp"
+#include "common/text.hpp"
+#include "io/file.hpp"
 
 namespace kata {
 namespace {
@@ -16,7 +16,8 @@ namespace {
 using Names = std::array<std::string, kGpdJoints>;
 
 [[noreturn]] void parse_error(const std::string& origin, int line, const std::string& what) {
-  throw Error(ErrorKind::kParse, origin + ":" + std::to_string(line) + ": " + what);
+  // User text (names, whole lines) can be any length: both parts are cut for the message.
+  throw Error(ErrorKind::kParse, bounded(origin) + ":" + std::to_string(line) + ": " + bounded(what, 4 * kMaxQuotedBytes));
 }
 
 int gpd_index(const std::string& name) {
@@ -205,11 +206,8 @@ Names parse_name_map(std::string text, const std::string& origin) {
 }
 
 Names load_name_map(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw Error(ErrorKind::kIo, path + ": cannot open name map");
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  if (in.bad()) throw Error(ErrorKind::kIo, path + ": cannot read name map");
-  return parse_name_map(std::move(text), path);
+  // Directories, FIFOs, devices and files over kMaxNameMapBytes are refused before reading.
+  return parse_name_map(read_file_bounded(path, kMaxNameMapBytes, "name map"), path);
 }
 
 }  // namespace kata

@@ -4,12 +4,13 @@
 // Values are written little-endian byte by byte, so the files are the same on any host.
 #include "io/npy.hpp"
 
+#include <algorithm>
 #include <cstdint>
 #include <cstring>
-#include <fstream>
-#include <iterator>
 
 #include "common/error.hpp"
+#include "common/text.hpp"
+#include "io/file.hpp"
 
 namespace kata {
 namespace {
@@ -18,6 +19,8 @@ namespace {
 constexpr size_t kPreludeV1 = 10;
 // The header dict plus padding ends the preamble at a multiple of this many bytes.
 constexpr size_t kAlign = 64;
+// read_npy reads whole files into memory; past this size a file is refused before reading.
+constexpr uint64_t kMaxNpyBytes = uint64_t{16} << 30;
 
 std::string shape_text(const std::vector<size_t>& shape) {
   std::string s = "(";
@@ -55,21 +58,23 @@ void write_impl(const std::string& path, const Float* data, const std::vector<si
   static_assert(sizeof(Float) == sizeof(Bits), "bit width");
   const size_t n = element_count(shape);
   if (n > 0 && data == nullptr) throw Error(ErrorKind::kInvalidArgument, "write_npy: null data");
-  std::string out = make_preamble(descr, shape);
-  const size_t start = out.size();
-  out.resize(start + n * sizeof(Float));
-  for (size_t i = 0; i < n; ++i) {
-    Bits bits;
-    std::memcpy(&bits, data + i, sizeof bits);
-    for (size_t b = 0; b < sizeof bits; ++b) {
-      out[start + i * sizeof bits + b] = static_cast<char>((bits >> (8 * b)) & 0xFF);
+  const std::string preamble = make_preamble(descr, shape);
+  // Streamed in fixed-size chunks to a temporary file renamed into place: memory stays
+  // constant whatever the array's size, and a failed write leaves the target untouched.
+  AtomicFileWriter file(path);
+  file.write(preamble.data(), preamble.size());
+  constexpr size_t kChunkValues = 8192;
+  char chunk[kChunkValues * sizeof(Float)];
+  for (size_t first = 0; first < n; first += kChunkValues) {
+    const size_t count = std::min(kChunkValues, n - first);
+    for (size_t i = 0; i < count; ++i) {
+      Bits bits;
+      std::memcpy(&bits, data + first + i, sizeof bits);
+      for (size_t b = 0; b < sizeof bits; ++b) chunk[i * sizeof bits + b] = static_cast<char>((bits >> (8 * b)) & 0xFF);
     }
+    file.write(chunk, count * sizeof(Float));
   }
-  std::ofstream f(path, std::ios::binary | std::ios::trunc);
-  if (!f) throw Error(ErrorKind::kIo, path + ": cannot open for writing");
-  f.write(out.data(), static_cast<std::streamsize>(out.size()));
-  f.close();
-  if (!f) throw Error(ErrorKind::kIo, path + ": write failed");
+  file.commit();
 }
 
 [[noreturn]] void bad(const std::string& path, const std::string& what) {
@@ -109,10 +114,7 @@ void write_npy(const std::string& path, const double* data, const std::vector<si
 }
 
 std::vector<double> read_npy(const std::string& path, std::vector<size_t>* shape) {
-  std::ifstream f(path, std::ios::binary);
-  if (!f) throw Error(ErrorKind::kIo, path + ": cannot open");
-  const std::string bytes((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
-  if (f.bad()) throw Error(ErrorKind::kIo, path + ": cannot read");
+  const std::string bytes = read_file_bounded(path, kMaxNpyBytes, ".npy file");
   const auto* u = reinterpret_cast<const unsigned char*>(bytes.data());
 
   if (bytes.size() < kPreludeV1 || bytes.compare(0, 6, "\x93NUMPY") != 0) bad(path, "bad magic");

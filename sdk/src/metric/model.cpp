@@ -2,16 +2,16 @@
 // model must pass before any of it is used.
 #include "metric/model.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
-#include <fstream>
-#include <iterator>
 #include <limits>
 #include <sstream>
 
 #include "common/error.hpp"
+#include "common/text.hpp"
 #include "kata_schemas/model_generated.h"
 
 namespace kata::metric {
@@ -89,10 +89,30 @@ std::string show(float v) {
 
 }  // namespace
 
+void check_model_header(const uint8_t* data, size_t size) {
+  if (size < 12) refuse("not a kata model: " + std::to_string(size) + " bytes is too small");
+  if (!flatbuffers::BufferHasIdentifier(data, fb::ModelIdentifier(), /*size_prefixed=*/true)) {
+    std::string id;
+    for (size_t i = 8; i < 12; ++i) {
+      char c[8];
+      if (data[i] >= 0x20 && data[i] < 0x7f)
+        std::snprintf(c, sizeof c, "%c", data[i]);
+      else
+        std::snprintf(c, sizeof c, "\\x%02x", data[i]);
+      id += c;
+    }
+    refuse("not a kata model: file identifier \"" + id + "\" is not \"KATA\"");
+  }
+  const uint32_t prefix = flatbuffers::ReadScalar<uint32_t>(data);
+  if (static_cast<uint64_t>(prefix) + 4 != size)
+    refuse(std::string(prefix + uint64_t{4} > size ? "truncated" : "trailing bytes") + ": the size prefix says " +
+           std::to_string(prefix + uint64_t{4}) + " bytes, the buffer has " + std::to_string(size));
+}
+
 // The content checks shared by writing and reading: everything but the container.
 void validate_model(const Model& m) {
   if (m.layout_id != kLayoutId)
-    refuse("layout id \"" + m.layout_id + "\" is not \"" + kLayoutId + "\" (this build computes gpd-v1 features)");
+    refuse("layout id \"" + bounded(m.layout_id) + "\" is not \"" + kLayoutId + "\" (this build computes gpd-v1 features)");
   if (m.stencil != gpd::Stencil::kBackward && m.stencil != gpd::Stencil::kCentral)
     refuse("unknown stencil " + std::to_string(static_cast<int>(m.stencil)));
   if (m.normalisation != Normalisation::kMinMaxUnit && m.normalisation != Normalisation::kBlockBalanced)
@@ -168,6 +188,8 @@ std::vector<uint8_t> serialize_model(const Model& model) {
 
 Model parse_model(const uint8_t* data, size_t size) {
   if (size == 0) refuse("not a kata model: the buffer is empty");
+  if (size > kMaxModelBytes)
+    refuse(std::to_string(size) + " bytes exceeds the " + std::to_string(kMaxModelBytes) + "-byte model limit");
   if (!data) refuse("null buffer");
   // FlatBuffers reads scalars in place and checks alignment only relative to the buffer start:
   // a buffer from a caller (e.g. a memory-mapped or embedded blob) at an odd address is copied
@@ -178,23 +200,7 @@ Model parse_model(const uint8_t* data, size_t size) {
   }
   // A .kata buffer is size-prefixed: a 4-byte length, the root offset, then the identifier. The
   // prefix makes any truncation (even of trailing padding) or appended garbage detectable.
-  if (size < 12) refuse("not a kata model: " + std::to_string(size) + " bytes is too small");
-  if (!flatbuffers::BufferHasIdentifier(data, fb::ModelIdentifier(), /*size_prefixed=*/true)) {
-    std::string id;
-    for (size_t i = 8; i < 12; ++i) {
-      char c[8];
-      if (data[i] >= 0x20 && data[i] < 0x7f)
-        std::snprintf(c, sizeof c, "%c", data[i]);
-      else
-        std::snprintf(c, sizeof c, "\\x%02x", data[i]);
-      id += c;
-    }
-    refuse("not a kata model: file identifier \"" + id + "\" is not \"KATA\"");
-  }
-  const uint32_t prefix = flatbuffers::ReadScalar<uint32_t>(data);
-  if (static_cast<uint64_t>(prefix) + 4 != size)
-    refuse(std::string(prefix + uint64_t{4} > size ? "truncated" : "trailing bytes") + ": the size prefix says " +
-           std::to_string(prefix + uint64_t{4}) + " bytes, the buffer has " + std::to_string(size));
+  check_model_header(data, size);
   // Every offset, vector length and string is checked against the buffer bounds before any
   // accessor runs: a corrupt buffer stops here (or at the content checks and checksum below).
   flatbuffers::Verifier verifier(data, size, /*max_depth=*/16, /*max_tables=*/100000);
@@ -207,7 +213,7 @@ Model parse_model(const uint8_t* data, size_t size) {
   Model m;
   m.layout_id = root->layout_id()->str();
   if (m.layout_id != kLayoutId)  // checked before the sizes: another layout explains other sizes
-    refuse("layout id \"" + m.layout_id + "\" is not \"" + kLayoutId + "\" (this build computes gpd-v1 features)");
+    refuse("layout id \"" + bounded(m.layout_id) + "\" is not \"" + kLayoutId + "\" (this build computes gpd-v1 features)");
   if (root->dims() != static_cast<uint32_t>(gpd::kDims))
     refuse("dims = " + std::to_string(root->dims()) + ", expected 1683 (gpd-v1)");
   if (root->rank() == 0) refuse("rank r = 0 (must be >= 1)");

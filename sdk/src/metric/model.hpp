@@ -11,6 +11,10 @@
 
 namespace kata::metric {
 
+// The largest .kata buffer or file accepted (documented in kata.h): a full-rank gpd-v1 model
+// (W 1683 x 1683 floats) is ~11 MiB.
+constexpr uint64_t kMaxModelBytes = uint64_t{64} << 20;
+
 // How a feature vector x is normalised before projection.
 enum class Normalisation : int {
   // The spec's: x' = (x - min) / (max - min) per dimension (0 where max == min), then unit length.
@@ -52,5 +56,9 @@ std::vector<uint8_t> serialize_model(const Model& model);
 // kata::Error(kModel) with a message naming the problem: not a model / wrong identifier,
 // another layout id, wrong dimensions, NaN/Inf, max < min, rank 0, ...
 Model parse_model(const uint8_t* data, size_t size);
+// Checks a .kata buffer's first 12 bytes (size prefix, identifier) against its whole size (data
+// holds at least min(size, 12) bytes), so a file reader can refuse a foreign or truncated file
+// before reading the rest. Throws kata::Error(kModel) as parse_model does.
+void check_model_header(const uint8_t* data, size_t size);
 
 }  // namespace kata::metric

@@ -109,18 +109,21 @@ Status Pipeline::push(double capture_time, const float* xyz, int joint_count, in
   const int64_t frame = stream_.accepted_count();
   const int64_t before = stream_.emitted_count();
   const Status s = stream_.push(capture_time, xyz, joint_count);
-  if (s != Status::kOk) return s;
+  // kInternal: the frame was accepted but a non-finite vector was withheld (a bug, reported):
+  // the frame and any vectors emitted with it are still processed.
+  if (s != Status::kOk && s != Status::kInternal) return s;
   const size_t input_floats = 3 * static_cast<size_t>(joint_count);
   std::memcpy(student_ring_.data() + static_cast<size_t>(frame % history_) * input_floats, xyz,
               input_floats * sizeof(float));
   process_emitted(before, arrival_ns);
-  return Status::kOk;
+  return s;
 }
 
-void Pipeline::flush() {
+Status Pipeline::flush() {
   const int64_t before = stream_.emitted_count();
-  stream_.flush();
+  const Status s = stream_.flush();
   process_emitted(before, now_ns());
+  return s;
 }
 
 void Pipeline::reset() {

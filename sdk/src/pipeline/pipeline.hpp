@@ -112,8 +112,9 @@ class Pipeline {
   // arrival_ns: the steady-clock time the frame arrived (0: now). A refused frame changes
   // nothing (last_error() says why). Allocation-free.
   Status push(double capture_time, const float* xyz, int joint_count, int64_t arrival_ns = 0);
-  // Stream::flush / reset, with any vector they emit processed like a push's.
-  void flush();
+  // Stream::flush / reset, with any vector they emit processed like a push's. flush returns
+  // Stream::flush's status (kInternal when a non-finite vector was withheld).
+  Status flush();
   void reset();
 
   // Moves every unread result (oldest first, at most `capacity`) into out[0..n); ghosts, when

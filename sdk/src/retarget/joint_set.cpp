@@ -2,6 +2,7 @@
 #include "retarget/joint_set.hpp"
 
 #include "common/error.hpp"
+#include "common/text.hpp"
 #include "retarget/distance.hpp"
 
 namespace kata::retarget {
@@ -35,7 +36,7 @@ JointSelection select_joints(const Skeleton& teacher, const Skeleton& student, c
     }
     return s;
   }
-  throw Error(ErrorKind::kNotFound, "retarget: unknown preset '" + preset + "' (known: cmu, gpd)");
+  throw Error(ErrorKind::kNotFound, "retarget: unknown preset '" + bounded(preset) + "' (known: cmu, gpd)");
 }
 
 std::vector<double> selected_rest_lengths(const Skeleton& skeleton, const JointSelection& sel) {

@@ -3,6 +3,7 @@
 #include <cstdint>
 
 #include "common/error.hpp"
+#include "common/text.hpp"
 #include "skeleton/skeleton.hpp"
 
 namespace kata {
@@ -58,7 +59,7 @@ std::array<std::string, kGpdJoints> preset_joint_names(const std::string& preset
   }
   std::string known;
   for (const Preset& p : kPresets) known += std::string(known.empty() ? "" : ", ") + p.name;
-  throw Error(ErrorKind::kNotFound, "unknown skeleton preset '" + preset + "' (known: " + known + ")");
+  throw Error(ErrorKind::kNotFound, "unknown skeleton preset '" + bounded(preset) + "' (known: " + known + ")");
 }
 
 std::vector<std::string> preset_names() {

@@ -4,6 +4,7 @@
 #include <unordered_set>
 
 #include "common/error.hpp"
+#include "common/text.hpp"
 
 namespace kata {
 
@@ -68,7 +69,7 @@ GpdMap make_gpd_map(const Skeleton& skeleton, const std::array<std::string, kGpd
     map.source[static_cast<size_t>(g)] = idx;
   }
   if (!missing.empty()) {
-    throw Error(ErrorKind::kNotFound, "skeleton has no joint " + missing);
+    throw Error(ErrorKind::kNotFound, "skeleton has no joint " + bounded(missing, 4 * kMaxQuotedBytes));
   }
   return map;
 }

@@ -31,8 +31,15 @@ StreamConfig stream_config_for(const Skeleton& skeleton, const GpdMap& map, gpd:
   config.map = map;
   config.input_joints = skeleton.joint_count();
   config.stencil = stencil;
-  if (skeleton.has_rest_pose) config.body_height = rest_body_height(skeleton, map);
+  config.body_height = stream_body_height(0.0, skeleton, map);
   return config;
+}
+
+double stream_body_height(double given, const Skeleton& skeleton, const GpdMap& map) {
+  if (given != 0.0) return given;  // NaN and negative values too: Stream refuses them by name
+  if (!skeleton.has_rest_pose) return 0.0;
+  const double rest = rest_body_height(skeleton, map);
+  return rest >= kMinBodyHeight && rest <= kMaxCoordinate ? rest : 0.0;
 }
 
 Stream::Stream(const StreamConfig& config) : config_(config) {
@@ -44,18 +51,28 @@ Stream::Stream(const StreamConfig& config) : config_(config) {
                                                    ", outside 0.." + std::to_string(config_.input_joints - 1));
   }
   if (!(config_.max_gap > 0.0)) throw Error(ErrorKind::kInvalidArgument, "stream: max_gap must be > 0 seconds");
-  if (!std::isfinite(config_.body_height))
-    throw Error(ErrorKind::kInvalidArgument, "stream: body height must be finite");
+  if (config_.stencil != gpd::Stencil::kBackward && config_.stencil != gpd::Stencil::kCentral)
+    throw Error(ErrorKind::kInvalidArgument, "stream: unknown stencil");
+  if (config_.up_axis != UpAxis::kY && config_.up_axis != UpAxis::kZ)
+    throw Error(ErrorKind::kInvalidArgument, "stream: unknown up axis");
+  char text[160];
+  if (!std::isfinite(config_.body_height) || config_.body_height < 0.0 ||
+      (config_.body_height > 0.0 && (config_.body_height < kMinBodyHeight || config_.body_height > kMaxCoordinate))) {
+    std::snprintf(text, sizeof text, "stream: body height %g is not 0 (estimate it) or in %g..%g input units",
+                  config_.body_height, kMinBodyHeight, kMaxCoordinate);
+    throw Error(ErrorKind::kInvalidArgument, text);
+  }
+  if (config_.history < 4 || config_.history > kMaxHistory)
+    throw Error(ErrorKind::kInvalidArgument, "stream: history capacity " + std::to_string(config_.history) +
+                                                 " is not in 4.." + std::to_string(kMaxHistory) + " frames");
   if (config_.body_height > 0.0) {
     height_ = config_.body_height;
-  } else if (config_.calibration_frames < 1) {
-    throw Error(ErrorKind::kInvalidArgument, "stream: calibration_frames must be >= 1 without a body height");
+  } else if (config_.calibration_frames < 1 || config_.calibration_frames >= config_.history) {
+    // Calibration holds its frames in the ring, with one slot to spare.
+    throw Error(ErrorKind::kInvalidArgument, "stream: calibration_frames " + std::to_string(config_.calibration_frames) +
+                                                 " is not in 1..history capacity - 1 = " +
+                                                 std::to_string(config_.history - 1) + " (no body height given)");
   }
-  // Central kinetics read frames f-2..f+1; calibration holds its frames in the ring.
-  const int needed = std::max(4, height_ > 0.0 ? 0 : config_.calibration_frames + 1);
-  if (config_.history < needed)
-    throw Error(ErrorKind::kInvalidArgument, "stream: history capacity " + std::to_string(config_.history) +
-                                                 " is below the " + std::to_string(needed) + " frames this stream needs");
   const size_t h = static_cast<size_t>(config_.history);
   time_.assign(h, 0.0);
   segment_pos_.assign(h, 0);
@@ -86,26 +103,51 @@ Status Stream::push(double t, const float* xyz, int joint_count) {
   if (accepted_ > 0 && !(t > last_time_))
     return refuse(Status::kTimestampNotIncreasing, "push: timestamp %.9g s does not increase (previous %.9g s)", t,
                   last_time_);
+  // Closer frames would make the difference weights (1 / step^2) overflow the features.
+  if (accepted_ > 0 && !(t - last_time_ >= kMinTimeStep))
+    return refuse(Status::kTimestampNotIncreasing,
+                  "push: timestamp %.17g s is %.3g s after the previous one, below the minimum step %g s", t,
+                  t - last_time_, kMinTimeStep);
   // Only the mapped joints matter, but a NaN anywhere means a broken frame: refuse it whole.
   for (int i = 0; i < 3 * joint_count; ++i) {
     if (!std::isfinite(xyz[i]))
       return refuse(Status::kNonFinite, "push: joint %d coordinate %d is not finite", i / 3, i % 3);
   }
 
+  // The mapped joints, checked against the plausibility range before anything changes.
+  float mapped[3 * gpd::kJoints];
+  for (int j = 0; j < gpd::kJoints; ++j) {
+    const float* p = xyz + 3 * config_.map.source[j];
+    mapped[3 * j + 0] = p[0];
+    if (config_.up_axis == UpAxis::kZ) {
+      mapped[3 * j + 1] = p[2];
+      mapped[3 * j + 2] = -p[1];
+    } else {
+      mapped[3 * j + 1] = p[1];
+      mapped[3 * j + 2] = p[2];
+    }
+    for (int k = 0; k < 3; ++k) {
+      if (!(std::fabs(mapped[3 * j + k]) <= kMaxCoordinate))
+        return refuse(Status::kInvalidArgument,
+                      "push: joint %s (input joint %d) has a coordinate %g beyond the plausible +-%g input units",
+                      kGpdJointNames[static_cast<size_t>(j)], config_.map.source[j], double(p[k]), kMaxCoordinate);
+    }
+  }
+  if (height_ > 0.0) {
+    const double reach = kMaxReach * height_;
+    for (int j = 1; j < gpd::kJoints; ++j) {
+      const double d = distance3(mapped + 3 * j, mapped);
+      if (!(d <= reach))
+        return refuse(Status::kInvalidArgument,
+                      "push: joint %s (input joint %d) is %g body heights from the hip, beyond the plausible %g",
+                      kGpdJointNames[static_cast<size_t>(j)], config_.map.source[j], d / height_, kMaxReach);
+    }
+  }
+
   const int64_t frame = accepted_;
   const int slot = slot_at(frame);
   float* joints = joints_.data() + static_cast<size_t>(slot) * 3 * gpd::kJoints;
-  for (int j = 0; j < gpd::kJoints; ++j) {
-    const float* p = xyz + 3 * config_.map.source[j];
-    joints[3 * j + 0] = p[0];
-    if (config_.up_axis == UpAxis::kZ) {
-      joints[3 * j + 1] = p[2];
-      joints[3 * j + 2] = -p[1];
-    } else {
-      joints[3 * j + 1] = p[1];
-      joints[3 * j + 2] = p[2];
-    }
-  }
+  std::memcpy(joints, mapped, sizeof mapped);
   time_[slot] = t;
   starts_segment_[slot] = (new_segment_ || (frame > 0 && t - last_time_ > config_.max_gap)) ? 1 : 0;
   new_segment_ = false;
@@ -118,10 +160,19 @@ Status Stream::push(double t, const float* xyz, int joint_count) {
       row[b] = distance3(joints + 3 * kHeightBones[b][0], joints + 3 * kHeightBones[b][1]);
     if (accepted_ < config_.calibration_frames) return Status::kOk;
     finish_calibration();
-    return Status::kOk;
+    return emitted_status();
   }
   process(frame);
-  return Status::kOk;
+  return emitted_status();
+}
+
+Status Stream::emitted_status() {
+  if (withheld_dim_ < 0) return Status::kOk;
+  const int dim = withheld_dim_;
+  withheld_dim_ = -1;
+  return refuse(Status::kInternal,
+                "internal error: feature %d of frame %lld is not finite; the vector was withheld (please report)",
+                dim, static_cast<long long>(withheld_frame_));
 }
 
 void Stream::finish_calibration() {
@@ -145,8 +196,9 @@ void Stream::finish_calibration() {
     lengths[b] = median;
   }
   height_ = height_from_lengths(lengths);
-  // A collapsed body (every joint at one point) has no scale; keep features finite.
-  if (!(height_ > 1e-12)) height_ = 1.0;
+  // A collapsed body (every joint at one point) has no scale; keep features finite with
+  // H = 1 input unit (the plausibility range then applies in input units).
+  if (!(height_ >= kMinBodyHeight)) height_ = 1.0;
   for (int64_t f = processed_; f < accepted_; ++f) process(f);
 }
 
@@ -188,16 +240,27 @@ void Stream::emit(int64_t frame, bool central) {
     const double h2 = time_[slot] - time_[slot_at(frame - 1)];
     gpd::kinetics(jc(frame - 2), jc(frame - 1), jc(frame), gpd::backward_weights(h1, h2), kin);
   }
+  // Finite by construction inside the plausibility range; checked so a bug can never hand out a
+  // NaN: a non-finite vector is withheld (the previous one stays the newest) and reported.
+  const float* vector = vectors_.data() + static_cast<size_t>(slot) * gpd::kDims;
+  for (int i = 0; i < gpd::kDims; ++i) {
+    if (!std::isfinite(vector[i])) {
+      withheld_dim_ = i;
+      withheld_frame_ = frame;
+      return;
+    }
+  }
   out_time_ = time_[slot];
   out_frame_ = frame;
   ++emitted_;
 }
 
-void Stream::flush() {
+Status Stream::flush() {
   if (height_ <= 0.0) finish_calibration();
   if (pending_) emit(processed_ - 1, false);
   pending_ = false;
   new_segment_ = true;
+  return emitted_status();
 }
 
 void Stream::reset() { new_segment_ = true; }
@@ -224,7 +287,8 @@ std::vector<float> features_of_frames(const StreamConfig& config, const float* p
       throw Error(ErrorKind::kInvalidArgument, "frame " + std::to_string(i) + ": " + stream.last_error());
     collect();
   }
-  stream.flush();
+  if (stream.flush() != Status::kOk)
+    throw Error(ErrorKind::kInvalidArgument, std::string("end of frames: ") + stream.last_error());
   collect();
   return out;
 }

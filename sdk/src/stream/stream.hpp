@@ -15,6 +15,15 @@ namespace kata {
 
 enum class UpAxis : int { kY = 0, kZ = 1 };
 
+// The plausibility range of a stream's input (kata.h documents the same figures). Inside it
+// every feature is finite by construction: local coordinates stay below 2 kMaxCoordinate /
+// kMinBodyHeight = 2e15 body heights and the difference weights below 2 / kMinTimeStep^2.
+constexpr double kMinTimeStep = 1e-5;      // seconds between two accepted frames (100 kHz)
+constexpr double kMaxCoordinate = 1e9;     // |x|, |y|, |z| of a mapped joint, input units
+constexpr double kMinBodyHeight = 1e-6;    // input units
+constexpr double kMaxReach = 100.0;        // a mapped joint's distance from the hip, body heights
+constexpr int kMaxHistory = 1 << 16;       // ring-buffer frames (64 Ki x 6.7 KB = 440 MB at most)
+
 struct StreamConfig {
   GpdMap map;                 // input joint -> GPD joint
   int input_joints = 0;       // joints per pushed frame
@@ -22,8 +31,9 @@ struct StreamConfig {
   double max_gap = 0.25;      // seconds; a larger gap between frames starts a new segment
   int history = 16;           // frames kept in the ring buffer (>= 3; >= calibration_frames)
   // Body height H in input units (spec section 2, step 4). > 0: use it (e.g. from the
-  // skeleton's rest pose). <= 0: estimate it as the median of the per-frame bone lengths over
-  // the first `calibration_frames` frames; those frames are held until then.
+  // skeleton's rest pose; kMinBodyHeight..kMaxCoordinate). 0: estimate it as the median of the
+  // per-frame bone lengths over the first `calibration_frames` frames (1..history - 1); those
+  // frames are held until then. Negative or NaN: refused.
   double body_height = 0.0;
   int calibration_frames = 8;
   UpAxis up_axis = UpAxis::kY;  // Z-up input is turned to Y-up: (x, y, z) -> (x, z, -y)
@@ -31,6 +41,10 @@ struct StreamConfig {
 
 // A stream's config for a skeleton with a rest pose (e.g. a BVH clip's): H from the rest pose.
 StreamConfig stream_config_for(const Skeleton& skeleton, const GpdMap& map, gpd::Stencil stencil);
+// The body height a stream on `skeleton` uses: `given` when it is not 0 (a bad value is passed
+// through for the Stream to refuse), else the rest pose's H when the skeleton has one of at least
+// kMinBodyHeight, else 0 (estimated from the first frames).
+double stream_body_height(double given, const Skeleton& skeleton, const GpdMap& map);
 
 // GPD v1 features of `frames` recorded frames (positions: frames x config.input_joints x 3 floats,
 // row-major, input units), `frame_time` seconds apart, pushed one by one through a Stream with
@@ -41,17 +55,24 @@ std::vector<float> features_of_frames(const StreamConfig& config, const float* p
 
 class Stream {
  public:
-  // Allocates every buffer. Throws kata::Error(kInvalidArgument) on a bad config.
+  // Allocates every buffer. Throws kata::Error(kInvalidArgument) on a bad config (a value out
+  // of the ranges above, a map outside the input joints).
   explicit Stream(const StreamConfig& config);
 
   // Adds a frame: t in seconds, xyz = input_joints x 3 floats (x, y, z interleaved, input
-  // units). A refused frame (null, wrong count, NaN/Inf, t not increasing) changes nothing and
-  // its reason is in last_error(). May emit one feature vector (the frame itself with the
+  // units). A refused frame changes nothing and its reason is in last_error(): null
+  // (kNullPointer), wrong count (kWrongJointCount), NaN/Inf (kNonFinite), t not at least
+  // kMinTimeStep after the previous frame (kTimestampNotIncreasing), a mapped joint beyond
+  // kMaxCoordinate or, once H is known, farther than kMaxReach x H from the hip
+  // (kInvalidArgument, naming the joint). May emit one feature vector (the frame itself with the
   // backward stencil, the previous frame with the central one; several after calibration).
+  // Every emitted vector is checked finite; a violation (a bug) is not published and returns
+  // kInternal with a message.
   Status push(double t, const float* xyz, int joint_count);
   // Ends the current segment: with the central stencil the held frame is emitted with the
-  // backward formulas (spec: end of a stream). The next frame starts a new segment.
-  void flush();
+  // backward formulas (spec: end of a stream). The next frame starts a new segment. kInternal
+  // as for push.
+  Status flush();
   // The next frame starts a new segment (its kinetics restart); nothing is emitted.
   void reset();
 
@@ -91,6 +112,8 @@ class Stream {
   // or the central stencil (needs frame + 1).
   void emit(int64_t frame, bool central);
   void finish_calibration();
+  // kOk, or kInternal with the message when emit() withheld a non-finite vector.
+  Status emitted_status();
   Status refuse(Status status, const char* fmt, ...);
   int slot_at(int64_t frame) const { return static_cast<int>(frame % config_.history); }
 
@@ -114,6 +137,8 @@ class Stream {
   int64_t emitted_ = 0;
   double out_time_ = 0.0;
   int64_t out_frame_ = -1;
+  int withheld_dim_ = -1;          // set by emit() when a vector had a non-finite value (a bug)
+  int64_t withheld_frame_ = -1;
   char error_[256] = {0};
 };
 
