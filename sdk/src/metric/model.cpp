@@ -237,6 +237,21 @@ Model parse_model(const uint8_t* data, size_t size) {
   }
   validate_model(m);
   if (checksum(m) != root->checksum()) refuse("checksum mismatch: the content is corrupt (a changed bit or byte)");
+  // The checksum covers every value; the bytes around them (alignment padding, string
+  // terminators, vtable entries of defaulted fields, the size fields of vtables) carry none, so a
+  // flipped bit there leaves the content intact. The writer is deterministic, so a file of this
+  // build's schema version must be byte for byte what serialize_model makes of its content:
+  // that covers every byte of the file (a single-bit flip anywhere is refused).
+  if (root->schema_version() == kModelSchemaVersion) {
+    const std::vector<uint8_t> canonical = serialize_model(m);
+    if (canonical.size() != size || std::memcmp(canonical.data(), data, size) != 0) {
+      size_t at = 0;
+      while (at < size && at < canonical.size() && canonical[at] == data[at]) ++at;
+      refuse("byte " + std::to_string(at) +
+             " differs from the canonical layout of the same content (a changed bit outside the values: padding, "
+             "terminators or table metadata)");
+    }
+  }
   return m;
 }
 
