@@ -103,8 +103,9 @@ Status Stream::push(double t, const float* xyz, int joint_count) {
   if (accepted_ > 0 && !(t > last_time_))
     return refuse(Status::kTimestampNotIncreasing, "push: timestamp %.9g s does not increase (previous %.9g s)", t,
                   last_time_);
-  // Closer frames would make the difference weights (1 / step^2) overflow the features.
-  if (accepted_ > 0 && !(t - last_time_ >= kMinTimeStep))
+  // Closer frames would make the difference weights (1 / step^2) overflow the features. A step
+  // of exactly kMinTimeStep computed by subtraction may round just below it: still accepted.
+  if (accepted_ > 0 && !(t - last_time_ >= kMinTimeStep * (1.0 - 1e-9)))
     return refuse(Status::kTimestampNotIncreasing,
                   "push: timestamp %.17g s is %.3g s after the previous one, below the minimum step %g s", t,
                   t - last_time_, kMinTimeStep);

@@ -1,0 +1,473 @@
+// C ABI misuse and hostile input (issue 12): every reproducer of a non-finite output, an
+// INTERNAL status or an unbounded read is a test here, through libkata only.
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <climits>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "kata/kata.h"
+#include "support/temp_paths.hpp"
+
+namespace {
+
+namespace fs = std::filesystem;
+
+using kata::test::TempDir;
+
+// A sparse file of `bytes` (no data blocks written).
+void make_sparse(const std::string& path, off_t bytes, const std::string& head = "") {
+  const int fd = ::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  ASSERT_GE(fd, 0);
+  if (!head.empty()) {
+    ASSERT_EQ(::write(fd, head.data(), head.size()), static_cast<ssize_t>(head.size()));
+  }
+  ASSERT_EQ(::ftruncate(fd, bytes), 0);
+  ::close(fd);
+}
+
+// Bytes this process has read through read() so far (/proc/self/io "rchar").
+long long bytes_read() {
+  std::ifstream io("/proc/self/io");
+  std::string key;
+  long long value = 0;
+  while (io >> key >> value)
+    if (key == "rchar:") return value;
+  return -1;
+}
+
+bool contains(const char* text, const std::string& needle) { return std::string(text).find(needle) != std::string::npos; }
+
+// A CMU clip, its frames as world positions, and the index of one named joint.
+struct Fixture {
+  kata_context ctx = nullptr;
+  kata_clip clip = nullptr;
+  kata_skeleton skel = nullptr;
+  uint32_t joints = 0;
+  std::vector<std::vector<float>> frames;
+  Fixture() {
+    EXPECT_EQ(kata_context_create(&ctx), KATA_OK);
+    EXPECT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &clip), KATA_OK) << kata_context_last_error(ctx);
+    EXPECT_EQ(kata_clip_skeleton(clip, &skel), KATA_OK);
+    joints = kata_skeleton_joint_count(skel);
+    for (uint32_t i = 1; i < 40; ++i) {
+      std::vector<float> p(3 * joints);
+      EXPECT_EQ(kata_clip_positions(clip, i, p.data(), p.size()), KATA_OK);
+      frames.push_back(p);
+    }
+  }
+  ~Fixture() {
+    kata_skeleton_destroy(skel);
+    kata_clip_destroy(clip);
+    kata_context_destroy(ctx);
+  }
+  uint32_t joint(const char* name) const {
+    for (uint32_t i = 0; i < joints; ++i)
+      if (std::strcmp(kata_skeleton_joint_name(skel, i), name) == 0) return i;
+    ADD_FAILURE() << "no joint " << name;
+    return 0;
+  }
+  kata_stream open(double body_height = 0.0, kata_skeleton on = nullptr) const {
+    kata_stream_desc d;
+    kata_stream_desc_init(&d);
+    d.preset = "cmu";
+    d.body_height = body_height;
+    kata_stream s = nullptr;
+    EXPECT_EQ(kata_stream_open(ctx, on ? on : skel, &d, &s), KATA_OK) << kata_context_last_error(ctx);
+    return s;
+  }
+};
+
+// The newest feature vector, if any, has only finite values.
+void expect_finite_features(kata_stream s) {
+  std::vector<float> f(KATA_GPD_DIMS);
+  if (kata_stream_features(s, f.data(), f.size(), nullptr, nullptr) != KATA_OK) return;
+  for (int i = 0; i < KATA_GPD_DIMS; ++i) ASSERT_TRUE(std::isfinite(f[static_cast<size_t>(i)])) << "feature " << i;
+}
+
+// ---- finite outputs --------------------------------------------------------------------------
+
+TEST(Misuse, GlitchedCoordinateIsRefusedNamingTheJointAndLaterFramesStayFinite) {
+  Fixture c;
+  const uint32_t hand = c.joint("LeftHand");
+  for (const float glitch : {1e37f, 1e10f, 5000.0f}) {  // 5000 units = ~170 body heights from the hip
+    SCOPED_TRACE(glitch);
+    kata_stream s = c.open();
+    for (size_t i = 0; i < c.frames.size(); ++i) {
+      std::vector<float> p = c.frames[i];
+      if (i == 5) p[3 * hand + 1] = glitch;
+      const kata_status st = kata_stream_push(s, static_cast<double>(i) / 30.0, p.data(), c.joints);
+      if (i == 5) {
+        EXPECT_EQ(st, KATA_E_INVALID_ARGUMENT);
+        EXPECT_TRUE(contains(kata_stream_last_error(s), "LHand")) << kata_stream_last_error(s);
+      } else {
+        EXPECT_EQ(st, KATA_OK) << kata_stream_last_error(s);
+      }
+      expect_finite_features(s);
+    }
+    EXPECT_EQ(kata_stream_feature_count(s), static_cast<int64_t>(c.frames.size()) - 1);
+    kata_stream_close(s);
+  }
+}
+
+TEST(Misuse, GlitchWhileCalibratingIsRefused) {
+  Fixture c;
+  // The same skeleton without a rest pose: H is estimated from the first frames.
+  std::vector<const char*> names(c.joints);
+  std::vector<int32_t> parents(c.joints);
+  for (uint32_t i = 0; i < c.joints; ++i) {
+    names[i] = kata_skeleton_joint_name(c.skel, i);
+    parents[i] = kata_skeleton_joint_parent(c.skel, i);
+  }
+  kata_skeleton bare = nullptr;
+  ASSERT_EQ(kata_skeleton_create(c.ctx, c.joints, names.data(), parents.data(), nullptr, &bare), KATA_OK);
+  kata_stream s = c.open(0.0, bare);
+  std::vector<float> p = c.frames[0];
+  p[3 * c.joint("Head")] = 1e37f;
+  EXPECT_EQ(kata_stream_push(s, 0.0, p.data(), c.joints), KATA_E_INVALID_ARGUMENT);
+  EXPECT_TRUE(contains(kata_stream_last_error(s), "Head")) << kata_stream_last_error(s);
+  for (size_t i = 0; i < c.frames.size(); ++i) {
+    ASSERT_EQ(kata_stream_push(s, static_cast<double>(i) / 30.0, c.frames[i].data(), c.joints), KATA_OK);
+    expect_finite_features(s);
+  }
+  EXPECT_GT(kata_stream_body_height(s), 0.0);
+  kata_stream_close(s);
+  kata_skeleton_destroy(bare);
+}
+
+TEST(Misuse, TimeStepBelowTheMinimumIsRefused) {
+  Fixture c;
+  kata_stream s = c.open();
+  ASSERT_EQ(kata_stream_push(s, 0.0, c.frames[0].data(), c.joints), KATA_OK);
+  for (const double t : {1.35e-312, 1e-20, 0.5 * KATA_MIN_TIME_STEP}) {
+    EXPECT_EQ(kata_stream_push(s, t, c.frames[1].data(), c.joints), KATA_E_TIMESTAMP_NOT_INCREASING) << t;
+    EXPECT_TRUE(contains(kata_stream_last_error(s), "minimum step")) << kata_stream_last_error(s);
+  }
+  EXPECT_EQ(kata_stream_push(s, KATA_MIN_TIME_STEP, c.frames[1].data(), c.joints), KATA_OK);
+  expect_finite_features(s);
+  for (size_t i = 2; i < c.frames.size(); ++i) {
+    ASSERT_EQ(kata_stream_push(s, KATA_MIN_TIME_STEP * static_cast<double>(i), c.frames[i].data(), c.joints), KATA_OK);
+    expect_finite_features(s);
+  }
+  kata_stream_close(s);
+}
+
+TEST(Misuse, BodyHeightOutsideItsRangeIsRefused) {
+  Fixture c;
+  kata_stream_desc d;
+  kata_stream_desc_init(&d);
+  d.preset = "cmu";
+  kata_stream s = nullptr;
+  for (const double h : {1.4e-315, 1e-300, 0.5 * KATA_MIN_BODY_HEIGHT, -1.0, -0.0 - 1e-9, std::nan(""),
+                         HUGE_VAL, 2 * KATA_MAX_COORDINATE}) {
+    d.body_height = h;
+    EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_INVALID_ARGUMENT) << h;
+    EXPECT_EQ(s, nullptr);
+    EXPECT_TRUE(contains(kata_context_last_error(c.ctx), "body height")) << kata_context_last_error(c.ctx);
+  }
+  // The smallest accepted H: CMU joints (tens of units from the hip) are then implausible.
+  d.body_height = KATA_MIN_BODY_HEIGHT;
+  ASSERT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_OK);
+  EXPECT_EQ(kata_stream_push(s, 0.0, c.frames[0].data(), c.joints), KATA_E_INVALID_ARGUMENT);
+  EXPECT_EQ(kata_stream_feature_count(s), 0);
+  kata_stream_close(s);
+}
+
+TEST(Misuse, CountsBeyondTheirRangeAreRefusedWithoutOverflow) {
+  Fixture c;
+  kata_stream_desc d;
+  kata_stream_desc_init(&d);
+  d.preset = "cmu";
+  kata_skeleton bare = nullptr;
+  const char* names[] = {"a"};
+  const int32_t parents[] = {-1};
+  ASSERT_EQ(kata_skeleton_create(c.ctx, 1, names, parents, nullptr, &bare), KATA_OK);
+  kata_stream s = nullptr;
+  // Calibration counts only matter without a rest pose: use the CMU skeleton's own names.
+  std::vector<const char*> cmu_names(c.joints);
+  std::vector<int32_t> cmu_parents(c.joints);
+  for (uint32_t i = 0; i < c.joints; ++i) {
+    cmu_names[i] = kata_skeleton_joint_name(c.skel, i);
+    cmu_parents[i] = kata_skeleton_joint_parent(c.skel, i);
+  }
+  kata_skeleton no_rest = nullptr;
+  ASSERT_EQ(kata_skeleton_create(c.ctx, c.joints, cmu_names.data(), cmu_parents.data(), nullptr, &no_rest), KATA_OK);
+  for (const uint32_t frames : {static_cast<uint32_t>(INT_MAX), UINT32_MAX, 0u, d.history_capacity}) {
+    d.calibration_frames = frames;
+    EXPECT_EQ(kata_stream_open(c.ctx, no_rest, &d, &s), KATA_E_INVALID_ARGUMENT) << frames;
+    EXPECT_TRUE(contains(kata_context_last_error(c.ctx), "calibration_frames")) << kata_context_last_error(c.ctx);
+  }
+  kata_stream_desc_init(&d);
+  d.preset = "cmu";
+  for (const uint32_t history : {3u, static_cast<uint32_t>(KATA_MAX_HISTORY) + 1, static_cast<uint32_t>(INT_MAX), UINT32_MAX}) {
+    d.history_capacity = history;
+    EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_INVALID_ARGUMENT) << history;
+    EXPECT_TRUE(contains(kata_context_last_error(c.ctx), "history")) << kata_context_last_error(c.ctx);
+  }
+  kata_skeleton_destroy(no_rest);
+  kata_skeleton_destroy(bare);
+}
+
+// ---- files -----------------------------------------------------------------------------------
+
+TEST(Misuse, DirectoriesAndSpecialFilesAreIoErrorsNamingThePath) {
+  Fixture c;
+  TempDir dir;
+  const std::string fifo = dir.file("fifo");
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  for (const std::string& path : {dir.path().string(), fifo, std::string("/dev/null")}) {
+    SCOPED_TRACE(path);
+    kata_clip clip = nullptr;
+    EXPECT_EQ(kata_clip_load_bvh(c.ctx, path.c_str(), &clip), KATA_E_IO);
+    EXPECT_TRUE(contains(kata_context_last_error(c.ctx), path)) << kata_context_last_error(c.ctx);
+    kata_skeleton skel = nullptr;
+    EXPECT_EQ(kata_skeleton_load_bvh(c.ctx, path.c_str(), &skel), KATA_E_IO);
+    EXPECT_TRUE(contains(kata_context_last_error(c.ctx), path)) << kata_context_last_error(c.ctx);
+    kata_model model = nullptr;
+    EXPECT_EQ(kata_model_load(c.ctx, path.c_str(), &model), KATA_E_IO);
+    EXPECT_TRUE(contains(kata_context_last_error(c.ctx), path)) << kata_context_last_error(c.ctx);
+    kata_stream_desc d;
+    kata_stream_desc_init(&d);
+    d.name_map_path = path.c_str();
+    kata_stream s = nullptr;
+    EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_IO);
+    EXPECT_TRUE(contains(kata_context_last_error(c.ctx), path)) << kata_context_last_error(c.ctx);
+  }
+}
+
+TEST(Misuse, OversizedSparseFilesAreRefusedWithoutReadingThem) {
+  Fixture c;
+  TempDir dir;
+  const std::string bvh = dir.file("huge.bvh"), model = dir.file("huge.kata"), map = dir.file("huge.map");
+  make_sparse(bvh, static_cast<off_t>(KATA_MAX_BVH_BYTES) + 4096, "HIERARCHY\n");
+  make_sparse(model, static_cast<off_t>(KATA_MAX_MODEL_BYTES) + 1);
+  make_sparse(map, static_cast<off_t>(KATA_MAX_NAME_MAP_BYTES) + 1);
+  const long long before = bytes_read();
+  kata_clip clip = nullptr;
+  EXPECT_EQ(kata_clip_load_bvh(c.ctx, bvh.c_str(), &clip), KATA_E_IO);
+  EXPECT_TRUE(contains(kata_context_last_error(c.ctx), "exceeds")) << kata_context_last_error(c.ctx);
+  kata_model m = nullptr;
+  EXPECT_EQ(kata_model_load(c.ctx, model.c_str(), &m), KATA_E_IO);
+  EXPECT_TRUE(contains(kata_context_last_error(c.ctx), "exceeds")) << kata_context_last_error(c.ctx);
+  kata_stream_desc d;
+  kata_stream_desc_init(&d);
+  d.name_map_path = map.c_str();
+  kata_stream s = nullptr;
+  EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_IO);
+  EXPECT_TRUE(contains(kata_context_last_error(c.ctx), "exceeds")) << kata_context_last_error(c.ctx);
+  // Only /proc/self/io itself was read in between, not gigabytes.
+  EXPECT_LT(bytes_read() - before, 64 * 1024);
+}
+
+TEST(Misuse, ModelHeaderIsCheckedBeforeTheRestIsRead) {
+  Fixture c;
+  TempDir dir;
+  const std::string path = dir.file("foreign.kata");
+  make_sparse(path, 32 << 20, std::string("\x10\x00\x00\x00\x08\x00\x00\x00NOPE", 12));  // 32 MiB, not a model
+  const long long before = bytes_read();
+  kata_model m = nullptr;
+  EXPECT_EQ(kata_model_load(c.ctx, path.c_str(), &m), KATA_E_MODEL);
+  EXPECT_TRUE(contains(kata_context_last_error(c.ctx), "NOPE")) << kata_context_last_error(c.ctx);
+  EXPECT_LT(bytes_read() - before, 64 * 1024);
+}
+
+// ---- descriptors and arguments ---------------------------------------------------------------
+
+TEST(Misuse, PresetAndNameMapTogetherAreRefused) {
+  Fixture c;
+  kata_stream_desc d;
+  kata_stream_desc_init(&d);
+  d.preset = "cmu";
+  d.name_map_path = "/nonexistent/map.json";
+  kata_stream s = nullptr;
+  EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_INVALID_ARGUMENT);
+  EXPECT_TRUE(contains(kata_context_last_error(c.ctx), "not both")) << kata_context_last_error(c.ctx);
+}
+
+TEST(Misuse, DescriptorStructSizeMustBeThisLibrarys) {
+  Fixture c;
+  kata_stream_desc d;
+  kata_stream_desc_init(&d);
+  d.preset = "cmu";
+  kata_stream s = nullptr;
+  for (const uint32_t size : {0u, 4u, static_cast<uint32_t>(sizeof d) - 1, static_cast<uint32_t>(sizeof d) + 8,
+                              0xdeadbeefu, UINT32_MAX}) {
+    d.struct_size = size;
+    EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_INVALID_ARGUMENT) << size;
+    EXPECT_EQ(s, nullptr);
+  }
+  kata_retarget_desc r;
+  kata_retarget_desc_init(&r);
+  kata_retargeter rt = nullptr;
+  for (const uint32_t size : {0u, 12u, static_cast<uint32_t>(sizeof r) + 8, UINT32_MAX}) {
+    r.struct_size = size;
+    EXPECT_EQ(kata_retargeter_create(c.ctx, c.skel, &r, &rt), KATA_E_INVALID_ARGUMENT) << size;
+    EXPECT_EQ(rt, nullptr);
+  }
+}
+
+TEST(Misuse, EnumFieldsOutsideTheirValuesAreRefused) {
+  Fixture c;
+  kata_stream s = nullptr;
+  for (const int32_t raw : {2, 7, -1, INT32_MIN}) {
+    for (int field = 0; field < 2; ++field) {
+      kata_stream_desc d;
+      kata_stream_desc_init(&d);
+      d.preset = "cmu";
+      // Written as the integer a C caller (or a corrupt struct) may hold.
+      std::memcpy(field == 0 ? static_cast<void*>(&d.stencil) : static_cast<void*>(&d.up_axis), &raw, sizeof raw);
+      EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_INVALID_ARGUMENT) << field << " " << raw;
+    }
+  }
+  kata_status unknown;
+  const int32_t raw = 999;
+  std::memcpy(&unknown, &raw, sizeof raw);
+  EXPECT_STREQ(kata_status_string(unknown), "KATA_E_UNKNOWN_STATUS");
+}
+
+TEST(Misuse, StringsAreBoundedInAndOut) {
+  Fixture c;
+  kata_stream_desc d;
+  kata_stream_desc_init(&d);
+  kata_stream s = nullptr;
+  const std::string long_name(1 << 20, 'x');
+  d.preset = long_name.c_str();
+  EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_INVALID_ARGUMENT)
+      << "no terminator within KATA_MAX_STRING_BYTES";
+  const std::string long_but_bounded(KATA_MAX_STRING_BYTES - 1, 'y');
+  d.preset = long_but_bounded.c_str();
+  EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_NOT_FOUND);
+  EXPECT_LT(std::strlen(kata_context_last_error(c.ctx)), 600u) << "the message quotes the name cut short";
+  // A path of 1 MB in a message is cut too.
+  const std::string long_path = "/nonexistent/" + long_name;
+  kata_clip clip = nullptr;
+  EXPECT_EQ(kata_clip_load_bvh(c.ctx, long_path.c_str(), &clip), KATA_E_IO);
+  EXPECT_LT(std::strlen(kata_context_last_error(c.ctx)), 600u);
+}
+
+TEST(Misuse, PoseFrameBelowMinusOneIsRefused) {
+  Fixture c;
+  kata_model model = nullptr;
+  ASSERT_EQ(kata_model_load(c.ctx, KATA_SOURCE_DIR "/tests/data/models/v1-minmax-backward.kata", &model), KATA_OK)
+      << kata_context_last_error(c.ctx);
+  kata_stream s = c.open();
+  for (const int32_t frame : {-2, -100, INT32_MIN}) {
+    EXPECT_EQ(kata_stream_set_reference_bvh(s, model, c.clip, "cmu", 1, frame), KATA_E_INVALID_ARGUMENT) << frame;
+    EXPECT_TRUE(contains(kata_stream_last_error(s), "below -1")) << kata_stream_last_error(s);
+  }
+  EXPECT_EQ(kata_stream_set_reference_bvh(s, model, c.clip, "cmu", 1, -1), KATA_OK) << kata_stream_last_error(s);
+  // Scores stay finite through a glitch.
+  for (size_t i = 0; i < c.frames.size(); ++i) {
+    std::vector<float> p = c.frames[i];
+    if (i == 3) p[0] = 1e30f;
+    kata_stream_push(s, static_cast<double>(i) / 30.0, p.data(), c.joints);
+    kata_score_record r;
+    r.struct_size = sizeof r;
+    if (kata_stream_score(s, &r) == KATA_OK) {
+      EXPECT_TRUE(std::isfinite(r.distance) && std::isfinite(r.score));
+      for (float part : r.parts) EXPECT_TRUE(std::isfinite(part));
+    }
+  }
+  kata_score_record r;
+  r.struct_size = 0;
+  EXPECT_EQ(kata_stream_score(s, &r), KATA_E_INVALID_ARGUMENT);
+  kata_stream_close(s);
+  kata_model_free(model);
+}
+
+TEST(Misuse, NullHandlesAndPointersAreRefused) {
+  Fixture c;
+  float buf[3 * 64] = {};
+  EXPECT_EQ(kata_context_create(nullptr), KATA_E_NULL_POINTER);
+  kata_clip clip = nullptr;
+  kata_skeleton skel = nullptr;
+  kata_model model = nullptr;
+  kata_stream s = nullptr;
+  kata_retargeter rt = nullptr;
+  EXPECT_EQ(kata_clip_load_bvh(nullptr, KATA_DATA_DIR "/cmu/07_01.bvh", &clip), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_clip_load_bvh(c.ctx, nullptr, &clip), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_clip_load_bvh(c.ctx, KATA_DATA_DIR "/cmu/07_01.bvh", nullptr), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_skeleton_load_bvh(c.ctx, nullptr, &skel), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_model_load(c.ctx, nullptr, &model), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_model_load(nullptr, "x.kata", &model), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_model_load_memory(c.ctx, nullptr, 10, &model), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_open(c.ctx, nullptr, nullptr, &s), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_open(c.ctx, c.skel, nullptr, &s), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_push(nullptr, 0.0, buf, 1), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_flush(nullptr), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_reset(nullptr), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_features(nullptr, buf, KATA_GPD_DIMS, nullptr, nullptr), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_score(nullptr, nullptr), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_set_reference_pose(nullptr, nullptr, buf, 1), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_set_reference_bvh(nullptr, nullptr, nullptr, "cmu", 0, -1), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_clip_positions(nullptr, 0, buf, 3), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_clip_skeleton(nullptr, &skel), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_retargeter_create(c.ctx, nullptr, nullptr, &rt), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_retargeter_solve(nullptr, buf, 1, buf, 3, nullptr), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_retargeter_reset(nullptr), KATA_E_NULL_POINTER);
+  // Queries on NULL answer their documented neutral values; destroys ignore NULL.
+  EXPECT_EQ(kata_skeleton_joint_count(nullptr), 0u);
+  EXPECT_EQ(kata_skeleton_joint_name(nullptr, 0), nullptr);
+  EXPECT_EQ(kata_skeleton_joint_parent(nullptr, 0), -2);
+  EXPECT_EQ(kata_clip_frame_count(nullptr), 0u);
+  EXPECT_EQ(kata_clip_frame_time(nullptr), 0.0);
+  EXPECT_EQ(kata_stream_feature_count(nullptr), 0);
+  EXPECT_EQ(kata_stream_body_height(nullptr), 0.0);
+  EXPECT_STREQ(kata_stream_last_error(nullptr), "");
+  EXPECT_EQ(kata_model_rank(nullptr), 0u);
+  EXPECT_EQ(kata_model_metadata(nullptr, "date"), nullptr);
+  EXPECT_EQ(kata_retargeter_joint_count(nullptr), 0u);
+  kata_stream_close(nullptr);
+  kata_clip_destroy(nullptr);
+  kata_skeleton_destroy(nullptr);
+  kata_model_free(nullptr);
+  kata_retargeter_destroy(nullptr);
+  kata_context_destroy(nullptr);
+  // Pointer arguments of a live stream.
+  kata_stream live = c.open();
+  EXPECT_EQ(kata_stream_push(live, 0.0, nullptr, c.joints), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_features(live, nullptr, KATA_GPD_DIMS, nullptr, nullptr), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_score(live, nullptr), KATA_E_NULL_POINTER);
+  kata_stream_close(live);
+}
+
+TEST(Misuse, ShortBuffersAndWrongJointCountsChangeNothing) {
+  Fixture c;
+  kata_stream s = c.open();
+  std::vector<float> p = c.frames[0];
+  for (const uint32_t n : {0u, c.joints - 1, c.joints + 1, 1000001u, UINT32_MAX}) {
+    EXPECT_EQ(kata_stream_push(s, 0.0, p.data(), n), KATA_E_WRONG_JOINT_COUNT) << n;
+  }
+  EXPECT_EQ(kata_stream_feature_count(s), 0);
+  ASSERT_EQ(kata_stream_push(s, 0.0, p.data(), c.joints), KATA_OK);
+  std::vector<float> f(KATA_GPD_DIMS, -7.0f);
+  EXPECT_EQ(kata_stream_features(s, f.data(), KATA_GPD_DIMS - 1, nullptr, nullptr), KATA_E_BUFFER_TOO_SMALL);
+  EXPECT_EQ(f[0], -7.0f);
+  EXPECT_EQ(kata_stream_features(s, f.data(), 0, nullptr, nullptr), KATA_E_BUFFER_TOO_SMALL);
+  std::vector<float> pos(3 * c.joints);
+  EXPECT_EQ(kata_clip_positions(c.clip, 0, pos.data(), pos.size() - 1), KATA_E_BUFFER_TOO_SMALL);
+  EXPECT_EQ(kata_clip_positions(c.clip, UINT32_MAX, pos.data(), pos.size()), KATA_E_INVALID_ARGUMENT);
+
+  kata_retargeter rt = nullptr;
+  ASSERT_EQ(kata_retargeter_create(c.ctx, c.skel, nullptr, &rt), KATA_OK) << kata_context_last_error(c.ctx);
+  std::vector<float> ghost(3 * kata_retargeter_joint_count(rt));
+  EXPECT_EQ(kata_retargeter_solve(rt, p.data(), c.joints, ghost.data(), ghost.size() - 1, nullptr),
+            KATA_E_BUFFER_TOO_SMALL);
+  EXPECT_EQ(kata_retargeter_solve(rt, p.data(), c.joints - 1, ghost.data(), ghost.size(), nullptr),
+            KATA_E_WRONG_JOINT_COUNT);
+  EXPECT_EQ(kata_retargeter_solve(rt, p.data(), c.joints, ghost.data(), ghost.size(), nullptr), KATA_OK)
+      << kata_retargeter_last_error(rt);
+  kata_retargeter_destroy(rt);
+  kata_stream_close(s);
+}
+
+}  // namespace
