@@ -3,6 +3,7 @@
 #   ./build.sh demo   install what is missing, build, run the main job (coaching demo)
 #   ./build.sh test   install what is missing, build, run the whole test suite
 #   ./build.sh deps | build | bench | asan     (the pieces; asan = tests under ASan + UBSan)
+#   ./build.sh fuzz   libFuzzer targets (clang, ASan + UBSan) in build-fuzz/, each run FUZZ_SECONDS (20)
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -11,11 +12,14 @@ PACKAGES=(build-essential cmake pkg-config libeigen3-dev libzmq3-dev cppzmq-dev 
           flatbuffers-compiler flatbuffers-compiler-dev libgtest-dev libgmock-dev libbenchmark-dev
           libcli11-dev nlohmann-json3-dev libxsimd-dev ccache libtomlplusplus-dev libcpp-httplib-dev python3 python3-numpy python3-matplotlib python3-zmq
           python3-pytest mono-mcs mono-runtime)
+# Only `./build.sh fuzz` needs these (Debian's clang and its libFuzzer runtime).
+FUZZ_PACKAGES=(clang-14 libclang-rt-14-dev)
 JOBS=${JOBS:-2}
 
-deps() {
-  local missing=()
-  for p in "${PACKAGES[@]}"; do
+deps() {  # deps [package...]: the given packages, or PACKAGES
+  local missing=() wanted=("$@")
+  [ ${#wanted[@]} -eq 0 ] && wanted=("${PACKAGES[@]}")
+  for p in "${wanted[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
   [ ${#missing[@]} -eq 0 ] && return 0
@@ -54,6 +58,30 @@ demo() {
   fi
 }
 
+# Builds the fuzz targets (tests/fuzz/README.md) and runs each for FUZZ_SECONDS over its seed
+# corpus (tests/fuzz/corpus/NAME, read only) plus a working corpus in build-fuzz/corpus/NAME. A
+# crash, sanitizer report or failed assertion stops the script with the input saved in build-fuzz/.
+fuzz() {
+  local dir=build-fuzz secs=${FUZZ_SECONDS:-20}
+  CC=clang-14 CXX=clang++-14 cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DKATA_FUZZ=ON \
+    -DKATA_BUILD_TESTS=OFF -DKATA_BUILD_BENCH=OFF >/dev/null
+  cmake --build "$dir" -j "$JOBS" --target fuzz_all
+  for t in bvh model name_map stream; do
+    local dict=()
+    [ -f "tests/fuzz/$t.dict" ] && dict=("-dict=tests/fuzz/$t.dict")
+    mkdir -p "$dir/corpus/$t"
+    echo "== fuzz_$t for ${secs} s"
+    if ! UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 "$dir/bin/fuzz_$t" -max_total_time="$secs" -timeout=10 \
+        -rss_limit_mb=2048 -print_final_stats=1 -artifact_prefix="$dir/crash-$t-" "${dict[@]}" \
+        "$dir/corpus/$t" "tests/fuzz/corpus/$t" >"$dir/fuzz_$t.log" 2>&1; then
+      tail -n 60 "$dir/fuzz_$t.log"
+      echo "fuzz_$t failed: the input is saved as $dir/crash-$t-*, the log is $dir/fuzz_$t.log"
+      return 1
+    fi
+    grep -E "^(#[0-9]+ +DONE|stat::number_of_executed_units|stat::peak_rss_mb)" "$dir/fuzz_$t.log" || true
+  done
+}
+
 case "${1:-}" in
   deps) deps ;;
   build) deps; build build ;;
@@ -61,6 +89,7 @@ case "${1:-}" in
   test) deps; build build; run_tests build ;;
   asan) deps; build build-asan -DKATA_SANITIZE=ON -DKATA_BUILD_BENCH=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo
         ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 run_tests build-asan ;;
+  fuzz) deps; deps "${FUZZ_PACKAGES[@]}"; fuzz ;;
   bench) deps; build build; build/bin/kata_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true ;;
   *) sed -n '2,6p' "$0"; exit 2 ;;
 esac
