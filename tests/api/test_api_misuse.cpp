@@ -305,6 +305,22 @@ TEST(Misuse, DescriptorStructSizeMustBeThisLibrarys) {
     EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_INVALID_ARGUMENT) << size;
     EXPECT_EQ(s, nullptr);
   }
+  kata_model model = nullptr;
+  ASSERT_EQ(kata_model_load(c.ctx, KATA_SOURCE_DIR "/tests/data/models/v1-minmax-backward.kata", &model), KATA_OK);
+  kata_stream live = c.open();
+  kata_teacher_desc t;
+  kata_teacher_desc_init(&t);
+  t.model = model;
+  t.clip = c.clip;
+  for (const uint32_t size : {0u, 4u, 12u, static_cast<uint32_t>(sizeof t) - 4, static_cast<uint32_t>(sizeof t) + 8,
+                              UINT32_MAX}) {
+    t.struct_size = size;
+    EXPECT_EQ(kata_stream_attach_teacher(live, &t), KATA_E_INVALID_ARGUMENT) << size;
+  }
+  t.struct_size = sizeof t;
+  EXPECT_EQ(kata_stream_attach_teacher(live, &t), KATA_OK) << kata_stream_last_error(live);
+  kata_stream_close(live);
+  kata_model_free(model);
   kata_retarget_desc r;
   kata_retarget_desc_init(&r);
   kata_retargeter rt = nullptr;

@@ -475,8 +475,8 @@ KATA_API void kata_teacher_desc_init(kata_teacher_desc* desc);
 /* Attaches a teacher to a stream in one call: model, teacher motion, and (from the stream's own
  * skeleton) the student's body. Replaces any reference or teacher; a refused call leaves the old
  * one in place. The alignment starts at the teacher's first frame. Errors (stencil mismatch,
- * unknown preset, a ghost joint missing from one skeleton, bad frames) go to
- * kata_stream_last_error. Allocates. [stream owner] */
+ * unknown preset, a ghost joint missing from one skeleton, bad frames, desc->struct_size other
+ * than sizeof(kata_teacher_desc)) go to kata_stream_last_error. Allocates. [stream owner] */
 KATA_API kata_status kata_stream_attach_teacher(kata_stream stream, const kata_teacher_desc* desc);
 
 /* kata_result.flags */

@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "capi/capi_internal.hpp"
+#include "common/text.hpp"
 #include "io/clip_features.hpp"
 
 using kata::capi::guarded_stream;
@@ -13,21 +14,25 @@ using kata::capi::refuse;
 
 namespace {
 
-// The caller's desc over the defaults (only the part its possibly older, smaller struct has).
+// The caller's desc, checked to be a whole kata_teacher_desc.
 kata_teacher_desc effective_teacher_desc(const kata_teacher_desc* desc) {
   kata_teacher_desc d;
   kata_teacher_desc_init(&d);
-  if (desc->struct_size < sizeof(uint32_t) || desc->struct_size > (1u << 16))
+  // Only whole released structs: a partial copy could take half of the model pointer (the
+  // first release of this struct is this one, so its size is the only valid one).
+  if (desc->struct_size != sizeof d)
     throw kata::Error(kata::ErrorKind::kInvalidArgument,
-                      "kata_stream_attach_teacher: desc->struct_size is not set (call kata_teacher_desc_init)");
-  std::memcpy(&d, desc, std::min<size_t>(desc->struct_size, sizeof d));
+                      "kata_stream_attach_teacher: desc->struct_size is not sizeof(kata_teacher_desc) "
+                      "(call kata_teacher_desc_init)");
+  std::memcpy(&d, desc, sizeof d);
   d.struct_size = sizeof d;
   return d;
 }
 
 // The teacher's joint positions and skeleton from the desc (a clip, or frames given in memory).
 std::shared_ptr<const kata::pipeline::Teacher> make_teacher(const kata_teacher_desc& d, kata::gpd::Stencil stencil) {
-  const std::string preset = d.preset && d.preset[0] ? d.preset : "cmu";
+  std::string preset = kata::c_string(d.preset, "kata_teacher_desc.preset");  // bounded read
+  if (preset.empty()) preset = "cmu";
   if (d.clip && (d.skeleton || d.positions))
     throw kata::Error(kata::ErrorKind::kInvalidArgument,
                       "kata_stream_attach_teacher: give a clip or skeleton + positions, not both");
