@@ -2,6 +2,7 @@
 // known content, and every single-bit flip of a model file is refused.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <fstream>
 #include <iterator>
 #include <string>
@@ -75,6 +76,35 @@ TEST(ModelFiles, EverySingleBitFlipIsRefused) {
   }
   EXPECT_EQ(accepted, 0) << "of " << 8 * bytes.size() << " single-bit flips";
   EXPECT_NO_THROW(metric::parse_model(bytes.data(), bytes.size()));  // the unflipped file still loads
+}
+
+// Magnitudes that would let a finite feature vector overflow in scoring are refused by name.
+TEST(ModelFiles, ImplausibleMagnitudesAreRefused) {
+  auto refused = [](const metric::Model& m, const std::string& needle) {
+    try {
+      metric::serialize_model(m);
+      ADD_FAILURE() << "accepted: " << needle;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::kModel);
+      EXPECT_NE(std::string(e.what()).find(needle), std::string::npos) << e.what();
+    }
+  };
+  metric::Model m = test::golden_model(0);
+  m.w[5] = 2e6f;
+  refused(m, "|W[5, 0]|");
+  m = test::golden_model(0);
+  m.min[7] = 1e-3f;
+  m.max[7] = 1e-3f + 1e-10f;
+  refused(m, "at dimension 7 is below");
+  m = test::golden_model(0);
+  m.min[3] = -1e20f;
+  refused(m, "min/max at dimension 3");
+  m = test::golden_model(1);
+  m.scale[9] = 1e10f;
+  refused(m, "shift/scale at dimension 9");
+  m = test::golden_model(0);
+  m.max[7] = m.min[7];  // a constant dimension is fine (gain 0)
+  EXPECT_NO_THROW(metric::serialize_model(m));
 }
 
 }  // namespace

@@ -275,7 +275,8 @@ typedef struct kata_model_s* kata_model;
 
 /* Loads a .kata file. Every check runs before anything is used: the FlatBuffers verifier, the
  * identifier, the layout id ("gpd-v1"), the dimensions (W 1683 x r, min/max 1683), NaN/Inf,
- * max < min, r = 0, the checksum; a refused file returns KATA_E_MODEL (KATA_E_IO when it
+ * max < min, r = 0, implausible magnitudes (|min|, |max| > 1e15, 0 < max - min < 1e-9,
+ * |W| > 1e6), the checksum, and the canonical byte layout (so any flipped bit is refused); a refused file returns KATA_E_MODEL (KATA_E_IO when it
  * cannot be read, is a directory or special file, or is larger than KATA_MAX_MODEL_BYTES) with
  * the reason in kata_context_last_error. The 12-byte header (size prefix, identifier) is checked
  * against the file size before the rest is read. *out is owned by the caller. [any thread] */

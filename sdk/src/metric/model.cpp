@@ -21,6 +21,12 @@ namespace {
 constexpr uint16_t kModelSchemaVersion = 1;  // what this build writes and the newest it reads
 constexpr const char* kLayoutId = "gpd-v1";
 
+// Plausibility bounds of a model's values (see validate_model).
+constexpr double kMaxModelValue = 1e15;   // |min|, |max|, |shift|, feature units
+constexpr double kMinModelRange = 1e-9;   // a non-zero max - min (its inverse is the gain)
+constexpr double kMaxModelGain = 1e9;     // scale (block-balanced)
+constexpr double kMaxModelWeight = 1e6;   // |W|
+
 [[noreturn]] void refuse(const std::string& what) { throw Error(ErrorKind::kModel, "model refused: " + what); }
 
 // FNV-1a, 64 bit: a cheap whole-content hash. Not cryptographic; it exists to catch corruption
@@ -147,6 +153,25 @@ void validate_model(const Model& m) {
       refuse("max < min at dimension " + std::to_string(i) + " (" + show(m.max[i]) + " < " + show(m.min[i]) + ")");
   for (size_t i = 0; i < m.scale.size(); ++i)
     if (m.scale[i] < 0.0f) refuse("negative scale at dimension " + std::to_string(i));
+  // Magnitudes a trained model never comes near (the shipped one: ranges >= 0.04, |W| <= 0.6),
+  // bounded so that normalising and projecting any feature vector a stream can emit (features
+  // below ~1e26 inside the stream's plausibility range) stays finite in float.
+  for (size_t i = 0; i < dims; ++i) {
+    const double range = double(m.max[i]) - m.min[i];
+    if (std::fabs(m.min[i]) > kMaxModelValue || std::fabs(m.max[i]) > kMaxModelValue)
+      refuse("min/max at dimension " + std::to_string(i) + " beyond +-" + show(float(kMaxModelValue)));
+    if (m.normalisation == Normalisation::kMinMaxUnit && range > 0.0 && range < kMinModelRange)
+      refuse("max - min = " + show(float(range)) + " at dimension " + std::to_string(i) + " is below " +
+             show(float(kMinModelRange)) + " (0 or a real range)");
+  }
+  for (size_t i = 0; i < m.shift.size(); ++i)
+    if (std::fabs(m.shift[i]) > kMaxModelValue || m.scale[i] > kMaxModelGain)
+      refuse("shift/scale at dimension " + std::to_string(i) + " beyond +-" + show(float(kMaxModelValue)) + " / " +
+             show(float(kMaxModelGain)));
+  for (size_t i = 0; i < m.w.size(); ++i)
+    if (std::fabs(m.w[i]) > kMaxModelWeight)
+      refuse("|W[" + std::to_string(i % gpd::kDims) + ", " + std::to_string(i / gpd::kDims) + "]| = " +
+             show(std::fabs(m.w[i])) + " exceeds " + show(float(kMaxModelWeight)));
   if (!std::isfinite(m.delta_star) || m.delta_star <= 0.0)
     refuse("delta* = " + std::to_string(m.delta_star) + " (must be finite and > 0)");
   for (const auto& [name, value] : m.info.evaluation)

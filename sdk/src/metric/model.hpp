@@ -46,7 +46,9 @@ struct Model {
 
 // Checks a model's content (what parse_model checks after the container): layout id, rank >= 1,
 // sizes (min/max 1683, W 1683 x r, shift/scale 1683 for kBlockBalanced and empty otherwise),
-// no NaN/Inf, max >= min, scale >= 0, delta* finite and > 0. Throws kata::Error(kModel) naming
+// no NaN/Inf, max >= min, scale >= 0, delta* finite and > 0; magnitudes: |min|, |max|, |shift|
+// <= 1e15, a non-zero max - min >= 1e-9 (min/max normalisation), scale <= 1e9, |W| <= 1e6 (so
+// scoring any feature vector a stream emits stays finite). Throws kata::Error(kModel) naming
 // the first problem. (Added by the scorer for models built in memory, e.g. by the trainer.)
 void validate_model(const Model& model);
 
