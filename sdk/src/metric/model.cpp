@@ -193,9 +193,15 @@ std::vector<uint8_t> serialize_model(const Model& model) {
   std::vector<flatbuffers::Offset<fb::Figure>> figures;
   for (const auto& [name, value] : model.info.evaluation)
     figures.push_back(fb::CreateFigure(b, kModelSchemaVersion, b.CreateString(name), value));
-  auto info = fb::CreateTrainingInfo(b, kModelSchemaVersion, b.CreateString(model.info.date),
-                                     b.CreateString(model.info.data), b.CreateString(model.info.parameters),
-                                     b.CreateVector(figures));
+  // Each buffer object is created in its own statement: the order of function arguments is
+  // unspecified (GCC evaluates them right to left, clang left to right), and the byte layout must
+  // not depend on the compiler (parse_model requires the canonical layout). This is GCC's order,
+  // the one every released file was written in.
+  auto figure_vector = b.CreateVector(figures);
+  auto parameters = b.CreateString(model.info.parameters);
+  auto data = b.CreateString(model.info.data);
+  auto date = b.CreateString(model.info.date);
+  auto info = fb::CreateTrainingInfo(b, kModelSchemaVersion, date, data, parameters, figure_vector);
   auto layout = b.CreateString(model.layout_id);
   auto mn = b.CreateVector(model.min);
   auto mx = b.CreateVector(model.max);
