@@ -114,7 +114,7 @@ KATA_API kata_status kata_skeleton_create(kata_context context, uint32_t joint_c
     kata::Skeleton s;
     for (uint32_t i = 0; i < joint_count; ++i) {
       if (!names[i]) throw kata::Error(kata::ErrorKind::kInvalidArgument, "skeleton: joint " + std::to_string(i) + " has a NULL name");
-      s.names.emplace_back(names[i]);
+      s.names.push_back(kata::c_string(names[i], "skeleton joint name"));  // bounded read
       s.parents.push_back(parents[i]);
       s.offsets.emplace_back(rest_offsets ? Eigen::Vector3d(rest_offsets[3 * i], rest_offsets[3 * i + 1], rest_offsets[3 * i + 2])
                                           : Eigen::Vector3d::Zero());

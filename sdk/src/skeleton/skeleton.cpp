@@ -23,7 +23,10 @@ int Skeleton::find(const std::string& name) const {
 }
 
 void Skeleton::validate() const {
-  auto fail = [](const std::string& what) { throw Error(ErrorKind::kInvalidArgument, "skeleton: " + what); };
+  // Joint names are caller text of any length: the message is cut.
+  auto fail = [](const std::string& what) {
+    throw Error(ErrorKind::kInvalidArgument, "skeleton: " + bounded(what, 4 * kMaxQuotedBytes));
+  };
   if (names.empty()) fail("no joints");
   if (parents.size() != names.size() || offsets.size() != names.size()) {
     fail("names, parents and offsets differ in size (" + std::to_string(names.size()) + ", " +
