@@ -15,6 +15,12 @@ double score_from_distance(double distance, double delta_star) {
   return 100.0 / (1.0 + q * q);
 }
 
+double calibrated_score(double distance, double d50, double slope) {
+  if (!(distance > 0.0)) return 100.0;
+  const double q = std::pow(distance / d50, slope);
+  return std::isfinite(q) ? 100.0 / (1.0 + q) : 0.0;
+}
+
 AlignedFloats::AlignedFloats(size_t n) : n_(n) {
   // Rounded up to whole registers so kernels may store a full last vector; zero-filled so
   // padding columns and rows read as 0.
@@ -35,6 +41,7 @@ Metric::Metric(const Model& model) {
   rank_ = model.rank;
   stride_ = (rank_ + 7) / 8 * 8;
   delta_star_ = model.delta_star;
+  calibration_ = model.calibration ? *model.calibration : default_calibration(model.delta_star);
   stencil_ = model.stencil;
   normalisation_ = model.normalisation;
 

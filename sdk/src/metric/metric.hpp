@@ -31,6 +31,9 @@ constexpr int kProjectionRows = kParts + 1;
 // d = 0 -> 100, d = delta* -> 50, d = 2 delta* -> 20, d = 3 delta* -> 10; never below 0.
 // Chosen over a Gaussian because it keeps telling poses apart far beyond delta* (coaching).
 double score_from_distance(double distance, double delta_star);
+// The calibrated map (model.hpp ScoreCalibration): 100 / (1 + (d / d50)^slope). Monotone
+// decreasing in d >= 0; 100 at d = 0, 50 at d50; in [0, 100] for every d >= 0 (never NaN).
+double calibrated_score(double distance, double d50, double slope);
 
 // Float buffer aligned to 32 bytes (one AVX register), sized once.
 class AlignedFloats {
@@ -58,6 +61,8 @@ class Metric {
 
   int rank() const { return rank_; }
   double delta_star() const { return delta_star_; }
+  // The model's score map, or default_calibration(delta*) for a model without one.
+  const ScoreCalibration& calibration() const { return calibration_; }
   gpd::Stencil stencil() const { return stencil_; }
   Normalisation normalisation() const { return normalisation_; }
   // Floats per projection row (rank rounded up to 8). A frame's projection is kProjectionRows
@@ -91,6 +96,7 @@ class Metric {
 
   int rank_ = 0, stride_ = 0;
   double delta_star_ = 0.0;
+  ScoreCalibration calibration_;
   gpd::Stencil stencil_ = gpd::Stencil::kBackward;
   Normalisation normalisation_ = Normalisation::kMinMaxUnit;
   std::vector<int> perm_;          // row k of the blocked W multiplies feature perm_[k]

@@ -18,9 +18,22 @@ void sum_parts(const float* p, int stride, float* u) {
 }
 }  // namespace
 
-Scorer::Scorer(std::shared_ptr<const Reference> reference, AlignmentOptions options)
-    : reference_(std::move(reference)), aligner_(reference_, options) {
+bool tracking_lost(const float* joints, int min_tracked) {
+  int tracked = 0;
+  for (int j = 0; j < gpd::kJoints; ++j) {
+    const float* p = joints + 3 * j;
+    const bool finite = std::isfinite(p[0]) && std::isfinite(p[1]) && std::isfinite(p[2]);
+    if (finite && !(p[0] == 0.0f && p[1] == 0.0f && p[2] == 0.0f)) ++tracked;
+  }
+  return tracked < min_tracked;
+}
+
+Scorer::Scorer(std::shared_ptr<const Reference> reference, AlignmentOptions options, FeedbackOptions feedback)
+    : reference_(std::move(reference)), aligner_(reference_, options), feedback_(feedback) {
+  if (!(feedback_.hold_time >= 0.0) || !(feedback_.calibrating_time >= 0.0) || !(feedback_.finished_time >= 0.0))
+    throw Error(ErrorKind::kInvalidArgument, "scorer: feedback hold, calibrating and finished times must be >= 0");
   const Metric& m = reference_->metric();
+  calibration_ = m.calibration();
   ws_ = m.make_workspace();
   p_ = AlignedFloats(static_cast<size_t>(kProjectionRows) * m.stride());
   u_ = AlignedFloats(static_cast<size_t>(m.stride()));
@@ -29,7 +42,28 @@ Scorer::Scorer(std::shared_ptr<const Reference> reference, AlignmentOptions opti
 void Scorer::reset() {
   aligner_.reset();
   count_ = 0;
+  at_end_since_ = -1.0;
+  candidate_ = shown_ = -1;
   record_ = ScoreRecord{};
+}
+
+void Scorer::set_calibration(const ScoreCalibration& calibration) {
+  validate_calibration(calibration);
+  calibration_ = calibration;
+}
+
+const ScoreRecord& Scorer::score_lost(double t) {
+  if (count_ == 0) start_time_ = t;
+  record_.time = t;
+  record_.frame = count_++;
+  record_.distance = 0.0f;
+  record_.score = 0.0f;
+  for (int q = 0; q < kParts; ++q) record_.parts[q] = record_.part_distance[q] = record_.part_scores[q] = 0.0f;
+  record_.matched = aligner_.match();
+  record_.state = ScoreState::kTrackingLost;
+  // The cue is withdrawn at once: nothing about the pose is known.
+  record_.part_to_fix = shown_ = candidate_ = -1;
+  return record_;
 }
 
 const ScoreRecord& Scorer::score(const float* x, double t) {
@@ -65,14 +99,53 @@ void Scorer::finish(double t) {
   float* u = u_.data();
   sum_parts(p, stride, u);
   const double d2 = detail::dot(u, u, stride);
-  for (int q = 0; q < kParts; ++q)
-    record_.parts[q] = static_cast<float>(detail::dot(u, p + static_cast<size_t>(q) * stride, stride));
+  const ScoreCalibration& c = calibration_;
+  for (int q = 0; q < kParts; ++q) {
+    const float* pq = p + static_cast<size_t>(q) * stride;
+    record_.parts[q] = static_cast<float>(detail::dot(u, pq, stride));
+    const double dq = std::sqrt(detail::dot(pq, pq, stride));
+    record_.part_distance[q] = static_cast<float>(dq);
+    record_.part_scores[q] = static_cast<float>(calibrated_score(dq, c.part_d50[q], c.part_slope[q]));
+  }
   const double d = std::sqrt(d2);
+  if (count_ == 0) start_time_ = t;
   record_.time = t;
   record_.frame = count_++;
   record_.distance = static_cast<float>(d);
-  record_.score = static_cast<float>(score_from_distance(d, m.delta_star()));
+  record_.score = static_cast<float>(calibrated_score(d, c.d50, c.slope));
   record_.matched = j;
+  feedback(t);
+}
+
+void Scorer::feedback(double t) {
+  const Reference& ref = *reference_;
+  ScoreState state = ScoreState::kScoring;
+  if (ref.kind() == ReferenceKind::kClip && record_.matched == ref.frames() - 1) {
+    if (at_end_since_ < 0.0) at_end_since_ = t;
+    if (t - at_end_since_ >= feedback_.finished_time && ref.frames() > 1) state = ScoreState::kTeacherFinished;
+  } else {
+    at_end_since_ = -1.0;
+  }
+  if (t - start_time_ < feedback_.calibrating_time) state = ScoreState::kCalibrating;
+  record_.state = state;
+  // Hysteresis: the candidate (lowest part score, or none when the total is good) must hold for
+  // hold_time before it replaces the part shown.
+  int32_t candidate = -1;
+  if (state == ScoreState::kScoring && record_.score < calibration_.good_score) {
+    candidate = 0;
+    for (int q = 1; q < kParts; ++q)
+      if (record_.part_scores[q] < record_.part_scores[candidate]) candidate = q;
+  }
+  if (state != ScoreState::kScoring) {
+    shown_ = candidate_ = -1;  // no cue outside scoring; the next one starts fresh
+  } else {
+    if (candidate != candidate_) {
+      candidate_ = candidate;
+      candidate_since_ = t;
+    }
+    if (candidate_ != shown_ && t - candidate_since_ >= feedback_.hold_time) shown_ = candidate_;
+  }
+  record_.part_to_fix = shown_;
 }
 
 }  // namespace kata::metric

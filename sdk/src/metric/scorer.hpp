@@ -17,27 +17,70 @@
 
 namespace kata::metric {
 
+// What a record reports: a score to show, or why there is none.
+enum class ScoreState : int32_t {
+  kScoring = 0,          // the fields below are this frame's scores
+  kCalibrating = 1,      // the first FeedbackOptions::calibrating_time seconds after start/reset
+  kTrackingLost = 2,     // too few joints tracked in this frame (score_lost): no score
+  kTeacherFinished = 3,  // the student outlasted the teacher clip (FeedbackOptions::finished_time)
+};
+
 // One scored frame.
 struct ScoreRecord {
   double time = 0.0;          // timestamp of the scored frame, seconds (stream clock)
   int64_t frame = -1;         // count of frames scored before this one by this Scorer
   float distance = 0.0f;      // d = |W^T (x'' - y'')|, dimensionless
-  float score = 0.0f;         // score_from_distance(d, delta*), 0..100
+  float score = 0.0f;         // calibrated_score(d, d50, slope) of the scorer's calibration, 0..100
   float parts[kParts] = {};   // split of d^2 (sums to d^2), in Part order
   int32_t matched = 0;        // matched reference frame (0 for a pose reference)
+  // Per part p: its distance d_p = |W^T (share_p o (x'' - y''))| (the part's own dimensions,
+  // shared dimensions split as in parts.hpp), and its calibrated 0..100 score.
+  float part_distance[kParts] = {};
+  float part_scores[kParts] = {};
+  // The part to fix (Part index), -1 for none: the lowest part score, named only when the total
+  // is below the calibration's good_score and the state is kScoring, and changed only after the
+  // new candidate has held for FeedbackOptions::hold_time seconds (hysteresis).
+  int32_t part_to_fix = -1;
+  ScoreState state = ScoreState::kScoring;
 };
+
+// How feedback is held and when the states apply.
+struct FeedbackOptions {
+  // A new part to fix (or "none") replaces the shown one only after it has been the candidate
+  // for this long, seconds: a person needs about half a second to read a cue and react.
+  double hold_time = 0.5;
+  // Records are kCalibrating for this long after the first frame (and after reset), seconds:
+  // the alignment's open begin and the kinetics' first differences settle in that time.
+  double calibrating_time = 0.25;
+  // A clip reference is finished once the match has stayed on its last frame this long, seconds.
+  double finished_time = 0.25;
+};
+
+// True when fewer than `min_tracked` of the 16 GPD joints (16 x 3 floats) carry a position: a
+// joint at exactly (0, 0, 0) or non-finite counts as missing (trackers zero lost landmarks).
+bool tracking_lost(const float* joints, int min_tracked = 13);
 
 // Scores one stream's frames against a reference, following a clip reference with an Aligner
 // (align.hpp). Allocates at construction only. [one thread at a time].
 class Scorer {
  public:
-  explicit Scorer(std::shared_ptr<const Reference> reference, AlignmentOptions options = {});
+  explicit Scorer(std::shared_ptr<const Reference> reference, AlignmentOptions options = {},
+                  FeedbackOptions feedback = {});
 
   // Scores features x (kDims floats) of a frame at time t (seconds, increasing). Allocation-free.
   const ScoreRecord& score(const float* x, double t);
   // Scores one frame on each of n scorers at once, sharing each pass over W (the scorers must
   // use the same Metric and be distinct). Allocation-free; results equal score()'s.
   static void score_batch(Scorer* const* scorers, const float* const* x, const double* t, int n);
+
+  // A frame at time t without a usable pose (tracking lost, too few joints): a kTrackingLost
+  // record (distance and scores 0, part_to_fix -1); the alignment holds. Allocation-free.
+  const ScoreRecord& score_lost(double t);
+
+  // The score map in use: the model's (Metric::calibration) until overridden here, e.g. by a
+  // teacher who calibrated to their own takes. Throws kata::Error(kModel) for a bad calibration.
+  void set_calibration(const ScoreCalibration& calibration);
+  const ScoreCalibration& calibration() const { return calibration_; }
 
   const ScoreRecord& last() const { return record_; }
   const Reference& reference() const { return *reference_; }
@@ -46,13 +89,21 @@ class Scorer {
 
  private:
   void finish(double t);
+  void feedback(double t);
 
   std::shared_ptr<const Reference> reference_;
   Aligner aligner_;
+  FeedbackOptions feedback_;
+  ScoreCalibration calibration_;
   Metric::Workspace ws_;
   AlignedFloats p_;                 // kProjectionRows x stride: this frame's projections
   AlignedFloats u_;                 // stride: u = W^T (x'' - y'')
   int64_t count_ = 0;
+  double start_time_ = 0.0;         // time of the first frame since construction or reset
+  double at_end_since_ = -1.0;      // when the match reached the clip's last frame; -1: not there
+  int32_t candidate_ = -1;          // part to fix proposed by the newest frames
+  double candidate_since_ = 0.0;
+  int32_t shown_ = -1;              // part to fix reported
   ScoreRecord record_;
 };
 
