@@ -349,7 +349,8 @@ KATA_API kata_status kata_model_calibration(kata_model model, kata_score_calibra
 /* Overrides the calibration of the stream's current reference (e.g. fitted on a teacher's own
  * takes); NULL restores the model's. Setting a new reference returns to the model's calibration.
  * KATA_E_STATE without a reference; KATA_E_INVALID_ARGUMENT for a value out of range (message
- * in kata_stream_last_error). Takes effect from the next scored frame. [stream owner] */
+ * in kata_stream_last_error). Takes effect from the next scored frame; kept across
+ * kata_stream_restart_reference. Allocates. [stream owner] */
 KATA_API kata_status kata_stream_set_calibration(kata_stream stream, const kata_score_calibration* calibration);
 
 /* ==== Retargeting ========================================================================= */

@@ -79,6 +79,7 @@ class Scorer {
 
   // The score map in use: the model's (Metric::calibration) until overridden here, e.g. by a
   // teacher who calibrated to their own takes. Throws kata::Error(kModel) for a bad calibration.
+  // Allocates (the method text): call it between frames, not in the frame loop.
   void set_calibration(const ScoreCalibration& calibration);
   const ScoreCalibration& calibration() const { return calibration_; }
 
