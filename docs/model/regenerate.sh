@@ -1,5 +1,5 @@
 #!/bin/sh
-# Regenerates models/default.kata and its evaluation report (docs/model/).
+# Regenerates models/default.kata (coaching), models/transition.kata and their evaluation reports (docs/model/).
 # Run from the repository root after building (build/bin/kata); DATA is the 59-clip CMU folder.
 #   docs/model/regenerate.sh [build/bin/kata] [../shared/data/cmu]
 set -e
@@ -18,6 +18,22 @@ $KATA train --data $DATA --subjects 2,5,7 --pairs $P/train-cross-body.csv --unla
   --alpha 10000 --pca 400 --gamma 0.05 --normalisation minmax --out models/default.kata \
   --sweep-rank 10,20,30,80,120 | tee docs/model/train.log
 mkdir -p docs/model/variants && mv models/default_a*_r*.kata docs/model/variants/
+# The stored threshold delta*: the training-pair delta* scaled by the median ratio (best threshold
+# on a left-out training subject / the fold model's own delta*) of threshold_loso.sh (subjects 2, 5, 7).
+RATIO=$(docs/model/threshold_loso.sh $KATA $DATA | sed -n 's/^median ratio //p')
+DELTA=$($KATA model-info models/default.kata | awk -v r=$RATIO '/^delta\*:/ {printf "%.6g", $2 * r}')
+$KATA calibrate --model models/default.kata --out models/default.kata --delta-star $DELTA
+# The score map (total and per part), fitted on real cross-subject clip pairs, chosen by
+# leave-one-subject-out (calibrate.py; report in eval-calibration/calibration.md).
+/usr/bin/python3 docs/model/calibrate.py $KATA $DATA models/default.kata docs/model/eval-calibration
+# The transition model (same options, transition pairs; no calibration stored: the default map).
+$KATA train --data $DATA --subjects 2,5,7 --pairs $P/train-transition.csv --unlabeled 5000 --seed 1 --rank 50 \
+  --alpha 10000 --pca 400 --gamma 0.05 --normalisation minmax --out models/transition.kata | tee docs/model/train-transition.log
+mkdir -p docs/model/eval-transition-model
+$KATA eval --data $DATA --pairs $P/test-transition.csv --train-pairs $P/train-transition.csv \
+  --model models/transition.kata --label transition --title "transition (future agreement), test subjects 1 and 9" \
+  --out-dir docs/model/eval-transition-model | tee docs/model/eval-transition-model/eval.log
+/usr/bin/python3 docs/model/plot_eval.py docs/model/eval-transition-model "transition model, test subjects 1 and 9"
 # Evaluation on the held-out subjects, both protocols (generated pair files are reused if present).
 $KATA eval --data $DATA --pairs $P/test-cross-body.csv --train-pairs $P/train-cross-body.csv \
   --model models/default.kata --label default --title "cross-body (coaching), test subjects 1 and 9" \

@@ -25,7 +25,14 @@ void run_model_info(const std::string& path) {
   std::printf("stencil:        %s\n", stencil_name(m.stencil));
   std::printf("normalisation:  %s\n", normalisation_name(m.normalisation));
   std::printf("rank r:         %d (W is %d x %d)\n", m.rank, kata::gpd::kDims, m.rank);
-  std::printf("delta*:         %.6g (score 50 at this distance)\n", m.delta_star);
+  std::printf("delta*:         %.6g (decision threshold; the score map is below)\n", m.delta_star);
+  const kata::metric::ScoreCalibration c =
+      m.calibration ? *m.calibration : kata::metric::default_calibration(m.delta_star);
+  std::printf("score map:      100 / (1 + (d / %.6g)^%.4g)%s; good at >= %.4g\n", c.d50, c.slope,
+              m.calibration ? "" : " (no calibration stored: the default)", c.good_score);
+  for (int q = 0; q < kata::metric::kParts; ++q)
+    std::printf("  %-12s d50 %.6g, slope %.4g\n", kata::metric::part_name(q), c.part_d50[q], c.part_slope[q]);
+  if (!c.method.empty()) std::printf("  fitted:      %s\n", c.method.c_str());
   std::printf("trained:        %s\n", m.info.date.empty() ? "(no date)" : m.info.date.c_str());
   std::printf("data:           %s\n", m.info.data.empty() ? "(not recorded)" : m.info.data.c_str());
   std::printf("parameters:     %s\n", m.info.parameters.empty() ? "(not recorded)" : m.info.parameters.c_str());

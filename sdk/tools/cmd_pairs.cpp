@@ -1,5 +1,6 @@
 // kata pairs: labeled pose pairs by a reproducible proxy protocol (train/pairs.hpp).
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -41,7 +42,10 @@ void run_pairs(PairsArgs a) {
   auto log = [](const std::string& s) { std::printf("%s\n", s.c_str()); std::fflush(stdout); };
   PairFile f;
   std::ostringstream cmd;
-  cmd << "kata pairs --protocol " << a.protocol << " --data " << a.data << " --per-class " << a.per_class
+  // The data folder by name only (shipped pair files carry no path of this machine).
+  std::filesystem::path folder = std::filesystem::path(a.data).lexically_normal();
+  if (folder.filename().empty()) folder = folder.parent_path();
+  cmd << "kata pairs --protocol " << a.protocol << " --data <" << folder.filename().string() << " folder> --per-class " << a.per_class
       << " --seed " << a.seed << " --tau " << a.tau << " --stencil " << a.stencil << " --preset " << a.preset;
   if (!a.subjects.empty()) cmd << " --subjects " << join(a.subjects, ",");
   if (a.split_every > 1) cmd << " --split-every " << a.split_every << " --split-part " << a.split_part;

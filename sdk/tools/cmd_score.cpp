@@ -1,5 +1,6 @@
 // kata score: scores every frame of a student clip against a teacher (one pose, or the whole clip
 // followed with online alignment) with a .kata model; one CSV row per student frame.
+#include <cmath>
 #include <cstdio>
 #include <limits>
 #include <memory>
@@ -56,36 +57,58 @@ void run_score(const ScoreArgs& a) {
   if (!out) throw Error(ErrorKind::kIo, a.out + ": cannot open for writing");
   std::fprintf(out, "frame,time,distance,score");
   for (int q = 0; q < metric::kParts; ++q) std::fprintf(out, ",%s", metric::part_name(q));
-  std::fprintf(out, ",matched_teacher_frame\n");
-  double score_sum = 0.0, part_sum[metric::kParts] = {};
+  std::fprintf(out, ",matched_teacher_frame");
+  for (int q = 0; q < metric::kParts; ++q) std::fprintf(out, ",%s_distance", metric::part_name(q));
+  for (int q = 0; q < metric::kParts; ++q) std::fprintf(out, ",%s_score", metric::part_name(q));
+  std::fprintf(out, ",part_to_fix,state\n");
+  // The summary covers the frames with a score to show (state "scoring").
+  double score_sum = 0.0, part_score_sum[metric::kParts] = {};
+  int scored = 0, finished = 0;
+  static const char* const kStates[] = {"scoring", "calibrating", "tracking_lost", "teacher_finished"};
   for (int f = 0; f < student_frames; ++f) {
     const double t = f * student.frame_time;
     const metric::ScoreRecord& r = scorer.score(sf.data() + static_cast<size_t>(f) * gpd::kDims, t);
     const int matched = a.teacher_frame >= 0 ? a.teacher_frame : r.matched + a.first;
     std::fprintf(out, "%d,%.6f,%.7g,%.4f", f + a.first, t, r.distance, r.score);
     for (float p : r.parts) std::fprintf(out, ",%.7g", p);
-    std::fprintf(out, ",%d\n", matched);
+    std::fprintf(out, ",%d", matched);
+    for (float p : r.part_distance) std::fprintf(out, ",%.7g", p);
+    for (float p : r.part_scores) std::fprintf(out, ",%.4f", p);
+    std::fprintf(out, ",%s,%s\n", r.part_to_fix >= 0 ? metric::part_name(r.part_to_fix) : "",
+                 kStates[static_cast<int>(r.state)]);
+    if (r.state == metric::ScoreState::kTeacherFinished) ++finished;
+    if (r.state != metric::ScoreState::kScoring) continue;
+    ++scored;
     score_sum += r.score;
-    for (int q = 0; q < metric::kParts; ++q) part_sum[q] += r.parts[q];
+    for (int q = 0; q < metric::kParts; ++q) part_score_sum[q] += r.part_scores[q];
   }
   const bool ok = std::fflush(out) == 0 && !std::ferror(out);
   std::fclose(out);
   if (!ok) throw Error(ErrorKind::kIo, a.out + ": write failed");
 
+  // The part to fix over the clip: the lowest mean part score, named only below the good level.
+  const double mean = scored > 0 ? score_sum / scored : 0.0;
   int worst = 0;
   for (int q = 1; q < metric::kParts; ++q)
-    if (part_sum[q] > part_sum[worst]) worst = q;
-  std::printf("%s vs %s: %d frames scored against %s, mean score %.1f, most to fix: %s -> %s\n", a.student.c_str(),
-              a.teacher.c_str(), student_frames,
+    if (part_score_sum[q] < part_score_sum[worst]) worst = q;
+  std::string parts;
+  for (int q = 0; q < metric::kParts; ++q)
+    parts += std::string(q ? ", " : "") + metric::part_name(q) + " " +
+             std::to_string(static_cast<int>(std::lround(scored > 0 ? part_score_sum[q] / scored : 0.0)));
+  const bool good = mean >= scorer.calibration().good_score;
+  std::printf("%s vs %s: %d frames (%d scored, %d after the teacher clip ended) against %s, mean score %.1f (%s), "
+              "most to fix: %s -> %s\n",
+              a.student.c_str(), a.teacher.c_str(), student_frames, scored, finished,
               a.teacher_frame >= 0 ? ("teacher frame " + std::to_string(a.teacher_frame)).c_str() : "the teacher clip (aligned)",
-              score_sum / student_frames, metric::part_name(worst), a.out.c_str());
+              mean, parts.c_str(), good ? "nothing (good)" : metric::part_name(worst), a.out.c_str());
 }
 
 void setup(CLI::App& app) {
   auto args = std::make_shared<ScoreArgs>();
   CLI::App* cmd = app.add_subcommand(
       "score", "score each student frame against a teacher pose or clip: CSV of frame, time (s), distance, score "
-               "(0-100), the five parts of distance^2, matched teacher frame");
+               "(0-100), the five parts of distance^2, matched teacher frame, the five part distances and part "
+               "scores (0-100), the part to fix and the feedback state");
   cmd->add_option("--model", args->model, ".kata model")->required()->check(CLI::ExistingFile);
   cmd->add_option("--teacher", args->teacher, "teacher BVH clip")->required()->check(CLI::ExistingFile);
   cmd->add_option("--teacher-frame", args->teacher_frame,

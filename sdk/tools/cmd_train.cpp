@@ -1,6 +1,7 @@
 // kata train: learn W by RDSR (paper section 4) from BVH clips and labeled pairs; writes a .kata model.
 #include <chrono>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <sstream>
 #include <string>
@@ -100,7 +101,11 @@ void run_train(const TrainArgs& a) {
                         {"max_gap", out.rdsr.coding.max_gap}};
   out.model.info.parameters = p.dump();
   std::ostringstream data;
-  data << "data=" << a.data << "; clips=" << join(clips, " ") << "; pairs=" << join(a.pair_files, " ");
+  // The dataset by name (the folder's last component), never by a path of this machine: shipped
+  // models carry no absolute paths.
+  std::filesystem::path folder = std::filesystem::path(a.data).lexically_normal();
+  if (folder.filename().empty()) folder = folder.parent_path();  // "cmu/" -> "cmu"
+  data << "dataset=" << folder.filename().string() << "; clips=" << join(clips, " ") << "; pairs=" << join(a.pair_files, " ");
   if (a.split_every > 1) data << "; split-every=" << a.split_every << " part=" << a.split_part;
   out.model.info.data = data.str();
   kata::metric::save_model(a.out, out.model);

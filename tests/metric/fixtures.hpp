@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Dense>
+
 #include "io/bvh.hpp"
 #include "support/random_model.hpp"
 #include "metric/scorer.hpp"
@@ -48,6 +50,22 @@ inline const metric::Model& test_model(int rank = 50, uint64_t seed = 7) {
 
 inline std::shared_ptr<const metric::Metric> test_metric(int rank = 50, uint64_t seed = 7) {
   return std::make_shared<const metric::Metric>(test_model(rank, seed));
+}
+
+// Independent x'' in double: the spec's min/max normalisation then unit length.
+inline Eigen::VectorXd dense_normalised(const metric::Model& m, const float* x) {
+  Eigen::VectorXd v(gpd::kDims);
+  for (int i = 0; i < gpd::kDims; ++i) {
+    const double range = double(m.max[i]) - m.min[i];
+    v[i] = range > 0.0 ? (double(x[i]) - m.min[i]) / range : 0.0;
+  }
+  const double n = v.norm();
+  return n > 0.0 ? Eigen::VectorXd(v / n) : v;
+}
+
+// The model's W (kDims x rank) in double.
+inline Eigen::MatrixXd dense_w(const metric::Model& m) {
+  return Eigen::Map<const Eigen::MatrixXf>(m.w.data(), gpd::kDims, m.rank).cast<double>();
 }
 
 }  // namespace kata::test

@@ -8,7 +8,9 @@
 #include <cstdlib>
 #include <functional>
 
+#include "common/error.hpp"
 #include "fixtures.hpp"
+#include "metric/align.hpp"
 #include "stream/stream.hpp"
 
 namespace kata {
@@ -103,6 +105,31 @@ TEST_P(Align, FifteenPercentFaster) {
   const int frames = static_cast<int>((teacher_frames - 2) / 1.15);
   const std::vector<int> matched = align(name, student_features(name, frames, truth));
   expect_follows(matched, truth, 24);
+}
+
+// The Aligner on its own: fed the teacher's own static-blocks projections it matches every frame
+// exactly, starts over after reset(), and refuses options out of range.
+TEST(Aligner, FollowsTheTeachersOwnProjectionsAndRestarts) {
+  const auto metric = test::test_metric();
+  const auto& rows = test::clip_rows("07_01.bvh");
+  const int frames = test::clip_frames("07_01.bvh");
+  const auto ref = std::make_shared<const metric::Reference>(metric, rows.data(), frames, 1.0 / 120);
+  metric::Aligner aligner(ref);
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int f = 0; f < frames; f += 1) ASSERT_EQ(aligner.align(ref->alignment_projection(f), f / 120.0), f) << pass;
+    aligner.reset();
+  }
+  EXPECT_THROW(metric::Aligner(ref, metric::AlignmentOptions{0.0, 2.0, 0.25}), Error);
+  EXPECT_THROW(metric::Aligner(ref, metric::AlignmentOptions{0.5, 0.0, 0.25}), Error);
+  EXPECT_THROW(metric::Aligner(ref, metric::AlignmentOptions{0.5, 2.0, -1.0}), Error);
+  EXPECT_THROW(metric::Aligner(nullptr), Error);
+}
+
+TEST(Aligner, PoseReferenceAlwaysMatchesFrameZero) {
+  const auto metric = test::test_metric();
+  const auto ref = std::make_shared<const metric::Reference>(metric, test::clip_row("02_01.bvh", 5));
+  metric::Aligner aligner(ref);
+  for (int f = 0; f < 10; ++f) EXPECT_EQ(aligner.align(ref->alignment_projection(0), f / 120.0), 0);
 }
 
 INSTANTIATE_TEST_SUITE_P(Clips, Align,

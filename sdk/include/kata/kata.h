@@ -318,6 +318,11 @@ typedef struct kata_score_record {
   float distance;                  /* d, dimensionless (>= 0) */
   float score;                     /* 0..100 */
   float parts[KATA_PART_COUNT];    /* split of d^2 by kata_body_part; sums to d^2 */
+  /* Added with the calibrated score (section "Score calibration and feedback" below); a caller
+   * whose struct_size ends before a field does not receive it. */
+  float part_scores[KATA_PART_COUNT]; /* each part's own calibrated score, 0..100 */
+  int32_t part_to_fix;             /* kata_body_part to correct, -1 for none (see below) */
+  int32_t state;                   /* kata_score_state: whether the scores are to be shown */
 } kata_score_record;
 
 /* Sets a single-pose reference on a stream: features is one GPD v1 vector (count =
@@ -354,6 +359,43 @@ KATA_API kata_status kata_stream_restart_reference(kata_stream stream);
  * without a reference; KATA_E_INTERNAL (a bug, the record is withheld) when the score is not
  * finite. Does not allocate. [stream owner] */
 KATA_API kata_status kata_stream_score(kata_stream stream, kata_score_record* out);
+
+/* ==== Score calibration and feedback ====================================================== */
+/* The score is a calibrated map of the distance d: score = 100 / (1 + (d / d50)^slope), fitted
+ * on real performances by other people (docs/model/README.md says what 30, 60 and 90 mean for
+ * the shipped models). Each body part has its own map on its own distance. A model file without
+ * a calibration uses the default d50 = delta*, slope 2 (the same for every part), good_score 75.
+ * part_to_fix names the part with the lowest part score while the total is below good_score; a
+ * new part (or none) replaces the shown one only after holding for 0.5 s, so cues do not flicker.
+ * The record's state says when there is no score to show: */
+typedef enum kata_score_state {
+  KATA_SCORE_SCORING = 0,          /* the scores are this frame's */
+  KATA_SCORE_CALIBRATING = 1,      /* the first 0.25 s after a reference is set or restarted */
+  KATA_SCORE_TRACKING_LOST = 2,    /* fewer than 13 of the 16 GPD joints are tracked in the frame
+                                      (a joint at exactly (0,0,0) counts as lost); scores are 0 */
+  KATA_SCORE_TEACHER_FINISHED = 3  /* the student has outlasted the teacher clip by 0.25 s */
+} kata_score_state;
+
+/* A score map. The caller sets struct_size = sizeof(kata_score_calibration). */
+typedef struct kata_score_calibration {
+  uint32_t struct_size;
+  uint32_t reserved;                 /* 0 */
+  double d50;                        /* distance that scores 50, > 0 */
+  double slope;                      /* > 0 */
+  double part_d50[KATA_PART_COUNT];  /* per kata_body_part, > 0 */
+  double part_slope[KATA_PART_COUNT];/* per kata_body_part, > 0 */
+  double good_score;                 /* 0..100: at or above it no part is named */
+} kata_score_calibration;
+
+/* The model's calibration (or the default above) into *out. KATA_E_INVALID_ARGUMENT when
+ * out->struct_size is smaller than this struct. Does not allocate. [any thread] */
+KATA_API kata_status kata_model_calibration(kata_model model, kata_score_calibration* out);
+/* Overrides the calibration of the stream's current reference (e.g. fitted on a teacher's own
+ * takes); NULL restores the model's. Setting a new reference returns to the model's calibration.
+ * KATA_E_STATE without a reference; KATA_E_INVALID_ARGUMENT for a value out of range (message
+ * in kata_stream_last_error). Takes effect from the next scored frame; kept across
+ * kata_stream_restart_reference. Allocates. [stream owner] */
+KATA_API kata_status kata_stream_set_calibration(kata_stream stream, const kata_score_calibration* calibration);
 
 /* ==== Retargeting ========================================================================= */
 /* Puts a teacher's posture onto a student's body, frame after frame (skeleton-independent

@@ -116,6 +116,9 @@ inline void copy_score(const kata::pipeline::Result& r, kata_score_record* out) 
   k.distance = r.score.distance;
   k.score = r.score.score;
   for (int q = 0; q < KATA_PART_COUNT; ++q) k.parts[q] = r.score.parts[q];
+  for (int q = 0; q < KATA_PART_COUNT; ++q) k.part_scores[q] = r.score.part_scores[q];
+  k.part_to_fix = r.score.part_to_fix;
+  k.state = static_cast<int32_t>(r.score.state);
   const uint32_t caller_size = out->struct_size;
   std::memcpy(out, &k, std::min<size_t>(caller_size, sizeof k));
   out->struct_size = caller_size;

@@ -197,4 +197,46 @@ KATA_API kata_status kata_stream_score(kata_stream stream, kata_score_record* ou
   return KATA_OK;
 }
 
+KATA_API kata_status kata_model_calibration(kata_model model, kata_score_calibration* out) {
+  if (!model || !out) return KATA_E_NULL_POINTER;
+  if (out->struct_size < sizeof(kata_score_calibration)) return KATA_E_INVALID_ARGUMENT;
+  const kata::metric::ScoreCalibration& c = model->metric->calibration();
+  out->reserved = 0;
+  out->d50 = c.d50;
+  out->slope = c.slope;
+  for (int q = 0; q < KATA_PART_COUNT; ++q) {
+    out->part_d50[q] = c.part_d50[q];
+    out->part_slope[q] = c.part_slope[q];
+  }
+  out->good_score = c.good_score;
+  return KATA_OK;
+}
+
+KATA_API kata_status kata_stream_set_calibration(kata_stream stream, const kata_score_calibration* calibration) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  kata::metric::Scorer* scorer = stream->pipeline.scorer();
+  if (!scorer) return refuse(stream, KATA_E_STATE, "kata_stream_set_calibration: no reference is set on this stream");
+  if (calibration && calibration->struct_size < sizeof(kata_score_calibration))
+    return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_set_calibration: struct_size is too small");
+  return guarded_stream(stream, [&] {
+    kata::metric::ScoreCalibration c = scorer->reference().metric().calibration();
+    if (calibration) {
+      c.d50 = calibration->d50;
+      c.slope = calibration->slope;
+      for (int q = 0; q < KATA_PART_COUNT; ++q) {
+        c.part_d50[q] = calibration->part_d50[q];
+        c.part_slope[q] = calibration->part_slope[q];
+      }
+      c.good_score = calibration->good_score;
+      c.method = "set by the application";
+    }
+    try {
+      scorer->set_calibration(c);
+    } catch (const kata::Error& e) {  // a value out of range is the caller's argument, not a model
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, std::string("kata_stream_set_calibration: ") + e.what());
+    }
+    return KATA_OK;
+  });
+}
+
 }  // extern "C"

@@ -19,6 +19,7 @@ namespace kata::metric {
 namespace {
 
 constexpr uint16_t kModelSchemaVersion = 1;  // what this build writes and the newest it reads
+constexpr uint16_t kCalibrationSchemaVersion = 1;
 constexpr const char* kLayoutId = "gpd-v1";
 
 // Plausibility bounds of a model's values (see validate_model).
@@ -76,6 +77,15 @@ uint64_t checksum(const Model& m) {
   for (const auto& [name, value] : m.info.evaluation) {
     h.text(name);
     h.value<double>(value);
+  }
+  if (m.calibration) {  // absent in files written before the calibration existed
+    const ScoreCalibration& c = *m.calibration;
+    h.value<double>(c.d50);
+    h.value<double>(c.slope);
+    for (int p = 0; p < kParts; ++p) h.value<double>(c.part_d50[p]);
+    for (int p = 0; p < kParts; ++p) h.value<double>(c.part_slope[p]);
+    h.value<double>(c.good_score);
+    h.text(c.method);
   }
   return h.get();
 }
@@ -176,6 +186,34 @@ void validate_model(const Model& m) {
     refuse("delta* = " + std::to_string(m.delta_star) + " (must be finite and > 0)");
   for (const auto& [name, value] : m.info.evaluation)
     if (!std::isfinite(value)) refuse("NaN/Inf in evaluation figure \"" + name + "\"");
+  if (m.calibration) validate_calibration(*m.calibration);
+}
+
+ScoreCalibration default_calibration(double delta_star) {
+  ScoreCalibration c;
+  c.d50 = delta_star;
+  c.slope = 2.0;
+  c.part_d50.fill(delta_star);
+  c.part_slope.fill(2.0);
+  c.good_score = 75.0;
+  c.method = "default: 100 / (1 + (d / delta*)^2)";
+  return c;
+}
+
+void validate_calibration(const ScoreCalibration& c) {
+  auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
+  if (!positive(c.d50)) refuse("calibration d50 = " + std::to_string(c.d50) + " (must be finite and > 0)");
+  if (!positive(c.slope)) refuse("calibration slope = " + std::to_string(c.slope) + " (must be finite and > 0)");
+  for (int p = 0; p < kParts; ++p) {
+    if (!positive(c.part_d50[p]))
+      refuse(std::string("calibration d50 of part ") + part_name(p) + " = " + std::to_string(c.part_d50[p]) +
+             " (must be finite and > 0)");
+    if (!positive(c.part_slope[p]))
+      refuse(std::string("calibration slope of part ") + part_name(p) + " = " + std::to_string(c.part_slope[p]) +
+             " (must be finite and > 0)");
+  }
+  if (!(c.good_score >= 0.0 && c.good_score <= 100.0))
+    refuse("calibration good score = " + std::to_string(c.good_score) + " (must be in 0..100)");
 }
 
 namespace {
@@ -209,10 +247,18 @@ std::vector<uint8_t> serialize_model(const Model& model) {
   if (!model.shift.empty()) shift = b.CreateVector(model.shift);
   if (!model.scale.empty()) scale = b.CreateVector(model.scale);
   auto w = b.CreateVector(model.w);
+  flatbuffers::Offset<fb::ScoreCalibration> calibration;
+  if (model.calibration) {
+    const ScoreCalibration& c = *model.calibration;
+    auto part_d50 = b.CreateVector(c.part_d50.data(), c.part_d50.size());
+    auto part_slope = b.CreateVector(c.part_slope.data(), c.part_slope.size());
+    calibration = fb::CreateScoreCalibration(b, kCalibrationSchemaVersion, c.d50, c.slope, part_d50, part_slope,
+                                             c.good_score, b.CreateString(c.method));
+  }
   auto root = fb::CreateModel(b, kModelSchemaVersion, layout, static_cast<fb::Stencil>(model.stencil),
                               static_cast<fb::Normalisation>(model.normalisation), gpd::kDims,
                               static_cast<uint32_t>(model.rank), mn, mx, shift, scale, w, model.delta_star, info,
-                              checksum(model));
+                              checksum(model), calibration);
   fb::FinishSizePrefixedModelBuffer(b, root);
   return std::vector<uint8_t>(b.GetBufferPointer(), b.GetBufferPointer() + b.GetSize());
 }
@@ -265,6 +311,25 @@ Model parse_model(const uint8_t* data, size_t size) {
     m.info.parameters = copy_string(info->parameters());
     if (info->evaluation())
       for (const fb::Figure* f : *info->evaluation()) m.info.evaluation.emplace_back(copy_string(f->name()), f->value());
+  }
+  if (const fb::ScoreCalibration* c = root->calibration()) {
+    // Like the model's own version: a newer calibration layout is refused, not guessed at.
+    if (c->schema_version() == 0 || c->schema_version() > kCalibrationSchemaVersion)
+      refuse("calibration schema version " + std::to_string(c->schema_version()) + " (this build reads 1)");
+    {
+      ScoreCalibration cal;
+      cal.d50 = c->d50();
+      cal.slope = c->slope();
+      if (!c->part_d50() || c->part_d50()->size() != kParts || !c->part_slope() || c->part_slope()->size() != kParts)
+        refuse("calibration: part_d50 and part_slope must hold 5 values each");
+      for (int p = 0; p < kParts; ++p) {
+        cal.part_d50[p] = c->part_d50()->Get(static_cast<flatbuffers::uoffset_t>(p));
+        cal.part_slope[p] = c->part_slope()->Get(static_cast<flatbuffers::uoffset_t>(p));
+      }
+      cal.good_score = c->good_score();
+      cal.method = copy_string(c->method());
+      m.calibration = cal;
+    }
   }
   validate_model(m);
   if (checksum(m) != root->checksum()) refuse("checksum mismatch: the content is corrupt (a changed bit or byte)");

@@ -2,12 +2,15 @@
 // stored in a .kata file (a FlatBuffers buffer, schemas/model.fbs, identifier "KATA").
 #pragma once
 
+#include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
 
 #include "gpd/gpd.hpp"
+#include "metric/parts.hpp"
 
 namespace kata::metric {
 
@@ -32,6 +35,24 @@ struct TrainingInfo {
   std::vector<std::pair<std::string, double>> evaluation;  // named figures (precision, ...)
 };
 
+// The map from distance to score (schemas/model.fbs ScoreCalibration):
+//   score(d) = 100 / (1 + (d / d50)^slope),  part score_p(d_p) likewise with part_d50[p], part_slope[p].
+// Monotone decreasing in d; d = 0 -> 100, d = d50 -> 50.
+struct ScoreCalibration {
+  double d50 = 0.0;   // distance scoring 50 (> 0)
+  double slope = 2.0;  // > 0
+  std::array<double, kParts> part_d50{};
+  std::array<double, kParts> part_slope{};
+  double good_score = 75.0;  // no part is named at or above this total score
+  std::string method;        // how it was fitted (free text)
+};
+
+// The documented default for a model without a calibration: the pre-calibration map
+// 100 / (1 + (d / delta*)^2) for the total and for every part, good_score 75.
+ScoreCalibration default_calibration(double delta_star);
+// Throws kata::Error(kModel) naming the first bad value (d50, slopes > 0 and finite, good_score in 0..100).
+void validate_calibration(const ScoreCalibration& c);
+
 struct Model {
   std::string layout_id = "gpd-v1";
   gpd::Stencil stencil = gpd::Stencil::kBackward;
@@ -42,6 +63,7 @@ struct Model {
   std::vector<float> w;             // kDims x rank, column-major: column c = w[c*kDims .. ]
   double delta_star = 0.0;          // decision threshold on d
   TrainingInfo info;
+  std::optional<ScoreCalibration> calibration;  // absent: default_calibration(delta_star)
 };
 
 // Checks a model's content (what parse_model checks after the container): layout id, rank >= 1,

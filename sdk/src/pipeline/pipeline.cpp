@@ -157,7 +157,7 @@ void Pipeline::produce(int64_t frame, int64_t arrival_ns) {
   if (config_.keep_features) std::memcpy(feature_ring_.data() + k * gpd::kDims, x, gpd::kDims * sizeof(float));
   float* ghost = ghost_ring_.data() + k * static_cast<size_t>(ghost_stride_);
   if (scorer_) {
-    r.score = scorer_->score(x, r.capture_time);
+    r.score = score_frame(frame, r.capture_time);
     r.scored = true;
     r.matched_frame = r.score.matched;
     if (retargeter_) {
@@ -199,11 +199,16 @@ size_t Pipeline::read(Result* out, float* ghosts, float* features, size_t capaci
   return n;
 }
 
+const metric::ScoreRecord& Pipeline::score_frame(int64_t frame, double t) {
+  if (metric::tracking_lost(stream_.joints_of(frame))) return scorer_->score_lost(t);
+  return scorer_->score(stream_.vector_of(frame), t);
+}
+
 const Result* Pipeline::score_newest() {
   if (!written_ || !scorer_) return nullptr;
   Result& r = results_[slot(written_ - 1)];
   if (!r.scored) {
-    r.score = scorer_->score(stream_.vector_of(r.frame_index), r.capture_time);
+    r.score = score_frame(r.frame_index, r.capture_time);
     r.scored = true;
     r.matched_frame = r.score.matched;
   }

@@ -107,6 +107,8 @@ class Pipeline {
   void restart_teacher();
   bool has_teacher() const { return teacher_ != nullptr; }
   bool has_ghost() const { return retargeter_ != nullptr; }
+  // The teacher's scorer (null without a teacher), e.g. to override its calibration.
+  metric::Scorer* scorer() { return scorer_.get(); }
 
   // Pushes a frame (Stream::push) and runs every vector it emits through score and ghost.
   // arrival_ns: the steady-clock time the frame arrived (0: now). A refused frame changes
@@ -146,6 +148,8 @@ class Pipeline {
  private:
   void process_emitted(int64_t before, int64_t arrival_ns);
   void produce(int64_t frame, int64_t arrival_ns);
+  // Scores emitted frame `frame`; too few tracked joints give a tracking-lost record instead.
+  const metric::ScoreRecord& score_frame(int64_t frame, double t);
   size_t slot(uint64_t sequence) const { return static_cast<size_t>(sequence % static_cast<uint64_t>(capacity_)); }
 
   PipelineConfig config_;

@@ -1,0 +1,57 @@
+// A teacher reference (spec gpd-v1.md section 6): one pose or a clip, projected once by a Metric.
+//
+// Clip alignment compares only the static blocks (dims 0..1590, pose geometry): a student who is
+// slower or faster than the teacher differs in the kinetics block by design, and that
+// difference must not pull the match to the wrong teacher moment (it still counts in the score).
+//
+// Threads: a Reference is immutable after construction and may be shared by any number of
+// threads and streams.
+#pragma once
+
+#include <memory>
+
+#include "metric/metric.hpp"
+
+namespace kata::metric {
+
+// What a reference is: one pose, or a clip to follow.
+enum class ReferenceKind : int { kPose = 0, kClip = 1 };
+
+// A teacher reference: the part projections of each reference frame, computed once.
+// Immutable; [any thread].
+class Reference {
+ public:
+  // A single pose: one feature vector (kDims floats, e.g. one frame of a teacher clip's features).
+  Reference(std::shared_ptr<const Metric> metric, const float* features);
+  // A clip: `frames` feature vectors (frames x kDims, row-major), `frame_time` seconds apart.
+  Reference(std::shared_ptr<const Metric> metric, const float* features, int frames, double frame_time);
+  // A pose given as the 16 GPD joints' world positions (16 x 3 floats, +Y up, any units) and the
+  // body height in the same units: a static pose (kinetics zero). Throws kInvalidArgument.
+  static Reference from_joints(std::shared_ptr<const Metric> metric, const float* joints, double body_height);
+
+  ReferenceKind kind() const { return kind_; }
+  int frames() const { return frames_; }
+  double frame_time() const { return frame_time_; }  // seconds; 0 for a pose
+  // Median distance between consecutive reference frames (clip only; 0 for a pose): the scale of
+  // one frame of teacher motion, used by the alignment's step penalty.
+  double step_cost() const { return step_cost_; }
+  const Metric& metric() const { return *metric_; }
+  // Projection of frame j: kProjectionRows x stride floats (Metric::part_projections).
+  const float* part_projection(int j) const {
+    return rows_.data() + static_cast<size_t>(j) * kProjectionRows * stride_;
+  }
+  // The static-blocks projection of frame j (stride floats): what the alignment compares.
+  const float* alignment_projection(int j) const { return part_projection(j) + static_cast<size_t>(kParts) * stride_; }
+
+ private:
+  void build(const float* features);
+
+  std::shared_ptr<const Metric> metric_;
+  ReferenceKind kind_ = ReferenceKind::kPose;
+  int frames_ = 0, stride_ = 0;
+  double frame_time_ = 0.0;
+  double step_cost_ = 0.0;
+  AlignedFloats rows_;
+};
+
+}  // namespace kata::metric
