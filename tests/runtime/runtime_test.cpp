@@ -18,15 +18,18 @@
 #include "pipeline/pipeline.hpp"
 #include "runtime/runtime.hpp"
 #include "transport/wire.hpp"
+#include "support/alloc_counter.hpp"
 
 namespace kata::runtime {
 namespace {
 
 using transport::SkeletonDefinition;
 
+// ipc endpoints unique per process (short: a socket path holds at most 107 bytes); ZeroMQ
+// removes the file when the bound socket closes.
 std::string unique_ipc(const char* tag) {
   static int counter = 0;
-  return "ipc:///tmp/kata_runtime_test_" + std::to_string(getpid()) + "_" + tag + "_" + std::to_string(counter++);
+  return "ipc:///tmp/kata_rt_" + std::to_string(getpid()) + "_" + tag + "_" + std::to_string(counter++);
 }
 
 struct Fixture {
@@ -320,6 +323,35 @@ TEST(runtime_ingest, StreamsFromTheirDefinitionRestartCounted) {
   EXPECT_EQ(c.ingest.restarts, 1u);
   EXPECT_EQ(c.ingest.frames, 50u);
   EXPECT_EQ(c.total.refused, 0u);
+}
+
+TEST(runtime_alloc, PushWorkerAndResultQueuesAllocateNothingPerFrame) {
+  if (!kata::test::kAllocCounting) GTEST_SKIP() << "allocation counting is off under AddressSanitizer";
+  Fixture& fx = fixture();
+  RuntimeConfig config;
+  // No publisher: libzmq itself mallocs every message it sends (200 allocations for 200 results
+  // when one is bound), which this test cannot tell from ours.
+  config.workers = 2;
+  Runtime runtime(config);
+  runtime.open_stream(fx.definition(1), fx.setup(true));
+  runtime.open_stream(fx.definition(2), fx.setup(true));
+  auto push_and_wait = [&](int first, int count) {
+    for (int i = first; i < first + count; ++i)
+      for (uint64_t id : {1u, 2u})
+        if (runtime.push(id, static_cast<uint64_t>(i), i * fx.student.frame_time, fx.frame(1 + i), fx.joints()) !=
+            Status::kOk)
+          return false;
+    const uint64_t want = 2u * static_cast<uint64_t>(first + count);
+    for (int tries = 0; tries < 2000 && runtime.counters().total.results < want; ++tries)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    return runtime.counters().total.results == want;
+  };
+  ASSERT_TRUE(push_and_wait(0, 20));  // warm-up: first-frame paths, thread-local state
+  const long before = kata::test::allocations();
+  const bool done = push_and_wait(20, 100);
+  const long allocated = kata::test::allocations() - before;
+  ASSERT_TRUE(done);
+  EXPECT_EQ(allocated, 0) << "per-frame path allocated";
 }
 
 }  // namespace

@@ -61,7 +61,7 @@ StreamSetup setup_from_definition(const transport::SkeletonDefinition& d) {
 
 struct Runtime::StreamState {
   transport::SkeletonDefinition definition;
-  std::unique_ptr<pipeline::Pipeline> pipeline;  // touched by its worker only
+  std::unique_ptr<pipeline::Pipeline, std::function<void(pipeline::Pipeline*)>> pipeline;  // its worker only
   bool publish_features = false;
   int worker = 0;
   int ghost_joints = 0;
@@ -136,6 +136,7 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
   for (auto& k : table_keys_) k.store(kEmptyKey, std::memory_order_relaxed);
   for (auto& v : table_values_) v.store(nullptr, std::memory_order_relaxed);
 
+  streams_.reserve(static_cast<size_t>(config_.max_streams));
   context_ = std::make_unique<transport::Context>(1);
   if (!config_.publish.endpoints.empty()) {
     publisher_ = std::make_unique<transport::Publisher>(*context_, config_.publish);
@@ -178,6 +179,7 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
     worker->result_mask = result_cells - 1;
     worker->read_buffer.resize(kReadBatch);
     worker->read_ghosts.assign(kReadBatch * kMaxGhostJoints * 3, 0.0f);
+    worker->owned.reserve(static_cast<size_t>(config_.max_streams));
     sem_init(&worker->wake, 0, 0);
     workers_.push_back(std::move(worker));
   }
@@ -203,6 +205,22 @@ void Runtime::open_stream(const transport::SkeletonDefinition& definition, const
 }
 
 void Runtime::open_locked(const transport::SkeletonDefinition& definition, const StreamSetup& setup) {
+  auto owned = std::make_unique<pipeline::Pipeline>(setup.pipeline);
+  if (setup.teacher) owned->set_teacher(setup.teacher, setup.teacher_options);
+  add_locked(definition, owned.get(), [](pipeline::Pipeline* p) { delete p; },
+             setup.publish_features && setup.pipeline.keep_features);
+  owned.release();  // the stream owns it now
+}
+
+void Runtime::adopt_stream(const transport::SkeletonDefinition& definition, pipeline::Pipeline* pipeline,
+                           std::function<void(pipeline::Pipeline*)> release, bool publish_features) {
+  std::lock_guard<std::mutex> lock(open_mutex_);
+  add_locked(definition, pipeline, std::move(release), publish_features);
+}
+
+void Runtime::add_locked(const transport::SkeletonDefinition& definition, pipeline::Pipeline* pipeline,
+                         std::function<void(pipeline::Pipeline*)> release, bool publish_features) {
+  // Owned only once nothing below can throw: a refused pipeline stays the caller's.
   if (stopping_.load()) throw Error(ErrorKind::kInvalidArgument, "runtime: stopping, no new stream");
   if (definition.stream_id == kEmptyKey) throw Error(ErrorKind::kInvalidArgument, "runtime: stream id 2^64-1 is reserved");
   if (find(definition.stream_id))
@@ -211,14 +229,12 @@ void Runtime::open_locked(const transport::SkeletonDefinition& definition, const
     throw Error(ErrorKind::kInvalidArgument, "runtime: max_streams reached");
   if (definition.skeleton.joint_count() > config_.max_joints)
     throw Error(ErrorKind::kInvalidArgument, "runtime: the skeleton has more joints than max_joints");
+  if (pipeline->ghost_joint_count() > kMaxGhostJoints)
+    throw Error(ErrorKind::kInvalidArgument, "runtime: the ghost has more than 64 joints");
   auto state = std::make_unique<StreamState>();
   state->definition = definition;
-  state->pipeline = std::make_unique<pipeline::Pipeline>(setup.pipeline);
-  if (setup.teacher) state->pipeline->set_teacher(setup.teacher, setup.teacher_options);
-  state->ghost_joints = state->pipeline->ghost_joint_count();
-  if (state->ghost_joints > kMaxGhostJoints)
-    throw Error(ErrorKind::kInvalidArgument, "runtime: the ghost has more than 64 joints");
-  state->publish_features = setup.publish_features && setup.pipeline.keep_features;
+  state->ghost_joints = pipeline->ghost_joint_count();
+  state->publish_features = publish_features;
   state->worker = static_cast<int>(definition.stream_id % static_cast<uint64_t>(workers_.size()));
   state->sequence_ring.assign(256, 0);
   state->capture_ring.assign(256, 0.0);
@@ -229,8 +245,9 @@ void Runtime::open_locked(const transport::SkeletonDefinition& definition, const
     worker.features.assign(worker.results.size() * gpd::kDims, 0.0f);
     worker.read_features.assign(kReadBatch * gpd::kDims, 0.0f);
   }
+  state->pipeline = std::unique_ptr<pipeline::Pipeline, std::function<void(pipeline::Pipeline*)>>(pipeline, std::move(release));
   StreamState* raw = state.get();
-  streams_.push_back(std::move(state));
+  streams_.push_back(std::move(state));  // reserved: cannot throw
   {
     std::lock_guard<std::mutex> owned_lock(worker.owned_mutex);
     worker.owned.push_back(raw);

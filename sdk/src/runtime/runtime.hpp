@@ -101,6 +101,11 @@ class Runtime {
   // Opens a stream (allocates its pipeline) and publishes its definition. [any thread]
   // Throws kata::Error(kInvalidArgument) for a used id, a full table or a bad setup.
   void open_stream(const transport::SkeletonDefinition& definition, const StreamSetup& setup);
+  // Opens a stream over a pipeline the caller built (teacher attached or not); the runtime owns
+  // it from now on and calls release(pipeline) when it is done with it (at destruction).
+  // [any thread] Throws kata::Error(kInvalidArgument) as open_stream does.
+  void adopt_stream(const transport::SkeletonDefinition& definition, pipeline::Pipeline* pipeline,
+                    std::function<void(pipeline::Pipeline*)> release, bool publish_features);
 
   // Queues a frame of a stream: sequence is the source's, capture_time its timestamp
   // (seconds), xyz joints x 3 floats. restart: the source restarted (the stream's kinetics and
@@ -120,6 +125,8 @@ class Runtime {
   // The resolved endpoint the publisher bound last ("" without one) and the ingest's.
   std::string publish_endpoint() const { return publish_endpoint_; }
   std::string ingest_endpoint() const { return ingest_endpoint_; }
+  const char* publish_endpoint_cstr() const { return publish_endpoint_.c_str(); }
+  const char* ingest_endpoint_cstr() const { return ingest_endpoint_.c_str(); }
 
  private:
   struct StreamState;
@@ -127,6 +134,8 @@ class Runtime {
   struct FrameCell;
   StreamState* find(uint64_t stream_id) const;
   void open_locked(const transport::SkeletonDefinition& definition, const StreamSetup& setup);
+  void add_locked(const transport::SkeletonDefinition& definition, pipeline::Pipeline* pipeline,
+                  std::function<void(pipeline::Pipeline*)> release, bool publish_features);
   void worker_loop(Worker& worker);
   void io_loop();
   bool drain_results(transport::Encoder& encoder);
