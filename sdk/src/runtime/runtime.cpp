@@ -8,6 +8,7 @@
 
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 
 #include "common/error.hpp"
@@ -34,6 +35,25 @@ uint64_t mix(uint64_t x) {  // splitmix64 finaliser: spreads sequential ids over
 constexpr uint64_t kEmptyKey = ~0ULL;  // a stream id the table cannot hold
 
 }  // namespace
+
+int latency_bucket(int64_t ns) {
+  if (ns < 1) return 0;
+  const int b = static_cast<int>(8.0 * std::log2(static_cast<double>(ns)));
+  return std::min(std::max(b, 0), kLatencyBuckets - 1);
+}
+
+double latency_percentile(const uint64_t* histogram, double q) {
+  uint64_t total = 0;
+  for (int i = 0; i < kLatencyBuckets; ++i) total += histogram[i];
+  if (total == 0) return 0.0;
+  const double want = q * static_cast<double>(total);
+  uint64_t seen = 0;
+  for (int i = 0; i < kLatencyBuckets; ++i) {
+    seen += histogram[i];
+    if (static_cast<double>(seen) >= want) return std::exp2(static_cast<double>(i + 1) / 8.0);
+  }
+  return std::exp2(static_cast<double>(kLatencyBuckets) / 8.0);
+}
 
 StreamSetup setup_from_definition(const transport::SkeletonDefinition& d) {
   StreamSetup setup;
@@ -462,8 +482,10 @@ bool Runtime::drain_results(transport::Encoder& encoder) {
       }
       if (publisher_) {
         f.published_ns = pipeline::now_ns();
-        if (publisher_->send(encoder.result(f)))
+        if (publisher_->send(encoder.result(f))) {
           s.counters.published.fetch_add(1, std::memory_order_relaxed);
+          latency_histogram_[latency_bucket(f.published_ns - f.arrival_ns)].fetch_add(1, std::memory_order_relaxed);
+        }
         else
           s.counters.send_failed.fetch_add(1, std::memory_order_relaxed);
       }
@@ -578,6 +600,7 @@ RuntimeCounters Runtime::counters() const {
   std::lock_guard<std::mutex> lock(io_counters_mutex_);
   out.ingest = ingest_snapshot_;
   out.skeletons_sent = skeletons_sent_;
+  for (int i = 0; i < kLatencyBuckets; ++i) out.latency_histogram[i] = latency_histogram_[i].load(std::memory_order_relaxed);
   return out;
 }
 

@@ -82,8 +82,16 @@ struct StreamCounters {
   uint64_t send_failed = 0;       // results ZeroMQ refused (never blocks)
 };
 
+// Arrival -> published latency histogram: bucket i holds latencies in [2^(i/8), 2^((i+1)/8)) ns
+// (12.5 % wide buckets, up to ~70 s).
+inline constexpr int kLatencyBuckets = 8 * 36;
+int latency_bucket(int64_t ns);
+// The latency (ns, bucket's upper edge) below which a fraction q of the counts lies; 0 if empty.
+double latency_percentile(const uint64_t* histogram, double q);
+
 struct RuntimeCounters {
   uint64_t streams = 0;
+  uint64_t latency_histogram[kLatencyBuckets] = {};  // arrival -> published, every published result
   StreamCounters total;           // summed over streams
   transport::IngestCounters ingest;
   uint64_t skeletons_sent = 0;    // definitions published (on open, on join, periodic)
@@ -161,6 +169,7 @@ class Runtime {
   // Snapshot of the I/O thread's counters for other threads.
   mutable std::mutex io_counters_mutex_;
   transport::IngestCounters ingest_snapshot_;
+  std::atomic<uint64_t> latency_histogram_[kLatencyBuckets] = {};  // written by the I/O thread only
   uint64_t skeletons_sent_ = 0;
   // Created (bound) in the constructor so errors reach the caller, then used only by the I/O
   // thread (starting it is the full memory barrier ZeroMQ asks for when a socket changes thread).

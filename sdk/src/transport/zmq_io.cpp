@@ -92,8 +92,7 @@ uint64_t IngestCounters::malformed_total() const {
 }
 
 uint64_t IngestCounters::dropped_total() const {
-  return malformed_total() + refused_skeletons + unknown_stream + wrong_joint_count + out_of_order + other_kind +
-         repeated_skeletons;
+  return malformed_total() + refused_skeletons + unknown_stream + wrong_joint_count + out_of_order + other_kind;
 }
 
 Ingest::Ingest(Context& context, const IngestOptions& options, Handlers handlers)

@@ -79,8 +79,8 @@ struct IngestOptions {
   bool require_checksum = true;
 };
 
-// What the ingest counted. Every received message lands in exactly one of frames, skeletons
-// or a drop counter.
+// What the ingest counted. Every received message lands in exactly one of frames, skeletons,
+// repeated_skeletons or a drop counter.
 struct IngestCounters {
   uint64_t received = 0;       // messages read from the socket
   uint64_t frames = 0;         // frames handed on
@@ -95,7 +95,7 @@ struct IngestCounters {
   uint64_t restarts = 0;            // sequence back to 0: the source restarted (frame handed on)
   uint64_t sequence_gaps = 0;       // frames missing between accepted ones (not messages)
   uint64_t malformed_total() const;
-  uint64_t dropped_total() const;   // every message not handed on
+  uint64_t dropped_total() const;   // every message refused (repeated skeletons are not refused)
 };
 
 // A SUB (subscribed to every topic) or PULL socket reading kata frames and skeleton
