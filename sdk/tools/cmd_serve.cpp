@@ -21,6 +21,9 @@
 //   ghost = true
 //   [scoring.teachers]                         # per stream id (decimal), optional
 //   "7" = "data/cmu/05_02.bvh"
+//   [[plugins]]                                # any number: sources and sinks (kata_plugin.h)
+//   path = "build/plugins/csv-sink.so"
+//   config = "path=scores.csv"
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -39,6 +42,8 @@
 #include "io/clip_features.hpp"
 #include "io/model_file.hpp"
 #include "pipeline/pipeline.hpp"
+#include "runtime/plugin.hpp"
+#include "runtime/plugin_host.hpp"
 #include "runtime/runtime.hpp"
 
 namespace {
@@ -61,6 +66,10 @@ struct ServeConfig {
   std::map<uint64_t, TeacherSource> teachers;
   bool ghost = true;
   double status_seconds = 1.0;
+  struct Plugin {
+    std::string path, config;
+  };
+  std::vector<Plugin> plugins;
 };
 
 [[noreturn]] void refuse(const std::string& file, const toml::source_region& where, const std::string& what) {
@@ -117,7 +126,7 @@ ServeConfig parse_config(const std::string& file) {
     if (!std::filesystem::exists(file)) throw Error(ErrorKind::kIo, file + ": cannot open the config");
     throw Error(ErrorKind::kParse, file + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description()));
   }
-  check_keys(file, root, {"ingest", "publish", "runtime", "scoring", "status"}, "top level");
+  check_keys(file, root, {"ingest", "publish", "runtime", "scoring", "status", "plugins"}, "top level");
   const std::filesystem::path base = std::filesystem::path(file).parent_path();
   auto resolve = [&](const std::string& p) { return std::filesystem::path(p).is_absolute() ? p : (base / p).string(); };
   ServeConfig c;
@@ -167,6 +176,18 @@ ServeConfig parse_config(const std::string& file) {
       }
     }
   }
+  if (const toml::node* plugins = root.get("plugins")) {
+    const toml::array* a = plugins->as_array();
+    if (!a) refuse(file, plugins->source(), "plugins must be an array of tables ([[plugins]])");
+    for (const toml::node& e : *a) {
+      const toml::table* t = e.as_table();
+      if (!t) refuse(file, e.source(), "each [[plugins]] entry must be a table");
+      check_keys(file, *t, {"path", "config"}, "plugins");
+      const std::string path = read<std::string>(file, *t, "path", "");
+      if (path.empty()) refuse(file, e.source(), "a plugin needs path");
+      c.plugins.push_back({resolve(path), read<std::string>(file, *t, "config", "")});
+    }
+  }
   const toml::table& status = section(file, root, "status", false);
   check_keys(file, status, {"interval_seconds"}, "status");
   c.status_seconds = read<double>(file, status, "interval_seconds", 1.0);
@@ -207,7 +228,19 @@ void run_serve(const std::string& file) {
     return s;
   };
 
+  // Plugins: every refusal names its file. Sinks are part of the runtime's config; sources are
+  // started once it runs and stopped before it stops.
+  auto target = std::make_shared<kata::runtime::PluginHostTarget>();
+  std::vector<std::unique_ptr<kata::runtime::PluginInstance>> sinks, sources;
+  for (const auto& p : config.plugins) {
+    std::shared_ptr<kata::runtime::LoadedPlugin> loaded = kata::runtime::LoadedPlugin::load(p.path);
+    auto instance = std::make_unique<kata::runtime::PluginInstance>(loaded, p.config, target);
+    if (loaded->is_sink()) config.runtime.sinks.push_back(instance->sink());
+    (loaded->is_source() ? sources : sinks).push_back(std::move(instance));
+  }
   kata::runtime::Runtime runtime(config.runtime);
+  target->runtime = &runtime;
+  for (auto& s : sources) s->start();
   std::signal(SIGINT, serve_on_signal);
   std::signal(SIGTERM, serve_on_signal);
   std::fprintf(stderr, "kata serve: ingest %s, publishing on %s (Ctrl-C stops)\n", runtime.ingest_endpoint().c_str(),
@@ -239,7 +272,9 @@ void run_serve(const std::string& file) {
     previous = c;
     last = now;
   }
-  runtime.stop();
+  for (auto& s : sources) s->stop();
+  runtime.stop();  // finishes queued frames, sends every result, flushes the sink plugins
+  target->runtime = nullptr;
   const auto c = runtime.counters();
   std::fprintf(stderr, "\nkata serve: stopped; %llu frames in, %llu results published, %llu ingest messages dropped\n",
                static_cast<unsigned long long>(c.total.frames_in), static_cast<unsigned long long>(c.total.published),

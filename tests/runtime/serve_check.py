@@ -1,10 +1,10 @@
 #!/usr/bin/python3
 """kata serve end to end over ipc: `kata send` plays a clip into it, samples/python_subscriber.py
-prints the scores, SIGINT stops serve cleanly with every frame published. Also: a bad config is
+prints the scores, the csv-sink plugin writes them, SIGINT stops serve cleanly with every frame published. Also: a bad config is
 refused with file:line. Unique paths per run; every wait bounded."""
 import os, signal, subprocess, sys, tempfile, time
 
-kata, source, python_dir = sys.argv[1], sys.argv[2], sys.argv[3]
+kata, source, python_dir, plugin_dir = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4]
 with tempfile.TemporaryDirectory(prefix="kata_serve_test_") as tmp:
     bad = os.path.join(tmp, "bad.toml")
     open(bad, "w").write('[ingest]\nendpoints = ["bind:ipc://%s/a"]\n[publish]\nendpoints = ["ipc://%s/b"]\n'
@@ -16,7 +16,8 @@ with tempfile.TemporaryDirectory(prefix="kata_serve_test_") as tmp:
     open(config, "w").write(
         '[ingest]\nendpoints = ["bind:ipc://%s/in"]\nkind = "pull"\n[publish]\nendpoints = ["ipc://%s/out"]\n'
         '[scoring]\nmodel = "%s/models/default.kata"\nteacher = "%s/data/cmu/02_01.bvh"\n'
-        % (tmp, tmp, source, source))
+        '[[plugins]]\npath = "%s/csv-sink.so"\nconfig = "path=%s/scores.csv"\n'
+        % (tmp, tmp, source, source, plugin_dir, tmp))
     serve = subprocess.Popen([kata, "serve", "--config", config], stderr=subprocess.PIPE, text=True)
     try:
         deadline = time.time() + 20
@@ -40,4 +41,7 @@ with tempfile.TemporaryDirectory(prefix="kata_serve_test_") as tmp:
         _, err = serve.communicate(timeout=30)
     assert serve.returncode == 0, err
     assert "stopped; 120 frames in, 120 results published, 0 ingest messages dropped" in err, err
+    rows = open(os.path.join(tmp, "scores.csv")).read().splitlines()
+    assert len(rows) == 121 and rows[0].startswith("stream_id,"), rows[:3]
+    assert all(r.split(",")[7] == "1" for r in rows[1:]), "every row scored"
 print("serve ok")

@@ -166,10 +166,7 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
     transport::Ingest::Handlers handlers;
     handlers.on_skeleton = [this](const transport::SkeletonDefinition& d) {
       if (find(d.stream_id)) return false;  // a new revision of an open stream is refused (counted)
-      const StreamSetup setup =
-          config_.configure_stream ? config_.configure_stream(d) : setup_from_definition(d);
-      std::lock_guard<std::mutex> lock(open_mutex_);
-      open_locked(d, setup);
+      open_announced(d);
       return true;
     };
     handlers.on_frame = [this](const transport::FrameView& f, bool restarted) {
@@ -230,6 +227,12 @@ void Runtime::open_locked(const transport::SkeletonDefinition& definition, const
   add_locked(definition, owned.get(), [](pipeline::Pipeline* p) { delete p; },
              setup.publish_features && setup.pipeline.keep_features);
   owned.release();  // the stream owns it now
+}
+
+void Runtime::open_announced(const transport::SkeletonDefinition& d) {
+  const StreamSetup setup = config_.configure_stream ? config_.configure_stream(d) : setup_from_definition(d);
+  std::lock_guard<std::mutex> lock(open_mutex_);
+  open_locked(d, setup);
 }
 
 void Runtime::adopt_stream(const transport::SkeletonDefinition& definition, pipeline::Pipeline* pipeline,
@@ -489,6 +492,7 @@ bool Runtime::drain_results(transport::Encoder& encoder) {
         else
           s.counters.send_failed.fetch_add(1, std::memory_order_relaxed);
       }
+      for (const Sink& sink : config_.sinks) sink.on_result(f);  // after the send: no added latency
       any = true;
     }
     w.result_tail.store(tail, std::memory_order_release);
@@ -535,6 +539,8 @@ void Runtime::io_loop() {
     }
     if (workers_done_.load(std::memory_order_acquire) == static_cast<int>(workers_.size())) {
       drain_results(encoder);
+      for (const Sink& sink : config_.sinks)
+        if (sink.flush) sink.flush();
       if (ingest_) {
         std::lock_guard<std::mutex> lock(io_counters_mutex_);
         ingest_snapshot_ = ingest_->counters();

@@ -54,6 +54,13 @@ struct StreamSetup {
 // Throws kata::Error (unknown preset, a joint the map names is missing).
 StreamSetup setup_from_definition(const transport::SkeletonDefinition& definition);
 
+// A consumer of every result inside the process (a sink plugin, a file writer): called on the
+// I/O thread, after the result was sent; must neither block nor allocate.
+struct Sink {
+  std::function<void(const transport::ResultFields&)> on_result;
+  std::function<void()> flush;  // optional; on the I/O thread after the last result
+};
+
 struct RuntimeConfig {
   int workers = 2;                 // worker threads (>= 1); streams are sharded by id over them
   int frame_queue_capacity = 4096; // frames queued per worker (rounded up to a power of two)
@@ -68,6 +75,7 @@ struct RuntimeConfig {
   // teacher. Throwing refuses the stream (counted). Runs on the I/O thread.
   std::function<StreamSetup(const transport::SkeletonDefinition&)> configure_stream;
   double skeleton_resend_seconds = 1.0;  // periodic re-send of every skeleton definition
+  std::vector<Sink> sinks;               // in-process consumers of every result
 };
 
 // Counters of one stream (monotonic since it was opened).
@@ -109,6 +117,9 @@ class Runtime {
   // Opens a stream (allocates its pipeline) and publishes its definition. [any thread]
   // Throws kata::Error(kInvalidArgument) for a used id, a full table or a bad setup.
   void open_stream(const transport::SkeletonDefinition& definition, const StreamSetup& setup);
+  // Opens a stream announced by its definition, set up by config.configure_stream (or
+  // setup_from_definition): what ingest and source plugins do. [any thread] Throws kata::Error.
+  void open_announced(const transport::SkeletonDefinition& definition);
   // Opens a stream over a pipeline the caller built (teacher attached or not); the runtime owns
   // it from now on and calls release(pipeline) when it is done with it (at destruction).
   // [any thread] Throws kata::Error(kInvalidArgument) as open_stream does.
