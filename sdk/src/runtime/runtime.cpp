@@ -361,11 +361,14 @@ void Runtime::worker_loop(Worker& w) {
     }
     s.counters.pipeline_dropped.store(p.dropped(), std::memory_order_relaxed);
   };
+  // Wakes the I/O thread after every result (so it sends while this worker computes the next),
+  // with a syscall only when it is asleep in zmq_poll.
   auto wake_io = [&] {
     if (!signalled) return;
+    signalled = false;
+    if (!io_sleeping_.exchange(false)) return;
     const uint64_t one = 1;
     (void)!write(wake_io_fd_, &one, sizeof one);
-    signalled = false;
   };
 
   for (;;) {
@@ -423,10 +426,7 @@ void Runtime::worker_loop(Worker& w) {
     cell.turn.store(w.dequeue_pos + w.mask + 1, std::memory_order_release);
     ++w.dequeue_pos;
     move_results(s);
-    // Wake the I/O thread once per batch: when no further frame is already waiting.
-    int waiting = 0;
-    sem_getvalue(&w.wake, &waiting);
-    if (waiting == 0) wake_io();
+    wake_io();
   }
 }
 
@@ -447,6 +447,12 @@ void Runtime::send_definitions(const uint8_t* prefix, size_t prefix_size) {
       ++skeletons_sent_;
     }
   }
+}
+
+bool Runtime::results_pending() const {
+  for (const auto& w : workers_)
+    if (w->result_head.load(std::memory_order_acquire) != w->result_tail.load(std::memory_order_relaxed)) return true;
+  return false;
 }
 
 bool Runtime::drain_results(transport::Encoder& encoder) {
@@ -516,7 +522,12 @@ void Runtime::io_loop() {
     const int ingest_item = ingest_ ? n : -1;
     if (ingest_) items[n++] = zmq_pollitem_t{ingest_->socket(), 0, ZMQ_POLLIN, 0};
     const auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(next_resend - clock::now()).count();
-    zmq_poll(items, n, static_cast<long>(std::max<long long>(0, std::min<long long>(wait, 100))));
+    // Announce the sleep, then look once more: a result queued before the flag was set is sent
+    // now; one queued after it comes with an eventfd write.
+    io_sleeping_.store(true);
+    const bool pending = results_pending();
+    zmq_poll(items, n, pending ? 0 : static_cast<long>(std::max<long long>(0, std::min<long long>(wait, 100))));
+    io_sleeping_.store(false);
 
     if (items[0].revents & ZMQ_POLLIN) {
       uint64_t value;

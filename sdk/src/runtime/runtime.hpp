@@ -14,7 +14,8 @@
 //       it reads the ingest socket, sees subscribers join (XPUB) and re-sends skeleton
 //       definitions on join and periodically.
 // Workers wake on a per-worker semaphore; the I/O thread on an eventfd polled beside its
-// sockets, so a result is sent as soon as it exists (no polling interval in the latency).
+// sockets, written after every result while the I/O thread sleeps, so a result is sent as soon
+// as it exists (no polling interval in the latency, no batching behind later frames).
 //
 // Clock: capture times are the source's (seconds); arrival, computed and published times are
 // the host's monotonic clock (steady_clock, CLOCK_MONOTONIC) in nanoseconds, comparable between
@@ -158,6 +159,7 @@ class Runtime {
   void worker_loop(Worker& worker);
   void io_loop();
   bool drain_results(transport::Encoder& encoder);
+  bool results_pending() const;
   void send_definitions(const uint8_t* prefix, size_t prefix_size);
 
   RuntimeConfig config_;
@@ -173,6 +175,7 @@ class Runtime {
   std::atomic<bool> definitions_dirty_{false};
   std::vector<std::unique_ptr<Worker>> workers_;
   int wake_io_fd_ = -1;
+  std::atomic<bool> io_sleeping_{false};  // the I/O thread is (about to be) in zmq_poll
   std::atomic<bool> stopping_{false};
   std::atomic<int> workers_done_{0};
   std::thread io_thread_;
