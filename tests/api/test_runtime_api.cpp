@@ -60,12 +60,14 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
   std::vector<char> buffer(1 << 16);
   // Wait for the skeleton definition (file identifier KSKL at bytes 20..23): subscribed.
   bool joined = false;
+  std::vector<char> definition, result;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
   while (!joined && std::chrono::steady_clock::now() < deadline) {
     zmq_pollitem_t item{sub, 0, ZMQ_POLLIN, 0};
     if (zmq_poll(&item, 1, 100) <= 0) continue;
     const int n = zmq_recv(sub, buffer.data(), buffer.size(), 0);
     joined = n > 24 && std::memcmp(buffer.data() + 20, "KSKL", 4) == 0;
+    if (joined) definition.assign(buffer.begin(), buffer.begin() + n);
   }
   ASSERT_TRUE(joined);
 
@@ -83,9 +85,32 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
     zmq_pollitem_t item{sub, 0, ZMQ_POLLIN, 0};
     if (zmq_poll(&item, 1, 100) <= 0) continue;
     const int n = zmq_recv(sub, buffer.data(), buffer.size(), 0);
-    if (n > 24 && std::memcmp(buffer.data() + 20, "KRES", 4) == 0) ++results;
+    if (n > 24 && std::memcmp(buffer.data() + 20, "KRES", 4) == 0) {
+      kata_result_message r;
+      r.struct_size = sizeof r;
+      ASSERT_EQ(kata_message_read_result(buffer.data(), static_cast<size_t>(n), &r), KATA_OK);
+      EXPECT_EQ(r.stream_id, 42u);
+      EXPECT_EQ(r.result_sequence, static_cast<uint64_t>(results));
+      EXPECT_EQ(r.frame_sequence, static_cast<uint64_t>(results));
+      EXPECT_EQ(r.scored, 1);
+      EXPECT_TRUE(r.score >= 0.0f && r.score <= 100.0f);
+      EXPECT_GT(r.ghost_joint_count, 0u);
+      EXPECT_LE(r.arrival_ns, r.computed_ns);
+      EXPECT_LE(r.computed_ns, r.published_ns);
+      if (result.empty()) result.assign(buffer.begin(), buffer.begin() + n);
+      ++results;
+    }
   }
   EXPECT_EQ(results, frames);
+  // The C reader: a definition is no result, a truncated or flipped result is refused.
+  kata_result_message r;
+  r.struct_size = sizeof r;
+  EXPECT_EQ(kata_message_read_result(definition.data(), definition.size(), &r), KATA_NO_DATA);
+  ASSERT_FALSE(result.empty());
+  EXPECT_EQ(kata_message_read_result(result.data(), result.size() - 40, &r), KATA_E_PARSE);
+  std::vector<char> flipped = result;
+  flipped[20] ^= 0x01;  // the file identifier
+  EXPECT_EQ(kata_message_read_result(flipped.data(), flipped.size(), &r), KATA_E_PARSE);
   EXPECT_EQ(kata_runtime_stop(runtime), KATA_OK);
   kata_runtime_counters c;
   c.struct_size = sizeof c;

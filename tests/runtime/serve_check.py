@@ -1,10 +1,10 @@
 #!/usr/bin/python3
 """kata serve end to end over ipc: `kata send` plays a clip into it, samples/python_subscriber.py
-prints the scores, the csv-sink plugin writes them, SIGINT stops serve cleanly with every frame published. Also: a bad config is
+and samples/c_subscriber.c print the scores, the csv-sink plugin writes them, SIGINT stops serve cleanly with every frame published. Also: a bad config is
 refused with file:line. Unique paths per run; every wait bounded."""
 import os, signal, subprocess, sys, tempfile, time
 
-kata, source, python_dir, plugin_dir = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4]
+kata, source, python_dir, plugin_dir, c_subscriber = sys.argv[1:6]
 with tempfile.TemporaryDirectory(prefix="kata_serve_test_") as tmp:
     bad = os.path.join(tmp, "bad.toml")
     open(bad, "w").write('[ingest]\nendpoints = ["bind:ipc://%s/a"]\n[publish]\nendpoints = ["ipc://%s/b"]\n'
@@ -26,6 +26,7 @@ with tempfile.TemporaryDirectory(prefix="kata_serve_test_") as tmp:
         sub = subprocess.Popen(["/usr/bin/python3", os.path.join(source, "samples", "python_subscriber.py"),
                                 "--endpoint", "ipc://%s/out" % tmp, "--stream", "7", "--count", "20",
                                 "--timeout", "20", "--python-dir", python_dir], stdout=subprocess.PIPE, text=True)
+        csub = subprocess.Popen([c_subscriber, "ipc://%s/out" % tmp, "7", "20"], stdout=subprocess.PIPE, text=True)
         time.sleep(0.5)  # the subscriber connects; the skeleton definition reaches it on its join
         subprocess.run([kata, "send", "--bvh", os.path.join(source, "data", "cmu", "07_01.bvh"), "--endpoint",
                         "ipc://%s/in" % tmp, "--stream-id", "7", "--frames", "120", "--speed", "2"],
@@ -35,6 +36,13 @@ with tempfile.TemporaryDirectory(prefix="kata_serve_test_") as tmp:
         scores = [l for l in out.splitlines() if ": score " in l]
         assert len(scores) == 20, out
         assert "skeleton of 31 joints (preset cmu)" in out, out
+        cout, _ = csub.communicate(timeout=60)
+        assert csub.returncode == 0, cout
+        cscores = [l for l in cout.splitlines() if ": score " in l]
+        assert len(cscores) == 20 and cscores[0].startswith("stream 7 frame 0: score "), cout
+        # Both subscribers read the same results: the same scores, printed to 0.1.
+        assert [l.split(": score ")[1].split()[0] for l in scores] == \
+               [l.split(": score ")[1].split()[0] for l in cscores], (out, cout)
         time.sleep(0.5)
     finally:
         serve.send_signal(signal.SIGINT)

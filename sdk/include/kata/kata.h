@@ -561,6 +561,36 @@ KATA_API const char* kata_runtime_publish_endpoint(kata_runtime runtime);
 /* Likewise for the ingest socket. [any thread] */
 KATA_API const char* kata_runtime_ingest_endpoint(kata_runtime runtime);
 
+/* ---- Reading published messages (for subscribers in C; no FlatBuffers library needed) ---- */
+
+/* One result message, read by kata_message_read_result. */
+typedef struct kata_result_message {
+  uint32_t struct_size;          /* set by the caller: sizeof(kata_result_message) */
+  uint32_t ghost_joint_count;    /* joints in ghost (0: none) */
+  uint64_t stream_id;
+  uint64_t result_sequence;      /* per stream, +1 per published result: gaps = dropped */
+  uint64_t frame_sequence;       /* the source's sequence number of the frame */
+  int64_t frame_index;
+  int64_t capture_ns;            /* source clock */
+  int64_t arrival_ns;            /* CLOCK_MONOTONIC ns (the runtime's host) */
+  int64_t computed_ns;
+  int64_t published_ns;
+  int32_t scored;                /* 1: distance, score, parts and the matched frame are valid */
+  int32_t matched_teacher_frame;
+  float distance;
+  float score;                   /* 0..100 */
+  float parts[KATA_PART_COUNT];  /* split of d^2, kata_body_part order */
+  const float* ghost;            /* ghost_joint_count x 3 floats, or NULL; valid until the message
+                                    is freed or the thread's next call */
+} kata_result_message;
+
+/* Reads one ZeroMQ message of a kata runtime (16-byte topic + FlatBuffer, schemas/result.fbs):
+ * the FlatBuffers verifier checks it first. KATA_OK: *out holds the result (as much as
+ * out->struct_size holds); KATA_NO_DATA: a valid kata message that is not a result (a skeleton
+ * definition); KATA_E_PARSE: refused (truncated, corrupt, unknown). Allocates once per thread
+ * (a scratch buffer for misaligned messages). [any thread] */
+KATA_API kata_status kata_message_read_result(const void* message, size_t size, kata_result_message* out);
+
 #ifdef __cplusplus
 }
 #endif
