@@ -231,7 +231,7 @@ TEST(runtime_stall, StalledSubscriberLosesMessagesNotThePipelinesRate) {
     const auto start = std::chrono::steady_clock::now();
     for (int i = 0; i < frames; ++i) {
       std::this_thread::sleep_until(start + std::chrono::microseconds(1000 * i));
-      ASSERT_EQ(runtime.push(1, static_cast<uint64_t>(i), i * 0.001, fx.frame(1 + i % 400), fx.joints()),
+      ASSERT_EQ(runtime.push(1, static_cast<uint64_t>(i), i * 0.001, fx.frame(1 + i % (fx.student.frame_count() - 1)), fx.joints()),
                 Status::kOk);
     }
     // Every frame was computed and handed to ZeroMQ while nobody read.

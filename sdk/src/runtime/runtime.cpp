@@ -441,7 +441,8 @@ void Runtime::send_definitions(const uint8_t* prefix, size_t prefix_size) {
   char topic[transport::kTopicBytes];
   for (StreamState* s : streams) {
     transport::write_topic(s->definition.stream_id, topic);
-    if (prefix_size > transport::kTopicBytes || std::memcmp(topic, prefix, prefix_size) != 0) continue;
+    if (prefix_size > transport::kTopicBytes || (prefix_size > 0 && std::memcmp(topic, prefix, prefix_size) != 0))
+      continue;
     if (publisher_->send(encoder.skeleton(s->definition))) {
       std::lock_guard<std::mutex> lock(io_counters_mutex_);
       ++skeletons_sent_;
