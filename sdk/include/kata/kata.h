@@ -561,6 +561,123 @@ KATA_API uint32_t kata_stream_results_pending(kata_stream stream);
 KATA_API uint32_t kata_stream_ghost_joint_count(kata_stream stream);
 KATA_API int32_t kata_stream_ghost_joint_source(kata_stream stream, uint32_t i);
 
+/* ==== Runtime: many streams, ZeroMQ in and out ============================================ */
+/* (section: runtime, since 0.2)
+ * A runtime owns many streams and publishes every result as a FlatBuffers message
+ * (schemas/result.fbs, installed in share/kata/schemas) on a ZeroMQ PUB socket, topic = the
+ * stream id as 16 lowercase hex digits; each stream's skeleton definition (schemas/skeleton.fbs)
+ * is published when it opens, when a subscriber joins and every skeleton_resend_seconds. It can
+ * also read frames (schemas/frame.fbs) from a ZeroMQ SUB or PULL socket: a stream is created from
+ * its skeleton definition; malformed, unknown-stream and out-of-order messages are counted and
+ * dropped.
+ * Threads: kata_runtime_push may be called from any thread (one producer per stream keeps that
+ * stream's order); it copies the frame into the bounded, lock-free queue of the worker that owns
+ * the stream (workers = threads; stream id modulo workers), so no lock is shared between
+ * streams. Each worker runs its streams' pipelines; one I/O thread owns every socket (ZeroMQ
+ * sockets are not thread-safe) and sends without ever blocking. A full queue drops and counts.
+ * Clock: capture_time is the caller's (seconds); arrival, computed and published times in the
+ * messages are CLOCK_MONOTONIC nanoseconds, comparable between processes on one host.
+ * Memory: create and add_stream allocate; push never does. */
+
+typedef struct kata_runtime_s* kata_runtime;
+
+/* How a runtime is built. Fill with kata_runtime_desc_init, then change fields. */
+typedef struct kata_runtime_desc {
+  uint32_t struct_size;             /* sizeof(kata_runtime_desc) */
+  uint32_t workers;                 /* worker threads (>= 1). Default 2 */
+  uint32_t max_streams;             /* streams the runtime can hold. Default 1024 */
+  uint32_t max_joints;              /* largest skeleton pushed. Default 128 */
+  uint32_t queue_capacity;          /* frames (and results) queued per worker. Default 4096 */
+  /* Comma-separated endpoints the publisher binds ("tcp://127.0.0.1:5555,ipc:///tmp/k.sock";
+   * port "*" picks a free one, see kata_runtime_publish_endpoint). NULL or "": no publisher. */
+  const char* publish_endpoints;
+  int32_t send_hwm;                 /* ZMQ_SNDHWM per subscriber. Default 10000 */
+  /* Comma-separated ingest endpoints: connected, or bound with a "bind:" prefix. NULL: none. */
+  const char* ingest_endpoints;
+  int32_t ingest_pull;              /* 1: a PULL socket; 0 (default): SUB to every topic */
+  uint32_t max_message_bytes;       /* larger ingest messages are dropped. Default 1 MiB */
+  double skeleton_resend_seconds;   /* periodic re-send of skeleton definitions. Default 1 */
+} kata_runtime_desc;
+
+/* Counters since the runtime was created (sums over streams). */
+typedef struct kata_runtime_counters {
+  uint32_t struct_size;             /* set by the caller: sizeof(kata_runtime_counters) */
+  uint32_t streams;
+  uint64_t frames_in;               /* frames queued */
+  uint64_t queue_full;              /* frames dropped: a worker queue was full */
+  uint64_t refused;                 /* frames a pipeline refused (kata_stream_push's reasons) */
+  uint64_t results;                 /* results computed */
+  uint64_t results_dropped;         /* results lost inside the runtime (rings, queues) */
+  uint64_t published;               /* results handed to ZeroMQ */
+  uint64_t ingest_received;         /* ingest messages read */
+  uint64_t ingest_dropped;          /* ingest messages refused (malformed, unknown stream, ...) */
+  uint64_t ingest_sequence_gaps;    /* frames missing between accepted ingest frames */
+  uint64_t ingest_restarts;         /* sources that restarted (sequence back to 0) */
+} kata_runtime_counters;
+
+/* Fills desc with the defaults above (struct_size set). [any thread] */
+KATA_API void kata_runtime_desc_init(kata_runtime_desc* desc);
+/* Creates a runtime: binds / connects its sockets and starts its threads. Errors (an endpoint
+ * that cannot be bound, bad values) are reported on the context. [any thread] */
+KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtime_desc* desc, kata_runtime* out);
+/* Stops (kata_runtime_stop) and frees the runtime and every stream it owns. NULL is ignored.
+ * [any thread but the runtime's own] */
+KATA_API void kata_runtime_destroy(kata_runtime runtime);
+/* Hands an open stream (kata_stream_open, teacher attached or not) to the runtime under
+ * stream_id; on success the runtime owns it and *stream is set to NULL (do not close it).
+ * preset: the GPD joint map named in the published skeleton definition (NULL: "cmu").
+ * publish_features: 1 puts each result's features in its message (the stream needs
+ * desc.keep_features). KATA_E_INVALID_ARGUMENT for a used id or a full runtime. [any thread] */
+KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
+                                             const char* preset, int32_t publish_features);
+/* Queues one frame of a stream: the source's sequence number, capture time in seconds (must
+ * increase), positions (joint_count x 3 floats). KATA_E_NOT_FOUND (no such stream),
+ * KATA_E_WRONG_JOINT_COUNT (more than max_joints), KATA_E_STATE (the worker's queue is full:
+ * dropped and counted). Values are checked by the worker (bad frames counted as refused).
+ * Never blocks, never allocates. [any thread] */
+KATA_API kata_status kata_runtime_push(kata_runtime runtime, uint64_t stream_id, uint64_t sequence,
+                                       double capture_time, const float* positions, uint32_t joint_count);
+/* Finishes every queued frame, flushes every stream, publishes every result, stops the threads
+ * and closes the sockets. Idempotent. [any thread but the runtime's own] */
+KATA_API kata_status kata_runtime_stop(kata_runtime runtime);
+/* Copies the counters (as much as out->struct_size holds). [any thread] */
+KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtime_counters* out);
+/* The endpoint the publisher bound last, resolved (a "tcp://127.0.0.1:*" shows its port), or
+ * "" without a publisher; valid while the runtime lives. [any thread] */
+KATA_API const char* kata_runtime_publish_endpoint(kata_runtime runtime);
+/* Likewise for the ingest socket. [any thread] */
+KATA_API const char* kata_runtime_ingest_endpoint(kata_runtime runtime);
+
+/* ---- Reading published messages (for subscribers in C; no FlatBuffers library needed) ---- */
+
+/* One result message, read by kata_message_read_result. */
+typedef struct kata_result_message {
+  uint32_t struct_size;          /* set by the caller: sizeof(kata_result_message) */
+  uint32_t ghost_joint_count;    /* joints in ghost (0: none) */
+  uint64_t stream_id;
+  uint64_t result_sequence;      /* per stream, +1 per published result: gaps = dropped */
+  uint64_t frame_sequence;       /* the source's sequence number of the frame */
+  int64_t frame_index;
+  int64_t capture_ns;            /* source clock */
+  int64_t arrival_ns;            /* CLOCK_MONOTONIC ns (the runtime's host) */
+  int64_t computed_ns;
+  int64_t published_ns;
+  int32_t scored;                /* 1: distance, score, parts and the matched frame are valid */
+  int32_t matched_teacher_frame;
+  float distance;
+  float score;                   /* 0..100 */
+  float parts[KATA_PART_COUNT];  /* split of d^2, kata_body_part order */
+  const float* ghost;            /* ghost_joint_count x 3 floats, or NULL; valid until the message
+                                    is freed or the thread's next call */
+} kata_result_message;
+
+/* Reads one ZeroMQ message of a kata runtime (16-byte topic + FlatBuffer, schemas/result.fbs):
+ * the FlatBuffers verifier checks it first. KATA_OK: *out holds the result (as much as
+ * out->struct_size holds); KATA_NO_DATA: a valid kata message that is not a result (a skeleton
+ * definition); KATA_E_PARSE: refused (truncated, corrupt, unknown). Allocates once per thread
+ * (a scratch buffer for misaligned messages). [any thread] */
+KATA_API kata_status kata_message_read_result(const void* message, size_t size, kata_result_message* out);
+
 #ifdef __cplusplus
 }
 #endif

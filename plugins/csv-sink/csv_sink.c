@@ -1,0 +1,79 @@
+/* csv-sink: every result as one CSV row (scores, parts, matched teacher frame, timestamps).
+ * Config: "path=FILE" (required). Public headers only (kata_plugin.h). */
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "kata/kata_plugin.h"
+
+typedef struct csv_sink {
+  FILE* file;
+  char* buffer; /* stdio buffer, allocated at activate: rows are written without allocating */
+} csv_sink;
+
+/* Copies the value of `key` from "k=v;k=v" into out (terminated); 0 when absent. */
+static int config_value(const char* config, const char* key, char* out, size_t capacity) {
+  const size_t key_length = strlen(key);
+  const char* p = config;
+  while (p && *p) {
+    const char* end = strchr(p, ';');
+    const size_t length = end ? (size_t)(end - p) : strlen(p);
+    if (length > key_length && strncmp(p, key, key_length) == 0 && p[key_length] == '=') {
+      size_t n = length - key_length - 1;
+      if (n >= capacity) n = capacity - 1;
+      memcpy(out, p + key_length + 1, n);
+      out[n] = '\0';
+      return 1;
+    }
+    p = end ? end + 1 : NULL;
+  }
+  return 0;
+}
+
+static void* activate(const kata_plugin_host* host, const char* config, char* error, size_t capacity) {
+  char path[4096];
+  csv_sink* s;
+  (void)host;
+  if (!config_value(config ? config : "", "path", path, sizeof path)) {
+    snprintf(error, capacity, "csv-sink: config needs path=FILE");
+    return NULL;
+  }
+  s = (csv_sink*)calloc(1, sizeof *s);
+  if (!s) return NULL;
+  s->file = fopen(path, "w");
+  if (!s->file) {
+    snprintf(error, capacity, "csv-sink: cannot write %s", path);
+    free(s);
+    return NULL;
+  }
+  s->buffer = (char*)malloc(1 << 16);
+  if (s->buffer) setvbuf(s->file, s->buffer, _IOFBF, 1 << 16);
+  fprintf(s->file,
+          "stream_id,result_sequence,frame_sequence,frame_index,capture_ns,arrival_ns,computed_ns,scored,score,"
+          "distance,matched_teacher_frame,torso_head,left_arm,right_arm,left_leg,right_leg\n");
+  return s;
+}
+
+static void deactivate(void* instance) {
+  csv_sink* s = (csv_sink*)instance;
+  fclose(s->file);
+  free(s->buffer);
+  free(s);
+}
+
+static void on_result(void* instance, const kata_plugin_result* r) {
+  csv_sink* s = (csv_sink*)instance;
+  fprintf(s->file, "%llu,%llu,%llu,%lld,%lld,%lld,%lld,%d,%.9g,%.9g,%d,%.9g,%.9g,%.9g,%.9g,%.9g\n",
+          (unsigned long long)r->stream_id, (unsigned long long)r->result_sequence,
+          (unsigned long long)r->frame_sequence, (long long)r->frame_index, (long long)r->capture_ns,
+          (long long)r->arrival_ns, (long long)r->computed_ns, (int)r->scored, r->score, r->distance,
+          (int)r->matched_teacher_frame, r->parts[0], r->parts[1], r->parts[2], r->parts[3], r->parts[4]);
+}
+
+static void flush(void* instance) { fflush(((csv_sink*)instance)->file); }
+
+static const kata_plugin table = {
+    KATA_PLUGIN_ABI_VERSION, sizeof(kata_plugin), "csv-sink", "every result as a CSV row (config: path=FILE)",
+    KATA_PLUGIN_SINK,        activate,            deactivate, NULL, NULL, on_result, flush};
+
+KATA_PLUGIN_EXPORT const kata_plugin* kata_plugin_entry(void) { return &table; }

@@ -1,0 +1,69 @@
+#!/usr/bin/python3
+"""Prints kata results as they arrive: a plain ZeroMQ SUB socket (Debian's python3-zmq) and the
+readers flatc --python generates from the installed schemas (python3-flatbuffers).
+
+  python_subscriber.py --endpoint tcp://127.0.0.1:5556 [--stream ID] [--count N] [--timeout S]
+                       [--python-dir DIR]   # where kata/fb/ lives: build/python, or
+                                            # <prefix>/share/kata/python when installed
+
+Every kata message is one ZeroMQ frame: 16 bytes of topic (the stream id as lowercase hex, so
+subscribing to one stream's topic selects it) and then the FlatBuffer; its file identifier
+(bytes 4..8 of the buffer) says which table it is. Ages use CLOCK_MONOTONIC, the clock the
+runtime stamps results with (valid on the runtime's host)."""
+import argparse
+import os
+import sys
+import time
+
+import zmq
+
+TOPIC = 16
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--endpoint", required=True)
+    ap.add_argument("--stream", type=int, default=None, help="only this stream id")
+    ap.add_argument("--count", type=int, default=0, help="exit after this many results (0: run until Ctrl-C)")
+    ap.add_argument("--timeout", type=float, default=0.0, help="exit 1 when nothing arrives for this long (s)")
+    ap.add_argument("--python-dir", default=os.environ.get("KATA_PYTHON_DIR", ""))
+    args = ap.parse_args()
+    if args.python_dir:
+        sys.path.insert(0, args.python_dir)
+    from kata.fb.Result import Result
+    from kata.fb.SkeletonDefinition import SkeletonDefinition
+
+    sub = zmq.Context.instance().socket(zmq.SUB)
+    sub.setsockopt(zmq.SUBSCRIBE, b"" if args.stream is None else b"%016x" % args.stream)
+    sub.connect(args.endpoint)
+    poller = zmq.Poller()
+    poller.register(sub, zmq.POLLIN)
+    seen = 0
+    while args.count == 0 or seen < args.count:
+        if not poller.poll(int(args.timeout * 1000) if args.timeout > 0 else None):
+            print("no message for %.1f s" % args.timeout, file=sys.stderr)
+            return 1
+        message = sub.recv()
+        received_ns = time.clock_gettime_ns(time.CLOCK_MONOTONIC)
+        body = message[TOPIC:]
+        kind = body[4:8]
+        if kind == b"KSKL":
+            d = SkeletonDefinition.GetRootAs(body, 0)
+            print("stream %d: skeleton of %d joints (preset %s)" % (d.StreamId(), d.JointNamesLength(),
+                  (d.Preset() or b"").decode()), flush=True)
+        elif kind == b"KRES":
+            r = Result.GetRootAs(body, 0)
+            age_us = (received_ns - r.ArrivalTime().Nanoseconds()) / 1000.0
+            if r.Scored():
+                print("stream %d result %d frame %d: score %.1f (distance %.4f, teacher frame %d, ghost %d joints) "
+                      "age %.0f us" % (r.StreamId(), r.ResultSequence(), r.FrameSequence(), r.Score(), r.Distance(),
+                                       r.MatchedTeacherFrame(), r.GhostLength(), age_us), flush=True)
+            else:
+                print("stream %d result %d frame %d: not scored, age %.0f us" % (r.StreamId(), r.ResultSequence(),
+                      r.FrameSequence(), age_us), flush=True)
+            seen += 1
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,112 @@
+/* kata_plugin.h: the C ABI of kata plugins (sources and sinks loaded by `kata serve` or any
+ * host using the runtime). C99, no other kata header needed.
+ *
+ * A plugin is a shared library exporting ONE symbol, KATA_PLUGIN_ENTRY ("kata_plugin_entry"),
+ * a function returning a pointer to a static kata_plugin table. The table starts with the ABI
+ * version and its own size, so a host can check both before reading any other field:
+ *   - a different major version is refused;
+ *   - a table larger than the host knows (a plugin built against a newer minor) is refused, a
+ *     smaller one is read up to its size (fields added later are treated as absent);
+ *   - a missing required function is refused.
+ * Every refusal names the plugin file and the reason.
+ *
+ * Threads (tags as in CLAP): [main] the thread that loads, activates and stops plugins;
+ * [io] the runtime's I/O thread (one thread, the same for every call); [plugin] a thread the
+ * plugin starts itself (sources). Memory: a plugin allocates in activate() and frees in
+ * deactivate(); the per-result / per-frame calls must not allocate or block.
+ *
+ * Versioning: KATA_PLUGIN_ABI_VERSION = major << 16 | minor. Fields are only added at the end of
+ * the structs (minor + 1); constants never change. */
+#ifndef KATA_PLUGIN_H
+#define KATA_PLUGIN_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define KATA_PLUGIN_ABI_MAJOR 1u
+#define KATA_PLUGIN_ABI_MINOR 0u
+#define KATA_PLUGIN_ABI_VERSION ((KATA_PLUGIN_ABI_MAJOR << 16) | KATA_PLUGIN_ABI_MINOR)
+#define KATA_PLUGIN_ENTRY "kata_plugin_entry"
+
+#if defined(_WIN32)
+#define KATA_PLUGIN_EXPORT __declspec(dllexport)
+#else
+#define KATA_PLUGIN_EXPORT __attribute__((visibility("default")))
+#endif
+
+/* kata_plugin.kinds */
+#define KATA_PLUGIN_SOURCE 1u /* produces frames (start / stop required) */
+#define KATA_PLUGIN_SINK 2u   /* consumes results (on_result required) */
+
+/* One result, as a sink sees it. Pointers are valid during the call only. */
+typedef struct kata_plugin_result {
+  uint32_t struct_size;          /* sizeof(kata_plugin_result) of the host */
+  uint32_t ghost_joint_count;    /* joints in ghost (0: no ghost) */
+  uint64_t stream_id;
+  uint64_t result_sequence;      /* per stream, +1 per result (gaps: dropped before the sink) */
+  uint64_t frame_sequence;       /* the source's sequence number of the frame */
+  int64_t frame_index;           /* the frame's index in the stream since it opened */
+  int64_t capture_ns;            /* the source's capture time, ns on its clock */
+  int64_t arrival_ns;            /* CLOCK_MONOTONIC ns: the frame reached the runtime */
+  int64_t computed_ns;           /* CLOCK_MONOTONIC ns: features, score and ghost were done */
+  int32_t scored;                /* 1: the fields below hold a score */
+  int32_t matched_teacher_frame; /* -1 unless scored */
+  float distance;                /* d = |W^T (x'' - y'')| */
+  float score;                   /* 0..100 */
+  float parts[5];                /* split of d^2: torso/head, left arm, right arm, left leg, right leg */
+  const float* ghost;            /* ghost_joint_count x 3 floats (student units), or NULL */
+} kata_plugin_result;
+
+/* What the host offers a plugin (valid from activate to deactivate). */
+typedef struct kata_plugin_host {
+  uint32_t struct_size;          /* sizeof(kata_plugin_host) of the host */
+  void* host_data;               /* pass back to every call */
+  /* Announces a stream (sources, before its first frame): joint names and parents (parents[0]
+   * = -1, parents[i] < i), rest offsets (joint_count x 3 floats, or NULL when unknown), the GPD
+   * joint map preset ("cmu", ...). 0 on success, else a kata_status value. [main] or [plugin] */
+  int32_t (*open_stream)(void* host_data, uint64_t stream_id, uint32_t joint_count, const char* const* names,
+                         const int32_t* parents, const float* rest_offsets, const char* preset);
+  /* Queues one frame of an announced stream (joint_count x 3 floats, copied). Never blocks; a
+   * full queue drops the frame (counted) and returns a non-zero kata_status. [plugin] */
+  int32_t (*push_frame)(void* host_data, uint64_t stream_id, uint64_t sequence, double capture_time,
+                        const float* positions, uint32_t joint_count);
+  /* A line for the host's log. [any] */
+  void (*log)(void* host_data, const char* message);
+} kata_plugin_host;
+
+/* The table a plugin's entry returns. */
+typedef struct kata_plugin {
+  uint32_t abi_version;          /* KATA_PLUGIN_ABI_VERSION the plugin was built with */
+  uint32_t struct_size;          /* sizeof(kata_plugin) the plugin was built with */
+  const char* name;              /* short name ("csv-sink") */
+  const char* description;       /* one line */
+  uint32_t kinds;                /* KATA_PLUGIN_SOURCE and/or KATA_PLUGIN_SINK */
+  /* Required. Creates an instance: config is the plugin's own "key=value;key=value" text (may
+   * be ""). Allocate everything here. Returns NULL and writes a message into error (at most
+   * error_capacity bytes, terminated) on failure. [main] */
+  void* (*activate)(const kata_plugin_host* host, const char* config, char* error, size_t error_capacity);
+  /* Required. Frees the instance (after stop / the last on_result). [main] */
+  void (*deactivate)(void* instance);
+  /* Sources: required. Starts producing (typically a thread of the plugin's that calls
+   * host->push_frame). 0 on success. [main] */
+  int32_t (*start)(void* instance);
+  /* Sources: required. Stops producing; returns when the plugin's threads have ended. [main] */
+  void (*stop)(void* instance);
+  /* Sinks: required. One result; must neither block nor allocate. [io] */
+  void (*on_result)(void* instance, const kata_plugin_result* result);
+  /* Sinks: optional. Writes out what is buffered (at shutdown, after the last result). [io] */
+  void (*flush)(void* instance);
+} kata_plugin;
+
+/* The type of the entry symbol. */
+typedef const kata_plugin* (*kata_plugin_entry_fn)(void);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* KATA_PLUGIN_H */

@@ -1,0 +1,182 @@
+// C ABI of the runtime (kata.h section "runtime"): handle checks, exceptions -> status, copies.
+#include <sstream>
+
+#include "capi/capi_internal.hpp"
+#include "runtime/runtime.hpp"
+
+struct kata_runtime_s {
+  std::unique_ptr<kata::runtime::Runtime> runtime;
+};
+
+namespace {
+
+std::vector<std::string> split_endpoints(const char* text) {
+  std::vector<std::string> out;
+  if (!text) return out;
+  std::stringstream in(text);
+  for (std::string e; std::getline(in, e, ',');) {
+    const size_t b = e.find_first_not_of(" \t"), f = e.find_last_not_of(" \t");
+    if (b != std::string::npos) out.push_back(e.substr(b, f - b + 1));
+  }
+  return out;
+}
+
+kata_runtime_desc effective(const kata_runtime_desc* desc) {
+  kata_runtime_desc d;
+  kata_runtime_desc_init(&d);
+  if (desc) std::memcpy(&d, desc, std::min<size_t>(desc->struct_size, sizeof d));
+  d.struct_size = sizeof d;
+  return d;
+}
+
+}  // namespace
+
+extern "C" {
+
+KATA_API void kata_runtime_desc_init(kata_runtime_desc* desc) {
+  if (!desc) return;
+  std::memset(desc, 0, sizeof *desc);
+  desc->struct_size = sizeof *desc;
+  desc->workers = 2;
+  desc->max_streams = 1024;
+  desc->max_joints = 128;
+  desc->queue_capacity = 4096;
+  desc->send_hwm = 10000;
+  desc->max_message_bytes = 1u << 20;
+  desc->skeleton_resend_seconds = 1.0;
+}
+
+KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtime_desc* desc, kata_runtime* out) {
+  if (!context || !out) return KATA_E_NULL_POINTER;
+  *out = nullptr;
+  return kata::capi::guarded_context([&] {
+    const kata_runtime_desc d = effective(desc);
+    if (d.workers < 1 || d.workers > 256 || d.max_streams < 1 || d.max_joints < 1 || d.queue_capacity < 2 ||
+        d.max_message_bytes < 64 || !(d.skeleton_resend_seconds > 0.0))
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        "kata_runtime_create: workers 1..256, max_streams, max_joints >= 1, queue_capacity >= 2, "
+                        "max_message_bytes >= 64 and skeleton_resend_seconds > 0");
+    kata::runtime::RuntimeConfig config;
+    config.workers = static_cast<int>(d.workers);
+    config.max_streams = static_cast<int>(d.max_streams);
+    config.max_joints = static_cast<int>(d.max_joints);
+    config.frame_queue_capacity = static_cast<int>(d.queue_capacity);
+    config.result_queue_capacity = static_cast<int>(d.queue_capacity);
+    config.publish.endpoints = split_endpoints(d.publish_endpoints);
+    config.publish.send_hwm = d.send_hwm;
+    config.ingest.endpoints = split_endpoints(d.ingest_endpoints);
+    config.ingest.kind = d.ingest_pull ? kata::transport::IngestKind::kPull : kata::transport::IngestKind::kSub;
+    config.ingest.max_message_bytes = d.max_message_bytes;
+    config.skeleton_resend_seconds = d.skeleton_resend_seconds;
+    auto r = std::make_unique<kata_runtime_s>();
+    r->runtime = std::make_unique<kata::runtime::Runtime>(std::move(config));
+    *out = r.release();
+    return KATA_OK;
+  });
+}
+
+KATA_API void kata_runtime_destroy(kata_runtime runtime) { delete runtime; }
+
+KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
+                                             const char* preset, int32_t publish_features) {
+  if (!runtime || !stream || !*stream) return KATA_E_NULL_POINTER;
+  return kata::capi::guarded_context([&] {
+    kata_stream s = *stream;
+    kata::transport::SkeletonDefinition d;
+    d.stream_id = stream_id;
+    d.revision = 1;
+    d.skeleton = s->pipeline.student();
+    d.preset = preset && preset[0] ? preset : "cmu";
+    d.up_axis = s->pipeline.stream().config().up_axis;
+    // The runtime owns the stream from here; it closes it when it is done with the pipeline.
+    runtime->runtime->adopt_stream(
+        d, &s->pipeline, [s](kata::pipeline::Pipeline*) { delete s; }, publish_features != 0);
+    *stream = nullptr;
+    return KATA_OK;
+  });
+}
+
+KATA_API kata_status kata_runtime_push(kata_runtime runtime, uint64_t stream_id, uint64_t sequence,
+                                       double capture_time, const float* positions, uint32_t joint_count) {
+  if (!runtime || !positions) return KATA_E_NULL_POINTER;
+  if (joint_count > (1u << 20)) return KATA_E_WRONG_JOINT_COUNT;
+  return kata::capi::to_status(runtime->runtime->push(stream_id, sequence, capture_time, positions,
+                                                      static_cast<int>(joint_count)));
+}
+
+KATA_API kata_status kata_runtime_stop(kata_runtime runtime) {
+  if (!runtime) return KATA_E_NULL_POINTER;
+  return kata::capi::guarded_context([&] {
+    runtime->runtime->stop();
+    return KATA_OK;
+  });
+}
+
+KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtime_counters* out) {
+  if (!runtime || !out) return KATA_E_NULL_POINTER;
+  if (out->struct_size < 2 * sizeof(uint32_t)) return KATA_E_INVALID_ARGUMENT;
+  const kata::runtime::RuntimeCounters c = runtime->runtime->counters();
+  kata_runtime_counters k{};
+  k.struct_size = sizeof k;
+  k.streams = static_cast<uint32_t>(c.streams);
+  k.frames_in = c.total.frames_in;
+  k.queue_full = c.total.queue_full;
+  k.refused = c.total.refused;
+  k.results = c.total.results;
+  k.results_dropped = c.total.pipeline_dropped + c.total.result_queue_full;
+  k.published = c.total.published;
+  k.ingest_received = c.ingest.received;
+  k.ingest_dropped = c.ingest.dropped_total();
+  k.ingest_sequence_gaps = c.ingest.sequence_gaps;
+  k.ingest_restarts = c.ingest.restarts;
+  const uint32_t caller = out->struct_size;
+  std::memcpy(out, &k, std::min<size_t>(caller, sizeof k));
+  out->struct_size = caller;
+  return KATA_OK;
+}
+
+KATA_API const char* kata_runtime_publish_endpoint(kata_runtime runtime) {
+  return runtime ? runtime->runtime->publish_endpoint_cstr() : "";
+}
+
+KATA_API const char* kata_runtime_ingest_endpoint(kata_runtime runtime) {
+  return runtime ? runtime->runtime->ingest_endpoint_cstr() : "";
+}
+
+KATA_API kata_status kata_message_read_result(const void* message, size_t size, kata_result_message* out) {
+  if (!message || !out) return KATA_E_NULL_POINTER;
+  if (out->struct_size < 2 * sizeof(uint32_t)) return KATA_E_INVALID_ARGUMENT;
+  try {
+    thread_local kata::transport::Decoder decoder(1 << 22, false);
+    const kata::transport::MessageKind kind = decoder.decode(message, size);
+    if (kind == kata::transport::MessageKind::kSkeleton || kind == kata::transport::MessageKind::kFrame)
+      return KATA_NO_DATA;
+    if (kind != kata::transport::MessageKind::kResult) return KATA_E_PARSE;
+    const kata::transport::ResultFields& r = decoder.result();
+    kata_result_message k{};
+    k.struct_size = sizeof k;
+    k.ghost_joint_count = r.ghost ? static_cast<uint32_t>(r.ghost_joints) : 0u;
+    k.stream_id = r.stream_id;
+    k.result_sequence = r.result_sequence;
+    k.frame_sequence = r.frame_sequence;
+    k.frame_index = r.frame_index;
+    k.capture_ns = r.capture_ns;
+    k.arrival_ns = r.arrival_ns;
+    k.computed_ns = r.computed_ns;
+    k.published_ns = r.published_ns;
+    k.scored = r.scored ? 1 : 0;
+    k.matched_teacher_frame = r.matched_teacher_frame;
+    k.distance = r.distance;
+    k.score = r.score;
+    for (int i = 0; i < KATA_PART_COUNT; ++i) k.parts[i] = r.parts[i];
+    k.ghost = r.ghost;
+    const uint32_t caller = out->struct_size;
+    std::memcpy(out, &k, std::min<size_t>(caller, sizeof k));
+    out->struct_size = caller;
+    return KATA_OK;
+  } catch (const std::bad_alloc&) {
+    return KATA_E_OUT_OF_MEMORY;
+  }
+}
+
+}  // extern "C"

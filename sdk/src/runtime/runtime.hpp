@@ -1,0 +1,194 @@
+// The runtime: many per-stream pipelines, a small worker pool and one I/O thread.
+//
+// Threads and why:
+//   producers (any thread; the I/O thread for ZeroMQ ingest) -> push(stream id, frame)
+//       the frame is copied into the bounded queue of worker (stream id % workers): a lock-free
+//       multi-producer ring (per-cell sequence numbers); a full queue drops the frame and counts
+//       it on its stream. No lock is shared between streams on this path.
+//   workers (N threads) -> each owns the pipelines of its shard, so a pipeline is only ever
+//       touched by one thread (no lock); it pushes the frame through features -> score -> ghost
+//       and moves every result (with its ghost) into its own single-producer queue to the I/O
+//       thread; a full queue drops the result and counts it (the pipeline's own drop).
+//   the I/O thread -> owns every ZeroMQ socket (they are not thread-safe): it encodes results
+//       with one reused FlatBufferBuilder, stamps the published time and sends without blocking;
+//       it reads the ingest socket, sees subscribers join (XPUB) and re-sends skeleton
+//       definitions on join and periodically.
+// Workers wake on a per-worker semaphore; the I/O thread on an eventfd polled beside its
+// sockets, written after every result while the I/O thread sleeps, so a result is sent as soon
+// as it exists (no polling interval in the latency, no batching behind later frames).
+//
+// Clock: capture times are the source's (seconds); arrival, computed and published times are
+// the host's monotonic clock (steady_clock, CLOCK_MONOTONIC) in nanoseconds, comparable between
+// processes on one host, so a subscriber's now - published / arrival is the result's age.
+//
+// Memory: opening a stream allocates its pipeline; queues are sized at construction; nothing
+// on the per-frame path allocates.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <functional>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "common/status.hpp"
+#include "pipeline/pipeline.hpp"
+#include "transport/wire.hpp"
+#include "transport/zmq_io.hpp"
+
+namespace kata::runtime {
+
+// What a stream is made of: its pipeline, its teacher, and what is published.
+struct StreamSetup {
+  pipeline::PipelineConfig pipeline;
+  std::shared_ptr<const pipeline::Teacher> teacher;  // null: features only, nothing scored
+  pipeline::TeacherOptions teacher_options;
+  bool publish_features = false;  // put each result's 1683 features in the message
+};
+
+// The default setup for a definition: the GPD map from its preset (or name map), its up axis,
+// the body height from its rest pose when it has one, the backward stencil; no teacher.
+// Throws kata::Error (unknown preset, a joint the map names is missing).
+StreamSetup setup_from_definition(const transport::SkeletonDefinition& definition);
+
+// A consumer of every result inside the process (a sink plugin, a file writer): called on the
+// I/O thread, after the result was sent; must neither block nor allocate.
+struct Sink {
+  std::function<void(const transport::ResultFields&)> on_result;
+  std::function<void()> flush;  // optional; on the I/O thread after the last result
+};
+
+struct RuntimeConfig {
+  int workers = 2;                 // worker threads (>= 1); streams are sharded by id over them
+  int frame_queue_capacity = 4096; // frames queued per worker (rounded up to a power of two)
+  int result_queue_capacity = 4096;// results queued per worker for the I/O thread (power of two)
+  int max_joints = 128;            // largest input skeleton (sizes the queue cells)
+  int max_streams = 1024;          // streams the runtime can hold
+  // Results out (empty endpoints: nothing published; results are still counted).
+  transport::PublisherOptions publish;
+  // Frames in over ZeroMQ (empty endpoints: none).
+  transport::IngestOptions ingest;
+  // How a stream announced by ingest is set up (default: setup_from_definition); may attach a
+  // teacher. Throwing refuses the stream (counted). Runs on the I/O thread.
+  std::function<StreamSetup(const transport::SkeletonDefinition&)> configure_stream;
+  double skeleton_resend_seconds = 1.0;  // periodic re-send of every skeleton definition
+  std::vector<Sink> sinks;               // in-process consumers of every result
+};
+
+// Counters of one stream (monotonic since it was opened).
+struct StreamCounters {
+  uint64_t frames_in = 0;         // frames queued
+  uint64_t queue_full = 0;        // frames dropped: the worker's queue was full
+  uint64_t refused = 0;           // frames the pipeline refused (bad values, time not increasing)
+  uint64_t results = 0;           // results computed
+  uint64_t pipeline_dropped = 0;  // results overwritten in the pipeline's ring before read
+  uint64_t result_queue_full = 0; // results dropped: the queue to the I/O thread was full
+  uint64_t published = 0;         // results handed to ZeroMQ
+  uint64_t send_failed = 0;       // results ZeroMQ refused (never blocks)
+};
+
+// Arrival -> published latency histogram: bucket i holds latencies in [2^(i/8), 2^((i+1)/8)) ns
+// (12.5 % wide buckets, up to ~70 s).
+inline constexpr int kLatencyBuckets = 8 * 36;
+int latency_bucket(int64_t ns);
+// The latency (ns, bucket's upper edge) below which a fraction q of the counts lies; 0 if empty.
+double latency_percentile(const uint64_t* histogram, double q);
+
+struct RuntimeCounters {
+  uint64_t streams = 0;
+  uint64_t latency_histogram[kLatencyBuckets] = {};  // arrival -> published, every published result
+  StreamCounters total;           // summed over streams
+  transport::IngestCounters ingest;
+  uint64_t skeletons_sent = 0;    // definitions published (on open, on join, periodic)
+};
+
+class Runtime {
+ public:
+  // Binds / connects the sockets and starts the threads. Throws kata::Error.
+  explicit Runtime(RuntimeConfig config);
+  // Stops: see stop().
+  ~Runtime();
+  Runtime(const Runtime&) = delete;
+  Runtime& operator=(const Runtime&) = delete;
+
+  // Opens a stream (allocates its pipeline) and publishes its definition. [any thread]
+  // Throws kata::Error(kInvalidArgument) for a used id, a full table or a bad setup.
+  void open_stream(const transport::SkeletonDefinition& definition, const StreamSetup& setup);
+  // Opens a stream announced by its definition, set up by config.configure_stream (or
+  // setup_from_definition): what ingest and source plugins do. [any thread] Throws kata::Error.
+  void open_announced(const transport::SkeletonDefinition& definition);
+  // Opens a stream over a pipeline the caller built (teacher attached or not); the runtime owns
+  // it from now on and calls release(pipeline) when it is done with it (at destruction).
+  // [any thread] Throws kata::Error(kInvalidArgument) as open_stream does.
+  void adopt_stream(const transport::SkeletonDefinition& definition, pipeline::Pipeline* pipeline,
+                    std::function<void(pipeline::Pipeline*)> release, bool publish_features);
+
+  // Queues a frame of a stream: sequence is the source's, capture_time its timestamp
+  // (seconds), xyz joints x 3 floats. restart: the source restarted (the stream's kinetics and
+  // teacher alignment restart first). [any thread; one producer per stream keeps its order]
+  // kOk, kNotFound (no such stream), kWrongJointCount (more than max_joints), kState (queue
+  // full: dropped and counted) or kNullPointer. Never blocks, never allocates.
+  Status push(uint64_t stream_id, uint64_t sequence, double capture_time, const float* xyz, int joints,
+              bool restart = false);
+
+  // Lets workers finish every queued frame, flushes every pipeline, sends every result, then
+  // stops the threads and closes the sockets (idempotent). [any thread but a runtime thread]
+  void stop();
+
+  // A snapshot of the counters. [any thread]
+  RuntimeCounters counters() const;
+  std::optional<StreamCounters> stream_counters(uint64_t stream_id) const;
+  // The resolved endpoint the publisher bound last ("" without one) and the ingest's.
+  std::string publish_endpoint() const { return publish_endpoint_; }
+  std::string ingest_endpoint() const { return ingest_endpoint_; }
+  const char* publish_endpoint_cstr() const { return publish_endpoint_.c_str(); }
+  const char* ingest_endpoint_cstr() const { return ingest_endpoint_.c_str(); }
+
+ private:
+  struct StreamState;
+  struct Worker;
+  struct FrameCell;
+  StreamState* find(uint64_t stream_id) const;
+  void open_locked(const transport::SkeletonDefinition& definition, const StreamSetup& setup);
+  void add_locked(const transport::SkeletonDefinition& definition, pipeline::Pipeline* pipeline,
+                  std::function<void(pipeline::Pipeline*)> release, bool publish_features);
+  void worker_loop(Worker& worker);
+  void io_loop();
+  bool drain_results(transport::Encoder& encoder);
+  bool results_pending() const;
+  void send_definitions(const uint8_t* prefix, size_t prefix_size);
+
+  RuntimeConfig config_;
+  std::string publish_endpoint_, ingest_endpoint_;
+  std::unique_ptr<transport::Context> context_;
+  // Streams: an insert-only open-addressing table (ids and states published with release
+  // stores), so push() finds a stream without a lock.
+  std::vector<std::atomic<uint64_t>> table_keys_;
+  std::vector<std::atomic<StreamState*>> table_values_;
+  std::vector<std::unique_ptr<StreamState>> streams_;  // owned; guarded by open_mutex_
+  mutable std::mutex open_mutex_;                      // open_stream and counters only
+  std::atomic<uint64_t> stream_count_{0};
+  std::atomic<bool> definitions_dirty_{false};
+  std::vector<std::unique_ptr<Worker>> workers_;
+  int wake_io_fd_ = -1;
+  std::atomic<bool> io_sleeping_{false};  // the I/O thread is (about to be) in zmq_poll
+  std::atomic<bool> stopping_{false};
+  std::atomic<int> workers_done_{0};
+  std::thread io_thread_;
+  bool stopped_ = false;
+  // Snapshot of the I/O thread's counters for other threads.
+  mutable std::mutex io_counters_mutex_;
+  transport::IngestCounters ingest_snapshot_;
+  std::atomic<uint64_t> latency_histogram_[kLatencyBuckets] = {};  // written by the I/O thread only
+  uint64_t skeletons_sent_ = 0;
+  // Created (bound) in the constructor so errors reach the caller, then used only by the I/O
+  // thread (starting it is the full memory barrier ZeroMQ asks for when a socket changes thread).
+  std::unique_ptr<transport::Publisher> publisher_;
+  std::unique_ptr<transport::Ingest> ingest_;
+};
+
+}  // namespace kata::runtime

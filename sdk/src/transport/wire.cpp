@@ -1,0 +1,334 @@
+// FlatBuffers encode / verify + decode of kata messages (see wire.hpp for the framing).
+#include "transport/wire.hpp"
+
+#include <cstring>
+
+#include "common/error.hpp"
+#include "kata_schemas/frame_generated.h"
+#include "kata_schemas/result_generated.h"
+#include "kata_schemas/skeleton_generated.h"
+
+namespace kata::transport {
+
+namespace {
+
+constexpr char kHex[] = "0123456789abcdef";
+constexpr uint16_t kFrameVersion = 1, kSkeletonVersion = 1, kResultVersion = 1;
+
+uint32_t fnv1a(uint32_t hash, const void* data, size_t size) {
+  const auto* p = static_cast<const uint8_t*>(data);
+  for (size_t i = 0; i < size; ++i) hash = (hash ^ p[i]) * 16777619u;
+  return hash;
+}
+
+uint32_t fnv1a_u64(uint32_t hash, uint64_t v) {
+  uint8_t le[8];
+  for (int i = 0; i < 8; ++i) le[i] = static_cast<uint8_t>(v >> (8 * i));
+  return fnv1a(hash, le, 8);
+}
+
+// Vec3 is a struct of three floats (12 bytes, 4-aligned): a vector of them is xyz interleaved.
+static_assert(sizeof(fb::Vec3) == 3 * sizeof(float), "Vec3 must be three packed floats");
+
+// A [Vec3] from interleaved xyz floats. CreateVectorOfStructs aligns to the struct's alignment
+// (4); flatbuffers 2.0.8's CreateUninitializedVectorOfStructs would align to its size (12, not a
+// power of two) and misalign the whole buffer. It copies the bytes only (PushBytes).
+flatbuffers::Offset<flatbuffers::Vector<const fb::Vec3*>> vec3_vector(flatbuffers::FlatBufferBuilder& b,
+                                                                      const float* xyz, int count) {
+  return b.CreateVectorOfStructs(reinterpret_cast<const fb::Vec3*>(xyz), static_cast<size_t>(count));
+}
+
+}  // namespace
+
+void write_topic(uint64_t stream_id, char* out) {
+  for (int i = 0; i < 16; ++i) out[i] = kHex[(stream_id >> (4 * (15 - i))) & 0xF];
+}
+
+bool parse_topic(const uint8_t* topic, uint64_t* stream_id) {
+  uint64_t id = 0;
+  for (size_t i = 0; i < kTopicBytes; ++i) {
+    const uint8_t c = topic[i];
+    uint64_t digit;
+    if (c >= '0' && c <= '9') digit = c - '0';
+    else if (c >= 'a' && c <= 'f') digit = 10 + (c - 'a');
+    else return false;
+    id = (id << 4) | digit;
+  }
+  *stream_id = id;
+  return true;
+}
+
+uint32_t frame_checksum(uint64_t stream_id, uint64_t sequence, int64_t capture_ns, const float* xyz,
+                        int joints, const float* confidence) {
+  uint32_t h = 2166136261u;
+  h = fnv1a_u64(h, stream_id);
+  h = fnv1a_u64(h, sequence);
+  h = fnv1a_u64(h, static_cast<uint64_t>(capture_ns));
+  // Floats are hashed as their little-endian bytes (the wire's); x86-64 and aarch64 are LE.
+  h = fnv1a(h, xyz, sizeof(float) * 3 * static_cast<size_t>(joints));
+  if (confidence) h = fnv1a(h, confidence, sizeof(float) * static_cast<size_t>(joints));
+  return h;
+}
+
+// ---------------------------------------------------------------------------------------------
+// Encoder
+
+struct Encoder::Impl {
+  flatbuffers::FlatBufferBuilder builder{4096};
+  std::vector<uint8_t> message;  // topic + buffer, grown to the largest message, then reused
+};
+
+Encoder::Encoder() : impl_(std::make_unique<Impl>()) {}
+Encoder::~Encoder() = default;
+
+Bytes Encoder::finish(uint64_t stream_id, const char* /*identifier*/) {
+  auto& b = impl_->builder;
+  const size_t size = b.GetSize();
+  auto& m = impl_->message;
+  if (m.size() < kTopicBytes + size) m.resize(kTopicBytes + size);
+  write_topic(stream_id, reinterpret_cast<char*>(m.data()));
+  std::memcpy(m.data() + kTopicBytes, b.GetBufferPointer(), size);
+  return Bytes{m.data(), kTopicBytes + size};
+}
+
+Bytes Encoder::frame(uint64_t stream_id, uint64_t sequence, int64_t capture_ns, const float* xyz, int joints,
+                     const float* confidence) {
+  auto& b = impl_->builder;
+  b.Clear();
+  const auto positions = vec3_vector(b, xyz, joints);
+  flatbuffers::Offset<flatbuffers::Vector<float>> conf;
+  if (confidence) conf = b.CreateVector(confidence, static_cast<size_t>(joints));
+  fb::FrameBuilder f(b);
+  f.add_schema_version(kFrameVersion);
+  f.add_stream_id(stream_id);
+  f.add_sequence(sequence);
+  const fb::Time capture(capture_ns);
+  f.add_capture_time(&capture);
+  f.add_positions(positions);
+  if (confidence) f.add_confidence(conf);
+  f.add_checksum(frame_checksum(stream_id, sequence, capture_ns, xyz, joints, confidence));
+  b.Finish(f.Finish(), fb::FrameIdentifier());
+  return finish(stream_id, fb::FrameIdentifier());
+}
+
+Bytes Encoder::skeleton(const SkeletonDefinition& d) {
+  auto& b = impl_->builder;
+  b.Clear();
+  const Skeleton& s = d.skeleton;
+  const auto names = b.CreateVectorOfStrings(s.names);
+  std::vector<int16_t> parents(s.parents.begin(), s.parents.end());
+  const auto parents_v = b.CreateVector(parents);
+  flatbuffers::Offset<flatbuffers::Vector<const fb::Vec3*>> offsets;
+  if (s.has_rest_pose) {
+    std::vector<fb::Vec3> v;
+    for (const auto& o : s.offsets)
+      v.emplace_back(static_cast<float>(o.x()), static_cast<float>(o.y()), static_cast<float>(o.z()));
+    offsets = b.CreateVectorOfStructs(v);
+  }
+  const auto preset = b.CreateString(d.preset);
+  flatbuffers::Offset<flatbuffers::Vector<flatbuffers::Offset<flatbuffers::String>>> name_map;
+  if (!d.name_map.empty()) name_map = b.CreateVectorOfStrings(d.name_map);
+  fb::SkeletonDefinitionBuilder k(b);
+  k.add_schema_version(kSkeletonVersion);
+  k.add_stream_id(d.stream_id);
+  k.add_revision(d.revision);
+  k.add_joint_names(names);
+  k.add_parents(parents_v);
+  if (s.has_rest_pose) k.add_rest_offsets(offsets);
+  k.add_metres_per_unit(d.metres_per_unit);
+  k.add_up_axis(d.up_axis == UpAxis::kZ ? fb::UpAxis::Z : fb::UpAxis::Y);
+  k.add_preset(preset);
+  if (!d.name_map.empty()) k.add_name_map(name_map);
+  k.add_frame_rate(d.frame_rate);
+  b.Finish(k.Finish(), fb::SkeletonDefinitionIdentifier());
+  return finish(d.stream_id, fb::SkeletonDefinitionIdentifier());
+}
+
+Bytes Encoder::result(const ResultFields& r) {
+  auto& b = impl_->builder;
+  b.Clear();
+  flatbuffers::Offset<flatbuffers::Vector<const fb::Vec3*>> ghost;
+  if (r.ghost) {
+    ghost = vec3_vector(b, r.ghost, r.ghost_joints);
+  }
+  flatbuffers::Offset<flatbuffers::Vector<float>> features;
+  if (r.features) features = b.CreateVector(r.features, static_cast<size_t>(r.feature_count));
+  fb::ResultBuilder o(b);
+  o.add_schema_version(kResultVersion);
+  o.add_stream_id(r.stream_id);
+  o.add_result_sequence(r.result_sequence);
+  o.add_frame_sequence(r.frame_sequence);
+  o.add_frame_index(r.frame_index);
+  const fb::Time capture(r.capture_ns), arrival(r.arrival_ns), computed(r.computed_ns), published(r.published_ns);
+  o.add_capture_time(&capture);
+  o.add_arrival_time(&arrival);
+  o.add_computed_time(&computed);
+  o.add_published_time(&published);
+  o.add_scored(r.scored);
+  o.add_distance(r.distance);
+  o.add_score(r.score);
+  const fb::PartBreakdown parts(r.parts[0], r.parts[1], r.parts[2], r.parts[3], r.parts[4]);
+  o.add_parts(&parts);
+  o.add_matched_teacher_frame(r.matched_teacher_frame);
+  if (r.ghost) o.add_ghost(ghost);
+  if (r.features) o.add_features(features);
+  b.Finish(o.Finish(), fb::ResultIdentifier());
+  return finish(r.stream_id, fb::ResultIdentifier());
+}
+
+// ---------------------------------------------------------------------------------------------
+// Decoder
+
+const char* decode_error_name(DecodeError error) {
+  switch (error) {
+    case DecodeError::kNone: return "none";
+    case DecodeError::kTooShort: return "too short";
+    case DecodeError::kOversized: return "oversized";
+    case DecodeError::kBadTopic: return "bad topic";
+    case DecodeError::kUnknownIdentifier: return "unknown file identifier";
+    case DecodeError::kVerifier: return "refused by the FlatBuffers verifier";
+    case DecodeError::kVersion: return "unknown schema version";
+    case DecodeError::kTopicMismatch: return "stream id differs from the topic";
+    case DecodeError::kMissingField: return "required field missing";
+    case DecodeError::kChecksum: return "checksum mismatch";
+    case DecodeError::kCount: break;
+  }
+  return "unknown";
+}
+
+Decoder::Decoder(size_t max_message_bytes, bool require_checksum)
+    : max_bytes_(max_message_bytes), require_checksum_(require_checksum),
+      scratch_((max_message_bytes + 7) / 8) {}
+Decoder::~Decoder() = default;
+
+MessageKind Decoder::fail(DecodeError error) {
+  error_ = error;
+  return MessageKind::kNone;
+}
+
+MessageKind Decoder::decode(const void* data, size_t size) {
+  error_ = DecodeError::kNone;
+  // Topic + root offset + identifier.
+  if (size < kTopicBytes + 8) return fail(DecodeError::kTooShort);
+  if (size > max_bytes_) return fail(DecodeError::kOversized);
+  const auto* bytes = static_cast<const uint8_t*>(data);
+  if (!parse_topic(bytes, &stream_id_)) return fail(DecodeError::kBadTopic);
+  payload_size_ = size - kTopicBytes;
+  payload_ = bytes + kTopicBytes;
+  // FlatBuffers reads scalars in place: the buffer must be aligned as it was built (8 bytes).
+  if (reinterpret_cast<uintptr_t>(payload_) % 8 != 0) {
+    std::memcpy(scratch_.data(), payload_, payload_size_);
+    payload_ = reinterpret_cast<const uint8_t*>(scratch_.data());
+  }
+  // Depth and table limits far below the defaults: a kata message is shallow and small.
+  flatbuffers::Verifier::Options options;
+  options.max_depth = 8;
+  options.max_tables = 64;
+  flatbuffers::Verifier verifier(payload_, payload_size_, options);
+
+  if (flatbuffers::BufferHasIdentifier(payload_, fb::FrameIdentifier())) {
+    if (!fb::VerifyFrameBuffer(verifier)) return fail(DecodeError::kVerifier);
+    const fb::Frame* f = fb::GetFrame(payload_);
+    if (f->schema_version() != kFrameVersion) return fail(DecodeError::kVersion);
+    if (f->stream_id() != stream_id_) return fail(DecodeError::kTopicMismatch);
+    const auto* positions = f->positions();
+    if (!positions || !f->capture_time()) return fail(DecodeError::kMissingField);
+    frame_.stream_id = f->stream_id();
+    frame_.sequence = f->sequence();
+    frame_.capture_ns = f->capture_time()->nanoseconds();
+    frame_.joints = static_cast<int>(positions->size());
+    frame_.xyz = reinterpret_cast<const float*>(positions->Data());
+    frame_.confidence = nullptr;
+    if (const auto* c = f->confidence()) {
+      if (c->size() != positions->size()) return fail(DecodeError::kMissingField);
+      frame_.confidence = c->data();
+    }
+    if (require_checksum_ || flatbuffers::IsFieldPresent(f, fb::Frame::VT_CHECKSUM)) {
+      if (!flatbuffers::IsFieldPresent(f, fb::Frame::VT_CHECKSUM)) return fail(DecodeError::kMissingField);
+      if (f->checksum() != frame_checksum(frame_.stream_id, frame_.sequence, frame_.capture_ns, frame_.xyz,
+                                          frame_.joints, frame_.confidence))
+        return fail(DecodeError::kChecksum);
+    }
+    return MessageKind::kFrame;
+  }
+  if (flatbuffers::BufferHasIdentifier(payload_, fb::SkeletonDefinitionIdentifier())) {
+    if (!fb::VerifySkeletonDefinitionBuffer(verifier)) return fail(DecodeError::kVerifier);
+    const fb::SkeletonDefinition* k = fb::GetSkeletonDefinition(payload_);
+    if (k->schema_version() != kSkeletonVersion) return fail(DecodeError::kVersion);
+    if (k->stream_id() != stream_id_) return fail(DecodeError::kTopicMismatch);
+    if (!k->joint_names() || !k->parents()) return fail(DecodeError::kMissingField);
+    return MessageKind::kSkeleton;
+  }
+  if (flatbuffers::BufferHasIdentifier(payload_, fb::ResultIdentifier())) {
+    if (!fb::VerifyResultBuffer(verifier)) return fail(DecodeError::kVerifier);
+    const fb::Result* r = fb::GetResult(payload_);
+    if (r->schema_version() != kResultVersion) return fail(DecodeError::kVersion);
+    if (r->stream_id() != stream_id_) return fail(DecodeError::kTopicMismatch);
+    auto ns = [](const fb::Time* t) { return t ? t->nanoseconds() : 0; };
+    ResultFields& o = result_;
+    o.stream_id = r->stream_id();
+    o.result_sequence = r->result_sequence();
+    o.frame_sequence = r->frame_sequence();
+    o.frame_index = r->frame_index();
+    o.capture_ns = ns(r->capture_time());
+    o.arrival_ns = ns(r->arrival_time());
+    o.computed_ns = ns(r->computed_time());
+    o.published_ns = ns(r->published_time());
+    o.scored = r->scored();
+    o.distance = r->distance();
+    o.score = r->score();
+    if (const auto* parts = r->parts()) {
+      o.parts[0] = parts->torso_head();
+      o.parts[1] = parts->left_arm();
+      o.parts[2] = parts->right_arm();
+      o.parts[3] = parts->left_leg();
+      o.parts[4] = parts->right_leg();
+    } else {
+      for (float& p : o.parts) p = 0.0f;
+    }
+    o.matched_teacher_frame = r->matched_teacher_frame();
+    o.ghost = r->ghost() ? reinterpret_cast<const float*>(r->ghost()->Data()) : nullptr;
+    o.ghost_joints = r->ghost() ? static_cast<int>(r->ghost()->size()) : 0;
+    o.features = r->features() ? r->features()->data() : nullptr;
+    o.feature_count = r->features() ? static_cast<int>(r->features()->size()) : 0;
+    return MessageKind::kResult;
+  }
+  return fail(DecodeError::kUnknownIdentifier);
+}
+
+SkeletonDefinition Decoder::skeleton() const {
+  const fb::SkeletonDefinition* k = fb::GetSkeletonDefinition(payload_);
+  SkeletonDefinition d;
+  d.stream_id = k->stream_id();
+  d.revision = k->revision();
+  const auto* names = k->joint_names();
+  const auto* parents = k->parents();
+  if (names->size() != parents->size())
+    throw Error(ErrorKind::kInvalidArgument, "skeleton definition: " + std::to_string(names->size()) +
+                                                 " joint names but " + std::to_string(parents->size()) + " parents");
+  for (flatbuffers::uoffset_t i = 0; i < names->size(); ++i) {
+    d.skeleton.names.push_back(names->Get(i)->str());
+    d.skeleton.parents.push_back(parents->Get(i));
+  }
+  if (const auto* offsets = k->rest_offsets()) {
+    if (offsets->size() != names->size())
+      throw Error(ErrorKind::kInvalidArgument, "skeleton definition: rest offsets count differs from joints");
+    for (const fb::Vec3* v : *offsets) d.skeleton.offsets.emplace_back(v->x(), v->y(), v->z());
+    d.skeleton.has_rest_pose = true;
+  } else {
+    d.skeleton.offsets.assign(names->size(), Eigen::Vector3d::Zero());
+  }
+  d.skeleton.validate();
+  if (k->preset()) d.preset = k->preset()->str();
+  if (const auto* m = k->name_map()) {
+    if (m->size() != static_cast<flatbuffers::uoffset_t>(kGpdJoints))
+      throw Error(ErrorKind::kInvalidArgument, "skeleton definition: name_map must hold 16 names");
+    for (const auto* s : *m) d.name_map.push_back(s->str());
+  }
+  d.up_axis = k->up_axis() == fb::UpAxis::Z ? UpAxis::kZ : UpAxis::kY;
+  d.metres_per_unit = k->metres_per_unit();
+  d.frame_rate = k->frame_rate();
+  return d;
+}
+
+}  // namespace kata::transport

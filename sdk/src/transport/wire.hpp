@@ -1,0 +1,161 @@
+// The wire format of every kata message (schemas/frame.fbs, skeleton.fbs, result.fbs): one
+// ZeroMQ frame holding a 16-byte topic (the stream id as 16 lowercase hex digits, so a SUB
+// prefix filter selects exactly one stream) followed by a FlatBuffer whose file identifier says
+// which table it is. Single-part on purpose: a renderer may set ZMQ_CONFLATE on its SUB socket
+// (latest-only delivery), which keeps only one part of a multi-part message.
+//
+// Encoders reuse one FlatBufferBuilder and one output buffer each (no allocation once they have
+// grown to the largest message). The decoder verifies every buffer with the FlatBuffers
+// Verifier before reading a field; generated types never leave transport/.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "skeleton/skeleton.hpp"
+#include "stream/stream.hpp"
+
+namespace kata::transport {
+
+inline constexpr size_t kTopicBytes = 16;
+
+// Writes the topic of a stream (16 hex digits, no terminator) into out.
+void write_topic(uint64_t stream_id, char* out);
+// Parses a 16-hex-digit topic; false when any byte is not a lowercase hex digit.
+bool parse_topic(const uint8_t* topic, uint64_t* stream_id);
+
+// FNV-1a 32 over a frame's values, as schemas/frame.fbs documents for Frame.checksum.
+uint32_t frame_checksum(uint64_t stream_id, uint64_t sequence, int64_t capture_ns, const float* xyz,
+                        int joints, const float* confidence);
+
+// A stream's skeleton as carried by a SkeletonDefinition message.
+struct SkeletonDefinition {
+  uint64_t stream_id = 0;
+  uint32_t revision = 0;
+  Skeleton skeleton;           // has_rest_pose when rest offsets were sent
+  std::string preset;          // a built-in preset name, or empty when name_map is used
+  std::vector<std::string> name_map;  // 16 names in GPD joint order, or empty
+  UpAxis up_axis = UpAxis::kY;
+  float metres_per_unit = 0.0f;  // 0 = unknown
+  float frame_rate = 0.0f;       // Hz, 0 = unknown
+};
+
+// The published fields of one result (schemas/result.fbs documents each).
+struct ResultFields {
+  uint64_t stream_id = 0;
+  uint64_t result_sequence = 0;
+  uint64_t frame_sequence = 0;
+  int64_t frame_index = 0;
+  int64_t capture_ns = 0, arrival_ns = 0, computed_ns = 0, published_ns = 0;
+  bool scored = false;
+  float distance = 0.0f, score = 0.0f;
+  float parts[5] = {};
+  int32_t matched_teacher_frame = -1;
+  const float* ghost = nullptr;  // ghost_joints x 3, or null
+  int ghost_joints = 0;
+  const float* features = nullptr;  // feature_count floats, or null
+  int feature_count = 0;
+};
+
+// A view of one message's bytes (topic included); valid until the encoder's next call.
+struct Bytes {
+  const uint8_t* data = nullptr;
+  size_t size = 0;
+};
+
+// Builds messages with one reused builder. One encoder per thread.
+class Encoder {
+ public:
+  Encoder();
+  ~Encoder();
+  Encoder(const Encoder&) = delete;
+  Encoder& operator=(const Encoder&) = delete;
+
+  // A Frame message (checksum filled in). confidence may be null.
+  Bytes frame(uint64_t stream_id, uint64_t sequence, int64_t capture_ns, const float* xyz, int joints,
+              const float* confidence = nullptr);
+  // A SkeletonDefinition message.
+  Bytes skeleton(const SkeletonDefinition& definition);
+  // A Result message.
+  Bytes result(const ResultFields& fields);
+
+ private:
+  Bytes finish(uint64_t stream_id, const char* identifier);
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+// Why a message was refused (each is counted by the ingest).
+enum class DecodeError {
+  kNone = 0,
+  kTooShort,           // shorter than a topic plus a FlatBuffer header
+  kOversized,          // larger than the decoder's limit
+  kBadTopic,           // the topic is not 16 lowercase hex digits
+  kUnknownIdentifier,  // no kata table's file identifier
+  kVerifier,           // the FlatBuffers verifier refused the buffer
+  kVersion,            // a schema_version this reader does not know
+  kTopicMismatch,      // the table's stream_id differs from the topic
+  kMissingField,       // a required field (positions, joint names, checksum) is absent
+  kChecksum,           // Frame.checksum does not match its values
+  kCount
+};
+const char* decode_error_name(DecodeError error);
+
+enum class MessageKind { kNone, kFrame, kSkeleton, kResult };
+
+// A verified frame; pointers are valid until the decoder's next call.
+struct FrameView {
+  uint64_t stream_id = 0, sequence = 0;
+  int64_t capture_ns = 0;
+  int joints = 0;
+  const float* xyz = nullptr;         // joints x 3
+  const float* confidence = nullptr;  // joints, or null
+};
+
+// A verified result; pointers valid until the decoder's next call.
+struct ResultView {
+  ResultFields fields;
+};
+
+// Verifies and reads messages. Owns an aligned scratch buffer (allocated once, at the size
+// limit) that a message is copied into when ZeroMQ hands it over misaligned.
+class Decoder {
+ public:
+  explicit Decoder(size_t max_message_bytes = 1 << 20, bool require_checksum = true);
+  ~Decoder();
+  Decoder(const Decoder&) = delete;
+  Decoder& operator=(const Decoder&) = delete;
+
+  // Verifies a message and says what it holds; on kNone, error() says why. Reads no field
+  // before the verifier passed.
+  MessageKind decode(const void* data, size_t size);
+  DecodeError error() const { return error_; }
+  uint64_t stream_id() const { return stream_id_; }
+
+  // The verified content of the last decode(), for the kind it returned.
+  const FrameView& frame() const { return frame_; }
+  // Copies the definition out (allocates: skeleton definitions are rare). Throws
+  // kata::Error(kInvalidArgument) when the skeleton itself is inconsistent.
+  SkeletonDefinition skeleton() const;
+  const ResultFields& result() const { return result_; }
+
+  size_t max_message_bytes() const { return max_bytes_; }
+
+ private:
+  MessageKind fail(DecodeError error);
+  size_t max_bytes_;
+  bool require_checksum_;
+  std::vector<uint64_t> scratch_;  // 8-byte aligned
+  const uint8_t* payload_ = nullptr;
+  size_t payload_size_ = 0;
+  DecodeError error_ = DecodeError::kNone;
+  uint64_t stream_id_ = 0;
+  FrameView frame_;
+  ResultFields result_;
+};
+
+}  // namespace kata::transport

@@ -1,0 +1,144 @@
+// ZeroMQ sockets of the runtime: a publisher of results and skeleton definitions, and an
+// ingest of frames and skeleton definitions. ZeroMQ sockets are not thread-safe: each object
+// here is created, used and destroyed on one thread (the runtime's I/O thread), counters
+// included (the runtime copies them out for other threads).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "transport/wire.hpp"
+
+namespace kata::transport {
+
+// A ZeroMQ context (thread-safe), shared by every socket of a process part.
+class Context {
+ public:
+  explicit Context(int io_threads = 1);
+  ~Context();
+  Context(const Context&) = delete;
+  Context& operator=(const Context&) = delete;
+  void* get() const { return context_; }
+
+ private:
+  void* context_;
+};
+
+struct PublisherOptions {
+  // Endpoints to bind (tcp://127.0.0.1:5555, ipc:///tmp/kata.sock, ...). At least one.
+  std::vector<std::string> endpoints;
+  // ZMQ_SNDHWM: messages queued per subscriber before ZeroMQ drops that subscriber's newest
+  // (ZeroMQ's per-subscriber drops; they show as result_sequence gaps at the subscriber).
+  int send_hwm = 10000;
+};
+
+// An XPUB socket: publishes never block (ZMQ_DONTWAIT; a PUB drops at the high-water mark
+// rather than block) and it sees each subscription (ZMQ_XPUB_VERBOSE), so the runtime re-sends
+// the skeleton definitions a joining subscriber asked for.
+class Publisher {
+ public:
+  // Binds every endpoint. Throws kata::Error(kIo) naming the endpoint and ZeroMQ's reason.
+  Publisher(Context& context, const PublisherOptions& options);
+  ~Publisher();
+  Publisher(const Publisher&) = delete;
+  Publisher& operator=(const Publisher&) = delete;
+
+  // Sends one message without blocking; false (and counted in failed()) when ZeroMQ refused it.
+  bool send(Bytes message);
+  // Reads pending subscription messages without blocking; calls on_join(prefix, prefix_size)
+  // for every subscribe (prefix empty = every topic). Returns how many were read.
+  int poll_joins(const std::function<void(const uint8_t* prefix, size_t size)>& on_join);
+  // The socket, for zmq_poll (POLLIN = subscription messages).
+  void* socket() const { return socket_; }
+  // The last endpoint bound, resolved (a "tcp://127.0.0.1:*" bind reports its port).
+  std::string endpoint() const;
+
+  uint64_t sent() const { return sent_; }
+  uint64_t failed() const { return failed_; }
+
+ private:
+  void* socket_ = nullptr;
+  uint64_t sent_ = 0, failed_ = 0;
+};
+
+enum class IngestKind { kSub, kPull };
+
+struct IngestOptions {
+  // Endpoints; "bind:" before an endpoint binds it, otherwise it is connected (a SUB connects
+  // to a mocap stage's PUB; a PULL usually binds so several senders can push to it).
+  std::vector<std::string> endpoints;
+  IngestKind kind = IngestKind::kSub;
+  // Largest message accepted; larger ones are counted as oversized and dropped.
+  size_t max_message_bytes = 1 << 20;
+  // ZMQ_RCVHWM.
+  int receive_hwm = 10000;
+  // Refuse frames without Frame.checksum (schemas/frame.fbs).
+  bool require_checksum = true;
+};
+
+// What the ingest counted. Every received message lands in exactly one of frames, skeletons,
+// repeated_skeletons or a drop counter.
+struct IngestCounters {
+  uint64_t received = 0;       // messages read from the socket
+  uint64_t frames = 0;         // frames handed on
+  uint64_t skeletons = 0;      // skeleton definitions handed on (new streams and revisions)
+  uint64_t repeated_skeletons = 0;  // periodic re-sends of a known revision (not handed on)
+  uint64_t malformed[static_cast<int>(DecodeError::kCount)] = {};  // by reason
+  uint64_t refused_skeletons = 0;   // verified but inconsistent / refused by the receiver
+  uint64_t unknown_stream = 0;      // a frame before its stream's skeleton definition
+  uint64_t wrong_joint_count = 0;   // a frame whose joint count differs from its definition
+  uint64_t out_of_order = 0;        // sequence not after the last one (and not a restart)
+  uint64_t other_kind = 0;          // a valid kata message that is not ingest's (a Result)
+  uint64_t restarts = 0;            // sequence back to 0: the source restarted (frame handed on)
+  uint64_t sequence_gaps = 0;       // frames missing between accepted ones (not messages)
+  uint64_t malformed_total() const;
+  uint64_t dropped_total() const;   // every message refused (repeated skeletons are not refused)
+};
+
+// A SUB (subscribed to every topic) or PULL socket reading kata frames and skeleton
+// definitions. Every message passes the verifier; anything else is counted and dropped and
+// never stalls the stream it claims to belong to.
+class Ingest {
+ public:
+  struct Handlers {
+    // A new stream or a new revision of one. Return false to refuse it (its frames are then
+    // counted as unknown_stream). Called on the ingest's thread.
+    std::function<bool(const SkeletonDefinition&)> on_skeleton;
+    // A frame of a known stream, in order. restarted: the source restarted (sequence 0 after
+    // later ones): the receiver should restart the stream's kinetics.
+    std::function<void(const FrameView&, bool restarted)> on_frame;
+  };
+
+  Ingest(Context& context, const IngestOptions& options, Handlers handlers);
+  ~Ingest();
+  Ingest(const Ingest&) = delete;
+  Ingest& operator=(const Ingest&) = delete;
+
+  // Reads up to max_messages without blocking. Returns how many were read.
+  int poll(int max_messages);
+  void* socket() const { return socket_; }
+  // The last endpoint bound or connected, resolved (a "bind:tcp://127.0.0.1:*" reports its port).
+  std::string endpoint() const;
+  const IngestCounters& counters() const { return counters_; }
+
+ private:
+  void handle(const void* data, size_t size);
+  struct Known {
+    uint32_t revision = 0;
+    int joints = 0;
+    bool accepted = false;
+    bool any_frame = false;
+    uint64_t last_sequence = 0;
+  };
+  void* socket_ = nullptr;
+  Decoder decoder_;
+  Handlers handlers_;
+  std::unordered_map<uint64_t, Known> streams_;
+  IngestCounters counters_;
+  std::vector<uint8_t> receive_buffer_;
+};
+
+}  // namespace kata::transport

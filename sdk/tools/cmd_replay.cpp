@@ -1,0 +1,473 @@
+// kata replay: K CMU clips replayed as K live streams at their recorded rate through the whole
+// runtime (features + score + ghost + FlatBuffers + ZeroMQ PUB) to a subscriber in another
+// process, and, in the same run, a bare ZeroMQ PUB/SUB sending messages of the same size with
+// the same pacing (sleeping between ticks, not spinning). End-to-end latency = frame pushed ->
+// message received, both ends on CLOCK_MONOTONIC (one host). Every phase is bounded in time.
+//
+// The subscriber is this executable again (`kata replay --subscriber ENDPOINT --mode kata|bare`),
+// spawned per phase; it prints "ready" once subscribed and one JSON line of latencies at the end.
+#include <spawn.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+#include <zmq.h>
+
+#include <algorithm>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "command.hpp"
+#include "common/error.hpp"
+#include "io/bvh.hpp"
+#include "io/clip_features.hpp"
+#include "io/model_file.hpp"
+#include "pipeline/pipeline.hpp"
+#include "runtime/runtime.hpp"
+#include "transport/wire.hpp"
+
+extern char** environ;
+
+namespace {
+
+using kata::Error;
+using kata::ErrorKind;
+using json = nlohmann::json;
+
+struct Options {
+  int streams = 64;
+  double seconds = 30.0;
+  double rate = 120.0;
+  std::string transport = "tcp";
+  std::string out;
+  bool find_max = false;
+  double p99_bound_us = 0.0;  // 0: only the 1.25 x bare ratio bounds --find-max
+  int workers = 2;
+  std::string data_dir = "data/cmu";
+  std::string model = "models/default.kata";
+  std::string teacher = "02_01.bvh";
+  // Subscriber mode (internal).
+  std::string subscriber;
+  std::string mode = "kata";
+  double deadline = 60.0;
+};
+
+int64_t now_ns() { return kata::pipeline::now_ns(); }
+
+double cpu_seconds() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+         1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+}
+
+double percentile(std::vector<int64_t>& v, double q) {
+  if (v.empty()) return 0.0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size() - 1) + 0.5));
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
+  return static_cast<double>(v[k]) / 1000.0;  // us
+}
+
+json summary(std::vector<int64_t>& ns) {
+  json j;
+  j["p50_us"] = percentile(ns, 0.50);
+  j["p99_us"] = percentile(ns, 0.99);
+  j["p999_us"] = percentile(ns, 0.999);
+  j["max_us"] = ns.empty() ? 0.0 : static_cast<double>(*std::max_element(ns.begin(), ns.end())) / 1000.0;
+  return j;
+}
+
+// ---- the subscriber process -------------------------------------------------------------------
+
+int run_subscriber(const Options& o) {
+  void* context = zmq_ctx_new();
+  void* sub = zmq_socket(context, ZMQ_SUB);
+  int hwm = 1 << 20;  // the subscriber keeps up or is measured as late; it never drops on purpose
+  zmq_setsockopt(sub, ZMQ_RCVHWM, &hwm, sizeof hwm);
+  zmq_setsockopt(sub, ZMQ_SUBSCRIBE, "", 0);
+  if (zmq_connect(sub, o.subscriber.c_str()) != 0) {
+    std::fprintf(stderr, "subscriber: cannot connect %s: %s\n", o.subscriber.c_str(), zmq_strerror(zmq_errno()));
+    return 1;
+  }
+  const bool kata_mode = o.mode == "kata";
+  if (!kata_mode) std::printf("ready\n"), std::fflush(stdout);  // the bare publisher sees the join itself
+  kata::transport::Decoder decoder(1 << 22, false);
+  std::vector<uint8_t> buffer(1 << 22);
+  std::vector<int64_t> total, queue_compute, publish, transport;
+  total.reserve(1 << 20);
+  bool ready = !kata_mode;
+  uint64_t received = 0, bytes = 0;
+  const double cpu0 = cpu_seconds();
+  const auto hard_deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(o.deadline);
+  auto last_message = std::chrono::steady_clock::now();
+  bool any = false;
+  for (;;) {
+    zmq_pollitem_t item{sub, 0, ZMQ_POLLIN, 0};
+    zmq_poll(&item, 1, 100);
+    const auto now = std::chrono::steady_clock::now();
+    if (now > hard_deadline) break;
+    // Done after 1.5 s without a message once results flowed (the publisher has finished).
+    if (any && now - last_message > std::chrono::milliseconds(1500)) break;
+    for (;;) {
+      const int n = zmq_recv(sub, buffer.data(), buffer.size(), ZMQ_DONTWAIT);
+      if (n < 0) break;
+      const int64_t t = now_ns();  // before any decoding: both modes time the same thing
+      last_message = std::chrono::steady_clock::now();
+      if (!kata_mode) {
+        if (n < 24) continue;
+        int64_t sent;
+        std::memcpy(&sent, buffer.data() + 16, 8);
+        total.push_back(t - sent);
+        ++received;
+        bytes += static_cast<uint64_t>(n);
+        any = true;
+        continue;
+      }
+      const auto kind = decoder.decode(buffer.data(), static_cast<size_t>(n));
+      if (kind == kata::transport::MessageKind::kSkeleton && !ready) {
+        ready = true;
+        std::printf("ready\n");
+        std::fflush(stdout);
+      }
+      if (kind != kata::transport::MessageKind::kResult) continue;
+      const auto& r = decoder.result();
+      total.push_back(t - r.arrival_ns);
+      queue_compute.push_back(r.computed_ns - r.arrival_ns);
+      publish.push_back(r.published_ns - r.computed_ns);
+      transport.push_back(t - r.published_ns);
+      ++received;
+      bytes += static_cast<uint64_t>(n);
+      any = true;
+    }
+  }
+  json j;
+  j["received"] = received;
+  j["mean_message_bytes"] = received ? static_cast<double>(bytes) / static_cast<double>(received) : 0.0;
+  j["latency"] = summary(total);
+  if (kata_mode) {
+    j["stages"]["arrival_to_computed"] = summary(queue_compute);
+    j["stages"]["computed_to_published"] = summary(publish);
+    j["stages"]["published_to_received"] = summary(transport);
+  }
+  j["subscriber_cpu_seconds"] = cpu_seconds() - cpu0;
+  std::printf("%s\n", j.dump().c_str());
+  std::fflush(stdout);
+  zmq_close(sub);
+  zmq_ctx_term(context);
+  return 0;
+}
+
+// ---- the publisher side -----------------------------------------------------------------------
+
+struct Child {
+  pid_t pid = -1;
+  FILE* out = nullptr;
+};
+
+Child spawn_subscriber(const std::string& endpoint, const std::string& mode, double deadline) {
+  int pipe_fds[2];
+  if (pipe(pipe_fds) != 0) throw Error(ErrorKind::kIo, "replay: pipe failed");
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], 1);
+  posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
+  const std::string deadline_text = std::to_string(deadline);
+  std::vector<std::string> args = {"kata", "replay", "--subscriber", endpoint, "--mode", mode, "--deadline", deadline_text};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  Child c;
+  if (posix_spawn(&c.pid, "/proc/self/exe", &actions, nullptr, argv.data(), environ) != 0)
+    throw Error(ErrorKind::kIo, "replay: cannot start the subscriber process");
+  posix_spawn_file_actions_destroy(&actions);
+  close(pipe_fds[1]);
+  c.out = fdopen(pipe_fds[0], "r");
+  return c;
+}
+
+std::string read_line(FILE* f) {
+  std::string line;
+  for (int ch; (ch = std::fgetc(f)) != EOF && ch != '\n';) line.push_back(static_cast<char>(ch));
+  return line;
+}
+
+json finish_child(Child& c) {
+  const std::string line = read_line(c.out);
+  std::fclose(c.out);
+  int status = 0;
+  waitpid(c.pid, &status, 0);
+  if (line.empty()) throw Error(ErrorKind::kIo, "replay: the subscriber process reported nothing");
+  return json::parse(line);
+}
+
+std::string endpoint_for(const Options& o, const char* tag) {
+  if (o.transport == "ipc")
+    return "ipc:///tmp/kata_replay_" + std::to_string(getpid()) + "_" + tag;
+  return "tcp://127.0.0.1:*";
+}
+
+struct Clips {
+  std::vector<kata::BvhClip> clips;
+  std::vector<std::vector<float>> positions;
+  std::shared_ptr<const kata::pipeline::Teacher> teacher;
+  std::shared_ptr<const kata::metric::Metric> metric;
+};
+
+Clips load_clips(const Options& o) {
+  Clips c;
+  for (const char* name : {"02_02.bvh", "05_02.bvh", "05_03.bvh", "07_01.bvh", "09_01.bvh", "02_01.bvh"}) {
+    c.clips.push_back(kata::load_bvh(o.data_dir + "/" + name));
+    c.positions.push_back(kata::clip_positions(c.clips.back(), 1));
+  }
+  c.metric = std::make_shared<const kata::metric::Metric>(kata::metric::load_model(o.model));
+  const kata::BvhClip t = kata::load_bvh(o.data_dir + "/" + o.teacher);
+  const auto tp = kata::clip_positions(t, 1);
+  const kata::GpdMap map = kata::make_gpd_map(t.skeleton, kata::preset_joint_names("cmu"));
+  c.teacher = kata::pipeline::Teacher::from_positions(c.metric, t.skeleton,
+                                                      kata::stream_config_for(t.skeleton, map, c.metric->stencil()),
+                                                      tp.data(), t.frame_count() - 1, t.frame_time);
+  return c;
+}
+
+kata::runtime::StreamSetup setup_for(const Clips& c, size_t clip) {
+  kata::runtime::StreamSetup s;
+  const kata::Skeleton& sk = c.clips[clip].skeleton;
+  const kata::GpdMap map = kata::make_gpd_map(sk, kata::preset_joint_names("cmu"));
+  s.pipeline.stream = kata::stream_config_for(sk, map, c.metric->stencil());
+  s.pipeline.student = sk;
+  s.teacher = c.teacher;
+  return s;
+}
+
+// Sleeps to each tick (absolute deadlines: no drift) and calls send(tick) for every tick.
+template <typename Send>
+void paced(const Options& o, int64_t ticks, Send send) {
+  const auto start = std::chrono::steady_clock::now();
+  const auto period = std::chrono::duration<double>(1.0 / o.rate);
+  for (int64_t t = 0; t < ticks; ++t) {
+    std::this_thread::sleep_until(start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(period * t));
+    send(t);
+  }
+}
+
+json run_kata(const Options& o, const Clips& c, int streams, double* message_bytes) {
+  kata::runtime::RuntimeConfig config;
+  config.workers = o.workers;
+  config.max_streams = std::max(streams, 1);
+  config.publish.endpoints = {endpoint_for(o, "kata")};
+  config.publish.send_hwm = 100000;
+  config.skeleton_resend_seconds = 1.0;
+  kata::runtime::Runtime runtime(config);
+  for (int s = 0; s < streams; ++s) {
+    kata::transport::SkeletonDefinition d;
+    d.stream_id = static_cast<uint64_t>(s);
+    d.revision = 1;
+    const size_t clip = static_cast<size_t>(s) % c.clips.size();
+    d.skeleton = c.clips[clip].skeleton;
+    d.preset = "cmu";
+    d.frame_rate = static_cast<float>(o.rate);
+    runtime.open_stream(d, setup_for(c, clip));
+  }
+  Child child = spawn_subscriber(runtime.publish_endpoint(), "kata", o.seconds + 30.0);
+  if (read_line(child.out) != "ready") throw Error(ErrorKind::kIo, "replay: the kata subscriber did not start");
+  const int64_t ticks = static_cast<int64_t>(o.seconds * o.rate);
+  uint64_t sent = 0, refused_push = 0;
+  const double cpu0 = cpu_seconds();
+  const auto wall0 = std::chrono::steady_clock::now();
+  paced(o, ticks, [&](int64_t t) {
+    for (int s = 0; s < streams; ++s) {
+      const size_t clip = static_cast<size_t>(s) % c.clips.size();
+      const int joints = c.clips[clip].skeleton.joint_count();
+      const int frames = static_cast<int>(c.positions[clip].size() / (3 * static_cast<size_t>(joints)));
+      const int f = static_cast<int>((t + s) % frames);
+      const float* xyz = c.positions[clip].data() + static_cast<size_t>(f) * 3 * static_cast<size_t>(joints);
+      if (runtime.push(static_cast<uint64_t>(s), static_cast<uint64_t>(t), static_cast<double>(t) / o.rate, xyz,
+                       joints) == kata::Status::kOk)
+        ++sent;
+      else
+        ++refused_push;
+    }
+  });
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  const double cpu = cpu_seconds() - cpu0;
+  runtime.stop();
+  json j = finish_child(child);
+  const auto counters = runtime.counters();
+  j["sent"] = sent + refused_push;
+  j["lost"] = static_cast<int64_t>(sent + refused_push) - j["received"].get<int64_t>();
+  j["runtime_drops"] = counters.total.queue_full + counters.total.result_queue_full + counters.total.pipeline_dropped +
+                       counters.total.refused + counters.total.send_failed;
+  j["publisher_cpu_percent_of_one_core"] = 100.0 * cpu / wall;
+  *message_bytes = j["mean_message_bytes"].get<double>();
+  return j;
+}
+
+json run_bare(const Options& o, int streams, size_t message_bytes) {
+  void* context = zmq_ctx_new();
+  void* pub = zmq_socket(context, ZMQ_XPUB);  // XPUB only to see the subscriber join
+  int hwm = 100000, linger = 0;
+  zmq_setsockopt(pub, ZMQ_SNDHWM, &hwm, sizeof hwm);
+  zmq_setsockopt(pub, ZMQ_LINGER, &linger, sizeof linger);
+  const std::string bind = endpoint_for(o, "bare");
+  if (zmq_bind(pub, bind.c_str()) != 0) throw Error(ErrorKind::kIo, "replay: cannot bind " + bind);
+  char endpoint[256];
+  size_t size = sizeof endpoint;
+  zmq_getsockopt(pub, ZMQ_LAST_ENDPOINT, endpoint, &size);
+  Child child = spawn_subscriber(endpoint, "bare", o.seconds + 30.0);
+  read_line(child.out);
+  uint8_t join[64];
+  zmq_pollitem_t item{pub, 0, ZMQ_POLLIN, 0};
+  if (zmq_poll(&item, 1, 10000) <= 0 || zmq_recv(pub, join, sizeof join, 0) < 1)
+    throw Error(ErrorKind::kIo, "replay: the bare subscriber did not join");
+  std::vector<uint8_t> message(std::max<size_t>(message_bytes, 24), 0);
+  const int64_t ticks = static_cast<int64_t>(o.seconds * o.rate);
+  uint64_t sent = 0;
+  const double cpu0 = cpu_seconds();
+  const auto wall0 = std::chrono::steady_clock::now();
+  paced(o, ticks, [&](int64_t) {
+    for (int s = 0; s < streams; ++s) {
+      kata::transport::write_topic(static_cast<uint64_t>(s), reinterpret_cast<char*>(message.data()));
+      const int64_t t = now_ns();
+      std::memcpy(message.data() + 16, &t, 8);
+      zmq_send(pub, message.data(), message.size(), ZMQ_DONTWAIT);
+      ++sent;
+    }
+  });
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  const double cpu = cpu_seconds() - cpu0;
+  json j = finish_child(child);
+  j["sent"] = sent;
+  j["lost"] = static_cast<int64_t>(sent) - j["received"].get<int64_t>();
+  j["publisher_cpu_percent_of_one_core"] = 100.0 * cpu / wall;
+  zmq_close(pub);
+  zmq_ctx_term(context);
+  return j;
+}
+
+json run_once(const Options& o, const Clips& c, int streams) {
+  double bytes = 0.0;
+  json kata_result = run_kata(o, c, streams, &bytes);
+  json bare = run_bare(o, streams, static_cast<size_t>(bytes + 0.5));
+  json j;
+  j["streams"] = streams;
+  j["rate_hz"] = o.rate;
+  j["seconds"] = o.seconds;
+  j["transport"] = o.transport;
+  j["workers"] = o.workers;
+  j["kata"] = kata_result;
+  j["bare_zmq"] = bare;
+  const double bare_p99 = bare["latency"]["p99_us"].get<double>();
+  const double bare_p50 = bare["latency"]["p50_us"].get<double>();
+  j["p99_ratio_kata_over_bare"] = bare_p99 > 0 ? kata_result["latency"]["p99_us"].get<double>() / bare_p99 : 0.0;
+  j["p50_difference_us"] = kata_result["latency"]["p50_us"].get<double>() - bare_p50;
+  return j;
+}
+
+bool passes(const Options& o, const json& r) {
+  if (r["kata"]["lost"].get<int64_t>() != 0 || r["bare_zmq"]["lost"].get<int64_t>() != 0) return false;
+  if (r["p99_ratio_kata_over_bare"].get<double>() > 1.25) return false;
+  if (o.p99_bound_us > 0 && r["kata"]["latency"]["p99_us"].get<double>() > o.p99_bound_us) return false;
+  return true;
+}
+
+void print_line(const json& r) {
+  std::printf("streams %4d  kata p50 %8.1f us p99 %9.1f us lost %lld | bare p50 %8.1f us p99 %9.1f us lost %lld | "
+              "p99 ratio %.2f\n",
+              r["streams"].get<int>(), r["kata"]["latency"]["p50_us"].get<double>(),
+              r["kata"]["latency"]["p99_us"].get<double>(), static_cast<long long>(r["kata"]["lost"].get<int64_t>()),
+              r["bare_zmq"]["latency"]["p50_us"].get<double>(), r["bare_zmq"]["latency"]["p99_us"].get<double>(),
+              static_cast<long long>(r["bare_zmq"]["lost"].get<int64_t>()), r["p99_ratio_kata_over_bare"].get<double>());
+  std::fflush(stdout);
+}
+
+void run_replay(const Options& o) {
+  if (!o.subscriber.empty()) {
+    const int code = run_subscriber(o);
+    if (code != 0) throw CLI::RuntimeError(code);
+    return;
+  }
+  if (o.transport != "tcp" && o.transport != "ipc") throw Error(ErrorKind::kInvalidArgument, "replay: --transport tcp|ipc");
+  if (o.streams < 1 || !(o.rate > 0) || !(o.seconds > 0) || o.seconds > 600)
+    throw Error(ErrorKind::kInvalidArgument, "replay: --streams >= 1, --rate > 0, 0 < --seconds <= 600");
+  std::signal(SIGPIPE, SIG_IGN);
+  const Clips clips = load_clips(o);
+  json report;
+  if (!o.find_max) {
+    report = run_once(o, clips, o.streams);
+    print_line(report);
+  } else {
+    // Doubling from --streams, then bisection: at most ~16 runs, each bounded by --seconds.
+    json trials = json::array();
+    int good = 0, bad = 0;
+    json best;
+    for (int k = o.streams; k <= 4096; k *= 2) {
+      json r = run_once(o, clips, k);
+      print_line(r);
+      trials.push_back(r);
+      if (!passes(o, r)) {
+        bad = k;
+        break;
+      }
+      good = k;
+      best = r;
+    }
+    while (bad && good && bad - good > std::max(1, good / 16)) {
+      const int mid = (good + bad) / 2;
+      json r = run_once(o, clips, mid);
+      print_line(r);
+      trials.push_back(r);
+      if (passes(o, r)) {
+        good = mid;
+        best = r;
+      } else {
+        bad = mid;
+      }
+    }
+    report["max_streams"] = good;
+    report["criterion"] = "nothing lost (kata and bare), kata p99 <= 1.25 x bare p99" +
+                          std::string(o.p99_bound_us > 0 ? ", kata p99 <= --p99-bound-us" : "");
+    report["p99_bound_us"] = o.p99_bound_us;
+    report["at_max"] = best;
+    report["trials"] = trials;
+    std::printf("find-max: %d streams at %.0f Hz\n", good, o.rate);
+  }
+  report["machine"]["hardware_threads"] = std::thread::hardware_concurrency();
+  report["clock"] = "CLOCK_MONOTONIC (steady_clock), both processes on one host";
+  if (!o.out.empty()) {
+    std::ofstream f(o.out);
+    if (!f) throw Error(ErrorKind::kIo, "replay: cannot write " + o.out);
+    f << report.dump(2) << "\n";
+  }
+}
+
+void setup(CLI::App& app) {
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand(
+      "replay", "replay K clips as K live streams through the runtime and ZeroMQ vs bare ZeroMQ; latency report");
+  cmd->add_option("--streams", o->streams, "streams K (with --find-max: the first K tried)")->capture_default_str();
+  cmd->add_option("--seconds", o->seconds, "seconds per phase (each run: a kata and a bare phase)")->capture_default_str();
+  cmd->add_option("--rate", o->rate, "frames per second per stream")->capture_default_str();
+  cmd->add_option("--transport", o->transport, "tcp or ipc")->capture_default_str();
+  cmd->add_option("--out", o->out, "report JSON");
+  cmd->add_flag("--find-max", o->find_max, "find the most streams with nothing lost and kata p99 <= 1.25 x bare p99");
+  cmd->add_option("--p99-bound-us", o->p99_bound_us, "with --find-max: also kata p99 <= this (us)");
+  cmd->add_option("--workers", o->workers, "runtime worker threads")->capture_default_str();
+  cmd->add_option("--data", o->data_dir, "directory of the CMU clips")->capture_default_str();
+  cmd->add_option("--model", o->model, "the .kata model")->capture_default_str();
+  cmd->add_option("--subscriber", o->subscriber)->group("");  // internal: the subscriber process
+  cmd->add_option("--mode", o->mode)->group("");
+  cmd->add_option("--deadline", o->deadline)->group("");
+  cmd->callback([o] { run_replay(*o); });
+}
+
+const kata::cli::RegisterCommand reg(setup);
+
+}  // namespace

@@ -1,0 +1,97 @@
+// kata send: plays a BVH clip as a live ZeroMQ source (what a mocap stage sends): its skeleton
+// definition, then one Frame per clip frame at the recorded rate (or --speed x), paced by
+// sleeping; the definition is re-sent every second so a late `kata serve` still learns it.
+#include <zmq.h>
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include "command.hpp"
+#include "common/error.hpp"
+#include "io/bvh.hpp"
+#include "io/clip_features.hpp"
+#include "transport/wire.hpp"
+
+namespace {
+
+using kata::Error;
+using kata::ErrorKind;
+
+struct Options {
+  std::string bvh, endpoint, socket = "push", preset = "cmu";
+  uint64_t stream_id = 1;
+  double speed = 1.0;
+  int first_frame = 1, frames = 0, loops = 1;
+};
+
+void run_send(const Options& o) {
+  const kata::BvhClip clip = kata::load_bvh(o.bvh);
+  const auto positions = kata::clip_positions(clip, o.first_frame);
+  const int joints = clip.skeleton.joint_count();
+  const int available = clip.frame_count() - o.first_frame;
+  const int frames = o.frames > 0 ? std::min(o.frames, available) : available;
+  if (frames < 1 || !(o.speed > 0) || o.loops < 1)
+    throw Error(ErrorKind::kInvalidArgument, "send: no frames to send (--first-frame, --frames, --speed > 0, --loops >= 1)");
+  kata::transport::SkeletonDefinition d;
+  d.stream_id = o.stream_id;
+  d.revision = 1;
+  d.skeleton = clip.skeleton;
+  d.preset = o.preset;
+  d.frame_rate = static_cast<float>(1.0 / clip.frame_time);
+
+  void* context = zmq_ctx_new();
+  void* socket = zmq_socket(context, o.socket == "pub" ? ZMQ_PUB : ZMQ_PUSH);
+  int linger = 2000;
+  zmq_setsockopt(socket, ZMQ_LINGER, &linger, sizeof linger);
+  const bool bind = o.endpoint.rfind("bind:", 0) == 0;
+  const std::string endpoint = bind ? o.endpoint.substr(5) : o.endpoint;
+  if ((bind ? zmq_bind(socket, endpoint.c_str()) : zmq_connect(socket, endpoint.c_str())) != 0)
+    throw Error(ErrorKind::kIo, "send: cannot use " + o.endpoint + ": " + zmq_strerror(zmq_errno()));
+  kata::transport::Encoder encoder;
+  auto send = [&](kata::transport::Bytes m) { zmq_send(socket, m.data, m.size, 0); };
+  send(encoder.skeleton(d));
+  const auto start = std::chrono::steady_clock::now();
+  auto next_definition = start + std::chrono::seconds(1);
+  const double period = clip.frame_time / o.speed;
+  uint64_t sequence = 0;
+  for (int loop = 0; loop < o.loops; ++loop)
+    for (int f = 0; f < frames; ++f, ++sequence) {
+      const auto due = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                   std::chrono::duration<double>(period * static_cast<double>(sequence)));
+      std::this_thread::sleep_until(due);
+      if (std::chrono::steady_clock::now() >= next_definition) {
+        send(encoder.skeleton(d));
+        next_definition += std::chrono::seconds(1);
+      }
+      // Capture time: the clip's time, continuing over loops (the source's clock).
+      const int64_t capture_ns = static_cast<int64_t>(static_cast<double>(sequence) * clip.frame_time * 1e9);
+      send(encoder.frame(o.stream_id, sequence, capture_ns,
+                         positions.data() + static_cast<size_t>(f) * 3 * static_cast<size_t>(joints), joints));
+    }
+  zmq_close(socket);
+  zmq_ctx_term(context);
+  std::fprintf(stderr, "kata send: %llu frames of stream %llu sent\n", static_cast<unsigned long long>(sequence),
+               static_cast<unsigned long long>(o.stream_id));
+}
+
+void setup(CLI::App& app) {
+  auto o = std::make_shared<Options>();
+  CLI::App* cmd = app.add_subcommand("send", "play a BVH clip as a live ZeroMQ source of kata frames (for kata serve)");
+  cmd->add_option("--bvh", o->bvh, "the clip")->required();
+  cmd->add_option("--endpoint", o->endpoint, "where to send (connect; \"bind:\" binds)")->required();
+  cmd->add_option("--socket", o->socket, "push or pub")->capture_default_str();
+  cmd->add_option("--stream-id", o->stream_id, "the stream id")->capture_default_str();
+  cmd->add_option("--preset", o->preset, "GPD joint map named in the skeleton definition")->capture_default_str();
+  cmd->add_option("--speed", o->speed, "times the recorded rate")->capture_default_str();
+  cmd->add_option("--first-frame", o->first_frame, "first clip frame (1 skips the CMU T-pose)")->capture_default_str();
+  cmd->add_option("--frames", o->frames, "frames per loop (0: to the clip's end)")->capture_default_str();
+  cmd->add_option("--loops", o->loops, "times to play the clip (the sequence keeps counting)")->capture_default_str();
+  cmd->callback([o] { run_send(*o); });
+}
+
+const kata::cli::RegisterCommand reg(setup);
+
+}  // namespace

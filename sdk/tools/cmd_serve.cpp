@@ -1,0 +1,293 @@
+// kata serve --config FILE: a live stage from a TOML config. Frames come in over ZeroMQ (SUB or
+// PULL; each stream announced by its skeleton definition), every stream is scored against its
+// teacher (per stream id, or the default) and ghosted, results go out on a PUB socket. Prints a
+// status line every second; SIGINT / SIGTERM stop it cleanly (queued frames finished, every
+// result sent, sockets closed). A bad config is refused with file:line.
+//
+//   [ingest]                                   # required
+//   endpoints = ["tcp://127.0.0.1:5555"]       # connected; "bind:tcp://*:5555" binds
+//   kind = "sub"                               # or "pull"
+//   max_message_bytes = 1048576
+//   [publish]                                  # required
+//   endpoints = ["tcp://127.0.0.1:5556"]
+//   send_hwm = 10000
+//   [runtime]
+//   workers = 2
+//   skeleton_resend_seconds = 1.0
+//   [scoring]                                  # optional: without it, features only
+//   model = "models/default.kata"              # relative paths: from the config file's directory
+//   teacher = "data/cmu/02_01.bvh"             # the default teacher
+//   first_frame = 1                            # skip the CMU T-pose
+//   ghost = true
+//   [scoring.teachers]                         # per stream id (decimal), optional
+//   "7" = "data/cmu/05_02.bvh"
+//   [[plugins]]                                # any number: sources and sinks (kata_plugin.h)
+//   path = "build/plugins/csv-sink.so"
+//   config = "path=scores.csv"
+#include <atomic>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <string>
+#include <thread>
+
+#include <toml++/toml.h>
+
+#include "command.hpp"
+#include "common/error.hpp"
+#include "io/bvh.hpp"
+#include "io/clip_features.hpp"
+#include "io/model_file.hpp"
+#include "pipeline/pipeline.hpp"
+#include "runtime/plugin.hpp"
+#include "runtime/plugin_host.hpp"
+#include "runtime/runtime.hpp"
+
+namespace {
+
+using kata::Error;
+using kata::ErrorKind;
+
+std::atomic<bool> g_stop{false};
+void serve_on_signal(int) { g_stop.store(true); }
+
+struct TeacherSource {
+  std::string path;
+  int first_frame = 1;
+};
+
+struct ServeConfig {
+  kata::runtime::RuntimeConfig runtime;
+  std::string model;  // empty: features only
+  TeacherSource default_teacher;
+  std::map<uint64_t, TeacherSource> teachers;
+  bool ghost = true;
+  double status_seconds = 1.0;
+  struct Plugin {
+    std::string path, config;
+  };
+  std::vector<Plugin> plugins;
+};
+
+[[noreturn]] void refuse(const std::string& file, const toml::source_region& where, const std::string& what) {
+  throw Error(ErrorKind::kParse, file + ":" + std::to_string(where.begin.line) + ": " + what);
+}
+
+// Reads an optional value of type T at `key` in `table`; a present value of the wrong type is refused.
+template <typename T>
+T read(const std::string& file, const toml::table& table, const char* key, T fallback) {
+  const toml::node* n = table.get(key);
+  if (!n) return fallback;
+  if (auto v = n->value<T>()) return *v;
+  refuse(file, n->source(), std::string("'") + key + "' has the wrong type");
+}
+
+std::vector<std::string> read_strings(const std::string& file, const toml::table& table, const char* key) {
+  std::vector<std::string> out;
+  const toml::node* n = table.get(key);
+  if (!n) return out;
+  const toml::array* a = n->as_array();
+  if (!a) refuse(file, n->source(), std::string("'") + key + "' must be an array of strings");
+  for (const toml::node& e : *a) {
+    auto s = e.value<std::string>();
+    if (!s) refuse(file, e.source(), std::string("'") + key + "' must hold strings");
+    out.push_back(*s);
+  }
+  return out;
+}
+
+const toml::table& section(const std::string& file, const toml::table& root, const char* name, bool required) {
+  static const toml::table empty;
+  const toml::node* n = root.get(name);
+  if (!n) {
+    if (required) throw Error(ErrorKind::kParse, file + ":1: missing section [" + std::string(name) + "]");
+    return empty;
+  }
+  if (!n->is_table()) refuse(file, n->source(), std::string("'") + name + "' must be a table");
+  return *n->as_table();
+}
+
+void check_keys(const std::string& file, const toml::table& t, std::initializer_list<const char*> known, const char* where) {
+  for (const auto& [key, node] : t) {
+    bool ok = false;
+    for (const char* k : known) ok = ok || key.str() == k;
+    if (!ok) refuse(file, node.source(), "unknown key '" + std::string(key.str()) + "' in [" + where + "]");
+  }
+}
+
+ServeConfig parse_config(const std::string& file) {
+  toml::table root;
+  try {
+    root = toml::parse_file(file);
+  } catch (const toml::parse_error& e) {
+    if (!std::filesystem::exists(file)) throw Error(ErrorKind::kIo, file + ": cannot open the config");
+    throw Error(ErrorKind::kParse, file + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description()));
+  }
+  check_keys(file, root, {"ingest", "publish", "runtime", "scoring", "status", "plugins"}, "top level");
+  const std::filesystem::path base = std::filesystem::path(file).parent_path();
+  auto resolve = [&](const std::string& p) { return std::filesystem::path(p).is_absolute() ? p : (base / p).string(); };
+  ServeConfig c;
+  const toml::table& ingest = section(file, root, "ingest", true);
+  check_keys(file, ingest, {"endpoints", "kind", "max_message_bytes", "require_checksum"}, "ingest");
+  c.runtime.ingest.endpoints = read_strings(file, ingest, "endpoints");
+  if (c.runtime.ingest.endpoints.empty()) throw Error(ErrorKind::kParse, file + ":1: [ingest] endpoints is empty");
+  const std::string kind = read<std::string>(file, ingest, "kind", "sub");
+  if (kind != "sub" && kind != "pull") refuse(file, ingest.get("kind")->source(), "kind must be \"sub\" or \"pull\"");
+  c.runtime.ingest.kind = kind == "pull" ? kata::transport::IngestKind::kPull : kata::transport::IngestKind::kSub;
+  c.runtime.ingest.max_message_bytes = static_cast<size_t>(read<int64_t>(file, ingest, "max_message_bytes", 1 << 20));
+  c.runtime.ingest.require_checksum = read<bool>(file, ingest, "require_checksum", true);
+
+  const toml::table& publish = section(file, root, "publish", true);
+  check_keys(file, publish, {"endpoints", "send_hwm"}, "publish");
+  c.runtime.publish.endpoints = read_strings(file, publish, "endpoints");
+  if (c.runtime.publish.endpoints.empty()) throw Error(ErrorKind::kParse, file + ":1: [publish] endpoints is empty");
+  c.runtime.publish.send_hwm = static_cast<int>(read<int64_t>(file, publish, "send_hwm", 10000));
+
+  const toml::table& rt = section(file, root, "runtime", false);
+  check_keys(file, rt, {"workers", "skeleton_resend_seconds", "max_streams"}, "runtime");
+  c.runtime.workers = static_cast<int>(read<int64_t>(file, rt, "workers", 2));
+  if (c.runtime.workers < 1 || c.runtime.workers > 64) refuse(file, rt.get("workers")->source(), "workers must be 1..64");
+  c.runtime.skeleton_resend_seconds = read<double>(file, rt, "skeleton_resend_seconds", 1.0);
+  c.runtime.max_streams = static_cast<int>(read<int64_t>(file, rt, "max_streams", 1024));
+
+  const toml::table& scoring = section(file, root, "scoring", false);
+  check_keys(file, scoring, {"model", "teacher", "first_frame", "ghost", "teachers"}, "scoring");
+  if (!scoring.empty()) {
+    const std::string model = read<std::string>(file, scoring, "model", "");
+    if (model.empty()) throw Error(ErrorKind::kParse, file + ":1: [scoring] needs model");
+    c.model = resolve(model);
+    const std::string teacher = read<std::string>(file, scoring, "teacher", "");
+    if (!teacher.empty()) c.default_teacher.path = resolve(teacher);
+    c.default_teacher.first_frame = static_cast<int>(read<int64_t>(file, scoring, "first_frame", 1));
+    c.ghost = read<bool>(file, scoring, "ghost", true);
+    if (const toml::node* t = scoring.get("teachers")) {
+      if (!t->is_table()) refuse(file, t->source(), "[scoring.teachers] must be a table");
+      for (const auto& [key, node] : *t->as_table()) {
+        auto path = node.value<std::string>();
+        if (!path) refuse(file, node.source(), "a teacher must be a clip path");
+        char* end = nullptr;
+        const std::string id_text(key.str());
+        const unsigned long long id = std::strtoull(id_text.c_str(), &end, 10);
+        if (id_text.empty() || *end) refuse(file, node.source(), "teacher keys are stream ids (decimal)");
+        c.teachers[id] = TeacherSource{resolve(*path), c.default_teacher.first_frame};
+      }
+    }
+  }
+  if (const toml::node* plugins = root.get("plugins")) {
+    const toml::array* a = plugins->as_array();
+    if (!a) refuse(file, plugins->source(), "plugins must be an array of tables ([[plugins]])");
+    for (const toml::node& e : *a) {
+      const toml::table* t = e.as_table();
+      if (!t) refuse(file, e.source(), "each [[plugins]] entry must be a table");
+      check_keys(file, *t, {"path", "config"}, "plugins");
+      const std::string path = read<std::string>(file, *t, "path", "");
+      if (path.empty()) refuse(file, e.source(), "a plugin needs path");
+      c.plugins.push_back({resolve(path), read<std::string>(file, *t, "config", "")});
+    }
+  }
+  const toml::table& status = section(file, root, "status", false);
+  check_keys(file, status, {"interval_seconds"}, "status");
+  c.status_seconds = read<double>(file, status, "interval_seconds", 1.0);
+  return c;
+}
+
+void run_serve(const std::string& file) {
+  ServeConfig config = parse_config(file);
+  std::shared_ptr<const kata::metric::Metric> metric;
+  if (!config.model.empty())
+    metric = std::make_shared<const kata::metric::Metric>(kata::metric::load_model(config.model));
+  // Teachers are loaded once (at start) and shared by every stream that uses them.
+  std::map<std::string, std::shared_ptr<const kata::pipeline::Teacher>> teachers;
+  auto load_teacher = [&](const TeacherSource& t) {
+    if (t.path.empty() || !metric || teachers.count(t.path)) return;
+    const kata::BvhClip clip = kata::load_bvh(t.path);
+    const auto positions = kata::clip_positions(clip, t.first_frame);
+    const kata::GpdMap map = kata::make_gpd_map(clip.skeleton, kata::preset_joint_names("cmu"));
+    teachers[t.path] = kata::pipeline::Teacher::from_positions(
+        metric, clip.skeleton, kata::stream_config_for(clip.skeleton, map, metric->stencil()), positions.data(),
+        clip.frame_count() - t.first_frame, clip.frame_time);
+  };
+  load_teacher(config.default_teacher);
+  for (const auto& [id, t] : config.teachers) load_teacher(t);
+
+  config.runtime.configure_stream = [&](const kata::transport::SkeletonDefinition& d) {
+    kata::runtime::StreamSetup s = kata::runtime::setup_from_definition(d);
+    if (!metric) return s;
+    s.pipeline.stream.stencil = metric->stencil();
+    const auto it = config.teachers.find(d.stream_id);
+    const std::string& path = it != config.teachers.end() ? it->second.path : config.default_teacher.path;
+    if (!path.empty()) {
+      s.teacher = teachers.at(path);
+      s.teacher_options.ghost = config.ghost && d.skeleton.has_rest_pose;
+    }
+    std::fprintf(stderr, "\nstream %llu: %d joints, %s\n", static_cast<unsigned long long>(d.stream_id),
+                 d.skeleton.joint_count(), path.empty() ? "features only" : path.c_str());
+    return s;
+  };
+
+  // Plugins: every refusal names its file. Sinks are part of the runtime's config; sources are
+  // started once it runs and stopped before it stops.
+  auto target = std::make_shared<kata::runtime::PluginHostTarget>();
+  std::vector<std::unique_ptr<kata::runtime::PluginInstance>> sinks, sources;
+  for (const auto& p : config.plugins) {
+    std::shared_ptr<kata::runtime::LoadedPlugin> loaded = kata::runtime::LoadedPlugin::load(p.path);
+    auto instance = std::make_unique<kata::runtime::PluginInstance>(loaded, p.config, target);
+    if (loaded->is_sink()) config.runtime.sinks.push_back(instance->sink());
+    (loaded->is_source() ? sources : sinks).push_back(std::move(instance));
+  }
+  kata::runtime::Runtime runtime(config.runtime);
+  target->runtime = &runtime;
+  for (auto& s : sources) s->start();
+  std::signal(SIGINT, serve_on_signal);
+  std::signal(SIGTERM, serve_on_signal);
+  std::fprintf(stderr, "kata serve: ingest %s, publishing on %s (Ctrl-C stops)\n", runtime.ingest_endpoint().c_str(),
+               runtime.publish_endpoint().c_str());
+  auto previous = runtime.counters();
+  auto last = std::chrono::steady_clock::now();
+  while (!g_stop.load()) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    const auto now = std::chrono::steady_clock::now();
+    const double dt = std::chrono::duration<double>(now - last).count();
+    if (dt < config.status_seconds) continue;
+    const auto c = runtime.counters();
+    uint64_t window[kata::runtime::kLatencyBuckets];
+    for (int i = 0; i < kata::runtime::kLatencyBuckets; ++i)
+      window[i] = c.latency_histogram[i] - previous.latency_histogram[i];
+    const uint64_t drops = c.total.queue_full + c.total.result_queue_full + c.total.pipeline_dropped +
+                           c.total.send_failed + c.ingest.dropped_total();
+    std::fprintf(stderr,
+                 "\rstreams %llu | in %.0f frames/s | out %.0f results/s | drops %llu (ingest %llu, gaps %llu, "
+                 "restarts %llu) | latency in->out p50 %.0f us p99 %.0f us   ",
+                 static_cast<unsigned long long>(c.streams),
+                 static_cast<double>(c.total.frames_in - previous.total.frames_in) / dt,
+                 static_cast<double>(c.total.published - previous.total.published) / dt,
+                 static_cast<unsigned long long>(drops), static_cast<unsigned long long>(c.ingest.dropped_total()),
+                 static_cast<unsigned long long>(c.ingest.sequence_gaps),
+                 static_cast<unsigned long long>(c.ingest.restarts),
+                 kata::runtime::latency_percentile(window, 0.5) / 1000.0,
+                 kata::runtime::latency_percentile(window, 0.99) / 1000.0);
+    previous = c;
+    last = now;
+  }
+  for (auto& s : sources) s->stop();
+  runtime.stop();  // finishes queued frames, sends every result, flushes the sink plugins
+  target->runtime = nullptr;
+  const auto c = runtime.counters();
+  std::fprintf(stderr, "\nkata serve: stopped; %llu frames in, %llu results published, %llu ingest messages dropped\n",
+               static_cast<unsigned long long>(c.total.frames_in), static_cast<unsigned long long>(c.total.published),
+               static_cast<unsigned long long>(c.ingest.dropped_total()));
+}
+
+void setup(CLI::App& app) {
+  auto path = std::make_shared<std::string>();
+  CLI::App* cmd = app.add_subcommand("serve", "run a live stage from a TOML config: ZeroMQ frames in, scores and ghosts out");
+  cmd->add_option("--config", *path, "the TOML config (see docs/runtime.md)")->required();
+  cmd->callback([path] { run_serve(*path); });
+}
+
+const kata::cli::RegisterCommand reg(setup);
+
+}  // namespace

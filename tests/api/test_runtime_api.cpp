@@ -1,0 +1,133 @@
+// The runtime through the public C ABI only (libkata + libzmq for the subscriber): a stream with a
+// teacher handed to a runtime, frames pushed, results received over loopback tcp.
+#include <gtest/gtest.h>
+#include <zmq.h>
+
+#include <chrono>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "kata/kata.h"
+
+namespace {
+
+TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_clip student = nullptr, teacher = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &student), KATA_OK);
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_01.bvh", &teacher), KATA_OK);
+  kata_model model = nullptr;
+  ASSERT_EQ(kata_model_load(ctx, KATA_SOURCE_DIR "/models/default.kata", &model), KATA_OK) << kata_context_last_error(ctx);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(student, &skel), KATA_OK);
+  kata_stream_desc sd;
+  kata_stream_desc_init(&sd);
+  sd.preset = "cmu";
+  sd.stencil = kata_model_stencil(model);
+  kata_stream stream = nullptr;
+  ASSERT_EQ(kata_stream_open(ctx, skel, &sd, &stream), KATA_OK) << kata_context_last_error(ctx);
+  kata_teacher_desc td;
+  kata_teacher_desc_init(&td);
+  td.model = model;
+  td.clip = teacher;
+  td.first_frame = 1;
+  ASSERT_EQ(kata_stream_attach_teacher(stream, &td), KATA_OK) << kata_stream_last_error(stream);
+
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.publish_endpoints = "tcp://127.0.0.1:*";
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  ASSERT_EQ(kata_runtime_add_stream(runtime, 42, &stream, "cmu", 0), KATA_OK) << kata_context_last_error(ctx);
+  EXPECT_EQ(stream, nullptr);  // the runtime owns it now
+  EXPECT_EQ(kata_runtime_push(runtime, 43, 0, 0.0, nullptr, 0), KATA_E_NULL_POINTER);
+
+  // A bad endpoint is refused with its name.
+  kata_runtime_desc bad = rd;
+  bad.publish_endpoints = "nonsense://x";
+  kata_runtime other = nullptr;
+  EXPECT_EQ(kata_runtime_create(ctx, &bad, &other), KATA_E_IO);
+  EXPECT_NE(std::string(kata_context_last_error(ctx)).find("nonsense://x"), std::string::npos);
+
+  void* zctx = zmq_ctx_new();
+  void* sub = zmq_socket(zctx, ZMQ_SUB);
+  int linger = 0;
+  zmq_setsockopt(sub, ZMQ_LINGER, &linger, sizeof linger);
+  zmq_setsockopt(sub, ZMQ_SUBSCRIBE, "000000000000002a", 16);
+  ASSERT_EQ(zmq_connect(sub, kata_runtime_publish_endpoint(runtime)), 0);
+  std::vector<char> buffer(1 << 16);
+  // Wait for the skeleton definition (file identifier KSKL at bytes 20..23): subscribed.
+  bool joined = false;
+  std::vector<char> definition, result;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!joined && std::chrono::steady_clock::now() < deadline) {
+    zmq_pollitem_t item{sub, 0, ZMQ_POLLIN, 0};
+    if (zmq_poll(&item, 1, 100) <= 0) continue;
+    const int n = zmq_recv(sub, buffer.data(), buffer.size(), 0);
+    joined = n > 24 && std::memcmp(buffer.data() + 20, "KSKL", 4) == 0;
+    if (joined) definition.assign(buffer.begin(), buffer.begin() + n);
+  }
+  ASSERT_TRUE(joined);
+
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  std::vector<float> p(3 * joints);
+  const int frames = 60;
+  for (int i = 0; i < frames; ++i) {
+    ASSERT_EQ(kata_clip_positions(student, static_cast<uint32_t>(1 + i), p.data(), p.size()), KATA_OK);
+    ASSERT_EQ(kata_runtime_push(runtime, 42, static_cast<uint64_t>(i), i / 120.0, p.data(), joints), KATA_OK);
+  }
+  EXPECT_EQ(kata_runtime_push(runtime, 7, 0, 0.0, p.data(), joints), KATA_E_NOT_FOUND);
+  int results = 0;
+  const auto limit = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (results < frames && std::chrono::steady_clock::now() < limit) {
+    zmq_pollitem_t item{sub, 0, ZMQ_POLLIN, 0};
+    if (zmq_poll(&item, 1, 100) <= 0) continue;
+    const int n = zmq_recv(sub, buffer.data(), buffer.size(), 0);
+    if (n > 24 && std::memcmp(buffer.data() + 20, "KRES", 4) == 0) {
+      kata_result_message r;
+      r.struct_size = sizeof r;
+      ASSERT_EQ(kata_message_read_result(buffer.data(), static_cast<size_t>(n), &r), KATA_OK);
+      EXPECT_EQ(r.stream_id, 42u);
+      EXPECT_EQ(r.result_sequence, static_cast<uint64_t>(results));
+      EXPECT_EQ(r.frame_sequence, static_cast<uint64_t>(results));
+      EXPECT_EQ(r.scored, 1);
+      EXPECT_TRUE(r.score >= 0.0f && r.score <= 100.0f);
+      EXPECT_GT(r.ghost_joint_count, 0u);
+      EXPECT_LE(r.arrival_ns, r.computed_ns);
+      EXPECT_LE(r.computed_ns, r.published_ns);
+      if (result.empty()) result.assign(buffer.begin(), buffer.begin() + n);
+      ++results;
+    }
+  }
+  EXPECT_EQ(results, frames);
+  // The C reader: a definition is no result, a truncated or flipped result is refused.
+  kata_result_message r;
+  r.struct_size = sizeof r;
+  EXPECT_EQ(kata_message_read_result(definition.data(), definition.size(), &r), KATA_NO_DATA);
+  ASSERT_FALSE(result.empty());
+  EXPECT_EQ(kata_message_read_result(result.data(), result.size() - 40, &r), KATA_E_PARSE);
+  std::vector<char> flipped = result;
+  flipped[20] ^= 0x01;  // the file identifier
+  EXPECT_EQ(kata_message_read_result(flipped.data(), flipped.size(), &r), KATA_E_PARSE);
+  EXPECT_EQ(kata_runtime_stop(runtime), KATA_OK);
+  kata_runtime_counters c;
+  c.struct_size = sizeof c;
+  ASSERT_EQ(kata_runtime_get_counters(runtime, &c), KATA_OK);
+  EXPECT_EQ(c.streams, 1u);
+  EXPECT_EQ(c.frames_in, static_cast<uint64_t>(frames));
+  EXPECT_EQ(c.results, static_cast<uint64_t>(frames));
+  EXPECT_EQ(c.published, static_cast<uint64_t>(frames));
+  EXPECT_EQ(c.results_dropped + c.queue_full + c.refused, 0u);
+  zmq_close(sub);
+  zmq_ctx_term(zctx);
+  kata_runtime_destroy(runtime);
+  kata_model_free(model);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(student);
+  kata_clip_destroy(teacher);
+  kata_context_destroy(ctx);
+}
+
+}  // namespace

@@ -1,0 +1,418 @@
+// Wire format and ZeroMQ transport, over loopback only; every wait is bounded.
+#include <gtest/gtest.h>
+#include <zmq.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstring>
+#include <random>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "transport/wire.hpp"
+#include "transport/zmq_io.hpp"
+
+namespace kata::transport {
+namespace {
+
+SkeletonDefinition three_joint_definition(uint64_t stream_id, uint32_t revision = 1) {
+  SkeletonDefinition d;
+  d.stream_id = stream_id;
+  d.revision = revision;
+  d.skeleton.names = {"root", "spine", "head"};
+  d.skeleton.parents = {-1, 0, 1};
+  d.skeleton.offsets = {Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, 0.5, 0), Eigen::Vector3d(0, 0.3, 0.1)};
+  d.skeleton.has_rest_pose = true;
+  d.preset = "";
+  d.metres_per_unit = 1.0f;
+  d.frame_rate = 120.0f;
+  return d;
+}
+
+std::vector<float> pose(uint64_t stream_id, uint64_t sequence, int joints) {
+  std::vector<float> xyz(static_cast<size_t>(joints) * 3);
+  for (size_t i = 0; i < xyz.size(); ++i)
+    xyz[i] = static_cast<float>(stream_id) * 10.0f + static_cast<float>(sequence) * 0.01f + static_cast<float>(i);
+  return xyz;
+}
+
+TEST(runtime_wire, TopicIsSixteenHexDigits) {
+  char topic[16];
+  write_topic(0x0123456789abcdefULL, topic);
+  EXPECT_EQ(std::string(topic, 16), "0123456789abcdef");
+  uint64_t id = 0;
+  ASSERT_TRUE(parse_topic(reinterpret_cast<const uint8_t*>(topic), &id));
+  EXPECT_EQ(id, 0x0123456789abcdefULL);
+  topic[3] = 'G';
+  EXPECT_FALSE(parse_topic(reinterpret_cast<const uint8_t*>(topic), &id));
+}
+
+TEST(runtime_wire, ChecksumIsFnv1aOfTheDocumentedBytes) {
+  // FNV-1a 32 of the empty input is the offset basis; of one zero byte it is basis * prime.
+  const float xyz[3] = {1.0f, 2.0f, 3.0f};
+  uint32_t expected = 2166136261u;
+  auto feed = [&](const void* p, size_t n) {
+    for (size_t i = 0; i < n; ++i) expected = (expected ^ static_cast<const uint8_t*>(p)[i]) * 16777619u;
+  };
+  const uint64_t id = 5, seq = 9;
+  const int64_t t = 123456789;
+  feed(&id, 8);
+  feed(&seq, 8);
+  feed(&t, 8);
+  feed(xyz, sizeof xyz);
+  EXPECT_EQ(frame_checksum(id, seq, t, xyz, 1, nullptr), expected);
+}
+
+TEST(runtime_wire, FrameRoundTrip) {
+  Encoder encoder;
+  Decoder decoder;
+  const auto xyz = pose(3, 42, 3);
+  const float confidence[3] = {1.0f, 0.5f, 0.0f};
+  Bytes m = encoder.frame(3, 42, 1'000'000'007LL, xyz.data(), 3, confidence);
+  ASSERT_EQ(std::string(reinterpret_cast<const char*>(m.data), 16), "0000000000000003");
+  std::vector<uint8_t> copy(m.data, m.data + m.size);
+  ASSERT_EQ(decoder.decode(copy.data(), copy.size()), MessageKind::kFrame) << decode_error_name(decoder.error());
+  const FrameView& f = decoder.frame();
+  EXPECT_EQ(f.stream_id, 3u);
+  EXPECT_EQ(f.sequence, 42u);
+  EXPECT_EQ(f.capture_ns, 1'000'000'007LL);
+  ASSERT_EQ(f.joints, 3);
+  for (int i = 0; i < 9; ++i) EXPECT_EQ(f.xyz[i], xyz[static_cast<size_t>(i)]);
+  ASSERT_NE(f.confidence, nullptr);
+  EXPECT_EQ(f.confidence[1], 0.5f);
+}
+
+TEST(runtime_wire, MisalignedMessageIsCopiedAndRead) {
+  Encoder encoder;
+  Decoder decoder;
+  const auto xyz = pose(1, 0, 3);
+  Bytes m = encoder.frame(1, 0, 5, xyz.data(), 3);
+  std::vector<uint8_t> shifted(m.size + 1);
+  std::memcpy(shifted.data() + 1, m.data, m.size);
+  ASSERT_EQ(decoder.decode(shifted.data() + 1, m.size), MessageKind::kFrame);
+  EXPECT_EQ(decoder.frame().xyz[4], xyz[4]);
+}
+
+TEST(runtime_wire, SkeletonDefinitionRoundTrip) {
+  Encoder encoder;
+  Decoder decoder;
+  SkeletonDefinition d = three_joint_definition(77, 4);
+  d.up_axis = UpAxis::kZ;
+  d.name_map.assign(16, "root");
+  Bytes m = encoder.skeleton(d);
+  std::vector<uint8_t> copy(m.data, m.data + m.size);
+  ASSERT_EQ(decoder.decode(copy.data(), copy.size()), MessageKind::kSkeleton);
+  const SkeletonDefinition back = decoder.skeleton();
+  EXPECT_EQ(back.stream_id, 77u);
+  EXPECT_EQ(back.revision, 4u);
+  EXPECT_EQ(back.skeleton.names, d.skeleton.names);
+  EXPECT_EQ(back.skeleton.parents, d.skeleton.parents);
+  ASSERT_TRUE(back.skeleton.has_rest_pose);
+  EXPECT_FLOAT_EQ(static_cast<float>(back.skeleton.offsets[2].z()), 0.1f);
+  EXPECT_EQ(back.up_axis, UpAxis::kZ);
+  EXPECT_EQ(back.name_map.size(), 16u);
+  EXPECT_EQ(back.frame_rate, 120.0f);
+}
+
+TEST(runtime_wire, ResultRoundTrip) {
+  Encoder encoder;
+  Decoder decoder;
+  ResultFields r;
+  r.stream_id = 9;
+  r.result_sequence = 11;
+  r.frame_sequence = 12;
+  r.frame_index = 13;
+  r.capture_ns = 1;
+  r.arrival_ns = 2;
+  r.computed_ns = 3;
+  r.published_ns = 4;
+  r.scored = true;
+  r.distance = 0.25f;
+  r.score = 75.0f;
+  for (int i = 0; i < 5; ++i) r.parts[i] = 0.01f * static_cast<float>(i);
+  r.matched_teacher_frame = 99;
+  const auto ghost = pose(9, 1, 4);
+  r.ghost = ghost.data();
+  r.ghost_joints = 4;
+  Bytes m = encoder.result(r);
+  std::vector<uint8_t> copy(m.data, m.data + m.size);
+  ASSERT_EQ(decoder.decode(copy.data(), copy.size()), MessageKind::kResult);
+  const ResultFields& o = decoder.result();
+  EXPECT_EQ(o.result_sequence, 11u);
+  EXPECT_EQ(o.frame_sequence, 12u);
+  EXPECT_EQ(o.frame_index, 13);
+  EXPECT_EQ(o.published_ns, 4);
+  EXPECT_TRUE(o.scored);
+  EXPECT_EQ(o.score, 75.0f);
+  EXPECT_EQ(o.parts[4], 0.04f);
+  EXPECT_EQ(o.matched_teacher_frame, 99);
+  ASSERT_EQ(o.ghost_joints, 4);
+  EXPECT_EQ(o.ghost[11], ghost[11]);
+  EXPECT_EQ(o.features, nullptr);
+}
+
+TEST(runtime_wire, RefusalsNameTheirReason) {
+  Encoder encoder;
+  Decoder decoder(4096);
+  const auto xyz = pose(2, 0, 3);
+  Bytes m = encoder.frame(2, 0, 5, xyz.data(), 3);
+  std::vector<uint8_t> good(m.data, m.data + m.size);
+
+  EXPECT_EQ(decoder.decode(good.data(), 10), MessageKind::kNone);
+  EXPECT_EQ(decoder.error(), DecodeError::kTooShort);
+
+  std::vector<uint8_t> topic = good;
+  topic[0] = 'x';
+  EXPECT_EQ(decoder.decode(topic.data(), topic.size()), MessageKind::kNone);
+  EXPECT_EQ(decoder.error(), DecodeError::kBadTopic);
+
+  std::vector<uint8_t> other = good;
+  other[15] = '4';  // topic says stream 4, the table says 2
+  EXPECT_EQ(decoder.decode(other.data(), other.size()), MessageKind::kNone);
+  EXPECT_EQ(decoder.error(), DecodeError::kTopicMismatch);
+
+  std::vector<uint8_t> identifier = good;
+  identifier[kTopicBytes + 4] = 'Z';
+  EXPECT_EQ(decoder.decode(identifier.data(), identifier.size()), MessageKind::kNone);
+  EXPECT_EQ(decoder.error(), DecodeError::kUnknownIdentifier);
+
+  // A position value changed after encoding: structurally valid, caught by the checksum.
+  std::vector<uint8_t> value = good;
+  float changed = xyz[4] + 1.0f;
+  const auto at = std::search(value.begin(), value.end(), reinterpret_cast<const uint8_t*>(&xyz[4]),
+                               reinterpret_cast<const uint8_t*>(&xyz[4]) + 4);
+  ASSERT_NE(at, value.end());
+  std::memcpy(&*at, &changed, 4);
+  EXPECT_EQ(decoder.decode(value.data(), value.size()), MessageKind::kNone);
+  EXPECT_EQ(decoder.error(), DecodeError::kChecksum);
+
+  std::vector<uint8_t> truncated(good.begin(), good.end() - 8);
+  EXPECT_EQ(decoder.decode(truncated.data(), truncated.size()), MessageKind::kNone);
+  EXPECT_EQ(decoder.error(), DecodeError::kVerifier);
+
+  std::vector<uint8_t> big(5000, '0');
+  EXPECT_EQ(decoder.decode(big.data(), big.size()), MessageKind::kNone);
+  EXPECT_EQ(decoder.error(), DecodeError::kOversized);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Ingest over ZeroMQ.
+
+struct Received {
+  std::vector<uint64_t> streams, sequences;
+  std::vector<uint32_t> checksums;
+  int restarts_seen = 0;
+};
+
+Ingest::Handlers recording(Received& into, int* skeletons) {
+  Ingest::Handlers h;
+  h.on_skeleton = [skeletons](const SkeletonDefinition&) {
+    ++*skeletons;
+    return true;
+  };
+  h.on_frame = [&into](const FrameView& f, bool restarted) {
+    into.streams.push_back(f.stream_id);
+    into.sequences.push_back(f.sequence);
+    into.checksums.push_back(frame_checksum(f.stream_id, f.sequence, f.capture_ns, f.xyz, f.joints, f.confidence));
+    if (restarted) ++into.restarts_seen;
+  };
+  return h;
+}
+
+// Polls until `done` or a deadline (bounded: every test stops by itself).
+template <typename Done>
+bool poll_until(Ingest& ingest, Done done, std::chrono::seconds limit = std::chrono::seconds(20)) {
+  const auto deadline = std::chrono::steady_clock::now() + limit;
+  while (!done()) {
+    if (std::chrono::steady_clock::now() > deadline) return false;
+    zmq_pollitem_t item{ingest.socket(), 0, ZMQ_POLLIN, 0};
+    zmq_poll(&item, 1, 50);
+    ingest.poll(1000);
+  }
+  return true;
+}
+
+TEST(runtime_ingest, HostileMessagesInterleavedWithGoodFrames) {
+  Context context;
+  IngestOptions options;
+  options.kind = IngestKind::kPull;
+  options.endpoints = {"bind:tcp://127.0.0.1:*"};
+  options.max_message_bytes = 64 * 1024;
+  Received received;
+  int skeletons = 0;
+  Ingest ingest(context, options, recording(received, &skeletons));
+
+  // Build the whole message sequence first (deterministic seed), then push it from a thread.
+  std::mt19937_64 rng(20261130);
+  Encoder encoder;
+  std::vector<std::vector<uint8_t>> messages;
+  std::vector<uint32_t> good_checksums;
+  std::vector<uint64_t> good_streams, good_sequences;
+  const int joints = 3, good_per_stream = 400, bad_total = 10000;
+  for (uint64_t s : {1u, 2u}) {
+    Bytes m = encoder.skeleton(three_joint_definition(s));
+    messages.emplace_back(m.data, m.data + m.size);
+  }
+  uint64_t next_sequence[3] = {0, 0, 0};
+  std::vector<uint8_t> last_good[3];
+  int bad_sent = 0, oversized_sent = 0;
+  std::uniform_int_distribution<int> pick(0, 5);
+  while (bad_sent < bad_total || next_sequence[1] < good_per_stream || next_sequence[2] < good_per_stream) {
+    const int choice = pick(rng);
+    const uint64_t stream = 1 + (rng() & 1);
+    if (choice <= 1 && next_sequence[stream] < good_per_stream) {
+      const uint64_t seq = next_sequence[stream]++;
+      const auto xyz = pose(stream, seq, joints);
+      Bytes m = encoder.frame(stream, seq, static_cast<int64_t>(seq) * 8'333'333, xyz.data(), joints);
+      messages.emplace_back(m.data, m.data + m.size);
+      last_good[stream] = messages.back();
+      good_checksums.push_back(frame_checksum(stream, seq, static_cast<int64_t>(seq) * 8'333'333, xyz.data(), joints,
+                                              nullptr));
+      good_streams.push_back(stream);
+      good_sequences.push_back(seq);
+      continue;
+    }
+    if (bad_sent >= bad_total) continue;
+    std::vector<uint8_t> bad;
+    const std::vector<uint8_t>& base = last_good[stream];
+    switch (choice) {
+      case 2: {  // random bytes, sometimes behind a valid topic
+        bad.resize(rng() % 300);
+        for (auto& b : bad) b = static_cast<uint8_t>(rng());
+        if ((rng() & 1) && bad.size() >= 16) std::memcpy(bad.data(), "0000000000000001", 16);
+        break;
+      }
+      case 3:  // truncated good frame (an already sent one, so no future frame is at risk)
+        if (base.empty()) continue;
+        bad.assign(base.begin(), base.begin() + static_cast<long>(rng() % base.size()));
+        break;
+      case 4: {  // one bit flipped in an already sent good frame
+        if (base.empty()) continue;
+        bad = base;
+        const size_t bit = rng() % (bad.size() * 8);
+        bad[bit / 8] ^= static_cast<uint8_t>(1u << (bit % 8));
+        break;
+      }
+      default: {  // oversized: a well-formed frame of far too many joints
+        const int many = 8000;  // 96 KB of positions > 64 KiB limit
+        std::vector<float> xyz(static_cast<size_t>(many) * 3, 1.0f);
+        Bytes m = encoder.frame(stream, 1u << 30, 0, xyz.data(), many);
+        bad.assign(m.data, m.data + m.size);
+        ++oversized_sent;
+        break;
+      }
+    }
+    messages.push_back(std::move(bad));
+    ++bad_sent;
+  }
+
+  const std::string endpoint = ingest.endpoint();
+  std::thread sender([&] {
+    void* push = zmq_socket(context.get(), ZMQ_PUSH);
+    int linger = 5000;
+    zmq_setsockopt(push, ZMQ_LINGER, &linger, sizeof linger);
+    zmq_connect(push, endpoint.c_str());
+    for (const auto& m : messages) zmq_send(push, m.data(), m.size(), 0);
+    zmq_close(push);
+  });
+  const uint64_t total = messages.size();
+  const bool finished = poll_until(ingest, [&] { return ingest.counters().received >= total; });
+  sender.join();
+  ASSERT_TRUE(finished) << "received " << ingest.counters().received << " of " << total;
+
+  const IngestCounters& c = ingest.counters();
+  EXPECT_EQ(c.received, total);
+  EXPECT_EQ(skeletons, 2);
+  // Every good frame was handed on, in order, with its values.
+  EXPECT_EQ(c.frames, good_checksums.size());
+  EXPECT_EQ(received.checksums, good_checksums);
+  EXPECT_EQ(received.streams, good_streams);
+  EXPECT_EQ(received.sequences, good_sequences);
+  // Every bad message was counted as dropped, each exactly once.
+  EXPECT_EQ(c.dropped_total(), static_cast<uint64_t>(bad_sent));
+  EXPECT_EQ(c.malformed[static_cast<int>(DecodeError::kOversized)], static_cast<uint64_t>(oversized_sent));
+  EXPECT_EQ(c.restarts, 0u);
+  EXPECT_EQ(c.sequence_gaps, 0u);
+  EXPECT_GT(c.malformed[static_cast<int>(DecodeError::kVerifier)], 0u);
+  EXPECT_GT(c.malformed[static_cast<int>(DecodeError::kChecksum)], 0u);
+}
+
+TEST(runtime_ingest, UnknownStreamsGapsAndRestartsAreCounted) {
+  Context context;
+  IngestOptions options;
+  options.kind = IngestKind::kPull;
+  options.endpoints = {"bind:tcp://127.0.0.1:*"};
+  Received received;
+  int skeletons = 0;
+  Ingest ingest(context, options, recording(received, &skeletons));
+
+  Encoder encoder;
+  std::vector<std::vector<uint8_t>> messages;
+  auto add = [&](Bytes m) { messages.emplace_back(m.data, m.data + m.size); };
+  const auto xyz = pose(1, 0, 3);
+  add(encoder.frame(5, 0, 0, xyz.data(), 3));                 // stream 5 never defined
+  add(encoder.skeleton(three_joint_definition(5)));
+  add(encoder.skeleton(three_joint_definition(5)));           // periodic re-send: not handed on
+  for (uint64_t s : {0, 1, 2, 5, 6}) add(encoder.frame(5, s, static_cast<int64_t>(s) + 1, xyz.data(), 3));  // gap 3..4
+  add(encoder.frame(5, 4, 100, xyz.data(), 3));               // out of order
+  add(encoder.frame(5, 1, 100, pose(1, 0, 2).data(), 2));     // wrong joint count
+  for (uint64_t s : {0, 1}) add(encoder.frame(5, s, static_cast<int64_t>(s) + 1000, xyz.data(), 3));  // restart
+
+  const std::string endpoint = ingest.endpoint();
+  void* push = zmq_socket(context.get(), ZMQ_PUSH);
+  int linger = 2000;
+  zmq_setsockopt(push, ZMQ_LINGER, &linger, sizeof linger);
+  ASSERT_EQ(zmq_connect(push, endpoint.c_str()), 0);
+  for (const auto& m : messages) zmq_send(push, m.data(), m.size(), 0);
+  ASSERT_TRUE(poll_until(ingest, [&] { return ingest.counters().received >= messages.size(); }));
+  zmq_close(push);
+
+  const IngestCounters& c = ingest.counters();
+  EXPECT_EQ(c.unknown_stream, 1u);
+  EXPECT_EQ(c.skeletons, 1u);
+  EXPECT_EQ(c.repeated_skeletons, 1u);
+  EXPECT_EQ(c.frames, 7u);
+  EXPECT_EQ(c.sequence_gaps, 2u);
+  EXPECT_EQ(c.out_of_order, 1u);
+  EXPECT_EQ(c.wrong_joint_count, 1u);
+  EXPECT_EQ(c.restarts, 1u);
+  EXPECT_EQ(received.restarts_seen, 1);
+  EXPECT_EQ(received.sequences, (std::vector<uint64_t>{0, 1, 2, 5, 6, 0, 1}));
+}
+
+TEST(runtime_publisher, SeesEachJoinWithItsTopicAndNeverBlocks) {
+  Context context;
+  PublisherOptions options;
+  options.endpoints = {"tcp://127.0.0.1:*"};
+  options.send_hwm = 10;
+  Publisher publisher(context, options);
+
+  void* sub = zmq_socket(context.get(), ZMQ_SUB);
+  int linger = 0;
+  zmq_setsockopt(sub, ZMQ_LINGER, &linger, sizeof linger);
+  ASSERT_EQ(zmq_connect(sub, publisher.endpoint().c_str()), 0);
+  char topic[16];
+  write_topic(7, topic);
+  zmq_setsockopt(sub, ZMQ_SUBSCRIBE, topic, 16);
+
+  std::string joined;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (joined.empty() && std::chrono::steady_clock::now() < deadline) {
+    zmq_pollitem_t item{publisher.socket(), 0, ZMQ_POLLIN, 0};
+    zmq_poll(&item, 1, 50);
+    publisher.poll_joins([&](const uint8_t* p, size_t n) { joined.assign(reinterpret_cast<const char*>(p), n); });
+  }
+  EXPECT_EQ(joined, std::string(topic, 16));
+
+  // The subscriber never reads: sends still return at once (DONTWAIT; a PUB drops at its HWM).
+  Encoder encoder;
+  const auto xyz = pose(7, 0, 3);
+  for (int i = 0; i < 5000; ++i) publisher.send(encoder.frame(7, static_cast<uint64_t>(i), i, xyz.data(), 3));
+  EXPECT_EQ(publisher.sent() + publisher.failed(), 5000u);
+  zmq_close(sub);
+}
+
+}  // namespace
+}  // namespace kata::transport
