@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "common/cpu.hpp"
+#include "eigen_native.hpp"
 #include "io/bvh.hpp"
 #include "metric/kernels.hpp"
 #include "support/random_model.hpp"
@@ -67,6 +68,24 @@ void Metric_EigenWtx(benchmark::State& state) {
 }
 BENCHMARK(Metric_EigenWtx);
 
+// The anchor: the same product with Eigen built for this machine (-march=native, a
+// separate shared library), x cycling over the same real frames.
+void Metric_EigenWtxNative(benchmark::State& state) {
+  const Fixture& f = fixture();
+  const Eigen::MatrixXf w = Eigen::MatrixXf::Random(gpd::kDims, kRank);
+  std::vector<float> y(kRank);
+  int i = 0;
+  for (auto _ : state) {
+    kata_bench::eigen_native_wtx(w.data(), gpd::kDims, kRank, f.rows.data() + static_cast<size_t>(i) * gpd::kDims,
+                                 y.data());
+    benchmark::DoNotOptimize(y.data());
+    benchmark::ClobberMemory();
+    if (++i == f.frames) i = 0;
+  }
+  per_frame(state, 1);
+}
+BENCHMARK(Metric_EigenWtxNative);
+
 // Everything per frame after features: normalise, project (parts + static rows), distance,
 // score, breakdown, against a pose reference.
 void Metric_ScorePose(benchmark::State& state) {
@@ -79,7 +98,7 @@ void Metric_ScorePose(benchmark::State& state) {
     if (++i == f.frames) i = 0;
   }
   per_frame(state, 1);
-  state.SetLabel(cpu_has_avx2() ? "avx2" : "baseline");
+  state.SetLabel(cpu_has_avx512() ? "avx512" : cpu_has_avx2() ? "avx2" : "baseline");
 }
 BENCHMARK(Metric_ScorePose);
 
@@ -128,10 +147,11 @@ void Metric_ScoreBatch(benchmark::State& state) {
 BENCHMARK(Metric_ScoreBatch)->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Arg(16);
 
 // The projection kernel alone (one pass over the blocked W), each implementation explicitly.
-template <bool kAvx2>
+enum class Isa { kBase, kAvx2, kAvx512 };
+template <Isa kIsa>
 void Metric_Kernel(benchmark::State& state) {
-  if (kAvx2 && !cpu_has_avx2()) {
-    state.SkipWithError("no AVX2");
+  if ((kIsa == Isa::kAvx2 && !cpu_has_avx2()) || (kIsa == Isa::kAvx512 && !cpu_has_avx512())) {
+    state.SkipWithError("instruction set not available");
     return;
   }
   const Fixture& f = fixture();
@@ -154,7 +174,9 @@ void Metric_Kernel(benchmark::State& state) {
   bw.perm = perm.data();
   std::vector<float> v(static_cast<size_t>(bw.groups) * bw.out_stride);
   for (auto _ : state) {
-    if constexpr (kAvx2)
+    if constexpr (kIsa == Isa::kAvx512)
+      metric::detail::avx512::project_groups(bw, ws.xp.data(), v.data());
+    else if constexpr (kIsa == Isa::kAvx2)
       metric::detail::avx2::project_groups(bw, ws.xp.data(), v.data());
     else
       metric::detail::base::project_groups(bw, ws.xp.data(), v.data());
@@ -163,7 +185,8 @@ void Metric_Kernel(benchmark::State& state) {
   }
   per_frame(state, 1);
 }
-BENCHMARK(Metric_Kernel<true>)->Name("Metric_KernelAvx2");
-BENCHMARK(Metric_Kernel<false>)->Name("Metric_KernelBaseline");
+BENCHMARK(Metric_Kernel<Isa::kAvx512>)->Name("Metric_KernelAvx512");
+BENCHMARK(Metric_Kernel<Isa::kAvx2>)->Name("Metric_KernelAvx2");
+BENCHMARK(Metric_Kernel<Isa::kBase>)->Name("Metric_KernelBaseline");
 
 }  // namespace

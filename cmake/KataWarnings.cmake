@@ -15,3 +15,12 @@ function(kata_avx2_sources target)
   endif()
   target_sources(${target} PRIVATE ${ARGN})
 endfunction()
+
+# kata_avx512_sources(target src...): the same for x86-64-v4 (AVX-512 F/BW/CD/DQ/VL); called only
+# after kata::cpu_has_avx512().
+function(kata_avx512_sources target)
+  if(KATA_X86)
+    set_source_files_properties(${ARGN} TARGET_DIRECTORY ${target} PROPERTIES COMPILE_OPTIONS "-march=x86-64-v4")
+  endif()
+  target_sources(${target} PRIVATE ${ARGN})
+endfunction()

@@ -1,12 +1,14 @@
 // Projection kernels of the scorer: the only hot loops of scoring. Plain C++ types only (no
-// Eigen): the AVX2 variants live in their own translation unit compiled for x86-64-v3.
+// Eigen). Written once over xsimd (kernels_kernel.inl) and compiled three times: the baseline
+// (SSE4.2 on x86-64-v2, NEON on aarch64), AVX2+FMA (x86-64-v3) and AVX-512 (x86-64-v4), each in
+// its own translation unit; the functions below dispatch at run time (common/cpu.hpp).
 #pragma once
 
 #include <cstddef>
 
 namespace kata::metric::detail {
 
-// Columns per chunk of the blocked W (a chunk's accumulators must fit the 16 ymm registers).
+// Columns per chunk of the blocked W (a chunk's accumulators must fit 8 vector registers on AVX2).
 constexpr int kChunk = 64;
 // Frames projected together by the batched kernel (each W row is loaded once for all of them).
 constexpr int kBatch = 4;
@@ -49,7 +51,10 @@ void combine(const Combine& c, const float* v, int stride, float scale, float* o
 // xn[i] = (x[i] - a[i]) * b[i] for i < n; returns the sum of xn[i]^2 (accumulated in double).
 double normalise(const float* x, const float* a, const float* b, int n, float* xn);
 
-// The baseline (x86-64-v2) and AVX2+FMA implementations behind the dispatching functions above.
+// The implementations behind the dispatching functions above. avx2:: and avx512:: may only be
+// called when cpu_has_avx2() / cpu_has_avx512() (on other CPU families they forward to base::).
+// Within one implementation project_groups_batch equals project_groups bit for bit; across
+// implementations results differ by float summation order and fused multiply-adds only.
 namespace base {
 void project_groups(const BlockedW& w, const float* xp, float* v);
 void project_groups_batch(const BlockedW& w, const float* const* xp, float* const* v, int n);
@@ -62,5 +67,11 @@ void project_groups_batch(const BlockedW& w, const float* const* xp, float* cons
 double normalise(const float* x, const float* a, const float* b, int n, float* xn);
 void combine(const Combine& c, const float* v, int stride, float scale, float* out);
 }  // namespace avx2
+namespace avx512 {
+void project_groups(const BlockedW& w, const float* xp, float* v);
+void project_groups_batch(const BlockedW& w, const float* const* xp, float* const* v, int n);
+double normalise(const float* x, const float* a, const float* b, int n, float* xn);
+void combine(const Combine& c, const float* v, int stride, float scale, float* out);
+}  // namespace avx512
 
 }  // namespace kata::metric::detail

@@ -1,0 +1,255 @@
+// The projection kernels of the scorer, written once over an xsimd architecture.
+//
+// Included by kernels_base.cpp, kernels_avx2.cpp and kernels_avx512.cpp INSIDE their own
+// namespace (kata::metric::detail::base / ::avx2 / ::avx512) after `using Arch = xsimd::<arch>;`.
+// ODR note (as for gpd_kernel.inl): the translation units are compiled for different instruction
+// sets, so nothing here may be an inline function or template instantiation shared between them:
+// every helper lives in an unnamed namespace nested in the ISA namespace and xsimd is used only
+// through batch<float, Arch>.
+//
+// Columns that do not fill a whole batch: rows of the blocked W are unpadded (kernels.hpp), so
+// instead of masked loads (which xsimd does not offer on every architecture) the last vector of
+// a row is loaded so that it ENDS at the row's last column, overlapping the vector before it.
+// Both vectors compute the overlapped columns with the same operations in the same order, so
+// they hold identical values and storing both is harmless. Nothing is read or written outside
+// the row or the output. Chunks narrower than one batch take a scalar loop.
+//
+// Bit-for-bit: within one ISA every output column is the same sequence of (fused, where the ISA
+// has FMA) multiply-adds over the rows in order, starting from 0, in the single-frame, batched
+// and scalar paths alike; so the batched kernel equals the single-frame one exactly.
+
+namespace {
+
+using B = xsimd::batch<float, Arch>;
+constexpr int W = static_cast<int>(B::size);
+// Accumulator vectors per pass of the single-frame kernel (16 registers on SSE/AVX2/NEON-32
+// would spill beyond 8 with the row loads; AVX-512 has 32 but a 64-column chunk needs only 4).
+constexpr int kMaxNV = 8;
+// Column vectors per slab of the batched kernel: F x NV accumulators + NV row vectors + one
+// broadcast must fit the register file (16 on AVX2, 32 on AVX-512).
+constexpr int kSlabNV = W >= 16 ? 4 : 2;
+// Rows per tile of the batched kernel: a tile of W (64 x 50 floats, 12.8 KB) stays in L1 while
+// every column slab of every frame passes over it, so W streams from L2 once per batch.
+constexpr int kTile = 64;
+
+inline B load(const float* p) { return B::load_unaligned(p); }
+inline void store(float* p, const B& v) { v.store_unaligned(p); }
+// acc + w * x with the ISA's multiply-add (fused where it exists); the same everywhere below.
+// xsimd 8 has no fused AVX-512 fma (its generic x * y + z may or may not be contracted), so
+// that one ISA names the instruction; every other build takes xsimd's.
+inline B madd(const B& w, const B& x, const B& acc) {
+#if defined(__AVX512F__)
+  return B(_mm512_fmadd_ps(w, x, acc));
+#else
+  return xsimd::fma(w, x, acc);
+#endif
+}
+// The scalar twin of madd, for chunks narrower than a batch: fused iff the ISA fuses.
+inline float madd1(float w, float x, float acc) {
+#if defined(__FMA__) || defined(__aarch64__)
+  return __builtin_fmaf(w, x, acc);
+#else
+  return w * x + acc;
+#endif
+}
+
+// Column offsets of the nv vectors covering [c0, c0 + n) (n >= 1, c0 + n - W >= 0): full
+// vectors from c0, the last one ending at c0 + n.
+inline void vector_offsets(int c0, int n, int nv, int* off) {
+  for (int v = 0; v + 1 < nv; ++v) off[v] = c0 + W * v;
+  off[nv - 1] = c0 + n - W;
+}
+
+// One pass of one group of one chunk: NV vectors at columns off[] over rows [begin, end).
+template <int NV>
+void group_pass(const float* rows, int stride, const float* xp, const int* perm, int begin, int end, const int* off,
+                float* out) {
+  B acc[NV];
+  for (int v = 0; v < NV; ++v) acc[v] = B(0.0f);
+  for (int i = begin; i < end; ++i) {
+    const B xi(xp[perm[i]]);
+    const float* row = rows + static_cast<ptrdiff_t>(i) * stride;
+    for (int v = 0; v < NV; ++v) acc[v] = madd(load(row + off[v]), xi, acc[v]);
+  }
+  for (int v = 0; v < NV; ++v) store(out + off[v], acc[v]);
+}
+
+using PassFn = void (*)(const float*, int, const float*, const int*, int, int, const int*, float*);
+
+PassFn pick_pass(int nv) {
+  switch (nv) {
+    case 1: return &group_pass<1>;
+    case 2: return &group_pass<2>;
+    case 3: return &group_pass<3>;
+    case 4: return &group_pass<4>;
+    case 5: return &group_pass<5>;
+    case 6: return &group_pass<6>;
+    case 7: return &group_pass<7>;
+    default: return &group_pass<8>;
+  }
+}
+
+// A chunk narrower than one batch: scalar, the accumulator row on the stack.
+void group_narrow(const float* rows, int width, const float* xp, const int* perm, int begin, int end, float* out) {
+  float acc[W] = {};
+  for (int i = begin; i < end; ++i) {
+    const float xi = xp[perm[i]];
+    const float* row = rows + static_cast<ptrdiff_t>(i) * width;
+    for (int c = 0; c < width; ++c) acc[c] = madd1(row[c], xi, acc[c]);
+  }
+  for (int c = 0; c < width; ++c) out[c] = acc[c];
+}
+
+// Zeroes the padding columns [width, round8(width)) of one output row.
+inline void zero_padding(float* out, int width) {
+  const int padded = (width + 7) / 8 * 8;
+  for (int c = width; c < padded; ++c) out[c] = 0.0f;
+}
+
+// F frames x NV vectors at columns off[] over rows [begin, end), accumulated into out[f] (which
+// holds the running sums of the previous tiles).
+template <int F, int NV>
+void slab(const float* rows, int stride, const float* const* xp, const int* perm, int begin, int end, const int* off,
+          float* const* out) {
+  B acc[F][NV];
+  for (int f = 0; f < F; ++f)
+    for (int v = 0; v < NV; ++v) acc[f][v] = load(out[f] + off[v]);
+  for (int i = begin; i < end; ++i) {
+    const float* row = rows + static_cast<ptrdiff_t>(i) * stride;
+    B w[NV];
+    for (int v = 0; v < NV; ++v) w[v] = load(row + off[v]);
+    const int src = perm[i];
+    for (int f = 0; f < F; ++f) {
+      const B xi(xp[f][src]);
+      for (int v = 0; v < NV; ++v) acc[f][v] = madd(w[v], xi, acc[f][v]);
+    }
+  }
+  for (int f = 0; f < F; ++f)
+    for (int v = 0; v < NV; ++v) store(out[f] + off[v], acc[f][v]);
+}
+
+template <int F>
+using SlabFn = void (*)(const float*, int, const float* const*, const int*, int, int, const int*, float* const*);
+
+template <int F>
+SlabFn<F> pick_slab(int nv) {
+  static_assert(kSlabNV == 2 || kSlabNV == 4, "pick_slab covers 1..kSlabNV vectors");
+  if constexpr (kSlabNV == 4) {
+    switch (nv) {
+      case 1: return &slab<F, 1>;
+      case 2: return &slab<F, 2>;
+      case 3: return &slab<F, 3>;
+      default: return &slab<F, 4>;
+    }
+  } else {
+    return nv == 1 ? &slab<F, 1> : &slab<F, 2>;
+  }
+}
+
+void project_one(const BlockedW& w, const float* xp, float* v) {
+  for (int c0 = 0; c0 < w.rank; c0 += kChunk) {
+    const int width = w.rank - c0 < kChunk ? w.rank - c0 : kChunk;
+    const float* rows = w.data + static_cast<ptrdiff_t>(w.rows) * c0;
+    for (int g = 0; g < w.groups; ++g) {
+      float* out = v + static_cast<ptrdiff_t>(g) * w.out_stride + c0;
+      if (width < W) {
+        group_narrow(rows, width, xp, w.perm, w.group_begin[g], w.group_begin[g + 1], out);
+      } else {
+        for (int p0 = 0; p0 < width; p0 += kMaxNV * W) {
+          const int n = width - p0 < kMaxNV * W ? width - p0 : kMaxNV * W;
+          const int nv = (n + W - 1) / W;
+          int off[kMaxNV];
+          vector_offsets(p0, n, nv, off);
+          pick_pass(nv)(rows, width, xp, w.perm, w.group_begin[g], w.group_begin[g + 1], off, out);
+        }
+      }
+      zero_padding(out, width);
+    }
+  }
+}
+
+template <int F>
+void project_many(const BlockedW& w, const float* const* xp, float* const* v) {
+  float* out[F];
+  for (int c0 = 0; c0 < w.rank; c0 += kChunk) {
+    const int width = w.rank - c0 < kChunk ? w.rank - c0 : kChunk;
+    const float* rows = w.data + static_cast<ptrdiff_t>(w.rows) * c0;
+    for (int g = 0; g < w.groups; ++g) {
+      for (int f = 0; f < F; ++f) out[f] = v[f] + static_cast<ptrdiff_t>(g) * w.out_stride + c0;
+      if (width < W) {
+        for (int f = 0; f < F; ++f) {
+          group_narrow(rows, width, xp[f], w.perm, w.group_begin[g], w.group_begin[g + 1], out[f]);
+          zero_padding(out[f], width);
+        }
+        continue;
+      }
+      for (int f = 0; f < F; ++f)
+        for (int c = 0; c < width; ++c) out[f][c] = 0.0f;
+      const int nv = (width + W - 1) / W;
+      int off[kChunk / W + 1];
+      vector_offsets(0, width, nv, off);
+      const int lead = nv % kSlabNV != 0 ? nv % kSlabNV : kSlabNV;  // vectors of the first slab
+      for (int t0 = w.group_begin[g]; t0 < w.group_begin[g + 1]; t0 += kTile) {
+        const int t1 = t0 + kTile < w.group_begin[g + 1] ? t0 + kTile : w.group_begin[g + 1];
+        // Slabs are cut from the END of the vector list: the last vector overlaps the one before
+        // it, and both must be in one slab (a later slab would reload sums the earlier slab had
+        // already advanced through this tile, and add the tile twice).
+        for (int v0 = 0, n = lead; v0 < nv; v0 += n, n = kSlabNV)
+          pick_slab<F>(n)(rows, width, xp, w.perm, t0, t1, off + v0, out);
+      }
+      for (int f = 0; f < F; ++f) zero_padding(out[f], width);
+    }
+  }
+}
+
+}  // namespace
+
+void project_groups(const BlockedW& w, const float* xp, float* v) { project_one(w, xp, v); }
+
+void project_groups_batch(const BlockedW& w, const float* const* xp, float* const* v, int n) {
+  switch (n) {
+    case 1: project_one(w, xp[0], v[0]); break;
+    case 2: project_many<2>(w, xp, v); break;
+    case 3: project_many<3>(w, xp, v); break;
+    case 4: project_many<4>(w, xp, v); break;
+    default: break;
+  }
+}
+
+void combine(const Combine& c, const float* v, int stride, float scale, float* out) {
+  // Each output row: for each vector of columns, the weighted groups added in a register.
+  for (int r = 0; r < c.rows; ++r) {
+    float* o = out + static_cast<ptrdiff_t>(r) * stride;
+    if (stride < W) {
+      for (int i = 0; i < stride; ++i) {
+        float acc = 0.0f;
+        for (int k = c.row_begin[r]; k < c.row_begin[r + 1]; ++k)
+          acc = madd1(c.weight[k] * scale, v[static_cast<ptrdiff_t>(c.group[k]) * stride + i], acc);
+        o[i] = acc;
+      }
+      continue;
+    }
+    for (int i0 = 0; i0 < stride; i0 += W) {
+      const int i = i0 + W <= stride ? i0 : stride - W;  // the last vector ends at the row's end
+      B acc(0.0f);
+      for (int k = c.row_begin[r]; k < c.row_begin[r + 1]; ++k)
+        acc = madd(B(c.weight[k] * scale), load(v + static_cast<ptrdiff_t>(c.group[k]) * stride + i), acc);
+      store(o + i, acc);
+    }
+  }
+}
+
+double normalise(const float* x, const float* a, const float* b, int n, float* xn) {
+  // x' in float batches; the sum of squares in double over eight independent partial sums (one
+  // serial double chain would cost n x add latency), the same order on every ISA.
+  int i = 0;
+  for (; i + W <= n; i += W) store(xn + i, (load(x + i) - load(a + i)) * load(b + i));
+  for (; i < n; ++i) xn[i] = (x[i] - a[i]) * b[i];
+  double acc[8] = {};
+  i = 0;
+  for (; i + 8 <= n; i += 8)
+    for (int l = 0; l < 8; ++l) acc[l] += static_cast<double>(xn[i + l]) * xn[i + l];
+  double sum = ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+  for (; i < n; ++i) sum += static_cast<double>(xn[i]) * xn[i];
+  return sum;
+}
