@@ -4,6 +4,9 @@
 #   ./build.sh test   install what is missing, build, run the whole test suite
 #   ./build.sh deps | build | bench | asan     (the pieces; asan = tests under ASan + UBSan)
 #   ./build.sh fuzz   libFuzzer targets (clang, ASan + UBSan) in build-fuzz/, each run FUZZ_SECONDS (20)
+#   ./build.sh clang     everything built with Debian's clang, warnings as errors, the whole suite run
+#   ./build.sh aarch64   cross build for 64-bit ARM: the library and its GPD, metric, retarget and
+#                        C ABI tests, run under qemu-user (no trainer, tools or benchmarks)
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -14,6 +17,10 @@ PACKAGES=(build-essential cmake pkg-config libeigen3-dev libzmq3-dev cppzmq-dev 
           python3-pytest mono-mcs mono-runtime)
 # Only `./build.sh fuzz` needs these (Debian's clang and its libFuzzer runtime).
 FUZZ_PACKAGES=(clang-14 libclang-rt-14-dev)
+# Only for `./build.sh clang` / `./build.sh aarch64` (arm64 multiarch: the arm64 builds of the
+# libraries the core links; header-only packages are shared with the host).
+CLANG_PACKAGES=(clang)
+AARCH64_PACKAGES=(g++-aarch64-linux-gnu qemu-user libzmq3-dev:arm64 libgtest-dev:arm64 libflatbuffers-dev:arm64)
 JOBS=${JOBS:-2}
 
 deps() {  # deps [package...]: the given packages, or PACKAGES
@@ -38,6 +45,29 @@ build() {  # build DIR [cmake options...]
 
 run_tests() {  # run_tests DIR
   ctest --test-dir "$1" --output-on-failure -j "$JOBS" --timeout 900
+}
+
+clang_build() {
+  deps "${CLANG_PACKAGES[@]}"
+  CC=clang CXX=clang++ build build-clang -DKATA_BUILD_BENCH=OFF
+  run_tests build-clang
+}
+
+# The test programs the aarch64 build runs (each under qemu-aarch64).
+AARCH64_TESTS=(test_gpd test_metric test_retarget test_retarget_capi test_api test_capi_c)
+
+aarch64_build() {
+  local sudo=""
+  [ "$(id -u)" -ne 0 ] && sudo="sudo"
+  dpkg --print-foreign-architectures | grep -qx arm64 || { $sudo dpkg --add-architecture arm64; $sudo apt-get update -qq; }
+  deps "${AARCH64_PACKAGES[@]}"
+  cmake -S . -B build-aarch64 -DCMAKE_TOOLCHAIN_FILE=cmake/aarch64-linux-gnu.cmake -DCMAKE_BUILD_TYPE=Release \
+        -DKATA_WERROR=ON -DKATA_BUILD_BENCH=OFF >/dev/null
+  cmake --build build-aarch64 -j "$JOBS" --target kata "${AARCH64_TESTS[@]}"
+  for t in "${AARCH64_TESTS[@]}"; do
+    echo "== $t (qemu-aarch64)"
+    qemu-aarch64 "build-aarch64/bin/$t" --gtest_brief=1
+  done
 }
 
 demo() {
@@ -90,6 +120,8 @@ case "${1:-}" in
   asan) deps; build build-asan -DKATA_SANITIZE=ON -DKATA_BUILD_BENCH=OFF -DCMAKE_BUILD_TYPE=RelWithDebInfo
         ASAN_OPTIONS=detect_leaks=1 UBSAN_OPTIONS=print_stacktrace=1 run_tests build-asan ;;
   fuzz) deps; deps "${FUZZ_PACKAGES[@]}"; fuzz ;;
+  clang) deps; clang_build ;;
+  aarch64) deps; aarch64_build ;;
   bench) deps; build build; build/bin/kata_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true ;;
-  *) sed -n '2,6p' "$0"; exit 2 ;;
+  *) sed -n '2,9p' "$0"; exit 2 ;;
 esac

@@ -1,4 +1,5 @@
-// GPD v1 static blocks, baseline kernel: xsimd on SSE4.2 (the x86-64-v2 build baseline).
+// GPD v1 static blocks, baseline kernel: xsimd on the build's baseline instruction set (SSE4.2 for
+// the x86-64-v2 build, NEON on aarch64).
 #include <cstdint>
 
 #include <xsimd/xsimd.hpp>
@@ -7,12 +8,9 @@
 
 namespace kata::gpd::detail::sse4 {
 
-// The widest instruction set the baseline compile flags allow (SSE2 is part of x86-64).
-#if defined(__SSE4_2__)
-using Arch = xsimd::sse4_2;
-#else
-using Arch = xsimd::sse2;
-#endif
+// The widest instruction set the baseline compile flags allow (SSE4.2 on x86-64-v2, NEON on
+// aarch64; xsimd's default architecture).
+using Arch = xsimd::default_arch;
 // SSE has no lane permute with a run-time index: compactions go through index tables.
 #define KATA_GPD_PERMUTE 0
 
