@@ -98,6 +98,7 @@ void Metric_ScorePose(benchmark::State& state) {
     if (++i == f.frames) i = 0;
   }
   per_frame(state, 1);
+  state.counters["groups"] = f.metric->groups();
   state.SetLabel(cpu_has_avx512() ? "avx512" : cpu_has_avx2() ? "avx2" : "baseline");
 }
 BENCHMARK(Metric_ScorePose);

@@ -239,6 +239,38 @@ void combine(const Combine& c, const float* v, int stride, float scale, float* o
   }
 }
 
+// acc[l] += xn[i + l]^2 for l < 8 over the 8-aligned prefix of xn; returns the length covered.
+// A float times a float is exact in double, so fused or not the products are the same and the
+// sums follow the same order on every ISA: the results are bit-identical across ISAs.
+int sum_squares8(const float* xn, int n, double* acc) {
+  int i = 0;
+#if defined(__AVX512F__)
+  __m512d s = _mm512_loadu_pd(acc);
+  for (; i + 16 <= n; i += 16) {
+    // (the maskz form: GCC 12 warns on the plain one, whose pass-through lanes are undefined)
+    const __m512d lo = _mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(xn + i));
+    const __m512d hi = _mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(xn + i + 8));
+    s = _mm512_fmadd_pd(lo, lo, s);
+    s = _mm512_fmadd_pd(hi, hi, s);
+  }
+  _mm512_storeu_pd(acc, s);
+#elif defined(__AVX2__) && defined(__FMA__)
+  __m256d s0 = _mm256_loadu_pd(acc), s1 = _mm256_loadu_pd(acc + 4);
+  for (; i + 8 <= n; i += 8) {
+    const __m256d lo = _mm256_cvtps_pd(_mm_loadu_ps(xn + i));
+    const __m256d hi = _mm256_cvtps_pd(_mm_loadu_ps(xn + i + 4));
+    s0 = _mm256_fmadd_pd(lo, lo, s0);
+    s1 = _mm256_fmadd_pd(hi, hi, s1);
+  }
+  _mm256_storeu_pd(acc, s0);
+  _mm256_storeu_pd(acc + 4, s1);
+#endif
+  // The portable path (and the AVX-512 remainder): the same lanes, the same order.
+  for (; i + 8 <= n; i += 8)
+    for (int l = 0; l < 8; ++l) acc[l] += static_cast<double>(xn[i + l]) * xn[i + l];
+  return i;
+}
+
 double normalise(const float* x, const float* a, const float* b, int n, float* xn) {
   // x' in float batches; the sum of squares in double over eight independent partial sums (one
   // serial double chain would cost n x add latency), the same order on every ISA.
@@ -246,9 +278,7 @@ double normalise(const float* x, const float* a, const float* b, int n, float* x
   for (; i + W <= n; i += W) store(xn + i, (load(x + i) - load(a + i)) * load(b + i));
   for (; i < n; ++i) xn[i] = (x[i] - a[i]) * b[i];
   double acc[8] = {};
-  i = 0;
-  for (; i + 8 <= n; i += 8)
-    for (int l = 0; l < 8; ++l) acc[l] += static_cast<double>(xn[i + l]) * xn[i + l];
+  i = sum_squares8(xn, n, acc);
   double sum = ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
   for (; i < n; ++i) sum += static_cast<double>(xn[i]) * xn[i];
   return sum;
