@@ -86,6 +86,31 @@ void Metric_EigenWtxNative(benchmark::State& state) {
 }
 BENCHMARK(Metric_EigenWtxNative);
 
+// What a half-precision W would buy (not shipped): the same row-major loop over fp16 and fp32 W,
+// both -march=native, x cycling over the real frames. fp16 streams half the bytes from L2.
+template <bool kHalf>
+void Metric_RowMajorWtx(benchmark::State& state) {
+  const Fixture& f = fixture();
+  std::vector<float> w(static_cast<size_t>(gpd::kDims) * kRank);
+  for (size_t k = 0; k < w.size(); ++k) w[k] = 0.001f * static_cast<float>(k % 997);
+  std::vector<uint16_t> half(w.size(), 0x3c00);  // 1.0 in fp16: the cost does not depend on values
+  std::vector<float> y(kRank);
+  int i = 0;
+  for (auto _ : state) {
+    const float* x = f.rows.data() + static_cast<size_t>(i) * gpd::kDims;
+    if constexpr (kHalf)
+      kata_bench::fp16_wtx(half.data(), gpd::kDims, kRank, x, y.data());
+    else
+      kata_bench::fp32_wtx_rowmajor(w.data(), gpd::kDims, kRank, x, y.data());
+    benchmark::DoNotOptimize(y.data());
+    benchmark::ClobberMemory();
+    if (++i == f.frames) i = 0;
+  }
+  per_frame(state, 1);
+}
+BENCHMARK(Metric_RowMajorWtx<false>)->Name("Metric_RowMajorWtxFp32Native");
+BENCHMARK(Metric_RowMajorWtx<true>)->Name("Metric_RowMajorWtxFp16Native");
+
 // Everything per frame after features: normalise, project (parts + static rows), distance,
 // score, breakdown, against a pose reference.
 void Metric_ScorePose(benchmark::State& state) {
