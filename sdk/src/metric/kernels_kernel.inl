@@ -216,25 +216,64 @@ void project_groups_batch(const BlockedW& w, const float* const* xp, float* cons
   }
 }
 
+namespace {
+// One output row with all NV column vectors in registers: NV independent FMA chains through the
+// row's groups (one vector at a time would wait on the FMA latency at every group).
+template <int NV>
+void combine_row(const Combine& c, int r, const float* v, int stride, float scale, const int* off, float* o) {
+  B acc[NV];
+  for (int i = 0; i < NV; ++i) acc[i] = B(0.0f);
+  for (int k = c.row_begin[r]; k < c.row_begin[r + 1]; ++k) {
+    const B wk(c.weight[k] * scale);
+    const float* vg = v + static_cast<ptrdiff_t>(c.group[k]) * stride;
+    for (int i = 0; i < NV; ++i) acc[i] = madd(wk, load(vg + off[i]), acc[i]);
+  }
+  for (int i = 0; i < NV; ++i) store(o + off[i], acc[i]);
+}
+
+using CombineRowFn = void (*)(const Combine&, int, const float*, int, float, const int*, float*);
+
+CombineRowFn pick_combine_row(int nv) {
+  switch (nv) {
+    case 1: return &combine_row<1>;
+    case 2: return &combine_row<2>;
+    case 3: return &combine_row<3>;
+    case 4: return &combine_row<4>;
+    case 5: return &combine_row<5>;
+    case 6: return &combine_row<6>;
+    case 7: return &combine_row<7>;
+    case 8: return &combine_row<8>;
+    default: return nullptr;
+  }
+}
+}  // namespace
+
 void combine(const Combine& c, const float* v, int stride, float scale, float* out) {
-  // Each output row: for each vector of columns, the weighted groups added in a register.
+  // Each output row: the weighted groups added in registers, every column the same chain of
+  // multiply-adds in group order (the last vector ends at the row's end, as in the projection).
+  const int nv = (stride + W - 1) / W;
+  const CombineRowFn row_fn = stride >= W ? pick_combine_row(nv) : nullptr;
+  int off[kMaxNV];
+  if (row_fn) vector_offsets(0, stride, nv, off);
   for (int r = 0; r < c.rows; ++r) {
     float* o = out + static_cast<ptrdiff_t>(r) * stride;
-    if (stride < W) {
+    if (row_fn) {
+      row_fn(c, r, v, stride, scale, off, o);
+    } else if (stride < W) {
       for (int i = 0; i < stride; ++i) {
         float acc = 0.0f;
         for (int k = c.row_begin[r]; k < c.row_begin[r + 1]; ++k)
           acc = madd1(c.weight[k] * scale, v[static_cast<ptrdiff_t>(c.group[k]) * stride + i], acc);
         o[i] = acc;
       }
-      continue;
-    }
-    for (int i0 = 0; i0 < stride; i0 += W) {
-      const int i = i0 + W <= stride ? i0 : stride - W;  // the last vector ends at the row's end
-      B acc(0.0f);
-      for (int k = c.row_begin[r]; k < c.row_begin[r + 1]; ++k)
-        acc = madd(B(c.weight[k] * scale), load(v + static_cast<ptrdiff_t>(c.group[k]) * stride + i), acc);
-      store(o + i, acc);
+    } else {
+      for (int i0 = 0; i0 < stride; i0 += W) {
+        const int i = i0 + W <= stride ? i0 : stride - W;
+        B acc(0.0f);
+        for (int k = c.row_begin[r]; k < c.row_begin[r + 1]; ++k)
+          acc = madd(B(c.weight[k] * scale), load(v + static_cast<ptrdiff_t>(c.group[k]) * stride + i), acc);
+        store(o + i, acc);
+      }
     }
   }
 }
