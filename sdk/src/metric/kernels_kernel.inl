@@ -107,13 +107,14 @@ inline void zero_padding(float* out, int width) {
 }
 
 // F frames x NV vectors at columns off[] over rows [begin, end), accumulated into out[f] (which
-// holds the running sums of the previous tiles).
-template <int F, int NV>
+// holds the running sums of the previous tiles; the first tile starts from 0 instead, so the
+// outputs need no zeroing pass: a fused multiply-add onto 0 rounds exactly as onto a loaded 0).
+template <int F, int NV, bool kFirst>
 void slab(const float* rows, int stride, const float* const* xp, const int* perm, int begin, int end, const int* off,
           float* const* out) {
   B acc[F][NV];
   for (int f = 0; f < F; ++f)
-    for (int v = 0; v < NV; ++v) acc[f][v] = load(out[f] + off[v]);
+    for (int v = 0; v < NV; ++v) acc[f][v] = kFirst ? B(0.0f) : load(out[f] + off[v]);
   for (int i = begin; i < end; ++i) {
     const float* row = rows + static_cast<ptrdiff_t>(i) * stride;
     B w[NV];
@@ -131,19 +132,24 @@ void slab(const float* rows, int stride, const float* const* xp, const int* perm
 template <int F>
 using SlabFn = void (*)(const float*, int, const float* const*, const int*, int, int, const int*, float* const*);
 
-template <int F>
-SlabFn<F> pick_slab(int nv) {
+template <int F, bool kFirst>
+SlabFn<F> pick_slab_of(int nv) {
   static_assert(kSlabNV == 2 || kSlabNV == 4, "pick_slab covers 1..kSlabNV vectors");
   if constexpr (kSlabNV == 4) {
     switch (nv) {
-      case 1: return &slab<F, 1>;
-      case 2: return &slab<F, 2>;
-      case 3: return &slab<F, 3>;
-      default: return &slab<F, 4>;
+      case 1: return &slab<F, 1, kFirst>;
+      case 2: return &slab<F, 2, kFirst>;
+      case 3: return &slab<F, 3, kFirst>;
+      default: return &slab<F, 4, kFirst>;
     }
   } else {
-    return nv == 1 ? &slab<F, 1> : &slab<F, 2>;
+    return nv == 1 ? &slab<F, 1, kFirst> : &slab<F, 2, kFirst>;
   }
+}
+
+template <int F>
+SlabFn<F> pick_slab(int nv, bool first) {
+  return first ? pick_slab_of<F, true>(nv) : pick_slab_of<F, false>(nv);
 }
 
 void project_one(const BlockedW& w, const float* xp, float* v) {
@@ -183,19 +189,20 @@ void project_many(const BlockedW& w, const float* const* xp, float* const* v) {
         }
         continue;
       }
-      for (int f = 0; f < F; ++f)
-        for (int c = 0; c < width; ++c) out[f][c] = 0.0f;
       const int nv = (width + W - 1) / W;
       int off[kChunk / W + 1];
       vector_offsets(0, width, nv, off);
       const int lead = nv % kSlabNV != 0 ? nv % kSlabNV : kSlabNV;  // vectors of the first slab
+      if (w.group_begin[g] == w.group_begin[g + 1])  // an empty group: no tile writes its sums
+        for (int f = 0; f < F; ++f)
+          for (int c = 0; c < width; ++c) out[f][c] = 0.0f;
       for (int t0 = w.group_begin[g]; t0 < w.group_begin[g + 1]; t0 += kTile) {
         const int t1 = t0 + kTile < w.group_begin[g + 1] ? t0 + kTile : w.group_begin[g + 1];
         // Slabs are cut from the END of the vector list: the last vector overlaps the one before
         // it, and both must be in one slab (a later slab would reload sums the earlier slab had
         // already advanced through this tile, and add the tile twice).
         for (int v0 = 0, n = lead; v0 < nv; v0 += n, n = kSlabNV)
-          pick_slab<F>(n)(rows, width, xp, w.perm, t0, t1, off + v0, out);
+          pick_slab<F>(n, t0 == w.group_begin[g])(rows, width, xp, w.perm, t0, t1, off + v0, out);
       }
       for (int f = 0; f < F; ++f) zero_padding(out[f], width);
     }
