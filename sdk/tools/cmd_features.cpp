@@ -4,18 +4,48 @@
 #include <string>
 
 #include "command.hpp"
+#include "common/error.hpp"
 #include "io/bvh.hpp"
 #include "io/npy.hpp"
 #include "io/clip_features.hpp"
+#include "io/motion_source.hpp"
 
 namespace {
 
 struct FeaturesArgs {
   std::string bvh, preset, name_map, stencil = "backward", out, dtype = "float32";
+  std::string student, up = "y";  // any source (.bvh, .npy, .csv) with --layout and --fps
+  double fps = 0.0;
   int first = 0;
 };
 
+kata::UpAxis parse_up(const std::string& up) {
+  return up == "z" ? kata::UpAxis::kZ : up == "y-down" ? kata::UpAxis::kYDown : kata::UpAxis::kY;
+}
+
+void write_rows(const std::string& path, const std::vector<float>& feats, const std::string& dtype) {
+  const std::vector<size_t> shape = {feats.size() / kata::gpd::kDims, static_cast<size_t>(kata::gpd::kDims)};
+  if (dtype == "float64") {
+    const std::vector<double> wide(feats.begin(), feats.end());
+    kata::write_npy(path, wide.data(), shape);
+  } else {
+    kata::write_npy(path, feats.data(), shape);
+  }
+}
+
+void run_motion_features(const FeaturesArgs& a) {
+  const kata::MotionSource m = kata::load_motion(a.student, a.preset, a.fps, parse_up(a.up), a.first);
+  std::vector<int> rows;
+  int lost = 0;
+  const std::vector<float> feats = kata::motion_features(m, kata::parse_stencil(a.stencil), &rows, &lost);
+  write_rows(a.out, feats, a.dtype);
+  std::printf("%s: %d frames, %zu feature rows (%s stencil, %d frames tracking lost) -> %s\n", a.student.c_str(),
+              m.frames, rows.size(), a.stencil.c_str(), lost, a.out.c_str());
+}
+
 void run_features(const FeaturesArgs& a) {
+  if (!a.student.empty()) return run_motion_features(a);
+  if (a.bvh.empty()) throw kata::Error(kata::ErrorKind::kInvalidArgument, "give --bvh CLIP or --student FILE");
   const kata::BvhClip clip = kata::load_bvh(a.bvh);
   const kata::GpdMap map = kata::resolve_gpd_map(clip.skeleton, a.preset, a.name_map);
   const std::vector<float> feats = kata::clip_features(clip, map, kata::parse_stencil(a.stencil), a.first);
@@ -34,8 +64,18 @@ void setup(CLI::App& app) {
   auto args = std::make_shared<FeaturesArgs>();
   CLI::App* cmd = app.add_subcommand("features", "GPD v1 features (frames x 1683) of a BVH clip, pushed frame by frame "
                                                  "through a live stream; timestamps i x frame time, H from the rest pose");
-  cmd->add_option("--bvh", args->bvh, "input BVH clip")->required()->check(CLI::ExistingFile);
-  auto* preset = cmd->add_option("--preset", args->preset, "skeleton preset mapping the clip onto the 16 GPD joints (cmu, ...)");
+  auto* bvh = cmd->add_option("--bvh", args->bvh, "input BVH clip")->check(CLI::ExistingFile);
+  cmd->add_option("--student", args->student,
+                  "input motion of any source: .bvh, or landmarks as .npy (frames, joints, 3|4: x y z [confidence]) or "
+                  ".csv (a row per frame) in the joint order of --layout; rows are the frames that gave features")
+      ->excludes(bvh)
+      ->check(CLI::ExistingFile);
+  auto* preset = cmd->add_option("--layout,--preset", args->preset,
+                                 "layout mapping the input onto the 16 GPD joints: a preset (cmu, h36m, kinect2, "
+                                 "azure-kinect, xsens, gpd, ...) or mediapipe (--preset is the old name)");
+  cmd->add_option("--fps", args->fps, "frame rate of a landmark array (.npy/.csv)")->check(CLI::PositiveNumber);
+  cmd->add_option("--up", args->up, "axes of a landmark array whose layout does not fix them: y (default), z, y-down")
+      ->check(CLI::IsMember({"y", "z", "y-down"}));
   cmd->add_option("--name-map", args->name_map, "user name-map file (JSON or 'Hip = joint' lines) instead of a preset")
       ->excludes(preset)
       ->check(CLI::ExistingFile);

@@ -38,7 +38,7 @@ void run_retarget(const RetargetArgs& a) {
   const auto sel = kata::retarget::select_joints(teacher.skeleton, student.skeleton, a.preset);
   if (to_bvh && a.preset != "cmu") {
     throw kata::Error(kata::ErrorKind::kInvalidArgument,
-                      "retarget: BVH output needs --preset cmu (the 16 GPD joints do not drive every bone); use .npy");
+                      "retarget: BVH output needs --joints cmu (the 16 GPD joints do not drive every bone); use .npy");
   }
   kata::retarget::RetargetOptions opt;
   opt.solver.gradient_tolerance = a.tolerance;
@@ -99,13 +99,13 @@ void setup(CLI::App& app) {
       "Retarget a teacher BVH clip onto a student's body (skeleton-independent distance matrices + warm-started "
       "spectral gradient, then exact bone lengths). The student clip supplies only its rest bone lengths. Output: "
       ".npy (frames x joints x 3 world positions in the student's units, root on the teacher's root, joints in "
-      "preset order) or .bvh (the student's hierarchy, rotations that reproduce those positions; --preset cmu only)");
+      "preset order) or .bvh (the student's hierarchy, rotations that reproduce those positions; --joints cmu only)");
   cmd->add_option("--teacher", args->teacher, "teacher BVH clip (its motion is retargeted)")->required()->check(CLI::ExistingFile);
   cmd->add_option("--student", args->student, "student BVH clip (same hierarchy; only its rest offsets are used)")
       ->required()
       ->check(CLI::ExistingFile);
-  cmd->add_option("--preset", args->preset,
-                  "joint set: cmu = every joint that carries a bone (joints with a zero offset, sitting on their parent, "
+  cmd->add_option("--joints,--preset", args->preset,
+                  "joint set (--preset is its deprecated old name): cmu = every joint that carries a bone (joints with a zero offset, sitting on their parent, "
                   "are dropped: 31 -> 21 joints for the CMU conversion, in hierarchy order); gpd = the 16 GPD v1 "
                   "joints (Hip, Chest, Neck, Head, L/R Shoulder, Elbow, Hand, L/R Hip, Knee, Foot) read through the "
                   "cmu name preset. Default cmu")

@@ -15,11 +15,21 @@
 #include "metric/parts.hpp"
 #include "metric/scorer.hpp"
 #include "io/clip_features.hpp"
+#include "io/motion_source.hpp"
 
 namespace {
 
+// True for the pure name-map presets (a BVH clip is read through them directly).
+bool preset_is_name_map(const std::string& layout) {
+  for (const std::string& p : kata::preset_names())
+    if (p == layout) return true;
+  return false;
+}
+
 struct ScoreArgs {
   std::string model, teacher, student, preset, name_map, out;
+  std::string teacher_layout, student_layout, up = "y";  // per-side layouts (default: --layout)
+  double fps = 0.0;
   int teacher_frame = -1;  // -1: the whole teacher clip is the reference
   int first = 0;
   double window = 0.5;
@@ -29,12 +39,37 @@ void run_score(const ScoreArgs& a) {
   using namespace kata;
   const auto metric = std::make_shared<const metric::Metric>(metric::load_model(a.model));
   // Features must use the stencil the model was trained with.
-  const BvhClip teacher = load_bvh(a.teacher);
-  const BvhClip student = load_bvh(a.student);
-  const std::vector<float> tf = clip_features(teacher, resolve_gpd_map(teacher.skeleton, a.preset, a.name_map),
-                                              metric->stencil(), a.first);
-  const std::vector<float> sf = clip_features(student, resolve_gpd_map(student.skeleton, a.preset, a.name_map),
-                                              metric->stencil(), a.first);
+  // BVH clips through a preset or name map (row i = clip frame first + i); any other source
+  // (landmark arrays, other layouts) through its layout, rows = frames that gave features.
+  struct Side {
+    std::vector<float> features;
+    double frame_time = 0.0;
+  };
+  auto load_side = [&](const std::string& path, const std::string& layout) {
+    Side side;
+    const bool bvh = path.size() > 4 && path.compare(path.size() - 4, 4, ".bvh") == 0;
+    if (bvh && (!a.name_map.empty() || layout.empty() || preset_is_name_map(layout))) {
+      const BvhClip clip = load_bvh(path);
+      side.features = clip_features(clip, resolve_gpd_map(clip.skeleton, layout, a.name_map), metric->stencil(), a.first);
+      side.frame_time = clip.frame_time;
+      return side;
+    }
+    const UpAxis up = a.up == "z" ? UpAxis::kZ : a.up == "y-down" ? UpAxis::kYDown : UpAxis::kY;
+    const MotionSource m = load_motion(path, layout, a.fps, up, a.first);
+    std::vector<int> rows;
+    int lost = 0;
+    side.features = motion_features(m, metric->stencil(), &rows, &lost);
+    side.frame_time = m.frame_time;
+    if (lost) std::printf("%s: %d frames tracking lost (no score)\n", path.c_str(), lost);
+    return side;
+  };
+  const Side ts = load_side(a.teacher, a.teacher_layout.empty() ? a.preset : a.teacher_layout);
+  const Side ss = load_side(a.student, a.student_layout.empty() ? a.preset : a.student_layout);
+  const std::vector<float>& tf = ts.features;
+  const std::vector<float>& sf = ss.features;
+  struct {
+    double frame_time;
+  } teacher{ts.frame_time}, student{ss.frame_time};
   const int teacher_frames = static_cast<int>(tf.size() / gpd::kDims);
   const int student_frames = static_cast<int>(sf.size() / gpd::kDims);
   if (teacher_frames < 1 || student_frames < 1) throw Error(ErrorKind::kInvalidArgument, "no frames to score");
@@ -110,13 +145,23 @@ void setup(CLI::App& app) {
                "(0-100), the five parts of distance^2, matched teacher frame, the five part distances and part "
                "scores (0-100), the part to fix and the feedback state");
   cmd->add_option("--model", args->model, ".kata model")->required()->check(CLI::ExistingFile);
-  cmd->add_option("--teacher", args->teacher, "teacher BVH clip")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--teacher", args->teacher, "teacher motion: .bvh, or a landmark .npy/.csv (see kata features)")
+      ->required()
+      ->check(CLI::ExistingFile);
   cmd->add_option("--teacher-frame", args->teacher_frame,
                   "score against this single teacher frame (clip frame index) instead of following the whole clip; "
                   "-1 (default): the whole clip")
       ->check(CLI::Range(-1, std::numeric_limits<int>::max()));
-  cmd->add_option("--student", args->student, "student BVH clip")->required()->check(CLI::ExistingFile);
-  auto* preset = cmd->add_option("--preset", args->preset, "skeleton preset for both clips (cmu, ...)");
+  cmd->add_option("--student", args->student, "student motion: .bvh, or a landmark .npy/.csv (see kata features)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  auto* preset = cmd->add_option("--layout,--preset", args->preset,
+                                 "layout of both inputs (cmu, mediapipe, gpd, ...; --preset is the old name)");
+  cmd->add_option("--teacher-layout", args->teacher_layout, "layout of the teacher (overrides --layout)");
+  cmd->add_option("--student-layout", args->student_layout, "layout of the student (overrides --layout)");
+  cmd->add_option("--fps", args->fps, "frame rate of landmark arrays (.npy/.csv)")->check(CLI::PositiveNumber);
+  cmd->add_option("--up", args->up, "axes of landmark arrays whose layout does not fix them: y, z, y-down")
+      ->check(CLI::IsMember({"y", "z", "y-down"}));
   cmd->add_option("--name-map", args->name_map, "name-map file for both clips instead of a preset")
       ->excludes(preset)
       ->check(CLI::ExistingFile);

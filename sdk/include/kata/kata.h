@@ -96,7 +96,10 @@ typedef enum kata_status {
   KATA_E_OUT_OF_MEMORY = 11,
   KATA_E_BUFFER_TOO_SMALL = 12,       /* the caller's buffer is smaller than the result */
   KATA_E_INTERNAL = 13,               /* a bug in kata: please report it */
-  KATA_E_STATE = 14                   /* the call is not valid in the object's current state */
+  KATA_E_STATE = 14,                  /* the call is not valid in the object's current state */
+  KATA_TRACKING_LOST = 15             /* a result, not an error: the frame was accepted (its timestamp
+                                         counts) but too many joints are missing to compute features
+                                         (see kata_stream_push_confidence); the stream recovers by itself */
 } kata_status;
 
 /* A static English name for a status ("KATA_OK", ...). Never NULL. [any thread] */
@@ -174,9 +177,52 @@ typedef enum kata_stencil {
 } kata_stencil;
 
 typedef enum kata_up_axis {
-  KATA_UP_Y = 0, /* +Y up (BVH, most engines) */
-  KATA_UP_Z = 1  /* +Z up: (x, y, z) is read as (x, z, -y) */
+  KATA_UP_Y = 0,     /* +Y up (BVH, most engines) */
+  KATA_UP_Z = 1,     /* +Z up: (x, y, z) is read as (x, z, -y) */
+  KATA_UP_Y_DOWN = 2 /* a camera frame, x right, y down, z away from the camera (MediaPipe world
+                        landmarks, Azure Kinect): (x, y, z) is read as (x, -y, -z), a rotation of
+                        180 degrees about x (never a mirror) */
 } kata_up_axis;
+
+/* ---- Layouts ----
+ * A layout says how a source's joints become the 16 GPD joints. Every preset below is one (a
+ * pure name map), and so is:
+ *   "gpd": the identity, for a source that already names the 16 GPD joints ("Hip", "Chest",
+ *          "Neck", "Head", "LShoulder", "LElbow", "LHand", "RShoulder", "RElbow", "RHand",
+ *          "LHip", "LKnee", "LFoot", "RHip", "RKnee", "RFoot": spec GPD v1 order);
+ *   "mediapipe": MediaPipe Pose world landmarks: the 33 landmarks in MediaPipe's documented order
+ *          (0 nose, 1-6 eyes, 7 left_ear, 8 right_ear, 9-10 mouth, 11 left_shoulder,
+ *          12 right_shoulder, 13-14 elbows, 15-16 wrists, 17-22 pinky/index/thumb, 23 left_hip,
+ *          24 right_hip, 25-26 knees, 27-28 ankles, 29-30 heels, 31-32 foot_index; names
+ *          "nose", "left_eye_inner", ... as in MediaPipe's guide), in metres with the origin at
+ *          the midpoint of the hips, axes as the Pose Landmarker emits world landmarks: x to the
+ *          image's right, y down, z away from the camera (MediaPipe documents world landmarks in
+ *          metres, origin at the centre of the hips, "the smaller the [z] value the closer the
+ *          landmark is to the camera"; x and y follow the image axes). A stream with this layout
+ *          always reads frames in these axes (up_axis is ignored) and smooths by default.
+ *          Pelvis, chest, neck and head have no landmark and are synthesised; with h = midpoint
+ *          of the hips (23, 24), s = midpoint of the shoulders (11, 12), e = midpoint of the ears
+ *          (7, 8), f = (l_hip - r_hip) x (s - h) / |l_hip - r_hip| (points forward, |f| = |s - h|):
+ *            Hip = h + 0.264 (s - h) - 0.07 f,  Chest = h + 0.868 (s - h),
+ *            Neck = (Chest + e) / 2,  Head = e.
+ *          (Fitted so they land where the "cmu" preset's Hips, Spine1, Neck1 and Head sit on CMU
+ *          mocap, so a webcam student and a CMU teacher are compared on the same joints.) A
+ *          synthesised joint's confidence is the smallest of its landmarks'. World landmarks have
+ *          no floor: each frame the floor under the Hip height is the lowest of landmarks 27..32
+ *          (ankles, heels, foot indices), so a jump does not raise the Hip height.
+ * Pass visibility as the per-joint confidence (kata_stream_push_confidence). */
+
+/* The name of built-in layout i (the presets, then "mediapipe"), or NULL past the last.
+ * [any thread] */
+KATA_API const char* kata_layout_name(uint32_t i);
+/* The joint list of a built-in layout as a skeleton without rest pose, for a source that sends
+ * bare landmark arrays: "mediapipe" (33 landmarks, named as above, in order), "gpd" (the 16
+ * GPD joints, spec parents), "azure-kinect" (Azure Kinect Body Tracking's 32 joints in
+ * k4abt_joint_id_t order, named "PELVIS", "SPINE_NAVEL", ...: millimetres, camera axes, so stream
+ * with KATA_UP_Y_DOWN) or "xsens" (Xsens MVN's 23 segments, "Pelvis", "L5", ..., MVN order;
+ * metres, Z up: KATA_UP_Z). KATA_E_NOT_FOUND for other names (build their skeleton with
+ * kata_skeleton_create from the source's joint names). *out is owned by the caller. [any thread] */
+KATA_API kata_status kata_skeleton_create_layout(kata_context context, const char* layout, kata_skeleton* out);
 
 /* How a stream maps and treats its input. Fill with kata_stream_desc_init, then change fields.
  * Starts with struct_size so later versions can grow it. */
@@ -218,6 +264,12 @@ KATA_API const char* kata_preset_name(uint32_t i);
  * [any thread] */
 KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skeleton, const kata_stream_desc* desc,
                                       kata_stream* out);
+/* kata_stream_open with a name map held in memory (the contents of a name-map file: JSON
+ * {"Hip": "pelvis", ...} or "Hip = pelvis" lines; copied) instead of desc->preset and
+ * desc->name_map_path. Errors name the map "<name map>" and its line. [any thread] */
+KATA_API kata_status kata_stream_open_name_map(kata_context context, kata_skeleton skeleton,
+                                               const kata_stream_desc* desc, const char* name_map_text,
+                                               kata_stream* out);
 /* Closes a stream and frees its memory. NULL is ignored. [stream owner] */
 KATA_API void kata_stream_close(kata_stream stream);
 /* The message of the last failed call on this stream, or "". [stream owner] */
@@ -238,6 +290,39 @@ KATA_API const char* kata_stream_last_error(kata_stream stream);
  * computed vector is not finite: it is withheld. Does not allocate. [stream owner] */
 KATA_API kata_status kata_stream_push(kata_stream stream, double timestamp, const float* positions,
                                       uint32_t joint_count);
+/* kata_stream_push with a confidence per joint (joint_count floats, e.g. MediaPipe's
+ * visibility; NULL = all confident). A joint below the desc's confidence_threshold, with a NaN
+ * confidence or a NaN/Inf coordinate is missing: held at its last good position for up to
+ * max_hold seconds (it never reaches the features as NaN). Returns KATA_OK, KATA_TRACKING_LOST
+ * (too many joints missing, or one missing too long: the frame is accepted without features;
+ * kata_stream_last_error says which) or the errors of kata_stream_push. Does not allocate.
+ * [stream owner] */
+KATA_API kata_status kata_stream_push_confidence(kata_stream stream, double timestamp, const float* positions,
+                                                 const float* confidences, uint32_t joint_count);
+/* Confidence gate of kata_stream_push_confidence: a GPD joint (confidence = smallest of the input
+ * joints it reads) below `threshold` (default 0.5), NaN, or with a non-finite coordinate is
+ * missing and held at its last good position for at most `max_hold` seconds (default 0.5). A
+ * frame with a joint missing for longer, or with more than max_missing_share x 16 joints missing
+ * (default 0.25: more than 4), returns KATA_TRACKING_LOST: no features, the kinetics restart at
+ * the next good frame. Takes effect at the next push. Does not allocate. [stream owner] */
+KATA_API kata_status kata_stream_set_confidence_gate(kata_stream stream, float threshold, double max_hold,
+                                                     double max_missing_share);
+/* One-Euro filter (Casiez, Roussel, Vogel, CHI 2012) on the 16 mapped joints, before features
+ * (the kinetics see the filtered positions): per coordinate, cutoff = min_cutoff + beta x |speed|
+ * (Hz; speed in input units per second, itself low-passed at d_cutoff Hz). On by default for the
+ * "mediapipe" layout (min_cutoff 2 Hz, beta 1.0 per m/s, d_cutoff 1 Hz: the best of a sweep on
+ * CMU motion as landmarks with 1 cm noise), off otherwise (mocap is clean). enabled: 0 or 1. The
+ * filter restarts at every segment start. Does not allocate. [stream owner] */
+KATA_API kata_status kata_stream_set_smoothing(kata_stream stream, int32_t enabled, double min_cutoff, double beta,
+                                               double d_cutoff);
+/* Frames reported KATA_TRACKING_LOST so far. [stream owner] */
+KATA_API int64_t kata_stream_lost_frames(kata_stream stream);
+/* Bone lengths of the GPD tree estimated from the live frames: the first 60 frames whose 16 joints
+ * are all good (2 s at 30 fps; unfiltered positions) give, per bone, lengths[g] =
+ * median |joint g - parent g| (input units, GPD joint order, lengths[0] = 0), spread[g] = 1.4826
+ * x its median absolute deviation (either pointer may be NULL); capacity = entries of each array
+ * (>= KATA_GPD_JOINTS). KATA_NO_DATA until those 60 frames were seen. [stream owner] */
+KATA_API kata_status kata_stream_bone_lengths(kata_stream stream, double* lengths, double* spread, size_t capacity);
 /* Ends the current segment (end of a take): with the central stencil the held frame is
  * computed now with the backward formulas. The next frame starts a new segment. KATA_E_INTERNAL
  * as for kata_stream_push. [stream owner] */
@@ -443,9 +528,24 @@ KATA_API void kata_retarget_desc_init(kata_retarget_desc* desc);
 KATA_API kata_status kata_retargeter_create(kata_context context, kata_skeleton student,
                                             const kata_retarget_desc* desc, kata_retargeter* out);
 /* The same with a stream's skeleton as the student (its rest offsets give the bone lengths).
- * The retargeter is independent of the stream afterwards. [stream owner] */
+ * A stream whose skeleton has no rest pose uses its estimated GPD bone lengths
+ * (kata_stream_bone_lengths; KATA_E_STATE until they are ready) on the 16 GPD joints (as
+ * kata_retargeter_create_across with the stream's own layout as the teacher's). The retargeter
+ * is independent of the stream afterwards. [stream owner] */
 KATA_API kata_status kata_retargeter_create_for_stream(kata_context context, kata_stream student,
                                                        const kata_retarget_desc* desc, kata_retargeter* out);
+/* Across layouts: a teacher on another skeleton (e.g. a CMU BVH) onto the student stream's
+ * layout (e.g. MediaPipe). solve() then takes frames of `teacher` (teacher_layout names its layout,
+ * e.g. "cmu"; read in teacher_up_axis unless the layout fixes its axes; its units do not matter)
+ * and works on the 16 GPD joints both layouts map: the ghost is the 16 GPD joints (GPD order) in
+ * the student stream's axes and units, root (Hip) at the origin until kata_retargeter_place puts
+ * it over the student; kata_retargeter_joint_source gives the student joint each stands for (-1
+ * for a synthesised one). The student's bone lengths come from its rest pose, or else from the
+ * stream's estimate (KATA_E_STATE until kata_stream_bone_lengths has them). desc may be NULL
+ * (its preset is ignored). [stream owner] */
+KATA_API kata_status kata_retargeter_create_across(kata_context context, kata_stream student, kata_skeleton teacher,
+                                                   const char* teacher_layout, kata_up_axis teacher_up_axis,
+                                                   const kata_retarget_desc* desc, kata_retargeter* out);
 /* Releases a retargeter. NULL is ignored. [retargeter owner] */
 KATA_API void kata_retargeter_destroy(kata_retargeter retargeter);
 /* The message of the last failed call on this retargeter, or "". Valid until the next call on
@@ -459,7 +559,8 @@ KATA_API uint32_t kata_retargeter_joint_count(kata_retargeter retargeter);
 KATA_API int32_t kata_retargeter_joint_source(kata_retargeter retargeter, uint32_t i);
 
 /* Retargets one teacher frame. teacher: every joint of the skeleton (teacher_joint_count x 3
- * floats, x, y, z interleaved, student units). ghost (capacity floats) receives
+ * floats, x, y, z interleaved, student units; across layouts: every joint of the teacher
+ * skeleton, its own units, and the ghost's root (Hip) is at the origin). ghost (capacity floats) receives
  * kata_retargeter_joint_count() x 3 floats: the posture on the student's bones, root on the
  * teacher's root, oriented like the teacher. info (may be NULL; set info->struct_size) receives
  * the solve's figures. KATA_E_WRONG_JOINT_COUNT, KATA_E_NON_FINITE, KATA_E_BUFFER_TOO_SMALL and

@@ -55,6 +55,27 @@ int32_t enum_bits(const Enum& e) {
 // Unsigned counts beyond int range become INT_MAX (refused by the core's range checks).
 int clamp_count(uint32_t v) { return static_cast<int>(std::min<uint32_t>(v, INT_MAX)); }
 
+// The stream's layout: a built-in layout or preset by name (desc.preset), a name-map file
+// (desc.name_map_path) or a name map's text (kata_stream_open_name_map, which wins). Strings are
+// read bounded; a preset and a file together are contradictory and refused.
+kata::Layout resolve_map(const kata::Skeleton& skeleton, const kata_stream_desc& desc, const char* name_map_text) {
+  if (name_map_text) {  // kata.h: the text is used instead of desc.preset and desc.name_map_path
+    kata::Layout layout;
+    layout.map = kata::make_gpd_map(skeleton, kata::parse_name_map(name_map_text, "<name map>"));
+    return layout;
+  }
+  const std::string preset = kata::c_string(desc.preset, "desc.preset");
+  const std::string path = kata::c_string(desc.name_map_path, "desc.name_map_path");
+  if (!preset.empty() && !path.empty())
+    throw kata::Error(kata::ErrorKind::kInvalidArgument, "stream: give a preset or a name-map file, not both (preset '" +
+                                                             kata::bounded(preset) + "', name map " +
+                                                             kata::bounded(path) + ")");
+  if (!preset.empty()) return kata::resolve_layout(skeleton, preset);
+  kata::Layout layout;
+  layout.map = kata::resolve_gpd_map(skeleton, preset, path);  // the file, or the "give a preset" refusal
+  return layout;
+}
+
 }  // namespace
 
 extern "C" {
@@ -80,6 +101,7 @@ KATA_API const char* kata_status_string(kata_status status) {
     case KATA_E_BUFFER_TOO_SMALL: return "KATA_E_BUFFER_TOO_SMALL";
     case KATA_E_INTERNAL: return "KATA_E_INTERNAL";
     case KATA_E_STATE: return "KATA_E_STATE";
+    case KATA_TRACKING_LOST: return "KATA_TRACKING_LOST";
   }
   return "KATA_E_UNKNOWN_STATUS";
 }
@@ -239,6 +261,28 @@ KATA_API void kata_stream_desc_init(kata_stream_desc* desc) {
   desc->keep_features = 0;
 }
 
+KATA_API const char* kata_layout_name(uint32_t i) {
+  try {
+    static const std::vector<std::string> names = kata::layout_names();  // built once, kept for the process
+    return i < names.size() ? names[i].c_str() : nullptr;
+  } catch (...) {
+    return nullptr;
+  }
+}
+
+KATA_API kata_status kata_skeleton_create_layout(kata_context context, const char* layout, kata_skeleton* out) {
+  if (!out) return KATA_E_NULL_POINTER;
+  *out = nullptr;
+  if (!context || !layout) {
+    set_context_error("kata_skeleton_create_layout: context and layout must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  return guarded_context([&] {
+    *out = new kata_skeleton_s{kata::layout_skeleton(layout)};
+    return KATA_OK;
+  });
+}
+
 KATA_API const char* kata_preset_name(uint32_t i) {
   try {
     static const std::vector<std::string> names = kata::preset_names();  // built once, kept for the process
@@ -248,8 +292,8 @@ KATA_API const char* kata_preset_name(uint32_t i) {
   }
 }
 
-KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skeleton, const kata_stream_desc* desc,
-                                      kata_stream* out) {
+static kata_status open_stream(kata_context context, kata_skeleton skeleton, const kata_stream_desc* desc,
+                               const char* name_map_text, kata_stream* out) {
   if (!out) return KATA_E_NULL_POINTER;
   *out = nullptr;
   if (!context || !skeleton || !desc) {
@@ -273,12 +317,13 @@ KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skelet
   return guarded_context([&] {
     const kata::Skeleton& skel = skeleton->skeleton;
     kata::StreamConfig config;
-    config.map = kata::resolve_gpd_map(skel, kata::c_string(desc->preset, "desc.preset"),
-                                       kata::c_string(desc->name_map_path, "desc.name_map_path"));
+    const kata::Layout layout = resolve_map(skel, *desc, name_map_text);
+    config.map = layout.map;
     config.input_joints = skel.joint_count();
     // Enum class values hold any int; Stream refuses those outside the enums.
     config.stencil = static_cast<kata::gpd::Stencil>(enum_bits(desc->stencil));
-    config.up_axis = static_cast<kata::UpAxis>(enum_bits(desc->up_axis));
+    config.up_axis = layout.fixed_axes ? layout.axes : static_cast<kata::UpAxis>(enum_bits(desc->up_axis));
+    config.smoothing = layout.smooth;
     config.max_gap = desc->max_gap;
     config.history = clamp_count(desc->history_capacity);
     config.calibration_frames = clamp_count(desc->calibration_frames);
@@ -290,6 +335,44 @@ KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skelet
     pc.result_capacity = static_cast<int>(std::min<uint32_t>(desc->result_capacity, 1u << 20));
     pc.keep_features = desc->keep_features != 0;
     *out = new kata_stream_s(pc);
+    return KATA_OK;
+  });
+}
+
+KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skeleton, const kata_stream_desc* desc,
+                                      kata_stream* out) {
+  return open_stream(context, skeleton, desc, nullptr, out);
+}
+
+KATA_API kata_status kata_stream_open_name_map(kata_context context, kata_skeleton skeleton,
+                                               const kata_stream_desc* desc, const char* name_map_text,
+                                               kata_stream* out) {
+  if (!name_map_text) {
+    if (out) *out = nullptr;
+    set_context_error("kata_stream_open_name_map: name_map_text must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  return open_stream(context, skeleton, desc, name_map_text, out);
+}
+
+KATA_API kata_status kata_stream_set_confidence_gate(kata_stream stream, float threshold, double max_hold,
+                                                     double max_missing_share) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  return kata::capi::guarded([stream](const char* m) { stream->set_error(m); }, [&] {
+    stream->pipeline.stream().set_confidence_gate(threshold, max_hold, max_missing_share);
+    return KATA_OK;
+  });
+}
+
+KATA_API kata_status kata_stream_set_smoothing(kata_stream stream, int32_t enabled, double min_cutoff, double beta,
+                                               double d_cutoff) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (enabled != 0 && enabled != 1) {
+    stream->set_error("kata_stream_set_smoothing: enabled must be 0 or 1");
+    return KATA_E_INVALID_ARGUMENT;
+  }
+  return kata::capi::guarded([stream](const char* m) { stream->set_error(m); }, [&] {
+    stream->pipeline.stream().set_smoothing(enabled == 1, min_cutoff, beta, d_cutoff);
     return KATA_OK;
   });
 }
@@ -306,6 +389,26 @@ KATA_API kata_status kata_stream_push(kata_stream stream, double timestamp, cons
   const kata::Status s = stream->pipeline.push(timestamp, positions, count);
   if (s != kata::Status::kOk) stream->set_error(stream->pipeline.last_error());
   return kata::capi::to_status(s);
+}
+
+KATA_API kata_status kata_stream_push_confidence(kata_stream stream, double timestamp, const float* positions,
+                                                 const float* confidences, uint32_t joint_count) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  const int count = joint_count > 1000000u ? -1 : static_cast<int>(joint_count);
+  const kata::Status s = stream->pipeline.push(timestamp, positions, confidences, count);
+  if (s != kata::Status::kOk) stream->set_error(stream->pipeline.last_error());
+  return kata::capi::to_status(s);
+}
+
+KATA_API int64_t kata_stream_lost_frames(kata_stream stream) { return stream ? stream->pipeline.stream().lost_frames() : 0; }
+
+KATA_API kata_status kata_stream_bone_lengths(kata_stream stream, double* lengths, double* spread, size_t capacity) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  if ((lengths || spread) && capacity < static_cast<size_t>(KATA_GPD_JOINTS)) {
+    stream->set_error("kata_stream_bone_lengths: arrays hold fewer than KATA_GPD_JOINTS entries");
+    return KATA_E_BUFFER_TOO_SMALL;
+  }
+  return stream->pipeline.stream().bone_lengths(lengths, spread) ? KATA_OK : KATA_NO_DATA;
 }
 
 KATA_API kata_status kata_stream_flush(kata_stream stream) {

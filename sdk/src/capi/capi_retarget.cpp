@@ -6,28 +6,48 @@
 #include <cstddef>
 #include <cstdio>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "capi/capi_internal.hpp"
 #include "common/text.hpp"
 #include "retarget/joint_set.hpp"
+#include "retarget/mapped.hpp"
 #include "retarget/retargeter.hpp"
 
 struct kata_retargeter_s {
+  // Same layout: the joint set of a preset on the student skeleton.
   kata_retargeter_s(const kata::Skeleton& student, const kata::retarget::JointSelection& sel,
                     const kata::retarget::RetargetOptions& options)
       : selection(sel),
         skeleton_joints(student.joint_count()),
-        retargeter(sel.parents, kata::retarget::selected_rest_lengths(student, sel), options,
-                   kata::retarget::selected_rest_directions(student, sel)),
+        teacher_joints(student.joint_count()),
+        retargeter(std::make_unique<kata::retarget::Retargeter>(
+            sel.parents, kata::retarget::selected_rest_lengths(student, sel), options,
+            kata::retarget::selected_rest_directions(student, sel))),
         teacher(3 * sel.source.size()),
         ghost(3 * sel.source.size()),
         student_pose(3 * sel.source.size()) {}
+  // GPD mode (across layouts, or a student without rest pose): the 16 GPD joints.
+  kata_retargeter_s(const kata::retarget::MappedSide& teacher_side, const kata::retarget::MappedSide& student_side,
+                    const std::array<double, kata::kGpdJoints>& lengths, const kata::retarget::RetargetOptions& options)
+      : skeleton_joints(student_side.joints),
+        teacher_joints(teacher_side.joints),
+        mapped(std::make_unique<kata::retarget::MappedRetargeter>(teacher_side, student_side, lengths, options)) {
+    selection.preset = "gpd";
+    for (int g = 0; g < kata::kGpdJoints; ++g) {
+      selection.names.emplace_back(kata::kGpdJointNames[static_cast<size_t>(g)]);
+      selection.parents.push_back(kata::kGpdParents[static_cast<size_t>(g)]);
+      selection.source.push_back(student_side.map.source[static_cast<size_t>(g)]);
+    }
+  }
 
-  kata::retarget::JointSelection selection;  // output joint -> skeleton joint
+  kata::retarget::JointSelection selection;  // output joint -> skeleton joint (-1: synthesised)
   int skeleton_joints;                       // joints of the student skeleton (input layout)
-  kata::retarget::Retargeter retargeter;
+  int teacher_joints;                        // joints of a teacher frame
+  std::unique_ptr<kata::retarget::Retargeter> retargeter;        // same layout
+  std::unique_ptr<kata::retarget::MappedRetargeter> mapped;      // GPD mode
   std::vector<double> teacher, ghost, student_pose;  // selected joints x 3
   char error[256] = {0};
 
@@ -60,14 +80,60 @@ kata_retarget_desc effective_desc(const kata_retarget_desc* desc) {
   return d;
 }
 
+kata::retarget::RetargetOptions options_of(const kata_retarget_desc& d) {
+  kata::retarget::RetargetOptions o;
+  o.solver.gradient_tolerance = d.gradient_tolerance;
+  o.solver.max_iterations = static_cast<int>(std::min<uint32_t>(d.max_iterations, 1u << 30));
+  o.warm_start = d.warm_start != 0;
+  o.restore_bone_lengths = d.restore_bone_lengths != 0;
+  return o;
+}
+
+kata::UpAxis axes_of(kata_up_axis a) {
+  if (a != KATA_UP_Y && a != KATA_UP_Z && a != KATA_UP_Y_DOWN)
+    throw kata::Error(kata::ErrorKind::kInvalidArgument, "retargeter: unknown up axis");
+  return static_cast<kata::UpAxis>(static_cast<int>(a));
+}
+
+kata::retarget::MappedSide side_of(const kata::Skeleton& skeleton, const char* layout_name, kata_up_axis axes) {
+  const kata::Layout layout = kata::resolve_layout(skeleton, layout_name && layout_name[0] ? layout_name : "cmu");
+  return {layout.map, layout.fixed_axes ? layout.axes : axes_of(axes), skeleton.joint_count()};
+}
+
+// GPD mode on a stream: the student side is the stream's layout and axes; its bone lengths from
+// the rest pose or the stream's estimate. teacher: null = the student's own layout.
+kata_status create_mapped(const char* who, kata_stream stream, const kata::retarget::MappedSide* teacher,
+                          const kata_retarget_desc& d, kata_retargeter* out) {
+  const kata::Skeleton& skel = stream->pipeline.student();
+  const kata::StreamConfig& config = stream->pipeline.stream().config();
+  const kata::retarget::MappedSide side{config.map, config.up_axis, skel.joint_count()};
+  std::array<double, kata::kGpdJoints> lengths{};
+  if (skel.has_rest_pose) {
+    lengths = kata::retarget::gpd_rest_lengths(skel, config.map);
+  } else if (!stream->pipeline.stream().bone_lengths(lengths.data(), nullptr)) {
+    kata::capi::set_context_error((std::string(who) +
+                                   ": the stream's bone lengths are not estimated yet (60 good frames needed; see "
+                                   "kata_stream_bone_lengths)").c_str());
+    return KATA_E_STATE;
+  }
+  for (int g = 1; g < kata::kGpdJoints; ++g)
+    if (!(lengths[static_cast<size_t>(g)] > 0.0))
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, "retargeter: the student's bone to " +
+                                                               std::string(kata::kGpdJointNames[static_cast<size_t>(g)]) +
+                                                               " has zero length");
+  *out = new kata_retargeter_s(teacher ? *teacher : side, side, lengths, options_of(d));
+  return KATA_OK;
+}
+
 kata_status create(const kata::Skeleton& student, const kata_retarget_desc* desc, kata_retargeter* out) {
+  const kata_retarget_desc d = effective_desc(desc);
   if (!student.has_rest_pose) {
     throw kata::Error(kata::ErrorKind::kInvalidArgument,
-                      "retargeter: the student skeleton has no rest offsets (its bone lengths are unknown)");
+                      "retargeter: the student skeleton has no rest offsets (its bone lengths are unknown; "
+                      "kata_retargeter_create_for_stream estimates them from a stream)");
   }
-  std::string joints;
-  const kata::retarget::RetargetOptions o = kata::capi::retarget_options(desc, &joints);
-  const auto sel = kata::retarget::select_joints(student, student, joints);
+  const kata::retarget::RetargetOptions o = options_of(d);
+  const auto sel = kata::retarget::select_joints(student, student, d.preset);
   *out = new kata_retargeter_s(student, sel, o);
   return KATA_OK;
 }
@@ -128,7 +194,24 @@ KATA_API kata_status kata_retargeter_create_for_stream(kata_context context, kat
       return KATA_E_NULL_POINTER;
     }
     *out = nullptr;
-    return create(student->pipeline.student(), desc, out);
+    const kata_retarget_desc d = effective_desc(desc);
+    if (student->pipeline.student().has_rest_pose) return create(student->pipeline.student(), desc, out);
+    return create_mapped("kata_retargeter_create_for_stream", student, nullptr, d, out);
+  });
+}
+
+KATA_API kata_status kata_retargeter_create_across(kata_context context, kata_stream student, kata_skeleton teacher,
+                                                   const char* teacher_layout, kata_up_axis teacher_up_axis,
+                                                   const kata_retarget_desc* desc, kata_retargeter* out) {
+  return kata::capi::guarded_context([&] {
+    if (!context || !student || !teacher || !out) {
+      kata::capi::set_context_error("kata_retargeter_create_across: context, student, teacher and out must not be NULL");
+      return KATA_E_NULL_POINTER;
+    }
+    *out = nullptr;
+    const kata_retarget_desc d = effective_desc(desc);
+    const kata::retarget::MappedSide side = side_of(teacher->skeleton, teacher_layout, teacher_up_axis);
+    return create_mapped("kata_retargeter_create_across", student, &side, d, out);
   });
 }
 
@@ -154,8 +237,8 @@ KATA_API kata_status kata_retargeter_solve(kata_retargeter rt, const float* teac
     rt->set_error("kata_retargeter_solve: teacher and ghost must not be NULL");
     return KATA_E_NULL_POINTER;
   }
-  if (teacher_joint_count != static_cast<uint32_t>(rt->skeleton_joints)) {
-    rt->set_error("kata_retargeter_solve: teacher_joint_count differs from the student skeleton's joint count");
+  if (teacher_joint_count != static_cast<uint32_t>(rt->teacher_joints)) {
+    rt->set_error("kata_retargeter_solve: teacher_joint_count differs from the teacher skeleton's joint count");
     return KATA_E_WRONG_JOINT_COUNT;
   }
   const size_t n = rt->selection.source.size();
@@ -172,10 +255,17 @@ KATA_API kata_status kata_retargeter_solve(kata_retargeter rt, const float* teac
     return KATA_E_INVALID_ARGUMENT;
   }
   return kata::capi::guarded([rt](const char* m) { rt->set_error(m); }, [&] {
-    for (size_t k = 0; k < n; ++k)
-      for (size_t c = 0; c < 3; ++c) rt->teacher[3 * k + c] = teacher[3 * static_cast<size_t>(rt->selection.source[k]) + c];
-    const auto& r = rt->retargeter.retarget(rt->teacher.data(), rt->ghost.data());
-    for (size_t i = 0; i < 3 * n; ++i) ghost[i] = static_cast<float>(rt->ghost[i]);
+    const kata::retarget::RetargetReport* report;
+    if (rt->mapped) {
+      report = &rt->mapped->retarget(teacher, ghost);
+    } else {
+      for (size_t k = 0; k < n; ++k)
+        for (size_t c = 0; c < 3; ++c)
+          rt->teacher[3 * k + c] = teacher[3 * static_cast<size_t>(rt->selection.source[k]) + c];
+      report = &rt->retargeter->retarget(rt->teacher.data(), rt->ghost.data());
+      for (size_t i = 0; i < 3 * n; ++i) ghost[i] = static_cast<float>(rt->ghost[i]);
+    }
+    const kata::retarget::RetargetReport& r = *report;
     if (info) {
       kata_retarget_info full;
       full.struct_size = info->struct_size;
@@ -213,6 +303,11 @@ KATA_API kata_status kata_retargeter_place(kata_retargeter rt, const float* stud
     rt->set_error("kata_retargeter_place: a NaN or Inf in the student frame or the ghost");
     return KATA_E_NON_FINITE;
   }
+  if (rt->mapped) {
+    rt->mapped->place(student, ghost);
+    rt->error[0] = '\0';
+    return KATA_OK;
+  }
   for (size_t k = 0; k < n; ++k)
     for (size_t c = 0; c < 3; ++c) {
       rt->student_pose[3 * k + c] = student[3 * static_cast<size_t>(rt->selection.source[k]) + c];
@@ -226,7 +321,8 @@ KATA_API kata_status kata_retargeter_place(kata_retargeter rt, const float* stud
 
 KATA_API kata_status kata_retargeter_reset(kata_retargeter rt) {
   if (!rt) return KATA_E_NULL_POINTER;
-  rt->retargeter.reset();
+  if (rt->mapped) rt->mapped->reset();
+  else rt->retargeter->reset();
   return KATA_OK;
 }
 

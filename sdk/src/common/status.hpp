@@ -20,6 +20,7 @@ enum class Status : int {
   kBufferTooSmall = 12,
   kInternal = 13,
   kState = 14,                // the call is not valid in the object's current state
+  kTrackingLost = 15,         // a frame was accepted but too many joints are missing: no features
 };
 
 }  // namespace kata

@@ -1,3 +1,4 @@
+#include <cmath>
 #include "pipeline/pipeline.hpp"
 
 #include <algorithm>
@@ -104,17 +105,28 @@ void Pipeline::restart_teacher() {
   if (retargeter_) retargeter_->reset();
 }
 
-Status Pipeline::push(double capture_time, const float* xyz, int joint_count, int64_t arrival_ns) {
+Status Pipeline::push(double capture_time, const float* xyz, const float* confidence, int joint_count,
+                      int64_t arrival_ns) {
   if (arrival_ns == 0) arrival_ns = now_ns();
   const int64_t frame = stream_.accepted_count();
   const int64_t before = stream_.emitted_count();
-  const Status s = stream_.push(capture_time, xyz, joint_count);
-  // kInternal: the frame was accepted but a non-finite vector was withheld (a bug, reported):
-  // the frame and any vectors emitted with it are still processed.
-  if (s != Status::kOk && s != Status::kInternal) return s;
+  const Status s = stream_.push(capture_time, xyz, confidence, joint_count);
+  // kInternal: the frame was accepted but a non-finite vector was withheld (a bug, reported);
+  // kTrackingLost: the frame ended the segment (which may emit its held vector). Either way
+  // the vectors emitted with it are still processed.
+  if (s != Status::kOk && s != Status::kInternal && s != Status::kTrackingLost) return s;
+  if (stream_.accepted_count() == frame) {  // tracking lost: no frame to keep for the ghost
+    process_emitted(before, arrival_ns);
+    return s;
+  }
   const size_t input_floats = 3 * static_cast<size_t>(joint_count);
-  std::memcpy(student_ring_.data() + static_cast<size_t>(frame % history_) * input_floats, xyz,
-              input_floats * sizeof(float));
+  float* slot = student_ring_.data() + static_cast<size_t>(frame % history_) * input_floats;
+  std::memcpy(slot, xyz, input_floats * sizeof(float));
+  if (confidence) {
+    const float* previous = student_ring_.data() + static_cast<size_t>((frame + history_ - 1) % history_) * input_floats;
+    for (size_t i = 0; i < input_floats; ++i)
+      if (!std::isfinite(slot[i])) slot[i] = std::isfinite(previous[i]) ? previous[i] : 0.0f;
+  }
   process_emitted(before, arrival_ns);
   return s;
 }

@@ -113,7 +113,13 @@ class Pipeline {
   // Pushes a frame (Stream::push) and runs every vector it emits through score and ghost.
   // arrival_ns: the steady-clock time the frame arrived (0: now). A refused frame changes
   // nothing (last_error() says why). Allocation-free.
-  Status push(double capture_time, const float* xyz, int joint_count, int64_t arrival_ns = 0);
+  Status push(double capture_time, const float* xyz, int joint_count, int64_t arrival_ns = 0) {
+    return push(capture_time, xyz, nullptr, joint_count, arrival_ns);
+  }
+  // With a confidence per input joint (Stream::push with confidences; may return kTrackingLost).
+  // A non-finite coordinate kept for the ghost's placement is replaced by the previous frame's.
+  Status push(double capture_time, const float* xyz, const float* confidence, int joint_count,
+              int64_t arrival_ns = 0);
   // Stream::flush / reset, with any vector they emit processed like a push's. flush returns
   // Stream::flush's status (kInternal when a non-finite vector was withheld).
   Status flush();
@@ -141,6 +147,7 @@ class Pipeline {
   const std::vector<int>& ghost_sources() const { return selection_.source; }
 
   const Stream& stream() const { return stream_; }
+  Stream& stream() { return stream_; }  // for the stream's own settings (confidence gate, smoothing)
   const Skeleton& student() const { return config_.student; }
   const Teacher* teacher() const { return teacher_.get(); }
   const char* last_error() const { return stream_.last_error(); }

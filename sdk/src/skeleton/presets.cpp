@@ -49,6 +49,27 @@ const Preset kPresets[] = {
     {"h36m",
      {"Hip", "Spine", "Thorax", "Head", "LShoulder", "LElbow", "LWrist", "RShoulder", "RElbow", "RWrist", "LHip",
       "LKnee", "LFoot", "RHip", "RKnee", "RFoot"}},
+    // Azure Kinect Body Tracking, 32 joints (k4abt_joint_id_t; names as in Microsoft's joint table,
+    // https://learn.microsoft.com/azure/kinect-dk/body-joints). Positions are in millimetres in
+    // the depth camera's frame (x right, y down, z forward): stream with KATA_UP_Y_DOWN. Hands
+    // are wrists, feet are ankles, as for Kinect v2.
+    {"azure-kinect",
+     {"PELVIS", "SPINE_CHEST", "NECK", "HEAD", "SHOULDER_LEFT", "ELBOW_LEFT", "WRIST_LEFT", "SHOULDER_RIGHT",
+      "ELBOW_RIGHT", "WRIST_RIGHT", "HIP_LEFT", "KNEE_LEFT", "ANKLE_LEFT", "HIP_RIGHT", "KNEE_RIGHT", "ANKLE_RIGHT"}},
+    // Xsens MVN, 23 segments (segment labels of the MVN User Manual MV0319P, section 19.7 and the
+    // MVNX segment list). A segment's position is its origin, the joint at its proximal end:
+    // UpperArm = shoulder joint, ForeArm = elbow, Hand = wrist, UpperLeg = hip, LowerLeg = knee,
+    // Foot = ankle; Neck's origin is the C7/T1 joint (the neck base), T8 the chest. MVN's global
+    // frame is Z-up: stream with KATA_UP_Z.
+    {"xsens",
+     {"Pelvis", "T8", "Neck", "Head", "LeftUpperArm", "LeftForeArm", "LeftHand", "RightUpperArm", "RightForeArm",
+      "RightHand", "LeftUpperLeg", "LeftLowerLeg", "LeftFoot", "RightUpperLeg", "RightLowerLeg", "RightFoot"}},
+    // (No OptiTrack Motive or Vicon preset: neither vendor's public documentation found here lists
+    // the segment names its skeletons stream; use a name map.)
+    // Identity: a source that already names the 16 GPD joints (spec section 1 names).
+    {"gpd",
+     {"Hip", "Chest", "Neck", "Head", "LShoulder", "LElbow", "LHand", "RShoulder", "RElbow", "RHand", "LHip",
+      "LKnee", "LFoot", "RHip", "RKnee", "RFoot"}},
 };
 
 }  // namespace

@@ -5,6 +5,8 @@
 #include <cstdarg>
 #include <cstdio>
 #include <cstring>
+#include <iterator>
+#include <limits>
 
 #include "common/error.hpp"
 
@@ -45,6 +47,18 @@ double stream_body_height(double given, const Skeleton& skeleton, const GpdMap& 
 Stream::Stream(const StreamConfig& config) : config_(config) {
   if (config_.input_joints <= 0) throw Error(ErrorKind::kInvalidArgument, "stream: input joint count must be > 0");
   for (int j = 0; j < gpd::kJoints; ++j) {
+    const GpdBlend& b = config_.map.blend[j];
+    for (int k = 0; k < config_.map.floor_count; ++k)
+      if (k >= GpdMap::kMaxFloorJoints || config_.map.floor_joints[static_cast<size_t>(k)] < 0 ||
+          config_.map.floor_joints[static_cast<size_t>(k)] >= config_.input_joints)
+        throw Error(ErrorKind::kInvalidArgument, "stream: a floor joint lies outside the skeleton");
+    if (config_.map.source[j] < 0 && b.count > 0 && b.count <= kMaxBlendTerms) {
+      for (int k = 0; k < b.count; ++k)
+        if (b.joint[k] < 0 || b.joint[k] >= config_.input_joints || !std::isfinite(b.weight[k]))
+          throw Error(ErrorKind::kInvalidArgument, "stream: GPD joint " + std::string(kGpdJointNames[j]) +
+                                                       " blends a joint outside the skeleton");
+      continue;
+    }
     if (config_.map.source[j] < 0 || config_.map.source[j] >= config_.input_joints)
       throw Error(ErrorKind::kInvalidArgument, "stream: GPD joint " + std::string(kGpdJointNames[j]) +
                                                    " maps to input joint " + std::to_string(config_.map.source[j]) +
@@ -53,7 +67,7 @@ Stream::Stream(const StreamConfig& config) : config_(config) {
   if (!(config_.max_gap > 0.0)) throw Error(ErrorKind::kInvalidArgument, "stream: max_gap must be > 0 seconds");
   if (config_.stencil != gpd::Stencil::kBackward && config_.stencil != gpd::Stencil::kCentral)
     throw Error(ErrorKind::kInvalidArgument, "stream: unknown stencil");
-  if (config_.up_axis != UpAxis::kY && config_.up_axis != UpAxis::kZ)
+  if (config_.up_axis != UpAxis::kY && config_.up_axis != UpAxis::kZ && config_.up_axis != UpAxis::kYDown)
     throw Error(ErrorKind::kInvalidArgument, "stream: unknown up axis");
   char text[160];
   if (!std::isfinite(config_.body_height) || config_.body_height < 0.0 ||
@@ -80,6 +94,16 @@ Stream::Stream(const StreamConfig& config) : config_(config) {
   joints_.assign(h * 3 * gpd::kJoints, 0.0f);
   vectors_.assign(h * gpd::kDims, 0.0f);
   if (height_ <= 0.0) calibration_.assign(7 * static_cast<size_t>(config_.calibration_frames), 0.0);
+  if (!(config_.max_hold >= 0.0) || !(config_.max_missing_share >= 0.0) || !std::isfinite(config_.confidence_threshold))
+    throw Error(ErrorKind::kInvalidArgument, "stream: max_hold, max_missing_share must be >= 0 and the threshold finite");
+  if (config_.smoothing && !(config_.smoothing_min_cutoff > 0.0 && config_.smoothing_beta >= 0.0 &&
+                             config_.smoothing_d_cutoff > 0.0 && std::isfinite(config_.smoothing_beta)))
+    throw Error(ErrorKind::kInvalidArgument, "stream: smoothing cutoffs must be > 0 Hz and beta >= 0");
+  if (config_.bone_window < 0 || config_.bone_window > 100000)
+    throw Error(ErrorKind::kInvalidArgument, "stream: bone_window must be in 0..100000 frames");
+  for (double& t : last_good_time_) t = -std::numeric_limits<double>::infinity();
+  bone_samples_.assign(static_cast<size_t>(config_.bone_window) * gpd::kJoints, 0.0f);
+  bone_scratch_.assign(static_cast<size_t>(config_.bone_window), 0.0f);
 }
 
 Status Stream::refuse(Status status, const char* fmt, ...) {
@@ -94,44 +118,41 @@ const float* Stream::last_joints() const {
   return accepted_ ? joints_.data() + static_cast<size_t>(slot_at(accepted_ - 1)) * 3 * gpd::kJoints : nullptr;
 }
 
-Status Stream::push(double t, const float* xyz, int joint_count) {
+Status Stream::push(double t, const float* xyz, const float* confidence, int joint_count) {
   if (!xyz) return refuse(Status::kNullPointer, "push: positions pointer is null");
   if (joint_count != config_.input_joints)
     return refuse(Status::kWrongJointCount, "push: frame has %d joints, the stream's skeleton has %d", joint_count,
                   config_.input_joints);
   if (!std::isfinite(t)) return refuse(Status::kNonFinite, "push: timestamp is not finite");
-  if (accepted_ > 0 && !(t > last_time_))
+  if (seen_time_ && !(t > last_time_))
     return refuse(Status::kTimestampNotIncreasing, "push: timestamp %.9g s does not increase (previous %.9g s)", t,
                   last_time_);
   // Closer frames would make the difference weights (1 / step^2) overflow the features. A step
   // of exactly kMinTimeStep computed by subtraction may round just below it: still accepted.
-  if (accepted_ > 0 && !(t - last_time_ >= kMinTimeStep * (1.0 - 1e-9)))
+  if (seen_time_ && !(t - last_time_ >= kMinTimeStep * (1.0 - 1e-9)))
     return refuse(Status::kTimestampNotIncreasing,
                   "push: timestamp %.17g s is %.3g s after the previous one, below the minimum step %g s", t,
                   t - last_time_, kMinTimeStep);
-  // Only the mapped joints matter, but a NaN anywhere means a broken frame: refuse it whole.
-  for (int i = 0; i < 3 * joint_count; ++i) {
-    if (!std::isfinite(xyz[i]))
-      return refuse(Status::kNonFinite, "push: joint %d coordinate %d is not finite", i / 3, i % 3);
+  if (!confidence) {
+    // Only the mapped joints matter, but a NaN anywhere means a broken frame: refuse it whole.
+    for (int i = 0; i < 3 * joint_count; ++i) {
+      if (!std::isfinite(xyz[i]))
+        return refuse(Status::kNonFinite, "push: joint %d coordinate %d is not finite", i / 3, i % 3);
+    }
   }
 
-  // The mapped joints, checked against the plausibility range before anything changes.
+  // The mapped joints (missing ones held), checked against the plausibility range before
+  // anything changes.
   float mapped[3 * gpd::kJoints];
+  bool good[gpd::kJoints];
+  const int missing = gate(t, xyz, confidence, mapped, good);
   for (int j = 0; j < gpd::kJoints; ++j) {
-    const float* p = xyz + 3 * config_.map.source[j];
-    mapped[3 * j + 0] = p[0];
-    if (config_.up_axis == UpAxis::kZ) {
-      mapped[3 * j + 1] = p[2];
-      mapped[3 * j + 2] = -p[1];
-    } else {
-      mapped[3 * j + 1] = p[1];
-      mapped[3 * j + 2] = p[2];
-    }
     for (int k = 0; k < 3; ++k) {
       if (!(std::fabs(mapped[3 * j + k]) <= kMaxCoordinate))
         return refuse(Status::kInvalidArgument,
                       "push: joint %s (input joint %d) has a coordinate %g beyond the plausible +-%g input units",
-                      kGpdJointNames[static_cast<size_t>(j)], config_.map.source[j], double(p[k]), kMaxCoordinate);
+                      kGpdJointNames[static_cast<size_t>(j)], config_.map.source[j], double(mapped[3 * j + k]),
+                      kMaxCoordinate);
     }
   }
   if (height_ > 0.0) {
@@ -144,15 +165,43 @@ Status Stream::push(double t, const float* xyz, int joint_count) {
                       kGpdJointNames[static_cast<size_t>(j)], config_.map.source[j], d / height_, kMaxReach);
     }
   }
+  float floor = floor_;
+  if (!find_floor(xyz, confidence, &floor))
+    return refuse(Status::kInvalidArgument, "push: a foot joint's height %g is beyond the plausible +-%g input units",
+                  double(floor), kMaxCoordinate);
+
+  // Accepted: the gate's state moves on, the floor is applied.
+  for (int g = 0; g < gpd::kJoints; ++g) {
+    if (!good[g]) continue;
+    std::memcpy(last_good_ + 3 * g, mapped + 3 * g, 3 * sizeof(float));
+    last_good_time_[g] = t;
+  }
+  missing_joints_ = missing < 0 ? gpd::kJoints : missing;
+  floor_ = floor;
+  for (int g = 0; g < gpd::kJoints; ++g) mapped[3 * g + 1] -= floor_;
+  const bool gap = seen_time_ && t - last_time_ > config_.max_gap;
+  seen_time_ = true;
+  last_time_ = t;
+  if (missing < 0 || missing > config_.max_missing_share * gpd::kJoints) {
+    ++lost_frames_;
+    end_segment();
+    const Status emitted = emitted_status();
+    if (emitted != Status::kOk) return emitted;
+    if (missing < 0) return refuse(Status::kTrackingLost, "push: tracking lost (a joint missing for more than %.3g s)",
+                                   config_.max_hold);
+    return refuse(Status::kTrackingLost, "push: tracking lost (%d of 16 GPD joints missing)", missing);
+  }
+  if (missing == 0) collect_bones(mapped);
 
   const int64_t frame = accepted_;
   const int slot = slot_at(frame);
+  const bool starts = new_segment_ || gap;
+  smooth(t, starts, mapped);
   float* joints = joints_.data() + static_cast<size_t>(slot) * 3 * gpd::kJoints;
   std::memcpy(joints, mapped, sizeof mapped);
   time_[slot] = t;
-  starts_segment_[slot] = (new_segment_ || (frame > 0 && t - last_time_ > config_.max_gap)) ? 1 : 0;
+  starts_segment_[slot] = starts ? 1 : 0;
   new_segment_ = false;
-  last_time_ = t;
   accepted_ = frame + 1;
 
   if (height_ <= 0.0) {
@@ -174,6 +223,150 @@ Status Stream::emitted_status() {
   return refuse(Status::kInternal,
                 "internal error: feature %d of frame %lld is not finite; the vector was withheld (please report)",
                 dim, static_cast<long long>(withheld_frame_));
+}
+
+int Stream::gate(double t, const float* xyz, const float* confidence, float* mapped, bool* good) const {
+  if (!confidence) {
+    map_to_gpd(config_.map, config_.up_axis, xyz, mapped);
+    for (int g = 0; g < gpd::kJoints; ++g) good[g] = true;
+    return 0;
+  }
+  const GpdMap& m = config_.map;
+  auto usable = [&](int j) {
+    const float* p = xyz + 3 * j;
+    // NaN confidence fails the comparison: missing.
+    return confidence[j] >= config_.confidence_threshold && std::isfinite(p[0]) && std::isfinite(p[1]) &&
+           std::isfinite(p[2]);
+  };
+  int missing = 0;
+  bool expired = false;
+  for (int g = 0; g < gpd::kJoints; ++g) {
+    const int src = m.source[g];
+    bool ok = true;
+    if (src >= 0) {
+      ok = usable(src);
+    } else {
+      // A synthesised joint needs every landmark it reads, its offset's frame included.
+      const GpdBlend& b = m.blend[g];
+      for (int k = 0; k < b.count; ++k) ok = ok && usable(b.joint[k]);
+      if (b.offset != 0.0f)
+        for (int k = 0; k < 4; ++k) ok = ok && usable(b.offset_joint[k]);
+    }
+    good[g] = ok;
+    if (ok) {
+      map_gpd_joint(m, config_.up_axis, g, xyz, mapped + 3 * g);
+    } else {
+      ++missing;
+      if (!(t - last_good_time_[g] <= config_.max_hold)) expired = true;  // never seen: -inf
+      // Held in input axes without the floor (mapped is floored after the gate).
+      std::memcpy(mapped + 3 * g, last_good_ + 3 * g, 3 * sizeof(float));
+    }
+  }
+  return expired ? -1 : missing;
+}
+
+bool Stream::find_floor(const float* xyz, const float* confidence, float* floor) const {
+  const GpdMap& m = config_.map;
+  if (m.floor_count <= 0) return true;
+  float lowest = std::numeric_limits<float>::infinity();
+  for (int k = 0; k < m.floor_count && k < GpdMap::kMaxFloorJoints; ++k) {
+    const int j = m.floor_joints[static_cast<size_t>(k)];
+    const float* p = xyz + 3 * j;
+    if (confidence && !(confidence[j] >= config_.confidence_threshold)) continue;
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2])) continue;
+    float up[3];
+    to_y_up(config_.up_axis, p, up);
+    lowest = std::min(lowest, up[1]);
+  }
+  if (!std::isfinite(lowest)) return true;  // no foot seen: the last floor holds
+  *floor = lowest;
+  return std::fabs(lowest) <= kMaxCoordinate;
+}
+
+void Stream::smooth(double t, bool restart, float* mapped) {
+  if (!config_.smoothing) return;
+  if (restart || !filter_ready_) {
+    std::memcpy(filter_x_, mapped, sizeof filter_x_);
+    std::fill(std::begin(filter_dx_), std::end(filter_dx_), 0.0f);
+    filter_ready_ = true;
+    filter_time_ = t;
+    return;
+  }
+  const double dt = t - filter_time_;
+  filter_time_ = t;
+  // alpha = 1 / (1 + tau / dt), tau = 1 / (2 pi fc): the exponential smoothing factor of fc.
+  auto alpha = [dt](double cutoff) { return 1.0 / (1.0 + 1.0 / (2.0 * 3.14159265358979323846 * cutoff * dt)); };
+  const double a_d = alpha(config_.smoothing_d_cutoff);
+  for (int i = 0; i < 3 * gpd::kJoints; ++i) {
+    const double raw_dx = (double(mapped[i]) - filter_x_[i]) / dt;
+    const double dx = a_d * raw_dx + (1.0 - a_d) * filter_dx_[i];
+    const double a = alpha(config_.smoothing_min_cutoff + config_.smoothing_beta * std::fabs(dx));
+    const double x = a * mapped[i] + (1.0 - a) * filter_x_[i];
+    filter_dx_[i] = static_cast<float>(dx);
+    filter_x_[i] = static_cast<float>(x);
+    mapped[i] = filter_x_[i];
+  }
+}
+
+void Stream::collect_bones(const float* mapped) {
+  if (bone_count_ >= config_.bone_window) return;
+  float* row = bone_samples_.data() + static_cast<size_t>(bone_count_) * gpd::kJoints;
+  row[0] = 0.0f;
+  for (int g = 1; g < gpd::kJoints; ++g)
+    row[g] = static_cast<float>(distance3(mapped + 3 * g, mapped + 3 * kGpdParents[static_cast<size_t>(g)]));
+  if (++bone_count_ < config_.bone_window) return;
+  // Window complete: median and 1.4826 x MAD per bone, once.
+  const int n = bone_count_;
+  float* col = bone_scratch_.data();
+  auto median = [&]() {
+    std::nth_element(col, col + n / 2, col + n);
+    double m = col[n / 2];
+    if (n % 2 == 0) m = 0.5 * (m + *std::max_element(col, col + n / 2));
+    return m;
+  };
+  for (int g = 1; g < gpd::kJoints; ++g) {
+    for (int i = 0; i < n; ++i) col[i] = bone_samples_[static_cast<size_t>(i) * gpd::kJoints + g];
+    const double m = median();
+    for (int i = 0; i < n; ++i)
+      col[i] = static_cast<float>(std::fabs(bone_samples_[static_cast<size_t>(i) * gpd::kJoints + g] - m));
+    bone_length_[g] = m;
+    bone_spread_[g] = 1.4826 * median();
+  }
+}
+
+bool Stream::bone_lengths(double* lengths, double* spread) const {
+  if (config_.bone_window <= 0 || bone_count_ < config_.bone_window) return false;
+  for (int g = 0; g < gpd::kJoints; ++g) {
+    if (lengths) lengths[g] = bone_length_[g];
+    if (spread) spread[g] = bone_spread_[g];
+  }
+  return true;
+}
+
+void Stream::set_confidence_gate(float threshold, double max_hold, double max_missing_share) {
+  if (!std::isfinite(threshold) || !(max_hold >= 0.0) || !std::isfinite(max_hold) || !(max_missing_share >= 0.0))
+    throw Error(ErrorKind::kInvalidArgument,
+                "stream: confidence threshold must be finite, max_hold and max_missing_share >= 0");
+  config_.confidence_threshold = threshold;
+  config_.max_hold = max_hold;
+  config_.max_missing_share = max_missing_share;
+}
+
+void Stream::set_smoothing(bool enabled, double min_cutoff, double beta, double d_cutoff) {
+  if (enabled && !(min_cutoff > 0.0 && std::isfinite(min_cutoff) && beta >= 0.0 && std::isfinite(beta) &&
+                   d_cutoff > 0.0 && std::isfinite(d_cutoff)))
+    throw Error(ErrorKind::kInvalidArgument, "stream: smoothing cutoffs must be > 0 Hz and beta >= 0");
+  if (enabled && !config_.smoothing) filter_ready_ = false;  // start from the next frame
+  config_.smoothing = enabled;
+  config_.smoothing_min_cutoff = min_cutoff;
+  config_.smoothing_beta = beta;
+  config_.smoothing_d_cutoff = d_cutoff;
+}
+
+void Stream::end_segment() {
+  if (pending_) emit(processed_ - 1, false);
+  pending_ = false;
+  new_segment_ = true;
 }
 
 void Stream::finish_calibration() {
@@ -258,9 +451,7 @@ void Stream::emit(int64_t frame, bool central) {
 
 Status Stream::flush() {
   if (height_ <= 0.0) finish_calibration();
-  if (pending_) emit(processed_ - 1, false);
-  pending_ = false;
-  new_segment_ = true;
+  end_segment();
   return emitted_status();
 }
 

@@ -13,8 +13,6 @@
 
 namespace kata {
 
-enum class UpAxis : int { kY = 0, kZ = 1 };
-
 // The plausibility range of a stream's input (kata.h documents the same figures). Inside it
 // every feature is finite by construction: local coordinates stay below 2 kMaxCoordinate /
 // kMinBodyHeight = 2e15 body heights and the difference weights below 2 / kMinTimeStep^2.
@@ -36,7 +34,33 @@ struct StreamConfig {
   // frames are held until then. Negative or NaN: refused.
   double body_height = 0.0;
   int calibration_frames = 8;
-  UpAxis up_axis = UpAxis::kY;  // Z-up input is turned to Y-up: (x, y, z) -> (x, z, -y)
+  UpAxis up_axis = UpAxis::kY;  // input axes, turned into Y-up (skeleton.hpp, UpAxis)
+
+  // Per-joint confidence (push with confidences). A GPD joint's confidence is the smallest of
+  // the input joints it reads; below the threshold, NaN, or with a non-finite coordinate the joint
+  // is missing and held at its last good position for at most max_hold seconds. A frame with a
+  // joint missing for longer, or with more than max_missing_share of the 16 joints missing, is
+  // "tracking lost": accepted (its timestamp counts), no features, the segment ends; the stream
+  // recovers by itself at the next frame that passes.
+  float confidence_threshold = 0.5f;  // MediaPipe's visibility is a probability in [0, 1]
+  double max_hold = 0.5;              // seconds
+  double max_missing_share = 0.25;    // of the 16 GPD joints (so more than 4 missing = lost)
+
+  // One-Euro filter (Casiez, Roussel, Vogel, CHI 2012) on the 16 mapped joints, per coordinate,
+  // before features: cutoff = min_cutoff + beta |velocity|. Off by default (mocap is clean); the
+  // MediaPipe layout turns it on. It restarts at every segment start. Kinetics see the filtered
+  // positions.
+  bool smoothing = false;
+  // Defaults from a sweep on CMU 02_01 as MediaPipe landmarks + 1 cm noise at 120 Hz (min cutoff
+  // 1/2/4 Hz x beta 1/5/20): 2 Hz, 1.0 scored best (tests/api/test_anybody.cpp figures).
+  double smoothing_min_cutoff = 2.0;  // Hz
+  double smoothing_beta = 1.0;        // per (input unit / s): 1.0 suits metres
+  double smoothing_d_cutoff = 1.0;    // Hz, cutoff of the velocity estimate
+
+  // Bone lengths of the GPD tree from live frames: the median over the first bone_window frames
+  // whose 16 joints are all good (unfiltered positions), with a robust spread (1.4826 x the
+  // median absolute deviation). 0 turns the estimate off.
+  int bone_window = 60;
 };
 
 // A stream's config for a skeleton with a rest pose (e.g. a BVH clip's): H from the rest pose.
@@ -68,7 +92,11 @@ class Stream {
   // backward stencil, the previous frame with the central one; several after calibration).
   // Every emitted vector is checked finite; a violation (a bug) is not published and returns
   // kInternal with a message.
-  Status push(double t, const float* xyz, int joint_count);
+  Status push(double t, const float* xyz, int joint_count) { return push(t, xyz, nullptr, joint_count); }
+  // The same with a confidence per input joint (joint_count floats; null = all confident): missing
+  // joints are held, and a frame may return Status::kTrackingLost (see StreamConfig). Here a
+  // non-finite coordinate marks its joint missing instead of refusing the frame.
+  Status push(double t, const float* xyz, const float* confidence, int joint_count);
   // Ends the current segment: with the central stencil the held frame is emitted with the
   // backward formulas (spec: end of a stream). The next frame starts a new segment. kInternal
   // as for push.
@@ -104,6 +132,17 @@ class Stream {
   // H in input units; 0 while still calibrating.
   double body_height() const { return height_; }
   const StreamConfig& config() const { return config_; }
+  // Change the confidence gate / smoothing of StreamConfig from the next push (no allocation).
+  // Throw kata::Error(kInvalidArgument) on bad values, changing nothing.
+  void set_confidence_gate(float threshold, double max_hold, double max_missing_share);
+  void set_smoothing(bool enabled, double min_cutoff, double beta, double d_cutoff);
+  // Bone lengths of the GPD tree (entry g = |joint g - parent g|, entry 0 = 0, input units) and
+  // their spread, once bone_window good frames were seen; false before (nothing written).
+  bool bone_lengths(double* lengths, double* spread) const;
+  int bone_frames() const { return bone_count_; }  // good frames collected so far
+  // Frames reported "tracking lost" so far, and GPD joints missing in the newest frame.
+  int64_t lost_frames() const { return lost_frames_; }
+  int missing_joints() const { return missing_joints_; }
   const char* last_error() const { return error_; }
 
  private:
@@ -114,6 +153,16 @@ class Stream {
   void finish_calibration();
   // kOk, or kInternal with the message when emit() withheld a non-finite vector.
   Status emitted_status();
+  // Confidence gate into `mapped` (48 floats, Y-up, before the floor) and good[16] (false: held
+  // at its last good position): returns the number of missing joints, or -1 when a joint is held
+  // past max_hold. Changes nothing: push commits after its plausibility checks.
+  int gate(double t, const float* xyz, const float* confidence, float* mapped, bool* good) const;
+  void smooth(double t, bool restart, float* mapped);
+  // Layouts without a floor (GpdMap::floor_count): Y is measured from the lowest good foot joint.
+  // *floor is left alone when no foot joint is good; false when it is beyond kMaxCoordinate.
+  bool find_floor(const float* xyz, const float* confidence, float* floor) const;
+  void collect_bones(const float* mapped);
+  void end_segment();
   Status refuse(Status status, const char* fmt, ...);
   int slot_at(int64_t frame) const { return static_cast<int>(frame % config_.history); }
 
@@ -140,6 +189,20 @@ class Stream {
   int withheld_dim_ = -1;          // set by emit() when a vector had a non-finite value (a bug)
   int64_t withheld_frame_ = -1;
   char error_[256] = {0};
+  // Confidence gate, smoothing and bone estimate state (sized in the constructor).
+  float last_good_[3 * kGpdJoints] = {0};
+  double last_good_time_[kGpdJoints];
+  bool seen_time_ = false;           // a frame (accepted or lost) has set last_time_
+  int64_t lost_frames_ = 0;
+  int missing_joints_ = 0;
+  float filter_x_[3 * kGpdJoints] = {0}, filter_dx_[3 * kGpdJoints] = {0};
+  double filter_time_ = 0.0;
+  bool filter_ready_ = false;
+  float floor_ = 0.0f;
+  std::vector<float> bone_samples_;  // bone_window x 16 (entry 0 unused)
+  std::vector<float> bone_scratch_;  // bone_window
+  int bone_count_ = 0;
+  double bone_length_[kGpdJoints] = {0}, bone_spread_[kGpdJoints] = {0};
 };
 
 }  // namespace kata
