@@ -142,6 +142,11 @@ KATA_API uint32_t kata_skeleton_joint_count(kata_skeleton skeleton);
 KATA_API const char* kata_skeleton_joint_name(kata_skeleton skeleton, uint32_t i);
 /* Parent of joint i (-1 for the root, -2 when out of range). [any thread] */
 KATA_API int32_t kata_skeleton_joint_parent(kata_skeleton skeleton, uint32_t i);
+/* Rest offset of joint i from its parent (the root's: its rest position), skeleton units, into
+ * out[3]. KATA_E_STATE for a skeleton without rest offsets (a bare live source),
+ * KATA_E_INVALID_ARGUMENT when i is out of range. For forward kinematics of
+ * kata_retargeter_local_rotations. [any thread] */
+KATA_API kata_status kata_skeleton_joint_offset(kata_skeleton skeleton, uint32_t i, double* out);
 
 /* ==== Clips (recorded motion) ============================================================== */
 
@@ -578,6 +583,38 @@ KATA_API kata_status kata_retargeter_place(kata_retargeter retargeter, const flo
  * student's bone lengths laid along the teacher's bone directions). Call at a cut in the
  * teacher's motion. [retargeter owner] */
 KATA_API kata_status kata_retargeter_reset(kata_retargeter retargeter);
+
+/* ---- The ghost as local rotations (what a game engine animates) ----
+ * For a student skeleton with a rest pose (kata_retargeter_create, or _create_for_stream /
+ * _create_across on a stream whose skeleton has rest offsets): per joint of the student's whole
+ * hierarchy a rotation relative to its parent, and the root's position, whose forward kinematics
+ *   G_root = R_root, X_root = root_position;  G_j = G_parent R_j,  X_j = X_parent + G_parent offset_j
+ * (offset_j from kata_skeleton_joint_offset; quaternions act on column vectors) put every ghost
+ * joint on the ghost's position. Each joint turns its bone onto the ghost's bone with the
+ * smallest rotation added to its parent's (a swing; the twist about a bone is the parent's); a
+ * joint carrying several bones takes the rotation that best turns all of them (least squares).
+ * Exact (to float rounding) when every joint with a bone is a ghost joint and each joint carries
+ * at most one bone, branches going through zero-offset joints (a CMU BVH with the "cmu" joint
+ * set); where a joint carries several bones (a game rig's hips) they move rigidly, so the ghost is
+ * reproduced as closely as a rotation can: *residual says how far. */
+
+/* Joints of the student hierarchy the rotations cover (kata_skeleton_joint_count of the
+ * student); 0 when the retargeter has no rest pose to rotate (or NULL). [retargeter owner] */
+KATA_API uint32_t kata_retargeter_rotation_joint_count(kata_retargeter retargeter);
+/* ghost: a ghost from kata_retargeter_solve (placed or not), ghost_count = 3 x
+ * kata_retargeter_joint_count() floats. rotations (rotation_capacity >= 4 x
+ * kata_retargeter_rotation_joint_count() floats) receives unit quaternions (x, y, z, w), w >= 0,
+ * one per student joint in skeleton order, each relative to its parent (the root's: world);
+ * root_position[3] the root's position. positions (may be NULL; 3 x joints floats) receives every
+ * joint's forward-kinematics position; residual (may be NULL) the largest distance between a
+ * ghost joint and its FK position (student units). KATA_E_STATE without a rest pose;
+ * KATA_E_WRONG_JOINT_COUNT, KATA_E_BUFFER_TOO_SMALL, KATA_E_NON_FINITE as for solve. Does not
+ * allocate. [retargeter owner] */
+KATA_API kata_status kata_retargeter_local_rotations(kata_retargeter retargeter, const float* ghost,
+                                                     size_t ghost_count, float* rotations,
+                                                     size_t rotation_capacity, float* root_position,
+                                                     float* positions, size_t position_capacity,
+                                                     double* residual);
 
 /* ==== Pipeline: every frame scored, with the teacher's pose on the student's body ========= */
 /* (section: pipeline, since 0.2)

@@ -178,6 +178,15 @@ KATA_API int32_t kata_skeleton_joint_parent(kata_skeleton skeleton, uint32_t i) 
   return skeleton->skeleton.parents[i];
 }
 
+KATA_API kata_status kata_skeleton_joint_offset(kata_skeleton skeleton, uint32_t i, double* out) {
+  if (!skeleton || !out) return KATA_E_NULL_POINTER;
+  const kata::Skeleton& s = skeleton->skeleton;
+  if (i >= static_cast<uint32_t>(s.joint_count())) return KATA_E_INVALID_ARGUMENT;
+  if (!s.has_rest_pose) return KATA_E_STATE;
+  for (int k = 0; k < 3; ++k) out[k] = s.offsets[i][k];
+  return KATA_OK;
+}
+
 /* ---- clips ---- */
 
 KATA_API kata_status kata_clip_load_bvh(kata_context context, const char* path, kata_clip* out) {

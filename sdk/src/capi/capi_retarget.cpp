@@ -13,6 +13,7 @@
 #include "capi/capi_internal.hpp"
 #include "common/text.hpp"
 #include "retarget/joint_set.hpp"
+#include "retarget/local_rotations.hpp"
 #include "retarget/mapped.hpp"
 #include "retarget/retargeter.hpp"
 
@@ -49,7 +50,18 @@ struct kata_retargeter_s {
   std::unique_ptr<kata::retarget::Retargeter> retargeter;        // same layout
   std::unique_ptr<kata::retarget::MappedRetargeter> mapped;      // GPD mode
   std::vector<double> teacher, ghost, student_pose;  // selected joints x 3
+  // Ghost as local rotations on the student's hierarchy (student skeletons with a rest pose).
+  std::unique_ptr<kata::retarget::LocalRotations> rotations;
+  std::vector<double> rotation_out, fk_out;  // skeleton joints x 4, x 3
   char error[256] = {0};
+
+  void enable_rotations(const kata::Skeleton& student) {
+    if (!student.has_rest_pose) return;
+    rotations = std::make_unique<kata::retarget::LocalRotations>(student, selection.source);
+    rotation_out.assign(4 * static_cast<size_t>(student.joint_count()), 0.0);
+    fk_out.assign(3 * static_cast<size_t>(student.joint_count()), 0.0);
+    if (ghost.size() < 3 * selection.source.size()) ghost.assign(3 * selection.source.size(), 0.0);
+  }
 
   // Copies a message into the fixed buffer (no allocation: used on the frame path).
   void set_error(const char* message) noexcept { std::snprintf(error, sizeof error, "%s", message); }
@@ -121,7 +133,9 @@ kata_status create_mapped(const char* who, kata_stream stream, const kata::retar
       throw kata::Error(kata::ErrorKind::kInvalidArgument, "retargeter: the student's bone to " +
                                                                std::string(kata::kGpdJointNames[static_cast<size_t>(g)]) +
                                                                " has zero length");
-  *out = new kata_retargeter_s(teacher ? *teacher : side, side, lengths, options_of(d));
+  auto rt = std::make_unique<kata_retargeter_s>(teacher ? *teacher : side, side, lengths, options_of(d));
+  rt->enable_rotations(skel);
+  *out = rt.release();
   return KATA_OK;
 }
 
@@ -134,7 +148,9 @@ kata_status create(const kata::Skeleton& student, const kata_retarget_desc* desc
   }
   const kata::retarget::RetargetOptions o = options_of(d);
   const auto sel = kata::retarget::select_joints(student, student, d.preset);
-  *out = new kata_retargeter_s(student, sel, o);
+  auto rt = std::make_unique<kata_retargeter_s>(student, sel, o);
+  rt->enable_rotations(student);
+  *out = rt.release();
   return KATA_OK;
 }
 
@@ -323,6 +339,49 @@ KATA_API kata_status kata_retargeter_reset(kata_retargeter rt) {
   if (!rt) return KATA_E_NULL_POINTER;
   if (rt->mapped) rt->mapped->reset();
   else rt->retargeter->reset();
+  return KATA_OK;
+}
+
+KATA_API uint32_t kata_retargeter_rotation_joint_count(kata_retargeter rt) {
+  return rt && rt->rotations ? static_cast<uint32_t>(rt->rotations->joint_count()) : 0u;
+}
+
+KATA_API kata_status kata_retargeter_local_rotations(kata_retargeter rt, const float* ghost, size_t ghost_count,
+                                                     float* rotations, size_t rotation_capacity, float* root_position,
+                                                     float* positions, size_t position_capacity, double* residual) {
+  if (!rt) return KATA_E_NULL_POINTER;
+  if (!ghost || !rotations || !root_position) {
+    rt->set_error("kata_retargeter_local_rotations: ghost, rotations and root_position must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  if (!rt->rotations) {
+    rt->set_error("kata_retargeter_local_rotations: the student skeleton has no rest pose (no hierarchy to rotate)");
+    return KATA_E_STATE;
+  }
+  const size_t g = rt->selection.source.size();
+  const size_t n = static_cast<size_t>(rt->rotations->joint_count());
+  if (ghost_count != 3 * g) {
+    rt->set_error("kata_retargeter_local_rotations: ghost_count is not 3 x kata_retargeter_joint_count()");
+    return KATA_E_WRONG_JOINT_COUNT;
+  }
+  if (rotation_capacity < 4 * n || (positions && position_capacity < 3 * n)) {
+    rt->set_error("kata_retargeter_local_rotations: rotations hold fewer than 4 x, or positions fewer than 3 x, "
+                  "kata_retargeter_rotation_joint_count() floats");
+    return KATA_E_BUFFER_TOO_SMALL;
+  }
+  if (!all_finite(ghost, ghost_count)) {
+    rt->set_error("kata_retargeter_local_rotations: the ghost has a NaN or Inf");
+    return KATA_E_NON_FINITE;
+  }
+  for (size_t i = 0; i < 3 * g; ++i) rt->ghost[i] = ghost[i];
+  double root[3];
+  rt->rotations->solve(rt->ghost.data(), rt->rotation_out.data(), root, rt->fk_out.data());
+  for (size_t i = 0; i < 4 * n; ++i) rotations[i] = static_cast<float>(rt->rotation_out[i]);
+  for (int k = 0; k < 3; ++k) root_position[k] = static_cast<float>(root[k]);
+  if (positions)
+    for (size_t i = 0; i < 3 * n; ++i) positions[i] = static_cast<float>(rt->fk_out[i]);
+  if (residual) *residual = rt->rotations->residual();
+  rt->error[0] = '\0';
   return KATA_OK;
 }
 
