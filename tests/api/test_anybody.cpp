@@ -168,6 +168,7 @@ bool finite(const std::vector<float>& v) {
 struct RunResult {
   std::vector<std::vector<float>> features;  // per pushed frame (empty when none)
   std::vector<float> scores;                 // per scored frame
+  std::vector<float> distances;              // per scored frame
   std::vector<kata_status> status;
 };
 
@@ -194,6 +195,7 @@ RunResult run(kata_stream s, kata_model model, kata_clip teacher, const std::vec
       rec.struct_size = sizeof rec;
       EXPECT_EQ(kata_stream_score(s, &rec), KATA_OK) << kata_stream_last_error(s);
       r.scores.push_back(rec.score);
+      r.distances.push_back(rec.distance);
     }
   }
   return r;
@@ -276,12 +278,17 @@ TEST(AnyBody, MediaPipeLandmarksMatchTheDocumentedSynthesisAndScoreAgainstTheBvh
   // float rounding, amplified in the kinetics (1/120 s steps): measured 6e-3.
   std::printf("[ figures ] mediapipe vs documented synthesis: max |diff| %.3g\n", worst_all);
   EXPECT_LT(worst_all, 2e-2);
-  const double m = mean(r.scores);
-  std::printf("[ figures ] mediapipe student vs its own BVH teacher: mean score %.2f over %zu frames\n", m,
-              r.scores.size());
-  // The target is 95; the synthesised pelvis/chest/neck differ from CMU's Hips/Spine1/Neck1
-  // enough that the shipped model scores 62.8 here (see the closing note). Guard the measured level.
-  EXPECT_GE(m, 55.0);
+  const double m = mean(r.scores), dist = mean(r.distances), delta_star = kata_model_delta_star(h.model);
+  std::printf("[ figures ] mediapipe student vs its own BVH teacher: mean score %.2f, mean distance %.5f "
+              "(delta* %.4f) over %zu frames\n",
+              m, dist, delta_star, r.scores.size());
+  // The landmarks sit on the CMU joints, so the whole distance comes from the synthesised Hip,
+  // Chest and Neck against CMU's Hips, Spine1 and Neck1 (no landmark lies on the spine). Measured
+  // by swapping one synthesised joint into the CMU joints at a time: Hip 0.0020, Neck 0.0022,
+  // Chest 0.0009; all three 0.0035 (0.0035..0.0082 over the six shipped clips). Well inside
+  // "similar" (d < delta*), so the shipped calibrated map scores it ~100.
+  EXPECT_LT(dist, 0.5 * delta_star);
+  EXPECT_GE(m, 95.0);
   kata_stream_close(s);
   kata_stream_close(ref);
   kata_skeleton_destroy(gpd);
