@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <vector>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -101,6 +102,68 @@ TEST(CliLandmarks, GpdLayoutArraysScoreLikeTheBvhAndNpyEqualsCsv) {
   r = run_cli(dir, "features --student " + dir.file("gpd.csv") + " --layout gpd --out " + dir.file("c.npy"));
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.output.find("--fps"), std::string::npos) << r.output;
+}
+
+// Across layouts from the CLI: a CMU BVH teacher onto a "gpd"-layout .npy student of another
+// subject (no rest pose: its bone lengths come from its first 60 frames). The ghost's bones equal
+// the student's (the median over those frames, computed here) and its Hip stands on the student's.
+TEST(CliLandmarks, CrossLayoutGhostFromTheCli) {
+  kata::test::TempDir dir;
+  const std::string teacher = std::string(KATA_DATA_DIR) + "/cmu/02_01.bvh";
+  const kata::BvhClip clip = kata::load_bvh(std::string(KATA_DATA_DIR) + "/cmu/07_01.bvh");
+  const kata::GpdMap map = kata::make_gpd_map(clip.skeleton, kata::preset_joint_names("cmu"));
+  const std::vector<float> pos = kata::clip_positions(clip, 1);
+  const int n = clip.skeleton.joint_count(), frames = clip.frame_count() - 1;
+  std::vector<float> arr;
+  for (int f = 0; f < frames; ++f)
+    for (int g = 0; g < 16; ++g) {
+      const float* p = pos.data() + (static_cast<size_t>(f) * n + map.source[static_cast<size_t>(g)]) * 3;
+      arr.insert(arr.end(), {p[0], p[1], p[2]});
+    }
+  kata::write_npy(dir.file("student.npy"), arr.data(), {static_cast<size_t>(frames), 16, 3});
+  const CliResult r = run_cli(dir, "retarget --teacher " + teacher + " --teacher-layout cmu --student " +
+                                       dir.file("student.npy") + " --student-layout gpd --fps 120 --out " +
+                                       dir.file("ghost.npy"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("estimated"), std::string::npos) << r.output;
+
+  // The student's bones: per bone the median over its first 60 frames.
+  const int parents[16] = {-1, 0, 1, 2, 2, 4, 5, 2, 7, 8, 0, 10, 11, 0, 13, 14};
+  auto bone = [&](const float* joints, int g) {
+    const float* a = joints + 3 * g;
+    const float* b = joints + 3 * parents[g];
+    return std::sqrt(double(a[0] - b[0]) * (a[0] - b[0]) + double(a[1] - b[1]) * (a[1] - b[1]) +
+                     double(a[2] - b[2]) * (a[2] - b[2]));
+  };
+  double expected[16] = {0};
+  for (int g = 1; g < 16; ++g) {
+    std::vector<double> v;
+    for (int f = 0; f < 60; ++f) v.push_back(bone(arr.data() + static_cast<size_t>(f) * 48, g));
+    std::sort(v.begin(), v.end());
+    expected[g] = 0.5 * (v[29] + v[30]);
+  }
+  std::vector<size_t> shape;
+  const std::vector<double> ghost = kata::read_npy(dir.file("ghost.npy"), &shape);
+  const kata::BvhClip teacher_clip = kata::load_bvh(teacher);
+  ASSERT_EQ(shape, (std::vector<size_t>{static_cast<size_t>(teacher_clip.frame_count()), 16, 3}));
+  double worst_bone = 0, worst_hip = 0;
+  for (size_t f = 0; f < shape[0]; ++f) {
+    std::vector<float> g(ghost.begin() + static_cast<std::ptrdiff_t>(f * 48), ghost.begin() + static_cast<std::ptrdiff_t>(f * 48 + 48));
+    for (int j = 1; j < 16; ++j) worst_bone = std::max(worst_bone, std::fabs(bone(g.data(), j) / expected[j] - 1.0));
+    const float* hip = arr.data() + std::min<size_t>(f, static_cast<size_t>(frames) - 1) * 48;
+    for (int k = 0; k < 3; ++k) worst_hip = std::max(worst_hip, std::fabs(double(g[static_cast<size_t>(k)]) - hip[k]));
+  }
+  std::printf("[ figures ] kata retarget across layouts (CMU BVH -> gpd .npy): worst bone error %.3g%%, hip placement "
+              "%.3g units\n",
+              100 * worst_bone, worst_hip);
+  EXPECT_LT(worst_bone, 0.005);
+  EXPECT_LT(worst_hip, 1e-3);
+
+  // BVH output is refused across layouts, naming the reason.
+  const CliResult bad = run_cli(dir, "retarget --teacher " + teacher + " --student " + dir.file("student.npy") +
+                                         " --student-layout gpd --fps 120 --out " + dir.file("ghost.bvh"));
+  EXPECT_NE(bad.code, 0);
+  EXPECT_NE(bad.output.find(".npy"), std::string::npos) << bad.output;
 }
 
 }  // namespace
