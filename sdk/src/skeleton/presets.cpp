@@ -64,8 +64,13 @@ const Preset kPresets[] = {
     {"xsens",
      {"Pelvis", "T8", "Neck", "Head", "LeftUpperArm", "LeftForeArm", "LeftHand", "RightUpperArm", "RightForeArm",
       "RightHand", "LeftUpperLeg", "LeftLowerLeg", "LeftFoot", "RightUpperLeg", "RightLowerLeg", "RightFoot"}},
-    // (No OptiTrack Motive or Vicon preset: neither vendor's public documentation found here lists
-    // the segment names its skeletons stream; use a name map.)
+    // No OptiTrack Motive or Vicon preset, deliberately: neither vendor's public documentation
+    // searched (docs.optitrack.com: Skeleton Tracking, Builder pane, Data Export and Streaming
+    // pages of Motive 3.x; docs.vicon.com: Shogun 1.x subject creation, marker sets, retargeting)
+    // lists the names of the segments its skeletons stream. Motive's names depend on the marker
+    // set and the streaming "bone naming convention" setting, and a Vicon Shogun subject's joints
+    // come from its labeling/solving template, so any fixed list here would be a guess. Stream
+    // such a skeleton with a name map (kata_stream_open_name_map) naming its 16 GPD joints.
     // Identity: a source that already names the 16 GPD joints (spec section 1 names).
     {"gpd",
      {"Hip", "Chest", "Neck", "Head", "LShoulder", "LElbow", "LHand", "RShoulder", "RElbow", "RHand", "LHip",
