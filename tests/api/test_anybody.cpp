@@ -366,38 +366,64 @@ TEST(AnyBody, NoiseAndDroppedJointsHoldTrackAndSmoothingCutsJitter) {
 TEST(AnyBody, BoneLengthsFromSixtyNoisyFramesWithinTwoPercent) {
   CmuClip clip("07_01.bvh");
   Handles h;
-  std::mt19937 rng(7);
-  std::normal_distribution<float> noise(0.0f, 0.01f);
-  kata_stream s = h.open_mediapipe(0);
+  // The truth: per bone, the median over the 60 frames of the documented joints' distances
+  // (computed here from the clean CMU joints).
   std::vector<double> truth(16, 0.0);
-  std::vector<std::vector<double>> per_frame(16);
-  for (size_t f = 0; f < 60; ++f) {
-    std::vector<float> p = to_mediapipe(clip, f);
-    for (float& x : p) x += noise(rng);
-    ASSERT_EQ(kata_stream_push(s, f * clip.frame_time, p.data(), kLandmarks), KATA_OK);
-    if (f + 1 < 60) {
-      double l[16];
-      EXPECT_EQ(kata_stream_bone_lengths(s, l, nullptr, 16), KATA_NO_DATA);
+  {
+    std::vector<std::vector<double>> per_frame(16);
+    for (size_t f = 0; f < 60; ++f) {
+      const auto g = documented_gpd(clip, f);
+      for (int j = 1; j < 16; ++j) per_frame[j].push_back(norm(g[j] - g[kGpdParent[j]]));
     }
-    const auto g = documented_gpd(clip, f);
-    for (int j = 1; j < 16; ++j) per_frame[j].push_back(norm(g[j] - g[kGpdParent[j]]));
+    for (int j = 1; j < 16; ++j) {
+      auto v = per_frame[j];
+      std::nth_element(v.begin(), v.begin() + 30, v.end());
+      truth[j] = v[30];
+    }
   }
-  for (int j = 1; j < 16; ++j) {
-    auto v = per_frame[j];
-    std::nth_element(v.begin(), v.begin() + 30, v.end());
-    truth[j] = v[30];
+  // 20 independent draws of 1 cm noise on every landmark coordinate: the estimate is a statistic
+  // of 60 noisy frames (a 19 cm forearm measured between two landmarks with 1 cm noise each
+  // scatters by about 1.4 cm / sqrt(60) = 1% of its length), so its error is judged over draws.
+  std::vector<double> errors;
+  double worst = 0, bias = 0;
+  for (int draw = 0; draw < 20; ++draw) {
+    std::mt19937 rng(static_cast<unsigned>(100 + draw));
+    std::normal_distribution<float> noise(0.0f, 0.01f);
+    kata_stream s = h.open_mediapipe(0);
+    for (size_t f = 0; f < 60; ++f) {
+      std::vector<float> p = to_mediapipe(clip, f);
+      for (float& x : p) x += noise(rng);
+      ASSERT_EQ(kata_stream_push(s, f * clip.frame_time, p.data(), kLandmarks), KATA_OK);
+      if (f + 1 < 60) {
+        double l[16];
+        EXPECT_EQ(kata_stream_bone_lengths(s, l, nullptr, 16), KATA_NO_DATA);
+      }
+    }
+    double est[16], spread[16];
+    ASSERT_EQ(kata_stream_bone_lengths(s, est, spread, 16), KATA_OK);
+    for (int j = 1; j < 16; ++j) {
+      const double e = (est[j] - truth[j]) / truth[j];
+      errors.push_back(std::fabs(e));
+      bias += e;
+      worst = std::max(worst, std::fabs(e));
+      EXPECT_GT(spread[j], 0.0);
+      EXPECT_LT(spread[j], 0.05);
+    }
+    kata_stream_close(s);
   }
-  double est[16], spread[16];
-  ASSERT_EQ(kata_stream_bone_lengths(s, est, spread, 16), KATA_OK);
-  double worst = 0;
-  for (int j = 1; j < 16; ++j) {
-    worst = std::max(worst, std::fabs(est[j] - truth[j]) / truth[j]);
-    EXPECT_GT(spread[j], 0.0);
-    EXPECT_LT(spread[j], 0.05);
-  }
-  std::printf("[ figures ] bone lengths from 60 noisy frames: worst relative error %.3f%%\n", 100 * worst);
-  EXPECT_LT(worst, 0.03);  // issue target 2%: measured 2.75% (closing note)
-  kata_stream_close(s);
+  bias /= static_cast<double>(errors.size());
+  double sum2 = 0;
+  for (double e : errors) sum2 += e * e;
+  const double rms = std::sqrt(sum2 / static_cast<double>(errors.size()));
+  const double within = static_cast<double>(std::count_if(errors.begin(), errors.end(), [](double e) { return e <= 0.02; })) /
+                        static_cast<double>(errors.size());
+  std::printf("[ figures ] bone lengths from 60 noisy frames (1 cm noise, 20 draws x 15 bones): mean error %+.3f%%, rms "
+              "%.3f%%, %.1f%% of estimates within 2%%, worst %.3f%%\n",
+              100 * bias, 100 * rms, 100 * within, 100 * worst);
+  EXPECT_LT(std::fabs(bias), 0.003);  // no lengthening by the noise left
+  EXPECT_LT(rms, 0.01);
+  EXPECT_GE(within, 0.97);
+  EXPECT_LT(worst, 0.03);
 }
 
 TEST(AnyBody, CmuTeacherRetargetedOntoAMediaPipeStudentOfAnotherSubject) {

@@ -323,10 +323,16 @@ KATA_API kata_status kata_stream_set_smoothing(kata_stream stream, int32_t enabl
 /* Frames reported KATA_TRACKING_LOST so far. [stream owner] */
 KATA_API int64_t kata_stream_lost_frames(kata_stream stream);
 /* Bone lengths of the GPD tree estimated from the live frames: the first 60 frames whose 16 joints
- * are all good (2 s at 30 fps; unfiltered positions) give, per bone, lengths[g] =
- * median |joint g - parent g| (input units, GPD joint order, lengths[0] = 0), spread[g] = 1.4826
- * x its median absolute deviation (either pointer may be NULL); capacity = entries of each array
- * (>= KATA_GPD_JOINTS). KATA_NO_DATA until those 60 frames were seen. [stream owner] */
+ * are all good (2 s at 30 fps; unfiltered positions) give, per bone g (input units, GPD joint
+ * order, lengths[0] = 0), with d = joint g - parent g per frame:
+ *   lengths[g] = sqrt(mean|d|^2 - 3 s^2),  s^2 = median over consecutive frames of
+ *                |d[t-1] - 2 d[t] + d[t+1]|^2 / (6 x 2.366)
+ * (position noise lengthens a measured bone: s^2, each coordinate's noise variance, comes from
+ * the second differences, where the motion's share is negligible at 30..120 Hz; the mean skips
+ * frames whose |d| is more than 4 spreads from the median; the correction is capped at a
+ * quarter of mean|d|^2), and spread[g] = 1.4826 x the median absolute deviation of |d|. Either
+ * pointer may be NULL; capacity = entries of each array (>= KATA_GPD_JOINTS). KATA_NO_DATA until
+ * those 60 frames were seen. [stream owner] */
 KATA_API kata_status kata_stream_bone_lengths(kata_stream stream, double* lengths, double* spread, size_t capacity);
 /* Ends the current segment (end of a take): with the central stencil the held frame is
  * computed now with the backward formulas. The next frame starts a new segment. KATA_E_INTERNAL

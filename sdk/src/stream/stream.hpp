@@ -57,9 +57,11 @@ struct StreamConfig {
   double smoothing_beta = 1.0;        // per (input unit / s): 1.0 suits metres
   double smoothing_d_cutoff = 1.0;    // Hz, cutoff of the velocity estimate
 
-  // Bone lengths of the GPD tree from live frames: the median over the first bone_window frames
-  // whose 16 joints are all good (unfiltered positions), with a robust spread (1.4826 x the
-  // median absolute deviation). 0 turns the estimate off.
+  // Bone lengths of the GPD tree from live frames: over the first bone_window frames whose 16
+  // joints are all good (unfiltered positions), the root mean square length less the lengthening
+  // by the joints' noise (estimated from the bone vectors' second differences; stream.cpp,
+  // collect_bones), with a robust spread (1.4826 x the median absolute deviation of the lengths).
+  // 0 turns the estimate off.
   int bone_window = 60;
 };
 
@@ -199,7 +201,7 @@ class Stream {
   double filter_time_ = 0.0;
   bool filter_ready_ = false;
   float floor_ = 0.0f;
-  std::vector<float> bone_samples_;  // bone_window x 16 (entry 0 unused)
+  std::vector<float> bone_samples_;  // bone_window x 16 x 3 bone vectors (entry 0 unused)
   std::vector<float> bone_scratch_;  // bone_window
   int bone_count_ = 0;
   double bone_length_[kGpdJoints] = {0}, bone_spread_[kGpdJoints] = {0};
