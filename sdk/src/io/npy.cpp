@@ -114,7 +114,10 @@ void write_npy(const std::string& path, const double* data, const std::vector<si
 }
 
 std::vector<double> read_npy(const std::string& path, std::vector<size_t>* shape) {
-  const std::string bytes = read_file_bounded(path, kMaxNpyBytes, ".npy file");
+  return parse_npy(read_file_bounded(path, kMaxNpyBytes, ".npy file"), path, shape);
+}
+
+std::vector<double> parse_npy(const std::string& bytes, const std::string& path, std::vector<size_t>* shape) {
   const auto* u = reinterpret_cast<const unsigned char*>(bytes.data());
 
   if (bytes.size() < kPreludeV1 || bytes.compare(0, 6, "\x93NUMPY") != 0) bad(path, "bad magic");

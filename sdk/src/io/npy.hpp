@@ -12,5 +12,7 @@ void write_npy(const std::string& path, const double* data, const std::vector<si
 
 // Reads a float32 or float64 .npy file into doubles. Throws kata::Error(kParse) naming the file.
 std::vector<double> read_npy(const std::string& path, std::vector<size_t>* shape);
+// The same from the bytes of a .npy file held in memory; `name` stands for the file in messages.
+std::vector<double> parse_npy(const std::string& bytes, const std::string& name, std::vector<size_t>* shape);
 
 }  // namespace kata
