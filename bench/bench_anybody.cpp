@@ -1,11 +1,17 @@
 // Cost per frame of the "any body" steps (issue 11), side by side in one run: MediaPipe landmark
 // synthesis, the confidence gate, One-Euro smoothing (each as a whole stream push, so the ratio
-// to the plain push is the step's cost), and a cross-layout retarget onto the 16 GPD joints.
+// to the plain push is the step's cost), a cross-layout retarget onto the 16 GPD joints, and the
+// ghost as local rotations on a CMU hierarchy.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cmath>
+#include <string>
 #include <vector>
 
+#include "io/bvh.hpp"
+#include "retarget/joint_set.hpp"
+#include "retarget/local_rotations.hpp"
 #include "retarget/mapped.hpp"
 #include "skeleton/skeleton.hpp"
 #include "stream/stream.hpp"
@@ -86,5 +92,29 @@ void BM_AnybodyCrossLayoutRetarget(benchmark::State& st) {
   }
 }
 BENCHMARK(BM_AnybodyCrossLayoutRetarget);
+
+// The ghost as local rotations on a CMU student's 31-joint hierarchy (21 ghost joints, the "cmu"
+// joint set): the clip's own frames stand for ghosts (every joint placed, bones exact).
+void BM_AnybodyLocalRotations(benchmark::State& st) {
+  const kata::BvhClip clip = kata::load_bvh(std::string(KATA_DATA_DIR) + "/cmu/07_01.bvh");
+  const auto sel = kata::retarget::select_joints(clip.skeleton, clip.skeleton, "cmu");
+  kata::retarget::LocalRotations rotations(clip.skeleton, sel.source);
+  const int frames = std::min(64, clip.frame_count());
+  const size_t g = sel.source.size();
+  std::vector<double> ghosts(static_cast<size_t>(frames) * 3 * g);
+  Eigen::MatrixX3d world(clip.skeleton.joint_count(), 3);
+  for (int f = 0; f < frames; ++f) {
+    kata::world_positions(clip, f, world);
+    kata::retarget::gather_positions(world, sel, ghosts.data() + static_cast<size_t>(f) * 3 * g);
+  }
+  std::vector<double> quats(4 * static_cast<size_t>(clip.skeleton.joint_count()));
+  double root[3];
+  size_t f = 0;
+  for (auto _ : st) {
+    rotations.solve(ghosts.data() + (f++ % static_cast<size_t>(frames)) * 3 * g, quats.data(), root, nullptr);
+    benchmark::DoNotOptimize(quats.data());
+  }
+}
+BENCHMARK(BM_AnybodyLocalRotations);
 
 }  // namespace
