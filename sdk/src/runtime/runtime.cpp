@@ -57,13 +57,17 @@ double latency_percentile(const uint64_t* histogram, double q) {
 
 StreamSetup setup_from_definition(const transport::SkeletonDefinition& d) {
   StreamSetup setup;
-  std::array<std::string, kGpdJoints> names;
+  // A name map, or a built-in layout by name (a preset, or one that synthesises joints and fixes
+  // its axes and smoothing, such as "mediapipe").
+  Layout layout;
   if (!d.name_map.empty()) {
+    std::array<std::string, kGpdJoints> names;
     for (int i = 0; i < kGpdJoints; ++i) names[static_cast<size_t>(i)] = d.name_map[static_cast<size_t>(i)];
+    layout.map = make_gpd_map(d.skeleton, names);
   } else {
-    names = preset_joint_names(d.preset.empty() ? "cmu" : d.preset);
+    layout = resolve_layout(d.skeleton, d.preset.empty() ? "cmu" : d.preset);
   }
-  const GpdMap map = make_gpd_map(d.skeleton, names);
+  const GpdMap& map = layout.map;
   StreamConfig stream;
   if (d.skeleton.has_rest_pose) {
     stream = stream_config_for(d.skeleton, map, gpd::Stencil::kBackward);
@@ -71,7 +75,8 @@ StreamSetup setup_from_definition(const transport::SkeletonDefinition& d) {
     stream.map = map;
     stream.input_joints = d.skeleton.joint_count();
   }
-  stream.up_axis = d.up_axis;
+  stream.up_axis = layout.fixed_axes ? layout.axes : d.up_axis;
+  stream.smoothing = layout.smooth;
   setup.pipeline.stream = stream;
   setup.pipeline.student = d.skeleton;
   return setup;

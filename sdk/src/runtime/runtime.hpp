@@ -50,7 +50,8 @@ struct StreamSetup {
   bool publish_features = false;  // put each result's 1683 features in the message
 };
 
-// The default setup for a definition: the GPD map from its preset (or name map), its up axis,
+// The default setup for a definition: the GPD map from its preset or layout (skeleton.hpp,
+// resolve_layout: "mediapipe" fixes its axes and turns smoothing on) or its name map, its up axis,
 // the body height from its rest pose when it has one, the backward stencil; no teacher.
 // Throws kata::Error (unknown preset, a joint the map names is missing).
 StreamSetup setup_from_definition(const transport::SkeletonDefinition& definition);
