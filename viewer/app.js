@@ -37,7 +37,7 @@ if (renderer) {
   scene = new THREE.Scene();
   scene.background = new THREE.Color(0x1e2227);
   camera = new THREE.PerspectiveCamera(45, 1, 0.5, 2000);
-  camera.position.set(0, 25, 80);
+  camera.position.set(0, 22, 52);
   controls = new OrbitControls(camera, renderer.domElement);
   controls.target.set(0, 15, 0);
   scene.add(new THREE.HemisphereLight(0xffffff, 0x333344, 2.2));
@@ -225,6 +225,7 @@ function connect() {
   source.addEventListener('setup', (e) => {
     const s = JSON.parse(e.data);
     const fresh = !setup || JSON.stringify(s.parents) !== JSON.stringify(setup.parents) || s.frames !== setup.frames;
+    if (setup && s.lesson !== setup.lesson && kata.lastId < 0) { scores.length = 0; scoreSum = 0; scoreCount = 0; }
     setup = s;
     if (fresh) { buildSkeletons(); buildPanel(); resize(); }
   });
@@ -264,13 +265,13 @@ function connect() {
   });
 }
 
-// After the end, a restarted coach (a new lesson or replay) is picked up when it has new frames.
+// After the end, a new coach on the same port (another lesson or replay) is picked up.
 function watchForNewLesson() {
   const timer = setInterval(async () => {
     try {
       const r = await fetch('/status', { cache: 'no-store' });
       const s = await r.json();
-      if (!s.ended) { clearInterval(timer); kata.ended = false; kata.lastId = -1; connect(); }
+      if (s.lesson !== setup.lesson) { clearInterval(timer); kata.ended = false; kata.lastId = -1; connect(); }
     } catch (e) { /* server down: keep watching */ }
   }, 2000);
 }

@@ -127,7 +127,11 @@ void run_coach(CoachArgs a) {
   std::unique_ptr<ViewerServer> viewer;
   if (!a.no_viewer) {
     viewer = std::make_unique<ViewerServer>(a.viewer_dir.empty() ? default_viewer_dir() : a.viewer_dir, a.host, a.port);
-    viewer->set_setup(setup_json(data, a.replay.empty() ? "live" : "replay"));
+    // A token that tells this lesson from the next one on the same port (a page that saw the end
+    // of one lesson starts over when /status shows another).
+    const std::string lesson_id = std::to_string(std::chrono::system_clock::now().time_since_epoch().count());
+    viewer->set_setup(setup_json(data, a.replay.empty() ? "live" : "replay", lesson_id));
+    viewer->set_lesson_id(lesson_id);
     std::printf("viewer: http://%s:%d/  (open it in a browser)\n", a.host.c_str(), viewer->port());
   }
   std::signal(SIGINT, on_interrupt);
@@ -152,12 +156,14 @@ void run_coach(CoachArgs a) {
   auto window_start = start;
   size_t window_frames = 0;
   double fps = 0.0;
+  size_t played = 0;  // frames pushed (live) or revealed (replay)
   for (size_t i = 0; i < frames && !g_interrupted; ++i) {
     const auto due = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
                                  static_cast<double>(i) * data.frame_time / a.lesson.speed));
     std::this_thread::sleep_until(due);
     if (live) live->push(static_cast<int>(i));
     publish_ready(i + 1, !live);
+    played = i + 1;
     ++window_frames;
     const auto now = Clock::now();
     if (now - window_start >= std::chrono::milliseconds(500)) {
@@ -167,7 +173,8 @@ void run_coach(CoachArgs a) {
     view.update(data, published, fps);
   }
   if (live) live->finish();
-  const size_t done = live ? static_cast<size_t>(data.pushed) : frames;
+  const size_t done = played;
+  if (!live) replayed.pushed = static_cast<int>(played);  // an interrupted replay reports what was shown
   publish_ready(done, true);
   view.update(data, published, fps, true);
   view.close();
@@ -197,7 +204,9 @@ void run_coach(CoachArgs a) {
     std::printf("report: %s\n", a.report.c_str());
   }
   if (viewer) {
-    viewer->end(end_json(data));
+    // Only a finished lesson ends the page's stream; an interrupted coach just goes away, so a
+    // page keeps trying to reconnect (and resumes when a coach is back on the port).
+    if (!g_interrupted) viewer->end(end_json(data));
     if (a.linger < 0) std::printf("viewer: still at http://%s:%d/ (Ctrl-C to quit)\n", a.host.c_str(), viewer->port());
     std::fflush(stdout);
     const auto until = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(std::max(a.linger, 0.0)));

@@ -38,8 +38,8 @@ int32_t part_to_fix(const float* parts) {
 double LessonData::mean_score() const {
   double sum = 0.0;
   int n = 0;
-  for (const FrameRecord& r : frames)
-    if (r.state == FrameState::kTracking || r.state == FrameState::kTeacherFinished) sum += r.score, ++n;
+  for (size_t i = 0; i < static_cast<size_t>(pushed) && i < frames.size(); ++i)
+    if (const FrameRecord& r = frames[i]; r.state == FrameState::kTracking || r.state == FrameState::kTeacherFinished) sum += r.score, ++n;
   return n ? sum / n : 0.0;
 }
 

@@ -197,8 +197,8 @@ std::string chart(const std::vector<double>& time, const std::vector<Series>& se
 
 }  // namespace
 
-std::string setup_json(const LessonData& d, const std::string& source) {
-  std::string s = "{\"source\":" + json_string(source) + ",\"parts\":[";
+std::string setup_json(const LessonData& d, const std::string& source, const std::string& lesson_id) {
+  std::string s = "{\"source\":" + json_string(source) + ",\"lesson\":" + json_string(lesson_id) + ",\"parts\":[";
   for (int p = 0; p < metric::kParts; ++p) s += std::string(p ? "," : "") + json_string(metric::part_name(p));
   s += "],\"part_labels\":[";
   for (int p = 0; p < metric::kParts; ++p) s += std::string(p ? "," : "") + json_string(kPartLabel[p]);
@@ -255,7 +255,7 @@ std::string end_json(const LessonData& d) {
 
 std::vector<size_t> lowest_moments(const LessonData& d, size_t count) {
   std::vector<size_t> order;
-  for (size_t i = 0; i < d.frames.size(); ++i)
+  for (size_t i = 0; i < static_cast<size_t>(d.pushed) && i < d.frames.size(); ++i)
     if (scored(d.frames[i])) order.push_back(i);
   std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) { return d.frames[a].score < d.frames[b].score; });
   std::vector<size_t> picked;

@@ -10,8 +10,8 @@
 namespace kata::coach {
 
 // The viewer's "setup" event: skeleton (parents, part of each joint), ghost tree, part names,
-// frame counts, settings.
-std::string setup_json(const LessonData& data, const std::string& source);
+// frame counts, settings, the lesson's id.
+std::string setup_json(const LessonData& data, const std::string& source, const std::string& lesson_id);
 // The viewer's "frame" event of frame i: time, state, score, part shares, part to fix, matched
 // teacher frame, latency, student joints and ghost joints (x y z, input units).
 std::string frame_json(const LessonData& data, size_t i);

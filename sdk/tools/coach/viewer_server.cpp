@@ -20,7 +20,7 @@ ViewerServer::ViewerServer(const std::string& static_dir, const std::string& hos
   server_->set_file_extension_and_mimetype_mapping("mjs", "text/javascript");
   server_->Get("/status", [this](const httplib::Request&, httplib::Response& res) {
     std::lock_guard<std::mutex> lock(mutex_);
-    res.set_content("{\"frames\":" + std::to_string(frames_.size()) + ",\"ended\":" + (end_.empty() ? "false" : "true") +
+    res.set_content("{\"lesson\":\"" + lesson_id_ + "\",\"frames\":" + std::to_string(frames_.size()) + ",\"ended\":" + (end_.empty() ? "false" : "true") +
                         "}",
                     "application/json");
   });
@@ -69,6 +69,11 @@ ViewerServer::~ViewerServer() { stop(); }
 void ViewerServer::set_setup(std::string json) {
   std::lock_guard<std::mutex> lock(mutex_);
   setup_ = std::move(json);
+}
+
+void ViewerServer::set_lesson_id(std::string id) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  lesson_id_ = std::move(id);
 }
 
 void ViewerServer::publish(std::string json) {

@@ -7,7 +7,7 @@
 //                  "end" (the summary) when the lesson is over. A client that reconnects sends
 //                  Last-Event-ID (EventSource does) and receives only the frames after it; a new
 //                  client receives every frame so far (the timeline), then the live ones.
-// GET /status      {"frames": n, "ended": bool} (for scripts and tests)
+// GET /status      {"lesson": id, "frames": n, "ended": bool} (for the page after an end, scripts)
 //
 // Threads: publish() from the lesson's thread; httplib's thread pool serves clients. Events are
 // kept (the whole lesson: ~1 kB a frame) under one mutex that only this app's threads take.
@@ -37,6 +37,7 @@ class ViewerServer {
 
   int port() const { return port_; }
   void set_setup(std::string json);
+  void set_lesson_id(std::string id);  // reported by /status
   void publish(std::string json);  // the next frame event
   void end(std::string json);      // the lesson is over
   // Closes every connection and stops listening (also done by the destructor).
@@ -49,7 +50,7 @@ class ViewerServer {
   int port_ = 0;
   std::mutex mutex_;
   std::condition_variable changed_;
-  std::string setup_, end_;
+  std::string setup_, end_, lesson_id_;
   std::vector<std::string> frames_;
   bool stopping_ = false;
 };

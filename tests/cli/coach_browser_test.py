@@ -1,0 +1,150 @@
+#!/usr/bin/python3
+"""Browser test of `kata coach`'s viewer and report, in Debian's headless Chromium (selenium).
+
+While a recorded lesson is replayed into the viewer (loopback only):
+  1. the page connects and receives frames (window.kata.frames, the counter the page exposes),
+  2. it draws: in a screenshot, the middle of the 3D view holds skeleton-coloured pixels
+     (saturated colours; the background and the floor grid are grey),
+  3. it survives a server restart: the coach is killed, the page notices, a new coach starts on
+     the same port, and the page reconnects by itself and receives more frames.
+Then the HTML report renders in headless Chromium without a console error.
+
+Usage: coach_browser_test.py --kata build/bin/kata --source-dir . [--screenshots DIR]
+Exit 0 on success; every wait is bounded (the whole test takes under a minute).
+"""
+import argparse
+import io
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+from PIL import Image
+from selenium import webdriver
+from selenium.webdriver.chrome.service import Service
+
+CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-background-networking",
+                  "--disable-component-update", "--disable-sync", "--no-first-run", "--window-size=1280,800"]
+
+
+def free_port():
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def wait_for(what, predicate, timeout):
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        value = predicate()
+        if value:
+            return value
+        time.sleep(0.1)
+    raise AssertionError(f"timed out after {timeout} s waiting for: {what}")
+
+
+def start_replay(kata, source_dir, recording, port, log, speed):
+    return subprocess.Popen([kata, "coach", "--replay", recording, "--speed", str(speed), "--port", str(port),
+                             "--linger", "60", "--report", ""], cwd=source_dir, stdout=log, stderr=subprocess.STDOUT)
+
+
+def skeleton_pixels(png, rect):
+    """Saturated pixels (max - min channel > 60) in the middle half of rect: the bones."""
+    img = Image.open(io.BytesIO(png)).convert("RGB")
+    x, y, w, h = (int(rect[k]) for k in ("x", "y", "width", "height"))
+    box = img.crop((x + w // 4, y + h // 8, x + 3 * w // 4, y + 7 * h // 8))
+    return sum(1 for r, g, b in box.getdata() if max(r, g, b) - min(r, g, b) > 60)
+
+
+def make_driver(profile):
+    options = webdriver.ChromeOptions()
+    for f in CHROMIUM_FLAGS + [f"--user-data-dir={profile}"]:
+        options.add_argument(f)
+    if os.path.exists("/usr/bin/chromium"):
+        options.binary_location = "/usr/bin/chromium"
+    options.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+    return webdriver.Chrome(service=Service(shutil.which("chromedriver") or "/usr/bin/chromedriver"), options=options)
+
+
+def main():
+    ap = argparse.ArgumentParser()
+    ap.add_argument("--kata", required=True)
+    ap.add_argument("--source-dir", required=True)
+    ap.add_argument("--screenshots", help="also save the viewer's and the report's screenshots here")
+    a = ap.parse_args()
+    kata = os.path.abspath(a.kata)
+    work = tempfile.mkdtemp(prefix="kata_coach_browser_")
+    servers = []
+    driver = None
+    try:
+        recording, report = os.path.join(work, "lesson.npz"), os.path.join(work, "lesson.html")
+        subprocess.run([kata, "coach", "--headless", "--speed", "16", "--record", recording, "--report", report],
+                       cwd=a.source_dir, check=True, stdout=subprocess.DEVNULL, timeout=120)
+        port = free_port()
+        log = open(os.path.join(work, "coach.log"), "w")
+        # Half speed: the lesson (7 s of motion) outlasts Chromium's start-up.
+        servers.append(start_replay(kata, a.source_dir, recording, port, log, 0.5))
+        url = f"http://127.0.0.1:{port}/"
+        wait_for("the coach's viewer to listen", lambda: socket.socket().connect_ex(("127.0.0.1", port)) == 0, 20)
+
+        driver = make_driver(os.path.join(work, "profile"))
+        driver.set_page_load_timeout(30)
+        driver.get(url)
+        frames = lambda: driver.execute_script("return window.kata ? window.kata.frames : 0")
+        wait_for("the page to connect and receive 30 frames", lambda: frames() >= 30, 20)
+        time.sleep(1.0)  # a few animation frames with the skeleton on screen
+        mode = driver.execute_script("return window.kata.mode")
+        rect = driver.execute_script("return document.getElementById('scene').getBoundingClientRect().toJSON()")
+        png = driver.get_screenshot_as_png()
+        coloured = skeleton_pixels(png, rect)
+        assert coloured > 300, f"the 3D view shows no skeleton ({coloured} coloured pixels, mode {mode})"
+        if a.screenshots:
+            os.makedirs(a.screenshots, exist_ok=True)
+            with open(os.path.join(a.screenshots, "coach-viewer.png"), "wb") as f:
+                f.write(png)
+        print(f"viewer: connected, {frames()} frames, {coloured} skeleton pixels ({mode} view)")
+
+        # Server restart: the page must notice, then reconnect by itself and receive new frames.
+        servers[0].send_signal(signal.SIGTERM)
+        servers[0].wait(timeout=20)
+        wait_for("the page to notice the lost server", lambda: not driver.execute_script("return window.kata.connected"), 20)
+        before = frames()
+        # The new coach replays from the start, 4x faster, and the page resumes after its last frame.
+        servers.append(start_replay(kata, a.source_dir, recording, port, log, 4))
+        wait_for("the page to reconnect", lambda: driver.execute_script("return window.kata.connected"), 30)
+        wait_for("frames after the restart", lambda: frames() > before + 10, 30)
+        print(f"restart: reconnected ({driver.execute_script('return window.kata.reconnects')} reconnections), "
+              f"{frames() - before} frames since")
+        driver.get_log("browser")  # drop the viewer's messages (refused connections while the server was down)
+
+        # The report renders without console errors.
+        driver.set_window_size(960, 2600)
+        driver.get("file://" + report)
+        wait_for("the report", lambda: driver.execute_script("return document.readyState") == "complete", 20)
+        errors = [e for e in driver.get_log("browser") if e.get("level") == "SEVERE"]
+        assert not errors, f"console errors in the report: {errors}"
+        svgs = driver.execute_script("return document.querySelectorAll('svg').length")
+        assert svgs >= 6, f"the report has {svgs} SVG drawings (expected the charts, the body and 3 moments)"
+        if a.screenshots:
+            driver.save_screenshot(os.path.join(a.screenshots, "coach-report.png"))
+        print(f"report: rendered, {svgs} SVG drawings, no console error")
+        return 0
+    finally:
+        if driver:
+            driver.quit()
+        for s in servers:
+            if s.poll() is None:
+                s.send_signal(signal.SIGTERM)
+                try:
+                    s.wait(timeout=10)
+                except subprocess.TimeoutExpired:
+                    s.kill()
+        shutil.rmtree(work, ignore_errors=True)
+
+
+if __name__ == "__main__":
+    sys.exit(main())
