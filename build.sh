@@ -7,6 +7,7 @@
 #   ./build.sh clang     everything built with Debian's clang, warnings as errors, the whole suite run
 #   ./build.sh aarch64   cross build for 64-bit ARM: the library and its GPD, metric, retarget and
 #                        C ABI tests, run under qemu-user (no trainer, tools or benchmarks)
+#   ./build.sh browser-test   the coach's viewer and report in headless Chromium (ctest label browser)
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -14,7 +15,8 @@ cd "$(dirname "$0")"
 PACKAGES=(build-essential cmake pkg-config libeigen3-dev libzmq3-dev cppzmq-dev libflatbuffers-dev
           flatbuffers-compiler flatbuffers-compiler-dev libgtest-dev libgmock-dev libbenchmark-dev
           libcli11-dev nlohmann-json3-dev libxsimd-dev ccache libtomlplusplus-dev libcpp-httplib-dev python3 python3-numpy python3-matplotlib python3-zmq python3-flatbuffers
-          python3-pytest mono-mcs mono-runtime)
+          python3-pytest mono-mcs mono-runtime
+          chromium chromium-driver python3-selenium python3-pil)
 # Only `./build.sh fuzz` needs these (Debian's clang and its libFuzzer runtime).
 FUZZ_PACKAGES=(clang-14 libclang-rt-14-dev)
 # Only for `./build.sh clang` / `./build.sh aarch64` (arm64 multiarch: the arm64 builds of the
@@ -29,6 +31,9 @@ deps() {  # deps [package...]: the given packages, or PACKAGES
   for p in "${wanted[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
+  # npm installs three.js for the coach's viewer (npm ci, pinned by viewer/package-lock.json); any
+  # npm will do (Debian's, or one that came with a Node.js install).
+  [ $# -eq 0 ] && ! command -v npm >/dev/null && missing+=(npm)
   [ ${#missing[@]} -eq 0 ] && return 0
   echo "== installing: ${missing[*]}"
   local sudo=""
@@ -122,6 +127,7 @@ case "${1:-}" in
   fuzz) deps; deps "${FUZZ_PACKAGES[@]}"; fuzz ;;
   clang) deps; clang_build ;;
   aarch64) deps; aarch64_build ;;
+  browser-test) deps; build build; ctest --test-dir build -L browser --output-on-failure --timeout 300 ;;
   bench) deps; build build; build/bin/kata_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true ;;
-  *) sed -n '2,9p' "$0"; exit 2 ;;
+  *) sed -n '2,10p' "$0"; exit 2 ;;
 esac
