@@ -71,7 +71,7 @@ function buildSkeletons() {
   for (const b of [...studentBones, ...ghostBones]) scene.remove(b);
   studentBones = makeBones(setup.joints, new THREE.MeshStandardMaterial({ color: 0x5b9bff, roughness: 0.6 }));
   ghostBones = makeBones(setup.ghost_sources.length,
-    new THREE.MeshStandardMaterial({ color: 0xf5a623, transparent: true, opacity: 0.45, roughness: 0.6 }));
+    new THREE.MeshStandardMaterial({ color: 0xd6c4ff, transparent: true, opacity: 0.5, roughness: 0.6 }));
 }
 
 const up = new THREE.Vector3(0, 1, 0), a = new THREE.Vector3(), b = new THREE.Vector3(), dir = new THREE.Vector3();
@@ -123,7 +123,7 @@ function draw2d() {
     }
   };
   line(latest.joints, setup.parents, (j) => partColour(setup.joint_part[j]), 6);
-  if (latest.ghost) line(latest.ghost, setup.ghost_parents, 'rgba(245,166,35,0.6)', 4);
+  if (latest.ghost) line(latest.ghost, setup.ghost_parents, 'rgba(214,196,255,0.6)', 4);
 }
 
 function partColour(part) {
