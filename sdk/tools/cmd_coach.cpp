@@ -1,5 +1,7 @@
-// kata coach: a coaching lesson, live. The student clip is played as a live stream (real time, or
-// --speed N) through one pipeline with the teacher attached; every frame is scored and ghosted.
+// kata coach: a coaching lesson, live. The teacher and student clips are played as two live
+// streams (real time, or --speed N) through the runtime `kata serve` runs, which publishes every
+// result over ZeroMQ; the student's frames are scored against the teacher (calibrated total and
+// per-part scores, the part to fix) and ghosted.
 // A terminal view shows progress, scores, the part to fix, frames/s and latency; a browser viewer
 // (server-sent events on localhost) draws the student in 3D with the teacher's ghost over it; at
 // the end a summary is printed and a self-contained HTML report written. --record keeps the
@@ -8,6 +10,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdarg>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -50,10 +53,22 @@ std::string default_viewer_dir() {
   return dir + "/../share/kata/viewer";
 }
 
-// The terminal view: one line, redrawn in place on a terminal (plain lines every 2 s otherwise).
+// Appends printf-style text at `at` (clamped at the buffer's end).
+__attribute__((format(printf, 4, 5))) void append_line(char* line, size_t size, int& at, const char* fmt, ...) {
+  if (at < 0 || static_cast<size_t>(at) >= size) return;
+  va_list args;
+  va_start(args, fmt);
+  const int n = std::vsnprintf(line + at, size - static_cast<size_t>(at), fmt, args);
+  va_end(args);
+  if (n > 0) at = std::min(static_cast<int>(size) - 1, at + n);
+}
+
+// The terminal view: one line, redrawn in place on a terminal (plain lines every 2 s otherwise):
+// progress, the newest total and per-part scores, the part to fix, frames/s, latency p50/p99
+// (frame in -> result published, over the lesson so far).
 class TerminalView {
  public:
-  explicit TerminalView(bool interactive) : interactive_(interactive) {}
+  TerminalView(bool interactive, size_t frames) : interactive_(interactive) { latencies_.reserve(frames); }
 
   void update(const LessonData& d, size_t shown, double fps, bool force = false) {
     const auto now = Clock::now();
@@ -61,39 +76,30 @@ class TerminalView {
     if (!force && now - last_ < every) return;
     last_ = now;
     const size_t total = static_cast<size_t>(d.student_frames);
-    const int width = 24;
+    const int width = 20;
     const int filled = total ? static_cast<int>(width * shown / total) : 0;
     std::string bar(static_cast<size_t>(filled), '#');
     bar.resize(width, '.');
-    // Newest frame with a result.
-    const FrameRecord* r = nullptr;
-    for (size_t i = shown; i-- > 0;)
-      if (d.frames[i].state == FrameState::kTracking || d.frames[i].state == FrameState::kTeacherFinished) {
-        r = &d.frames[i];
-        break;
-      }
-    latencies_.clear();
-    for (size_t i = 0; i < shown; ++i)
-      if (d.frames[i].latency_ns > 0) latencies_.push_back(d.frames[i].latency_ns / 1e6);
-    std::sort(latencies_.begin(), latencies_.end());
-    auto pct = [&](double q) { return latencies_.empty() ? 0.0 : latencies_[static_cast<size_t>(q * (latencies_.size() - 1))]; };
+    for (; latency_count_ < shown; ++latency_count_)
+      if (scored(d.frames[latency_count_]) && d.frames[latency_count_].latency_ns > 0)
+        latencies_.push_back(d.frames[latency_count_].latency_ns / 1e6);
+    sorted_ = latencies_;  // reserved at the lesson's length: no allocation
+    std::sort(sorted_.begin(), sorted_.end());
+    auto pct = [&](double q) { return sorted_.empty() ? 0.0 : sorted_[static_cast<size_t>(q * (sorted_.size() - 1))]; };
     char line[512];
     int at = std::snprintf(line, sizeof line, "[%s] %3d%% %5.1fs", bar.c_str(), total ? static_cast<int>(100 * shown / total) : 0,
                            shown ? d.frames[shown - 1].time : 0.0);
-    if (r) {
-      at += std::snprintf(line + at, sizeof line - static_cast<size_t>(at), " | score %5.1f (mean %5.1f) | parts", r->score,
-                          d.mean_score());
+    const FrameRecord* r = shown ? &d.frames[shown - 1] : nullptr;
+    if (r && scored(*r)) {
+      append_line(line, sizeof line, at, " | score %3.0f (mean %4.1f) |", r->score, d.mean_score());
       static const char* const kShort[kata::metric::kParts] = {"torso", "l.arm", "r.arm", "l.leg", "r.leg"};
-      for (int p = 0; p < kata::metric::kParts; ++p)
-        at += std::snprintf(line + at, sizeof line - static_cast<size_t>(at), " %s %2.0f%%", kShort[p], 100 * part_share(*r, p));
-      at += std::snprintf(line + at, sizeof line - static_cast<size_t>(at), " | fix: %-10s",
-                          r->part_to_fix >= 0 ? kata::metric::part_name(r->part_to_fix) : "-");
-      if (r->state == FrameState::kTeacherFinished) at += std::snprintf(line + at, sizeof line - static_cast<size_t>(at), " (teacher finished)");
-    } else if (shown) {
-      at += std::snprintf(line + at, sizeof line - static_cast<size_t>(at), " | %s", state_name(d.frames[shown - 1].state));
+      for (int p = 0; p < kata::metric::kParts; ++p) append_line(line, sizeof line, at, " %s %3.0f", kShort[p], r->part_scores[p]);
+      append_line(line, sizeof line, at, " | fix: %-10s", r->part_to_fix >= 0 ? kata::metric::part_name(r->part_to_fix) : "-");
+      if (r->state == FrameState::kTeacherFinished) append_line(line, sizeof line, at, " (teacher finished)");
+    } else if (r) {
+      append_line(line, sizeof line, at, " | %-16s", state_name(r->state));
     }
-    std::snprintf(line + at, sizeof line - static_cast<size_t>(at), " | %4.0f fps | latency p50 %.2f p99 %.2f ms", fps, pct(0.5),
-                  pct(0.99));
+    append_line(line, sizeof line, at, " | %4.0f frames/s | latency p50 %.2f p99 %.2f ms", fps, pct(0.5), pct(0.99));
     if (interactive_) std::printf("\r%s\033[K", line);
     else std::printf("%s\n", line);
     std::fflush(stdout);
@@ -105,14 +111,15 @@ class TerminalView {
  private:
   bool interactive_;
   Clock::time_point last_{};
-  std::vector<double> latencies_;  // reused: the view allocates only while it grows
+  size_t latency_count_ = 0;
+  std::vector<double> latencies_, sorted_;
 };
 
 void run_coach(CoachArgs a) {
   if (a.headless) a.no_viewer = true;
   if (!(a.lesson.speed > 0.0)) throw kata::Error(kata::ErrorKind::kInvalidArgument, "--speed must be > 0");
 
-  // The lesson: live (a pipeline) or recorded (a file).
+  // The lesson: live (the runtime) or recorded (a file).
   std::unique_ptr<Lesson> live;
   LessonData replayed;
   if (a.replay.empty()) {
@@ -136,20 +143,22 @@ void run_coach(CoachArgs a) {
   }
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
-  std::printf("%s %s: student %s, teacher %s, %zu frames at %.3g x real time\n", a.replay.empty() ? "lesson" : "replay",
-              a.replay.empty() ? "" : a.replay.c_str(), data.settings.student.c_str(), data.settings.teacher.c_str(), frames,
-              a.lesson.speed);
+  if (live)
+    std::printf("lesson: student %s, teacher %s, %zu frames at %.3g x real time; results published on %s (teacher "
+                "stream %llu, student stream %llu)\n",
+                data.settings.student.c_str(), data.settings.teacher.c_str(), frames, a.lesson.speed,
+                live->publish_endpoint().c_str(), static_cast<unsigned long long>(Lesson::kTeacherStream),
+                static_cast<unsigned long long>(Lesson::kStudentStream));
+  else
+    std::printf("replay %s: student %s, teacher %s, %zu frames at %.3g x real time\n", a.replay.c_str(),
+                data.settings.student.c_str(), data.settings.teacher.c_str(), frames, a.lesson.speed);
   std::fflush(stdout);
 
-  TerminalView view(!a.headless && isatty(STDOUT_FILENO));
-  size_t published = 0;
-  auto publish_ready = [&](size_t pushed, bool all) {
-    for (; published < pushed; ++published) {
-      // A frame waits for its result for two pushes (the central stencil's lag); then it is
-      // shown as it stands (calibrating / tracking lost).
-      if (!all && data.frames[published].state == FrameState::kCalibrating && published + 2 >= pushed) break;
+  TerminalView view(!a.headless && isatty(STDOUT_FILENO), frames);
+  size_t published = 0;  // frames handed to the viewer (in order, once their record is final)
+  auto publish_settled = [&](size_t settled) {
+    for (; published < settled; ++published)
       if (viewer) viewer->publish(frame_json(data, published));
-    }
   };
 
   const auto start = Clock::now();
@@ -162,8 +171,8 @@ void run_coach(CoachArgs a) {
                                  static_cast<double>(i) * data.frame_time / a.lesson.speed));
     std::this_thread::sleep_until(due);
     if (live) live->push(static_cast<int>(i));
-    publish_ready(i + 1, !live);
     played = i + 1;
+    publish_settled(live ? live->settle() : played);
     ++window_frames;
     const auto now = Clock::now();
     if (now - window_start >= std::chrono::milliseconds(500)) {
@@ -175,25 +184,40 @@ void run_coach(CoachArgs a) {
   if (live) live->finish();
   const size_t done = played;
   if (!live) replayed.pushed = static_cast<int>(played);  // an interrupted replay reports what was shown
-  publish_ready(done, true);
+  publish_settled(done);
   view.update(data, published, fps, true);
   view.close();
   const double wall = std::chrono::duration<double>(Clock::now() - start).count();
 
   // Summary.
-  int fix_count[kata::metric::kParts] = {}, scored = 0;
+  int fix_count[kata::metric::kParts] = {}, scored_frames = 0, named = 0;
+  double part_sum[kata::metric::kParts] = {};
   for (size_t i = 0; i < done; ++i)
-    if (data.frames[i].state == FrameState::kTracking || data.frames[i].state == FrameState::kTeacherFinished) {
-      ++scored;
-      if (data.frames[i].part_to_fix >= 0) ++fix_count[data.frames[i].part_to_fix];
+    if (scored(data.frames[i])) {
+      ++scored_frames;
+      for (int p = 0; p < kata::metric::kParts; ++p) part_sum[p] += data.frames[i].part_scores[p];
+      if (data.frames[i].part_to_fix >= 0) ++fix_count[data.frames[i].part_to_fix], ++named;
     }
   int most = 0;
   for (int p = 1; p < kata::metric::kParts; ++p)
     if (fix_count[p] > fix_count[most]) most = p;
-  std::printf("summary: %zu frames in %.2f s (%.0f frames/s), %d scored, mean score %.2f, part to fix most often: %s (%d%% "
-              "of frames)%s\n",
-              done, wall, done / std::max(wall, 1e-9), scored, data.mean_score(), kata::metric::part_name(most),
-              scored ? 100 * fix_count[most] / scored : 0, g_interrupted ? " (interrupted)" : "");
+  std::printf("summary: %zu frames in %.2f s (%.0f frames/s), %d scored, mean score %.2f, mean part scores", done, wall,
+              done / std::max(wall, 1e-9), scored_frames, data.mean_score());
+  for (int p = 0; p < kata::metric::kParts; ++p)
+    std::printf(" %s %.1f", kata::metric::part_name(p), scored_frames ? part_sum[p] / scored_frames : 0.0);
+  if (named)
+    std::printf(", part to fix most often: %s (%d%% of scored frames)", kata::metric::part_name(most),
+                100 * fix_count[most] / scored_frames);
+  else
+    std::printf(", no part to fix");
+  if (live) {
+    const auto c = live->counters();
+    std::printf(", %llu results published (teacher %llu), latency in->published p50 %.0f us p99 %.0f us",
+                static_cast<unsigned long long>(c.total.published), static_cast<unsigned long long>(live->teacher_results()),
+                kata::runtime::latency_percentile(c.latency_histogram, 0.5) / 1e3,
+                kata::runtime::latency_percentile(c.latency_histogram, 0.99) / 1e3);
+  }
+  std::printf("%s\n", g_interrupted ? " (interrupted)" : "");
   if (!a.csv.empty()) write_results_csv(data, a.csv);
   if (!a.record.empty() && live) {
     write_recording(data, a.record);
@@ -227,6 +251,8 @@ void setup(CLI::App& app) {
   cmd->add_option("--first-frame", a->lesson.first_frame, "first frame of each clip (default 1: skips CMU's T-pose)");
   cmd->add_option("--speed", a->lesson.speed, "playback rate, 1 = real time (default 1)");
   cmd->add_option("--window", a->lesson.window, "alignment window, teacher seconds (default 0.5)");
+  cmd->add_option("--publish", a->lesson.publish,
+                  "ZeroMQ endpoint the runtime publishes results on (default tcp://127.0.0.1:*, any free port)");
   cmd->add_flag("--headless", a->headless, "no viewer, plain progress lines (CI)");
   cmd->add_flag("--no-viewer", a->no_viewer, "no browser viewer (the terminal view stays)");
   cmd->add_option("--host", a->host, "viewer address (default 127.0.0.1)");

@@ -82,8 +82,6 @@ std::vector<int> ghost_parents(const LessonData& d) {
   return parents;
 }
 
-bool scored(const FrameRecord& r) { return r.state == FrameState::kTracking || r.state == FrameState::kTeacherFinished; }
-
 // Red (0) -> amber (50) -> green (100).
 std::string score_colour(double score) {
   const double s = std::clamp(score, 0.0, 100.0) / 100.0;
@@ -215,6 +213,8 @@ std::string setup_json(const LessonData& d, const std::string& source, const std
   append(s, "%.7g", d.frame_time);
   s += ",\"speed\":";
   append(s, "%.4g", d.settings.speed);
+  s += ",\"good_score\":";
+  append(s, "%.4g", d.good_score);
   s += ",\"teacher\":" + json_string(base_name(d.settings.teacher)) + ",\"student\":" +
        json_string(base_name(d.settings.student)) + ",\"model\":" + json_string(base_name(d.settings.model)) + "}";
   return s;
@@ -230,6 +230,8 @@ std::string frame_json(const LessonData& d, size_t i) {
   if (scored(r)) {
     s += ",\"score\":";
     append(s, "%.2f", r.score);
+    s += ",\"part_scores\":";
+    append_floats(s, r.part_scores, metric::kParts);
     s += ",\"shares\":[";
     for (int p = 0; p < metric::kParts; ++p) {
       if (p) s += ',';
@@ -271,12 +273,12 @@ std::vector<size_t> lowest_moments(const LessonData& d, size_t count) {
 
 void write_report(const LessonData& d, const std::string& path) {
   std::vector<double> time;
-  Series total{"#2d3436", "score", {}};
+  Series total{"#2d3436", "total", {}};
   std::vector<Series> parts;
   for (int p = 0; p < metric::kParts; ++p) parts.push_back({kPartColour[p], kPartLabel[p], {}});
-  double share_sum[metric::kParts] = {};
+  double part_sum[metric::kParts] = {};
   int fix_count[metric::kParts] = {};
-  int scored_frames = 0, lost = 0, finished = 0, calibrating = 0;
+  int scored_frames = 0, lost = 0, finished = 0, calibrating = 0, named = 0;
   std::vector<double> latencies;
   for (size_t i = 0; i < static_cast<size_t>(d.pushed); ++i) {
     const FrameRecord& r = d.frames[i];
@@ -284,29 +286,33 @@ void write_report(const LessonData& d, const std::string& path) {
     const bool ok = scored(r);
     total.values.push_back(ok ? r.score : NAN);
     for (int p = 0; p < metric::kParts; ++p) {
-      const double share = ok ? 100.0 * part_share(r, p) : NAN;
-      parts[static_cast<size_t>(p)].values.push_back(share);
-      if (ok) share_sum[p] += share;
+      parts[static_cast<size_t>(p)].values.push_back(ok ? r.part_scores[p] : NAN);
+      if (ok) part_sum[p] += r.part_scores[p];
     }
     if (ok) {
       ++scored_frames;
-      if (r.part_to_fix >= 0) ++fix_count[r.part_to_fix];
+      if (r.part_to_fix >= 0) ++fix_count[r.part_to_fix], ++named;
       latencies.push_back(r.latency_ns / 1e6);
     }
     lost += r.state == FrameState::kTrackingLost;
     finished += r.state == FrameState::kTeacherFinished;
     calibrating += r.state == FrameState::kCalibrating;
   }
+  double part_mean[metric::kParts] = {};
+  for (int p = 0; p < metric::kParts; ++p) part_mean[p] = scored_frames ? part_sum[p] / scored_frames : 0.0;
   const std::vector<size_t> lows = lowest_moments(d);
   const double mean = d.mean_score();
-  int most_fixed = 0;
-  for (int p = 1; p < metric::kParts; ++p)
+  int most_fixed = 0, weakest = 0;
+  for (int p = 1; p < metric::kParts; ++p) {
     if (fix_count[p] > fix_count[most_fixed]) most_fixed = p;
+    if (part_mean[p] < part_mean[weakest]) weakest = p;
+  }
   std::sort(latencies.begin(), latencies.end());
   auto pct = [&](double q) { return latencies.empty() ? 0.0 : latencies[static_cast<size_t>(q * (latencies.size() - 1))]; };
 
   std::string h;
-  h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>kata lesson report</title>\n<style>"
+  h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>kata lesson report</title>\n"
+       "<link rel=\"icon\" href=\"data:,\">\n<style>"
        "body{font-family:system-ui,sans-serif;max-width:900px;margin:24px auto;color:#2d3436;line-height:1.45}"
        "h1{margin-bottom:4px}.big{font-size:44px;font-weight:700}.muted{color:#636e72}"
        "table{border-collapse:collapse}td,th{padding:3px 10px;border-bottom:1px solid #eee;text-align:left}"
@@ -321,24 +327,36 @@ void write_report(const LessonData& d, const std::string& path) {
   h += "</span> / 100 &nbsp; mean score</p>\n";
   h += "<p>Each moment of your movement is compared with the teacher's matching moment (the teacher's clip is "
        "followed as you go, so being a little faster or slower is fine). <b>100</b> means your pose matches the "
-       "teacher's; <b>50</b> means a clear difference; low scores mean a very different pose. ";
-  if (scored_frames)
-    h += std::string("The body part that most often needed fixing: <b>") + kPartLabel[most_fixed] + "</b> (" +
-         std::to_string(100 * fix_count[most_fixed] / scored_frames) + "% of the time).";
+       "teacher's; <b>50</b> means a clear difference; low scores mean a very different pose. Each body part gets "
+       "its own score on the same scale. ";
+  if (scored_frames) {
+    h += std::string("Your weakest part on average: <b>") + kPartLabel[weakest] + "</b> (";
+    append(h, "%.0f", part_mean[weakest]);
+    h += "). ";
+    if (named) {
+      h += std::string("The part to fix named most often: <b>") + kPartLabel[most_fixed] + "</b> (" +
+           std::to_string(100 * fix_count[most_fixed] / scored_frames) + "% of the time).";
+    } else {
+      h += "No part needed fixing: every moment scored at or above ";
+      append(h, "%.0f", d.good_score);
+      h += ".";
+    }
+  }
   h += "</p>\n<h2>Score over time</h2>\n";
   h += chart(time, {total}, 100.0, "score (0-100)", lows);
-  h += "<p class=\"muted\">Dashed red lines: the three lowest moments, shown below.</p>\n";
-  h += "<h2>Where the difference is, part by part</h2>\n<p>For each moment, the share (in %) of the difference from the "
-       "teacher that each body part makes. The part with the largest share is the part to fix. (Today's model "
-       "splits the difference between the parts; a separate 0-100 score per part comes with the calibrated "
-       "model.)</p>\n";
-  h += chart(time, parts, 100.0, "share of the difference (%)", {});
+  h += "<p class=\"muted\">Dashed red lines: the three lowest moments, shown below. Gaps: moments without a score "
+       "(the start, or tracking lost).</p>\n";
+  h += "<h2>Each body part over time</h2>\n<p>The score of each body part, 0-100, on the same scale as the total. "
+       "The part to fix is the lowest one, named when the total is below ";
+  append(h, "%.0f", d.good_score);
+  h += " and it has stayed the lowest for half a second.</p>\n";
+  h += chart(time, parts, 100.0, "part score (0-100)", {});
   h += "<p class=\"key\">";
   for (int p = 0; p < metric::kParts; ++p)
     h += std::string("<span><i class=\"sw\" style=\"background:") + kPartColour[p] + "\"></i>" + kPartLabel[p] + "</span>";
   h += "</p>\n";
 
-  // Body diagram: each bone coloured by its part's mean share (green: small share, red: large).
+  // Body diagram: each bone coloured by its part's mean score (red 0 -> amber 50 -> green 100).
   h += "<h2>Your body, part by part</h2>\n<div style=\"display:flex;gap:24px;align-items:center\">";
   if (d.pushed > 0) {
     const float* pose = d.frame_positions(0);
@@ -347,26 +365,21 @@ void write_report(const LessonData& d, const std::string& path) {
     for (int j = 0; j < d.joints; ++j) lo = std::min(lo, double(pose[3 * j + 1])), hi = std::max(hi, double(pose[3 * j + 1]));
     const double scale = 300.0 / std::max(hi - lo, 1e-6);
     std::string svg = "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 260 360\" width=\"260\" height=\"360\">";
-    auto colour = [&](int j) {
-      const double share = scored_frames ? share_sum[d.joint_part[static_cast<size_t>(j)]] / scored_frames : 0.0;
-      return score_colour(100.0 - 2.5 * share);  // 0% -> green, 20% -> amber, 40% and more -> red
-    };
+    auto colour = [&](int j) { return score_colour(part_mean[d.joint_part[static_cast<size_t>(j)]]); };
     draw_figure(svg, pose, d.joint_parents, v, 130, 330 - (pose[1] - lo) * scale, scale, 9, colour);
     svg += "</svg>";
     h += svg;
   }
-  h += "<table><tr><th>part</th><th>mean share of the difference</th><th>part to fix, % of the time</th></tr>";
+  h += "<table><tr><th>part</th><th>mean score</th><th>named as the part to fix</th></tr>";
   for (int p = 0; p < metric::kParts; ++p) {
-    const double share = scored_frames ? share_sum[p] / scored_frames : 0.0;
-    h += "<tr><td><i class=\"sw\" style=\"background:" + score_colour(100.0 - 2.5 * share) + "\"></i>" + kPartLabel[p] +
-         "</td><td>";
-    append(h, "%.0f%%", share);
+    h += "<tr><td><i class=\"sw\" style=\"background:" + score_colour(part_mean[p]) + "\"></i>" + kPartLabel[p] + "</td><td>";
+    append(h, "%.0f", part_mean[p]);
     h += "</td><td>";
-    append(h, "%.0f%%", scored_frames ? 100.0 * fix_count[p] / scored_frames : 0.0);
+    append(h, "%.0f%% of the time", scored_frames ? 100.0 * fix_count[p] / scored_frames : 0.0);
     h += "</td></tr>";
   }
-  h += "</table></div>\n<p class=\"muted\">Colours: green = that part is close to the teacher, red = it makes most of "
-       "the difference (20% share is amber, 40% and more red).</p>\n";
+  h += "</table></div>\n<p class=\"muted\">Colours: each part's mean score: green = close to the teacher (100), amber "
+       "= a clear difference (50), red = far from it (0).</p>\n";
 
   // The three lowest moments: student and ghost (the teacher's pose on your body) side by side.
   h += "<h2>The three lowest moments</h2>\n<p>Left: <b style=\"color:" + std::string(kStudentColour) +
@@ -383,18 +396,26 @@ void write_report(const LessonData& d, const std::string& path) {
     const double scale = 200.0 / std::max(hi - lo + 6.0, 1e-6);
     std::string svg = "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 260 250\" width=\"260\" height=\"250\">";
     const double root_y = 230 - (pose[1] - lo) * scale;
-    draw_figure(svg, pose, d.joint_parents, v, 70, root_y, scale, 5, [](int) { return std::string(kStudentColour); });
+    // You: each bone in its part's score at that moment; the ghost in one colour.
+    draw_figure(svg, pose, d.joint_parents, v, 70, root_y, scale, 5,
+                [&](int j) { return score_colour(r.part_scores[d.joint_part[static_cast<size_t>(j)]]); });
     if (r.has_ghost) {
       const std::vector<int> gp = ghost_parents(d);
       draw_figure(svg, d.frame_ghost(i), gp, v, 190, root_y, scale, 5, [](int) { return std::string(kGhostColour); });
     }
-    svg += "</svg>";
+    svg += "<text x=\"70\" y=\"246\" text-anchor=\"middle\" font-size=\"11\">you</text><text x=\"190\" y=\"246\" "
+           "text-anchor=\"middle\" font-size=\"11\">teacher (ghost)</text></svg>";
     h += "<div class=\"moment\"><b>" + std::to_string(m + 1) + ".</b> at ";
     append(h, "%.2f s", r.time);
     h += ", score ";
     append(h, "%.0f", r.score);
     if (r.part_to_fix >= 0) h += std::string(", fix: <b>") + kPartLabel[r.part_to_fix] + "</b>";
-    h += "<br>" + svg + "</div>";
+    h += "<br>" + svg + "<br><span class=\"muted\" style=\"font-size:12px\">";
+    for (int p = 0; p < metric::kParts; ++p) {
+      h += std::string(p ? ", " : "") + kPartLabel[p] + " ";
+      append(h, "%.0f", r.part_scores[p]);
+    }
+    h += "</span></div>";
   }
   h += "</div>\n";
 
@@ -405,16 +426,19 @@ void write_report(const LessonData& d, const std::string& path) {
   row("student", base_name(d.settings.student) + " (" + std::to_string(d.student_frames) + " frames from frame " +
                      std::to_string(d.settings.first_frame) + ")");
   row("model", base_name(d.settings.model));
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "calibrated: distance %.4g scores 50 (model threshold %.4g); a part is named below %.0f",
+                d.d50, d.delta_star, d.good_score);
+  row("score map", buf);
   row("skeleton preset", d.settings.preset);
-  char buf[160];
-  std::snprintf(buf, sizeof buf, "%.3g x real time", d.settings.speed);
+  std::snprintf(buf, sizeof buf, "%.3g x real time, both clips as live streams through the kata runtime", d.settings.speed);
   row("playback", buf);
   std::snprintf(buf, sizeof buf, "%.2f s of teacher ahead of the last match", d.settings.window);
   row("alignment window", buf);
   std::snprintf(buf, sizeof buf, "%d scored, %d calibrating, %d tracking lost, %d after the teacher finished",
                 scored_frames, calibrating, lost, finished);
   row("frames", buf);
-  std::snprintf(buf, sizeof buf, "p50 %.2f ms, p99 %.2f ms (frame in -> score and ghost out)", pct(0.5), pct(0.99));
+  std::snprintf(buf, sizeof buf, "p50 %.2f ms, p99 %.2f ms (frame in -> score and ghost published)", pct(0.5), pct(0.99));
   row("latency", buf);
   h += "</table>\n<p class=\"muted\">Made by <code>kata coach</code>.</p></body></html>\n";
 

@@ -2,6 +2,7 @@
 
 #include <zlib.h>
 
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
@@ -140,7 +141,7 @@ void write_recording(const LessonData& d, const std::string& path) {
   const size_t F = static_cast<size_t>(d.pushed), J = static_cast<size_t>(d.joints), G = static_cast<size_t>(d.ghost_joints);
   std::vector<double> time(F);
   std::vector<uint8_t> state(F), has_ghost(F);
-  std::vector<float> score(F), distance(F), parts(F * metric::kParts);
+  std::vector<float> score(F), distance(F), parts(F * metric::kParts), part_scores(F * metric::kParts);
   std::vector<int32_t> fix(F), matched(F);
   std::vector<int64_t> latency(F);
   for (size_t i = 0; i < F; ++i) {
@@ -149,14 +150,15 @@ void write_recording(const LessonData& d, const std::string& path) {
     score[i] = r.score, distance[i] = r.distance, fix[i] = r.part_to_fix, matched[i] = r.matched;
     latency[i] = r.latency_ns;
     std::copy(r.parts, r.parts + metric::kParts, parts.begin() + static_cast<ptrdiff_t>(i * metric::kParts));
+    std::copy(r.part_scores, r.part_scores + metric::kParts, part_scores.begin() + static_cast<ptrdiff_t>(i * metric::kParts));
   }
   const std::vector<int32_t> parents(d.joint_parents.begin(), d.joint_parents.end());
   const std::vector<int32_t> joint_part(d.joint_part.begin(), d.joint_part.end());
   const std::vector<int32_t> sources(d.ghost_sources.begin(), d.ghost_sources.end());
   const int32_t hips[2] = {d.left_hip, d.right_hip};
-  const double numbers[7] = {d.frame_time, d.delta_star, d.settings.speed, d.settings.window,
+  const double numbers[9] = {d.frame_time, d.delta_star, d.settings.speed, d.settings.window,
                              static_cast<double>(d.settings.first_frame), static_cast<double>(d.teacher_frames),
-                             static_cast<double>(d.student_frames)};
+                             static_cast<double>(d.student_frames), d.d50, d.good_score};
   std::string text = d.settings.model + "\n" + d.settings.teacher + "\n" + d.settings.student + "\n" + d.settings.preset + "\n";
   for (const std::string& n : d.joint_names) text += n + "\n";
   const size_t K = static_cast<size_t>(metric::kParts);
@@ -167,6 +169,7 @@ void write_recording(const LessonData& d, const std::string& path) {
       {"score", make_array("<f4", {F}, score.data())},
       {"distance", make_array("<f4", {F}, distance.data())},
       {"parts", make_array("<f4", {F, K}, parts.data())},
+      {"part_scores", make_array("<f4", {F, K}, part_scores.data())},
       {"part_to_fix", make_array("<i4", {F}, fix.data())},
       {"matched", make_array("<i4", {F}, matched.data())},
       {"latency_ns", make_array("<i8", {F}, latency.data())},
@@ -176,7 +179,7 @@ void write_recording(const LessonData& d, const std::string& path) {
       {"joint_part", make_array("<i4", {J}, joint_part.data())},
       {"ghost_sources", make_array("<i4", {G}, sources.data())},
       {"hips", make_array("<i4", {2}, hips)},
-      {"numbers", make_array("<f8", {7}, numbers)},
+      {"numbers", make_array("<f8", {9}, numbers)},
       {"text", make_array("|u1", {text.size()}, reinterpret_cast<const uint8_t*>(text.data()))},
   };
   std::vector<std::pair<std::string, std::string>> files;
@@ -191,8 +194,12 @@ void write_recording(const LessonData& d, const std::string& path) {
 LessonData read_recording(const std::string& path) {
   auto arrays = read_npz(path);
   LessonData d;
-  const std::vector<double> numbers = take<double>(arrays, path, "numbers", "<f8", {7});
+  const std::vector<double> numbers = take<double>(arrays, path, "numbers", "<f8", {9});
   d.frame_time = numbers[0], d.delta_star = numbers[1], d.settings.speed = numbers[2], d.settings.window = numbers[3];
+  d.d50 = numbers[7], d.good_score = numbers[8];
+  for (double v : numbers)
+    if (!std::isfinite(v)) throw Error(ErrorKind::kParse, path + ": array 'numbers' holds a non-finite value");
+  if (!(d.frame_time > 0.0)) throw Error(ErrorKind::kParse, path + ": frame_time (numbers[0]) must be > 0");
   d.settings.first_frame = static_cast<int>(numbers[4]), d.teacher_frames = static_cast<int>(numbers[5]);
   const std::vector<int32_t> parents = take<int32_t>(arrays, path, "joint_parents", "<i4", {0});
   const std::vector<int32_t> sources = take<int32_t>(arrays, path, "ghost_sources", "<i4", {0});
@@ -220,6 +227,7 @@ LessonData read_recording(const std::string& path) {
   const auto score = take<float>(arrays, path, "score", "<f4", {F});
   const auto distance = take<float>(arrays, path, "distance", "<f4", {F});
   const auto parts = take<float>(arrays, path, "parts", "<f4", {F, static_cast<size_t>(metric::kParts)});
+  const auto part_scores = take<float>(arrays, path, "part_scores", "<f4", {F, static_cast<size_t>(metric::kParts)});
   const auto fix = take<int32_t>(arrays, path, "part_to_fix", "<i4", {F});
   const auto matched = take<int32_t>(arrays, path, "matched", "<i4", {F});
   const auto latency = take<int64_t>(arrays, path, "latency_ns", "<i8", {F});
@@ -243,6 +251,8 @@ LessonData read_recording(const std::string& path) {
     r.latency_ns = latency[i], r.has_ghost = has_ghost[i] != 0 && G > 0;
     std::copy(parts.begin() + static_cast<ptrdiff_t>(i * metric::kParts),
               parts.begin() + static_cast<ptrdiff_t>((i + 1) * metric::kParts), r.parts);
+    std::copy(part_scores.begin() + static_cast<ptrdiff_t>(i * metric::kParts),
+              part_scores.begin() + static_cast<ptrdiff_t>((i + 1) * metric::kParts), r.part_scores);
   }
   return d;
 }
@@ -252,12 +262,14 @@ void write_results_csv(const LessonData& d, const std::string& path) {
   if (!out) throw Error(ErrorKind::kIo, path + ": cannot open for writing");
   std::fprintf(out, "frame,time,state,score,distance");
   for (int p = 0; p < metric::kParts; ++p) std::fprintf(out, ",%s", metric::part_name(p));
+  for (int p = 0; p < metric::kParts; ++p) std::fprintf(out, ",%s_score", metric::part_name(p));
   std::fprintf(out, ",part_to_fix,matched_teacher_frame\n");
   for (size_t i = 0; i < static_cast<size_t>(d.pushed); ++i) {
     const FrameRecord& r = d.frames[i];
     std::fprintf(out, "%lld,%.6f,%d,%.9g,%.9g", static_cast<long long>(r.frame), r.time, static_cast<int>(r.state), r.score,
                  r.distance);
     for (float p : r.parts) std::fprintf(out, ",%.9g", p);
+    for (float p : r.part_scores) std::fprintf(out, ",%.9g", p);
     std::fprintf(out, ",%d,%d\n", r.part_to_fix, r.matched);
   }
   const bool ok = std::fflush(out) == 0 && !std::ferror(out);

@@ -8,17 +8,18 @@
 //   score         float32 (F)        0-100 (0 when not scored)
 //   distance      float32 (F)        the metric distance
 //   parts         float32 (F, P)     the split of distance^2 over the parts
-//   part_to_fix   int32   (F)        argmax of parts (-1: none)
+//   part_scores   float32 (F, P)     each part's calibrated 0-100 score
+//   part_to_fix   int32   (F)        the scorer's part to fix (-1: none)
 //   matched       int32   (F)        teacher frame matched, from first_frame (-1: none)
-//   latency_ns    int64   (F)        push -> result, steady clock
+//   latency_ns    int64   (F)        frame in -> result published, steady clock
 //   ghosts        float32 (F, G, 3)  the teacher's pose on the student's body (zeros: none)
 //   has_ghost     uint8   (F)
 //   joint_parents int32   (J)        the student skeleton (parents[0] = -1)
 //   joint_part    int32   (J)        body part of each joint
 //   ghost_sources int32   (G)        student joint each ghost joint stands for
 //   hips          int32   (2)        student joints of the left and right hip
-//   numbers       float64 (7)        frame_time, delta_star, speed, window, first_frame,
-//                                    teacher_frames, student_frames
+//   numbers       float64 (9)        frame_time, delta_star, speed, window, first_frame,
+//                                    teacher_frames, student_frames, d50, good_score
 //   text          uint8   (n)        UTF-8 lines: model, teacher, student, preset, then the J joint names
 #pragma once
 
@@ -34,8 +35,8 @@ void write_recording(const LessonData& data, const std::string& path);
 // the array at fault.
 LessonData read_recording(const std::string& path);
 
-// Every frame's result as CSV: frame, time, state, score, distance, the five parts, part_to_fix,
-// matched_teacher_frame. Throws kata::Error(kIo).
+// Every frame's result as CSV: frame, time, state, score, distance, the five parts (split of
+// distance^2), the five part scores (<part>_score), part_to_fix, matched_teacher_frame. Throws kata::Error(kIo).
 void write_results_csv(const LessonData& data, const std::string& path);
 
 }  // namespace kata::coach
