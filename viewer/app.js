@@ -1,11 +1,13 @@
 // kata coach's live viewer: server-sent events from the coach (/events) -> the student's skeleton
-// in 3D (three.js) with the teacher's ghost over it, body parts coloured by their share of the
-// difference, score timeline, part to fix, state. Reconnects by itself after a dropped connection
-// and resumes after the last frame it received. window.kata exposes counters for tests.
+// in 3D (three.js) with the teacher's ghost over it, each body part coloured by its own score
+// (red 0, amber 50, green 100), score timeline, part to fix, state (calibrating, tracking, tracking
+// lost, teacher finished). Reconnects by itself after a dropped connection and resumes after the
+// last frame it received. window.kata exposes counters for tests (frames, states seen, ...).
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
-const kata = (window.kata = { frames: 0, connected: false, reconnects: 0, drawn: 0, lastId: -1, ended: false, mode: '' });
+const kata = (window.kata = { frames: 0, connected: false, reconnects: 0, drawn: 0, lastId: -1, ended: false, mode: '',
+  states: {}, state: '', partColours: [] });
 const $ = (id) => document.getElementById(id);
 
 let setup = null;          // the "setup" event
@@ -13,13 +15,14 @@ let latest = null;         // the newest frame event
 const scores = [];         // per frame index: score or null
 let scoreSum = 0, scoreCount = 0;
 
-// Colour of a part from its share of the difference: green (small) -> amber (20%) -> red (40%+).
-function shareColour(share) {
-  const s = Math.max(0, Math.min(1, 1 - 2.5 * share));  // 1 = good
+// Colour of a 0-100 score: red (0) -> amber (50) -> green (100); the report uses the same map.
+function scoreColour(score) {
+  const s = Math.max(0, Math.min(1, score / 100));
   const r = s < 0.5 ? 220 : Math.round(220 - (s - 0.5) * 2 * 180);
   const g = s < 0.5 ? Math.round(60 + s * 2 * 140) : 200;
   return `rgb(${r},${g},60)`;
 }
+const unscoredColour = '#8a929c';  // calibrating / tracking lost: no part score to show
 
 // ---- 3D scene (three.js), or a 2D front view when WebGL is unavailable -----------------------
 const sceneDiv = $('scene');
@@ -127,7 +130,7 @@ function draw2d() {
 }
 
 function partColour(part) {
-  return latest && latest.shares ? shareColour(latest.shares[part]) : '#5b9bff';
+  return latest && latest.part_scores ? scoreColour(latest.part_scores[part]) : unscoredColour;
 }
 
 function render() {
@@ -166,25 +169,43 @@ function buildPanel() {
 }
 
 const stateClass = { 'tracking': 'tracking', 'calibrating': 'calibrating', 'tracking lost': 'lost', 'teacher finished': 'finished' };
+// What the big label over the 3D view says in each state (nothing while tracking).
+const stateBanner = {
+  'calibrating': 'calibrating: hold on, scoring starts in a moment',
+  'tracking lost': 'tracking lost: the body is not fully visible',
+  'teacher finished': 'teacher finished: the teacher\'s clip is over',
+};
 function showFrame(f) {
   const st = $('state');
   st.textContent = f.state;
   st.className = 'badge ' + (stateClass[f.state] || '');
+  kata.state = f.state;
+  kata.states[f.state] = (kata.states[f.state] || 0) + 1;
+  const banner = $('banner');
+  banner.textContent = stateBanner[f.state] || '';
+  banner.className = stateClass[f.state] || '';
   $('frames').textContent = kata.frames;
   if (f.score !== undefined) {
     $('score').textContent = f.score.toFixed(0);
-    $('score').style.color = shareColour((100 - f.score) / 250);
+    $('score').style.color = scoreColour(f.score);
     $('mean').textContent = (scoreSum / Math.max(scoreCount, 1)).toFixed(1);
-    $('fix').textContent = f.fix >= 0 ? setup.part_labels[f.fix] : '-';
+    $('fix').textContent = f.fix >= 0 ? setup.part_labels[f.fix] : 'nothing: well done';
+    $('fix').style.color = f.fix >= 0 ? scoreColour(f.part_scores[f.fix]) : '';
     $('matched').textContent = f.matched;
     $('latency').textContent = (f.latency_us / 1000).toFixed(2) + ' ms';
-    f.shares.forEach((s, p) => {
-      $('share' + p).textContent = Math.round(100 * s) + '%';
+    f.part_scores.forEach((s, p) => {
+      $('share' + p).textContent = s.toFixed(0);
       const bar = $('bar' + p);
-      bar.style.width = (100 * s).toFixed(0) + '%';
-      bar.style.background = shareColour(s);
+      bar.style.width = Math.max(0, Math.min(100, s)).toFixed(0) + '%';
+      bar.style.background = scoreColour(s);
     });
+  } else {
+    $('score').textContent = '-';
+    $('score').style.color = '';
+    $('fix').textContent = '-';
+    $('fix').style.color = '';
   }
+  kata.partColours = setup.part_labels.map((_, p) => partColour(p));
 }
 
 function drawTimeline() {
@@ -234,6 +255,7 @@ function connect() {
     kata.lastId = Number(e.lastEventId);
     kata.frames++;
     latest = f;
+    kata.latest = f;
     if (f.score !== undefined) { scores[f.i] = f.score; scoreSum += f.score; scoreCount++; } else scores[f.i] = null;
     timelineDirty = true;
     showFrame(f);

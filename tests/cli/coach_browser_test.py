@@ -5,8 +5,13 @@ While a recorded lesson is replayed into the viewer (loopback only):
   1. the page connects and receives frames (window.kata.frames, the counter the page exposes),
   2. it draws: in a screenshot, the middle of the 3D view holds skeleton-coloured pixels
      (saturated colours; the background and the floor grid are grey),
-  3. it survives a server restart: the coach is killed, the page notices, a new coach starts on
-     the same port, and the page reconnects by itself and receives more frames.
+  3. it colours each body part by its part score (the page's colour of every part equals the
+     score colour of that part's score in the newest frame, computed here) and shows the states
+     (calibrating at the start, then tracking),
+  4. it survives a server restart: the coach is killed, the page notices, a new coach starts on
+     the same port, and the page reconnects by itself and receives more frames,
+  5. after that lesson ends, a new live lesson on the same port (teacher CMU 09_01, 1.2 s, against
+     a longer student, 07_01) is picked up by the page, which shows "teacher finished".
 Then the HTML report renders in headless Chromium without a console error.
 
 Usage: coach_browser_test.py --kata build/bin/kata --source-dir . [--screenshots DIR]
@@ -52,6 +57,14 @@ def start_replay(kata, source_dir, recording, port, log, speed):
                              "--linger", "60", "--report", ""], cwd=source_dir, stdout=log, stderr=subprocess.STDOUT)
 
 
+def score_colour(score):
+    """The viewer's and the report's colour map: red (0) -> amber (50) -> green (100)."""
+    s = max(0.0, min(1.0, score / 100.0))
+    r = 220 if s < 0.5 else round(220 - (s - 0.5) * 2 * 180)
+    g = round(60 + s * 2 * 140) if s < 0.5 else 200
+    return f"rgb({r},{g},60)"
+
+
 def skeleton_pixels(png, rect):
     """Saturated pixels (max - min channel > 60) in the middle half of rect: the bones."""
     img = Image.open(io.BytesIO(png)).convert("RGB")
@@ -86,8 +99,9 @@ def main():
                        cwd=a.source_dir, check=True, stdout=subprocess.DEVNULL, timeout=120)
         port = free_port()
         log = open(os.path.join(work, "coach.log"), "w")
-        # Half speed: the lesson (7 s of motion) outlasts Chromium's start-up.
-        servers.append(start_replay(kata, a.source_dir, recording, port, log, 0.5))
+        # Quarter speed: the lesson (7 s of motion, 29 s played) outlasts Chromium's start-up on a
+        # loaded machine, so the restart below happens mid-lesson.
+        servers.append(start_replay(kata, a.source_dir, recording, port, log, 0.25))
         url = f"http://127.0.0.1:{port}/"
         wait_for("the coach's viewer to listen", lambda: socket.socket().connect_ex(("127.0.0.1", port)) == 0, 20)
 
@@ -95,7 +109,7 @@ def main():
         driver.set_page_load_timeout(30)
         driver.get(url)
         frames = lambda: driver.execute_script("return window.kata ? window.kata.frames : 0")
-        wait_for("the page to connect and receive 30 frames", lambda: frames() >= 30, 20)
+        wait_for("the page to connect and receive 60 frames", lambda: frames() >= 60, 25)
         time.sleep(1.0)  # a few animation frames with the skeleton on screen
         mode = driver.execute_script("return window.kata.mode")
         rect = driver.execute_script("return document.getElementById('scene').getBoundingClientRect().toJSON()")
@@ -108,7 +122,16 @@ def main():
                 f.write(png)
         print(f"viewer: connected, {frames()} frames, {coloured} skeleton pixels ({mode} view)")
 
+        # Each part in its own score's colour, from the frame on screen.
+        shown = driver.execute_script(
+            "return {scores: window.kata.latest.part_scores, colours: window.kata.partColours}")
+        expected = [score_colour(v) for v in shown["scores"]]
+        assert shown["colours"] == expected, f"part colours {shown['colours']} != from part scores {expected}"
+        states = driver.execute_script("return window.kata.states")
+        assert states.get("calibrating", 0) > 0 and states.get("tracking", 0) > 0, f"states seen: {states}"
+
         # Server restart: the page must notice, then reconnect by itself and receive new frames.
+        assert not driver.execute_script("return window.kata.ended"), "the lesson ended before the restart"
         servers[0].send_signal(signal.SIGTERM)
         servers[0].wait(timeout=20)
         wait_for("the page to notice the lost server", lambda: not driver.execute_script("return window.kata.connected"), 20)
@@ -117,8 +140,23 @@ def main():
         servers.append(start_replay(kata, a.source_dir, recording, port, log, 4))
         wait_for("the page to reconnect", lambda: driver.execute_script("return window.kata.connected"), 30)
         wait_for("frames after the restart", lambda: frames() > before + 10, 30)
+        reconnects = driver.execute_script("return window.kata.reconnects")
+        assert reconnects >= 1, "the page did not reconnect by itself"
         print(f"restart: reconnected ({driver.execute_script('return window.kata.reconnects')} reconnections), "
               f"{frames() - before} frames since")
+
+        # The lesson ends; a new live lesson on the same port is picked up (the page polls /status).
+        wait_for("the end of the replayed lesson", lambda: driver.execute_script("return window.kata.ended"), 40)
+        servers[1].send_signal(signal.SIGTERM)
+        servers[1].wait(timeout=20)
+        servers.append(subprocess.Popen(
+            [kata, "coach", "--teacher", "data/cmu/09_01.bvh", "--student", "data/cmu/07_01.bvh", "--speed", "2",
+             "--port", str(port), "--linger", "60", "--report", ""],
+            cwd=a.source_dir, stdout=log, stderr=subprocess.STDOUT))
+        wait_for("the page to show 'teacher finished' from the new lesson",
+                 lambda: driver.execute_script("return window.kata.states['teacher finished'] || 0") > 0, 30)
+        wait_for("the banner", lambda: "teacher finished" in driver.find_element("id", "banner").text, 10)
+        print(f"new lesson: states seen {driver.execute_script('return window.kata.states')}")
         driver.get_log("browser")  # drop the viewer's messages (refused connections while the server was down)
 
         # The report renders without console errors.
