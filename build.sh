@@ -76,21 +76,20 @@ aarch64_build() {
 }
 
 demo() {
-  local kata=build/bin/kata
-  echo "== GPD v1 features of a CMU walk (subject 2), every frame through a live stream"
-  "$kata" features --bvh data/cmu/02_01.bvh --preset cmu --out build/02_01-features.npy
-  if [ -f models/default.kata ]; then
-    echo "== the shipped model"
-    "$kata" model-info models/default.kata
-    echo "== scoring a student (subject 7 walking) against a teacher (subject 2 walking)"
-    "$kata" score --model models/default.kata --teacher data/cmu/02_01.bvh --student data/cmu/07_01.bvh \
-      --preset cmu --first-frame 1 --out build/scores.csv
-    head -n 5 build/scores.csv
-  fi
-  if "$kata" retarget --help >/dev/null 2>&1; then
-    echo "== the teacher's walk retargeted onto the student's body (a ghost to draw over the student)"
-    "$kata" retarget --teacher data/cmu/02_01.bvh --student data/cmu/07_01.bvh --preset cmu --out build/ghost.bvh
-  fi
+  # The coaching lesson on the default data (teacher CMU 05_18, student 05_19's motion on subject
+  # 2's body; data/cmu/README.md): both clips as live streams through the runtime at real time,
+  # the terminal view, the browser viewer, the report. DEMO_ARGS adds options (e.g. --speed 4).
+  local kata=build/bin/kata linger=()
+  # On a terminal the viewer stays up until Ctrl-C; otherwise (scripts, CI) the demo ends.
+  [ -t 0 ] || linger=(--linger "${DEMO_LINGER:-0}")
+  echo "== kata coach: the viewer is at http://127.0.0.1:${DEMO_PORT:-8765}/ (open it in a browser)"
+  trap ':' INT  # Ctrl-C ends the coach (it finishes cleanly), not this script
+  # shellcheck disable=SC2086
+  "$kata" coach --port "${DEMO_PORT:-8765}" --report build/lesson-report.html --record build/lesson.npz \
+    "${linger[@]}" ${DEMO_ARGS:-}
+  trap - INT
+  echo "== the report: file://$PWD/build/lesson-report.html"
+  echo "== watch the lesson again: $kata coach --replay build/lesson.npz"
 }
 
 # Builds the fuzz targets (tests/fuzz/README.md) and runs each for FUZZ_SECONDS over its seed
