@@ -36,7 +36,8 @@ struct CliRun {
 
 CliRun run_in_source_dir(const std::string& args, const kata::test::TempDir& dir) {
   const std::string log = dir.file("coach.log");
-  const std::string cmd = std::string("cd ") + KATA_SOURCE_DIR + " && " + KATA_CLI + " " + args + " >" + log + " 2>&1";
+  // Bounded: a coach that hangs is killed (the lesson takes about a second at --speed 8).
+  const std::string cmd = std::string("cd ") + KATA_SOURCE_DIR + " && timeout 120 " + KATA_CLI + " " + args + " >" + log + " 2>&1";
   const int status = std::system(cmd.c_str());
   std::ifstream in(log);
   std::stringstream ss;

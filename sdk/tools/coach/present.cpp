@@ -13,7 +13,6 @@ namespace {
 // Colours of the five parts (lines of the per-part chart) and of the two figures.
 const char* const kPartColour[metric::kParts] = {"#6c5ce7", "#0984e3", "#00b894", "#e17055", "#d63031"};
 const char* const kPartLabel[metric::kParts] = {"torso and head", "left arm", "right arm", "left leg", "right leg"};
-const char* const kStudentColour = "#2d6cdf";
 const char* const kGhostColour = "#f39c12";
 
 void append(std::string& out, const char* fmt, double v) {
@@ -382,8 +381,8 @@ void write_report(const LessonData& d, const std::string& path) {
        "= a clear difference (50), red = far from it (0).</p>\n";
 
   // The three lowest moments: student and ghost (the teacher's pose on your body) side by side.
-  h += "<h2>The three lowest moments</h2>\n<p>Left: <b style=\"color:" + std::string(kStudentColour) +
-       "\">you</b>. Right: the <b style=\"color:" + kGhostColour +
+  h += "<h2>The three lowest moments</h2>\n<p>Left: <b>you</b>, each body part in the colour of its score at that "
+       "moment. Right: the <b style=\"color:" + std::string(kGhostColour) +
        "\">teacher's pose on your body</b> (the \"ghost\": same moment, your bone lengths). Both are drawn facing "
        "you.</p>\n<div class=\"moments\">";
   for (size_t m = 0; m < lows.size(); ++m) {
