@@ -80,9 +80,14 @@ class TerminalView {
     const int filled = total ? static_cast<int>(width * shown / total) : 0;
     std::string bar(static_cast<size_t>(filled), '#');
     bar.resize(width, '.');
-    for (; latency_count_ < shown; ++latency_count_)
-      if (scored(d.frames[latency_count_]) && d.frames[latency_count_].latency_ns > 0)
-        latencies_.push_back(d.frames[latency_count_].latency_ns / 1e6);
+    // Only the first `shown` frames are final (later ones may still be written by the runtime's
+    // I/O thread), so the view keeps its own running mean and latencies over them.
+    for (; latency_count_ < shown; ++latency_count_) {
+      const FrameRecord& f = d.frames[latency_count_];
+      if (!scored(f)) continue;
+      score_sum_ += f.score, ++scored_;
+      if (f.latency_ns > 0) latencies_.push_back(f.latency_ns / 1e6);
+    }
     sorted_ = latencies_;  // reserved at the lesson's length: no allocation
     std::sort(sorted_.begin(), sorted_.end());
     auto pct = [&](double q) { return sorted_.empty() ? 0.0 : sorted_[static_cast<size_t>(q * (sorted_.size() - 1))]; };
@@ -91,7 +96,7 @@ class TerminalView {
                            shown ? d.frames[shown - 1].time : 0.0);
     const FrameRecord* r = shown ? &d.frames[shown - 1] : nullptr;
     if (r && scored(*r)) {
-      append_line(line, sizeof line, at, " | score %3.0f (mean %4.1f) |", r->score, d.mean_score());
+      append_line(line, sizeof line, at, " | score %3.0f (mean %4.1f) |", r->score, score_sum_ / std::max(scored_, 1));
       static const char* const kShort[kata::metric::kParts] = {"torso", "l.arm", "r.arm", "l.leg", "r.leg"};
       for (int p = 0; p < kata::metric::kParts; ++p) append_line(line, sizeof line, at, " %s %3.0f", kShort[p], r->part_scores[p]);
       append_line(line, sizeof line, at, " | fix: %-10s", r->part_to_fix >= 0 ? kata::metric::part_name(r->part_to_fix) : "-");
@@ -111,7 +116,9 @@ class TerminalView {
  private:
   bool interactive_;
   Clock::time_point last_{};
-  size_t latency_count_ = 0;
+  size_t latency_count_ = 0;  // frames taken into the running figures
+  double score_sum_ = 0.0;
+  int scored_ = 0;
   std::vector<double> latencies_, sorted_;
 };
 
