@@ -20,6 +20,7 @@ Exit 0 on success; every wait is bounded (the whole test takes under a minute).
 import argparse
 import io
 import os
+import re
 import shutil
 import signal
 import socket
@@ -36,10 +37,11 @@ CHROMIUM_FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-back
                   "--disable-component-update", "--disable-sync", "--no-first-run", "--window-size=1280,800"]
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+def viewer_port(log_path):
+    """The port a coach started with --port 0 printed ("viewer: http://127.0.0.1:PORT/")."""
+    with open(log_path) as f:
+        m = re.search(r"viewer: http://127\.0\.0\.1:(\d+)/", f.read())
+    return int(m.group(1)) if m else 0
 
 
 def wait_for(what, predicate, timeout):
@@ -97,11 +99,13 @@ def main():
         recording, report = os.path.join(work, "lesson.npz"), os.path.join(work, "lesson.html")
         subprocess.run([kata, "coach", "--headless", "--speed", "16", "--record", recording, "--report", report],
                        cwd=a.source_dir, check=True, stdout=subprocess.DEVNULL, timeout=120)
-        port = free_port()
-        log = open(os.path.join(work, "coach.log"), "w")
+        log_path = os.path.join(work, "coach.log")
+        log = open(log_path, "w")
         # Quarter speed: the lesson (7 s of motion, 29 s played) outlasts Chromium's start-up on a
-        # loaded machine, so the restart below happens mid-lesson.
-        servers.append(start_replay(kata, a.source_dir, recording, port, log, 0.25))
+        # loaded machine, so the restart below happens mid-lesson. Port 0: the coach takes a free
+        # port (no race with other tests); the restarts reuse it.
+        servers.append(start_replay(kata, a.source_dir, recording, 0, log, 0.25))
+        port = wait_for("the coach's viewer port", lambda: viewer_port(log_path), 20)
         url = f"http://127.0.0.1:{port}/"
         wait_for("the coach's viewer to listen", lambda: socket.socket().connect_ex(("127.0.0.1", port)) == 0, 20)
 
