@@ -68,7 +68,10 @@ __attribute__((format(printf, 4, 5))) void append_line(char* line, size_t size, 
 // (frame in -> result published, over the lesson so far).
 class TerminalView {
  public:
-  TerminalView(bool interactive, size_t frames) : interactive_(interactive) { latencies_.reserve(frames); }
+  TerminalView(bool interactive, size_t frames) : interactive_(interactive) {
+    latencies_.reserve(frames);
+    sorted_.reserve(frames);
+  }
 
   void update(const LessonData& d, size_t shown, double fps, bool force = false) {
     const auto now = Clock::now();
