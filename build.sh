@@ -7,6 +7,7 @@
 #   ./build.sh clang     everything built with Debian's clang, warnings as errors, the whole suite run
 #   ./build.sh aarch64   cross build for 64-bit ARM: the library and its GPD, metric, retarget and
 #                        C ABI tests, run under qemu-user (no trainer, tools or benchmarks)
+#   ./build.sh browser-test   the coach's viewer and report in headless Chromium (ctest label browser)
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -14,7 +15,8 @@ cd "$(dirname "$0")"
 PACKAGES=(build-essential cmake pkg-config libeigen3-dev libzmq3-dev cppzmq-dev libflatbuffers-dev
           flatbuffers-compiler flatbuffers-compiler-dev libgtest-dev libgmock-dev libbenchmark-dev
           libcli11-dev nlohmann-json3-dev libxsimd-dev ccache libtomlplusplus-dev libcpp-httplib-dev python3 python3-numpy python3-matplotlib python3-zmq python3-flatbuffers
-          python3-pytest mono-mcs mono-runtime)
+          python3-pytest mono-mcs mono-runtime
+          chromium chromium-driver python3-selenium python3-pil)
 # Only `./build.sh fuzz` needs these (Debian's clang and its libFuzzer runtime).
 FUZZ_PACKAGES=(clang-14 libclang-rt-14-dev)
 # Only for `./build.sh clang` / `./build.sh aarch64` (arm64 multiarch: the arm64 builds of the
@@ -29,6 +31,9 @@ deps() {  # deps [package...]: the given packages, or PACKAGES
   for p in "${wanted[@]}"; do
     dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
   done
+  # npm installs three.js for the coach's viewer (npm ci, pinned by viewer/package-lock.json); any
+  # npm will do (Debian's, or one that came with a Node.js install).
+  [ $# -eq 0 ] && ! command -v npm >/dev/null && missing+=(npm)
   [ ${#missing[@]} -eq 0 ] && return 0
   echo "== installing: ${missing[*]}"
   local sudo=""
@@ -71,21 +76,20 @@ aarch64_build() {
 }
 
 demo() {
-  local kata=build/bin/kata
-  echo "== GPD v1 features of a CMU walk (subject 2), every frame through a live stream"
-  "$kata" features --bvh data/cmu/02_01.bvh --preset cmu --out build/02_01-features.npy
-  if [ -f models/default.kata ]; then
-    echo "== the shipped model"
-    "$kata" model-info models/default.kata
-    echo "== scoring a student (subject 7 walking) against a teacher (subject 2 walking)"
-    "$kata" score --model models/default.kata --teacher data/cmu/02_01.bvh --student data/cmu/07_01.bvh \
-      --preset cmu --first-frame 1 --out build/scores.csv
-    head -n 5 build/scores.csv
-  fi
-  if "$kata" retarget --help >/dev/null 2>&1; then
-    echo "== the teacher's walk retargeted onto the student's body (a ghost to draw over the student)"
-    "$kata" retarget --teacher data/cmu/02_01.bvh --student data/cmu/07_01.bvh --preset cmu --out build/ghost.bvh
-  fi
+  # The coaching lesson on the default data (teacher CMU 05_18, student 05_19's motion on subject
+  # 2's body; data/cmu/README.md): both clips as live streams through the runtime at real time,
+  # the terminal view, the browser viewer, the report. DEMO_ARGS adds options (e.g. --speed 4).
+  local kata=build/bin/kata linger=()
+  # On a terminal the viewer stays up until Ctrl-C; otherwise (scripts, CI) the demo ends.
+  [ -t 0 ] || linger=(--linger "${DEMO_LINGER:-0}")
+  echo "== kata coach: the viewer is at http://127.0.0.1:${DEMO_PORT:-8765}/ (open it in a browser)"
+  trap ':' INT  # Ctrl-C ends the coach (it finishes cleanly), not this script
+  # shellcheck disable=SC2086
+  "$kata" coach --port "${DEMO_PORT:-8765}" --report build/lesson-report.html --record build/lesson.npz \
+    "${linger[@]}" ${DEMO_ARGS:-}
+  trap - INT
+  echo "== the report: file://$PWD/build/lesson-report.html"
+  echo "== watch the lesson again: $kata coach --replay build/lesson.npz"
 }
 
 # Builds the fuzz targets (tests/fuzz/README.md) and runs each for FUZZ_SECONDS over its seed
@@ -122,6 +126,7 @@ case "${1:-}" in
   fuzz) deps; deps "${FUZZ_PACKAGES[@]}"; fuzz ;;
   clang) deps; clang_build ;;
   aarch64) deps; aarch64_build ;;
+  browser-test) deps; build build; ctest --test-dir build -L browser --output-on-failure --timeout 300 ;;
   bench) deps; build build; build/bin/kata_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true ;;
-  *) sed -n '2,9p' "$0"; exit 2 ;;
+  *) sed -n '2,10p' "$0"; exit 2 ;;
 esac

@@ -4,6 +4,7 @@
 #include <zmq.h>
 
 #include <chrono>
+#include <cstddef>
 #include <cstring>
 #include <string>
 #include <vector>
@@ -97,6 +98,22 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
       EXPECT_GT(r.ghost_joint_count, 0u);
       EXPECT_LE(r.arrival_ns, r.computed_ns);
       EXPECT_LE(r.computed_ns, r.published_ns);
+      // The calibrated fields: calibrating for the first 0.25 s of the stream, then scored.
+      if (results <= 28) {
+        EXPECT_EQ(r.state, KATA_SCORE_CALIBRATING) << "frame " << results;
+      } else if (results >= 32) {
+        EXPECT_NE(r.state, KATA_SCORE_CALIBRATING) << "frame " << results;
+      }
+      for (float part : r.part_scores) EXPECT_TRUE(part >= 0.0f && part <= 100.0f);
+      EXPECT_TRUE(r.part_to_fix >= -1 && r.part_to_fix < KATA_PART_COUNT);
+      if (results == 40) {  // a caller built before the calibrated fields receives only its prefix
+        kata_result_message old_layout;
+        old_layout.struct_size = static_cast<uint32_t>(offsetof(kata_result_message, part_scores));
+        old_layout.part_to_fix = 77;
+        ASSERT_EQ(kata_message_read_result(buffer.data(), static_cast<size_t>(n), &old_layout), KATA_OK);
+        EXPECT_EQ(old_layout.score, r.score);
+        EXPECT_EQ(old_layout.part_to_fix, 77);
+      }
       if (result.empty()) result.assign(buffer.begin(), buffer.begin() + n);
       ++results;
     }

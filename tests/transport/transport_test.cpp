@@ -133,6 +133,9 @@ TEST(runtime_wire, ResultRoundTrip) {
   r.score = 75.0f;
   for (int i = 0; i < 5; ++i) r.parts[i] = 0.01f * static_cast<float>(i);
   r.matched_teacher_frame = 99;
+  for (int i = 0; i < 5; ++i) r.part_scores[i] = 50.0f + static_cast<float>(i);
+  r.part_to_fix = 3;
+  r.state = 3;  // teacher finished
   const auto ghost = pose(9, 1, 4);
   r.ghost = ghost.data();
   r.ghost_joints = 4;
@@ -148,9 +151,27 @@ TEST(runtime_wire, ResultRoundTrip) {
   EXPECT_EQ(o.score, 75.0f);
   EXPECT_EQ(o.parts[4], 0.04f);
   EXPECT_EQ(o.matched_teacher_frame, 99);
+  EXPECT_EQ(o.part_scores[0], 50.0f);
+  EXPECT_EQ(o.part_scores[4], 54.0f);
+  EXPECT_EQ(o.part_to_fix, 3);
+  EXPECT_EQ(o.state, 3);
   ASSERT_EQ(o.ghost_joints, 4);
   EXPECT_EQ(o.ghost[11], ghost[11]);
   EXPECT_EQ(o.features, nullptr);
+}
+
+TEST(runtime_wire, UnscoredResultHasNoPartScoresAndNoPartToFix) {
+  Encoder encoder;
+  Decoder decoder;
+  ResultFields r;
+  r.stream_id = 4;
+  Bytes m = encoder.result(r);
+  std::vector<uint8_t> copy(m.data, m.data + m.size);
+  ASSERT_EQ(decoder.decode(copy.data(), copy.size()), MessageKind::kResult);
+  EXPECT_FALSE(decoder.result().scored);
+  EXPECT_EQ(decoder.result().part_scores[2], 0.0f);
+  EXPECT_EQ(decoder.result().part_to_fix, -1);
+  EXPECT_EQ(decoder.result().state, 0);
 }
 
 TEST(runtime_wire, RefusalsNameTheirReason) {

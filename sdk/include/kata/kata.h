@@ -813,6 +813,12 @@ typedef struct kata_result_message {
   float parts[KATA_PART_COUNT];  /* split of d^2, kata_body_part order */
   const float* ghost;            /* ghost_joint_count x 3 floats, or NULL; valid until the message
                                     is freed or the thread's next call */
+  /* Added with the calibrated scores in result messages (schemas/result.fbs fields 16-18); a
+   * caller whose struct_size ends before a field does not receive it. Messages from older
+   * runtimes carry none: part_scores 0, part_to_fix -1, state KATA_SCORE_SCORING. */
+  float part_scores[KATA_PART_COUNT]; /* each part's calibrated score, 0..100 (0 unless scored) */
+  int32_t part_to_fix;           /* kata_body_part to correct, -1 for none (as kata_score_record) */
+  int32_t state;                 /* kata_score_state of the scored frame */
 } kata_result_message;
 
 /* Reads one ZeroMQ message of a kata runtime (16-byte topic + FlatBuffer, schemas/result.fbs):

@@ -170,6 +170,9 @@ KATA_API kata_status kata_message_read_result(const void* message, size_t size, 
     k.score = r.score;
     for (int i = 0; i < KATA_PART_COUNT; ++i) k.parts[i] = r.parts[i];
     k.ghost = r.ghost;
+    for (int i = 0; i < KATA_PART_COUNT; ++i) k.part_scores[i] = r.part_scores[i];
+    k.part_to_fix = r.part_to_fix;
+    k.state = r.state;
     const uint32_t caller = out->struct_size;
     std::memcpy(out, &k, std::min<size_t>(caller, sizeof k));
     out->struct_size = caller;

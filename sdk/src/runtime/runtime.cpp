@@ -485,6 +485,9 @@ bool Runtime::drain_results(transport::Encoder& encoder) {
         f.distance = r.score.distance;
         f.score = r.score.score;
         for (int i = 0; i < 5; ++i) f.parts[i] = r.score.parts[i];
+        for (int i = 0; i < 5; ++i) f.part_scores[i] = r.score.part_scores[i];
+        f.part_to_fix = r.score.part_to_fix;
+        f.state = static_cast<int32_t>(r.score.state);
       }
       f.matched_teacher_frame = r.matched_frame;
       if (r.has_ghost) {

@@ -170,6 +170,11 @@ Bytes Encoder::result(const ResultFields& r) {
   const fb::PartBreakdown parts(r.parts[0], r.parts[1], r.parts[2], r.parts[3], r.parts[4]);
   o.add_parts(&parts);
   o.add_matched_teacher_frame(r.matched_teacher_frame);
+  const fb::PartScores part_scores(r.part_scores[0], r.part_scores[1], r.part_scores[2], r.part_scores[3],
+                                   r.part_scores[4]);
+  if (r.scored) o.add_part_scores(&part_scores);
+  o.add_part_to_fix(static_cast<int8_t>(r.part_to_fix));
+  o.add_feedback_state(static_cast<fb::FeedbackState>(r.state));
   if (r.ghost) o.add_ghost(ghost);
   if (r.features) o.add_features(features);
   b.Finish(o.Finish(), fb::ResultIdentifier());
@@ -287,6 +292,17 @@ MessageKind Decoder::decode(const void* data, size_t size) {
       for (float& p : o.parts) p = 0.0f;
     }
     o.matched_teacher_frame = r->matched_teacher_frame();
+    if (const auto* scores = r->part_scores()) {
+      o.part_scores[0] = scores->torso_head();
+      o.part_scores[1] = scores->left_arm();
+      o.part_scores[2] = scores->right_arm();
+      o.part_scores[3] = scores->left_leg();
+      o.part_scores[4] = scores->right_leg();
+    } else {
+      for (float& p : o.part_scores) p = 0.0f;
+    }
+    o.part_to_fix = r->part_to_fix();
+    o.state = static_cast<int32_t>(r->feedback_state());
     o.ghost = r->ghost() ? reinterpret_cast<const float*>(r->ghost()->Data()) : nullptr;
     o.ghost_joints = r->ghost() ? static_cast<int>(r->ghost()->size()) : 0;
     o.features = r->features() ? r->features()->data() : nullptr;

@@ -59,6 +59,11 @@ struct ResultFields {
   int ghost_joints = 0;
   const float* features = nullptr;  // feature_count floats, or null
   int feature_count = 0;
+  // The calibrated per-part scores (0..100), the part to fix (-1: none) and the scorer's state
+  // (metric::ScoreState: 0 scoring, 1 calibrating, 2 tracking lost, 3 teacher finished).
+  float part_scores[5] = {};
+  int32_t part_to_fix = -1;
+  int32_t state = 0;
 };
 
 // A view of one message's bytes (topic included); valid until the encoder's next call.

@@ -1,0 +1,282 @@
+// kata coach: a coaching lesson, live. The teacher and student clips are played as two live
+// streams (real time, or --speed N) through the runtime `kata serve` runs, which publishes every
+// result over ZeroMQ; the student's frames are scored against the teacher (calibrated total and
+// per-part scores, the part to fix) and ghosted.
+// A terminal view shows progress, scores, the part to fix, frames/s and latency; a browser viewer
+// (server-sent events on localhost) draws the student in 3D with the teacher's ghost over it; at
+// the end a summary is printed and a self-contained HTML report written. --record keeps the
+// lesson in a file, --replay plays a recorded one back into the viewer.
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdarg>
+#include <chrono>
+#include <csignal>
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "coach/lesson.hpp"
+#include "coach/present.hpp"
+#include "coach/recording.hpp"
+#include "coach/viewer_server.hpp"
+#include "command.hpp"
+#include "common/error.hpp"
+
+namespace {
+
+using namespace kata::coach;
+using Clock = std::chrono::steady_clock;
+
+struct CoachArgs {
+  LessonSettings lesson;
+  bool headless = false, no_viewer = false;
+  std::string host = "127.0.0.1";
+  int port = 8765;
+  std::string viewer_dir, report = "lesson-report.html", csv, record, replay;
+  double linger = -1.0;  // seconds to keep serving after the end; < 0: until Ctrl-C (viewer only)
+};
+
+std::atomic<bool> g_interrupted{false};
+void on_interrupt(int) { g_interrupted = true; }
+
+// build/bin/kata -> build/share/kata/viewer (the same layout installed: bin/ and share/kata/viewer).
+std::string default_viewer_dir() {
+  char exe[4096];
+  const ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
+  if (n <= 0) return "share/kata/viewer";
+  std::string dir(exe, static_cast<size_t>(n));
+  dir = dir.substr(0, dir.find_last_of('/'));
+  return dir + "/../share/kata/viewer";
+}
+
+// Appends printf-style text at `at` (clamped at the buffer's end).
+__attribute__((format(printf, 4, 5))) void append_line(char* line, size_t size, int& at, const char* fmt, ...) {
+  if (at < 0 || static_cast<size_t>(at) >= size) return;
+  va_list args;
+  va_start(args, fmt);
+  const int n = std::vsnprintf(line + at, size - static_cast<size_t>(at), fmt, args);
+  va_end(args);
+  if (n > 0) at = std::min(static_cast<int>(size) - 1, at + n);
+}
+
+// The terminal view: one line, redrawn in place on a terminal (plain lines every 2 s otherwise):
+// progress, the newest total and per-part scores, the part to fix, frames/s, latency p50/p99
+// (frame in -> result published, over the lesson so far).
+class TerminalView {
+ public:
+  TerminalView(bool interactive, size_t frames) : interactive_(interactive) {
+    latencies_.reserve(frames);
+    sorted_.reserve(frames);
+  }
+
+  void update(const LessonData& d, size_t shown, double fps, bool force = false) {
+    const auto now = Clock::now();
+    const auto every = interactive_ ? std::chrono::milliseconds(100) : std::chrono::milliseconds(2000);
+    if (!force && now - last_ < every) return;
+    last_ = now;
+    const size_t total = static_cast<size_t>(d.student_frames);
+    const int width = 20;
+    const int filled = total ? static_cast<int>(width * shown / total) : 0;
+    std::string bar(static_cast<size_t>(filled), '#');
+    bar.resize(width, '.');
+    // Only the first `shown` frames are final (later ones may still be written by the runtime's
+    // I/O thread), so the view keeps its own running mean and latencies over them.
+    for (; latency_count_ < shown; ++latency_count_) {
+      const FrameRecord& f = d.frames[latency_count_];
+      if (!scored(f)) continue;
+      score_sum_ += f.score, ++scored_;
+      if (f.latency_ns > 0) latencies_.push_back(f.latency_ns / 1e6);
+    }
+    sorted_ = latencies_;  // reserved at the lesson's length: no allocation
+    std::sort(sorted_.begin(), sorted_.end());
+    auto pct = [&](double q) { return sorted_.empty() ? 0.0 : sorted_[static_cast<size_t>(q * (sorted_.size() - 1))]; };
+    char line[512];
+    int at = std::snprintf(line, sizeof line, "[%s] %3d%% %5.1fs", bar.c_str(), total ? static_cast<int>(100 * shown / total) : 0,
+                           shown ? d.frames[shown - 1].time : 0.0);
+    const FrameRecord* r = shown ? &d.frames[shown - 1] : nullptr;
+    if (r && scored(*r)) {
+      append_line(line, sizeof line, at, " | score %3.0f (mean %4.1f) |", r->score, score_sum_ / std::max(scored_, 1));
+      static const char* const kShort[kata::metric::kParts] = {"torso", "l.arm", "r.arm", "l.leg", "r.leg"};
+      for (int p = 0; p < kata::metric::kParts; ++p) append_line(line, sizeof line, at, " %s %3.0f", kShort[p], r->part_scores[p]);
+      append_line(line, sizeof line, at, " | fix: %-10s", r->part_to_fix >= 0 ? kata::metric::part_name(r->part_to_fix) : "-");
+      if (r->state == FrameState::kTeacherFinished) append_line(line, sizeof line, at, " (teacher finished)");
+    } else if (r) {
+      append_line(line, sizeof line, at, " | %-16s", state_name(r->state));
+    }
+    append_line(line, sizeof line, at, " | %4.0f frames/s | latency p50 %.2f p99 %.2f ms", fps, pct(0.5), pct(0.99));
+    if (interactive_) std::printf("\r%s\033[K", line);
+    else std::printf("%s\n", line);
+    std::fflush(stdout);
+  }
+  void close() {
+    if (interactive_) std::printf("\n");
+  }
+
+ private:
+  bool interactive_;
+  Clock::time_point last_{};
+  size_t latency_count_ = 0;  // frames taken into the running figures
+  double score_sum_ = 0.0;
+  int scored_ = 0;
+  std::vector<double> latencies_, sorted_;
+};
+
+void run_coach(CoachArgs a) {
+  if (a.headless) a.no_viewer = true;
+  if (!(a.lesson.speed > 0.0)) throw kata::Error(kata::ErrorKind::kInvalidArgument, "--speed must be > 0");
+
+  // The lesson: live (the runtime) or recorded (a file).
+  std::unique_ptr<Lesson> live;
+  LessonData replayed;
+  if (a.replay.empty()) {
+    live = std::make_unique<Lesson>(a.lesson);
+  } else {
+    replayed = read_recording(a.replay);
+    replayed.settings.speed = a.lesson.speed;
+  }
+  const LessonData& data = live ? live->data() : replayed;
+  const size_t frames = static_cast<size_t>(live ? data.student_frames : replayed.pushed);
+
+  std::unique_ptr<ViewerServer> viewer;
+  if (!a.no_viewer) {
+    viewer = std::make_unique<ViewerServer>(a.viewer_dir.empty() ? default_viewer_dir() : a.viewer_dir, a.host, a.port);
+    // A token that tells this lesson from the next one on the same port (a page that saw the end
+    // of one lesson starts over when /status shows another).
+    const std::string lesson_id = std::to_string(std::chrono::system_clock::now().time_since_epoch().count());
+    viewer->set_setup(setup_json(data, a.replay.empty() ? "live" : "replay", lesson_id));
+    viewer->set_lesson_id(lesson_id);
+    std::printf("viewer: http://%s:%d/  (open it in a browser)\n", a.host.c_str(), viewer->port());
+  }
+  std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
+  if (live)
+    std::printf("lesson: student %s, teacher %s, %zu frames at %.3g x real time; results published on %s (teacher "
+                "stream %llu, student stream %llu)\n",
+                data.settings.student.c_str(), data.settings.teacher.c_str(), frames, a.lesson.speed,
+                live->publish_endpoint().c_str(), static_cast<unsigned long long>(Lesson::kTeacherStream),
+                static_cast<unsigned long long>(Lesson::kStudentStream));
+  else
+    std::printf("replay %s: student %s, teacher %s, %zu frames at %.3g x real time\n", a.replay.c_str(),
+                data.settings.student.c_str(), data.settings.teacher.c_str(), frames, a.lesson.speed);
+  std::fflush(stdout);
+
+  TerminalView view(!a.headless && isatty(STDOUT_FILENO), frames);
+  size_t published = 0;  // frames handed to the viewer (in order, once their record is final)
+  auto publish_settled = [&](size_t settled) {
+    for (; published < settled; ++published)
+      if (viewer) viewer->publish(frame_json(data, published));
+  };
+
+  const auto start = Clock::now();
+  auto window_start = start;
+  size_t window_frames = 0;
+  double fps = 0.0;
+  size_t played = 0;  // frames pushed (live) or revealed (replay)
+  for (size_t i = 0; i < frames && !g_interrupted; ++i) {
+    const auto due = start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
+                                 static_cast<double>(i) * data.frame_time / a.lesson.speed));
+    std::this_thread::sleep_until(due);
+    if (live) live->push(static_cast<int>(i));
+    played = i + 1;
+    publish_settled(live ? live->settle() : played);
+    ++window_frames;
+    const auto now = Clock::now();
+    if (now - window_start >= std::chrono::milliseconds(500)) {
+      fps = window_frames / std::chrono::duration<double>(now - window_start).count();
+      window_start = now, window_frames = 0;
+    }
+    view.update(data, published, fps);
+  }
+  if (live) live->finish();
+  const size_t done = played;
+  if (!live) replayed.pushed = static_cast<int>(played);  // an interrupted replay reports what was shown
+  publish_settled(done);
+  view.update(data, published, fps, true);
+  view.close();
+  const double wall = std::chrono::duration<double>(Clock::now() - start).count();
+
+  // Summary.
+  int fix_count[kata::metric::kParts] = {}, scored_frames = 0, named = 0;
+  double part_sum[kata::metric::kParts] = {};
+  for (size_t i = 0; i < done; ++i)
+    if (scored(data.frames[i])) {
+      ++scored_frames;
+      for (int p = 0; p < kata::metric::kParts; ++p) part_sum[p] += data.frames[i].part_scores[p];
+      if (data.frames[i].part_to_fix >= 0) ++fix_count[data.frames[i].part_to_fix], ++named;
+    }
+  int most = 0;
+  for (int p = 1; p < kata::metric::kParts; ++p)
+    if (fix_count[p] > fix_count[most]) most = p;
+  std::printf("summary: %zu frames in %.2f s (%.0f frames/s), %d scored, mean score %.2f, mean part scores", done, wall,
+              done / std::max(wall, 1e-9), scored_frames, data.mean_score());
+  for (int p = 0; p < kata::metric::kParts; ++p)
+    std::printf(" %s %.1f", kata::metric::part_name(p), scored_frames ? part_sum[p] / scored_frames : 0.0);
+  if (named)
+    std::printf(", part to fix most often: %s (%d%% of scored frames)", kata::metric::part_name(most),
+                100 * fix_count[most] / scored_frames);
+  else
+    std::printf(", no part to fix");
+  if (live) {
+    const auto c = live->counters();
+    std::printf(", %llu results published (teacher %llu), latency in->published p50 %.0f us p99 %.0f us",
+                static_cast<unsigned long long>(c.total.published), static_cast<unsigned long long>(live->teacher_results()),
+                kata::runtime::latency_percentile(c.latency_histogram, 0.5) / 1e3,
+                kata::runtime::latency_percentile(c.latency_histogram, 0.99) / 1e3);
+  }
+  std::printf("%s\n", g_interrupted ? " (interrupted)" : "");
+  if (!a.csv.empty()) write_results_csv(data, a.csv);
+  if (!a.record.empty() && live) {
+    write_recording(data, a.record);
+    std::printf("recording: %s\n", a.record.c_str());
+  }
+  if (!a.report.empty()) {
+    write_report(data, a.report);
+    std::printf("report: %s\n", a.report.c_str());
+  }
+  if (viewer) {
+    // Only a finished lesson ends the page's stream; an interrupted coach just goes away, so a
+    // page keeps trying to reconnect (and resumes when a coach is back on the port).
+    if (!g_interrupted) viewer->end(end_json(data));
+    if (a.linger < 0) std::printf("viewer: still at http://%s:%d/ (Ctrl-C to quit)\n", a.host.c_str(), viewer->port());
+    std::fflush(stdout);
+    const auto until = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(std::max(a.linger, 0.0)));
+    while (!g_interrupted && (a.linger < 0 || Clock::now() < until)) std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    viewer->stop();
+  }
+}
+
+void setup(CLI::App& app) {
+  auto a = std::make_shared<CoachArgs>();
+  CLI::App* cmd = app.add_subcommand(
+      "coach", "a live coaching lesson: the student played as a live stream against the teacher (score, part to fix, "
+               "ghost every frame), a terminal view, a 3D viewer in the browser, an HTML report at the end");
+  cmd->add_option("--teacher", a->lesson.teacher, "teacher BVH clip (default data/cmu/05_18.bvh)")->check(CLI::ExistingFile);
+  cmd->add_option("--student", a->lesson.student, "student BVH clip (default data/cmu/05_19_on_02.bvh)")->check(CLI::ExistingFile);
+  cmd->add_option("--model", a->lesson.model, ".kata model (default models/default.kata)")->check(CLI::ExistingFile);
+  cmd->add_option("--preset", a->lesson.preset, "skeleton preset of both clips (default cmu)");
+  cmd->add_option("--first-frame", a->lesson.first_frame, "first frame of each clip (default 1: skips CMU's T-pose)");
+  cmd->add_option("--speed", a->lesson.speed, "playback rate, 1 = real time (default 1)");
+  cmd->add_option("--window", a->lesson.window, "alignment window, teacher seconds (default 0.5)");
+  cmd->add_option("--publish", a->lesson.publish,
+                  "ZeroMQ endpoint the runtime publishes results on (default tcp://127.0.0.1:*, any free port)");
+  cmd->add_flag("--headless", a->headless, "no viewer, plain progress lines (CI)");
+  cmd->add_flag("--no-viewer", a->no_viewer, "no browser viewer (the terminal view stays)");
+  cmd->add_option("--host", a->host, "viewer address (default 127.0.0.1)");
+  cmd->add_option("--port", a->port, "viewer port (default 8765; 0: any free port)");
+  cmd->add_option("--viewer-dir", a->viewer_dir, "the viewer's files (default <kata>/../share/kata/viewer)");
+  cmd->add_option("--linger", a->linger, "seconds to keep the viewer up after the end (default: until Ctrl-C)");
+  cmd->add_option("--report", a->report, "HTML report path (default lesson-report.html; empty: none)");
+  cmd->add_option("--csv", a->csv, "also write every frame's result as CSV");
+  cmd->add_option("--record", a->record, "record the lesson (incoming frames and results) to this .npz file");
+  cmd->add_option("--replay", a->replay, "play a recorded lesson (.npz from --record) instead of a live one")
+      ->check(CLI::ExistingFile);
+  cmd->callback([a] { run_coach(*a); });
+}
+
+const kata::cli::RegisterCommand reg(setup);
+
+}  // namespace
