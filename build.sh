@@ -7,6 +7,8 @@
 #   ./build.sh clang     everything built with Debian's clang, warnings as errors, the whole suite run
 #   ./build.sh aarch64   cross build for 64-bit ARM: the library and its GPD, metric, retarget and
 #                        C ABI tests, run under qemu-user (no trainer, tools or benchmarks)
+#   ./build.sh fuzz-smoke   every fuzz target for FUZZ_SMOKE_SECONDS (10) over its seeds (CI)
+#   ./build.sh tsan   the live-path tests and stress tests under ThreadSanitizer (clang, -Werror) in build-tsan/
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -15,7 +17,8 @@ PACKAGES=(build-essential cmake pkg-config libeigen3-dev libzmq3-dev cppzmq-dev 
           flatbuffers-compiler flatbuffers-compiler-dev libgtest-dev libgmock-dev libbenchmark-dev
           libcli11-dev nlohmann-json3-dev libxsimd-dev ccache libtomlplusplus-dev libcpp-httplib-dev python3 python3-numpy python3-matplotlib python3-zmq python3-flatbuffers
           python3-pytest mono-mcs mono-runtime)
-# Only `./build.sh fuzz` needs these (Debian's clang and its libFuzzer runtime).
+# Only `./build.sh fuzz`, `fuzz-smoke` and `tsan` need these (Debian's clang, its libFuzzer and
+# sanitizer runtimes).
 FUZZ_PACKAGES=(clang-14 libclang-rt-14-dev)
 # Only for `./build.sh clang` / `./build.sh aarch64` (arm64 multiarch: the arm64 builds of the
 # libraries the core links; header-only packages are shared with the host).
@@ -112,6 +115,20 @@ fuzz() {
   done
 }
 
+# The live path under ThreadSanitizer, built with Debian's clang and -Werror (this is also CI's
+# clang build): the runtime, transport, pipeline, plugin and runtime C ABI tests and the stress
+# tests (tests/runtime/stress_test.cpp), every one labelled tsan. Any report fails the run;
+# tests/tsan.supp holds the suppressions (third-party code only, each justified).
+TSAN_TARGETS=(runtime_test runtime_stress_test transport_test test_pipeline plugin_test test_runtime_api)
+tsan() {
+  local dir=build-tsan
+  CC=clang-14 CXX=clang++-14 cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DKATA_WERROR=ON -DKATA_TSAN=ON \
+    -DKATA_BUILD_BENCH=OFF -DKATA_BUILD_BINDINGS=OFF >/dev/null
+  cmake --build "$dir" -j "$JOBS" --target "${TSAN_TARGETS[@]}"
+  TSAN_OPTIONS="halt_on_error=1 exitcode=66 second_deadlock_stack=1 suppressions=$PWD/tests/tsan.supp" \
+    ctest --test-dir "$dir" --output-on-failure -j "$JOBS" --timeout 900 -L tsan
+}
+
 case "${1:-}" in
   deps) deps ;;
   build) deps; build build ;;
@@ -122,6 +139,7 @@ case "${1:-}" in
   fuzz) deps; deps "${FUZZ_PACKAGES[@]}"; fuzz ;;
   clang) deps; clang_build ;;
   aarch64) deps; aarch64_build ;;
+  tsan) deps; deps "${FUZZ_PACKAGES[@]}"; tsan ;;
   bench) deps; build build; build/bin/kata_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true ;;
-  *) sed -n '2,9p' "$0"; exit 2 ;;
+  *) sed -n '2,11p' "$0"; exit 2 ;;
 esac
