@@ -94,12 +94,13 @@ demo() {
 # Builds the fuzz targets (tests/fuzz/README.md) and runs each for FUZZ_SECONDS over its seed
 # corpus (tests/fuzz/corpus/NAME, read only) plus a working corpus in build-fuzz/corpus/NAME. A
 # crash, sanitizer report or failed assertion stops the script with the input saved in build-fuzz/.
-fuzz() {
-  local dir=build-fuzz secs=${FUZZ_SECONDS:-20}
+FUZZ_TARGETS=(bvh model name_map stream ingest serve_config)
+fuzz() {  # fuzz [seconds per target]
+  local dir=build-fuzz secs=${1:-${FUZZ_SECONDS:-20}}
   CC=clang-14 CXX=clang++-14 cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DKATA_FUZZ=ON \
-    -DKATA_BUILD_TESTS=OFF -DKATA_BUILD_BENCH=OFF >/dev/null
+    -DKATA_BUILD_TESTS=OFF -DKATA_BUILD_BENCH=OFF -DKATA_BUILD_BINDINGS=OFF >/dev/null
   cmake --build "$dir" -j "$JOBS" --target fuzz_all
-  for t in bvh model name_map stream; do
+  for t in "${FUZZ_TARGETS[@]}"; do
     local dict=()
     [ -f "tests/fuzz/$t.dict" ] && dict=("-dict=tests/fuzz/$t.dict")
     mkdir -p "$dir/corpus/$t"
@@ -139,6 +140,7 @@ case "${1:-}" in
   fuzz) deps; deps "${FUZZ_PACKAGES[@]}"; fuzz ;;
   clang) deps; clang_build ;;
   aarch64) deps; aarch64_build ;;
+  fuzz-smoke) deps; deps "${FUZZ_PACKAGES[@]}"; fuzz "${FUZZ_SMOKE_SECONDS:-10}" ;;
   tsan) deps; deps "${FUZZ_PACKAGES[@]}"; tsan ;;
   bench) deps; build build; build/bin/kata_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true ;;
   *) sed -n '2,11p' "$0"; exit 2 ;;

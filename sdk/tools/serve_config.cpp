@@ -1,7 +1,9 @@
 // The `kata serve` config file (serve_config.hpp).
 #include "serve_config.hpp"
 
+#include <cmath>
 #include <cstdlib>
+#include <type_traits>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -19,12 +21,34 @@ namespace {
 }
 
 // Reads an optional value of type T at `key` in `table`; a present value of the wrong type is refused.
+// Integers must be TOML integers (toml++ would convert a float such as 1e300 to int64 with
+// undefined behaviour; found by fuzz_serve_config).
 template <typename T>
 T read(const std::string& file, const toml::table& table, const char* key, T fallback) {
   const toml::node* n = table.get(key);
   if (!n) return fallback;
+  if constexpr (std::is_same_v<T, int64_t>) {
+    if (!n->is_integer()) refuse(file, n->source(), std::string("'") + key + "' must be an integer");
+  }
   if (auto v = n->value<T>()) return *v;
   refuse(file, n->source(), std::string("'") + key + "' has the wrong type");
+}
+
+// An integer in [lo, hi], refused with file:line otherwise.
+int64_t read_range(const std::string& file, const toml::table& table, const char* key, int64_t fallback, int64_t lo,
+                   int64_t hi) {
+  const int64_t v = read<int64_t>(file, table, key, fallback);
+  if (v < lo || v > hi)
+    refuse(file, table.get(key)->source(),
+           std::string("'") + key + "' must be " + std::to_string(lo) + ".." + std::to_string(hi));
+  return v;
+}
+
+// A number (integer or float) > 0 and finite.
+double read_positive(const std::string& file, const toml::table& table, const char* key, double fallback) {
+  const double v = read<double>(file, table, key, fallback);
+  if (!(v > 0.0) || !std::isfinite(v)) refuse(file, table.get(key)->source(), std::string("'") + key + "' must be > 0");
+  return v;
 }
 
 std::vector<std::string> read_strings(const std::string& file, const toml::table& table, const char* key) {
@@ -74,14 +98,14 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
   const std::string kind = read<std::string>(file, ingest, "kind", "sub");
   if (kind != "sub" && kind != "pull") refuse(file, ingest.get("kind")->source(), "kind must be \"sub\" or \"pull\"");
   c.runtime.ingest.kind = kind == "pull" ? kata::transport::IngestKind::kPull : kata::transport::IngestKind::kSub;
-  c.runtime.ingest.max_message_bytes = static_cast<size_t>(read<int64_t>(file, ingest, "max_message_bytes", 1 << 20));
+  c.runtime.ingest.max_message_bytes = static_cast<size_t>(read_range(file, ingest, "max_message_bytes", 1 << 20, 64, 1 << 30));
   c.runtime.ingest.require_checksum = read<bool>(file, ingest, "require_checksum", true);
 
   const toml::table& publish = section(file, root, "publish", true);
   check_keys(file, publish, {"endpoints", "send_hwm"}, "publish");
   c.runtime.publish.endpoints = read_strings(file, publish, "endpoints");
   if (c.runtime.publish.endpoints.empty()) throw Error(ErrorKind::kParse, file + ":1: [publish] endpoints is empty");
-  c.runtime.publish.send_hwm = static_cast<int>(read<int64_t>(file, publish, "send_hwm", 10000));
+  c.runtime.publish.send_hwm = static_cast<int>(read_range(file, publish, "send_hwm", 10000, 0, 1 << 30));
 
   const toml::table& shard = section(file, root, "shard", false);
   check_keys(file, shard, {"count", "index"}, "shard");
@@ -96,10 +120,9 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
 
   const toml::table& rt = section(file, root, "runtime", false);
   check_keys(file, rt, {"workers", "skeleton_resend_seconds", "max_streams"}, "runtime");
-  c.runtime.workers = static_cast<int>(read<int64_t>(file, rt, "workers", 2));
-  if (c.runtime.workers < 1 || c.runtime.workers > 64) refuse(file, rt.get("workers")->source(), "workers must be 1..64");
-  c.runtime.skeleton_resend_seconds = read<double>(file, rt, "skeleton_resend_seconds", 1.0);
-  c.runtime.max_streams = static_cast<int>(read<int64_t>(file, rt, "max_streams", 1024));
+  c.runtime.workers = static_cast<int>(read_range(file, rt, "workers", 2, 1, 64));
+  c.runtime.skeleton_resend_seconds = read_positive(file, rt, "skeleton_resend_seconds", 1.0);
+  c.runtime.max_streams = static_cast<int>(read_range(file, rt, "max_streams", 1024, 1, 1 << 20));
 
   const toml::table& scoring = section(file, root, "scoring", false);
   check_keys(file, scoring, {"model", "teacher", "first_frame", "ghost", "teachers"}, "scoring");
@@ -109,7 +132,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
     c.model = resolve(model);
     const std::string teacher = read<std::string>(file, scoring, "teacher", "");
     if (!teacher.empty()) c.default_teacher.path = resolve(teacher);
-    c.default_teacher.first_frame = static_cast<int>(read<int64_t>(file, scoring, "first_frame", 1));
+    c.default_teacher.first_frame = static_cast<int>(read_range(file, scoring, "first_frame", 1, 0, 1 << 30));
     c.ghost = read<bool>(file, scoring, "ghost", true);
     if (const toml::node* t = scoring.get("teachers")) {
       if (!t->is_table()) refuse(file, t->source(), "[scoring.teachers] must be a table");
@@ -138,7 +161,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
   }
   const toml::table& status = section(file, root, "status", false);
   check_keys(file, status, {"interval_seconds"}, "status");
-  c.status_seconds = read<double>(file, status, "interval_seconds", 1.0);
+  c.status_seconds = read_positive(file, status, "interval_seconds", 1.0);
   return c;
 }
 
