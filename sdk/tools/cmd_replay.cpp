@@ -4,6 +4,11 @@
 // the same pacing (sleeping between ticks, not spinning). End-to-end latency = frame pushed ->
 // message received, both ends on CLOCK_MONOTONIC (one host). Every phase is bounded in time.
 //
+// --soak: one long kata phase (no bare phase): the subscriber reports the latency per --window
+// seconds, this process samples its resident memory every second; the run fails unless nothing
+// was lost, the RSS after the first window stayed within 1 % (max - min over min) and the last
+// window's p99 is within 1.25 x the first window's.
+//
 // The subscriber is this executable again (`kata replay --subscriber ENDPOINT --mode kata|bare`),
 // spawned per phase; it prints "ready" once subscribed and one JSON line of latencies at the end.
 #include <spawn.h>
@@ -49,6 +54,8 @@ struct Options {
   std::string transport = "tcp";
   std::string out;
   bool find_max = false;
+  bool soak = false;
+  double window = 60.0;  // soak: seconds per latency window
   double p99_bound_us = 0.0;  // 0: only the 1.25 x bare ratio bounds --find-max
   int workers = 2;
   std::string data_dir = "data/cmu";
@@ -101,7 +108,7 @@ int run_subscriber(const Options& o) {
   if (!kata_mode) std::printf("ready\n"), std::fflush(stdout);  // the bare publisher sees the join itself
   kata::transport::Decoder decoder(1 << 22, false);
   std::vector<uint8_t> buffer(1 << 22);
-  std::vector<int64_t> total, queue_compute, publish, transport;
+  std::vector<int64_t> total, queue_compute, publish, transport, received_at;
   total.reserve(1 << 20);
   bool ready = !kata_mode;
   uint64_t received = 0, bytes = 0;
@@ -140,6 +147,7 @@ int run_subscriber(const Options& o) {
       if (kind != kata::transport::MessageKind::kResult) continue;
       const auto& r = decoder.result();
       total.push_back(t - r.arrival_ns);
+      if (o.window > 0) received_at.push_back(t);
       queue_compute.push_back(r.computed_ns - r.arrival_ns);
       publish.push_back(r.published_ns - r.computed_ns);
       transport.push_back(t - r.published_ns);
@@ -158,6 +166,23 @@ int run_subscriber(const Options& o) {
     j["stages"]["published_to_received"] = summary(transport);
   }
   j["subscriber_cpu_seconds"] = cpu_seconds() - cpu0;
+  if (o.window > 0 && !received_at.empty()) {
+    // Latency per window of receive time, from the first result on.
+    const int64_t window_ns = static_cast<int64_t>(o.window * 1e9);
+    json windows = json::array();
+    size_t begin = 0;
+    while (begin < received_at.size()) {
+      const int64_t window_end = received_at[0] + static_cast<int64_t>(windows.size() + 1) * window_ns;
+      size_t end = begin;
+      while (end < received_at.size() && received_at[end] < window_end) ++end;
+      std::vector<int64_t> w(total.begin() + static_cast<long>(begin), total.begin() + static_cast<long>(end));
+      json x = summary(w);
+      x["count"] = end - begin;
+      windows.push_back(x);
+      begin = end;
+    }
+    j["windows"] = windows;
+  }
   std::printf("%s\n", j.dump().c_str());
   std::fflush(stdout);
   zmq_close(sub);
@@ -172,7 +197,7 @@ struct Child {
   FILE* out = nullptr;
 };
 
-Child spawn_subscriber(const std::string& endpoint, const std::string& mode, double deadline) {
+Child spawn_subscriber(const std::string& endpoint, const std::string& mode, double deadline, double window = 0.0) {
   int pipe_fds[2];
   if (pipe(pipe_fds) != 0) throw Error(ErrorKind::kIo, "replay: pipe failed");
   posix_spawn_file_actions_t actions;
@@ -180,7 +205,8 @@ Child spawn_subscriber(const std::string& endpoint, const std::string& mode, dou
   posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], 1);
   posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
   const std::string deadline_text = std::to_string(deadline);
-  std::vector<std::string> args = {"kata", "replay", "--subscriber", endpoint, "--mode", mode, "--deadline", deadline_text};
+  std::vector<std::string> args = {"kata", "replay", "--subscriber", endpoint, "--mode", mode, "--deadline", deadline_text,
+                                   "--window", std::to_string(window)};
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -258,6 +284,17 @@ void paced(const Options& o, int64_t ticks, Send send) {
   }
 }
 
+// This process's resident set (MiB), from /proc/self/statm.
+double resident_mib() {
+  std::FILE* f = std::fopen("/proc/self/statm", "r");
+  if (!f) return 0.0;
+  unsigned long long size = 0, resident = 0;
+  const int n = std::fscanf(f, "%llu %llu", &size, &resident);
+  std::fclose(f);
+  if (n != 2) return 0.0;
+  return static_cast<double>(resident) * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
+}
+
 json run_kata(const Options& o, const Clips& c, int streams, double* message_bytes) {
   kata::runtime::RuntimeConfig config;
   config.workers = o.workers;
@@ -276,13 +313,17 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
     d.frame_rate = static_cast<float>(o.rate);
     runtime.open_stream(d, setup_for(c, clip));
   }
-  Child child = spawn_subscriber(runtime.publish_endpoint(), "kata", o.seconds + 30.0);
+  Child child = spawn_subscriber(runtime.publish_endpoint(), "kata", o.seconds + 30.0, o.soak ? o.window : 0.0);
   if (read_line(child.out) != "ready") throw Error(ErrorKind::kIo, "replay: the kata subscriber did not start");
   const int64_t ticks = static_cast<int64_t>(o.seconds * o.rate);
   uint64_t sent = 0, refused_push = 0;
+  std::vector<double> rss_mib;  // soak: resident memory once per second
+  rss_mib.reserve(static_cast<size_t>(o.seconds) + 2);
+  const int64_t ticks_per_second = std::max<int64_t>(1, static_cast<int64_t>(o.rate));
   const double cpu0 = cpu_seconds();
   const auto wall0 = std::chrono::steady_clock::now();
   paced(o, ticks, [&](int64_t t) {
+    if (o.soak && t % ticks_per_second == 0) rss_mib.push_back(resident_mib());
     for (int s = 0; s < streams; ++s) {
       const size_t clip = static_cast<size_t>(s) % c.clips.size();
       const int joints = c.clips[clip].skeleton.joint_count();
@@ -307,6 +348,7 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
                        counters.total.refused + counters.total.send_failed;
   j["publisher_cpu_percent_of_one_core"] = 100.0 * cpu / wall;
   *message_bytes = j["mean_message_bytes"].get<double>();
+  if (o.soak) j["rss_mib"] = rss_mib;
   return j;
 }
 
@@ -388,6 +430,54 @@ void print_line(const json& r) {
   std::fflush(stdout);
 }
 
+// The soak: one kata phase of --seconds, judged by the three criteria in the file comment.
+json run_soak(const Options& o, const Clips& c) {
+  if (!(o.window > 0) || o.seconds < 2 * o.window)
+    throw Error(ErrorKind::kInvalidArgument, "replay: --soak needs --window > 0 and --seconds >= 2 x --window");
+  double bytes = 0.0;
+  json k = run_kata(o, c, o.streams, &bytes);
+  json j;
+  j["mode"] = "soak";
+  j["streams"] = o.streams;
+  j["rate_hz"] = o.rate;
+  j["seconds"] = o.seconds;
+  j["window_seconds"] = o.window;
+  j["workers"] = o.workers;
+  j["transport"] = o.transport;
+  j["kata"] = k;
+  // RSS after the first window: samples taken at t >= window (one per second).
+  const auto& rss = k["rss_mib"];
+  double lo = 1e300, hi = 0.0;
+  for (size_t i = static_cast<size_t>(o.window); i < rss.size(); ++i) {
+    lo = std::min(lo, rss[i].get<double>());
+    hi = std::max(hi, rss[i].get<double>());
+  }
+  const double drift = lo > 0 && hi >= lo ? 100.0 * (hi - lo) / lo : 100.0;
+  const auto& windows = k["windows"];
+  // The last window may be partial (the tail after the last full window): the last full one counts.
+  const size_t full = static_cast<size_t>(o.seconds / o.window);
+  const size_t last = std::min(windows.size(), full) - 1;
+  const double first_p99 = windows.empty() ? 0.0 : windows[0]["p99_us"].get<double>();
+  const double last_p99 = windows.empty() ? 0.0 : windows[last]["p99_us"].get<double>();
+  const double ratio = first_p99 > 0 ? last_p99 / first_p99 : 0.0;
+  const int64_t lost = k["lost"].get<int64_t>();
+  const uint64_t drops = k["runtime_drops"].get<uint64_t>();
+  j["rss_after_first_window_mib"] = {{"min", lo}, {"max", hi}, {"drift_percent", drift}};
+  j["p99_first_window_us"] = first_p99;
+  j["p99_last_window_us"] = last_p99;
+  j["p99_ratio_last_over_first"] = ratio;
+  j["lost"] = lost;
+  const bool pass = lost == 0 && drops == 0 && drift <= 1.0 && !windows.empty() && ratio <= 1.25;
+  j["pass"] = pass;
+  std::printf("soak: %d streams x %.0f Hz for %.0f s | sent %lld lost %lld drops %llu | RSS after %.0f s %.2f..%.2f MiB "
+              "(%.2f %%) | p99 first %.0f s %.1f us, last %.1f us (x%.2f) | %s\n",
+              o.streams, o.rate, o.seconds, static_cast<long long>(k["sent"].get<int64_t>()), static_cast<long long>(lost),
+              static_cast<unsigned long long>(drops), o.window, lo, hi, drift, o.window, first_p99, last_p99, ratio,
+              pass ? "pass" : "FAIL");
+  std::fflush(stdout);
+  return j;
+}
+
 void run_replay(const Options& o) {
   if (!o.subscriber.empty()) {
     const int code = run_subscriber(o);
@@ -395,12 +485,14 @@ void run_replay(const Options& o) {
     return;
   }
   if (o.transport != "tcp" && o.transport != "ipc") throw Error(ErrorKind::kInvalidArgument, "replay: --transport tcp|ipc");
-  if (o.streams < 1 || !(o.rate > 0) || !(o.seconds > 0) || o.seconds > 600)
-    throw Error(ErrorKind::kInvalidArgument, "replay: --streams >= 1, --rate > 0, 0 < --seconds <= 600");
+  if (o.streams < 1 || !(o.rate > 0) || !(o.seconds > 0) || o.seconds > (o.soak ? 86400 : 600))
+    throw Error(ErrorKind::kInvalidArgument, "replay: --streams >= 1, --rate > 0, 0 < --seconds <= 600 (soak: 86400)");
   std::signal(SIGPIPE, SIG_IGN);
   const Clips clips = load_clips(o);
   json report;
-  if (!o.find_max) {
+  if (o.soak) {
+    report = run_soak(o, clips);
+  } else if (!o.find_max) {
     report = run_once(o, clips, o.streams);
     print_line(report);
   } else {
@@ -446,6 +538,8 @@ void run_replay(const Options& o) {
     if (!f) throw Error(ErrorKind::kIo, "replay: cannot write " + o.out);
     f << report.dump(2) << "\n";
   }
+  if (o.soak && !report["pass"].get<bool>())
+    throw Error(ErrorKind::kInvalidArgument, "replay: the soak failed its criteria (nothing lost, RSS within 1 %, p99 within 1.25 x)");
 }
 
 void setup(CLI::App& app) {
@@ -460,6 +554,8 @@ void setup(CLI::App& app) {
   cmd->add_flag("--find-max", o->find_max, "find the most streams with nothing lost and kata p99 <= 1.25 x bare p99");
   cmd->add_option("--p99-bound-us", o->p99_bound_us, "with --find-max: also kata p99 <= this (us)");
   cmd->add_option("--workers", o->workers, "runtime worker threads")->capture_default_str();
+  cmd->add_flag("--soak", o->soak, "one long kata phase: nothing lost, RSS flat within 1 %, last window p99 <= 1.25 x first");
+  cmd->add_option("--window", o->window, "with --soak: seconds per latency window")->capture_default_str();
   cmd->add_option("--data", o->data_dir, "directory of the CMU clips")->capture_default_str();
   cmd->add_option("--model", o->model, "the .kata model")->capture_default_str();
   cmd->add_option("--subscriber", o->subscriber)->group("");  // internal: the subscriber process
