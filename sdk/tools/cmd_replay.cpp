@@ -11,6 +11,7 @@
 //
 // The subscriber is this executable again (`kata replay --subscriber ENDPOINT --mode kata|bare`),
 // spawned per phase; it prints "ready" once subscribed and one JSON line of latencies at the end.
+#include <fcntl.h>
 #include <spawn.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -18,12 +19,16 @@
 #include <zmq.h>
 
 #include <algorithm>
+#include <atomic>
+#include <filesystem>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -65,6 +70,9 @@ struct Options {
   std::string subscriber;
   std::string mode = "kata";
   double deadline = 60.0;
+  int expect_definitions = 1;   // subscriber: "ready" once this many streams' definitions came
+  bool capture_is_send = false; // subscriber: capture_ns is the source's send time (shards mode)
+  int shards = 0;               // > 0: the kata phase runs through kata proxy + this many kata serve
 };
 
 int64_t now_ns() { return kata::pipeline::now_ns(); }
@@ -108,7 +116,8 @@ int run_subscriber(const Options& o) {
   if (!kata_mode) std::printf("ready\n"), std::fflush(stdout);  // the bare publisher sees the join itself
   kata::transport::Decoder decoder(1 << 22, false);
   std::vector<uint8_t> buffer(1 << 22);
-  std::vector<int64_t> total, queue_compute, publish, transport, received_at;
+  std::vector<int64_t> total, queue_compute, publish, transport, received_at, source_to_arrival;
+  std::set<uint64_t> defined;
   total.reserve(1 << 20);
   bool ready = !kata_mode;
   uint64_t received = 0, bytes = 0;
@@ -140,13 +149,18 @@ int run_subscriber(const Options& o) {
       }
       const auto kind = decoder.decode(buffer.data(), static_cast<size_t>(n));
       if (kind == kata::transport::MessageKind::kSkeleton && !ready) {
-        ready = true;
-        std::printf("ready\n");
-        std::fflush(stdout);
+        defined.insert(decoder.stream_id());
+        if (static_cast<int>(defined.size()) >= o.expect_definitions) {
+          ready = true;
+          std::printf("ready\n");
+          std::fflush(stdout);
+        }
       }
       if (kind != kata::transport::MessageKind::kResult) continue;
       const auto& r = decoder.result();
-      total.push_back(t - r.arrival_ns);
+      // Shards: from the source's send (capture_ns, same clock) to here, the proxies included.
+      total.push_back(t - (o.capture_is_send ? r.capture_ns : r.arrival_ns));
+      if (o.capture_is_send) source_to_arrival.push_back(r.arrival_ns - r.capture_ns);
       if (o.window > 0) received_at.push_back(t);
       queue_compute.push_back(r.computed_ns - r.arrival_ns);
       publish.push_back(r.published_ns - r.computed_ns);
@@ -161,6 +175,7 @@ int run_subscriber(const Options& o) {
   j["mean_message_bytes"] = received ? static_cast<double>(bytes) / static_cast<double>(received) : 0.0;
   j["latency"] = summary(total);
   if (kata_mode) {
+    if (o.capture_is_send) j["stages"]["source_to_arrival"] = summary(source_to_arrival);
     j["stages"]["arrival_to_computed"] = summary(queue_compute);
     j["stages"]["computed_to_published"] = summary(publish);
     j["stages"]["published_to_received"] = summary(transport);
@@ -197,7 +212,8 @@ struct Child {
   FILE* out = nullptr;
 };
 
-Child spawn_subscriber(const std::string& endpoint, const std::string& mode, double deadline, double window = 0.0) {
+Child spawn_subscriber(const std::string& endpoint, const std::string& mode, double deadline, double window = 0.0,
+                       int expect_definitions = 1, bool capture_is_send = false) {
   int pipe_fds[2];
   if (pipe(pipe_fds) != 0) throw Error(ErrorKind::kIo, "replay: pipe failed");
   posix_spawn_file_actions_t actions;
@@ -206,7 +222,9 @@ Child spawn_subscriber(const std::string& endpoint, const std::string& mode, dou
   posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
   const std::string deadline_text = std::to_string(deadline);
   std::vector<std::string> args = {"kata", "replay", "--subscriber", endpoint, "--mode", mode, "--deadline", deadline_text,
-                                   "--window", std::to_string(window)};
+                                   "--window", std::to_string(window), "--expect-definitions",
+                                   std::to_string(expect_definitions)};
+  if (capture_is_send) args.push_back("--capture-is-send");
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -394,9 +412,122 @@ json run_bare(const Options& o, int streams, size_t message_bytes) {
   return j;
 }
 
+// ---- the kata phase through shards: source -> kata proxy -> N x kata serve -> kata proxy -> subscriber
+
+pid_t spawn_logged(const std::vector<std::string>& args, const std::string& log) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  std::vector<std::string> copy = args;
+  std::vector<char*> argv;
+  for (auto& a : copy) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  if (posix_spawn(&pid, "/proc/self/exe", &actions, nullptr, argv.data(), environ) != 0)
+    throw Error(ErrorKind::kIo, "replay: cannot start " + args[1]);
+  posix_spawn_file_actions_destroy(&actions);
+  return pid;
+}
+
+std::string absolute(const std::string& p) { return std::filesystem::absolute(p).string(); }
+
+json run_sharded(const Options& o, const Clips& c, int streams, double* message_bytes) {
+  static int run = 0;
+  const std::string dir = "/tmp/kata_replay_" + std::to_string(getpid()) + "_" + std::to_string(run++);
+  std::filesystem::create_directories(dir);
+  auto ep = [&](const char* name) { return "ipc://" + dir + "/" + name; };
+  std::vector<pid_t> proxies, shards;
+  const std::string limit = std::to_string(static_cast<int>(o.seconds + 120));
+  proxies.push_back(spawn_logged({"kata", "proxy", "--frontend", ep("fin"), "--backend", ep("fout"), "--status-interval",
+                                  "0", "--seconds", limit, "--hwm", "1000000"},
+                                 dir + "/frames_proxy.log"));
+  proxies.push_back(spawn_logged({"kata", "proxy", "--frontend", ep("rin"), "--backend", ep("rout"), "--status-interval",
+                                  "0", "--seconds", limit, "--hwm", "1000000"},
+                                 dir + "/results_proxy.log"));
+  for (int k = 0; k < o.shards; ++k) {
+    const std::string config = dir + "/shard" + std::to_string(k) + ".toml";
+    std::ofstream f(config);
+    f << "[ingest]\nendpoints = [\"" << ep("fout") << "\"]\nkind = \"sub\"\n"
+      << "[publish]\nendpoints = [\"connect:" << ep("rin") << "\"]\nsend_hwm = 1000000\n"
+      << "[shard]\ncount = " << o.shards << "\nindex = " << k << "\n"
+      << "[runtime]\nworkers = " << o.workers << "\nmax_streams = " << std::max(streams, 1) << "\n"
+      << "[scoring]\nmodel = \"" << absolute(o.model) << "\"\nteacher = \"" << absolute(o.data_dir + "/" + o.teacher)
+      << "\"\nfirst_frame = 1\nghost = true\n[status]\ninterval_seconds = 3600\n";
+    f.close();
+    shards.push_back(spawn_logged({"kata", "serve", "--config", config}, dir + "/shard" + std::to_string(k) + ".log"));
+  }
+  void* context = zmq_ctx_new();
+  void* pub = zmq_socket(context, ZMQ_PUB);
+  int hwm = 1000000, linger = 0;
+  zmq_setsockopt(pub, ZMQ_SNDHWM, &hwm, sizeof hwm);
+  zmq_setsockopt(pub, ZMQ_LINGER, &linger, sizeof linger);
+  if (zmq_connect(pub, ep("fin").c_str()) != 0) throw Error(ErrorKind::kIo, "replay: cannot connect the source");
+  kata::transport::Encoder encoder;
+  auto send_definitions = [&] {
+    for (int s = 0; s < streams; ++s) {
+      kata::transport::SkeletonDefinition d;
+      d.stream_id = static_cast<uint64_t>(s);
+      d.revision = 1;
+      d.skeleton = c.clips[static_cast<size_t>(s) % c.clips.size()].skeleton;
+      d.preset = "cmu";
+      d.frame_rate = static_cast<float>(o.rate);
+      const auto m = encoder.skeleton(d);
+      zmq_send(pub, m.data, m.size, ZMQ_DONTWAIT);
+    }
+  };
+  // Definitions until every stream is open on its shard and announced to the subscriber (each
+  // shard loads the model and teacher first; bounded by the subscriber's own deadline).
+  Child child = spawn_subscriber(ep("rout"), "kata", o.seconds + 60.0, 0.0, streams, true);
+  std::atomic<bool> ready{false};
+  std::thread announcer([&] {
+    while (!ready.load()) {
+      send_definitions();
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    }
+  });
+  const std::string line = read_line(child.out);
+  ready.store(true);
+  announcer.join();
+  if (line != "ready") throw Error(ErrorKind::kIo, "replay: the shards never announced every stream (logs in " + dir + ")");
+  const int64_t ticks = static_cast<int64_t>(o.seconds * o.rate);
+  uint64_t sent = 0;
+  const double cpu0 = cpu_seconds();
+  const auto wall0 = std::chrono::steady_clock::now();
+  paced(o, ticks, [&](int64_t t) {
+    for (int s = 0; s < streams; ++s) {
+      const size_t clip = static_cast<size_t>(s) % c.clips.size();
+      const int joints = c.clips[clip].skeleton.joint_count();
+      const int frames = static_cast<int>(c.positions[clip].size() / (3 * static_cast<size_t>(joints)));
+      const int f = static_cast<int>((t + s) % frames);
+      const float* xyz = c.positions[clip].data() + static_cast<size_t>(f) * 3 * static_cast<size_t>(joints);
+      const auto m = encoder.frame(static_cast<uint64_t>(s), static_cast<uint64_t>(t), now_ns(), xyz, joints);
+      if (zmq_send(pub, m.data, m.size, ZMQ_DONTWAIT) >= 0) ++sent;
+    }
+  });
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  const double cpu = cpu_seconds() - cpu0;
+  json j = finish_child(child);
+  for (pid_t p : shards) kill(p, SIGINT);
+  for (pid_t p : proxies) kill(p, SIGTERM);
+  for (pid_t p : shards) waitpid(p, nullptr, 0);
+  for (pid_t p : proxies) waitpid(p, nullptr, 0);
+  zmq_close(pub);
+  zmq_ctx_term(context);
+  std::filesystem::remove_all(dir);
+  j["sent"] = static_cast<uint64_t>(ticks) * static_cast<uint64_t>(streams);
+  j["lost"] = static_cast<int64_t>(j["sent"].get<uint64_t>()) - j["received"].get<int64_t>();
+  j["runtime_drops"] = 0;  // counted inside the shards (their logs); lost covers every hop
+  j["source_cpu_percent_of_one_core"] = 100.0 * cpu / wall;
+  j["shards"] = o.shards;
+  (void)sent;
+  *message_bytes = j["mean_message_bytes"].get<double>();
+  return j;
+}
+
 json run_once(const Options& o, const Clips& c, int streams) {
   double bytes = 0.0;
-  json kata_result = run_kata(o, c, streams, &bytes);
+  json kata_result = o.shards > 0 ? run_sharded(o, c, streams, &bytes) : run_kata(o, c, streams, &bytes);
   json bare = run_bare(o, streams, static_cast<size_t>(bytes + 0.5));
   json j;
   j["streams"] = streams;
@@ -561,6 +692,12 @@ void setup(CLI::App& app) {
   cmd->add_option("--subscriber", o->subscriber)->group("");  // internal: the subscriber process
   cmd->add_option("--mode", o->mode)->group("");
   cmd->add_option("--deadline", o->deadline)->group("");
+  cmd->add_option("--expect-definitions", o->expect_definitions)->group("");
+  cmd->add_flag("--capture-is-send", o->capture_is_send)->group("");
+  cmd->add_option("--shards", o->shards,
+                  "run the kata phase through two kata proxy processes (frames, results) and this many kata serve "
+                  "shards (ipc endpoints in a temporary directory); latency from the frame's send")
+      ->capture_default_str();
   cmd->callback([o] { run_replay(*o); });
 }
 
