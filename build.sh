@@ -8,7 +8,7 @@
 #   ./build.sh aarch64   cross build for 64-bit ARM: the library and its GPD, metric, retarget and
 #                        C ABI tests, run under qemu-user (no trainer, tools or benchmarks)
 #   ./build.sh fuzz-smoke   every fuzz target for FUZZ_SMOKE_SECONDS (10) over its seeds (CI)
-#   ./build.sh tsan   the live-path tests and stress tests under ThreadSanitizer (clang, -Werror) in build-tsan/
+#   ./build.sh tsan   everything built by clang (-Werror, ThreadSanitizer) in build-tsan/; live-path + stress tests run
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -116,16 +116,16 @@ fuzz() {  # fuzz [seconds per target]
   done
 }
 
-# The live path under ThreadSanitizer, built with Debian's clang and -Werror (this is also CI's
-# clang build): the runtime, transport, pipeline, plugin and runtime C ABI tests and the stress
-# tests (tests/runtime/stress_test.cpp), every one labelled tsan. Any report fails the run;
+# The whole project (but benchmarks and bindings) built with Debian's clang 14, -Werror and
+# ThreadSanitizer (so this is also a clang -Werror build of everything), then the live path run:
+# the runtime, transport, pipeline, plugin and runtime C ABI tests and the stress tests
+# (tests/runtime/stress_test.cpp), every one labelled tsan. Any report fails the run;
 # tests/tsan.supp holds the suppressions (third-party code only, each justified).
-TSAN_TARGETS=(runtime_test runtime_stress_test transport_test test_pipeline plugin_test test_runtime_api)
 tsan() {
   local dir=build-tsan
   CC=clang-14 CXX=clang++-14 cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DKATA_WERROR=ON -DKATA_TSAN=ON \
     -DKATA_BUILD_BENCH=OFF -DKATA_BUILD_BINDINGS=OFF >/dev/null
-  cmake --build "$dir" -j "$JOBS" --target "${TSAN_TARGETS[@]}"
+  cmake --build "$dir" -j "$JOBS"
   TSAN_OPTIONS="halt_on_error=1 exitcode=66 second_deadlock_stack=1 suppressions=$PWD/tests/tsan.supp" \
     ctest --test-dir "$dir" --output-on-failure -j "$JOBS" --timeout 900 -L tsan
 }
