@@ -8,6 +8,7 @@
 #   ./build.sh aarch64   cross build for 64-bit ARM: the library and its GPD, metric, retarget and
 #                        C ABI tests, run under qemu-user (no trainer, tools or benchmarks)
 #   ./build.sh fuzz-smoke   every fuzz target for FUZZ_SMOKE_SECONDS (10) over its seeds (CI)
+#   ./build.sh soak   kata replay --soak for 60 s (64 streams; ctest -L soak), alone
 #   ./build.sh tsan   everything built by clang (-Werror, ThreadSanitizer) in build-tsan/; live-path + stress tests run
 set -euo pipefail
 cd "$(dirname "$0")"
@@ -46,8 +47,8 @@ build() {  # build DIR [cmake options...]
   cmake --build "$dir" -j "$JOBS"
 }
 
-run_tests() {  # run_tests DIR
-  ctest --test-dir "$1" --output-on-failure -j "$JOBS" --timeout 900
+run_tests() {  # run_tests DIR: every test but the soak (./build.sh soak runs it alone)
+  ctest --test-dir "$1" --output-on-failure -j "$JOBS" --timeout 900 -LE soak
 }
 
 clang_build() {
@@ -142,6 +143,7 @@ case "${1:-}" in
   aarch64) deps; aarch64_build ;;
   fuzz-smoke) deps; deps "${FUZZ_PACKAGES[@]}"; fuzz "${FUZZ_SMOKE_SECONDS:-10}" ;;
   tsan) deps; deps "${FUZZ_PACKAGES[@]}"; tsan ;;
+  soak) deps; build build; ctest --test-dir build --output-on-failure --timeout 900 -L soak ;;
   bench) deps; build build; build/bin/kata_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true ;;
-  *) sed -n '2,11p' "$0"; exit 2 ;;
+  *) sed -n '2,12p' "$0"; exit 2 ;;
 esac

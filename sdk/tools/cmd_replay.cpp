@@ -193,6 +193,16 @@ int run_subscriber(const Options& o) {
       std::vector<int64_t> w(total.begin() + static_cast<long>(begin), total.begin() + static_cast<long>(end));
       json x = summary(w);
       x["count"] = end - begin;
+      // Where the window's time went: the median of each stage (arrival -> computed -> published
+      // -> received).
+      auto stage_p50 = [&](const std::vector<int64_t>& v) {
+        if (v.size() != total.size()) return 0.0;
+        std::vector<int64_t> part(v.begin() + static_cast<long>(begin), v.begin() + static_cast<long>(end));
+        return percentile(part, 0.5);
+      };
+      x["p50_arrival_to_computed_us"] = stage_p50(queue_compute);
+      x["p50_computed_to_published_us"] = stage_p50(publish);
+      x["p50_published_to_received_us"] = stage_p50(transport);
       windows.push_back(x);
       begin = end;
     }
