@@ -520,8 +520,17 @@ json run_sharded(const Options& o, const Clips& c, int streams, double* message_
   json j = finish_child(child);
   for (pid_t p : shards) kill(p, SIGINT);
   for (pid_t p : proxies) kill(p, SIGTERM);
-  for (pid_t p : shards) waitpid(p, nullptr, 0);
-  for (pid_t p : proxies) waitpid(p, nullptr, 0);
+  // CPU seconds of each process over its whole life (start-up included: model and teacher loads).
+  auto reap = [](pid_t p) {
+    rusage u{};
+    int status = 0;
+    wait4(p, &status, 0, &u);
+    return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+           1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+  };
+  double shard_cpu = 0.0, proxy_cpu[2] = {0.0, 0.0};
+  for (pid_t p : shards) shard_cpu += reap(p);
+  for (size_t i = 0; i < proxies.size(); ++i) proxy_cpu[i] = reap(proxies[i]);
   zmq_close(pub);
   zmq_ctx_term(context);
   std::filesystem::remove_all(dir);
@@ -530,6 +539,8 @@ json run_sharded(const Options& o, const Clips& c, int streams, double* message_
   j["runtime_drops"] = 0;  // counted inside the shards (their logs); lost covers every hop
   j["source_cpu_percent_of_one_core"] = 100.0 * cpu / wall;
   j["shards"] = o.shards;
+  j["cpu_seconds"] = {{"shards_total", shard_cpu}, {"frames_proxy", proxy_cpu[0]}, {"results_proxy", proxy_cpu[1]}};
+  j["wall_seconds_sending"] = wall;
   (void)sent;
   *message_bytes = j["mean_message_bytes"].get<double>();
   return j;
