@@ -8,6 +8,9 @@
 #   ./build.sh aarch64   cross build for 64-bit ARM: the library and its GPD, metric, retarget and
 #                        C ABI tests, run under qemu-user (no trainer, tools or benchmarks)
 #   ./build.sh browser-test   the coach's viewer and report in headless Chromium (ctest label browser)
+#   ./build.sh fuzz-smoke   every fuzz target for FUZZ_SMOKE_SECONDS (10) over its seeds (CI)
+#   ./build.sh soak   kata replay --soak for 60 s (64 streams; ctest -L soak), alone
+#   ./build.sh tsan   everything built by clang (-Werror, ThreadSanitizer) in build-tsan/; live-path + stress tests run
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -17,7 +20,8 @@ PACKAGES=(build-essential cmake pkg-config libeigen3-dev libzmq3-dev cppzmq-dev 
           libcli11-dev nlohmann-json3-dev libxsimd-dev ccache libtomlplusplus-dev libcpp-httplib-dev python3 python3-numpy python3-matplotlib python3-zmq python3-flatbuffers
           python3-pytest mono-mcs mono-runtime
           chromium chromium-driver python3-selenium python3-pil)
-# Only `./build.sh fuzz` needs these (Debian's clang and its libFuzzer runtime).
+# Only `./build.sh fuzz`, `fuzz-smoke` and `tsan` need these (Debian's clang, its libFuzzer and
+# sanitizer runtimes).
 FUZZ_PACKAGES=(clang-14 libclang-rt-14-dev)
 # Only for `./build.sh clang` / `./build.sh aarch64` (arm64 multiarch: the arm64 builds of the
 # libraries the core links; header-only packages are shared with the host).
@@ -48,8 +52,8 @@ build() {  # build DIR [cmake options...]
   cmake --build "$dir" -j "$JOBS"
 }
 
-run_tests() {  # run_tests DIR
-  ctest --test-dir "$1" --output-on-failure -j "$JOBS" --timeout 900
+run_tests() {  # run_tests DIR: every test but the soak (./build.sh soak runs it alone)
+  ctest --test-dir "$1" --output-on-failure -j "$JOBS" --timeout 900 -LE soak
 }
 
 clang_build() {
@@ -95,12 +99,13 @@ demo() {
 # Builds the fuzz targets (tests/fuzz/README.md) and runs each for FUZZ_SECONDS over its seed
 # corpus (tests/fuzz/corpus/NAME, read only) plus a working corpus in build-fuzz/corpus/NAME. A
 # crash, sanitizer report or failed assertion stops the script with the input saved in build-fuzz/.
-fuzz() {
-  local dir=build-fuzz secs=${FUZZ_SECONDS:-20}
+FUZZ_TARGETS=(bvh model name_map stream landmarks ingest serve_config)
+fuzz() {  # fuzz [seconds per target]
+  local dir=build-fuzz secs=${1:-${FUZZ_SECONDS:-20}}
   CC=clang-14 CXX=clang++-14 cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DKATA_FUZZ=ON \
-    -DKATA_BUILD_TESTS=OFF -DKATA_BUILD_BENCH=OFF >/dev/null
+    -DKATA_BUILD_TESTS=OFF -DKATA_BUILD_BENCH=OFF -DKATA_BUILD_BINDINGS=OFF >/dev/null
   cmake --build "$dir" -j "$JOBS" --target fuzz_all
-  for t in bvh model name_map stream; do
+  for t in "${FUZZ_TARGETS[@]}"; do
     local dict=()
     [ -f "tests/fuzz/$t.dict" ] && dict=("-dict=tests/fuzz/$t.dict")
     mkdir -p "$dir/corpus/$t"
@@ -116,6 +121,20 @@ fuzz() {
   done
 }
 
+# The whole project (but benchmarks and bindings) built with Debian's clang 14, -Werror and
+# ThreadSanitizer (so this is also a clang -Werror build of everything), then the live path run:
+# the runtime, transport, pipeline, plugin and runtime C ABI tests and the stress tests
+# (tests/runtime/stress_test.cpp), every one labelled tsan. Any report fails the run;
+# tests/tsan.supp holds the suppressions (third-party code only, each justified).
+tsan() {
+  local dir=build-tsan
+  CC=clang-14 CXX=clang++-14 cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DKATA_WERROR=ON -DKATA_TSAN=ON \
+    -DKATA_BUILD_BENCH=OFF -DKATA_BUILD_BINDINGS=OFF >/dev/null
+  cmake --build "$dir" -j "$JOBS"
+  TSAN_OPTIONS="halt_on_error=1 exitcode=66 second_deadlock_stack=1 suppressions=$PWD/tests/tsan.supp" \
+    ctest --test-dir "$dir" --output-on-failure -j "$JOBS" --timeout 900 -L tsan
+}
+
 case "${1:-}" in
   deps) deps ;;
   build) deps; build build ;;
@@ -127,6 +146,9 @@ case "${1:-}" in
   clang) deps; clang_build ;;
   aarch64) deps; aarch64_build ;;
   browser-test) deps; build build; ctest --test-dir build -L browser --output-on-failure --timeout 300 ;;
+  fuzz-smoke) deps; deps "${FUZZ_PACKAGES[@]}"; fuzz "${FUZZ_SMOKE_SECONDS:-10}" ;;
+  tsan) deps; deps "${FUZZ_PACKAGES[@]}"; tsan ;;
+  soak) deps; build build; ctest --test-dir build --output-on-failure --timeout 900 -L soak ;;
   bench) deps; build build; build/bin/kata_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true ;;
-  *) sed -n '2,10p' "$0"; exit 2 ;;
+  *) sed -n '2,13p' "$0"; exit 2 ;;
 esac

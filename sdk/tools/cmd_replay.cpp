@@ -4,8 +4,14 @@
 // the same pacing (sleeping between ticks, not spinning). End-to-end latency = frame pushed ->
 // message received, both ends on CLOCK_MONOTONIC (one host). Every phase is bounded in time.
 //
+// --soak: one long kata phase (no bare phase): the subscriber reports the latency per --window
+// seconds, this process samples its resident memory every second; the run fails unless nothing
+// was lost, the RSS after the first window stayed within 1 % (max - min over min) and the last
+// window's p99 is within 1.25 x the first window's.
+//
 // The subscriber is this executable again (`kata replay --subscriber ENDPOINT --mode kata|bare`),
 // spawned per phase; it prints "ready" once subscribed and one JSON line of latencies at the end.
+#include <fcntl.h>
 #include <spawn.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -13,12 +19,16 @@
 #include <zmq.h>
 
 #include <algorithm>
+#include <atomic>
+#include <filesystem>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <map>
 #include <memory>
+#include <set>
 #include <string>
 #include <thread>
 #include <vector>
@@ -49,6 +59,8 @@ struct Options {
   std::string transport = "tcp";
   std::string out;
   bool find_max = false;
+  bool soak = false;
+  double window = 60.0;  // soak: seconds per latency window
   double p99_bound_us = 0.0;  // 0: only the 1.25 x bare ratio bounds --find-max
   int workers = 2;
   std::string data_dir = "data/cmu";
@@ -58,6 +70,9 @@ struct Options {
   std::string subscriber;
   std::string mode = "kata";
   double deadline = 60.0;
+  int expect_definitions = 1;   // subscriber: "ready" once this many streams' definitions came
+  bool capture_is_send = false; // subscriber: capture_ns is the source's send time (shards mode)
+  int shards = 0;               // > 0: the kata phase runs through kata proxy + this many kata serve
 };
 
 int64_t now_ns() { return kata::pipeline::now_ns(); }
@@ -101,7 +116,8 @@ int run_subscriber(const Options& o) {
   if (!kata_mode) std::printf("ready\n"), std::fflush(stdout);  // the bare publisher sees the join itself
   kata::transport::Decoder decoder(1 << 22, false);
   std::vector<uint8_t> buffer(1 << 22);
-  std::vector<int64_t> total, queue_compute, publish, transport;
+  std::vector<int64_t> total, queue_compute, publish, transport, received_at, source_to_arrival;
+  std::set<uint64_t> defined;
   total.reserve(1 << 20);
   bool ready = !kata_mode;
   uint64_t received = 0, bytes = 0;
@@ -133,13 +149,19 @@ int run_subscriber(const Options& o) {
       }
       const auto kind = decoder.decode(buffer.data(), static_cast<size_t>(n));
       if (kind == kata::transport::MessageKind::kSkeleton && !ready) {
-        ready = true;
-        std::printf("ready\n");
-        std::fflush(stdout);
+        defined.insert(decoder.stream_id());
+        if (static_cast<int>(defined.size()) >= o.expect_definitions) {
+          ready = true;
+          std::printf("ready\n");
+          std::fflush(stdout);
+        }
       }
       if (kind != kata::transport::MessageKind::kResult) continue;
       const auto& r = decoder.result();
-      total.push_back(t - r.arrival_ns);
+      // Shards: from the source's send (capture_ns, same clock) to here, the proxies included.
+      total.push_back(t - (o.capture_is_send ? r.capture_ns : r.arrival_ns));
+      if (o.capture_is_send) source_to_arrival.push_back(r.arrival_ns - r.capture_ns);
+      if (o.window > 0) received_at.push_back(t);
       queue_compute.push_back(r.computed_ns - r.arrival_ns);
       publish.push_back(r.published_ns - r.computed_ns);
       transport.push_back(t - r.published_ns);
@@ -153,11 +175,39 @@ int run_subscriber(const Options& o) {
   j["mean_message_bytes"] = received ? static_cast<double>(bytes) / static_cast<double>(received) : 0.0;
   j["latency"] = summary(total);
   if (kata_mode) {
+    if (o.capture_is_send) j["stages"]["source_to_arrival"] = summary(source_to_arrival);
     j["stages"]["arrival_to_computed"] = summary(queue_compute);
     j["stages"]["computed_to_published"] = summary(publish);
     j["stages"]["published_to_received"] = summary(transport);
   }
   j["subscriber_cpu_seconds"] = cpu_seconds() - cpu0;
+  if (o.window > 0 && !received_at.empty()) {
+    // Latency per window of receive time, from the first result on.
+    const int64_t window_ns = static_cast<int64_t>(o.window * 1e9);
+    json windows = json::array();
+    size_t begin = 0;
+    while (begin < received_at.size()) {
+      const int64_t window_end = received_at[0] + static_cast<int64_t>(windows.size() + 1) * window_ns;
+      size_t end = begin;
+      while (end < received_at.size() && received_at[end] < window_end) ++end;
+      std::vector<int64_t> w(total.begin() + static_cast<long>(begin), total.begin() + static_cast<long>(end));
+      json x = summary(w);
+      x["count"] = end - begin;
+      // Where the window's time went: the median of each stage (arrival -> computed -> published
+      // -> received).
+      auto stage_p50 = [&](const std::vector<int64_t>& v) {
+        if (v.size() != total.size()) return 0.0;
+        std::vector<int64_t> part(v.begin() + static_cast<long>(begin), v.begin() + static_cast<long>(end));
+        return percentile(part, 0.5);
+      };
+      x["p50_arrival_to_computed_us"] = stage_p50(queue_compute);
+      x["p50_computed_to_published_us"] = stage_p50(publish);
+      x["p50_published_to_received_us"] = stage_p50(transport);
+      windows.push_back(x);
+      begin = end;
+    }
+    j["windows"] = windows;
+  }
   std::printf("%s\n", j.dump().c_str());
   std::fflush(stdout);
   zmq_close(sub);
@@ -172,7 +222,8 @@ struct Child {
   FILE* out = nullptr;
 };
 
-Child spawn_subscriber(const std::string& endpoint, const std::string& mode, double deadline) {
+Child spawn_subscriber(const std::string& endpoint, const std::string& mode, double deadline, double window = 0.0,
+                       int expect_definitions = 1, bool capture_is_send = false) {
   int pipe_fds[2];
   if (pipe(pipe_fds) != 0) throw Error(ErrorKind::kIo, "replay: pipe failed");
   posix_spawn_file_actions_t actions;
@@ -180,7 +231,10 @@ Child spawn_subscriber(const std::string& endpoint, const std::string& mode, dou
   posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], 1);
   posix_spawn_file_actions_addclose(&actions, pipe_fds[0]);
   const std::string deadline_text = std::to_string(deadline);
-  std::vector<std::string> args = {"kata", "replay", "--subscriber", endpoint, "--mode", mode, "--deadline", deadline_text};
+  std::vector<std::string> args = {"kata", "replay", "--subscriber", endpoint, "--mode", mode, "--deadline", deadline_text,
+                                   "--window", std::to_string(window), "--expect-definitions",
+                                   std::to_string(expect_definitions)};
+  if (capture_is_send) args.push_back("--capture-is-send");
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -258,6 +312,17 @@ void paced(const Options& o, int64_t ticks, Send send) {
   }
 }
 
+// This process's resident set (MiB), from /proc/self/statm.
+double resident_mib() {
+  std::FILE* f = std::fopen("/proc/self/statm", "r");
+  if (!f) return 0.0;
+  unsigned long long size = 0, resident = 0;
+  const int n = std::fscanf(f, "%llu %llu", &size, &resident);
+  std::fclose(f);
+  if (n != 2) return 0.0;
+  return static_cast<double>(resident) * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
+}
+
 json run_kata(const Options& o, const Clips& c, int streams, double* message_bytes) {
   kata::runtime::RuntimeConfig config;
   config.workers = o.workers;
@@ -276,13 +341,17 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
     d.frame_rate = static_cast<float>(o.rate);
     runtime.open_stream(d, setup_for(c, clip));
   }
-  Child child = spawn_subscriber(runtime.publish_endpoint(), "kata", o.seconds + 30.0);
+  Child child = spawn_subscriber(runtime.publish_endpoint(), "kata", o.seconds + 30.0, o.soak ? o.window : 0.0);
   if (read_line(child.out) != "ready") throw Error(ErrorKind::kIo, "replay: the kata subscriber did not start");
   const int64_t ticks = static_cast<int64_t>(o.seconds * o.rate);
   uint64_t sent = 0, refused_push = 0;
+  std::vector<double> rss_mib;  // soak: resident memory once per second
+  rss_mib.reserve(static_cast<size_t>(o.seconds) + 2);
+  const int64_t ticks_per_second = std::max<int64_t>(1, static_cast<int64_t>(o.rate));
   const double cpu0 = cpu_seconds();
   const auto wall0 = std::chrono::steady_clock::now();
   paced(o, ticks, [&](int64_t t) {
+    if (o.soak && t % ticks_per_second == 0) rss_mib.push_back(resident_mib());
     for (int s = 0; s < streams; ++s) {
       const size_t clip = static_cast<size_t>(s) % c.clips.size();
       const int joints = c.clips[clip].skeleton.joint_count();
@@ -307,6 +376,7 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
                        counters.total.refused + counters.total.send_failed;
   j["publisher_cpu_percent_of_one_core"] = 100.0 * cpu / wall;
   *message_bytes = j["mean_message_bytes"].get<double>();
+  if (o.soak) j["rss_mib"] = rss_mib;
   return j;
 }
 
@@ -352,9 +422,133 @@ json run_bare(const Options& o, int streams, size_t message_bytes) {
   return j;
 }
 
+// ---- the kata phase through shards: source -> kata proxy -> N x kata serve -> kata proxy -> subscriber
+
+pid_t spawn_logged(const std::vector<std::string>& args, const std::string& log) {
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_adddup2(&actions, 1, 2);
+  std::vector<std::string> copy = args;
+  std::vector<char*> argv;
+  for (auto& a : copy) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  pid_t pid = -1;
+  if (posix_spawn(&pid, "/proc/self/exe", &actions, nullptr, argv.data(), environ) != 0)
+    throw Error(ErrorKind::kIo, "replay: cannot start " + args[1]);
+  posix_spawn_file_actions_destroy(&actions);
+  return pid;
+}
+
+std::string absolute(const std::string& p) { return std::filesystem::absolute(p).string(); }
+
+json run_sharded(const Options& o, const Clips& c, int streams, double* message_bytes) {
+  static int run = 0;
+  const std::string dir = "/tmp/kata_replay_" + std::to_string(getpid()) + "_" + std::to_string(run++);
+  std::filesystem::create_directories(dir);
+  auto ep = [&](const char* name) { return "ipc://" + dir + "/" + name; };
+  std::vector<pid_t> proxies, shards;
+  const std::string limit = std::to_string(static_cast<int>(o.seconds + 120));
+  proxies.push_back(spawn_logged({"kata", "proxy", "--frontend", ep("fin"), "--backend", ep("fout"), "--status-interval",
+                                  "0", "--seconds", limit, "--hwm", "1000000"},
+                                 dir + "/frames_proxy.log"));
+  proxies.push_back(spawn_logged({"kata", "proxy", "--frontend", ep("rin"), "--backend", ep("rout"), "--status-interval",
+                                  "0", "--seconds", limit, "--hwm", "1000000"},
+                                 dir + "/results_proxy.log"));
+  for (int k = 0; k < o.shards; ++k) {
+    const std::string config = dir + "/shard" + std::to_string(k) + ".toml";
+    std::ofstream f(config);
+    f << "[ingest]\nendpoints = [\"" << ep("fout") << "\"]\nkind = \"sub\"\n"
+      << "[publish]\nendpoints = [\"connect:" << ep("rin") << "\"]\nsend_hwm = 1000000\n"
+      << "[shard]\ncount = " << o.shards << "\nindex = " << k << "\n"
+      << "[runtime]\nworkers = " << o.workers << "\nmax_streams = " << std::max(streams, 1) << "\n"
+      << "[scoring]\nmodel = \"" << absolute(o.model) << "\"\nteacher = \"" << absolute(o.data_dir + "/" + o.teacher)
+      << "\"\nfirst_frame = 1\nghost = true\n[status]\ninterval_seconds = 3600\n";
+    f.close();
+    shards.push_back(spawn_logged({"kata", "serve", "--config", config}, dir + "/shard" + std::to_string(k) + ".log"));
+  }
+  void* context = zmq_ctx_new();
+  void* pub = zmq_socket(context, ZMQ_PUB);
+  int hwm = 1000000, linger = 0;
+  zmq_setsockopt(pub, ZMQ_SNDHWM, &hwm, sizeof hwm);
+  zmq_setsockopt(pub, ZMQ_LINGER, &linger, sizeof linger);
+  if (zmq_connect(pub, ep("fin").c_str()) != 0) throw Error(ErrorKind::kIo, "replay: cannot connect the source");
+  kata::transport::Encoder encoder;
+  auto send_definitions = [&] {
+    for (int s = 0; s < streams; ++s) {
+      kata::transport::SkeletonDefinition d;
+      d.stream_id = static_cast<uint64_t>(s);
+      d.revision = 1;
+      d.skeleton = c.clips[static_cast<size_t>(s) % c.clips.size()].skeleton;
+      d.preset = "cmu";
+      d.frame_rate = static_cast<float>(o.rate);
+      const auto m = encoder.skeleton(d);
+      zmq_send(pub, m.data, m.size, ZMQ_DONTWAIT);
+    }
+  };
+  // Definitions until every stream is open on its shard and announced to the subscriber (each
+  // shard loads the model and teacher first; bounded by the subscriber's own deadline).
+  Child child = spawn_subscriber(ep("rout"), "kata", o.seconds + 60.0, 0.0, streams, true);
+  std::atomic<bool> ready{false};
+  std::thread announcer([&] {
+    while (!ready.load()) {
+      send_definitions();
+      std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    }
+  });
+  const std::string line = read_line(child.out);
+  ready.store(true);
+  announcer.join();
+  if (line != "ready") throw Error(ErrorKind::kIo, "replay: the shards never announced every stream (logs in " + dir + ")");
+  const int64_t ticks = static_cast<int64_t>(o.seconds * o.rate);
+  uint64_t sent = 0;
+  const double cpu0 = cpu_seconds();
+  const auto wall0 = std::chrono::steady_clock::now();
+  paced(o, ticks, [&](int64_t t) {
+    for (int s = 0; s < streams; ++s) {
+      const size_t clip = static_cast<size_t>(s) % c.clips.size();
+      const int joints = c.clips[clip].skeleton.joint_count();
+      const int frames = static_cast<int>(c.positions[clip].size() / (3 * static_cast<size_t>(joints)));
+      const int f = static_cast<int>((t + s) % frames);
+      const float* xyz = c.positions[clip].data() + static_cast<size_t>(f) * 3 * static_cast<size_t>(joints);
+      const auto m = encoder.frame(static_cast<uint64_t>(s), static_cast<uint64_t>(t), now_ns(), xyz, joints);
+      if (zmq_send(pub, m.data, m.size, ZMQ_DONTWAIT) >= 0) ++sent;
+    }
+  });
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  const double cpu = cpu_seconds() - cpu0;
+  json j = finish_child(child);
+  for (pid_t p : shards) kill(p, SIGINT);
+  for (pid_t p : proxies) kill(p, SIGTERM);
+  // CPU seconds of each process over its whole life (start-up included: model and teacher loads).
+  auto reap = [](pid_t p) {
+    rusage u{};
+    int status = 0;
+    wait4(p, &status, 0, &u);
+    return static_cast<double>(u.ru_utime.tv_sec + u.ru_stime.tv_sec) +
+           1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
+  };
+  double shard_cpu = 0.0, proxy_cpu[2] = {0.0, 0.0};
+  for (pid_t p : shards) shard_cpu += reap(p);
+  for (size_t i = 0; i < proxies.size(); ++i) proxy_cpu[i] = reap(proxies[i]);
+  zmq_close(pub);
+  zmq_ctx_term(context);
+  std::filesystem::remove_all(dir);
+  j["sent"] = static_cast<uint64_t>(ticks) * static_cast<uint64_t>(streams);
+  j["lost"] = static_cast<int64_t>(j["sent"].get<uint64_t>()) - j["received"].get<int64_t>();
+  j["runtime_drops"] = 0;  // counted inside the shards (their logs); lost covers every hop
+  j["source_cpu_percent_of_one_core"] = 100.0 * cpu / wall;
+  j["shards"] = o.shards;
+  j["cpu_seconds"] = {{"shards_total", shard_cpu}, {"frames_proxy", proxy_cpu[0]}, {"results_proxy", proxy_cpu[1]}};
+  j["wall_seconds_sending"] = wall;
+  (void)sent;
+  *message_bytes = j["mean_message_bytes"].get<double>();
+  return j;
+}
+
 json run_once(const Options& o, const Clips& c, int streams) {
   double bytes = 0.0;
-  json kata_result = run_kata(o, c, streams, &bytes);
+  json kata_result = o.shards > 0 ? run_sharded(o, c, streams, &bytes) : run_kata(o, c, streams, &bytes);
   json bare = run_bare(o, streams, static_cast<size_t>(bytes + 0.5));
   json j;
   j["streams"] = streams;
@@ -388,6 +582,54 @@ void print_line(const json& r) {
   std::fflush(stdout);
 }
 
+// The soak: one kata phase of --seconds, judged by the three criteria in the file comment.
+json run_soak(const Options& o, const Clips& c) {
+  if (!(o.window > 0) || o.seconds < 2 * o.window)
+    throw Error(ErrorKind::kInvalidArgument, "replay: --soak needs --window > 0 and --seconds >= 2 x --window");
+  double bytes = 0.0;
+  json k = run_kata(o, c, o.streams, &bytes);
+  json j;
+  j["mode"] = "soak";
+  j["streams"] = o.streams;
+  j["rate_hz"] = o.rate;
+  j["seconds"] = o.seconds;
+  j["window_seconds"] = o.window;
+  j["workers"] = o.workers;
+  j["transport"] = o.transport;
+  j["kata"] = k;
+  // RSS after the first window: samples taken at t >= window (one per second).
+  const auto& rss = k["rss_mib"];
+  double lo = 1e300, hi = 0.0;
+  for (size_t i = static_cast<size_t>(o.window); i < rss.size(); ++i) {
+    lo = std::min(lo, rss[i].get<double>());
+    hi = std::max(hi, rss[i].get<double>());
+  }
+  const double drift = lo > 0 && hi >= lo ? 100.0 * (hi - lo) / lo : 100.0;
+  const auto& windows = k["windows"];
+  // The last window may be partial (the tail after the last full window): the last full one counts.
+  const size_t full = static_cast<size_t>(o.seconds / o.window);
+  const size_t last = std::min(windows.size(), full) - 1;
+  const double first_p99 = windows.empty() ? 0.0 : windows[0]["p99_us"].get<double>();
+  const double last_p99 = windows.empty() ? 0.0 : windows[last]["p99_us"].get<double>();
+  const double ratio = first_p99 > 0 ? last_p99 / first_p99 : 0.0;
+  const int64_t lost = k["lost"].get<int64_t>();
+  const uint64_t drops = k["runtime_drops"].get<uint64_t>();
+  j["rss_after_first_window_mib"] = {{"min", lo}, {"max", hi}, {"drift_percent", drift}};
+  j["p99_first_window_us"] = first_p99;
+  j["p99_last_window_us"] = last_p99;
+  j["p99_ratio_last_over_first"] = ratio;
+  j["lost"] = lost;
+  const bool pass = lost == 0 && drops == 0 && drift <= 1.0 && !windows.empty() && ratio <= 1.25;
+  j["pass"] = pass;
+  std::printf("soak: %d streams x %.0f Hz for %.0f s | sent %lld lost %lld drops %llu | RSS after %.0f s %.2f..%.2f MiB "
+              "(%.2f %%) | p99 first %.0f s %.1f us, last %.1f us (x%.2f) | %s\n",
+              o.streams, o.rate, o.seconds, static_cast<long long>(k["sent"].get<int64_t>()), static_cast<long long>(lost),
+              static_cast<unsigned long long>(drops), o.window, lo, hi, drift, o.window, first_p99, last_p99, ratio,
+              pass ? "pass" : "FAIL");
+  std::fflush(stdout);
+  return j;
+}
+
 void run_replay(const Options& o) {
   if (!o.subscriber.empty()) {
     const int code = run_subscriber(o);
@@ -395,12 +637,14 @@ void run_replay(const Options& o) {
     return;
   }
   if (o.transport != "tcp" && o.transport != "ipc") throw Error(ErrorKind::kInvalidArgument, "replay: --transport tcp|ipc");
-  if (o.streams < 1 || !(o.rate > 0) || !(o.seconds > 0) || o.seconds > 600)
-    throw Error(ErrorKind::kInvalidArgument, "replay: --streams >= 1, --rate > 0, 0 < --seconds <= 600");
+  if (o.streams < 1 || !(o.rate > 0) || !(o.seconds > 0) || o.seconds > (o.soak ? 86400 : 600))
+    throw Error(ErrorKind::kInvalidArgument, "replay: --streams >= 1, --rate > 0, 0 < --seconds <= 600 (soak: 86400)");
   std::signal(SIGPIPE, SIG_IGN);
   const Clips clips = load_clips(o);
   json report;
-  if (!o.find_max) {
+  if (o.soak) {
+    report = run_soak(o, clips);
+  } else if (!o.find_max) {
     report = run_once(o, clips, o.streams);
     print_line(report);
   } else {
@@ -446,6 +690,8 @@ void run_replay(const Options& o) {
     if (!f) throw Error(ErrorKind::kIo, "replay: cannot write " + o.out);
     f << report.dump(2) << "\n";
   }
+  if (o.soak && !report["pass"].get<bool>())
+    throw Error(ErrorKind::kInvalidArgument, "replay: the soak failed its criteria (nothing lost, RSS within 1 %, p99 within 1.25 x)");
 }
 
 void setup(CLI::App& app) {
@@ -460,11 +706,19 @@ void setup(CLI::App& app) {
   cmd->add_flag("--find-max", o->find_max, "find the most streams with nothing lost and kata p99 <= 1.25 x bare p99");
   cmd->add_option("--p99-bound-us", o->p99_bound_us, "with --find-max: also kata p99 <= this (us)");
   cmd->add_option("--workers", o->workers, "runtime worker threads")->capture_default_str();
+  cmd->add_flag("--soak", o->soak, "one long kata phase: nothing lost, RSS flat within 1 %, last window p99 <= 1.25 x first");
+  cmd->add_option("--window", o->window, "with --soak: seconds per latency window")->capture_default_str();
   cmd->add_option("--data", o->data_dir, "directory of the CMU clips")->capture_default_str();
   cmd->add_option("--model", o->model, "the .kata model")->capture_default_str();
   cmd->add_option("--subscriber", o->subscriber)->group("");  // internal: the subscriber process
   cmd->add_option("--mode", o->mode)->group("");
   cmd->add_option("--deadline", o->deadline)->group("");
+  cmd->add_option("--expect-definitions", o->expect_definitions)->group("");
+  cmd->add_flag("--capture-is-send", o->capture_is_send)->group("");
+  cmd->add_option("--shards", o->shards,
+                  "run the kata phase through two kata proxy processes (frames, results) and this many kata serve "
+                  "shards (ipc endpoints in a temporary directory); latency from the frame's send")
+      ->capture_default_str();
   cmd->callback([o] { run_replay(*o); });
 }
 

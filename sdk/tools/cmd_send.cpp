@@ -1,6 +1,9 @@
 // kata send: plays a BVH clip as a live ZeroMQ source (what a mocap stage sends): its skeleton
 // definition, then one Frame per clip frame at the recorded rate (or --speed x), paced by
-// sleeping; the definition is re-sent every second so a late `kata serve` still learns it.
+// sleeping; the definition is re-sent every --definition-interval seconds so a late (or
+// restarted) `kata serve` still learns it. --streams N plays N streams (ids stream-id ..
+// stream-id+N-1, stream k starting k frames into the clip) from one socket, e.g. into the
+// frontend of a `kata proxy` in front of several shards; --warmup sends only definitions first.
 #include <zmq.h>
 
 #include <chrono>
@@ -24,7 +27,8 @@ struct Options {
   std::string bvh, endpoint, socket = "push", preset = "cmu";
   uint64_t stream_id = 1;
   double speed = 1.0;
-  int first_frame = 1, frames = 0, loops = 1;
+  int first_frame = 1, frames = 0, loops = 1, streams = 1;
+  double definition_interval = 1.0, warmup = 0.0;
 };
 
 void run_send(const Options& o) {
@@ -35,8 +39,9 @@ void run_send(const Options& o) {
   const int frames = o.frames > 0 ? std::min(o.frames, available) : available;
   if (frames < 1 || !(o.speed > 0) || o.loops < 1)
     throw Error(ErrorKind::kInvalidArgument, "send: no frames to send (--first-frame, --frames, --speed > 0, --loops >= 1)");
+  if (o.streams < 1 || !(o.definition_interval > 0) || !(o.warmup >= 0))
+    throw Error(ErrorKind::kInvalidArgument, "send: --streams >= 1, --definition-interval > 0, --warmup >= 0");
   kata::transport::SkeletonDefinition d;
-  d.stream_id = o.stream_id;
   d.revision = 1;
   d.skeleton = clip.skeleton;
   d.preset = o.preset;
@@ -44,17 +49,34 @@ void run_send(const Options& o) {
 
   void* context = zmq_ctx_new();
   void* socket = zmq_socket(context, o.socket == "pub" ? ZMQ_PUB : ZMQ_PUSH);
-  int linger = 2000;
+  int linger = 2000, hwm = 1000000;
   zmq_setsockopt(socket, ZMQ_LINGER, &linger, sizeof linger);
+  zmq_setsockopt(socket, ZMQ_SNDHWM, &hwm, sizeof hwm);
   const bool bind = o.endpoint.rfind("bind:", 0) == 0;
   const std::string endpoint = bind ? o.endpoint.substr(5) : o.endpoint;
   if ((bind ? zmq_bind(socket, endpoint.c_str()) : zmq_connect(socket, endpoint.c_str())) != 0)
     throw Error(ErrorKind::kIo, "send: cannot use " + o.endpoint + ": " + zmq_strerror(zmq_errno()));
   kata::transport::Encoder encoder;
   auto send = [&](kata::transport::Bytes m) { zmq_send(socket, m.data, m.size, 0); };
-  send(encoder.skeleton(d));
+  auto send_definitions = [&] {
+    for (int k = 0; k < o.streams; ++k) {
+      d.stream_id = o.stream_id + static_cast<uint64_t>(k);
+      send(encoder.skeleton(d));
+    }
+  };
+  const auto interval = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(o.definition_interval));
+  send_definitions();
+  if (o.warmup > 0) {
+    const auto warm_end = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                                  std::chrono::duration<double>(o.warmup));
+    while (std::chrono::steady_clock::now() < warm_end) {
+      std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(interval, warm_end - std::chrono::steady_clock::now()));
+      send_definitions();
+    }
+  }
   const auto start = std::chrono::steady_clock::now();
-  auto next_definition = start + std::chrono::seconds(1);
+  auto next_definition = start + interval;
   const double period = clip.frame_time / o.speed;
   uint64_t sequence = 0;
   for (int loop = 0; loop < o.loops; ++loop)
@@ -63,18 +85,21 @@ void run_send(const Options& o) {
                                    std::chrono::duration<double>(period * static_cast<double>(sequence)));
       std::this_thread::sleep_until(due);
       if (std::chrono::steady_clock::now() >= next_definition) {
-        send(encoder.skeleton(d));
-        next_definition += std::chrono::seconds(1);
+        send_definitions();
+        next_definition += interval;
       }
       // Capture time: the clip's time, continuing over loops (the source's clock).
       const int64_t capture_ns = static_cast<int64_t>(static_cast<double>(sequence) * clip.frame_time * 1e9);
-      send(encoder.frame(o.stream_id, sequence, capture_ns,
-                         positions.data() + static_cast<size_t>(f) * 3 * static_cast<size_t>(joints), joints));
+      for (int k = 0; k < o.streams; ++k) {
+        const int frame = (f + k) % available;
+        send(encoder.frame(o.stream_id + static_cast<uint64_t>(k), sequence, capture_ns,
+                           positions.data() + static_cast<size_t>(frame) * 3 * static_cast<size_t>(joints), joints));
+      }
     }
   zmq_close(socket);
   zmq_ctx_term(context);
-  std::fprintf(stderr, "kata send: %llu frames of stream %llu sent\n", static_cast<unsigned long long>(sequence),
-               static_cast<unsigned long long>(o.stream_id));
+  std::fprintf(stderr, "kata send: %llu frames of %d stream(s) from %llu sent\n", static_cast<unsigned long long>(sequence),
+               o.streams, static_cast<unsigned long long>(o.stream_id));
 }
 
 void setup(CLI::App& app) {
@@ -89,6 +114,9 @@ void setup(CLI::App& app) {
   cmd->add_option("--first-frame", o->first_frame, "first clip frame (1 skips the CMU T-pose)")->capture_default_str();
   cmd->add_option("--frames", o->frames, "frames per loop (0: to the clip's end)")->capture_default_str();
   cmd->add_option("--loops", o->loops, "times to play the clip (the sequence keeps counting)")->capture_default_str();
+  cmd->add_option("--streams", o->streams, "streams from --stream-id on (stream k starts k frames later)")->capture_default_str();
+  cmd->add_option("--definition-interval", o->definition_interval, "seconds between skeleton definition re-sends")->capture_default_str();
+  cmd->add_option("--warmup", o->warmup, "seconds of definitions only before the first frame")->capture_default_str();
   cmd->callback([o] { run_send(*o); });
 }
 

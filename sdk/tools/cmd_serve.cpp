@@ -11,6 +11,9 @@
 //   [publish]                                  # required
 //   endpoints = ["tcp://127.0.0.1:5556"]
 //   send_hwm = 10000
+//   [shard]                                    # optional: one of several shards (docs/deploy.md)
+//   count = 3                                  # streams split by kata_shard_of(stream id, count)
+//   index = 0                                  # this process scores the streams of shard 0
 //   [runtime]
 //   workers = 2
 //   skeleton_resend_seconds = 1.0
@@ -45,6 +48,7 @@
 #include "runtime/plugin.hpp"
 #include "runtime/plugin_host.hpp"
 #include "runtime/runtime.hpp"
+#include "serve_config.hpp"
 
 namespace {
 
@@ -54,145 +58,9 @@ using kata::ErrorKind;
 std::atomic<bool> g_stop{false};
 void serve_on_signal(int) { g_stop.store(true); }
 
-struct TeacherSource {
-  std::string path;
-  int first_frame = 1;
-};
-
-struct ServeConfig {
-  kata::runtime::RuntimeConfig runtime;
-  std::string model;  // empty: features only
-  TeacherSource default_teacher;
-  std::map<uint64_t, TeacherSource> teachers;
-  bool ghost = true;
-  double status_seconds = 1.0;
-  struct Plugin {
-    std::string path, config;
-  };
-  std::vector<Plugin> plugins;
-};
-
-[[noreturn]] void refuse(const std::string& file, const toml::source_region& where, const std::string& what) {
-  throw Error(ErrorKind::kParse, file + ":" + std::to_string(where.begin.line) + ": " + what);
-}
-
-// Reads an optional value of type T at `key` in `table`; a present value of the wrong type is refused.
-template <typename T>
-T read(const std::string& file, const toml::table& table, const char* key, T fallback) {
-  const toml::node* n = table.get(key);
-  if (!n) return fallback;
-  if (auto v = n->value<T>()) return *v;
-  refuse(file, n->source(), std::string("'") + key + "' has the wrong type");
-}
-
-std::vector<std::string> read_strings(const std::string& file, const toml::table& table, const char* key) {
-  std::vector<std::string> out;
-  const toml::node* n = table.get(key);
-  if (!n) return out;
-  const toml::array* a = n->as_array();
-  if (!a) refuse(file, n->source(), std::string("'") + key + "' must be an array of strings");
-  for (const toml::node& e : *a) {
-    auto s = e.value<std::string>();
-    if (!s) refuse(file, e.source(), std::string("'") + key + "' must hold strings");
-    out.push_back(*s);
-  }
-  return out;
-}
-
-const toml::table& section(const std::string& file, const toml::table& root, const char* name, bool required) {
-  static const toml::table empty;
-  const toml::node* n = root.get(name);
-  if (!n) {
-    if (required) throw Error(ErrorKind::kParse, file + ":1: missing section [" + std::string(name) + "]");
-    return empty;
-  }
-  if (!n->is_table()) refuse(file, n->source(), std::string("'") + name + "' must be a table");
-  return *n->as_table();
-}
-
-void check_keys(const std::string& file, const toml::table& t, std::initializer_list<const char*> known, const char* where) {
-  for (const auto& [key, node] : t) {
-    bool ok = false;
-    for (const char* k : known) ok = ok || key.str() == k;
-    if (!ok) refuse(file, node.source(), "unknown key '" + std::string(key.str()) + "' in [" + where + "]");
-  }
-}
-
-ServeConfig parse_config(const std::string& file) {
-  toml::table root;
-  try {
-    root = toml::parse_file(file);
-  } catch (const toml::parse_error& e) {
-    if (!std::filesystem::exists(file)) throw Error(ErrorKind::kIo, file + ": cannot open the config");
-    throw Error(ErrorKind::kParse, file + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description()));
-  }
-  check_keys(file, root, {"ingest", "publish", "runtime", "scoring", "status", "plugins"}, "top level");
-  const std::filesystem::path base = std::filesystem::path(file).parent_path();
-  auto resolve = [&](const std::string& p) { return std::filesystem::path(p).is_absolute() ? p : (base / p).string(); };
-  ServeConfig c;
-  const toml::table& ingest = section(file, root, "ingest", true);
-  check_keys(file, ingest, {"endpoints", "kind", "max_message_bytes", "require_checksum"}, "ingest");
-  c.runtime.ingest.endpoints = read_strings(file, ingest, "endpoints");
-  if (c.runtime.ingest.endpoints.empty()) throw Error(ErrorKind::kParse, file + ":1: [ingest] endpoints is empty");
-  const std::string kind = read<std::string>(file, ingest, "kind", "sub");
-  if (kind != "sub" && kind != "pull") refuse(file, ingest.get("kind")->source(), "kind must be \"sub\" or \"pull\"");
-  c.runtime.ingest.kind = kind == "pull" ? kata::transport::IngestKind::kPull : kata::transport::IngestKind::kSub;
-  c.runtime.ingest.max_message_bytes = static_cast<size_t>(read<int64_t>(file, ingest, "max_message_bytes", 1 << 20));
-  c.runtime.ingest.require_checksum = read<bool>(file, ingest, "require_checksum", true);
-
-  const toml::table& publish = section(file, root, "publish", true);
-  check_keys(file, publish, {"endpoints", "send_hwm"}, "publish");
-  c.runtime.publish.endpoints = read_strings(file, publish, "endpoints");
-  if (c.runtime.publish.endpoints.empty()) throw Error(ErrorKind::kParse, file + ":1: [publish] endpoints is empty");
-  c.runtime.publish.send_hwm = static_cast<int>(read<int64_t>(file, publish, "send_hwm", 10000));
-
-  const toml::table& rt = section(file, root, "runtime", false);
-  check_keys(file, rt, {"workers", "skeleton_resend_seconds", "max_streams"}, "runtime");
-  c.runtime.workers = static_cast<int>(read<int64_t>(file, rt, "workers", 2));
-  if (c.runtime.workers < 1 || c.runtime.workers > 64) refuse(file, rt.get("workers")->source(), "workers must be 1..64");
-  c.runtime.skeleton_resend_seconds = read<double>(file, rt, "skeleton_resend_seconds", 1.0);
-  c.runtime.max_streams = static_cast<int>(read<int64_t>(file, rt, "max_streams", 1024));
-
-  const toml::table& scoring = section(file, root, "scoring", false);
-  check_keys(file, scoring, {"model", "teacher", "first_frame", "ghost", "teachers"}, "scoring");
-  if (!scoring.empty()) {
-    const std::string model = read<std::string>(file, scoring, "model", "");
-    if (model.empty()) throw Error(ErrorKind::kParse, file + ":1: [scoring] needs model");
-    c.model = resolve(model);
-    const std::string teacher = read<std::string>(file, scoring, "teacher", "");
-    if (!teacher.empty()) c.default_teacher.path = resolve(teacher);
-    c.default_teacher.first_frame = static_cast<int>(read<int64_t>(file, scoring, "first_frame", 1));
-    c.ghost = read<bool>(file, scoring, "ghost", true);
-    if (const toml::node* t = scoring.get("teachers")) {
-      if (!t->is_table()) refuse(file, t->source(), "[scoring.teachers] must be a table");
-      for (const auto& [key, node] : *t->as_table()) {
-        auto path = node.value<std::string>();
-        if (!path) refuse(file, node.source(), "a teacher must be a clip path");
-        char* end = nullptr;
-        const std::string id_text(key.str());
-        const unsigned long long id = std::strtoull(id_text.c_str(), &end, 10);
-        if (id_text.empty() || *end) refuse(file, node.source(), "teacher keys are stream ids (decimal)");
-        c.teachers[id] = TeacherSource{resolve(*path), c.default_teacher.first_frame};
-      }
-    }
-  }
-  if (const toml::node* plugins = root.get("plugins")) {
-    const toml::array* a = plugins->as_array();
-    if (!a) refuse(file, plugins->source(), "plugins must be an array of tables ([[plugins]])");
-    for (const toml::node& e : *a) {
-      const toml::table* t = e.as_table();
-      if (!t) refuse(file, e.source(), "each [[plugins]] entry must be a table");
-      check_keys(file, *t, {"path", "config"}, "plugins");
-      const std::string path = read<std::string>(file, *t, "path", "");
-      if (path.empty()) refuse(file, e.source(), "a plugin needs path");
-      c.plugins.push_back({resolve(path), read<std::string>(file, *t, "config", "")});
-    }
-  }
-  const toml::table& status = section(file, root, "status", false);
-  check_keys(file, status, {"interval_seconds"}, "status");
-  c.status_seconds = read<double>(file, status, "interval_seconds", 1.0);
-  return c;
-}
+using kata::serve::ServeConfig;
+using kata::serve::TeacherSource;
+using kata::serve::parse_config;
 
 void run_serve(const std::string& file) {
   ServeConfig config = parse_config(file);

@@ -17,7 +17,7 @@ void arm_alloc_counter() { g_armed_at = g_allocations.load(); }
 long disarm_alloc_counter() { return g_allocations.load() - g_armed_at; }
 }  // namespace kata::test
 
-#if !defined(__SANITIZE_ADDRESS__) && !defined(__SANITIZE_THREAD__)
+#if !defined(KATA_SANITIZER_OWNS_MALLOC)
 extern "C" void* __libc_malloc(std::size_t);
 extern "C" void* __libc_calloc(std::size_t, std::size_t);
 extern "C" void* __libc_realloc(void*, std::size_t);

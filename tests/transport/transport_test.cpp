@@ -11,6 +11,7 @@
 #include <thread>
 #include <vector>
 
+#include "common/error.hpp"
 #include "transport/wire.hpp"
 #include "transport/zmq_io.hpp"
 
@@ -401,6 +402,46 @@ TEST(runtime_ingest, UnknownStreamsGapsAndRestartsAreCounted) {
   EXPECT_EQ(c.restarts, 1u);
   EXPECT_EQ(received.restarts_seen, 1);
   EXPECT_EQ(received.sequences, (std::vector<uint64_t>{0, 1, 2, 5, 6, 0, 1}));
+}
+
+// The documented hash (kata.h, kata_shard_of); the expected values come from an independent
+// Python implementation of FNV-1a 64 over the id's little-endian bytes (tests/runtime/shard_check.py).
+TEST(runtime_shard, ShardOfIsFnv1a64OfTheIdBytesModCount) {
+  EXPECT_EQ(shard_of(0, 3), 1u);    // FNV-1a 64 = 12161962213042174405
+  EXPECT_EQ(shard_of(1, 3), 0u);    // 9929646806074584996
+  EXPECT_EQ(shard_of(7, 3), 1u);    // 5465015992139406178
+  EXPECT_EQ(shard_of(7, 5), 3u);
+  EXPECT_EQ(shard_of(100, 5), 3u);  // 879817313296471393
+  EXPECT_EQ(shard_of(18446744073709551614ULL, 3), 2u);
+  EXPECT_EQ(shard_of(18446744073709551614ULL, 5), 1u);
+  EXPECT_EQ(shard_of(12345, 1), 0u);
+  EXPECT_EQ(shard_of(12345, 0), 0u);
+}
+
+// A shard's ingest keeps its own streams and counts the others' messages apart from refusals.
+TEST(runtime_shard, IngestKeepsItsShardsStreamsOnly) {
+  Context context;
+  IngestOptions options;
+  options.endpoints = {"bind:inproc://shard-test"};
+  options.shard_count = 3;
+  options.shard_index = 1;  // streams 0 and 7 (shard_of above); stream 1 is shard 0's
+  Received received;
+  int skeletons = 0;
+  Ingest ingest(context, options, recording(received, &skeletons));
+  Encoder encoder;
+  const auto xyz = pose(1, 0, 3);
+  auto handle = [&](Bytes m) { ingest.handle(m.data, m.size); };
+  for (uint64_t id : {0, 1, 7}) handle(encoder.skeleton(three_joint_definition(id)));
+  for (uint64_t seq = 0; seq < 4; ++seq)
+    for (uint64_t id : {0, 1, 7}) handle(encoder.frame(id, seq, static_cast<int64_t>(seq) + 1, xyz.data(), 3));
+  const IngestCounters& c = ingest.counters();
+  EXPECT_EQ(c.skeletons, 2u);
+  EXPECT_EQ(c.frames, 8u);
+  EXPECT_EQ(c.other_shard, 5u);  // stream 1: its definition and four frames
+  EXPECT_EQ(c.dropped_total(), 0u);
+  EXPECT_EQ(skeletons, 2);
+  options.shard_index = 3;
+  EXPECT_THROW(Ingest(context, options, recording(received, &skeletons)), Error);
 }
 
 TEST(runtime_publisher, SeesEachJoinWithItsTopicAndNeverBlocks) {

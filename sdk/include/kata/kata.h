@@ -792,6 +792,16 @@ KATA_API const char* kata_runtime_publish_endpoint(kata_runtime runtime);
 /* Likewise for the ingest socket. [any thread] */
 KATA_API const char* kata_runtime_ingest_endpoint(kata_runtime runtime);
 
+/* ---- Shards (since 0.2; docs/deploy.md) ----
+ * Several `kata serve` processes split the streams: with [shard] count = N, index = i in its
+ * config, a shard scores exactly the streams for which kata_shard_of(stream_id, N) == i and drops
+ * the others' messages (counted). The hash is stable (never changes between versions):
+ *   h = 14695981039346656037 (FNV-1a 64 offset basis)
+ *   for byte b in the stream id's 8 bytes, least significant first: h ^= b; h *= 1099511628211
+ *   shard = h mod N  (0 when N is 0 or 1)
+ * so a producer in any language computes which shard owns a stream. [any thread] */
+KATA_API uint32_t kata_shard_of(uint64_t stream_id, uint32_t shard_count);
+
 /* ---- Reading published messages (for subscribers in C; no FlatBuffers library needed) ---- */
 
 /* One result message, read by kata_message_read_result. */

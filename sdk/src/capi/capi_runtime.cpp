@@ -183,3 +183,7 @@ KATA_API kata_status kata_message_read_result(const void* message, size_t size, 
 }
 
 }  // extern "C"
+
+KATA_API uint32_t kata_shard_of(uint64_t stream_id, uint32_t shard_count) {
+  return kata::transport::shard_of(stream_id, shard_count);
+}

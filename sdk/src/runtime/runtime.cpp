@@ -546,7 +546,11 @@ void Runtime::io_loop() {
     drain_results(encoder);
     if (publisher_item >= 0 && (items[publisher_item].revents & ZMQ_POLLIN))
       publisher_->poll_joins([this](const uint8_t* prefix, size_t size) { send_definitions(prefix, size); });
-    if (ingest_item >= 0 && (items[ingest_item].revents & ZMQ_POLLIN)) ingest_->poll(256);
+    if (ingest_stop_requested_.load(std::memory_order_acquire)) {
+      ingest_stopped_.store(true, std::memory_order_release);
+    } else if (ingest_item >= 0 && (items[ingest_item].revents & ZMQ_POLLIN)) {
+      ingest_->poll(256);
+    }
     const auto now = clock::now();
     if (now >= next_resend) {
       send_definitions(nullptr, 0);
@@ -573,6 +577,15 @@ void Runtime::io_loop() {
 void Runtime::stop() {
   if (stopped_) return;
   stopped_ = true;
+  if (ingest_ && io_thread_.joinable()) {
+    // No frame is ingested once the workers may have looked at their queues for the last time.
+    ingest_stop_requested_.store(true, std::memory_order_release);
+    const uint64_t one = 1;
+    while (!ingest_stopped_.load(std::memory_order_acquire)) {
+      (void)!write(wake_io_fd_, &one, sizeof one);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  }
   stopping_.store(true, std::memory_order_release);
   for (auto& w : workers_) w->thread.join();
   if (io_thread_.joinable()) io_thread_.join();

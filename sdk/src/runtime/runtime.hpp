@@ -178,6 +178,10 @@ class Runtime {
   int wake_io_fd_ = -1;
   std::atomic<bool> io_sleeping_{false};  // the I/O thread is (about to be) in zmq_poll
   std::atomic<bool> stopping_{false};
+  // stop() asks the I/O thread to read no more ingest messages and waits for its answer before
+  // the workers are told to finish: a frame ingested after a worker's last look would be lost.
+  std::atomic<bool> ingest_stop_requested_{false};
+  std::atomic<bool> ingest_stopped_{false};
   std::atomic<int> workers_done_{0};
   std::thread io_thread_;
   bool stopped_ = false;

@@ -44,6 +44,16 @@ void write_topic(uint64_t stream_id, char* out) {
   for (int i = 0; i < 16; ++i) out[i] = kHex[(stream_id >> (4 * (15 - i))) & 0xF];
 }
 
+uint32_t shard_of(uint64_t stream_id, uint32_t shard_count) {
+  if (shard_count <= 1) return 0;
+  uint64_t hash = 14695981039346656037ULL;  // FNV-1a 64 offset basis
+  for (int byte = 0; byte < 8; ++byte) {
+    hash ^= (stream_id >> (8 * byte)) & 0xffu;
+    hash *= 1099511628211ULL;  // FNV-1a 64 prime
+  }
+  return static_cast<uint32_t>(hash % shard_count);
+}
+
 bool parse_topic(const uint8_t* topic, uint64_t* stream_id) {
   uint64_t id = 0;
   for (size_t i = 0; i < kTopicBytes; ++i) {

@@ -28,6 +28,12 @@ void write_topic(uint64_t stream_id, char* out);
 // Parses a 16-hex-digit topic; false when any byte is not a lowercase hex digit.
 bool parse_topic(const uint8_t* topic, uint64_t* stream_id);
 
+// The shard that owns a stream when `shard_count` `kata serve` processes split the streams
+// (docs/deploy.md, kata_shard_of in kata.h): FNV-1a 64 over the stream id's 8 bytes, least
+// significant first, modulo shard_count (0 when shard_count is 0 or 1). Stable across versions
+// and machines: a producer computes it to know which shard scores a stream.
+uint32_t shard_of(uint64_t stream_id, uint32_t shard_count);
+
 // FNV-1a 32 over a frame's values, as schemas/frame.fbs documents for Frame.checksum.
 uint32_t frame_checksum(uint64_t stream_id, uint64_t sequence, int64_t capture_ns, const float* xyz,
                         int joints, const float* confidence);

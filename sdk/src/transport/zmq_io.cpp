@@ -45,9 +45,13 @@ Publisher::Publisher(Context& context, const PublisherOptions& options) {
     set_int(socket_, ZMQ_SNDHWM, options.send_hwm, "ZMQ_SNDHWM");
     set_int(socket_, ZMQ_LINGER, 0, "ZMQ_LINGER");
     set_int(socket_, ZMQ_XPUB_VERBOSE, 1, "ZMQ_XPUB_VERBOSE");
-    for (const std::string& e : options.endpoints)
-      if (zmq_bind(socket_, e.c_str()) != 0)
-        throw Error(ErrorKind::kIo, "publisher: cannot bind " + e + ": " + zmq_reason());
+    for (const std::string& e : options.endpoints) {
+      const bool connect = e.rfind("connect:", 0) == 0;
+      const std::string endpoint = connect ? e.substr(8) : e;
+      if ((connect ? zmq_connect(socket_, endpoint.c_str()) : zmq_bind(socket_, endpoint.c_str())) != 0)
+        throw Error(ErrorKind::kIo, std::string("publisher: cannot ") + (connect ? "connect " : "bind ") + endpoint +
+                                        ": " + zmq_reason());
+    }
   } catch (...) {
     zmq_close(socket_);
     throw;
@@ -99,6 +103,10 @@ Ingest::Ingest(Context& context, const IngestOptions& options, Handlers handlers
     : decoder_(options.max_message_bytes, options.require_checksum), handlers_(std::move(handlers)),
       receive_buffer_(options.max_message_bytes + 1) {
   if (options.endpoints.empty()) throw Error(ErrorKind::kInvalidArgument, "ingest: no endpoint");
+  if (options.shard_count > 1 && options.shard_index >= options.shard_count)
+    throw Error(ErrorKind::kInvalidArgument, "ingest: shard index must be below the shard count");
+  shard_count_ = options.shard_count;
+  shard_index_ = options.shard_index;
   socket_ = zmq_socket(context.get(), options.kind == IngestKind::kSub ? ZMQ_SUB : ZMQ_PULL);
   if (!socket_) throw Error(ErrorKind::kIo, "ZeroMQ: cannot create an ingest socket: " + zmq_reason());
   try {
@@ -153,6 +161,12 @@ int Ingest::poll(int max_messages) {
 }
 
 void Ingest::handle(const void* data, size_t size) {
+  uint64_t topic_stream = 0;
+  if (shard_count_ > 1 && size >= kTopicBytes && parse_topic(static_cast<const uint8_t*>(data), &topic_stream) &&
+      shard_of(topic_stream, shard_count_) != shard_index_) {
+    ++counters_.other_shard;
+    return;
+  }
   const MessageKind kind = decoder_.decode(data, size);
   switch (kind) {
     case MessageKind::kNone:

@@ -29,6 +29,9 @@ class Context {
 
 struct PublisherOptions {
   // Endpoints to bind (tcp://127.0.0.1:5555, ipc:///tmp/kata.sock, ...). At least one.
+  // "connect:" before an endpoint connects it instead: a shard's publisher connects to the
+  // frontend (XSUB) of a `kata proxy` that consumers subscribe behind (docs/deploy.md); it
+  // still sees every subscription the proxy forwards, so joins re-send skeleton definitions.
   std::vector<std::string> endpoints;
   // ZMQ_SNDHWM: messages queued per subscriber before ZeroMQ drops that subscriber's newest
   // (ZeroMQ's per-subscriber drops; they show as result_sequence gaps at the subscriber).
@@ -40,7 +43,7 @@ struct PublisherOptions {
 // the skeleton definitions a joining subscriber asked for.
 class Publisher {
  public:
-  // Binds every endpoint. Throws kata::Error(kIo) naming the endpoint and ZeroMQ's reason.
+  // Binds (or connects) every endpoint. Throws kata::Error(kIo) naming the endpoint and ZeroMQ's reason.
   Publisher(Context& context, const PublisherOptions& options);
   ~Publisher();
   Publisher(const Publisher&) = delete;
@@ -77,10 +80,15 @@ struct IngestOptions {
   int receive_hwm = 10000;
   // Refuse frames without Frame.checksum (schemas/frame.fbs).
   bool require_checksum = true;
+  // Sharding (docs/deploy.md): this ingest keeps only the streams with
+  // shard_of(stream id, shard_count) == shard_index; the others' messages are counted in
+  // other_shard and dropped after reading the topic (nothing else is parsed).
+  uint32_t shard_count = 1;
+  uint32_t shard_index = 0;
 };
 
 // What the ingest counted. Every received message lands in exactly one of frames, skeletons,
-// repeated_skeletons or a drop counter.
+// repeated_skeletons, other_shard or a drop counter.
 struct IngestCounters {
   uint64_t received = 0;       // messages read from the socket
   uint64_t frames = 0;         // frames handed on
@@ -94,6 +102,7 @@ struct IngestCounters {
   uint64_t other_kind = 0;          // a valid kata message that is not ingest's (a Result)
   uint64_t restarts = 0;            // sequence back to 0: the source restarted (frame handed on)
   uint64_t sequence_gaps = 0;       // frames missing between accepted ones (not messages)
+  uint64_t other_shard = 0;         // messages of streams another shard owns (not refused)
   uint64_t malformed_total() const;
   uint64_t dropped_total() const;   // every message refused (repeated skeletons are not refused)
 };
@@ -119,13 +128,15 @@ class Ingest {
 
   // Reads up to max_messages without blocking. Returns how many were read.
   int poll(int max_messages);
+  // Handles one message's bytes as if the socket had delivered it (counted the same way; the
+  // fuzz target drives the ingest's whole path through it). [the ingest's thread]
+  void handle(const void* data, size_t size);
   void* socket() const { return socket_; }
   // The last endpoint bound or connected, resolved (a "bind:tcp://127.0.0.1:*" reports its port).
   std::string endpoint() const;
   const IngestCounters& counters() const { return counters_; }
 
  private:
-  void handle(const void* data, size_t size);
   struct Known {
     uint32_t revision = 0;
     int joints = 0;
@@ -135,6 +146,7 @@ class Ingest {
   };
   void* socket_ = nullptr;
   Decoder decoder_;
+  uint32_t shard_count_ = 1, shard_index_ = 0;
   Handlers handlers_;
   std::unordered_map<uint64_t, Known> streams_;
   IngestCounters counters_;

@@ -1,0 +1,186 @@
+// The `kata serve` config file (serve_config.hpp).
+#include "serve_config.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <type_traits>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <toml++/toml.h>
+
+#include "common/error.hpp"
+
+namespace kata::serve {
+
+namespace {
+
+[[noreturn]] void refuse(const std::string& file, const toml::source_region& where, const std::string& what) {
+  throw Error(ErrorKind::kParse, file + ":" + std::to_string(where.begin.line) + ": " + what);
+}
+
+// Reads an optional value of type T at `key` in `table`; a present value of the wrong type is refused.
+// Integers must be TOML integers (toml++ would convert a float such as 1e300 to int64 with
+// undefined behaviour; found by fuzz_serve_config).
+template <typename T>
+T read(const std::string& file, const toml::table& table, const char* key, T fallback) {
+  const toml::node* n = table.get(key);
+  if (!n) return fallback;
+  if constexpr (std::is_same_v<T, int64_t>) {
+    if (!n->is_integer()) refuse(file, n->source(), std::string("'") + key + "' must be an integer");
+  }
+  if (auto v = n->value<T>()) return *v;
+  refuse(file, n->source(), std::string("'") + key + "' has the wrong type");
+}
+
+// An integer in [lo, hi], refused with file:line otherwise.
+int64_t read_range(const std::string& file, const toml::table& table, const char* key, int64_t fallback, int64_t lo,
+                   int64_t hi) {
+  const int64_t v = read<int64_t>(file, table, key, fallback);
+  if (v < lo || v > hi)
+    refuse(file, table.get(key)->source(),
+           std::string("'") + key + "' must be " + std::to_string(lo) + ".." + std::to_string(hi));
+  return v;
+}
+
+// A number (integer or float) > 0 and finite.
+double read_positive(const std::string& file, const toml::table& table, const char* key, double fallback) {
+  const double v = read<double>(file, table, key, fallback);
+  if (!(v > 0.0) || !std::isfinite(v)) refuse(file, table.get(key)->source(), std::string("'") + key + "' must be > 0");
+  return v;
+}
+
+std::vector<std::string> read_strings(const std::string& file, const toml::table& table, const char* key) {
+  std::vector<std::string> out;
+  const toml::node* n = table.get(key);
+  if (!n) return out;
+  const toml::array* a = n->as_array();
+  if (!a) refuse(file, n->source(), std::string("'") + key + "' must be an array of strings");
+  for (const toml::node& e : *a) {
+    auto s = e.value<std::string>();
+    if (!s) refuse(file, e.source(), std::string("'") + key + "' must hold strings");
+    out.push_back(*s);
+  }
+  return out;
+}
+
+const toml::table& section(const std::string& file, const toml::table& root, const char* name, bool required) {
+  static const toml::table empty;
+  const toml::node* n = root.get(name);
+  if (!n) {
+    if (required) throw Error(ErrorKind::kParse, file + ":1: missing section [" + std::string(name) + "]");
+    return empty;
+  }
+  if (!n->is_table()) refuse(file, n->source(), std::string("'") + name + "' must be a table");
+  return *n->as_table();
+}
+
+void check_keys(const std::string& file, const toml::table& t, std::initializer_list<const char*> known, const char* where) {
+  for (const auto& [key, node] : t) {
+    bool ok = false;
+    for (const char* k : known) ok = ok || key.str() == k;
+    if (!ok) refuse(file, node.source(), "unknown key '" + std::string(key.str()) + "' in [" + where + "]");
+  }
+}
+
+}  // namespace
+
+ServeConfig parse_root(const std::string& file, const toml::table& root) {
+  check_keys(file, root, {"ingest", "publish", "runtime", "scoring", "status", "plugins", "shard"}, "top level");
+  const std::filesystem::path base = std::filesystem::path(file).parent_path();
+  auto resolve = [&](const std::string& p) { return std::filesystem::path(p).is_absolute() ? p : (base / p).string(); };
+  ServeConfig c;
+  const toml::table& ingest = section(file, root, "ingest", true);
+  check_keys(file, ingest, {"endpoints", "kind", "max_message_bytes", "require_checksum"}, "ingest");
+  c.runtime.ingest.endpoints = read_strings(file, ingest, "endpoints");
+  if (c.runtime.ingest.endpoints.empty()) throw Error(ErrorKind::kParse, file + ":1: [ingest] endpoints is empty");
+  const std::string kind = read<std::string>(file, ingest, "kind", "sub");
+  if (kind != "sub" && kind != "pull") refuse(file, ingest.get("kind")->source(), "kind must be \"sub\" or \"pull\"");
+  c.runtime.ingest.kind = kind == "pull" ? kata::transport::IngestKind::kPull : kata::transport::IngestKind::kSub;
+  c.runtime.ingest.max_message_bytes = static_cast<size_t>(read_range(file, ingest, "max_message_bytes", 1 << 20, 64, 1 << 30));
+  c.runtime.ingest.require_checksum = read<bool>(file, ingest, "require_checksum", true);
+
+  const toml::table& publish = section(file, root, "publish", true);
+  check_keys(file, publish, {"endpoints", "send_hwm"}, "publish");
+  c.runtime.publish.endpoints = read_strings(file, publish, "endpoints");
+  if (c.runtime.publish.endpoints.empty()) throw Error(ErrorKind::kParse, file + ":1: [publish] endpoints is empty");
+  c.runtime.publish.send_hwm = static_cast<int>(read_range(file, publish, "send_hwm", 10000, 0, 1 << 30));
+
+  const toml::table& shard = section(file, root, "shard", false);
+  check_keys(file, shard, {"count", "index"}, "shard");
+  const int64_t shard_count = read<int64_t>(file, shard, "count", 1);
+  const int64_t shard_index = read<int64_t>(file, shard, "index", 0);
+  if (shard_count < 1 || shard_count > 65536) refuse(file, shard.get("count")->source(), "shard count must be 1..65536");
+  if (shard_index < 0 || shard_index >= shard_count)
+    refuse(file, shard.get("index") ? shard.get("index")->source() : shard.get("count")->source(),
+           "shard index must be 0..count-1");
+  c.runtime.ingest.shard_count = static_cast<uint32_t>(shard_count);
+  c.runtime.ingest.shard_index = static_cast<uint32_t>(shard_index);
+
+  const toml::table& rt = section(file, root, "runtime", false);
+  check_keys(file, rt, {"workers", "skeleton_resend_seconds", "max_streams"}, "runtime");
+  c.runtime.workers = static_cast<int>(read_range(file, rt, "workers", 2, 1, 64));
+  c.runtime.skeleton_resend_seconds = read_positive(file, rt, "skeleton_resend_seconds", 1.0);
+  c.runtime.max_streams = static_cast<int>(read_range(file, rt, "max_streams", 1024, 1, 1 << 20));
+
+  const toml::table& scoring = section(file, root, "scoring", false);
+  check_keys(file, scoring, {"model", "teacher", "first_frame", "ghost", "teachers"}, "scoring");
+  if (!scoring.empty()) {
+    const std::string model = read<std::string>(file, scoring, "model", "");
+    if (model.empty()) throw Error(ErrorKind::kParse, file + ":1: [scoring] needs model");
+    c.model = resolve(model);
+    const std::string teacher = read<std::string>(file, scoring, "teacher", "");
+    if (!teacher.empty()) c.default_teacher.path = resolve(teacher);
+    c.default_teacher.first_frame = static_cast<int>(read_range(file, scoring, "first_frame", 1, 0, 1 << 30));
+    c.ghost = read<bool>(file, scoring, "ghost", true);
+    if (const toml::node* t = scoring.get("teachers")) {
+      if (!t->is_table()) refuse(file, t->source(), "[scoring.teachers] must be a table");
+      for (const auto& [key, node] : *t->as_table()) {
+        auto path = node.value<std::string>();
+        if (!path) refuse(file, node.source(), "a teacher must be a clip path");
+        char* end = nullptr;
+        const std::string id_text(key.str());
+        const unsigned long long id = std::strtoull(id_text.c_str(), &end, 10);
+        if (id_text.empty() || *end) refuse(file, node.source(), "teacher keys are stream ids (decimal)");
+        c.teachers[id] = TeacherSource{resolve(*path), c.default_teacher.first_frame};
+      }
+    }
+  }
+  if (const toml::node* plugins = root.get("plugins")) {
+    const toml::array* a = plugins->as_array();
+    if (!a) refuse(file, plugins->source(), "plugins must be an array of tables ([[plugins]])");
+    for (const toml::node& e : *a) {
+      const toml::table* t = e.as_table();
+      if (!t) refuse(file, e.source(), "each [[plugins]] entry must be a table");
+      check_keys(file, *t, {"path", "config"}, "plugins");
+      const std::string path = read<std::string>(file, *t, "path", "");
+      if (path.empty()) refuse(file, e.source(), "a plugin needs path");
+      c.plugins.push_back({resolve(path), read<std::string>(file, *t, "config", "")});
+    }
+  }
+  const toml::table& status = section(file, root, "status", false);
+  check_keys(file, status, {"interval_seconds"}, "status");
+  c.status_seconds = read_positive(file, status, "interval_seconds", 1.0);
+  return c;
+}
+
+ServeConfig parse_config_text(const std::string& text, const std::string& name) {
+  toml::table root;
+  try {
+    root = toml::parse(text, name);
+  } catch (const toml::parse_error& e) {
+    throw Error(ErrorKind::kParse, name + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description()));
+  }
+  return parse_root(name, root);
+}
+
+ServeConfig parse_config(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  if (!in) throw Error(ErrorKind::kIo, file + ": cannot open the config");
+  std::stringstream text;
+  text << in.rdbuf();
+  return parse_config_text(text.str(), file);
+}
+
+}  // namespace kata::serve

@@ -1,0 +1,39 @@
+// The `kata serve` config file (TOML; the keys are documented in cmd_serve.cpp and
+// docs/deploy.md): parsed and checked completely before anything starts, every refusal a
+// kata::Error(kParse) naming file:line (kIo when the file cannot be read).
+#pragma once
+
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+#include "runtime/runtime.hpp"
+
+namespace kata::serve {
+
+struct TeacherSource {
+  std::string path;
+  int first_frame = 1;
+};
+
+struct ServeConfig {
+  runtime::RuntimeConfig runtime;  // shard count / index are in runtime.ingest
+  std::string model;  // empty: features only
+  TeacherSource default_teacher;
+  std::map<uint64_t, TeacherSource> teachers;
+  bool ghost = true;
+  double status_seconds = 1.0;
+  struct Plugin {
+    std::string path, config;
+  };
+  std::vector<Plugin> plugins;
+};
+
+// Reads and checks a config file; relative paths resolve from the file's directory.
+ServeConfig parse_config(const std::string& file);
+// The same from text in memory; `name` stands for the file in messages and its directory
+// resolves relative paths.
+ServeConfig parse_config_text(const std::string& text, const std::string& name);
+
+}  // namespace kata::serve

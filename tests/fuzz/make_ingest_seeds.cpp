@@ -1,0 +1,73 @@
+// Writes seed inputs for fuzz_ingest (its input layout: messages, each a 2-byte little-endian
+// length and the bytes) from real motion: a CMU clip's skeleton definition and frames, made by
+// the encoder every sender uses. Usage: make_ingest_seeds OUT_DIR CLIP.bvh
+#include <cstdio>
+#include <cstdint>
+#include <fstream>
+#include <string>
+#include <vector>
+
+#include "io/bvh.hpp"
+#include "io/clip_features.hpp"
+#include "transport/wire.hpp"
+
+namespace {
+
+void add(std::vector<uint8_t>& out, kata::transport::Bytes m) {
+  out.push_back(static_cast<uint8_t>(m.size & 0xff));
+  out.push_back(static_cast<uint8_t>((m.size >> 8) & 0xff));
+  out.insert(out.end(), m.data, m.data + m.size);
+}
+
+void write(const std::string& path, const std::vector<uint8_t>& bytes) {
+  std::ofstream(path, std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  if (argc != 3) {
+    std::fprintf(stderr, "usage: %s OUT_DIR CLIP.bvh\n", argv[0]);
+    return 2;
+  }
+  const std::string out = argv[1];
+  const kata::BvhClip clip = kata::load_bvh(argv[2]);
+  const auto positions = kata::clip_positions(clip, 1);
+  const int joints = clip.skeleton.joint_count();
+  kata::transport::Encoder encoder;
+  kata::transport::SkeletonDefinition d;
+  d.stream_id = 7;
+  d.revision = 1;
+  d.skeleton = clip.skeleton;
+  d.preset = "cmu";
+  d.frame_rate = static_cast<float>(1.0 / clip.frame_time);
+  const int64_t dt = static_cast<int64_t>(clip.frame_time * 1e9);
+  auto frame = [&](uint64_t id, uint64_t seq, int f) {
+    return encoder.frame(id, seq, static_cast<int64_t>(seq) * dt, positions.data() + static_cast<size_t>(f) * 3 * static_cast<size_t>(joints), joints);
+  };
+  {  // a definition, then 12 frames in order
+    std::vector<uint8_t> s;
+    add(s, encoder.skeleton(d));
+    for (int f = 0; f < 12; ++f) add(s, frame(7, static_cast<uint64_t>(f), f));
+    write(out + "/definition-then-frames", s);
+  }
+  {  // a frame before its definition, a gap, a repeat, a restart, a second stream without rest pose
+    std::vector<uint8_t> s;
+    add(s, frame(7, 0, 0));
+    add(s, encoder.skeleton(d));
+    add(s, frame(7, 0, 0));
+    add(s, frame(7, 3, 3));
+    add(s, encoder.skeleton(d));
+    add(s, frame(7, 2, 2));
+    add(s, frame(7, 0, 10));
+    add(s, frame(7, 1, 11));
+    kata::transport::SkeletonDefinition bare = d;
+    bare.stream_id = 9;
+    bare.skeleton.has_rest_pose = false;
+    bare.up_axis = kata::UpAxis::kZ;
+    add(s, encoder.skeleton(bare));
+    for (int f = 0; f < 6; ++f) add(s, frame(9, static_cast<uint64_t>(f), 20 + f));
+    write(out + "/gaps-restart-two-streams", s);
+  }
+  return 0;
+}

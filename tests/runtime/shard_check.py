@@ -1,0 +1,265 @@
+#!/usr/bin/python3
+"""Shards behind ZeroMQ proxies, end to end on loopback ipc (docs/deploy.md):
+
+  kata send --socket pub --streams 48 -> kata proxy (frames) -> 3 x kata serve ([shard] count 3)
+  -> kata proxy (results) -> this script's SUB socket
+
+1. reference: the same 48 streams through one `kata serve` (no shards, no proxy);
+2. sharded: every result arrives, in order per stream, equal to the reference's (score, distance,
+   matched teacher frame), and each stream's results came from the shard kata_shard_of names;
+3. a shard SIGKILLed while frames flow and restarted: the other shards' streams have no sequence
+   gap and equal the reference, the killed shard's streams resume (results after the restart),
+   and the gaps this consumer counts equal the frames it did not receive;
+4. both proxies SIGKILLed and restarted while frames flow: every stream resumes, skeleton
+   definitions come again, the gaps are counted.
+Every process is bounded (timeouts; killed in `finally`); paths are unique per run.
+Usage: shard_check.py KATA_BINARY SOURCE_DIR PYTHON_DIR"""
+import os, signal, subprocess, sys, tempfile, time
+
+import zmq
+
+kata, source, python_dir = sys.argv[1:4]
+sys.path.insert(0, python_dir)
+from kata.fb.Result import Result  # noqa: E402
+
+STREAMS, SHARDS, FRAMES = 48, 3, 300
+SPEED = 0.5  # the 120 Hz CMU clip at 60 Hz: 48 x 60 = 2880 frames/s into the proxy
+BVH = os.path.join(source, "data", "cmu", "07_01.bvh")
+
+
+def shard_of(stream_id, count):
+    """kata_shard_of (kata.h): FNV-1a 64 over the id's 8 bytes, least significant first, mod count."""
+    if count <= 1:
+        return 0
+    h = 14695981039346656037
+    for byte in range(8):
+        h ^= (stream_id >> (8 * byte)) & 0xFF
+        h = (h * 1099511628211) & 0xFFFFFFFFFFFFFFFF
+    return h % count
+
+
+class Stage:
+    def __init__(self, tmp):
+        self.tmp, self.procs, self.logs = tmp, {}, {}
+
+    def ep(self, name):
+        return "ipc://%s/%s" % (self.tmp, name)
+
+    def start(self, name, args):
+        log = open(os.path.join(self.tmp, name + ".log"), "w")
+        self.logs[name] = log.name
+        self.procs[name] = subprocess.Popen([kata] + args, stdout=log, stderr=subprocess.STDOUT)
+
+    def proxy(self, name, front, back):
+        self.start(name, ["proxy", "--frontend", self.ep(front), "--backend", self.ep(back), "--status-interval", "0",
+                          "--seconds", "120"])
+
+    def serve(self, name, ingest, publish, shard=None, kind="sub"):
+        config = os.path.join(self.tmp, name + ".toml")
+        with open(config, "w") as f:
+            f.write('[ingest]\nendpoints = ["%s"]\nkind = "%s"\n' % (ingest, kind))
+            f.write('[publish]\nendpoints = ["%s"]\nsend_hwm = 1000000\n' % publish)
+            f.write('[runtime]\nworkers = 1\nskeleton_resend_seconds = 0.5\n')
+            f.write('[scoring]\nmodel = "%s/models/default.kata"\nteacher = "%s/data/cmu/02_01.bvh"\nghost = false\n'
+                    % (source, source))
+            if shard is not None:
+                f.write("[shard]\ncount = %d\nindex = %d\n" % (SHARDS, shard))
+        self.start(name, ["serve", "--config", config])
+
+    def wait_ready(self, name, timeout=30):
+        deadline = time.time() + timeout
+        while time.time() < deadline:
+            if "kata serve: ingest" in open(self.logs[name]).read():
+                return
+            assert self.procs[name].poll() is None, open(self.logs[name]).read()
+            time.sleep(0.05)
+        raise AssertionError("%s not ready: %s" % (name, open(self.logs[name]).read()))
+
+    def kill(self, name, sig=signal.SIGKILL):
+        p = self.procs.pop(name)
+        p.send_signal(sig)
+        p.wait(timeout=30)
+        return p.returncode
+
+    def stop_all(self):
+        for name in list(self.procs):
+            p = self.procs.pop(name)
+            if p.poll() is None:
+                p.send_signal(signal.SIGINT)
+                try:
+                    p.wait(timeout=20)
+                except subprocess.TimeoutExpired:
+                    p.kill()
+                    p.wait()
+
+
+def send(stage, endpoint, socket, speed, warmup):
+    return subprocess.Popen([kata, "send", "--bvh", BVH, "--endpoint", endpoint, "--socket", socket,
+                             "--stream-id", "100", "--streams", str(STREAMS), "--frames", str(FRAMES),
+                             "--speed", str(speed), "--warmup", str(warmup), "--definition-interval", "0.25"],
+                            stdout=subprocess.DEVNULL, stderr=open(os.path.join(stage.tmp, "send.log"), "a"))
+
+
+class Consumer:
+    """Every result by stream: frame_sequence -> (score, distance, matched frame), arrival order kept."""
+
+    def __init__(self, endpoint):
+        self.sub = zmq.Context.instance().socket(zmq.SUB)
+        self.sub.setsockopt(zmq.SUBSCRIBE, b"")
+        self.sub.setsockopt(zmq.RCVHWM, 1000000)
+        self.sub.setsockopt(zmq.LINGER, 0)
+        self.sub.connect(endpoint)
+        self.results, self.order, self.definitions = {}, {}, {}
+        self.received = 0
+
+    def pump(self, seconds, until=None):
+        end = time.time() + seconds
+        while time.time() < end:
+            if until and until():
+                return True
+            if not self.sub.poll(50):
+                continue
+            while True:
+                try:
+                    m = self.sub.recv(zmq.NOBLOCK)
+                except zmq.Again:
+                    break
+                body = m[16:]
+                kind = body[4:8]
+                stream = int(m[:16], 16)
+                if kind == b"KSKL":
+                    self.definitions[stream] = self.definitions.get(stream, 0) + 1
+                elif kind == b"KRES":
+                    r = Result.GetRootAs(body, 0)
+                    seq = r.FrameSequence()
+                    self.results.setdefault(stream, {})[seq] = (r.Score(), r.Distance(), r.MatchedTeacherFrame())
+                    self.order.setdefault(stream, []).append(seq)
+                    self.received += 1
+        return until() if until else False
+
+    def drain_until_quiet(self, sender, limit=90):
+        deadline = time.time() + limit
+        while sender.poll() is None and time.time() < deadline:
+            self.pump(0.2)
+        assert sender.returncode == 0, "kata send failed"
+        last = self.received
+        while time.time() < deadline:  # everything in flight, then 1.5 s of silence
+            self.pump(1.5)
+            if self.received == last:
+                return
+            last = self.received
+
+    def gaps(self, stream):
+        seqs = self.order.get(stream, [])
+        assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs), "stream %d: results out of order" % stream
+        return FRAMES - len(seqs)
+
+
+ids = list(range(100, 100 + STREAMS))
+owner = {i: shard_of(i, SHARDS) for i in ids}
+assert sorted(set(owner.values())) == list(range(SHARDS)), "48 ids must cover every shard"
+killed = 1
+killed_ids = [i for i in ids if owner[i] == killed]
+
+with tempfile.TemporaryDirectory(prefix="kata_shard_%d_" % os.getpid()) as tmp:
+    # 1. reference: one process, frames pushed straight in (PUSH/PULL: nothing dropped).
+    stage = Stage(tmp)
+    try:
+        stage.serve("single", "bind:" + stage.ep("single_in"), stage.ep("single_out"), kind="pull")
+        stage.wait_ready("single")
+        ref = Consumer(stage.ep("single_out"))
+        ref.pump(0.5)
+        sender = send(stage, stage.ep("single_in"), "push", 4.0, 1.0)
+        ref.drain_until_quiet(sender)
+    finally:
+        stage.stop_all()
+    for i in ids:
+        assert ref.gaps(i) == 0, "reference: stream %d got %d of %d" % (i, len(ref.order.get(i, [])), FRAMES)
+    print("reference: %d results, %d streams" % (ref.received, STREAMS))
+
+    def sharded_stage(tag):
+        s = Stage(os.path.join(tmp, tag))
+        os.mkdir(s.tmp)
+        s.proxy("frames_proxy", "fin", "fout")
+        s.proxy("results_proxy", "rin", "rout")
+        consumer = Consumer(s.ep("rout"))
+        for k in range(SHARDS):
+            s.serve("shard%d" % k, s.ep("fout"), "connect:" + s.ep("rin"), shard=k)
+        for k in range(SHARDS):
+            s.wait_ready("shard%d" % k)
+        return s, consumer
+
+    def same_as_reference(consumer, stream):
+        for seq, value in consumer.results.get(stream, {}).items():
+            assert value == ref.results[stream][seq], "stream %d frame %d: %s != %s" % (
+                stream, seq, value, ref.results[stream][seq])
+
+    # 2. three shards behind the proxies: everything arrives, equal to the reference.
+    stage, consumer = sharded_stage("sharded")
+    try:
+        sender = send(stage, stage.ep("fin"), "pub", SPEED, 2.0)
+        assert consumer.pump(30, lambda: len(consumer.definitions) == STREAMS), \
+            "definitions of %d streams seen during the warm-up" % len(consumer.definitions)
+        consumer.drain_until_quiet(sender)
+    finally:
+        stage.stop_all()
+    for i in ids:
+        assert consumer.gaps(i) == 0, "sharded: stream %d got %d of %d" % (i, len(consumer.order.get(i, [])), FRAMES)
+        same_as_reference(consumer, i)
+    for k in range(SHARDS):
+        log = open(stage.logs["shard%d" % k]).read()
+        mine = sum(1 for i in ids if owner[i] == k)
+        assert ("%d results published" % (mine * FRAMES)) in log, log[-400:]
+    print("sharded: %d results from %d shards, equal to the reference" % (consumer.received, SHARDS))
+
+    # 3. SIGKILL one shard while frames flow, restart it.
+    stage, consumer = sharded_stage("killed")
+    try:
+        sender = send(stage, stage.ep("fin"), "pub", SPEED, 2.0)
+        assert consumer.pump(30, lambda: len(consumer.definitions) == STREAMS)
+        # Frames flow for ~1.5 s (90 of 300 per stream), then the shard dies.
+        assert consumer.pump(30, lambda: all(len(consumer.order.get(i, [])) >= 90 for i in killed_ids))
+        assert stage.kill("shard%d" % killed) == -signal.SIGKILL
+        consumer.pump(1.0)
+        stage.serve("shard%d" % killed, stage.ep("fout"), "connect:" + stage.ep("rin"), shard=killed)
+        consumer.drain_until_quiet(sender)
+    finally:
+        stage.stop_all()
+    lost = 0
+    for i in ids:
+        g = consumer.gaps(i)
+        if owner[i] == killed:
+            seqs = consumer.order[i]
+            assert g > 0, "stream %d: the kill lost nothing?" % i
+            assert seqs[-1] == FRAMES - 1, "stream %d did not resume after the restart (last %d)" % (i, seqs[-1])
+            lost += g
+        else:
+            assert g == 0, "stream %d (shard %d, not killed) has %d gaps" % (i, owner[i], g)
+            same_as_reference(consumer, i)
+    print("killed shard %d: its %d streams resumed, %d frames lost and counted; other shards untouched"
+          % (killed, len(killed_ids), lost))
+
+    # 4. both proxies SIGKILLed and restarted while frames flow.
+    stage, consumer = sharded_stage("proxies")
+    try:
+        sender = send(stage, stage.ep("fin"), "pub", SPEED, 2.0)
+        assert consumer.pump(30, lambda: len(consumer.definitions) == STREAMS)
+        assert consumer.pump(30, lambda: all(len(consumer.order.get(i, [])) >= 60 for i in ids))
+        stage.kill("frames_proxy")
+        stage.proxy("frames_proxy", "fin", "fout")
+        assert consumer.pump(30, lambda: all(len(consumer.order.get(i, [])) >= 150 for i in ids)), \
+            "streams did not resume after the frames proxy restarted"
+        stage.kill("results_proxy")
+        before = dict(consumer.definitions)
+        stage.proxy("results_proxy", "rin", "rout")
+        consumer.drain_until_quiet(sender)
+    finally:
+        stage.stop_all()
+    lost = 0
+    for i in ids:
+        seqs = consumer.order[i]
+        assert seqs[-1] == FRAMES - 1, "stream %d did not resume after the proxies restarted" % i
+        assert consumer.definitions[i] > before.get(i, 0), "stream %d: no definition after the restart" % i
+        lost += consumer.gaps(i)
+    print("proxies restarted: every stream resumed, %d frames lost and counted" % lost)
+print("ok")
