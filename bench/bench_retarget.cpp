@@ -13,6 +13,7 @@
 #include <Eigen/Dense>
 #include <benchmark/benchmark.h>
 
+#include "common/cpu.hpp"
 #include "io/bvh.hpp"
 #include "retarget/joint_set.hpp"
 #include "retarget/retargeter.hpp"
@@ -145,6 +146,42 @@ std::vector<double> to_soa(int n, const double* rows) {
     for (int c = 0; c < 3; ++c) soa[static_cast<size_t>(c * n + j)] = rows[3 * j + c];
   return soa;
 }
+
+// One stress + gradient evaluation (the SPG's unit of work; about 20 per warm CMU-21 frame) per
+// instruction set, side by side: the instances and points of the warm CMU-21 stream.
+void BM_StressKernel(benchmark::State& state, const std::string& preset, int isa) {
+  if ((isa >= 1 && !kata::cpu_has_avx2()) || (isa >= 2 && !kata::cpu_has_avx512())) {
+    state.SkipWithError("instruction set not available on this CPU");
+    return;
+  }
+  const auto kernel = isa == 0 ? kata::retarget::detail::stress_portable
+                      : isa == 1 ? kata::retarget::detail::stress_avx2
+                                 : kata::retarget::detail::stress_avx512;
+  const Stream& s = stream(preset);
+  Retargeter rt(s.selection.parents, s.student_lengths, RetargetOptions{}, s.student_dirs);
+  const int n = s.joints;
+  std::vector<double> ghost(3 * static_cast<size_t>(n));
+  std::vector<std::vector<double>> deltas, points;
+  for (size_t f = 0; f < s.frames.size(); f += 7) {
+    rt.retarget(s.frames[f].data(), ghost.data());
+    deltas.emplace_back(rt.delta(), rt.delta() + rt.table().pairs);
+    points.push_back(to_soa(n, rt.solved()));
+  }
+  const auto& t = rt.table();
+  kata::retarget::StressInstance in{n, t.pairs, t.u.data(), t.v.data(), rt.weights(), nullptr};
+  std::vector<double> grad(3 * static_cast<size_t>(n));
+  size_t k = 0;
+  for (auto _ : state) {
+    in.delta = deltas[k].data();
+    benchmark::DoNotOptimize(kernel(in, points[k].data(), grad.data()));
+    benchmark::ClobberMemory();
+    if (++k == deltas.size()) k = 0;
+  }
+  state.counters["pairs"] = t.pairs;
+}
+BENCHMARK_CAPTURE(BM_StressKernel, cmu21_portable, std::string("cmu"), 0)->Unit(benchmark::kNanosecond);
+BENCHMARK_CAPTURE(BM_StressKernel, cmu21_avx2, std::string("cmu"), 1)->Unit(benchmark::kNanosecond);
+BENCHMARK_CAPTURE(BM_StressKernel, cmu21_avx512, std::string("cmu"), 2)->Unit(benchmark::kNanosecond);
 
 // SPG vs SMACOF on the same instances and start points: every 10th frame of the stream, cold
 // (from the FK baseline) or warm (from the previous frame's SPG optimum). SPG runs with the

@@ -16,6 +16,7 @@
 
 #include "support/temp_paths.hpp"
 
+#include "common/cpu.hpp"
 #include "io/bvh.hpp"
 #include "retarget/distance.hpp"
 #include "io/ghost_bvh.hpp"
@@ -320,6 +321,60 @@ TEST(RetargetStress, GradientMatchesCentralDifferences) {
   double f = 0.0;
   for (int p = 0; p < t.pairs; ++p) f += 0.5 * w[p] * std::pow(dist(rows, t.u[p], t.v[p]) - delta[p], 2);
   EXPECT_NEAR(kata::retarget::stress(in, x.data(), nullptr), f, 1e-12 * f);
+}
+
+// Every instruction set's kernel against the plain formula in long double: value and gradient,
+// for joint counts whose rows end on every tail length of 4- and 8-pair vectors, with coincident
+// joints (r = 0: no gradient from that pair) and zero-weight pairs among spread ones.
+TEST(RetargetStress, EveryKernelMatchesThePlainFormula) {
+  using Kernel = double (*)(const StressInstance&, const double*, double*);
+  std::vector<std::pair<const char*, Kernel>> kernels = {{"portable", kata::retarget::detail::stress_portable}};
+  if (kata::cpu_has_avx2()) kernels.emplace_back("avx2", kata::retarget::detail::stress_avx2);
+  if (kata::cpu_has_avx512()) kernels.emplace_back("avx512", kata::retarget::detail::stress_avx512);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> uni(-1.0, 1.0);
+  for (int n : {2, 3, 5, 9, 12, 16, 21, 26}) {
+    const PairTable t = kata::retarget::build_pair_table(random_case(rng, n, 0.0).parents);
+    std::vector<double> w(t.pairs), delta(t.pairs);
+    for (int p = 0; p < t.pairs; ++p) {
+      w[p] = p % 7 == 3 ? 0.0 : 0.2 + std::fabs(uni(rng));
+      delta[p] = 30.0 * (1.0 + uni(rng));
+    }
+    const StressInstance in{n, t.pairs, t.u.data(), t.v.data(), w.data(), delta.data()};
+    Pose x(3 * n);  // SoA, CMU-like units (tens)
+    for (double& xi : x) xi = 40.0 * uni(rng);
+    if (n >= 3) {
+      for (int k = 0; k < 3; ++k) x[k * n + n - 1] = x[k * n + 1];  // the last joint on joint 1
+    }
+    long double f = 0.0L;
+    std::vector<long double> g(3 * n, 0.0L);
+    for (int p = 0; p < t.pairs; ++p) {
+      const int a = t.u[p], b = t.v[p];
+      long double d[3], r2 = 0.0L;
+      for (int k = 0; k < 3; ++k) {
+        d[k] = static_cast<long double>(x[k * n + a]) - x[k * n + b];
+        r2 += d[k] * d[k];
+      }
+      const long double r = std::sqrt(r2), e = r - delta[p];
+      f += 0.5L * w[p] * e * e;
+      if (r > 0.0L) {
+        for (int k = 0; k < 3; ++k) {
+          g[k * n + a] += w[p] * e * d[k] / r;
+          g[k * n + b] -= w[p] * e * d[k] / r;
+        }
+      }
+    }
+    long double gscale = 0.0L;
+    for (long double gi : g) gscale = std::max(gscale, std::fabs(gi));
+    for (const auto& [name, kernel] : kernels) {
+      Pose grad(3 * n, -7.0);
+      const double value = kernel(in, x.data(), grad.data());
+      EXPECT_NEAR(value, static_cast<double>(f), 1e-13 * static_cast<double>(f)) << name << " n " << n;
+      EXPECT_NEAR(kernel(in, x.data(), nullptr), static_cast<double>(f), 1e-13 * static_cast<double>(f)) << name;
+      for (int i = 0; i < 3 * n; ++i)
+        ASSERT_NEAR(grad[i], static_cast<double>(g[i]), 1e-12 * static_cast<double>(gscale)) << name << " n " << n << " i " << i;
+    }
+  }
 }
 
 TEST(RetargetStress, CoincidentJointsStayFinite) {

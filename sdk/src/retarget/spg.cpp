@@ -11,12 +11,16 @@
 
 namespace kata::retarget {
 
-// The AVX2 + FMA build of the kernel (spg_avx2.cpp), for CPUs that have it.
-double stress_avx2(const StressInstance& in, const double* x, double* grad);
+double detail::stress_portable(const StressInstance& in, const double* x, double* grad) {
+  return stress_kernel(in, x, grad);
+}
 
 double stress(const StressInstance& in, const double* x, double* grad) {
-  static const bool avx2 = cpu_has_avx2();
-  return avx2 ? stress_avx2(in, x, grad) : stress_kernel(in, x, grad);
+  // The kernels built for x86-64-v4 (spg_avx512.cpp) and x86-64-v3 (spg_avx2.cpp), when the CPU has them.
+  static const auto kernel = cpu_has_avx512() ? detail::stress_avx512
+                             : cpu_has_avx2() ? detail::stress_avx2
+                                              : detail::stress_portable;
+  return kernel(in, x, grad);
 }
 
 double stress_scale(const StressInstance& in) {
@@ -31,10 +35,19 @@ SpgSolver::SpgSolver(int joints)
 }
 
 namespace {
+// Four partial sums: one serial chain of 3 x joints dependent additions (4 cycles each) was a
+// large part of an SPG iteration; four chains run side by side and vectorise.
 double dot(const double* a, const double* b, int n) {
-  double s = 0.0;
-  for (int i = 0; i < n; ++i) s += a[i] * b[i];
-  return s;
+  double s0 = 0.0, s1 = 0.0, s2 = 0.0, s3 = 0.0;
+  int i = 0;
+  for (; i + 4 <= n; i += 4) {
+    s0 += a[i] * b[i];
+    s1 += a[i + 1] * b[i + 1];
+    s2 += a[i + 2] * b[i + 2];
+    s3 += a[i + 3] * b[i + 3];
+  }
+  for (; i < n; ++i) s0 += a[i] * b[i];
+  return (s0 + s1) + (s2 + s3);
 }
 }  // namespace
 
@@ -97,14 +110,13 @@ SpgResult SpgSolver::minimize(const StressInstance& in, double* x, const SpgOpti
       alpha = (a_tmp >= 0.1 && a_tmp <= 0.9 * alpha) ? a_tmp : 0.5 * alpha;
     }
     if (!accepted) break;  // no decrease possible at this precision: x is as good as it gets
-    // Spectral (Barzilai-Borwein) step from s = xn - x, y = gn - g.
-    double sts = 0.0, sty = 0.0;
+    // Spectral (Barzilai-Borwein) step from s = xn - x, y = gn - g. x and g are overwritten
+    // below, so s and y go through them (x <- s, g <- y) and the sums reuse dot().
     for (int i = 0; i < n; ++i) {
-      const double s = xn[i] - x[i];
-      const double y = gn[i] - g[i];
-      sts += s * s;
-      sty += s * y;
+      x[i] = xn[i] - x[i];
+      g[i] = gn[i] - g[i];
     }
+    const double sts = dot(x, x, n), sty = dot(x, g, n);
     lambda = sty <= 0.0 ? opt.step_max : std::clamp(sts / sty, opt.step_min, opt.step_max);
     std::memcpy(x, xn, sizeof(double) * n);
     std::memcpy(g, gn, sizeof(double) * n);

@@ -31,6 +31,16 @@ double stress(const StressInstance& instance, const double* x, double* grad);
 // gradient tolerance is measured against it, so it does not depend on units or start point.
 double stress_scale(const StressInstance& instance);
 
+namespace detail {
+// stress() per instruction set; stress() picks one at run time (common/cpu.hpp). For tests and
+// benchmarks: call avx2 / avx512 only after cpu_has_avx2() / cpu_has_avx512(). The wide kernels
+// take 1/r from a refined reciprocal square-root estimate, so they agree with the portable one to
+// rounding (a few units in the last place), not bit for bit.
+double stress_portable(const StressInstance& instance, const double* x, double* grad);
+double stress_avx2(const StressInstance& instance, const double* x, double* grad);
+double stress_avx512(const StressInstance& instance, const double* x, double* grad);
+}  // namespace detail
+
 // Parameters of the SPG method. Defaults are those of Birgin-Martinez-Raydan / MDjeep.
 struct SpgOptions {
   int max_iterations = 500;          // cap on iterations (one gradient step each)

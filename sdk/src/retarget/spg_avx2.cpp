@@ -1,10 +1,12 @@
 // The stress kernel compiled for x86-64-v3 (AVX2 + FMA): 4 pairs per instruction instead of 2.
-// Called only after kata::cpu_has_avx2() (spg.cpp).
+// Called only after kata::cpu_has_avx2() (spg.cpp). (A variant with a float reciprocal
+// square-root estimate and Newton steps instead of the square root and division was slower here:
+// docs/performance.md.)
 #include "retarget/stress_kernel.hpp"
 
 namespace kata::retarget {
 
 // Same contract as stress() (spg.hpp).
-double stress_avx2(const StressInstance& in, const double* x, double* grad) { return stress_kernel(in, x, grad); }
+double detail::stress_avx2(const StressInstance& in, const double* x, double* grad) { return stress_kernel(in, x, grad); }
 
 }  // namespace kata::retarget
