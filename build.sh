@@ -62,8 +62,11 @@ clang_build() {
   run_tests build-clang
 }
 
-# The test programs the aarch64 build runs (each under qemu-aarch64).
-AARCH64_TESTS=(test_gpd test_metric test_retarget test_api test_capi_c)
+# The test programs the aarch64 build runs (each under qemu-aarch64), and what they leave out:
+# the model files' every-bit-flip sweeps (tens of thousands of verifier runs; same byte order and
+# verifier as the native suites, which run them) were two thirds of test_metric under emulation.
+AARCH64_TESTS=(test_gpd test_metric test_retarget test_api test_api_misuse test_capi_c)
+declare -A AARCH64_FILTERS=([test_metric]='-ModelFiles.EverySingleBitFlipIsRefused:Model.EveryBitFlipIsRefusedOrHarmless')
 
 aarch64_build() {
   local sudo=""
@@ -75,7 +78,7 @@ aarch64_build() {
   cmake --build build-aarch64 -j "$JOBS" --target kata "${AARCH64_TESTS[@]}"
   for t in "${AARCH64_TESTS[@]}"; do
     echo "== $t (qemu-aarch64)"
-    qemu-aarch64 "build-aarch64/bin/$t" --gtest_brief=1
+    qemu-aarch64 "build-aarch64/bin/$t" --gtest_brief=1 ${AARCH64_FILTERS[$t]:+"--gtest_filter=${AARCH64_FILTERS[$t]}"}
   done
 }
 

@@ -19,7 +19,10 @@ set(CMAKE_FIND_ROOT_PATH_MODE_PACKAGE BOTH)
 set(CMAKE_FIND_ROOT_PATH /usr/aarch64-linux-gnu /)
 # pkg-config must read the arm64 .pc files, not the host's.
 set(ENV{PKG_CONFIG_LIBDIR} /usr/lib/aarch64-linux-gnu/pkgconfig:/usr/share/pkgconfig)
-# xsimd is header-only but Debian installs its package config under the host's multiarch dir.
-if(NOT xsimd_DIR AND EXISTS /usr/lib/x86_64-linux-gnu/cmake/xsimd)
-  set(xsimd_DIR /usr/lib/x86_64-linux-gnu/cmake/xsimd)
-endif()
+# xsimd and toml++ are header-only but Debian installs their package configs under the host's
+# multiarch dir.
+foreach(package xsimd tomlplusplus)
+  if(NOT ${package}_DIR AND EXISTS /usr/lib/x86_64-linux-gnu/cmake/${package})
+    set(${package}_DIR /usr/lib/x86_64-linux-gnu/cmake/${package})
+  endif()
+endforeach()
