@@ -44,6 +44,8 @@ void run_score(const ScoreArgs& a) {
   struct Side {
     std::vector<float> features;
     double frame_time = 0.0;
+    std::vector<int> rows;  // source frame of each feature row (frames tracking lost have none)
+    int frames = 0;         // source frames
   };
   auto load_side = [&](const std::string& path, const std::string& layout) {
     Side side;
@@ -52,14 +54,16 @@ void run_score(const ScoreArgs& a) {
       const BvhClip clip = load_bvh(path);
       side.features = clip_features(clip, resolve_gpd_map(clip.skeleton, layout, a.name_map), metric->stencil(), a.first);
       side.frame_time = clip.frame_time;
+      side.frames = static_cast<int>(side.features.size() / gpd::kDims);
+      for (int f = 0; f < side.frames; ++f) side.rows.push_back(f);
       return side;
     }
     const UpAxis up = a.up == "z" ? UpAxis::kZ : a.up == "y-down" ? UpAxis::kYDown : UpAxis::kY;
     const MotionSource m = load_motion(path, layout, a.fps, up, a.first);
-    std::vector<int> rows;
     int lost = 0;
-    side.features = motion_features(m, metric->stencil(), &rows, &lost);
+    side.features = motion_features(m, metric->stencil(), &side.rows, &lost);
     side.frame_time = m.frame_time;
+    side.frames = m.frames;
     if (lost) std::printf("%s: %d frames tracking lost (no score)\n", path.c_str(), lost);
     return side;
   };
@@ -71,8 +75,8 @@ void run_score(const ScoreArgs& a) {
     double frame_time;
   } teacher{ts.frame_time}, student{ss.frame_time};
   const int teacher_frames = static_cast<int>(tf.size() / gpd::kDims);
-  const int student_frames = static_cast<int>(sf.size() / gpd::kDims);
-  if (teacher_frames < 1 || student_frames < 1) throw Error(ErrorKind::kInvalidArgument, "no frames to score");
+  const int student_frames = ss.frames;  // every source frame gets a CSV row (lost ones: tracking_lost)
+  if (teacher_frames < 1 || sf.empty()) throw Error(ErrorKind::kInvalidArgument, "no frames to score");
 
   std::shared_ptr<const metric::Reference> ref;
   if (a.teacher_frame >= 0) {
@@ -100,9 +104,12 @@ void run_score(const ScoreArgs& a) {
   double score_sum = 0.0, part_score_sum[metric::kParts] = {};
   int scored = 0, finished = 0;
   static const char* const kStates[] = {"scoring", "calibrating", "tracking_lost", "teacher_finished"};
+  size_t row = 0;
   for (int f = 0; f < student_frames; ++f) {
     const double t = f * student.frame_time;
-    const metric::ScoreRecord& r = scorer.score(sf.data() + static_cast<size_t>(f) * gpd::kDims, t);
+    const bool has_row = row < ss.rows.size() && ss.rows[row] == f;
+    const metric::ScoreRecord& r =
+        has_row ? scorer.score(sf.data() + (row++) * gpd::kDims, t) : scorer.score_lost(t);
     const int matched = a.teacher_frame >= 0 ? a.teacher_frame : r.matched + a.first;
     std::fprintf(out, "%d,%.6f,%.7g,%.4f", f + a.first, t, r.distance, r.score);
     for (float p : r.parts) std::fprintf(out, ",%.7g", p);

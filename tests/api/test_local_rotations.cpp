@@ -51,6 +51,21 @@ std::vector<Vec> forward(kata_skeleton skel, const std::vector<float>& rotations
   return pos;
 }
 
+// Random local rotations (x, y, z, w): a random axis, an angle up to +-max_root for the root and
+// +-max_joint (radians) for the other joints.
+std::vector<float> random_rotations(std::mt19937& rng, uint32_t n, double max_root, double max_joint) {
+  std::uniform_real_distribution<double> unit(-1.0, 1.0);
+  std::vector<float> rotations(4 * n);
+  for (uint32_t j = 0; j < n; ++j) {
+    Vec axis = {unit(rng), unit(rng), unit(rng)};
+    const double len = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
+    const double angle = (j == 0 ? max_root : max_joint) * unit(rng);
+    for (int k = 0; k < 3; ++k) rotations[4 * j + k] = static_cast<float>(std::sin(angle / 2) * axis[k] / len);
+    rotations[4 * j + 3] = static_cast<float>(std::cos(angle / 2));
+  }
+  return rotations;
+}
+
 // Largest distance between each ghost joint and the FK position of the joint it stands for.
 double fk_error(kata_retargeter rt, kata_skeleton skel, const std::vector<float>& ghost, std::vector<float>* fk_out,
                 double* residual) {
@@ -194,14 +209,7 @@ TEST(LocalRotations, GameRigWithBranchingHipsAndChestIsReproducedExactlyWhenReac
   std::uniform_real_distribution<double> unit(-1.0, 1.0);
   double worst = 0;
   for (int trial = 0; trial < 50; ++trial) {
-    std::vector<float> rotations(4 * n);
-    for (uint32_t j = 0; j < n; ++j) {
-      Vec axis = {unit(rng), unit(rng), unit(rng)};
-      const double len = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
-      const double angle = (j == 0 ? 3.14159 : 1.0472) * unit(rng);
-      for (int k = 0; k < 3; ++k) rotations[4 * j + k] = static_cast<float>(std::sin(angle / 2) * axis[k] / len);
-      rotations[4 * j + 3] = static_cast<float>(std::cos(angle / 2));
-    }
+    const std::vector<float> rotations = random_rotations(rng, n, 3.14159, 1.0472);
     const float root[3] = {static_cast<float>(unit(rng)), static_cast<float>(0.9 + 0.1 * unit(rng)),
                            static_cast<float>(unit(rng))};
     const std::vector<Vec> fk = forward(skel, rotations, root);
@@ -232,14 +240,7 @@ TEST(LocalRotations, GameRigWithBranchingHipsAndChestIsReproducedExactlyWhenReac
   ASSERT_EQ(kata_skeleton_create(ctx, n, names.data(), rig.parents.data(), other.data(), &teacher), KATA_OK);
   double worst_residual = 0, worst_fk = 0;
   for (int trial = 0; trial < 50; ++trial) {
-    std::vector<float> rotations(4 * n);
-    for (uint32_t j = 0; j < n; ++j) {
-      Vec axis = {unit(rng), unit(rng), unit(rng)};
-      const double len = std::sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2]);
-      const double angle = 0.6 * unit(rng);
-      for (int k = 0; k < 3; ++k) rotations[4 * j + k] = static_cast<float>(std::sin(angle / 2) * axis[k] / len);
-      rotations[4 * j + 3] = static_cast<float>(std::cos(angle / 2));
-    }
+    const std::vector<float> rotations = random_rotations(rng, n, 0.6, 0.6);
     const float root[3] = {0.0f, 1.0f, 0.0f};
     const std::vector<Vec> pose = forward(teacher, rotations, root);
     std::vector<float> frame(3 * n), ghost(3 * n);

@@ -166,4 +166,50 @@ TEST(CliLandmarks, CrossLayoutGhostFromTheCli) {
   EXPECT_NE(bad.output.find(".npy"), std::string::npos) << bad.output;
 }
 
+// Frames a landmark array lost (NaN joints: more than a quarter of the 16 missing) keep their CSV
+// rows in kata score, with the state "tracking_lost" and no score; the others are scored at
+// their own times.
+TEST(CliLandmarks, LostFramesKeepTheirRowsAsTrackingLost) {
+  kata::test::TempDir dir;
+  const std::string bvh = std::string(KATA_DATA_DIR) + "/cmu/02_01.bvh";
+  const kata::BvhClip clip = kata::load_bvh(bvh);
+  const kata::GpdMap map = kata::make_gpd_map(clip.skeleton, kata::preset_joint_names("cmu"));
+  const std::vector<float> pos = kata::clip_positions(clip, 1);
+  const int n = clip.skeleton.joint_count(), frames = clip.frame_count() - 1;
+  std::vector<float> arr;
+  for (int f = 0; f < frames; ++f)
+    for (int g = 0; g < 16; ++g) {
+      const float* p = pos.data() + (static_cast<size_t>(f) * n + map.source[static_cast<size_t>(g)]) * 3;
+      const bool lost = f >= 100 && f < 140 && g >= 10;  // both legs gone for 40 frames
+      arr.insert(arr.end(), {lost ? NAN : p[0], p[1], p[2]});
+    }
+  kata::write_npy(dir.file("lost.npy"), arr.data(), {static_cast<size_t>(frames), 16, 3});
+  const std::string model = std::string(KATA_SOURCE_DIR) + "/models/default.kata";
+  const CliResult r = run_cli(dir, "score --model " + model + " --teacher " + bvh + " --layout cmu --first-frame 1 " +
+                                       "--student " + dir.file("lost.npy") + " --student-layout gpd --fps " +
+                                       std::to_string(1.0 / clip.frame_time) + " --out " + dir.file("s.csv"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  std::ifstream in(dir.file("s.csv"));
+  std::string line;
+  std::getline(in, line);
+  int rows = 0, lost_rows = 0, scored_rows = 0;
+  while (std::getline(in, line)) {
+    const std::string state = line.substr(line.rfind(',') + 1);
+    const int frame = std::stoi(line.substr(0, line.find(',')));
+    // --first-frame 1 skips the array's first frame too: CSV frame = array index.
+    EXPECT_EQ(frame, rows + 1) << "one row per source frame, numbered from --first-frame";
+    if (frame >= 100 && frame < 140) {
+      EXPECT_EQ(state, "tracking_lost") << line;
+    } else {
+      EXPECT_NE(state, "tracking_lost") << line;
+    }
+    lost_rows += state == "tracking_lost";
+    scored_rows += state == "scoring";
+    ++rows;
+  }
+  EXPECT_EQ(rows, frames - 1);
+  EXPECT_EQ(lost_rows, 40);
+  EXPECT_GT(scored_rows, frames - 40 - 80);  // calibrating after each restart: 0.25 s
+}
+
 }  // namespace
