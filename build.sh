@@ -26,7 +26,8 @@ FUZZ_PACKAGES=(clang-14 libclang-rt-14-dev)
 # Only for `./build.sh clang` / `./build.sh aarch64` (arm64 multiarch: the arm64 builds of the
 # libraries the core links; header-only packages are shared with the host).
 CLANG_PACKAGES=(clang)
-AARCH64_PACKAGES=(g++-aarch64-linux-gnu qemu-user libzmq3-dev:arm64 libgtest-dev:arm64 libflatbuffers-dev:arm64)
+AARCH64_PACKAGES=(g++-aarch64-linux-gnu qemu-user libzmq3-dev:arm64 libgtest-dev:arm64 libflatbuffers-dev:arm64
+                  libcpp-httplib-dev:arm64)  # the CLI's viewer server is configured (not built) here
 JOBS=${JOBS:-2}
 
 deps() {  # deps [package...]: the given packages, or PACKAGES
