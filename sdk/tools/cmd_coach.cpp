@@ -23,6 +23,7 @@
 #include "coach/present.hpp"
 #include "coach/recording.hpp"
 #include "coach/viewer_server.hpp"
+#include "data_files.hpp"
 #include "command.hpp"
 #include "common/error.hpp"
 
@@ -42,16 +43,6 @@ struct CoachArgs {
 
 std::atomic<bool> g_interrupted{false};
 void on_interrupt(int) { g_interrupted = true; }
-
-// build/bin/kata -> build/share/kata/viewer (the same layout installed: bin/ and share/kata/viewer).
-std::string default_viewer_dir() {
-  char exe[4096];
-  const ssize_t n = readlink("/proc/self/exe", exe, sizeof exe - 1);
-  if (n <= 0) return "share/kata/viewer";
-  std::string dir(exe, static_cast<size_t>(n));
-  dir = dir.substr(0, dir.find_last_of('/'));
-  return dir + "/../share/kata/viewer";
-}
 
 // Appends printf-style text at `at` (clamped at the buffer's end).
 __attribute__((format(printf, 4, 5))) void append_line(char* line, size_t size, int& at, const char* fmt, ...) {
@@ -128,6 +119,11 @@ class TerminalView {
 void run_coach(CoachArgs a) {
   if (a.headless) a.no_viewer = true;
   if (!(a.lesson.speed > 0.0)) throw kata::Error(kata::ErrorKind::kInvalidArgument, "--speed must be > 0");
+  // The defaults (the shipped model and lesson) are found from any directory; a path the user gave
+  // is taken as given.
+  a.lesson.model = kata::cli::default_data_file(a.lesson.model);
+  a.lesson.teacher = kata::cli::default_data_file(a.lesson.teacher);
+  a.lesson.student = kata::cli::default_data_file(a.lesson.student);
 
   // The lesson: live (the runtime) or recorded (a file).
   std::unique_ptr<Lesson> live;
@@ -143,7 +139,7 @@ void run_coach(CoachArgs a) {
 
   std::unique_ptr<ViewerServer> viewer;
   if (!a.no_viewer) {
-    viewer = std::make_unique<ViewerServer>(a.viewer_dir.empty() ? default_viewer_dir() : a.viewer_dir, a.host, a.port);
+    viewer = std::make_unique<ViewerServer>(a.viewer_dir.empty() ? kata::cli::share_dir() + "/viewer" : a.viewer_dir, a.host, a.port);
     // A token that tells this lesson from the next one on the same port (a page that saw the end
     // of one lesson starts over when /status shows another).
     const std::string lesson_id = std::to_string(std::chrono::system_clock::now().time_since_epoch().count());

@@ -11,6 +11,7 @@
 #include <toml++/toml.h>
 
 #include "common/error.hpp"
+#include "data_files.hpp"
 
 namespace kata::serve {
 
@@ -89,7 +90,39 @@ void check_keys(const std::string& file, const toml::table& t, std::initializer_
 ServeConfig parse_root(const std::string& file, const toml::table& root) {
   check_keys(file, root, {"ingest", "publish", "runtime", "scoring", "status", "plugins", "shard"}, "top level");
   const std::filesystem::path base = std::filesystem::path(file).parent_path();
-  auto resolve = [&](const std::string& p) { return std::filesystem::path(p).is_absolute() ? p : (base / p).string(); };
+  // A file the config names: relative paths from the config file's directory; failing that, the
+  // files kata ships (PREFIX/share/kata, e.g. "models/default.kata"), so a stage config written in
+  // any directory finds the shipped model. A missing file is refused here, with its key's line.
+  auto resolve_at = [&](const toml::node& at, const std::string& p, const char* what) {
+    std::error_code ec;
+    if (std::filesystem::path(p).is_absolute()) {
+      if (!std::filesystem::exists(p, ec)) refuse(file, at.source(), std::string(what) + ": no such file '" + p + "'");
+      return p;
+    }
+    const std::string local = (base / p).string();
+    if (std::filesystem::exists(local, ec)) return local;
+    const std::string shipped = (std::filesystem::path(kata::cli::share_dir()) / p).string();
+    if (std::filesystem::exists(shipped, ec)) return shipped;
+    refuse(file, at.source(), std::string(what) + ": no such file '" + p + "' (looked in '" +
+                                  (base.empty() ? std::string(".") : base.string()) + "' and '" + kata::cli::share_dir() + "')");
+  };
+  // A plugin: a path as above, or a bare name ("csv-sink") looked up where kata installs its plugins
+  // (PREFIX/lib/kata/plugins/NAME.so; in the build tree, build/plugins/NAME.so).
+  auto resolve_plugin = [&](const toml::node& at, const std::string& p) {
+    if (p.find('/') != std::string::npos) return resolve_at(at, p, "plugin");
+    const std::filesystem::path prefix = std::filesystem::path(kata::cli::share_dir()).parent_path().parent_path();
+    std::error_code ec;
+    for (const auto& dir : {prefix / "lib" / "kata" / "plugins", prefix / "plugins"}) {
+      for (const std::string& name : {p, p + ".so"}) {
+        if (std::filesystem::is_regular_file(dir / name, ec)) return (dir / name).string();
+      }
+    }
+    const std::string local = (base / p).string();
+    if (std::filesystem::exists(local, ec)) return local;
+    refuse(file, at.source(), "plugin '" + p + "': not found (a path to a .so, or the name of a plugin in '" +
+                                  (prefix / "lib" / "kata" / "plugins").string() + "' or '" + (prefix / "plugins").string() +
+                                  "')");
+  };
   ServeConfig c;
   const toml::table& ingest = section(file, root, "ingest", true);
   check_keys(file, ingest, {"endpoints", "kind", "max_message_bytes", "require_checksum"}, "ingest");
@@ -129,9 +162,9 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
   if (!scoring.empty()) {
     const std::string model = read<std::string>(file, scoring, "model", "");
     if (model.empty()) throw Error(ErrorKind::kParse, file + ":1: [scoring] needs model");
-    c.model = resolve(model);
+    c.model = resolve_at(*scoring.get("model"), model, "model");
     const std::string teacher = read<std::string>(file, scoring, "teacher", "");
-    if (!teacher.empty()) c.default_teacher.path = resolve(teacher);
+    if (!teacher.empty()) c.default_teacher.path = resolve_at(*scoring.get("teacher"), teacher, "teacher");
     c.default_teacher.first_frame = static_cast<int>(read_range(file, scoring, "first_frame", 1, 0, 1 << 30));
     c.ghost = read<bool>(file, scoring, "ghost", true);
     if (const toml::node* t = scoring.get("teachers")) {
@@ -143,7 +176,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
         const std::string id_text(key.str());
         const unsigned long long id = std::strtoull(id_text.c_str(), &end, 10);
         if (id_text.empty() || *end) refuse(file, node.source(), "teacher keys are stream ids (decimal)");
-        c.teachers[id] = TeacherSource{resolve(*path), c.default_teacher.first_frame};
+        c.teachers[id] = TeacherSource{resolve_at(node, *path, "teacher"), c.default_teacher.first_frame};
       }
     }
   }
@@ -156,7 +189,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
       check_keys(file, *t, {"path", "config"}, "plugins");
       const std::string path = read<std::string>(file, *t, "path", "");
       if (path.empty()) refuse(file, e.source(), "a plugin needs path");
-      c.plugins.push_back({resolve(path), read<std::string>(file, *t, "config", "")});
+      c.plugins.push_back({resolve_plugin(*t->get("path"), path), read<std::string>(file, *t, "config", "")});
     }
   }
   const toml::table& status = section(file, root, "status", false);
