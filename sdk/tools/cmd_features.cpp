@@ -47,7 +47,7 @@ void run_features(const FeaturesArgs& a) {
   if (!a.student.empty()) return run_motion_features(a);
   if (a.bvh.empty()) throw kata::Error(kata::ErrorKind::kInvalidArgument, "give --bvh CLIP or --student FILE");
   const kata::BvhClip clip = kata::load_bvh(a.bvh);
-  const kata::GpdMap map = kata::resolve_gpd_map(clip.skeleton, a.preset, a.name_map);
+  const kata::GpdMap map = kata::resolve_gpd_map(clip, a.preset, a.name_map);
   const std::vector<float> feats = kata::clip_features(clip, map, kata::parse_stencil(a.stencil), a.first);
   const std::vector<size_t> shape = {feats.size() / kata::gpd::kDims, static_cast<size_t>(kata::gpd::kDims)};
   if (a.dtype == "float64") {

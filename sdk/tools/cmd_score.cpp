@@ -52,7 +52,7 @@ void run_score(const ScoreArgs& a) {
     const bool bvh = path.size() > 4 && path.compare(path.size() - 4, 4, ".bvh") == 0;
     if (bvh && (!a.name_map.empty() || layout.empty() || preset_is_name_map(layout))) {
       const BvhClip clip = load_bvh(path);
-      side.features = clip_features(clip, resolve_gpd_map(clip.skeleton, layout, a.name_map), metric->stencil(), a.first);
+      side.features = clip_features(clip, resolve_gpd_map(clip, layout, a.name_map), metric->stencil(), a.first);
       side.frame_time = clip.frame_time;
       side.frames = static_cast<int>(side.features.size() / gpd::kDims);
       for (int f = 0; f < side.frames; ++f) side.rows.push_back(f);

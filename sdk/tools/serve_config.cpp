@@ -11,6 +11,7 @@
 #include <toml++/toml.h>
 
 #include "common/error.hpp"
+#include "common/text.hpp"
 #include "data_files.hpp"
 
 namespace kata::serve {
@@ -81,7 +82,10 @@ void check_keys(const std::string& file, const toml::table& t, std::initializer_
   for (const auto& [key, node] : t) {
     bool ok = false;
     for (const char* k : known) ok = ok || key.str() == k;
-    if (!ok) refuse(file, node.source(), "unknown key '" + std::string(key.str()) + "' in [" + where + "]");
+    if (ok) continue;
+    const std::string hint = closest_name(key.str(), std::vector<std::string>(known.begin(), known.end()));
+    refuse(file, node.source(), "unknown key '" + std::string(key.str()) + "' in [" + where + "]" +
+                                    (hint.empty() ? std::string() : "; did you mean '" + hint + "'?"));
   }
 }
 

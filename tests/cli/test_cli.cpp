@@ -72,4 +72,25 @@ TEST(CliFeatures, BadInputExitsWithAClearMessage) {
   std::remove(bad.c_str());
 }
 
+TEST(CliScore, AJointThePresetNeedsIsMissingNamesTheFileTheCorrectionAndTheJoints) {
+  // 09_01 with its RightFoot renamed, as a typo in an exporter would: the message names the clip,
+  // the preset, the GPD joint, the closest name the skeleton has, and lists its joints.
+  std::ifstream in(std::string(KATA_DATA_DIR) + "/cmu/09_01.bvh");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string bvh = text.str();
+  for (size_t at = bvh.find("JOINT RightFoot"); at != std::string::npos; at = bvh.find("JOINT RightFoot", at))
+    bvh.replace(at, 15, "JOINT RightFot");
+  const std::string typo = kata::test::temp_path("kata_cli_typo.bvh");
+  std::ofstream(typo) << bvh;
+  const CliRun r = run("score --model " + std::string(KATA_SOURCE_DIR) + "/models/default.kata --teacher " +
+                       std::string(KATA_DATA_DIR) + "/cmu/09_01.bvh --student " + typo + " --preset cmu --out " +
+                       kata::test::temp_path("kata_cli_typo.csv"));
+  EXPECT_NE(r.code, 0);
+  for (const char* part : {"kata_cli_typo.bvh: layout 'cmu': skeleton has no joint 'RightFoot' (GPD RFoot)",
+                           "did you mean 'RightFot'?", "joints are: Hips, "})
+    EXPECT_NE(r.output.find(part), std::string::npos) << "'" << part << "' not in: " << r.output;
+  std::remove(typo.c_str());
+}
+
 }  // namespace

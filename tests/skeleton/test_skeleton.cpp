@@ -4,6 +4,7 @@
 
 #include "support/temp_paths.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <filesystem>
@@ -13,6 +14,7 @@
 
 #include "io/name_map.hpp"
 #include "common/error.hpp"
+#include "common/text.hpp"
 #include "io/bvh.hpp"
 #include "skeleton/skeleton.hpp"
 
@@ -189,6 +191,37 @@ TEST(GpdMapTest, MissingJointIsNamed) {
   names.erase(names.begin() + 2);  // no Neck1
   const kata::Skeleton s = flat_skeleton(names);
   expect_error([&] { kata::make_gpd_map(s, kata::preset_joint_names("cmu")); }, ErrorKind::kNotFound, {"Neck1", "GPD Neck"});
+}
+
+TEST(GpdMapTest, MissingJointSuggestsTheClosestNameAndListsTheSkeletonsJoints) {
+  // A typo ("RightFot" for RightFoot) gets its correction; the message lists every joint the
+  // skeleton has, so that a name map can be written from it.
+  std::vector<std::string> names(kCmuNames, kCmuNames + kGpdJoints);
+  const auto right_foot = std::find(names.begin(), names.end(), std::string("RightFoot"));
+  ASSERT_NE(right_foot, names.end());
+  *right_foot = "RightFot";
+  const kata::Skeleton s = flat_skeleton(names);
+  expect_error([&] { kata::resolve_layout(s, "cmu"); }, ErrorKind::kNotFound,
+               {"layout 'cmu'", "'RightFoot' (GPD RFoot)", "did you mean 'RightFot'?", "its 16 joints are: Hips, ",
+                "RightFot"});
+  // A name nothing resembles gets no suggestion.
+  *std::find(names.begin(), names.end(), std::string("RightFot")) = "Xyzzy";
+  try {
+    kata::resolve_layout(flat_skeleton(names), "cmu");
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()).find("did you mean"), std::string::npos) << e.what();
+  }
+}
+
+TEST(ClosestName, TyposAreFoundOtherWordsAreNot) {
+  const std::vector<std::string> candidates = {"LeftFoot", "RightFoot", "Hips", "Spine1"};
+  EXPECT_EQ(kata::closest_name("RightFot", candidates), "RightFoot");
+  EXPECT_EQ(kata::closest_name("hips", candidates), "Hips");  // case alone is a difference worth naming
+  EXPECT_EQ(kata::closest_name("leftfoot", candidates), "LeftFoot");
+  EXPECT_EQ(kata::closest_name("Neck", candidates), "");
+  EXPECT_EQ(kata::closest_name("RightFoot", candidates), "");  // an exact match is not a typo
+  EXPECT_EQ(kata::closest_name("x", {}), "");
 }
 
 TEST(BodyHeight, HandComputedSegments) {

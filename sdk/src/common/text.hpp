@@ -5,6 +5,7 @@
 #include <cstddef>
 #include <string>
 #include <string_view>
+#include <vector>
 
 namespace kata {
 
@@ -18,5 +19,11 @@ std::string c_string(const char* s, const char* field);
 
 // `text` for a message: at most max_bytes of it, followed by "... (N bytes)" when cut.
 std::string bounded(std::string_view text, size_t max_bytes = kMaxQuotedBytes);
+
+// The candidate closest to `name` for a "did you mean" hint: the smallest case-insensitive edit
+// distance, accepted when it is at most a third of the longer name (a typo, not another word);
+// a difference of case alone counts (find() is case-sensitive); "" when none is that close or
+// when `name` itself is a candidate. Names are compared up to kMaxQuotedBytes bytes.
+std::string closest_name(std::string_view name, const std::vector<std::string>& candidates);
 
 }  // namespace kata

@@ -38,9 +38,31 @@ GpdMap resolve_gpd_map(const Skeleton& skeleton, const std::string& preset, cons
   if (!preset.empty() && !name_map_path.empty())
     throw Error(ErrorKind::kInvalidArgument, "give a preset or a name-map file, not both (preset '" + bounded(preset) +
                                                  "', name map " + bounded(name_map_path) + ")");
-  if (!preset.empty()) return make_gpd_map(skeleton, preset_joint_names(preset));
-  if (!name_map_path.empty()) return make_gpd_map(skeleton, load_name_map(name_map_path));
+  if (!preset.empty()) {
+    const auto names = preset_joint_names(preset);
+    try {
+      return make_gpd_map(skeleton, names);
+    } catch (const Error& e) {
+      throw Error(e.kind(), "layout '" + bounded(preset) + "': " + e.what());
+    }
+  }
+  if (!name_map_path.empty()) {
+    const auto names = load_name_map(name_map_path);
+    try {
+      return make_gpd_map(skeleton, names);
+    } catch (const Error& e) {
+      throw Error(e.kind(), "name map " + bounded(name_map_path) + ": " + e.what());
+    }
+  }
   throw Error(ErrorKind::kInvalidArgument, "give a preset (--preset cmu) or a name-map file (--name-map FILE)");
+}
+
+GpdMap resolve_gpd_map(const BvhClip& clip, const std::string& preset, const std::string& name_map_path) {
+  try {
+    return resolve_gpd_map(clip.skeleton, preset, name_map_path);
+  } catch (const Error& e) {
+    throw Error(e.kind(), bounded(clip.path) + ": " + e.what());
+  }
 }
 
 gpd::Stencil parse_stencil(const std::string& name) {

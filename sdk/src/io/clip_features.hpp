@@ -24,6 +24,8 @@ std::vector<float> clip_positions(const BvhClip& clip, int first = 0);
 // The map for a preset name or, when `preset` is empty, for a name-map file. Both set, or
 // neither: kata::Error(kInvalidArgument).
 GpdMap resolve_gpd_map(const Skeleton& skeleton, const std::string& preset, const std::string& name_map_path);
+// The same for a clip's skeleton; errors start with the clip's path.
+GpdMap resolve_gpd_map(const BvhClip& clip, const std::string& preset, const std::string& name_map_path);
 
 // Parses "backward" / "central". Throws kata::Error(kInvalidArgument) otherwise.
 gpd::Stencil parse_stencil(const std::string& name);

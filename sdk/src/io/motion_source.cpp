@@ -80,7 +80,11 @@ MotionSource load_motion(const std::string& path, const std::string& layout_name
   if (ends_with(path, ".bvh")) {
     const BvhClip clip = load_bvh(path);
     m.skeleton = clip.skeleton;
-    m.layout = resolve_layout(m.skeleton, layout_name.empty() ? "cmu" : layout_name);
+    try {
+      m.layout = resolve_layout(m.skeleton, layout_name.empty() ? "cmu" : layout_name);
+    } catch (const Error& e) {
+      throw Error(e.kind(), bounded(path) + ": " + e.what());
+    }
     if (!m.layout.fixed_axes) m.layout.axes = up;
     m.frame_time = clip.frame_time;
     if (first < 0 || first > clip.frame_count())

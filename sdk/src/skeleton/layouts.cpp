@@ -149,7 +149,11 @@ Layout resolve_layout(const Skeleton& skeleton, const std::string& name) {
     for (const std::string& n : layout_names()) known += (known.empty() ? "" : ", ") + n;
     throw Error(ErrorKind::kNotFound, "unknown layout '" + bounded(name) + "' (known: " + known + ")");
   }
-  layout.map = make_gpd_map(skeleton, names);
+  try {
+    layout.map = make_gpd_map(skeleton, names);
+  } catch (const Error& e) {
+    throw Error(e.kind(), "layout '" + bounded(name) + "': " + e.what());
+  }
   return layout;
 }
 

@@ -68,11 +68,18 @@ GpdMap make_gpd_map(const Skeleton& skeleton, const std::array<std::string, kGpd
     if (idx < 0) {
       if (!missing.empty()) missing += ", ";
       missing += "'" + names[static_cast<size_t>(g)] + "' (GPD " + kGpdJointNames[static_cast<size_t>(g)] + ")";
+      const std::string hint = closest_name(names[static_cast<size_t>(g)], skeleton.names);
+      if (!hint.empty()) missing += " - did you mean '" + hint + "'?";
     }
     map.source[static_cast<size_t>(g)] = idx;
   }
   if (!missing.empty()) {
-    throw Error(ErrorKind::kNotFound, "skeleton has no joint " + bounded(missing, 4 * kMaxQuotedBytes));
+    // The joints it does have, so that a name map or another preset can be written from the message.
+    std::string has;
+    for (const std::string& n : skeleton.names) has += (has.empty() ? "" : ", ") + n;
+    throw Error(ErrorKind::kNotFound, "skeleton has no joint " + bounded(missing, 4 * kMaxQuotedBytes) + "; its " +
+                                          std::to_string(skeleton.names.size()) + " joints are: " +
+                                          bounded(has, 8 * kMaxQuotedBytes));
   }
   return map;
 }

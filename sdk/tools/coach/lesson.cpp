@@ -75,7 +75,7 @@ Lesson::Lesson(const LessonSettings& settings) {
   if (!(settings.speed > 0.0)) throw Error(ErrorKind::kInvalidArgument, "--speed must be > 0");
 
   // The teacher: the whole clip from first_frame (positions for the ghost, features for the score).
-  const GpdMap teacher_map = resolve_gpd_map(teacher.skeleton, settings.preset, "");
+  const GpdMap teacher_map = resolve_gpd_map(teacher, settings.preset, "");
   const StreamConfig teacher_config = stream_config_for(teacher.skeleton, teacher_map, metric->stencil());
   teacher_positions_ = clip_positions(teacher, settings.first_frame);
   const int teacher_frames = teacher.frame_count() - settings.first_frame;
@@ -88,7 +88,7 @@ Lesson::Lesson(const LessonSettings& settings) {
   // The student's pipeline with the teacher attached, built here (so the ghost's joints are
   // known before the first result) and handed to the runtime.
   pipeline::PipelineConfig config;
-  const GpdMap student_map = resolve_gpd_map(student.skeleton, settings.preset, "");
+  const GpdMap student_map = resolve_gpd_map(student, settings.preset, "");
   config.stream = stream_config_for(student.skeleton, student_map, metric->stencil());
   config.student = student.skeleton;
   config.result_capacity = 64;
