@@ -46,6 +46,14 @@ void run_motion_features(const FeaturesArgs& a) {
 void run_features(const FeaturesArgs& a) {
   if (!a.student.empty()) return run_motion_features(a);
   if (a.bvh.empty()) throw kata::Error(kata::ErrorKind::kInvalidArgument, "give --bvh CLIP or --student FILE");
+  // A landmark array given where a BVH clip is expected would otherwise read as a bad BVH
+  // ("X.npy:1: expected HIERARCHY"); say which option takes it.
+  for (const char* ext : {".npy", ".csv"}) {
+    if (a.bvh.size() > 4 && a.bvh.compare(a.bvh.size() - 4, 4, ext) == 0)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        a.bvh + ": --bvh takes a BVH clip; a landmark array (" + ext + ") goes in with --student " +
+                            a.bvh + " --layout NAME --fps N");
+  }
   const kata::BvhClip clip = kata::load_bvh(a.bvh);
   const kata::GpdMap map = kata::resolve_gpd_map(clip, a.preset, a.name_map);
   const std::vector<float> feats = kata::clip_features(clip, map, kata::parse_stencil(a.stencil), a.first);

@@ -67,6 +67,26 @@ std::vector<std::string> read_strings(const std::string& file, const toml::table
   return out;
 }
 
+// ZeroMQ endpoints: [bind:|connect:]TRANSPORT://ADDRESS. One without a transport would only fail
+// later, at bind or connect, with "Invalid argument" and no key; it is refused here with its line.
+std::vector<std::string> read_endpoints(const std::string& file, const toml::table& table, const char* section_name) {
+  std::vector<std::string> out = read_strings(file, table, "endpoints");
+  const toml::array* a = table.get("endpoints") ? table.get("endpoints")->as_array() : nullptr;
+  for (size_t i = 0; i < out.size(); ++i) {
+    std::string e = out[i];
+    for (const char* prefix : {"bind:", "connect:"})
+      if (e.rfind(prefix, 0) == 0) e = e.substr(std::string(prefix).size());
+    const size_t scheme = e.find("://");
+    const std::string transport = scheme == std::string::npos ? std::string() : e.substr(0, scheme);
+    if (transport != "tcp" && transport != "ipc" && transport != "inproc")
+      refuse(file, (*a)[i].source(),
+             "[" + std::string(section_name) + "] endpoints: '" + bounded(out[i]) +
+                 "' has no ZeroMQ transport; write tcp://HOST:PORT, ipc://PATH or inproc://NAME (optionally after "
+                 "bind: or connect:)");
+  }
+  return out;
+}
+
 const toml::table& section(const std::string& file, const toml::table& root, const char* name, bool required) {
   static const toml::table empty;
   const toml::node* n = root.get(name);
@@ -130,7 +150,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
   ServeConfig c;
   const toml::table& ingest = section(file, root, "ingest", true);
   check_keys(file, ingest, {"endpoints", "kind", "max_message_bytes", "require_checksum"}, "ingest");
-  c.runtime.ingest.endpoints = read_strings(file, ingest, "endpoints");
+  c.runtime.ingest.endpoints = read_endpoints(file, ingest, "ingest");
   if (c.runtime.ingest.endpoints.empty()) throw Error(ErrorKind::kParse, file + ":1: [ingest] endpoints is empty");
   const std::string kind = read<std::string>(file, ingest, "kind", "sub");
   if (kind != "sub" && kind != "pull") refuse(file, ingest.get("kind")->source(), "kind must be \"sub\" or \"pull\"");
@@ -140,7 +160,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
 
   const toml::table& publish = section(file, root, "publish", true);
   check_keys(file, publish, {"endpoints", "send_hwm"}, "publish");
-  c.runtime.publish.endpoints = read_strings(file, publish, "endpoints");
+  c.runtime.publish.endpoints = read_endpoints(file, publish, "publish");
   if (c.runtime.publish.endpoints.empty()) throw Error(ErrorKind::kParse, file + ":1: [publish] endpoints is empty");
   c.runtime.publish.send_hwm = static_cast<int>(read_range(file, publish, "send_hwm", 10000, 0, 1 << 30));
 

@@ -25,6 +25,16 @@ with tempfile.TemporaryDirectory(prefix="kata_serve_paths_") as d:
         assert r.returncode == 1, (key, r.returncode, r.stderr)
         assert ("%s:%d:" % (bad, line)) in r.stderr and value in r.stderr, (key, r.stderr)
 
+    # An endpoint without a transport, and a key with a typo: FILE:LINE, the key, what to write.
+    bad = os.path.join(d, "bad_endpoint.toml")
+    open(bad, "w").write('[ingest]\nendpoints = ["bind:ipc://%s/in"]\n[publish]\nendpoints = [\n  "127.0.0.1:5556"]\n' % d)
+    r = subprocess.run([kata, "serve", "--config", bad], capture_output=True, text=True, timeout=30, cwd=d)
+    assert r.returncode == 1 and (bad + ":5: [publish] endpoints: '127.0.0.1:5556' has no ZeroMQ transport") in r.stderr, r.stderr
+    bad = os.path.join(d, "bad_key.toml")
+    open(bad, "w").write('[ingest]\nendpoints = ["bind:ipc://%s/in"]\nknd = "pull"\n' % d)
+    r = subprocess.run([kata, "serve", "--config", bad], capture_output=True, text=True, timeout=30, cwd=d)
+    assert r.returncode == 1 and (bad + ":3: unknown key 'knd' in [ingest]; did you mean 'kind'?") in r.stderr, r.stderr
+
     # The shipped files by name, from an empty working directory: kata send's frames are scored and
     # the csv-sink plugin (found by name) writes them.
     good = write("stage.toml")

@@ -72,6 +72,22 @@ TEST(CliFeatures, BadInputExitsWithAClearMessage) {
   std::remove(bad.c_str());
 }
 
+TEST(CliFeatures, ALandmarkArrayGivenAsBvhAndAFirstFrameOutOfRangeSayWhatToDo) {
+  const std::string npy = kata::test::temp_path("kata_cli_landmarks.npy");
+  std::ofstream(npy) << "not read";
+  CliRun r = run("features --bvh " + npy + " --preset cmu --out " + kata::test::temp_path("x.npy"));
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find(npy + ": --bvh takes a BVH clip; a landmark array (.npy) goes in with --student"),
+            std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("HIERARCHY"), std::string::npos) << r.output;
+  std::remove(npy.c_str());
+  const std::string clip = std::string(KATA_DATA_DIR) + "/cmu/09_01.bvh";  // 149 frames
+  r = run("features --bvh " + clip + " --preset cmu --first-frame 500 --out " + kata::test::temp_path("x.npy"));
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find(clip + ": first frame 500 out of range (the clip has 149 frames; --first-frame takes 0..149)"),
+            std::string::npos) << r.output;
+}
+
 TEST(CliScore, AJointThePresetNeedsIsMissingNamesTheFileTheCorrectionAndTheJoints) {
   // 09_01 with its RightFoot renamed, as a typo in an exporter would: the message names the clip,
   // the preset, the GPD joint, the closest name the skeleton has, and lists its joints.

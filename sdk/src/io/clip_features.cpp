@@ -20,7 +20,10 @@ std::vector<float> clip_features(const BvhClip& clip, const GpdMap& map, gpd::St
 
 std::vector<float> clip_positions(const BvhClip& clip, int first) {
   const int frames = clip.frame_count();
-  if (first < 0 || first > frames) throw Error(ErrorKind::kInvalidArgument, "clip: first frame out of range");
+  if (first < 0 || first > frames)
+    throw Error(ErrorKind::kInvalidArgument, bounded(clip.path) + ": first frame " + std::to_string(first) +
+                                                 " out of range (the clip has " + std::to_string(frames) +
+                                                 " frames; --first-frame takes 0.." + std::to_string(frames) + ")");
   const int n = clip.skeleton.joint_count();
   Eigen::MatrixX3d world(n, 3);
   std::vector<float> xyz(static_cast<size_t>(frames - first) * 3 * static_cast<size_t>(n));
