@@ -112,7 +112,9 @@ class TeacherDesc(ctypes.Structure):
                 ("skeleton", ctypes.c_void_p), ("positions", ctypes.c_void_p), ("frames", ctypes.c_uint32),
                 ("frame_time", ctypes.c_double), ("preset", ctypes.c_char_p), ("first_frame", ctypes.c_uint32),
                 ("pose_frame", ctypes.c_int32), ("ghost", ctypes.c_int32),
-                ("retarget", ctypes.POINTER(RetargetDesc))]
+                ("retarget", ctypes.POINTER(RetargetDesc)),
+                # since 1.0
+                ("features", ctypes.c_void_p), ("joints", ctypes.c_void_p), ("body_height", ctypes.c_double)]
 
 
 class ScoreRecord(ctypes.Structure):
@@ -189,6 +191,9 @@ _SIGNATURES = {
     "kata_retargeter_reset": (_st, [_p]),
     "kata_teacher_desc_init": (None, [ctypes.POINTER(TeacherDesc)]),
     "kata_stream_attach_teacher": (_st, [_p, ctypes.POINTER(TeacherDesc)]),
+    "kata_stream_detach_teacher": (_st, [_p]),
+    "kata_stream_restart_teacher": (_st, [_p]),
+    "kata_stream_read_newest": (_st, [_p, _p, _p, _p, _sz, _p, _sz]),
     "kata_stream_read_results": (_st, [_p, _p, _p, _p, _sz, _p, _sz, _u32, ctypes.POINTER(_u32)]),
     "kata_stream_results_dropped": (_u64, [_p]),
     "kata_stream_results_pending": (_u32, [_p]),
