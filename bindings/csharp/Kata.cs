@@ -293,8 +293,8 @@ namespace Kata
 
     public static class Library
     {
-        public const int ExpectedMajor = 0; // KATA_VERSION_MAJOR this binding is written against
-        public const int MinimumMinor = 2;  // the pipeline calls arrived in 0.2
+        public const int ExpectedMajor = 1; // KATA_VERSION_MAJOR this binding is written against
+        public const int MinimumMinor = 0;  // 1.0: the teacher as the one way
         private static int checkedOk;
 
         public static Version LoadedVersion

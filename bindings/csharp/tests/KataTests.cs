@@ -269,7 +269,7 @@ static class KataTests
             try { new Context().Dispose(); Console.Error.WriteLine("FAILED: a 7.0.0 library was accepted"); return 1; }
             catch (KataVersionException e)
             {
-                bool ok = e.Message.Contains("7.0.0") && e.Message.Contains("needs 0.x");
+                bool ok = e.Message.Contains("7.0.0") && e.Message.Contains("needs 1.x");
                 Console.WriteLine((ok ? "refused as expected: " : "FAILED, wrong message: ") + e.Message);
                 return ok ? 0 : 1;
             }

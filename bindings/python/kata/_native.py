@@ -11,9 +11,9 @@ import os
 import sys
 
 # The C ABI major version this binding is written against (kata.h KATA_VERSION_MAJOR), and the
-# oldest minor that has every function declared below (the pipeline calls arrived in 0.2).
-EXPECTED_MAJOR = 0
-MINIMUM_MINOR = 2
+# oldest minor that has every function declared below (1.0: the teacher as the one way).
+EXPECTED_MAJOR = 1
+MINIMUM_MINOR = 0
 
 GPD_DIMS = 1683
 GPD_JOINTS = 16

@@ -66,8 +66,11 @@ extern "C" {
 
 /* ==== Versions ============================================================================ */
 
-#define KATA_VERSION_MAJOR 0
-#define KATA_VERSION_MINOR 2
+/* Semantic versioning (README "Versions and compatibility"): within a major version the ABI only
+ * grows (new functions, new enumerators, fields appended to a struct that starts with
+ * struct_size); libkata's soname is libkata.so.MAJOR. CI checks this with abidiff (abi/README.md). */
+#define KATA_VERSION_MAJOR 1
+#define KATA_VERSION_MINOR 0
 #define KATA_VERSION_PATCH 0
 /* The feature layout this library computes (spec gpd-v1.md); stored in every model file. */
 #define KATA_GPD_LAYOUT "gpd-v1"
