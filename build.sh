@@ -13,6 +13,7 @@
 #   ./build.sh tsan   everything built by clang (-Werror, ThreadSanitizer) in build-tsan/; live-path + stress tests run
 #   ./build.sh abi-check  libkata with debug info in build-abi/, abidiff against the released ABI (abi/README.md)
 #   ./build.sh abi-dump   writes abi/libkata-MAJOR.abi from build-abi/ (at a release; abi/README.md)
+#   ./build.sh api-doc    the C ABI reference (Doxygen) in build-doc/html; fails on an undocumented symbol
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -20,7 +21,7 @@ cd "$(dirname "$0")"
 PACKAGES=(build-essential cmake pkg-config libeigen3-dev libzmq3-dev cppzmq-dev libflatbuffers-dev
           flatbuffers-compiler flatbuffers-compiler-dev libgtest-dev libgmock-dev libbenchmark-dev
           libcli11-dev nlohmann-json3-dev libxsimd-dev ccache libtomlplusplus-dev libcpp-httplib-dev python3 python3-numpy python3-matplotlib python3-zmq python3-flatbuffers
-          python3-pytest mono-mcs mono-runtime abigail-tools xz-utils
+          python3-pytest mono-mcs mono-runtime abigail-tools xz-utils doxygen
           chromium chromium-driver python3-selenium python3-pil)
 # Only `./build.sh fuzz`, `fuzz-smoke` and `tsan` need these (Debian's clang, its libFuzzer and
 # sanitizer runtimes).
@@ -173,6 +174,9 @@ case "${1:-}" in
   soak) deps; build build; ctest --test-dir build --output-on-failure --timeout 900 -L soak ;;
   abi-check) deps; abi_build; /usr/bin/python3 abi/check.py build-abi/lib/libkata.so ;;
   abi-dump) deps; abi_build; abi_dump ;;
+  api-doc) deps; mkdir -p build-doc
+           if ! doxygen docs/api/Doxyfile; then cat build-doc/warnings.txt; echo "api-doc: see docs/api/README.md"; exit 1; fi
+           echo "== the API reference: file://$PWD/build-doc/html/index.html" ;;
   bench) deps; build build; build/bin/kata_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true ;;
-  *) sed -n '2,15p' "$0"; exit 2 ;;
+  *) sed -n '2,16p' "$0"; exit 2 ;;
 esac

@@ -70,13 +70,13 @@ extern "C" {
  * grows (new functions, new enumerators, fields appended to a struct that starts with
  * struct_size); libkata's soname is libkata.so.MAJOR. CI checks this with abidiff (abi/README.md). */
 #define KATA_VERSION_MAJOR 1
-#define KATA_VERSION_MINOR 0
-#define KATA_VERSION_PATCH 0
+#define KATA_VERSION_MINOR 0 /* additions since the major's first release */
+#define KATA_VERSION_PATCH 0 /* fixes only */
 /* The feature layout this library computes (spec gpd-v1.md); stored in every model file. */
 #define KATA_GPD_LAYOUT "gpd-v1"
 /* Dimensions of a GPD v1 feature vector, and of its 16-joint skeleton. */
 #define KATA_GPD_DIMS 1683
-#define KATA_GPD_JOINTS 16
+#define KATA_GPD_JOINTS 16 /* the GPD skeleton's joints (spec GPD v1 order, kata.h "Layouts") */
 
 /* The library's version at run time, as MAJOR * 10000 + MINOR * 100 + PATCH. [any thread] */
 KATA_API uint32_t kata_version(void);
@@ -97,6 +97,7 @@ KATA_API uint32_t kata_version(void);
 
 /* ==== Status codes ======================================================================== */
 
+/* What every fallible call returns. */
 typedef enum kata_status {
   KATA_OK = 0,
   KATA_NO_DATA = 1,                   /* nothing to read yet: a result, not an error */
@@ -197,6 +198,7 @@ typedef enum kata_stencil {
   KATA_STENCIL_CENTRAL = 1   /* derivatives one frame behind (more accurate velocity) */
 } kata_stencil;
 
+/* How a stream reads its frames' axes (kata_stream_desc.up_axis). */
 typedef enum kata_up_axis {
   KATA_UP_Y = 0,     /* +Y up (BVH, most engines) */
   KATA_UP_Z = 1,     /* +Z up: (x, y, z) is read as (x, z, -y) */
@@ -253,7 +255,7 @@ typedef struct kata_stream_desc {
    * and a name-map file (JSON {"Hip": "pelvis", ...} or "Hip = pelvis" lines, at most
    * KATA_MAX_NAME_MAP_BYTES). Both set is refused (KATA_E_INVALID_ARGUMENT). */
   const char* preset;
-  const char* name_map_path;
+  const char* name_map_path;   /* a name-map file's path, or NULL (see preset) */
   kata_stencil stencil;        /* default KATA_STENCIL_BACKWARD; other values are refused */
   kata_up_axis up_axis;        /* default KATA_UP_Y; other values are refused */
   double max_gap;              /* seconds (> 0); a larger gap restarts the kinetics. Default 0.25 */
@@ -422,7 +424,7 @@ typedef enum kata_body_part {
 
 /* One scored frame. The caller sets struct_size = sizeof(kata_score_record). */
 typedef struct kata_score_record {
-  uint32_t struct_size;
+  uint32_t struct_size;            /* sizeof(kata_score_record), set by the caller */
   int32_t matched_reference_frame; /* teacher clip frame matched (0-based index into the
                                       reference's frames); 0 for a pose reference */
   int64_t frame_index;             /* the stream frame scored (as in kata_stream_features) */
@@ -510,7 +512,7 @@ typedef enum kata_score_state {
 
 /* A score map. The caller sets struct_size = sizeof(kata_score_calibration). */
 typedef struct kata_score_calibration {
-  uint32_t struct_size;
+  uint32_t struct_size;              /* sizeof(kata_score_calibration), set by the caller */
   uint32_t reserved;                 /* 0 */
   double d50;                        /* distance that scores 50, > 0 */
   double slope;                      /* > 0 */
@@ -691,7 +693,7 @@ typedef struct kata_teacher_desc {
   /* ... or frames of joint positions: `frames` x kata_skeleton_joint_count(skeleton) x 3 floats,
    * row-major, +Y up, frame_time seconds apart (copied). */
   kata_skeleton skeleton;
-  const float* positions;
+  const float* positions;    /* frames x joints x 3 floats, or NULL */
   uint32_t frames;           /* frames of positions or features (joints: 1) */
   double frame_time;         /* seconds between frames of positions or features */
   const char* preset;        /* the teacher's GPD joint map (kata_preset_name). NULL: "cmu" */
@@ -707,7 +709,7 @@ typedef struct kata_teacher_desc {
    * order, +Y up, any units (copied), held still (kinetics zero), with its body height in the same
    * units. (A moving teacher of 16 GPD joints: positions on kata_skeleton_create_layout "gpd".) */
   const float* joints;
-  double body_height;
+  double body_height;        /* the joints' body height, in their units */
 } kata_teacher_desc;
 
 /* Fills desc with the defaults above (struct_size set). [any thread] */
@@ -771,9 +773,10 @@ KATA_API kata_status kata_stream_read_newest(kata_stream stream, kata_result* re
 KATA_API uint64_t kata_stream_results_dropped(kata_stream stream);
 /* Unread results in the ring; 0 for NULL. [stream owner] */
 KATA_API uint32_t kata_stream_results_pending(kata_stream stream);
-/* Joints of the stream's ghosts (0 without a ghost) and, for ghost joint i, the index of the
- * student skeleton joint it stands for (-1 when out of range). [stream owner] */
+/* Joints of the stream's ghosts (0 without a ghost). [stream owner] */
 KATA_API uint32_t kata_stream_ghost_joint_count(kata_stream stream);
+/* For ghost joint i, the index of the student skeleton joint it stands for (-1 when out of
+ * range). [stream owner] */
 KATA_API int32_t kata_stream_ghost_joint_source(kata_stream stream, uint32_t i);
 
 /* ==== Runtime: many streams, ZeroMQ in and out ============================================ */
@@ -794,6 +797,7 @@ KATA_API int32_t kata_stream_ghost_joint_source(kata_stream stream, uint32_t i);
  * messages are CLOCK_MONOTONIC nanoseconds, comparable between processes on one host.
  * Memory: create and add_stream allocate; push never does. */
 
+/* Many streams, ZeroMQ in and out (above). */
 typedef struct kata_runtime_s* kata_runtime;
 
 /* How a runtime is built. Fill with kata_runtime_desc_init, then change fields. */
@@ -817,7 +821,7 @@ typedef struct kata_runtime_desc {
 /* Counters since the runtime was created (sums over streams). */
 typedef struct kata_runtime_counters {
   uint32_t struct_size;             /* set by the caller: sizeof(kata_runtime_counters) */
-  uint32_t streams;
+  uint32_t streams;                 /* streams open */
   uint64_t frames_in;               /* frames queued */
   uint64_t queue_full;              /* frames dropped: a worker queue was full */
   uint64_t refused;                 /* frames a pipeline refused (kata_stream_push's reasons) */
@@ -879,17 +883,17 @@ KATA_API uint32_t kata_shard_of(uint64_t stream_id, uint32_t shard_count);
 typedef struct kata_result_message {
   uint32_t struct_size;          /* set by the caller: sizeof(kata_result_message) */
   uint32_t ghost_joint_count;    /* joints in ghost (0: none) */
-  uint64_t stream_id;
+  uint64_t stream_id;            /* the stream (the message's topic) */
   uint64_t result_sequence;      /* per stream, +1 per published result: gaps = dropped */
   uint64_t frame_sequence;       /* the source's sequence number of the frame */
-  int64_t frame_index;
+  int64_t frame_index;           /* the stream frame (as kata_result.frame_index) */
   int64_t capture_ns;            /* source clock */
   int64_t arrival_ns;            /* CLOCK_MONOTONIC ns (the runtime's host) */
-  int64_t computed_ns;
-  int64_t published_ns;
+  int64_t computed_ns;           /* CLOCK_MONOTONIC ns: the result was complete */
+  int64_t published_ns;          /* CLOCK_MONOTONIC ns: handed to ZeroMQ */
   int32_t scored;                /* 1: distance, score, parts and the matched frame are valid */
-  int32_t matched_teacher_frame;
-  float distance;
+  int32_t matched_teacher_frame; /* teacher frame matched (index from first_frame), -1 */
+  float distance;                /* d, dimensionless */
   float score;                   /* 0..100 */
   float parts[KATA_PART_COUNT];  /* split of d^2, kata_body_part order */
   const float* ghost;            /* ghost_joint_count x 3 floats, or NULL; valid until the message
