@@ -11,6 +11,9 @@
 #   ./build.sh fuzz-smoke   every fuzz target for FUZZ_SMOKE_SECONDS (10) over its seeds (CI)
 #   ./build.sh soak   kata replay --soak for 60 s (64 streams; ctest -L soak), alone
 #   ./build.sh tsan   everything built by clang (-Werror, ThreadSanitizer) in build-tsan/; live-path + stress tests run
+#   ./build.sh abi-check  libkata with debug info in build-abi/, abidiff against the released ABI (abi/README.md)
+#   ./build.sh abi-dump   writes abi/libkata-MAJOR.abi from build-abi/ (at a release; abi/README.md)
+#   ./build.sh api-doc    the C ABI reference (Doxygen) in build-doc/html; fails on an undocumented symbol
 set -euo pipefail
 cd "$(dirname "$0")"
 
@@ -18,7 +21,7 @@ cd "$(dirname "$0")"
 PACKAGES=(build-essential cmake pkg-config libeigen3-dev libzmq3-dev cppzmq-dev libflatbuffers-dev
           flatbuffers-compiler flatbuffers-compiler-dev libgtest-dev libgmock-dev libbenchmark-dev
           libcli11-dev nlohmann-json3-dev libxsimd-dev ccache libtomlplusplus-dev libcpp-httplib-dev python3 python3-numpy python3-matplotlib python3-zmq python3-flatbuffers
-          python3-pytest mono-mcs mono-runtime
+          python3-pytest mono-mcs mono-runtime abigail-tools xz-utils doxygen
           chromium chromium-driver python3-selenium python3-pil)
 # Only `./build.sh fuzz`, `fuzz-smoke` and `tsan` need these (Debian's clang, its libFuzzer and
 # sanitizer runtimes).
@@ -139,6 +142,22 @@ tsan() {
     ctest --test-dir "$dir" --output-on-failure -j "$JOBS" --timeout 900 -L tsan
 }
 
+# The ABI guard (abi/README.md): libkata alone, with debug info (what abidw and abidiff read), in
+# build-abi/; abi/check.py compares it with every released description abi/libkata-*.abi.
+abi_build() {  # the release build's flags (ccache serves the core from build/), -g in the C ABI shims
+  cmake -S . -B build-abi -DCMAKE_BUILD_TYPE=Release -DKATA_WERROR=ON -DKATA_ABI_DEBUG_INFO=ON >/dev/null
+  cmake --build build-abi -j "$JOBS" --target kata
+}
+abi_dump() {  # the description of this build's ABI, without paths of this machine
+  local lib major
+  lib=$(readlink -f build-abi/lib/libkata.so)
+  major=$(readelf -d "$lib" | sed -n 's/.*Library soname: \[libkata\.so\.\([0-9]*\)\]/\1/p')
+  abidw --no-show-locs --no-corpus-path --no-comp-dir-path --headers-dir "$PWD/sdk/include/kata" \
+        --drop-private-types --suppressions abi/kata.abignore --out-file "build-abi/libkata-$major.abi" "$lib"
+  sed "s|path='$PWD/|path='|g" "build-abi/libkata-$major.abi" | xz -9 -T1 >"abi/libkata-$major.abi.xz"
+  echo "== wrote abi/libkata-$major.abi.xz"
+}
+
 case "${1:-}" in
   deps) deps ;;
   build) deps; build build ;;
@@ -153,6 +172,11 @@ case "${1:-}" in
   fuzz-smoke) deps; deps "${FUZZ_PACKAGES[@]}"; fuzz "${FUZZ_SMOKE_SECONDS:-10}" ;;
   tsan) deps; deps "${FUZZ_PACKAGES[@]}"; tsan ;;
   soak) deps; build build; ctest --test-dir build --output-on-failure --timeout 900 -L soak ;;
+  abi-check) deps; abi_build; /usr/bin/python3 abi/check.py build-abi/lib/libkata.so ;;
+  abi-dump) deps; abi_build; abi_dump ;;
+  api-doc) deps; mkdir -p build-doc
+           if ! doxygen docs/api/Doxyfile; then cat build-doc/warnings.txt; echo "api-doc: see docs/api/README.md"; exit 1; fi
+           echo "== the API reference: file://$PWD/build-doc/html/index.html" ;;
   bench) deps; build build; build/bin/kata_bench --benchmark_repetitions=10 --benchmark_report_aggregates_only=true ;;
-  *) sed -n '2,13p' "$0"; exit 2 ;;
+  *) sed -n '2,16p' "$0"; exit 2 ;;
 esac

@@ -93,6 +93,10 @@ namespace Kata
         public int PoseFrame;
         public int Ghost;
         public IntPtr Retarget;        // const kata_retarget_desc*
+        // since 1.0
+        public IntPtr Features;        // const float*: Frames x Gpd.Dims
+        public IntPtr Joints;          // const float*: the 16 GPD joints x 3, one held pose
+        public double BodyHeight;
     }
 
     [StructLayout(LayoutKind.Sequential)]
@@ -214,14 +218,21 @@ namespace Kata
         [DllImport(Lib, CallingConvention = CC)] public static extern Stencil kata_model_stencil(ModelHandle model);
         [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_model_metadata(ModelHandle model, byte[] key);
 
+        [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_set_reference_pose(StreamHandle stream, ModelHandle model, float[] features, UIntPtr count);
+        [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_set_reference_joints(StreamHandle stream, ModelHandle model, float[] joints, UIntPtr count, double bodyHeight);
+        [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_set_reference_clip(StreamHandle stream, ModelHandle model, float[] features, uint frames, double frameTime);
+        [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
         [DllImport(Lib, CallingConvention = CC)]
         public static extern Status kata_stream_set_reference_bvh(StreamHandle stream, ModelHandle model, ClipHandle clip, byte[] preset,
                                                                   uint firstFrame, int poseFrame);
+        [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_clear_reference(StreamHandle stream);
+        [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_restart_reference(StreamHandle stream);
+        [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_score(StreamHandle stream, ref ScoreRecord record);
 
         [DllImport(Lib, CallingConvention = CC)] public static extern void kata_retarget_desc_init(ref RetargetDesc desc);
@@ -240,6 +251,12 @@ namespace Kata
 
         [DllImport(Lib, CallingConvention = CC)] public static extern void kata_teacher_desc_init(ref TeacherDesc desc);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_attach_teacher(StreamHandle stream, ref TeacherDesc desc);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_detach_teacher(StreamHandle stream);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_restart_teacher(StreamHandle stream);
+        [DllImport(Lib, CallingConvention = CC)]
+        public static extern Status kata_stream_read_newest(StreamHandle stream, [In, Out] Result[] result, [In, Out] ScoreRecord[] score,
+                                                            [Out] float[] ghost, UIntPtr ghostCapacity, [Out] float[] features,
+                                                            UIntPtr featureCapacity);
         [DllImport(Lib, CallingConvention = CC)]
         public static extern Status kata_stream_read_results(StreamHandle stream, [In, Out] Result[] results, [In, Out] ScoreRecord[] scores,
                                                              [Out] float[] ghosts, UIntPtr ghostCapacity, [Out] float[] features,
@@ -276,8 +293,8 @@ namespace Kata
 
     public static class Library
     {
-        public const int ExpectedMajor = 0; // KATA_VERSION_MAJOR this binding is written against
-        public const int MinimumMinor = 2;  // the pipeline calls arrived in 0.2
+        public const int ExpectedMajor = 1; // KATA_VERSION_MAJOR this binding is written against
+        public const int MinimumMinor = 0;  // 1.0: the teacher as the one way
         private static int checkedOk;
 
         public static Version LoadedVersion
@@ -574,19 +591,81 @@ namespace Kata
             return true;
         }
 
+        // Deprecated since 1.0 (removed in 2.0, not before 2027-06-01): AttachTeacher(model, clip, firstFrame, false, preset, poseFrame).
+        [Obsolete("since 1.0, removed in 2.0: AttachTeacher(model, clip, firstFrame, ghost: false, preset, poseFrame)")]
         public void SetReferenceBvh(Model model, Clip clip, string preset = "cmu", uint firstFrame = 0, int poseFrame = -1)
         {
-            Status s = Native.kata_stream_set_reference_bvh(Handle, model.Handle, clip.Handle, Native.Utf8(preset), firstFrame, poseFrame);
-            if (s != Status.Ok) Throw(s, "kata_stream_set_reference_bvh");
+            AttachTeacher(model, clip, firstFrame, false, preset, poseFrame);
         }
 
-        // kata_stream_score: false before the first vector.
+        // Deprecated since 1.0 (removed in 2.0): ReadNewest. kata_stream_score: false before the first vector.
+        [Obsolete("since 1.0, removed in 2.0: ReadNewest(batch)")]
         public bool Score(ref ScoreRecord record)
         {
             record.StructSize = (uint)Marshal.SizeOf(typeof(ScoreRecord));
             Status s = Native.kata_stream_score(Handle, ref record);
             if (s == Status.NoData) return false;
             if (s != Status.Ok) Throw(s, "kata_stream_score");
+            return true;
+        }
+
+        // kata_stream_attach_teacher with GPD features (frames x Gpd.Dims, frameTime apart; poseFrame >= 0: that
+        // vector alone). Scores only: a teacher given as features has no ghost.
+        public void AttachTeacherFeatures(Model model, float[] features, double frameTime, int poseFrame = -1)
+        {
+            if (features == null || features.Length == 0 || features.Length % Gpd.Dims != 0)
+                throw new ArgumentException("features must hold frames x " + Gpd.Dims + " floats");
+            AttachPinned(model, features, (uint)(features.Length / Gpd.Dims), frameTime, poseFrame, false, 0.0);
+        }
+
+        // kata_stream_attach_teacher with one held pose of the 16 GPD joints (GPD order, x, y, z) and its body height.
+        public void AttachTeacherJoints(Model model, float[] joints, double bodyHeight)
+        {
+            if (joints == null || joints.Length != 3 * Gpd.Joints) throw new ArgumentException("joints must hold 16 x 3 floats");
+            AttachPinned(model, joints, 1, 0.0, -1, true, bodyHeight);
+        }
+
+        void AttachPinned(Model model, float[] data, uint frames, double frameTime, int poseFrame, bool joints, double bodyHeight)
+        {
+            TeacherDesc d = new TeacherDesc();
+            Native.kata_teacher_desc_init(ref d);
+            GCHandle pin = GCHandle.Alloc(data, GCHandleType.Pinned);
+            bool modelRef = false;
+            try
+            {
+                model.Handle.DangerousAddRef(ref modelRef);
+                d.Model = model.Handle.DangerousGetHandle();
+                if (joints) { d.Joints = pin.AddrOfPinnedObject(); d.BodyHeight = bodyHeight; }
+                else d.Features = pin.AddrOfPinnedObject();
+                d.Frames = frames;
+                d.FrameTime = frameTime;
+                d.PoseFrame = poseFrame;
+                d.Ghost = 0;
+                Status s = Native.kata_stream_attach_teacher(Handle, ref d);
+                if (s != Status.Ok) Throw(s, "kata_stream_attach_teacher");
+            }
+            finally
+            {
+                pin.Free();
+                if (modelRef) model.Handle.DangerousRelease();
+            }
+        }
+
+        // kata_stream_detach_teacher: later results are not scored and carry no ghost.
+        public void DetachTeacher() { Status s = Native.kata_stream_detach_teacher(Handle); if (s != Status.Ok) Throw(s, "kata_stream_detach_teacher"); }
+        // kata_stream_restart_teacher: the next frame is matched from the teacher's first frame.
+        public void RestartTeacher() { Status s = Native.kata_stream_restart_teacher(Handle); if (s != Status.Ok) Throw(s, "kata_stream_restart_teacher"); }
+
+        // kata_stream_read_newest: the newest unread result into batch entry 0 (older unread ones are passed
+        // over); false (batch.Count = 0) when nothing is unread.
+        public bool ReadNewest(ResultBatch batch)
+        {
+            Status s = Native.kata_stream_read_newest(Handle, batch.Results, batch.Scores, batch.Ghosts,
+                                                      (UIntPtr)(batch.Ghosts == null ? 0 : batch.Ghosts.Length), batch.Features,
+                                                      (UIntPtr)(batch.Features == null ? 0 : batch.Features.Length));
+            batch.Count = s == Status.Ok ? 1 : 0;
+            if (s == Status.NoData) return false;
+            if (s != Status.Ok) Throw(s, "kata_stream_read_newest");
             return true;
         }
 

@@ -177,7 +177,14 @@ RunResult run(kata_stream s, kata_model model, kata_clip teacher, const std::vec
               const std::vector<std::vector<float>>* confidence, double dt) {
   RunResult r;
   if (teacher) {
-    EXPECT_EQ(kata_stream_set_reference_bvh(s, model, teacher, "cmu", 1, -1), KATA_OK) << kata_stream_last_error(s);
+    kata_teacher_desc t;
+    kata_teacher_desc_init(&t);
+    t.model = model;
+    t.clip = teacher;
+    t.preset = "cmu";
+    t.first_frame = 1;
+    t.ghost = 0;
+    EXPECT_EQ(kata_stream_attach_teacher(s, &t), KATA_OK) << kata_stream_last_error(s);
   }
   std::vector<float> f(KATA_GPD_DIMS);
   int64_t seen = 0;
@@ -191,9 +198,12 @@ RunResult run(kata_stream s, kata_model model, kata_clip teacher, const std::vec
     EXPECT_EQ(kata_stream_features(s, f.data(), f.size(), nullptr, nullptr), KATA_OK);
     r.features.back() = f;
     if (teacher) {
+      kata_result res;
+      res.struct_size = sizeof res;
       kata_score_record rec;
       rec.struct_size = sizeof rec;
-      EXPECT_EQ(kata_stream_score(s, &rec), KATA_OK) << kata_stream_last_error(s);
+      EXPECT_EQ(kata_stream_read_newest(s, &res, &rec, nullptr, 0, nullptr, 0), KATA_OK) << kata_stream_last_error(s);
+      EXPECT_TRUE(res.flags & KATA_RESULT_SCORED);
       r.scores.push_back(rec.score);
       r.distances.push_back(rec.distance);
     }

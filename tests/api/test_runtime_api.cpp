@@ -6,10 +6,12 @@
 #include <chrono>
 #include <cstddef>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "kata/kata.h"
+#include "support/zmq_subscriber.hpp"
 
 namespace {
 
@@ -53,22 +55,18 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
   EXPECT_NE(std::string(kata_context_last_error(ctx)).find("nonsense://x"), std::string::npos);
 
   void* zctx = zmq_ctx_new();
-  void* sub = zmq_socket(zctx, ZMQ_SUB);
-  int linger = 0;
-  zmq_setsockopt(sub, ZMQ_LINGER, &linger, sizeof linger);
-  zmq_setsockopt(sub, ZMQ_SUBSCRIBE, "000000000000002a", 16);
-  ASSERT_EQ(zmq_connect(sub, kata_runtime_publish_endpoint(runtime)), 0);
-  std::vector<char> buffer(1 << 16);
+  auto sub = std::make_unique<kata::test::ZmqSubscriber>(zctx, kata_runtime_publish_endpoint(runtime), 100000,
+                                                         "000000000000002a", 1 << 16);
+  ASSERT_TRUE(sub->connected());
+  const char* buffer = reinterpret_cast<const char*>(sub->data());
   // Wait for the skeleton definition (file identifier KSKL at bytes 20..23): subscribed.
   bool joined = false;
   std::vector<char> definition, result;
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
   while (!joined && std::chrono::steady_clock::now() < deadline) {
-    zmq_pollitem_t item{sub, 0, ZMQ_POLLIN, 0};
-    if (zmq_poll(&item, 1, 100) <= 0) continue;
-    const int n = zmq_recv(sub, buffer.data(), buffer.size(), 0);
-    joined = n > 24 && std::memcmp(buffer.data() + 20, "KSKL", 4) == 0;
-    if (joined) definition.assign(buffer.begin(), buffer.begin() + n);
+    const int n = sub->receive(100);
+    joined = n > 24 && std::memcmp(buffer + 20, "KSKL", 4) == 0;
+    if (joined) definition.assign(buffer, buffer + n);
   }
   ASSERT_TRUE(joined);
 
@@ -83,13 +81,11 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
   int results = 0;
   const auto limit = std::chrono::steady_clock::now() + std::chrono::seconds(30);
   while (results < frames && std::chrono::steady_clock::now() < limit) {
-    zmq_pollitem_t item{sub, 0, ZMQ_POLLIN, 0};
-    if (zmq_poll(&item, 1, 100) <= 0) continue;
-    const int n = zmq_recv(sub, buffer.data(), buffer.size(), 0);
-    if (n > 24 && std::memcmp(buffer.data() + 20, "KRES", 4) == 0) {
+    const int n = sub->receive(100);
+    if (n > 24 && std::memcmp(buffer + 20, "KRES", 4) == 0) {
       kata_result_message r;
       r.struct_size = sizeof r;
-      ASSERT_EQ(kata_message_read_result(buffer.data(), static_cast<size_t>(n), &r), KATA_OK);
+      ASSERT_EQ(kata_message_read_result(buffer, static_cast<size_t>(n), &r), KATA_OK);
       EXPECT_EQ(r.stream_id, 42u);
       EXPECT_EQ(r.result_sequence, static_cast<uint64_t>(results));
       EXPECT_EQ(r.frame_sequence, static_cast<uint64_t>(results));
@@ -110,11 +106,11 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
         kata_result_message old_layout;
         old_layout.struct_size = static_cast<uint32_t>(offsetof(kata_result_message, part_scores));
         old_layout.part_to_fix = 77;
-        ASSERT_EQ(kata_message_read_result(buffer.data(), static_cast<size_t>(n), &old_layout), KATA_OK);
+        ASSERT_EQ(kata_message_read_result(buffer, static_cast<size_t>(n), &old_layout), KATA_OK);
         EXPECT_EQ(old_layout.score, r.score);
         EXPECT_EQ(old_layout.part_to_fix, 77);
       }
-      if (result.empty()) result.assign(buffer.begin(), buffer.begin() + n);
+      if (result.empty()) result.assign(buffer, buffer + n);
       ++results;
     }
   }
@@ -137,7 +133,7 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
   EXPECT_EQ(c.results, static_cast<uint64_t>(frames));
   EXPECT_EQ(c.published, static_cast<uint64_t>(frames));
   EXPECT_EQ(c.results_dropped + c.queue_full + c.refused, 0u);
-  zmq_close(sub);
+  sub.reset();
   zmq_ctx_term(zctx);
   kata_runtime_destroy(runtime);
   kata_model_free(model);

@@ -103,16 +103,25 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     for (float f : features) check(std::isfinite(f));
     if (!score) continue;
     if (!reference) {
-      const kata_status set = kata_stream_set_reference_pose(s, shared.model, features, KATA_GPD_DIMS);
+      kata_teacher_desc teacher;
+      kata_teacher_desc_init(&teacher);
+      teacher.model = shared.model;
+      teacher.features = features;
+      teacher.frames = 1;
+      teacher.pose_frame = 0;
+      teacher.ghost = 0;
+      const kata_status set = kata_stream_attach_teacher(s, &teacher);
       check(set != KATA_E_INTERNAL);
       reference = set == KATA_OK;
       continue;
     }
+    kata_result res;
+    res.struct_size = sizeof res;
     kata_score_record r;
     r.struct_size = sizeof r;
-    const kata_status scored = kata_stream_score(s, &r);
+    const kata_status scored = kata_stream_read_newest(s, &res, &r, nullptr, 0, nullptr, 0);
     check(scored != KATA_E_INTERNAL);
-    if (scored == KATA_OK) {
+    if (scored == KATA_OK && (res.flags & KATA_RESULT_SCORED)) {
       check(std::isfinite(r.distance) && std::isfinite(r.score) && r.score >= 0.0f && r.score <= 100.0f);
       for (float p : r.parts) check(std::isfinite(p));
     }

@@ -19,6 +19,7 @@
 #include "runtime/runtime.hpp"
 #include "transport/wire.hpp"
 #include "support/alloc_counter.hpp"
+#include "support/zmq_subscriber.hpp"
 
 namespace kata::runtime {
 namespace {
@@ -76,29 +77,6 @@ Fixture& fixture() {
   return f;
 }
 
-struct Subscriber {
-  void* socket;
-  transport::Decoder decoder;
-  std::vector<uint8_t> buffer = std::vector<uint8_t>(1 << 20);
-  explicit Subscriber(void* context, const std::string& endpoint, int receive_hwm = 100000)
-      : socket(zmq_socket(context, ZMQ_SUB)) {
-    int linger = 0;
-    zmq_setsockopt(socket, ZMQ_LINGER, &linger, sizeof linger);
-    zmq_setsockopt(socket, ZMQ_RCVHWM, &receive_hwm, sizeof receive_hwm);
-    zmq_setsockopt(socket, ZMQ_SUBSCRIBE, "", 0);
-    zmq_connect(socket, endpoint.c_str());
-  }
-  ~Subscriber() { zmq_close(socket); }
-  // Next message within the time limit; kNone on timeout.
-  transport::MessageKind next(int timeout_ms) {
-    zmq_pollitem_t item{socket, 0, ZMQ_POLLIN, 0};
-    if (zmq_poll(&item, 1, timeout_ms) <= 0) return transport::MessageKind::kNone;
-    const int n = zmq_recv(socket, buffer.data(), buffer.size(), 0);
-    if (n < 0) return transport::MessageKind::kNone;
-    return decoder.decode(buffer.data(), static_cast<size_t>(n));
-  }
-};
-
 struct Expected {
   pipeline::Result result;
   std::vector<float> ghost;
@@ -144,12 +122,13 @@ TEST_P(runtime_end_to_end, EveryFrameOutInOrderEqualToTheInProcessPipeline) {
   void* context = zmq_ctx_new();
   {
     // Joins after the streams were opened: the definitions come again on its join.
-    Subscriber sub(context, runtime.publish_endpoint());
+    test::ZmqSubscriber sub(context, runtime.publish_endpoint());
+    transport::Decoder decoder;
     std::map<uint64_t, int> definitions;
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
     while (definitions.size() < 2 && std::chrono::steady_clock::now() < deadline)
-      if (sub.next(100) == transport::MessageKind::kSkeleton) {
-        const SkeletonDefinition d = sub.decoder.skeleton();
+      if (sub.next(decoder, 100) == transport::MessageKind::kSkeleton) {
+        const SkeletonDefinition d = decoder.skeleton();
         EXPECT_EQ(d.skeleton.names, fx.student.skeleton.names);
         EXPECT_EQ(d.preset, "cmu");
         ++definitions[d.stream_id];
@@ -167,8 +146,8 @@ TEST_P(runtime_end_to_end, EveryFrameOutInOrderEqualToTheInProcessPipeline) {
     size_t total = 0;
     const auto limit = std::chrono::steady_clock::now() + std::chrono::seconds(60);
     while (total < 2 * static_cast<size_t>(frames) && std::chrono::steady_clock::now() < limit) {
-      if (sub.next(100) != transport::MessageKind::kResult) continue;
-      const transport::ResultFields& r = sub.decoder.result();
+      if (sub.next(decoder, 100) != transport::MessageKind::kResult) continue;
+      const transport::ResultFields& r = decoder.result();
       got[r.stream_id].push_back(r);
       ghosts[r.stream_id].emplace_back(r.ghost, r.ghost + 3 * r.ghost_joints);
       ++total;
@@ -222,9 +201,10 @@ TEST(runtime_stall, StalledSubscriberLosesMessagesNotThePipelinesRate) {
 
   void* context = zmq_ctx_new();
   {
-    Subscriber sub(context, runtime.publish_endpoint(), 50);
+    test::ZmqSubscriber sub(context, runtime.publish_endpoint(), 50);
+    transport::Decoder decoder;
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    while (sub.next(100) != transport::MessageKind::kSkeleton && std::chrono::steady_clock::now() < deadline) {}
+    while (sub.next(decoder, 100) != transport::MessageKind::kSkeleton && std::chrono::steady_clock::now() < deadline) {}
 
     // The subscriber reads nothing for 2 s while frames come at 1 kHz (paced by sleeping).
     const int frames = 2000;
@@ -248,9 +228,9 @@ TEST(runtime_stall, StalledSubscriberLosesMessagesNotThePipelinesRate) {
     // account for every message not received.
     uint64_t received = 0, gaps = 0, last = 0;
     bool any = false;
-    for (transport::MessageKind k; (k = sub.next(500)) != transport::MessageKind::kNone;) {
+    for (transport::MessageKind k; (k = sub.next(decoder, 500)) != transport::MessageKind::kNone;) {
       if (k != transport::MessageKind::kResult) continue;
-      const uint64_t seq = sub.decoder.result().result_sequence;
+      const uint64_t seq = decoder.result().result_sequence;
       if (any) {
         EXPECT_GT(seq, last);
         gaps += seq - last - 1;
@@ -280,7 +260,8 @@ TEST(runtime_ingest, StreamsFromTheirDefinitionRestartCounted) {
 
   void* context = zmq_ctx_new();
   {
-    Subscriber sub(context, runtime.publish_endpoint());
+    test::ZmqSubscriber sub(context, runtime.publish_endpoint());
+    transport::Decoder decoder;
     void* push = zmq_socket(context, ZMQ_PUSH);
     int linger = 2000;
     zmq_setsockopt(push, ZMQ_LINGER, &linger, sizeof linger);
@@ -292,7 +273,7 @@ TEST(runtime_ingest, StreamsFromTheirDefinitionRestartCounted) {
     // The stream exists once its definition comes back to the subscriber (sent on open, on the
     // subscriber's join, and every second), so no result is published before anyone listens.
     const auto joined = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-    while (sub.next(100) != transport::MessageKind::kSkeleton && std::chrono::steady_clock::now() < joined) {}
+    while (sub.next(decoder, 100) != transport::MessageKind::kSkeleton && std::chrono::steady_clock::now() < joined) {}
     const int64_t dt = static_cast<int64_t>(fx.student.frame_time * 1e9);
     for (int i = 0; i < 30; ++i) send(encoder.frame(3, static_cast<uint64_t>(i), i * dt, fx.frame(1 + i), fx.joints()));
     // The source restarts: sequence and its clock back to 0.
@@ -302,8 +283,8 @@ TEST(runtime_ingest, StreamsFromTheirDefinitionRestartCounted) {
     int64_t restarts_seen = 0, last_index = -1;
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
     while (results < 50 && std::chrono::steady_clock::now() < deadline) {
-      if (sub.next(100) != transport::MessageKind::kResult) continue;
-      const transport::ResultFields& r = sub.decoder.result();
+      if (sub.next(decoder, 100) != transport::MessageKind::kResult) continue;
+      const transport::ResultFields& r = decoder.result();
       EXPECT_EQ(r.stream_id, 3u);
       EXPECT_FALSE(r.scored);
       if (r.frame_sequence == 0 && results > 0) ++restarts_seen;

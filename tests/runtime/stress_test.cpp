@@ -22,6 +22,7 @@
 #include "runtime/plugin_host.hpp"
 #include "runtime/runtime.hpp"
 #include "support/temp_paths.hpp"
+#include "support/zmq_subscriber.hpp"
 #include "transport/wire.hpp"
 
 namespace kata::runtime {
@@ -53,19 +54,6 @@ const Clip& clip() {
   return c;
 }
 
-// A SUB socket of its own (one per thread: ZeroMQ sockets are not thread-safe).
-struct Sub {
-  void* socket;
-  Sub(void* context, const std::string& endpoint, int hwm = 1000000) : socket(zmq_socket(context, ZMQ_SUB)) {
-    int linger = 0;
-    zmq_setsockopt(socket, ZMQ_LINGER, &linger, sizeof linger);
-    zmq_setsockopt(socket, ZMQ_RCVHWM, &hwm, sizeof hwm);
-    zmq_setsockopt(socket, ZMQ_SUBSCRIBE, "", 0);
-    zmq_connect(socket, endpoint.c_str());
-  }
-  ~Sub() { zmq_close(socket); }
-};
-
 // 24 streams over 3 workers, pushed by 4 threads (6 streams each, in order per stream), while
 // 8 more streams are opened from another thread, two threads connect and close subscribers
 // (each join makes the I/O thread re-send definitions, walking the stream table that open_stream
@@ -88,17 +76,12 @@ TEST(runtime_stress, ManyStreamsSeveralPushersSubscribersComeAndGo) {
   void* context = zmq_ctx_new();
   std::map<uint64_t, std::vector<uint64_t>> sequences;  // frame_sequence of each result, per stream
   {
-    Sub keeper(context, runtime.publish_endpoint());
+    test::ZmqSubscriber keeper(context, runtime.publish_endpoint(), 1000000);
     // Joined once a definition arrives (results sent before the join would not reach it).
-    std::vector<uint8_t> buffer(1 << 20);
     transport::Decoder decoder;
     const auto join_limit = Clock::now() + std::chrono::seconds(20);
-    for (bool joined = false; !joined && Clock::now() < join_limit;) {
-      zmq_pollitem_t item{keeper.socket, 0, ZMQ_POLLIN, 0};
-      if (zmq_poll(&item, 1, 100) <= 0) continue;
-      const int n = zmq_recv(keeper.socket, buffer.data(), buffer.size(), 0);
-      joined = n > 0 && decoder.decode(buffer.data(), static_cast<size_t>(n)) == transport::MessageKind::kSkeleton;
-    }
+    for (bool joined = false; !joined && Clock::now() < join_limit;)
+      joined = keeper.next(decoder, 100) == transport::MessageKind::kSkeleton;
 
     std::atomic<bool> done{false};
     std::atomic<uint64_t> pushed{0};
@@ -124,11 +107,9 @@ TEST(runtime_stress, ManyStreamsSeveralPushersSubscribersComeAndGo) {
     for (int t = 0; t < 2; ++t)
       threads.emplace_back([&] {  // subscribers joining and leaving
         while (!done.load()) {
-          Sub passer(context, runtime.publish_endpoint(), 1000);
+          test::ZmqSubscriber passer(context, runtime.publish_endpoint(), 1000, "", 1);
           std::this_thread::sleep_for(std::chrono::milliseconds(5));
-          zmq_pollitem_t item{passer.socket, 0, ZMQ_POLLIN, 0};
-          char byte;
-          if (zmq_poll(&item, 1, 20) > 0) zmq_recv(passer.socket, &byte, 1, ZMQ_DONTWAIT);
+          passer.receive(20);
         }
       });
     threads.emplace_back([&] {  // counters read beside everything
@@ -144,10 +125,7 @@ TEST(runtime_stress, ManyStreamsSeveralPushersSubscribersComeAndGo) {
     uint64_t received = 0;
     const auto limit = Clock::now() + std::chrono::seconds(120);
     while (received < expected && Clock::now() < limit) {
-      zmq_pollitem_t item{keeper.socket, 0, ZMQ_POLLIN, 0};
-      if (zmq_poll(&item, 1, 100) <= 0) continue;
-      const int n = zmq_recv(keeper.socket, buffer.data(), buffer.size(), 0);
-      if (n <= 0 || decoder.decode(buffer.data(), static_cast<size_t>(n)) != transport::MessageKind::kResult) continue;
+      if (keeper.next(decoder, 100) != transport::MessageKind::kResult) continue;
       sequences[decoder.result().stream_id].push_back(decoder.result().frame_sequence);
       ++received;
     }

@@ -217,6 +217,51 @@ static class KataTests
         Check(rd.MaxIterations == 200 && rd.WarmStart == 1 && rd.RestoreBoneLengths == 1, "kata_retarget_desc defaults");
     }
 
+    // A teacher given as a stream's own features: distance 0 and matched frame for frame (d = |W^T (x - x)|);
+    // the newest result is the last entry a drain returns; detached, nothing is scored.
+    static void TeacherAsFeaturesAndTheNewestResult(Context ctx, string repo)
+    {
+        using (Model model = ctx.LoadModel(Path.Combine(repo, "models/default.kata")))
+        using (Clip clip = ctx.LoadClip(Path.Combine(repo, "data/cmu/02_01.bvh")))
+        using (Skeleton sk = clip.Skeleton())
+        using (Kata.Stream t = ctx.OpenStream(sk))
+        using (Kata.Stream s = ctx.OpenStream(sk))
+        using (Kata.Stream u = ctx.OpenStream(sk))
+        {
+            int joints = (int)sk.JointCount;
+            List<float> feats = new List<float>();
+            float[] f = new float[Gpd.Dims];
+            double ts; long fi; long seen = 0;
+            for (uint i = 1; i <= 40; ++i)
+            {
+                t.Push(i * clip.FrameTime, Frame(clip, i, joints));
+                if (t.FeatureCount == seen) continue;
+                seen = t.FeatureCount;
+                t.Features(f, out ts, out fi);
+                feats.AddRange(f);
+            }
+            int vectors = feats.Count / Gpd.Dims;
+            s.AttachTeacherFeatures(model, feats.ToArray(), clip.FrameTime);
+            u.AttachTeacherFeatures(model, feats.ToArray(), clip.FrameTime);
+            for (uint i = 1; i <= 40; ++i) { s.Push(i * clip.FrameTime, Frame(clip, i, joints)); u.Push(i * clip.FrameTime, Frame(clip, i, joints)); }
+            ResultBatch all = s.NewResultBatch(64), one = u.NewResultBatch(1);
+            int n = s.ReadResults(all);
+            Check(n == vectors, "features teacher: " + n + " results for " + vectors + " vectors");
+            int bad = 0;
+            for (int k = 0; k < n; ++k)
+                if (all.Results[k].MatchedTeacherFrame != k || !(all.Scores[k].Distance < 1e-4f) || (all.Results[k].Flags & Result.FlagScored) == 0) ++bad;
+            Check(bad == 0, "features teacher: " + bad + " results not at distance 0 on their own frame");
+            Check(u.ReadNewest(one) && one.Count == 1 && one.Results[0].Sequence == all.Results[n - 1].Sequence &&
+                  one.Scores[0].Score == all.Scores[n - 1].Score, "ReadNewest is the last entry of a drain");
+            Check(!u.ReadNewest(one) && u.ResultsPending == 0 && u.ResultsDropped == 0, "ReadNewest: nothing new, nothing dropped");
+            u.DetachTeacher();
+            u.Push(41 * clip.FrameTime, Frame(clip, 41, joints));
+            Check(u.ReadNewest(one) && (one.Results[0].Flags & Result.FlagScored) == 0, "detached: not scored");
+            try { u.RestartTeacher(); Check(false, "restart without a teacher was accepted"); }
+            catch (KataException e) { Check(e.Status == Status.State, "restart without a teacher: " + e.Message); }
+        }
+    }
+
     static int Main(string[] args)
     {
         if (args.Length == 1 && args[0] == "--expect-wrong-version")
@@ -224,7 +269,7 @@ static class KataTests
             try { new Context().Dispose(); Console.Error.WriteLine("FAILED: a 7.0.0 library was accepted"); return 1; }
             catch (KataVersionException e)
             {
-                bool ok = e.Message.Contains("7.0.0") && e.Message.Contains("needs 0.x");
+                bool ok = e.Message.Contains("7.0.0") && e.Message.Contains("needs 1.x");
                 Console.WriteLine((ok ? "refused as expected: " : "FAILED, wrong message: ") + e.Message);
                 return ok ? 0 : 1;
             }
@@ -239,6 +284,7 @@ static class KataTests
             ScoresEqualTheCli(ctx, repo, cli, tmp);
             ErrorsCarryTheCMessage(ctx, repo, tmp);
             SkeletonsAndRetargeting(ctx, repo);
+            TeacherAsFeaturesAndTheNewestResult(ctx, repo);
         }
         HandlesReleasedOnce(repo);
         Console.WriteLine(failures == 0 ? "all C# binding checks passed" : failures + " checks failed");

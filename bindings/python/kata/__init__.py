@@ -19,6 +19,7 @@ it that is still open before it is destroyed (kata.h requires that order).
 """
 import ctypes
 import enum
+import warnings
 import weakref
 
 import numpy as np
@@ -98,6 +99,11 @@ class KataError(Exception):
 
 def _text(b):
     return b.decode("utf-8") if b is not None else None
+
+
+def _deprecated(old, new):
+    warnings.warn("kata.Stream.%s is deprecated since 1.0 and goes in 2.0: use %s" % (old, new),
+                  DeprecationWarning, stacklevel=3)
 
 
 def _utf8(s):
@@ -511,77 +517,52 @@ class Stream(_Handle):
     def body_height(self):
         return _n.stream_body_height(self.handle)
 
-    # -- scoring --
-    def set_reference_pose(self, model, features):
-        f = np.ascontiguousarray(features, dtype=np.float32)
-        status = _n.stream_set_reference_pose(self.handle, model.handle, f.ctypes.data, f.size)
-        if status:
-            self._raise(status, "kata_stream_set_reference_pose")
-
-    def set_reference_joints(self, model, joints, body_height):
-        j = np.ascontiguousarray(joints, dtype=np.float32)
-        status = _n.stream_set_reference_joints(self.handle, model.handle, j.ctypes.data, j.size, body_height)
-        if status:
-            self._raise(status, "kata_stream_set_reference_joints")
-
-    def set_reference_clip(self, model, features, frame_time):
-        f = np.ascontiguousarray(features, dtype=np.float32)
-        if f.size % GPD_DIMS:
-            raise ValueError("features must be frames x %d" % GPD_DIMS)
-        status = _n.stream_set_reference_clip(self.handle, model.handle, f.ctypes.data, f.size // GPD_DIMS,
-                                              frame_time)
-        if status:
-            self._raise(status, "kata_stream_set_reference_clip")
-
-    def set_reference_bvh(self, model, clip, preset="cmu", first_frame=0, pose_frame=-1):
-        status = _n.stream_set_reference_bvh(self.handle, model.handle, clip.handle, _utf8(preset), first_frame,
-                                             pose_frame)
-        if status:
-            self._raise(status, "kata_stream_set_reference_bvh")
-
-    def clear_reference(self):
-        status = _n.stream_clear_reference(self.handle)
-        if status:
-            self._raise(status, "kata_stream_clear_reference")
-
-    def restart_reference(self):
-        status = _n.stream_restart_reference(self.handle)
-        if status:
-            self._raise(status, "kata_stream_restart_reference")
-
-    def score(self):
-        """kata_stream_score: the newest frame's ScoreRecord, or None before the first vector."""
-        rec = _n.ScoreRecord()
-        rec.struct_size = ctypes.sizeof(rec)
-        status = _n.stream_score(self.handle, ctypes.byref(rec))
-        if status == Status.NO_DATA:
-            return None
-        if status:
-            self._raise(status, "kata_stream_score")
-        return ScoreRecord(rec)
-
-    # -- pipeline --
+    # -- the teacher: what the stream is compared with --
     def attach_teacher(self, model, clip=None, skeleton=None, positions=None, frame_time=None, preset=None,
-                       first_frame=0, pose_frame=-1, ghost=True, **retarget):
-        """kata_stream_attach_teacher: score against (and ghost from) a teacher: a Clip, or a
-        Skeleton + positions (frames, joints, 3) + frame_time. retarget: the ghost solver's options
-        (preset "cmu"/"gpd", gradient_tolerance, max_iterations, warm_start, restore_bone_lengths)."""
+                       first_frame=0, pose_frame=-1, ghost=None, features=None, joints=None, body_height=0.0,
+                       **retarget):
+        """kata_stream_attach_teacher: score against (and ghost from) a teacher given as one of
+        a Clip; a Skeleton + positions (frames, joints, 3) + frame_time; GPD features
+        (frames, 1683) + frame_time; or joints, one held pose of the 16 GPD joints (16, 3) with its
+        body_height. pose_frame >= first_frame: that frame only, as a single pose. ghost: default
+        True for a clip or positions (features and joints have none to make). retarget: the ghost
+        solver's options (preset "cmu"/"gpd", gradient_tolerance, max_iterations, warm_start,
+        restore_bone_lengths)."""
         d = _n.TeacherDesc()
         _n.teacher_desc_init(ctypes.byref(d))
         d.model = model.handle
-        keep = None
+        keep = []
         if clip is not None:
             d.clip = clip.handle
         if skeleton is not None:
             d.skeleton = skeleton.handle
         if positions is not None:
-            keep = _positions_f32(positions)
-            d.positions = keep.ctypes.data
-            d.frames = keep.shape[0]
-            d.frame_time = frame_time if frame_time is not None else 0.0
+            p = _positions_f32(positions)
+            keep.append(p)
+            d.positions = p.ctypes.data
+            d.frames = p.shape[0]
+        if features is not None:
+            f = np.ascontiguousarray(features, dtype=np.float32)
+            if f.size == 0 or f.size % GPD_DIMS:
+                raise ValueError("features must be frames x %d" % GPD_DIMS)
+            keep.append(f)
+            d.features = f.ctypes.data
+            d.frames = f.size // GPD_DIMS
+        if joints is not None:
+            j = np.ascontiguousarray(joints, dtype=np.float32)
+            if j.size != 3 * GPD_JOINTS:
+                raise ValueError("joints must be %d x 3 (the 16 GPD joints, GPD order)" % GPD_JOINTS)
+            keep.append(j)
+            d.joints = j.ctypes.data
+            d.frames = 1
+            d.body_height = body_height
+        if frame_time is not None:
+            d.frame_time = frame_time
         d.preset = _utf8(preset)
         d.first_frame = first_frame
         d.pose_frame = pose_frame
+        if ghost is None:
+            ghost = features is None and joints is None
         d.ghost = 1 if ghost else 0
         rdesc = _retarget_desc(retarget) if retarget else None
         if rdesc is not None:
@@ -591,6 +572,78 @@ class Stream(_Handle):
         if status:
             self._raise(status, "kata_stream_attach_teacher")
 
+    def detach_teacher(self):
+        """kata_stream_detach_teacher: later results are not scored and carry no ghost."""
+        status = _n.stream_detach_teacher(self.handle)
+        if status:
+            self._raise(status, "kata_stream_detach_teacher")
+
+    def restart_teacher(self):
+        """kata_stream_restart_teacher: the next frame is matched from the teacher's first frame."""
+        status = _n.stream_restart_teacher(self.handle)
+        if status:
+            self._raise(status, "kata_stream_restart_teacher")
+
+    def read_newest(self, buffer=None):
+        """kata_stream_read_newest: the newest unread result (older unread ones are passed over) as
+        a Results of length 1, or None when nothing is unread. buffer: a result_buffer(1) to reuse
+        (no allocation per call)."""
+        if buffer is None:
+            buffer = ResultBuffer(1, self.ghost_joint_count, True, False)
+        a = buffer._args
+        status = _n.stream_read_newest(self.handle, a[0], a[1], a[2], a[3], a[4], a[5])
+        if status == Status.NO_DATA:
+            return None
+        if status:
+            self._raise(status, "kata_stream_read_newest")
+        return Results(buffer, 1)
+
+    # -- deprecated since 1.0 (removed in 2.0, not before 2027-06-01): the 0.x reference calls --
+    def set_reference_pose(self, model, features):
+        """Deprecated: attach_teacher(model, features=f, pose_frame=0)."""
+        _deprecated("set_reference_pose", "attach_teacher(model, features=..., pose_frame=0)")
+        self.attach_teacher(model, features=np.asarray(features).reshape(1, GPD_DIMS), pose_frame=0)
+
+    def set_reference_joints(self, model, joints, body_height):
+        """Deprecated: attach_teacher(model, joints=j, body_height=h)."""
+        _deprecated("set_reference_joints", "attach_teacher(model, joints=..., body_height=...)")
+        self.attach_teacher(model, joints=joints, body_height=body_height)
+
+    def set_reference_clip(self, model, features, frame_time):
+        """Deprecated: attach_teacher(model, features=f, frame_time=t)."""
+        _deprecated("set_reference_clip", "attach_teacher(model, features=..., frame_time=...)")
+        self.attach_teacher(model, features=features, frame_time=frame_time)
+
+    def set_reference_bvh(self, model, clip, preset="cmu", first_frame=0, pose_frame=-1):
+        """Deprecated: attach_teacher(model, clip=c, ..., ghost=False)."""
+        _deprecated("set_reference_bvh", "attach_teacher(model, clip=..., ghost=False)")
+        self.attach_teacher(model, clip=clip, preset=preset, first_frame=first_frame, pose_frame=pose_frame,
+                            ghost=False)
+
+    def clear_reference(self):
+        """Deprecated: detach_teacher()."""
+        _deprecated("clear_reference", "detach_teacher()")
+        self.detach_teacher()
+
+    def restart_reference(self):
+        """Deprecated: restart_teacher()."""
+        _deprecated("restart_reference", "restart_teacher()")
+        self.restart_teacher()
+
+    def score(self):
+        """Deprecated: read_newest() (or read_results() for every frame). The newest frame's
+        ScoreRecord (read or not), or None before the first vector (kata_stream_score)."""
+        _deprecated("score", "read_newest()")
+        rec = _n.ScoreRecord()
+        rec.struct_size = ctypes.sizeof(rec)
+        status = _n.stream_score(self.handle, ctypes.byref(rec))
+        if status == Status.NO_DATA:
+            return None
+        if status:
+            self._raise(status, "kata_stream_score")
+        return ScoreRecord(rec)
+
+    # -- results --
     @property
     def ghost_joint_count(self):
         return _n.stream_ghost_joint_count(self.handle)

@@ -11,9 +11,9 @@ import os
 import sys
 
 # The C ABI major version this binding is written against (kata.h KATA_VERSION_MAJOR), and the
-# oldest minor that has every function declared below (the pipeline calls arrived in 0.2).
-EXPECTED_MAJOR = 0
-MINIMUM_MINOR = 2
+# oldest minor that has every function declared below (1.0: the teacher as the one way).
+EXPECTED_MAJOR = 1
+MINIMUM_MINOR = 0
 
 GPD_DIMS = 1683
 GPD_JOINTS = 16
@@ -112,7 +112,9 @@ class TeacherDesc(ctypes.Structure):
                 ("skeleton", ctypes.c_void_p), ("positions", ctypes.c_void_p), ("frames", ctypes.c_uint32),
                 ("frame_time", ctypes.c_double), ("preset", ctypes.c_char_p), ("first_frame", ctypes.c_uint32),
                 ("pose_frame", ctypes.c_int32), ("ghost", ctypes.c_int32),
-                ("retarget", ctypes.POINTER(RetargetDesc))]
+                ("retarget", ctypes.POINTER(RetargetDesc)),
+                # since 1.0
+                ("features", ctypes.c_void_p), ("joints", ctypes.c_void_p), ("body_height", ctypes.c_double)]
 
 
 class ScoreRecord(ctypes.Structure):
@@ -189,6 +191,9 @@ _SIGNATURES = {
     "kata_retargeter_reset": (_st, [_p]),
     "kata_teacher_desc_init": (None, [ctypes.POINTER(TeacherDesc)]),
     "kata_stream_attach_teacher": (_st, [_p, ctypes.POINTER(TeacherDesc)]),
+    "kata_stream_detach_teacher": (_st, [_p]),
+    "kata_stream_restart_teacher": (_st, [_p]),
+    "kata_stream_read_newest": (_st, [_p, _p, _p, _p, _sz, _p, _sz]),
     "kata_stream_read_results": (_st, [_p, _p, _p, _p, _sz, _p, _sz, _u32, ctypes.POINTER(_u32)]),
     "kata_stream_results_dropped": (_u64, [_p]),
     "kata_stream_results_pending": (_u32, [_p]),

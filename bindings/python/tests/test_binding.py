@@ -89,20 +89,72 @@ def test_scores_equal_the_cli_csv(cli, data, model_path, tmp_path):
         assert int(row["matched_teacher_frame"]) == res["matched_teacher_frame"] + first
 
 
-def test_score_call_matches_the_result_ring(data, model_path):
+def test_read_newest_is_the_last_entry_of_a_drain(data, model_path):
+    with kata.Context() as ctx, ctx.load_model(model_path) as model, ctx.load_clip(os.path.join(data, "02_01.bvh")) as clip, \
+            clip.skeleton() as sk, ctx.open_stream(sk) as a, ctx.open_stream(sk) as b:
+        assert b.read_newest() is None
+        with pytest.raises(kata.KataError) as e:
+            b.restart_teacher()
+        assert e.value.status == kata.Status.E_STATE
+        for s in (a, b):
+            s.attach_teacher(model, clip=clip, first_frame=1)
+        for i in range(1, 8):
+            a.push(i * clip.frame_time, clip.positions(i))
+            b.push(i * clip.frame_time, clip.positions(i))
+        ring = a.read_results()
+        newest = b.read_newest()
+        assert len(newest) == 1 and len(ring) > 1
+        assert newest.results["sequence"][0] == ring.results["sequence"][-1]
+        assert newest.scores["score"][0] == ring.scores["score"][-1]
+        assert (newest.scores["parts"][0] == ring.scores["parts"][-1]).all()
+        assert (newest.ghosts[0] == ring.ghosts[-1]).all()
+        assert b.results_pending == 0 and b.results_dropped == 0 and b.read_newest() is None
+        b.detach_teacher()
+        b.push(9 * clip.frame_time, clip.positions(9))
+        assert not (b.read_newest().results["flags"][0] & kata.RESULT_SCORED)
+
+
+def test_a_teacher_given_as_its_own_features_is_at_distance_zero(data, model_path):
+    with kata.Context() as ctx, ctx.load_model(model_path) as model, ctx.load_clip(os.path.join(data, "02_01.bvh")) as clip, \
+            clip.skeleton() as sk, ctx.open_stream(sk, stencil=model.stencil) as t, \
+            ctx.open_stream(sk, stencil=model.stencil) as s:
+        feats = []
+        for i in range(1, 40):
+            t.push(i * clip.frame_time, clip.positions(i))
+            if t.feature_count > len(feats):
+                feats.append(t.features()[0].copy())
+        s.attach_teacher(model, features=np.array(feats), frame_time=clip.frame_time)
+        for i in range(1, 40):
+            s.push(i * clip.frame_time, clip.positions(i))
+        r = s.read_results()
+        assert len(r) == len(feats)
+        assert (r.results["matched_teacher_frame"] == np.arange(len(feats))).all()
+        assert (r.scores["distance"] < 1e-4).all()
+
+
+def test_the_deprecated_reference_calls_warn_and_still_score(data, model_path):
     with kata.Context() as ctx, ctx.load_model(model_path) as model, ctx.load_clip(os.path.join(data, "02_01.bvh")) as clip, \
             clip.skeleton() as sk, ctx.open_stream(sk) as s:
-        with pytest.raises(kata.KataError) as e:
+        with pytest.deprecated_call(), pytest.raises(kata.KataError) as e:
             s.score()
         assert e.value.status == kata.Status.E_STATE
-        s.set_reference_bvh(model, clip, "cmu", first_frame=1)
+        with pytest.deprecated_call():
+            s.set_reference_bvh(model, clip, "cmu", first_frame=1)
         for i in range(1, 6):
             s.push(i * clip.frame_time, clip.positions(i))
-        rec = s.score()
+        with pytest.deprecated_call():
+            rec = s.score()
         ring = s.read_results()
         assert rec.frame_index == ring.results["frame_index"][-1]
         assert rec.score == ring.scores["score"][-1] and rec.parts == tuple(ring.scores["parts"][-1])
         assert 0.0 <= rec.score <= 100.0
+        assert s.ghost_joint_count == 0
+        with pytest.deprecated_call():
+            s.restart_reference()
+        with pytest.deprecated_call():
+            s.clear_reference()
+        with pytest.deprecated_call(), pytest.raises(kata.KataError):
+            s.score()
 
 
 def test_a_bad_model_file_raises_with_the_c_message(cli, tmp_path):
@@ -253,4 +305,4 @@ def test_a_library_of_another_major_version_is_refused():
     p = subprocess.run([sys.executable, "-c", "import kata"], env=env, capture_output=True, text=True,
                        cwd=os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     assert p.returncode != 0
-    assert "ImportError" in p.stderr and "version 7.0.0" in p.stderr and "needs 0.x" in p.stderr, p.stderr
+    assert "ImportError" in p.stderr and "version 7.0.0" in p.stderr and "needs 1.x" in p.stderr, p.stderr

@@ -47,20 +47,36 @@
 #  define KATA_API __attribute__((visibility("default")))
 #endif
 
+/* Deprecated calls still work as documented until the release named in their comment; the
+ * compiler warns at each use. Define KATA_ALLOW_DEPRECATED before including kata.h to silence the
+ * warnings (e.g. while moving a code base over). */
+#if defined(KATA_ALLOW_DEPRECATED)
+#  define KATA_DEPRECATED(message)
+#elif defined(__GNUC__) || defined(__clang__)
+#  define KATA_DEPRECATED(message) __attribute__((deprecated(message)))
+#elif defined(_MSC_VER)
+#  define KATA_DEPRECATED(message) __declspec(deprecated(message))
+#else
+#  define KATA_DEPRECATED(message)
+#endif
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
 /* ==== Versions ============================================================================ */
 
-#define KATA_VERSION_MAJOR 0
-#define KATA_VERSION_MINOR 2
-#define KATA_VERSION_PATCH 0
+/* Semantic versioning (README "Versions and compatibility"): within a major version the ABI only
+ * grows (new functions, new enumerators, fields appended to a struct that starts with
+ * struct_size); libkata's soname is libkata.so.MAJOR. CI checks this with abidiff (abi/README.md). */
+#define KATA_VERSION_MAJOR 1
+#define KATA_VERSION_MINOR 0 /* additions since the major's first release */
+#define KATA_VERSION_PATCH 0 /* fixes only */
 /* The feature layout this library computes (spec gpd-v1.md); stored in every model file. */
 #define KATA_GPD_LAYOUT "gpd-v1"
 /* Dimensions of a GPD v1 feature vector, and of its 16-joint skeleton. */
 #define KATA_GPD_DIMS 1683
-#define KATA_GPD_JOINTS 16
+#define KATA_GPD_JOINTS 16 /* the GPD skeleton's joints (spec GPD v1 order, kata.h "Layouts") */
 
 /* The library's version at run time, as MAJOR * 10000 + MINOR * 100 + PATCH. [any thread] */
 KATA_API uint32_t kata_version(void);
@@ -81,6 +97,7 @@ KATA_API uint32_t kata_version(void);
 
 /* ==== Status codes ======================================================================== */
 
+/* What every fallible call returns. */
 typedef enum kata_status {
   KATA_OK = 0,
   KATA_NO_DATA = 1,                   /* nothing to read yet: a result, not an error */
@@ -181,6 +198,7 @@ typedef enum kata_stencil {
   KATA_STENCIL_CENTRAL = 1   /* derivatives one frame behind (more accurate velocity) */
 } kata_stencil;
 
+/* How a stream reads its frames' axes (kata_stream_desc.up_axis). */
 typedef enum kata_up_axis {
   KATA_UP_Y = 0,     /* +Y up (BVH, most engines) */
   KATA_UP_Z = 1,     /* +Z up: (x, y, z) is read as (x, z, -y) */
@@ -237,7 +255,7 @@ typedef struct kata_stream_desc {
    * and a name-map file (JSON {"Hip": "pelvis", ...} or "Hip = pelvis" lines, at most
    * KATA_MAX_NAME_MAP_BYTES). Both set is refused (KATA_E_INVALID_ARGUMENT). */
   const char* preset;
-  const char* name_map_path;
+  const char* name_map_path;   /* a name-map file's path, or NULL (see preset) */
   kata_stencil stencil;        /* default KATA_STENCIL_BACKWARD; other values are refused */
   kata_up_axis up_axis;        /* default KATA_UP_Y; other values are refused */
   double max_gap;              /* seconds (> 0); a larger gap restarts the kinetics. Default 0.25 */
@@ -356,13 +374,13 @@ KATA_API double kata_stream_body_height(kata_stream stream);
 /* ==== Models and scoring ================================================================== */
 /* (section: models and scoring)
  * A model (.kata file: normalisation ranges, the learned W, the threshold delta*) scores a
- * stream's frames against a teacher reference (spec gpd-v1.md section 6):
+ * stream's frames against its teacher (kata_stream_attach_teacher; spec gpd-v1.md section 6):
  *   d = |W^T (x'' - y'')|   (x'', y'': normalised, unit-length GPD v1 features; d dimensionless)
  *   score = 100 / (1 + (d / delta*)^2)   (100 at d = 0, 50 at d = delta*, 20 at 2 delta*)
  * and splits d^2 over five body parts (they sum to d^2; a part may be slightly negative). The
- * reference is one pose, or a teacher clip that the stream follows with an online monotone
+ * teacher is one pose, or a clip that the stream follows with an online monotone
  * alignment (each frame is matched to the best teacher frame just ahead of the last match).
- * Memory: loading a model and setting a reference allocate; scoring never does.
+ * Memory: loading a model and attaching a teacher allocate; scoring never does.
  * Threads: a model is immutable and may be shared by any number of streams and threads; a
  * stream keeps what it needs from the model, which may be freed while streams still use it. */
 
@@ -406,7 +424,7 @@ typedef enum kata_body_part {
 
 /* One scored frame. The caller sets struct_size = sizeof(kata_score_record). */
 typedef struct kata_score_record {
-  uint32_t struct_size;
+  uint32_t struct_size;            /* sizeof(kata_score_record), set by the caller */
   int32_t matched_reference_frame; /* teacher clip frame matched (0-based index into the
                                       reference's frames); 0 for a pose reference */
   int64_t frame_index;             /* the stream frame scored (as in kata_stream_features) */
@@ -421,40 +439,60 @@ typedef struct kata_score_record {
   int32_t state;                   /* kata_score_state: whether the scores are to be shown */
 } kata_score_record;
 
-/* Sets a single-pose reference on a stream: features is one GPD v1 vector (count =
+/* ---- Deprecated: the 0.x "reference" calls ----
+ * DEPRECATED since 1.0; removed in 2.0, not before 2027-06-01. Each is a thin wrapper over the
+ * teacher (kata_stream_attach_teacher with ghost = 0, kata_stream_detach_teacher,
+ * kata_stream_restart_teacher) and behaves as it did in 0.2; the replacement is named per call. */
+
+/* Use kata_stream_attach_teacher with kata_teacher_desc.features, frames = 1, ghost = 0.
+ * Sets a single-pose reference on a stream: features is one GPD v1 vector (count =
  * KATA_GPD_DIMS floats, e.g. a frame from kata_stream_features of a teacher stream), copied.
  * Replaces any previous reference. KATA_E_INVALID_ARGUMENT when the stream's stencil differs
  * from the model's or the features are not finite. Errors go to kata_stream_last_error.
  * Allocates. [stream owner] */
-KATA_API kata_status kata_stream_set_reference_pose(kata_stream stream, kata_model model, const float* features,
-                                                    size_t count);
-/* Sets a single-pose reference from the 16 GPD joints' world positions (KATA_GPD_JOINTS x 3
+KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_attach_teacher with desc.features")
+kata_status kata_stream_set_reference_pose(kata_stream stream, kata_model model, const float* features,
+                                           size_t count);
+/* Use kata_stream_attach_teacher with kata_teacher_desc.joints and .body_height, ghost = 0.
+ * Sets a single-pose reference from the 16 GPD joints' world positions (KATA_GPD_JOINTS x 3
  * floats in GPD joint order, +Y up, any units) and the body height in the same units: a held
  * pose (kinetics zero). [stream owner] */
-KATA_API kata_status kata_stream_set_reference_joints(kata_stream stream, kata_model model, const float* joints,
-                                                      size_t count, double body_height);
-/* Sets a clip reference: `frames` GPD v1 vectors (frames x KATA_GPD_DIMS floats, row-major),
+KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_attach_teacher with desc.joints")
+kata_status kata_stream_set_reference_joints(kata_stream stream, kata_model model, const float* joints,
+                                             size_t count, double body_height);
+/* Use kata_stream_attach_teacher with kata_teacher_desc.features, .frames, .frame_time, ghost = 0.
+ * Sets a clip reference: `frames` GPD v1 vectors (frames x KATA_GPD_DIMS floats, row-major),
  * frame_time seconds apart; copied into projections computed once. [stream owner] */
-KATA_API kata_status kata_stream_set_reference_clip(kata_stream stream, kata_model model, const float* features,
-                                                    uint32_t frames, double frame_time);
-/* Sets a reference from a recorded clip, its features computed here with the model's stencil
+KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_attach_teacher with desc.features")
+kata_status kata_stream_set_reference_clip(kata_stream stream, kata_model model, const float* features,
+                                           uint32_t frames, double frame_time);
+/* Use kata_stream_attach_teacher with kata_teacher_desc.clip (.preset, .first_frame,
+ * .pose_frame), ghost = 0.
+ * Sets a reference from a recorded clip, its features computed here with the model's stencil
  * (clip frames first_frame.. end; 1 skips the CMU converter's T-pose) through the named preset
  * ("cmu", ...). pose_frame >= 0: only that clip frame, as a pose reference; -1: the whole clip;
  * below -1: KATA_E_INVALID_ARGUMENT. [stream owner] */
-KATA_API kata_status kata_stream_set_reference_bvh(kata_stream stream, kata_model model, kata_clip clip,
-                                                   const char* preset, uint32_t first_frame, int32_t pose_frame);
-/* Removes the stream's reference (kata_stream_score then returns KATA_E_STATE). [stream owner] */
-KATA_API kata_status kata_stream_clear_reference(kata_stream stream);
-/* Restarts a clip reference's alignment: the next frame is matched from the clip's start.
+KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_attach_teacher with desc.clip")
+kata_status kata_stream_set_reference_bvh(kata_stream stream, kata_model model, kata_clip clip,
+                                          const char* preset, uint32_t first_frame, int32_t pose_frame);
+/* Use kata_stream_detach_teacher.
+ * Removes the stream's reference (kata_stream_score then returns KATA_E_STATE). [stream owner] */
+KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_detach_teacher")
+kata_status kata_stream_clear_reference(kata_stream stream);
+/* Use kata_stream_restart_teacher.
+ * Restarts a clip reference's alignment: the next frame is matched from the clip's start.
  * [stream owner] */
-KATA_API kata_status kata_stream_restart_reference(kata_stream stream);
-/* Copies the score record of the stream's newest feature vector into *out. Every vector is
+KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_restart_teacher")
+kata_status kata_stream_restart_reference(kata_stream stream);
+/* Use kata_stream_read_newest (or kata_stream_read_results for every frame).
+ * Copies the score record of the stream's newest feature vector into *out. Every vector is
  * scored in the push that emits it (so the alignment sees every frame, whatever the read rate);
  * a vector emitted before the reference was set is scored by this call. A later call without a
  * new push returns the same record. KATA_NO_DATA before the first feature vector; KATA_E_STATE
  * without a reference; KATA_E_INTERNAL (a bug, the record is withheld) when the score is not
  * finite. Does not allocate. [stream owner] */
-KATA_API kata_status kata_stream_score(kata_stream stream, kata_score_record* out);
+KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_read_newest")
+kata_status kata_stream_score(kata_stream stream, kata_score_record* out);
 
 /* ==== Score calibration and feedback ====================================================== */
 /* The score is a calibrated map of the distance d: score = 100 / (1 + (d / d50)^slope), fitted
@@ -466,7 +504,7 @@ KATA_API kata_status kata_stream_score(kata_stream stream, kata_score_record* ou
  * The record's state says when there is no score to show: */
 typedef enum kata_score_state {
   KATA_SCORE_SCORING = 0,          /* the scores are this frame's */
-  KATA_SCORE_CALIBRATING = 1,      /* the first 0.25 s after a reference is set or restarted */
+  KATA_SCORE_CALIBRATING = 1,      /* the first 0.25 s after a teacher is attached or restarted */
   KATA_SCORE_TRACKING_LOST = 2,    /* fewer than 13 of the 16 GPD joints are tracked in the frame
                                       (a joint at exactly (0,0,0) counts as lost); scores are 0 */
   KATA_SCORE_TEACHER_FINISHED = 3  /* the student has outlasted the teacher clip by 0.25 s */
@@ -474,7 +512,7 @@ typedef enum kata_score_state {
 
 /* A score map. The caller sets struct_size = sizeof(kata_score_calibration). */
 typedef struct kata_score_calibration {
-  uint32_t struct_size;
+  uint32_t struct_size;              /* sizeof(kata_score_calibration), set by the caller */
   uint32_t reserved;                 /* 0 */
   double d50;                        /* distance that scores 50, > 0 */
   double slope;                      /* > 0 */
@@ -486,11 +524,11 @@ typedef struct kata_score_calibration {
 /* The model's calibration (or the default above) into *out. KATA_E_INVALID_ARGUMENT when
  * out->struct_size is smaller than this struct. Does not allocate. [any thread] */
 KATA_API kata_status kata_model_calibration(kata_model model, kata_score_calibration* out);
-/* Overrides the calibration of the stream's current reference (e.g. fitted on a teacher's own
- * takes); NULL restores the model's. Setting a new reference returns to the model's calibration.
- * KATA_E_STATE without a reference; KATA_E_INVALID_ARGUMENT for a value out of range (message
+/* Overrides the calibration of the stream's current teacher (e.g. fitted on a teacher's own
+ * takes); NULL restores the model's. Attaching a new teacher returns to the model's calibration.
+ * KATA_E_STATE without a teacher; KATA_E_INVALID_ARGUMENT for a value out of range (message
  * in kata_stream_last_error). Takes effect from the next scored frame; kept across
- * kata_stream_restart_reference. Allocates. [stream owner] */
+ * kata_stream_restart_teacher. Allocates. [stream owner] */
 KATA_API kata_status kata_stream_set_calibration(kata_stream stream, const kata_score_calibration* calibration);
 
 /* ==== Retargeting ========================================================================= */
@@ -637,37 +675,62 @@ KATA_API kata_status kata_retargeter_local_rotations(kata_retargeter retargeter,
  * the result was complete. Memory: kata_stream_attach_teacher allocates; pushes and reads never
  * do. Threads: [stream owner] for every call. */
 
-/* Which teacher a stream scores against and ghosts from. Fill with kata_teacher_desc_init. */
+/* What a stream is compared with: its teacher. One concept, whatever the teacher is given as:
+ *   motion         how it is given                                   a ghost?
+ *   a recorded clip   clip (BVH)                                     yes
+ *   joint positions   skeleton + positions + frames + frame_time     yes
+ *   GPD features      features + frames + frame_time (kata_stream_features of a teacher stream)  no
+ *   the 16 GPD joints joints + body_height, one held pose (frames = 1)   no
+ * Exactly one of clip, skeleton/positions, features, joints is set. A clip (frames > 1, pose_frame
+ * -1) is followed by the online alignment; pose_frame >= first_frame makes that one frame a
+ * single-pose teacher. A teacher given as features or GPD joints has no joint positions to
+ * retarget: set ghost = 0 for it (ghost = 1 is refused). Fill with kata_teacher_desc_init. */
 typedef struct kata_teacher_desc {
-  uint32_t struct_size;      /* sizeof(kata_teacher_desc) */
+  uint32_t struct_size;      /* sizeof(kata_teacher_desc) (0.2's smaller size is accepted too) */
   kata_model model;          /* required; the stream must use the model's stencil */
   /* The teacher's motion: a recorded clip ... */
-  kata_clip clip;            /* a BVH clip, or NULL and the three fields below */
+  kata_clip clip;            /* a BVH clip, or NULL and one of the forms below */
   /* ... or frames of joint positions: `frames` x kata_skeleton_joint_count(skeleton) x 3 floats,
    * row-major, +Y up, frame_time seconds apart (copied). */
   kata_skeleton skeleton;
-  const float* positions;
-  uint32_t frames;
-  double frame_time;
+  const float* positions;    /* frames x joints x 3 floats, or NULL */
+  uint32_t frames;           /* frames of positions or features (joints: 1) */
+  double frame_time;         /* seconds between frames of positions or features */
   const char* preset;        /* the teacher's GPD joint map (kata_preset_name). NULL: "cmu" */
   uint32_t first_frame;      /* teacher frames first_frame..end (1 skips CMU's T-pose). Default 0 */
   int32_t pose_frame;        /* -1 (default): follow the whole clip; >= first_frame: that frame only */
   int32_t ghost;             /* 1 (default): make a ghost per result (the student skeleton needs rest
                                 offsets and the same joint names as the teacher); 0: scores only */
   const kata_retarget_desc* retarget;  /* the ghost's solver (joint set "cmu" or "gpd"); NULL: defaults */
+  /* ---- since 1.0 (a 0.2 caller passes the smaller struct_size: these stay NULL / 0) */
+  /* ... or GPD v1 feature vectors: `frames` x KATA_GPD_DIMS floats, row-major (copied) ... */
+  const float* features;
+  /* ... or one pose as the 16 GPD joints' world positions: KATA_GPD_JOINTS x 3 floats, GPD joint
+   * order, +Y up, any units (copied), held still (kinetics zero), with its body height in the same
+   * units. (A moving teacher of 16 GPD joints: positions on kata_skeleton_create_layout "gpd".) */
+  const float* joints;
+  double body_height;        /* the joints' body height, in their units */
 } kata_teacher_desc;
 
 /* Fills desc with the defaults above (struct_size set). [any thread] */
 KATA_API void kata_teacher_desc_init(kata_teacher_desc* desc);
 /* Attaches a teacher to a stream in one call: model, teacher motion, and (from the stream's own
- * skeleton) the student's body. Replaces any reference or teacher; a refused call leaves the old
- * one in place. The alignment starts at the teacher's first frame. Errors (stencil mismatch,
- * unknown preset, a ghost joint missing from one skeleton, bad frames, desc->struct_size other
- * than sizeof(kata_teacher_desc)) go to kata_stream_last_error. Allocates. [stream owner] */
+ * skeleton) the student's body. Replaces any teacher; a refused call leaves the old one in
+ * place. The alignment starts at the teacher's first frame. Errors (stencil mismatch, unknown
+ * preset, a ghost joint missing from one skeleton, bad frames or features, two motions given,
+ * desc->struct_size other than a released sizeof(kata_teacher_desc)) go to
+ * kata_stream_last_error. Allocates. [stream owner] */
 KATA_API kata_status kata_stream_attach_teacher(kata_stream stream, const kata_teacher_desc* desc);
+/* Removes the stream's teacher: later results are not scored (no KATA_RESULT_SCORED) and carry
+ * no ghost. KATA_OK without one too. [stream owner] */
+KATA_API kata_status kata_stream_detach_teacher(kata_stream stream);
+/* Restarts the teacher: the next frame is matched from the teacher's first frame, the ghost's
+ * solve starts cold and the score calibrates again (KATA_SCORE_CALIBRATING). KATA_E_STATE
+ * without a teacher. [stream owner] */
+KATA_API kata_status kata_stream_restart_teacher(kata_stream stream);
 
 /* kata_result.flags */
-#define KATA_RESULT_SCORED 1u /* the score record is valid (a teacher or reference is attached) */
+#define KATA_RESULT_SCORED 1u /* the score record is valid (a teacher is attached) */
 #define KATA_RESULT_GHOST 2u  /* the ghost was made */
 
 /* One emitted feature vector's result. */
@@ -695,14 +758,25 @@ typedef struct kata_result {
 KATA_API kata_status kata_stream_read_results(kata_stream stream, kata_result* results, kata_score_record* scores,
                                               float* ghosts, size_t ghost_capacity, float* features,
                                               size_t feature_capacity, uint32_t capacity, uint32_t* count);
+/* The newest result, for a caller that only draws the latest frame: the newest unread result
+ * into *result (result->struct_size set by the caller) and, each when not NULL, its score record
+ * (score->struct_size set), ghost (ghost_capacity >= 3 x kata_stream_ghost_joint_count() floats)
+ * and features (feature_capacity >= KATA_GPD_DIMS floats; needs desc.keep_features). Every older
+ * unread result is passed over (marked read; not counted as dropped): the same as draining the
+ * ring with kata_stream_read_results and keeping the last entry. KATA_NO_DATA (nothing written)
+ * when nothing is unread: no new result since the last read. Does not allocate. [stream owner] */
+KATA_API kata_status kata_stream_read_newest(kata_stream stream, kata_result* result, kata_score_record* score,
+                                             float* ghost, size_t ghost_capacity, float* features,
+                                             size_t feature_capacity);
 /* Results overwritten before they were read (a full ring), since the stream was opened; 0 for
  * NULL. [stream owner] */
 KATA_API uint64_t kata_stream_results_dropped(kata_stream stream);
 /* Unread results in the ring; 0 for NULL. [stream owner] */
 KATA_API uint32_t kata_stream_results_pending(kata_stream stream);
-/* Joints of the stream's ghosts (0 without a ghost) and, for ghost joint i, the index of the
- * student skeleton joint it stands for (-1 when out of range). [stream owner] */
+/* Joints of the stream's ghosts (0 without a ghost). [stream owner] */
 KATA_API uint32_t kata_stream_ghost_joint_count(kata_stream stream);
+/* For ghost joint i, the index of the student skeleton joint it stands for (-1 when out of
+ * range). [stream owner] */
 KATA_API int32_t kata_stream_ghost_joint_source(kata_stream stream, uint32_t i);
 
 /* ==== Runtime: many streams, ZeroMQ in and out ============================================ */
@@ -723,6 +797,7 @@ KATA_API int32_t kata_stream_ghost_joint_source(kata_stream stream, uint32_t i);
  * messages are CLOCK_MONOTONIC nanoseconds, comparable between processes on one host.
  * Memory: create and add_stream allocate; push never does. */
 
+/* Many streams, ZeroMQ in and out (above). */
 typedef struct kata_runtime_s* kata_runtime;
 
 /* How a runtime is built. Fill with kata_runtime_desc_init, then change fields. */
@@ -746,7 +821,7 @@ typedef struct kata_runtime_desc {
 /* Counters since the runtime was created (sums over streams). */
 typedef struct kata_runtime_counters {
   uint32_t struct_size;             /* set by the caller: sizeof(kata_runtime_counters) */
-  uint32_t streams;
+  uint32_t streams;                 /* streams open */
   uint64_t frames_in;               /* frames queued */
   uint64_t queue_full;              /* frames dropped: a worker queue was full */
   uint64_t refused;                 /* frames a pipeline refused (kata_stream_push's reasons) */
@@ -808,17 +883,17 @@ KATA_API uint32_t kata_shard_of(uint64_t stream_id, uint32_t shard_count);
 typedef struct kata_result_message {
   uint32_t struct_size;          /* set by the caller: sizeof(kata_result_message) */
   uint32_t ghost_joint_count;    /* joints in ghost (0: none) */
-  uint64_t stream_id;
+  uint64_t stream_id;            /* the stream (the message's topic) */
   uint64_t result_sequence;      /* per stream, +1 per published result: gaps = dropped */
   uint64_t frame_sequence;       /* the source's sequence number of the frame */
-  int64_t frame_index;
+  int64_t frame_index;           /* the stream frame (as kata_result.frame_index) */
   int64_t capture_ns;            /* source clock */
   int64_t arrival_ns;            /* CLOCK_MONOTONIC ns (the runtime's host) */
-  int64_t computed_ns;
-  int64_t published_ns;
+  int64_t computed_ns;           /* CLOCK_MONOTONIC ns: the result was complete */
+  int64_t published_ns;          /* CLOCK_MONOTONIC ns: handed to ZeroMQ */
   int32_t scored;                /* 1: distance, score, parts and the matched frame are valid */
-  int32_t matched_teacher_frame;
-  float distance;
+  int32_t matched_teacher_frame; /* teacher frame matched (index from first_frame), -1 */
+  float distance;                /* d, dimensionless */
   float score;                   /* 0..100 */
   float parts[KATA_PART_COUNT];  /* split of d^2, kata_body_part order */
   const float* ghost;            /* ghost_joint_count x 3 floats, or NULL; valid until the message

@@ -27,10 +27,10 @@
 extern "C" {
 #endif
 
-#define KATA_PLUGIN_ABI_MAJOR 1u
-#define KATA_PLUGIN_ABI_MINOR 0u
-#define KATA_PLUGIN_ABI_VERSION ((KATA_PLUGIN_ABI_MAJOR << 16) | KATA_PLUGIN_ABI_MINOR)
-#define KATA_PLUGIN_ENTRY "kata_plugin_entry"
+#define KATA_PLUGIN_ABI_MAJOR 1u /* a host refuses a plugin of another major */
+#define KATA_PLUGIN_ABI_MINOR 0u /* + 1 when fields are added at the end of a table */
+#define KATA_PLUGIN_ABI_VERSION ((KATA_PLUGIN_ABI_MAJOR << 16) | KATA_PLUGIN_ABI_MINOR) /* kata_plugin.abi_version */
+#define KATA_PLUGIN_ENTRY "kata_plugin_entry" /* the one exported symbol's name */
 
 #if defined(_WIN32)
 #define KATA_PLUGIN_EXPORT __declspec(dllexport)
@@ -46,7 +46,7 @@ extern "C" {
 typedef struct kata_plugin_result {
   uint32_t struct_size;          /* sizeof(kata_plugin_result) of the host */
   uint32_t ghost_joint_count;    /* joints in ghost (0: no ghost) */
-  uint64_t stream_id;
+  uint64_t stream_id;            /* the runtime's stream id */
   uint64_t result_sequence;      /* per stream, +1 per result (gaps: dropped before the sink) */
   uint64_t frame_sequence;       /* the source's sequence number of the frame */
   int64_t frame_index;           /* the frame's index in the stream since it opened */

@@ -24,6 +24,10 @@ namespace kata::capi {
 // kata::Error), and its joint set name ("cmu", "gpd"). Defined in capi_retarget.cpp.
 kata::retarget::RetargetOptions retarget_options(const kata_retarget_desc* desc, std::string* joint_set);
 
+// Attaches the teacher a kata_teacher_desc describes to a stream (kata_stream_attach_teacher and
+// the deprecated reference calls); messages name `call`. Defined in capi_pipeline.cpp.
+kata_status attach_teacher(kata_stream stream, const kata_teacher_desc* desc, const char* call);
+
 // Sets / reads the calling thread's context error message.
 void set_context_error(const char* message) noexcept;
 const char* context_error() noexcept;

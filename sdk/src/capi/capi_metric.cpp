@@ -1,6 +1,7 @@
 // C shims for models and scoring (kata.h section "Models and scoring"): a kata_model holds the
-// compiled metric (shared, immutable); setting a reference attaches a score-only teacher to the
-// stream's pipeline (built when set, so pushes and kata_stream_score never allocate).
+// compiled metric (shared, immutable). The deprecated 0.x reference calls are thin wrappers over
+// the teacher (kata::capi::attach_teacher with no ghost): their own argument checks and messages,
+// then the one path kata_stream_attach_teacher takes.
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -31,13 +32,13 @@ kata_status make_model(kata::metric::Model model, kata_model* out) {
   return KATA_OK;
 }
 
-// Replaces the stream's reference (the old one is released only once the new one is built): a
-// teacher known by its features, scored without a ghost (kata_stream_attach_teacher makes ghosts).
-kata_status attach(kata_stream stream, std::shared_ptr<const kata::metric::Reference> ref) {
-  kata::pipeline::TeacherOptions options;
-  options.ghost = false;
-  stream->pipeline.set_teacher(kata::pipeline::Teacher::from_reference(std::move(ref)), options);
-  return KATA_OK;
+// A score-only teacher desc for the wrappers below.
+kata_teacher_desc score_only(kata_model model) {
+  kata_teacher_desc d;
+  kata_teacher_desc_init(&d);
+  d.model = model;
+  d.ghost = 0;
+  return d;
 }
 
 kata_status check_pair(kata_stream stream, kata_model model) {
@@ -101,9 +102,11 @@ KATA_API kata_status kata_stream_set_reference_pose(kata_stream stream, kata_mod
   if (count != static_cast<size_t>(KATA_GPD_DIMS))
     return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_set_reference_pose: count must be KATA_GPD_DIMS");
   if (kata_status s = check_pair(stream, model); s != KATA_OK) return s;
-  return guarded_stream(stream, [&] {
-    return attach(stream, std::make_shared<const kata::metric::Reference>(model->metric, features));
-  });
+  kata_teacher_desc d = score_only(model);
+  d.features = features;
+  d.frames = 1;
+  d.pose_frame = 0;
+  return kata::capi::attach_teacher(stream, &d, "kata_stream_set_reference_pose");
 }
 
 KATA_API kata_status kata_stream_set_reference_joints(kata_stream stream, kata_model model, const float* joints,
@@ -114,11 +117,11 @@ KATA_API kata_status kata_stream_set_reference_joints(kata_stream stream, kata_m
     return refuse(stream, KATA_E_INVALID_ARGUMENT,
                   "kata_stream_set_reference_joints: count must be 3 x KATA_GPD_JOINTS floats");
   if (kata_status s = check_pair(stream, model); s != KATA_OK) return s;
-  return guarded_stream(stream, [&] {
-    return attach(stream,
-                  std::make_shared<const kata::metric::Reference>(
-                      kata::metric::Reference::from_joints(model->metric, joints, body_height)));
-  });
+  kata_teacher_desc d = score_only(model);
+  d.joints = joints;
+  d.frames = 1;
+  d.body_height = body_height;
+  return kata::capi::attach_teacher(stream, &d, "kata_stream_set_reference_joints");
 }
 
 KATA_API kata_status kata_stream_set_reference_clip(kata_stream stream, kata_model model, const float* features,
@@ -128,11 +131,11 @@ KATA_API kata_status kata_stream_set_reference_clip(kata_stream stream, kata_mod
   if (frames == 0 || frames > (1u << 24))
     return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_set_reference_clip: frames must be in 1..2^24");
   if (kata_status s = check_pair(stream, model); s != KATA_OK) return s;
-  return guarded_stream(stream, [&] {
-    return attach(stream,
-                  std::make_shared<const kata::metric::Reference>(model->metric, features, static_cast<int>(frames),
-                                                                  frame_time));
-  });
+  kata_teacher_desc d = score_only(model);
+  d.features = features;
+  d.frames = frames;
+  d.frame_time = frame_time;
+  return kata::capi::attach_teacher(stream, &d, "kata_stream_set_reference_clip");
 }
 
 KATA_API kata_status kata_stream_set_reference_bvh(kata_stream stream, kata_model model, kata_clip clip,
@@ -140,42 +143,20 @@ KATA_API kata_status kata_stream_set_reference_bvh(kata_stream stream, kata_mode
   if (!stream) return KATA_E_NULL_POINTER;
   if (!clip || !preset) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_set_reference_bvh: clip and preset must not be NULL");
   if (kata_status s = check_pair(stream, model); s != KATA_OK) return s;
-  return guarded_stream(stream, [&] {
-    const kata::BvhClip& c = clip->clip;
-    if (first_frame >= static_cast<uint32_t>(c.frame_count()))
-      throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_stream_set_reference_bvh: first_frame is past the clip's end");
-    if (pose_frame < -1)
-      throw kata::Error(kata::ErrorKind::kInvalidArgument,
-                        "kata_stream_set_reference_bvh: pose_frame " + std::to_string(pose_frame) +
-                            " is below -1 (-1: the whole clip)");
-    if (pose_frame >= 0 && (static_cast<uint32_t>(pose_frame) < first_frame || pose_frame >= c.frame_count()))
-      throw kata::Error(kata::ErrorKind::kInvalidArgument,
-                        "kata_stream_set_reference_bvh: pose_frame must be -1 or a clip frame >= first_frame");
-    const kata::GpdMap map = kata::resolve_gpd_map(c.skeleton, kata::c_string(preset, "preset"), "");
-    const std::vector<float> f = kata::clip_features(c, map, model->metric->stencil(), static_cast<int>(first_frame));
-    std::shared_ptr<const kata::metric::Reference> ref;
-    if (pose_frame >= 0)
-      ref = std::make_shared<const kata::metric::Reference>(
-          model->metric, f.data() + static_cast<size_t>(static_cast<uint32_t>(pose_frame) - first_frame) * KATA_GPD_DIMS);
-    else
-      ref = std::make_shared<const kata::metric::Reference>(model->metric, f.data(),
-                                                            static_cast<int>(f.size() / KATA_GPD_DIMS), c.frame_time);
-    return attach(stream, std::move(ref));
-  });
+  kata_teacher_desc d = score_only(model);
+  d.clip = clip;
+  d.preset = preset;
+  d.first_frame = first_frame;
+  d.pose_frame = pose_frame;
+  return kata::capi::attach_teacher(stream, &d, "kata_stream_set_reference_bvh");
 }
 
-KATA_API kata_status kata_stream_clear_reference(kata_stream stream) {
-  if (!stream) return KATA_E_NULL_POINTER;
-  stream->pipeline.clear_teacher();
-  return KATA_OK;
-}
+KATA_API kata_status kata_stream_clear_reference(kata_stream stream) { return kata_stream_detach_teacher(stream); }
 
 KATA_API kata_status kata_stream_restart_reference(kata_stream stream) {
-  if (!stream) return KATA_E_NULL_POINTER;
-  if (!stream->pipeline.has_teacher())
+  if (stream && !stream->pipeline.has_teacher())
     return refuse(stream, KATA_E_STATE, "kata_stream_restart_reference: no reference is set");
-  stream->pipeline.restart_teacher();
-  return KATA_OK;
+  return kata_stream_restart_teacher(stream);
 }
 
 KATA_API kata_status kata_stream_score(kata_stream stream, kata_score_record* out) {

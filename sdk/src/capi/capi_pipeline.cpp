@@ -14,69 +14,152 @@ using kata::capi::refuse;
 
 namespace {
 
-// The caller's desc, checked to be a whole kata_teacher_desc.
-kata_teacher_desc effective_teacher_desc(const kata_teacher_desc* desc) {
+// The size of 0.2's kata_teacher_desc: every field before the 1.0 additions (features, joints).
+constexpr uint32_t kTeacherDescSize02 = static_cast<uint32_t>(offsetof(kata_teacher_desc, features));
+
+// The caller's desc, checked to be a whole released kata_teacher_desc (0.2's or this one); the
+// fields a 0.2 caller does not have keep kata_teacher_desc_init's values.
+kata_teacher_desc effective_teacher_desc(const kata_teacher_desc* desc, const char* call) {
   kata_teacher_desc d;
   kata_teacher_desc_init(&d);
-  // Only whole released structs: a partial copy could take half of the model pointer (the
-  // first release of this struct is this one, so its size is the only valid one).
-  if (desc->struct_size != sizeof d)
+  // Only whole released structs: a partial copy could take half of a pointer.
+  if (desc->struct_size != sizeof d && desc->struct_size != kTeacherDescSize02)
     throw kata::Error(kata::ErrorKind::kInvalidArgument,
-                      "kata_stream_attach_teacher: desc->struct_size is not sizeof(kata_teacher_desc) "
+                      std::string(call) + ": desc->struct_size is not sizeof(kata_teacher_desc) "
                       "(call kata_teacher_desc_init)");
-  std::memcpy(&d, desc, sizeof d);
+  std::memcpy(&d, desc, desc->struct_size);
   d.struct_size = sizeof d;
   return d;
 }
 
+[[noreturn]] void invalid(const char* call, const std::string& what) {
+  throw kata::Error(kata::ErrorKind::kInvalidArgument, std::string(call) + ": " + what);
+}
+
+// pose_frame (clip-relative, >= first_frame or -1) as an index into the teacher's frames from
+// first_frame on.
+int pose_index(const kata_teacher_desc& d, int frames, const char* call) {
+  if (d.pose_frame >= 0) {
+    if (static_cast<uint32_t>(d.pose_frame) < d.first_frame || d.pose_frame - static_cast<int>(d.first_frame) >= frames)
+      invalid(call, "pose_frame must be -1 or a teacher frame >= first_frame");
+    return d.pose_frame - static_cast<int>(d.first_frame);
+  }
+  if (d.pose_frame != -1)
+    invalid(call, "pose_frame " + std::to_string(d.pose_frame) + " is below -1 (-1: the whole clip)");
+  return -1;
+}
+
+// A teacher known by its features or its 16 GPD joints: scores only.
+std::shared_ptr<const kata::pipeline::Teacher> make_feature_teacher(const kata_teacher_desc& d, const char* call) {
+  const std::shared_ptr<const kata::metric::Metric>& metric = d.model->metric;
+  std::shared_ptr<const kata::metric::Reference> ref;
+  if (d.joints) {
+    if (d.frames > 1 || d.first_frame != 0 || d.pose_frame > 0)
+      invalid(call, "joints is one held pose: frames must be 1 (or 0) (a moving teacher of 16 GPD joints: positions "
+                    "on the \"gpd\" layout's skeleton)");
+    ref = std::make_shared<const kata::metric::Reference>(
+        kata::metric::Reference::from_joints(metric, d.joints, d.body_height));
+  } else {
+    if (d.frames == 0 || d.frames > (1u << 24) || d.first_frame >= d.frames)
+      invalid(call, "frames must be in 1..2^24 and first_frame below it");
+    const int frames = static_cast<int>(d.frames - d.first_frame);
+    const float* first = d.features + static_cast<size_t>(d.first_frame) * KATA_GPD_DIMS;
+    const int pose = pose_index(d, frames, call);
+    if (pose >= 0 || frames == 1)
+      ref = std::make_shared<const kata::metric::Reference>(metric, first + static_cast<size_t>(std::max(pose, 0)) * KATA_GPD_DIMS);
+    else
+      ref = std::make_shared<const kata::metric::Reference>(metric, first, frames, d.frame_time);
+  }
+  return kata::pipeline::Teacher::from_reference(std::move(ref));
+}
+
 // The teacher's joint positions and skeleton from the desc (a clip, or frames given in memory).
-std::shared_ptr<const kata::pipeline::Teacher> make_teacher(const kata_teacher_desc& d, kata::gpd::Stencil stencil) {
+std::shared_ptr<const kata::pipeline::Teacher> make_teacher(const kata_teacher_desc& d, kata::gpd::Stencil stencil,
+                                                            const char* call) {
   std::string preset = kata::c_string(d.preset, "kata_teacher_desc.preset");  // bounded read
   if (preset.empty()) preset = "cmu";
-  if (d.clip && (d.skeleton || d.positions))
-    throw kata::Error(kata::ErrorKind::kInvalidArgument,
-                      "kata_stream_attach_teacher: give a clip or skeleton + positions, not both");
+  if (d.features || d.joints) return make_feature_teacher(d, call);
   kata::Skeleton skeleton;
   std::vector<float> positions;
   double frame_time = 0.0;
   int frames = 0;
   if (d.clip) {
     const kata::BvhClip& c = d.clip->clip;
-    if (d.first_frame >= static_cast<uint32_t>(c.frame_count()))
-      throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_stream_attach_teacher: first_frame is past the clip's end");
+    if (d.first_frame >= static_cast<uint32_t>(c.frame_count())) invalid(call, "first_frame is past the clip's end");
     skeleton = c.skeleton;
     positions = kata::clip_positions(c, static_cast<int>(d.first_frame));
     frames = c.frame_count() - static_cast<int>(d.first_frame);
     frame_time = c.frame_time;
   } else {
     if (!d.skeleton || !d.positions)
-      throw kata::Error(kata::ErrorKind::kInvalidArgument,
-                        "kata_stream_attach_teacher: no teacher motion (set clip, or skeleton + positions + frames)");
+      invalid(call, "no teacher motion (set clip, skeleton + positions + frames, features + frames, or joints)");
     if (d.frames == 0 || d.frames > (1u << 24) || d.first_frame >= d.frames)
-      throw kata::Error(kata::ErrorKind::kInvalidArgument,
-                        "kata_stream_attach_teacher: frames must be in 1..2^24 and first_frame below it");
+      invalid(call, "frames must be in 1..2^24 and first_frame below it");
     skeleton = d.skeleton->skeleton;
     const size_t per_frame = 3 * static_cast<size_t>(skeleton.joint_count());
     positions.assign(d.positions + d.first_frame * per_frame, d.positions + d.frames * per_frame);
     frames = static_cast<int>(d.frames - d.first_frame);
     frame_time = d.frame_time;
   }
-  int pose = -1;
-  if (d.pose_frame >= 0) {
-    if (static_cast<uint32_t>(d.pose_frame) < d.first_frame || d.pose_frame - static_cast<int>(d.first_frame) >= frames)
-      throw kata::Error(kata::ErrorKind::kInvalidArgument,
-                        "kata_stream_attach_teacher: pose_frame must be -1 or a teacher frame >= first_frame");
-    pose = d.pose_frame - static_cast<int>(d.first_frame);
-  } else if (d.pose_frame != -1) {
-    throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_stream_attach_teacher: pose_frame must be >= -1");
-  }
+  const int pose = pose_index(d, frames, call);
   const kata::GpdMap map = kata::make_gpd_map(skeleton, kata::preset_joint_names(preset));
   kata::StreamConfig config = kata::stream_config_for(skeleton, map, stencil);
   return kata::pipeline::Teacher::from_positions(d.model->metric, skeleton, config, positions.data(), frames,
                                                  frame_time, pose);
 }
 
+// One pipeline result into the caller's records, as much as each caller struct holds (its
+// struct_size, which is kept).
+void copy_result(const kata::pipeline::Pipeline& p, const kata::pipeline::Result& r, uint32_t result_size,
+                 kata_result* out, uint32_t score_size, kata_score_record* score) {
+  kata_result k{};
+  k.struct_size = sizeof k;
+  k.flags = (r.scored ? KATA_RESULT_SCORED : 0u) | (r.has_ghost ? KATA_RESULT_GHOST : 0u);
+  k.sequence = r.sequence;
+  k.frame_index = r.frame_index;
+  k.capture_time = r.capture_time;
+  k.arrival_ns = r.arrival_ns;
+  k.computed_ns = r.computed_ns;
+  k.matched_teacher_frame = r.scored ? r.matched_frame : -1;
+  k.ghost_joint_count = r.has_ghost ? static_cast<uint32_t>(p.ghost_joint_count()) : 0u;
+  std::memcpy(out, &k, std::min<size_t>(result_size, sizeof k));
+  std::memcpy(out, &result_size, sizeof result_size);
+  if (score) {
+    score->struct_size = score_size;
+    if (r.scored) {
+      kata::capi::copy_score(r, score);
+    } else {
+      std::memset(score, 0, score_size);
+      score->struct_size = score_size;
+    }
+  }
+}
+
 }  // namespace
+
+namespace kata::capi {
+
+kata_status attach_teacher(kata_stream stream, const kata_teacher_desc* desc, const char* call) {
+  return guarded_stream(stream, [&] {
+    const kata_teacher_desc d = effective_teacher_desc(desc, call);
+    if (!d.model) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_attach_teacher: desc->model is NULL");
+    kata::pipeline::TeacherOptions options;
+    options.ghost = d.ghost != 0;
+    options.retarget = kata::capi::retarget_options(d.retarget, &options.ghost_joints);
+    const int motions = (d.clip ? 1 : 0) + (d.skeleton || d.positions ? 1 : 0) + (d.features ? 1 : 0) + (d.joints ? 1 : 0);
+    if (motions > 1) invalid(call, "give one teacher motion: a clip, skeleton + positions, features or joints, not several");
+    if (options.ghost && (d.features || d.joints))
+      invalid(call, "a teacher given as features or GPD joints has no joint positions to make a ghost from "
+                    "(set desc->ghost = 0, or give the teacher as a clip or positions)");
+    if (options.ghost && !stream->pipeline.student().has_rest_pose)
+      invalid(call, "a ghost needs the student's bone lengths, and the stream's skeleton has no rest offsets "
+                    "(set desc->ghost = 0 for scores only)");
+    stream->pipeline.set_teacher(make_teacher(d, stream->pipeline.stream().config().stencil, call), options);
+    return KATA_OK;
+  });
+}
+
+}  // namespace kata::capi
 
 extern "C" {
 
@@ -91,19 +174,21 @@ KATA_API void kata_teacher_desc_init(kata_teacher_desc* desc) {
 KATA_API kata_status kata_stream_attach_teacher(kata_stream stream, const kata_teacher_desc* desc) {
   if (!stream) return KATA_E_NULL_POINTER;
   if (!desc) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_attach_teacher: desc is NULL");
-  return guarded_stream(stream, [&] {
-    const kata_teacher_desc d = effective_teacher_desc(desc);
-    if (!d.model) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_attach_teacher: desc->model is NULL");
-    kata::pipeline::TeacherOptions options;
-    options.ghost = d.ghost != 0;
-    options.retarget = kata::capi::retarget_options(d.retarget, &options.ghost_joints);
-    if (options.ghost && !stream->pipeline.student().has_rest_pose)
-      throw kata::Error(kata::ErrorKind::kInvalidArgument,
-                        "kata_stream_attach_teacher: a ghost needs the student's bone lengths, and the stream's "
-                        "skeleton has no rest offsets (set desc->ghost = 0 for scores only)");
-    stream->pipeline.set_teacher(make_teacher(d, stream->pipeline.stream().config().stencil), options);
-    return KATA_OK;
-  });
+  return kata::capi::attach_teacher(stream, desc, "kata_stream_attach_teacher");
+}
+
+KATA_API kata_status kata_stream_detach_teacher(kata_stream stream) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  stream->pipeline.clear_teacher();
+  return KATA_OK;
+}
+
+KATA_API kata_status kata_stream_restart_teacher(kata_stream stream) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (!stream->pipeline.has_teacher())
+    return refuse(stream, KATA_E_STATE, "kata_stream_restart_teacher: no teacher is attached");
+  stream->pipeline.restart_teacher();
+  return KATA_OK;
 }
 
 KATA_API kata_status kata_stream_read_results(kata_stream stream, kata_result* results, kata_score_record* scores,
@@ -133,32 +218,38 @@ KATA_API kata_status kata_stream_read_results(kata_stream stream, kata_result* r
     float* g = ghosts ? ghosts + n * ghost_floats : nullptr;
     float* f = features ? features + static_cast<size_t>(n) * KATA_GPD_DIMS : nullptr;
     if (p.read(&r, g, f, 1) == 0) break;
-    kata_result k{};
-    k.struct_size = sizeof k;
-    k.flags = (r.scored ? KATA_RESULT_SCORED : 0u) | (r.has_ghost ? KATA_RESULT_GHOST : 0u);
-    k.sequence = r.sequence;
-    k.frame_index = r.frame_index;
-    k.capture_time = r.capture_time;
-    k.arrival_ns = r.arrival_ns;
-    k.computed_ns = r.computed_ns;
-    k.matched_teacher_frame = r.scored ? r.matched_frame : -1;
-    k.ghost_joint_count = r.has_ghost ? static_cast<uint32_t>(p.ghost_joint_count()) : 0u;
-    auto* dst = reinterpret_cast<unsigned char*>(results) + static_cast<size_t>(n) * result_size;
-    std::memcpy(dst, &k, std::min<size_t>(result_size, sizeof k));
-    std::memcpy(dst, &result_size, sizeof result_size);
-    if (scores) {
-      auto* rec = reinterpret_cast<kata_score_record*>(reinterpret_cast<unsigned char*>(scores) +
-                                                      static_cast<size_t>(n) * score_size);
-      rec->struct_size = score_size;
-      if (r.scored) {
-        kata::capi::copy_score(r, rec);
-      } else {
-        std::memset(rec, 0, score_size);
-        rec->struct_size = score_size;
-      }
-    }
+    auto* res = reinterpret_cast<kata_result*>(reinterpret_cast<unsigned char*>(results) + static_cast<size_t>(n) * result_size);
+    auto* rec = scores ? reinterpret_cast<kata_score_record*>(reinterpret_cast<unsigned char*>(scores) +
+                                                             static_cast<size_t>(n) * score_size)
+                       : nullptr;
+    copy_result(p, r, result_size, res, score_size, rec);
   }
   *count = n;
+  return KATA_OK;
+}
+
+KATA_API kata_status kata_stream_read_newest(kata_stream stream, kata_result* result, kata_score_record* score,
+                                             float* ghost, size_t ghost_capacity, float* features,
+                                             size_t feature_capacity) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (!result) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_read_newest: result must not be NULL");
+  kata::pipeline::Pipeline& p = stream->pipeline;
+  const uint32_t result_size = result->struct_size;
+  if (result_size < offsetof(kata_result, flags) + sizeof(uint32_t))
+    return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_read_newest: result->struct_size is not set");
+  const uint32_t score_size = score ? score->struct_size : 0;
+  if (score && score_size < sizeof(uint32_t))
+    return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_read_newest: score->struct_size is not set");
+  if (ghost && ghost_capacity < 3 * static_cast<size_t>(p.ghost_joint_count()))
+    return refuse(stream, KATA_E_BUFFER_TOO_SMALL,
+                  "kata_stream_read_newest: ghost holds fewer than 3 x kata_stream_ghost_joint_count() floats");
+  if (features && feature_capacity < static_cast<size_t>(KATA_GPD_DIMS))
+    return refuse(stream, KATA_E_BUFFER_TOO_SMALL, "kata_stream_read_newest: features holds fewer than KATA_GPD_DIMS floats");
+  if (p.pending() == 0) return KATA_NO_DATA;
+  kata::pipeline::Result r;
+  while (p.pending() > 1) p.read(&r, nullptr, nullptr, 1);  // the older unread results: passed over
+  p.read(&r, ghost, features, 1);
+  copy_result(p, r, result_size, result, score_size, score);
   return KATA_OK;
 }
 

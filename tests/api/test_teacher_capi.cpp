@@ -1,0 +1,343 @@
+// The teacher as kata.h's one way to say what a stream is compared with (1.0): a teacher given as
+// GPD features or as the 16 GPD joints, the newest result as a convenience over the ring, detach
+// and restart. Through the shipped libkata only. The expected values are known without kata: a
+// stream compared with its own features or its own held pose is at distance 0 (d = |W^T (x - x)|)
+// on every frame, matched frame for frame; the newest result is the last one a drain returns.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstddef>
+#include <cstring>
+#include <vector>
+
+#include "kata/kata.h"
+
+namespace {
+
+struct TeacherCapi : ::testing::Test {
+  void SetUp() override {
+    ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+    ASSERT_EQ(kata_model_load(ctx, KATA_SOURCE_DIR "/models/default.kata", &model), KATA_OK)
+        << kata_context_last_error(ctx);
+    ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_01.bvh", &clip), KATA_OK);
+    ASSERT_EQ(kata_clip_skeleton(clip, &skel), KATA_OK);
+    joints = kata_skeleton_joint_count(skel);
+  }
+  void TearDown() override {
+    kata_skeleton_destroy(skel);
+    kata_clip_destroy(clip);
+    kata_model_free(model);
+    kata_context_destroy(ctx);
+  }
+  kata_stream open(kata_skeleton on, const char* preset, double body_height = 0.0) {
+    kata_stream_desc d;
+    kata_stream_desc_init(&d);
+    d.preset = preset;
+    d.stencil = kata_model_stencil(model);
+    d.body_height = body_height;
+    d.result_capacity = 256;
+    kata_stream s = nullptr;
+    EXPECT_EQ(kata_stream_open(ctx, on, &d, &s), KATA_OK) << kata_context_last_error(ctx);
+    return s;
+  }
+  std::vector<float> frame(uint32_t f) {
+    std::vector<float> p(3 * static_cast<size_t>(joints));
+    EXPECT_EQ(kata_clip_positions(clip, f, p.data(), p.size()), KATA_OK);
+    return p;
+  }
+  kata_teacher_desc desc() {
+    kata_teacher_desc t;
+    kata_teacher_desc_init(&t);
+    t.model = model;
+    return t;
+  }
+  // Drains every unread result of s.
+  static std::vector<kata_result> drain(kata_stream s, std::vector<kata_score_record>* scores) {
+    std::vector<kata_result> r(kata_stream_results_pending(s) + 1);
+    scores->assign(r.size(), kata_score_record{});
+    r[0].struct_size = sizeof r[0];
+    (*scores)[0].struct_size = sizeof(kata_score_record);
+    uint32_t n = 0;
+    EXPECT_EQ(kata_stream_read_results(s, r.data(), scores->data(), nullptr, 0, nullptr, 0,
+                                       static_cast<uint32_t>(r.size()), &n),
+              KATA_OK);
+    r.resize(n);
+    scores->resize(n);
+    return r;
+  }
+  kata_context ctx = nullptr;
+  kata_model model = nullptr;
+  kata_clip clip = nullptr;
+  kata_skeleton skel = nullptr;
+  uint32_t joints = 0;
+};
+
+constexpr uint32_t kFirst = 1, kFrames = 90;  // frames 1..90 of CMU 02_01 (frame 0: the T-pose)
+
+TEST_F(TeacherCapi, AStreamComparedWithItsOwnFeaturesIsAtDistanceZeroFrameForFrame) {
+  // The teacher's features: every vector a stream of the clip emits, as kata_stream_features gives it.
+  kata_stream t = open(skel, "cmu");
+  std::vector<float> features;
+  std::vector<float> f(KATA_GPD_DIMS);
+  int64_t seen = 0;
+  for (uint32_t i = 0; i < kFrames; ++i) {
+    ASSERT_EQ(kata_stream_push(t, i * kata_clip_frame_time(clip), frame(kFirst + i).data(), joints), KATA_OK);
+    if (kata_stream_feature_count(t) == seen) continue;
+    seen = kata_stream_feature_count(t);
+    ASSERT_EQ(kata_stream_features(t, f.data(), f.size(), nullptr, nullptr), KATA_OK);
+    features.insert(features.end(), f.begin(), f.end());
+  }
+  kata_stream_close(t);
+  const uint32_t vectors = static_cast<uint32_t>(features.size() / KATA_GPD_DIMS);
+  ASSERT_GT(vectors, kFrames - 4);
+
+  kata_stream s = open(skel, "cmu");
+  kata_teacher_desc d = desc();
+  d.features = features.data();
+  d.frames = vectors;
+  d.frame_time = kata_clip_frame_time(clip);
+  EXPECT_EQ(kata_stream_attach_teacher(s, &d), KATA_E_INVALID_ARGUMENT) << "ghost = 1 with features is refused";
+  EXPECT_NE(std::strstr(kata_stream_last_error(s), "ghost"), nullptr) << kata_stream_last_error(s);
+  d.ghost = 0;
+  ASSERT_EQ(kata_stream_attach_teacher(s, &d), KATA_OK) << kata_stream_last_error(s);
+  EXPECT_EQ(kata_stream_ghost_joint_count(s), 0u);
+  for (uint32_t i = 0; i < kFrames; ++i)
+    ASSERT_EQ(kata_stream_push(s, i * kata_clip_frame_time(clip), frame(kFirst + i).data(), joints), KATA_OK);
+  std::vector<kata_score_record> sc;
+  const std::vector<kata_result> r = drain(s, &sc);
+  ASSERT_EQ(r.size(), vectors);
+  for (size_t k = 0; k < r.size(); ++k) {
+    EXPECT_TRUE(r[k].flags & KATA_RESULT_SCORED) << k;
+    EXPECT_FALSE(r[k].flags & KATA_RESULT_GHOST) << k;
+    EXPECT_EQ(r[k].sequence, k);
+    EXPECT_EQ(r[k].matched_teacher_frame, static_cast<int32_t>(k)) << "frame for frame";
+    EXPECT_EQ(sc[k].matched_reference_frame, static_cast<int32_t>(k));
+    EXPECT_LT(sc[k].distance, 1e-4f) << k;
+    if (sc[k].state == KATA_SCORE_SCORING) {
+      EXPECT_GT(sc[k].score, 99.99f) << k;
+    }
+  }
+  EXPECT_EQ(sc.back().state, KATA_SCORE_SCORING);
+
+  // One of those vectors as a single-pose teacher (pose_frame): the matching frame is at 0, the
+  // others farther; a pose always "matches" frame 0.
+  const uint32_t pose = 40;
+  d.pose_frame = static_cast<int32_t>(pose);
+  ASSERT_EQ(kata_stream_attach_teacher(s, &d), KATA_OK) << kata_stream_last_error(s);
+  kata_stream_reset(s);
+  for (uint32_t i = 0; i < kFrames; ++i)
+    ASSERT_EQ(kata_stream_push(s, 10.0 + i * kata_clip_frame_time(clip), frame(kFirst + i).data(), joints), KATA_OK);
+  const std::vector<kata_result> p = drain(s, &sc);
+  ASSERT_EQ(p.size(), vectors);
+  float farthest = 0.0f;
+  for (size_t k = 0; k < p.size(); ++k) {
+    EXPECT_EQ(sc[k].matched_reference_frame, 0) << k;
+    if (k == pose) {
+      EXPECT_LT(sc[k].distance, 1e-4f);
+    }
+    if (k + 10 < pose || k > pose + 10) {
+      EXPECT_GT(sc[k].distance, 1e-3f) << k;
+    }
+    farthest = std::fmax(farthest, sc[k].distance);
+  }
+  EXPECT_GT(farthest, 0.01f);
+  kata_stream_close(s);
+}
+
+TEST_F(TeacherCapi, AHeldPoseGivenAsTheSixteenGpdJointsMatchesAStudentHoldingIt) {
+  // The 16 GPD joints of clip frame 30 (the "cmu" preset's joints, in GPD order), and a student
+  // that sends exactly those 16 joints, held still ("gpd" layout, the same body height).
+  static const char* const kCmuGpd[KATA_GPD_JOINTS] = {
+      "Hips", "Spine1", "Neck1", "Head", "LeftArm", "LeftForeArm", "LeftHand", "RightArm",
+      "RightForeArm", "RightHand", "LeftUpLeg", "LeftLeg", "LeftFoot", "RightUpLeg", "RightLeg", "RightFoot"};
+  const std::vector<float> all = frame(30);
+  std::vector<float> pose(3 * KATA_GPD_JOINTS);
+  for (int g = 0; g < KATA_GPD_JOINTS; ++g) {
+    uint32_t j = 0;
+    while (j < joints && std::strcmp(kata_skeleton_joint_name(skel, j), kCmuGpd[g]) != 0) ++j;
+    ASSERT_LT(j, joints) << kCmuGpd[g];
+    for (int k = 0; k < 3; ++k) pose[3 * g + k] = all[3 * j + k];
+  }
+  const double body_height = 30.0;  // any value, the same for both: features are in body heights
+
+  kata_skeleton gpd = nullptr;
+  ASSERT_EQ(kata_skeleton_create_layout(ctx, "gpd", &gpd), KATA_OK);
+  kata_stream s = open(gpd, "gpd", body_height);
+  kata_skeleton_destroy(gpd);
+  kata_teacher_desc d = desc();
+  d.joints = pose.data();
+  d.body_height = body_height;
+  d.ghost = 0;
+  ASSERT_EQ(kata_stream_attach_teacher(s, &d), KATA_OK) << kata_stream_last_error(s);
+  // A moving teacher of GPD joints is positions, not joints: refused with the way to say it.
+  kata_teacher_desc moving = d;
+  moving.frames = 2;
+  EXPECT_EQ(kata_stream_attach_teacher(s, &moving), KATA_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::strstr(kata_stream_last_error(s), "positions"), nullptr) << kata_stream_last_error(s);
+
+  for (int i = 0; i < 20; ++i) ASSERT_EQ(kata_stream_push(s, i / 30.0, pose.data(), KATA_GPD_JOINTS), KATA_OK);
+  kata_result r;
+  r.struct_size = sizeof r;
+  kata_score_record sc;
+  sc.struct_size = sizeof sc;
+  ASSERT_EQ(kata_stream_read_newest(s, &r, &sc, nullptr, 0, nullptr, 0), KATA_OK);
+  EXPECT_TRUE(r.flags & KATA_RESULT_SCORED);
+  EXPECT_LT(sc.distance, 1e-4f) << "held still: kinetics zero on both sides, the same static features";
+  EXPECT_EQ(sc.state, KATA_SCORE_SCORING);
+  EXPECT_GT(sc.score, 99.99f);
+  // Another pose (frame 90) held by the student is farther.
+  const std::vector<float> other_all = frame(90);
+  std::vector<float> other(pose);
+  for (int g = 0; g < KATA_GPD_JOINTS; ++g) {
+    uint32_t j = 0;
+    while (std::strcmp(kata_skeleton_joint_name(skel, j), kCmuGpd[g]) != 0) ++j;
+    for (int k = 0; k < 3; ++k) other[3 * g + k] = other_all[3 * j + k];
+  }
+  for (int i = 20; i < 40; ++i) ASSERT_EQ(kata_stream_push(s, i / 30.0, other.data(), KATA_GPD_JOINTS), KATA_OK);
+  ASSERT_EQ(kata_stream_read_newest(s, &r, &sc, nullptr, 0, nullptr, 0), KATA_OK);
+  EXPECT_GT(sc.distance, 1e-2f);
+  kata_stream_close(s);
+}
+
+TEST_F(TeacherCapi, TheNewestResultIsTheLastEntryOfADrain) {
+  kata_skeleton student = nullptr;
+  kata_clip sclip = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &sclip), KATA_OK);
+  ASSERT_EQ(kata_clip_skeleton(sclip, &student), KATA_OK);
+  const uint32_t sj = kata_skeleton_joint_count(student);
+  kata_stream a = open(student, "cmu"), b = open(student, "cmu");
+  kata_teacher_desc d = desc();
+  d.clip = clip;
+  d.first_frame = kFirst;
+  ASSERT_EQ(kata_stream_attach_teacher(a, &d), KATA_OK) << kata_stream_last_error(a);
+  ASSERT_EQ(kata_stream_attach_teacher(b, &d), KATA_OK) << kata_stream_last_error(b);
+  const uint32_t g = kata_stream_ghost_joint_count(b);
+  ASSERT_GT(g, 0u);
+
+  kata_result r;
+  r.struct_size = sizeof r;
+  kata_score_record sc;
+  sc.struct_size = sizeof sc;
+  std::vector<float> ghost(3 * g);
+  EXPECT_EQ(kata_stream_read_newest(b, &r, &sc, ghost.data(), ghost.size(), nullptr, 0), KATA_NO_DATA);
+  EXPECT_EQ(kata_stream_read_newest(b, &r, &sc, ghost.data(), ghost.size() - 1, nullptr, 0), KATA_E_BUFFER_TOO_SMALL);
+
+  std::vector<float> p(3 * static_cast<size_t>(sj));
+  for (uint32_t round = 0; round < 3; ++round) {
+    for (uint32_t i = 0; i < 12; ++i) {
+      const uint32_t f = 1 + round * 12 + i;
+      ASSERT_EQ(kata_clip_positions(sclip, f, p.data(), p.size()), KATA_OK);
+      ASSERT_EQ(kata_stream_push(a, f / 120.0, p.data(), sj), KATA_OK);
+      ASSERT_EQ(kata_stream_push(b, f / 120.0, p.data(), sj), KATA_OK);
+    }
+    // a: every result; b: the newest only.
+    std::vector<kata_result> all(64);
+    std::vector<kata_score_record> all_sc(64);
+    std::vector<float> all_ghosts(64 * 3 * static_cast<size_t>(g));
+    all[0].struct_size = sizeof all[0];
+    all_sc[0].struct_size = sizeof all_sc[0];
+    uint32_t n = 0;
+    ASSERT_EQ(kata_stream_read_results(a, all.data(), all_sc.data(), all_ghosts.data(), all_ghosts.size(), nullptr, 0,
+                                       64, &n),
+              KATA_OK);
+    ASSERT_GT(n, 1u);
+    ASSERT_EQ(kata_stream_read_newest(b, &r, &sc, ghost.data(), ghost.size(), nullptr, 0), KATA_OK);
+    const kata_result& last = all[n - 1];
+    EXPECT_EQ(r.sequence, last.sequence);
+    EXPECT_EQ(r.frame_index, last.frame_index);
+    EXPECT_EQ(r.capture_time, last.capture_time);
+    EXPECT_EQ(r.flags, last.flags);
+    EXPECT_EQ(r.matched_teacher_frame, last.matched_teacher_frame);
+    EXPECT_EQ(r.ghost_joint_count, g);
+    EXPECT_EQ(sc.distance, all_sc[n - 1].distance);
+    EXPECT_EQ(sc.score, all_sc[n - 1].score);
+    for (size_t k = 0; k < ghost.size(); ++k) ASSERT_EQ(ghost[k], all_ghosts[(n - 1) * ghost.size() + k]) << k;
+    // The older ones were passed over, not dropped; nothing new: no data.
+    EXPECT_EQ(kata_stream_results_pending(b), 0u);
+    EXPECT_EQ(kata_stream_results_dropped(b), 0u);
+    EXPECT_EQ(kata_stream_read_newest(b, &r, &sc, nullptr, 0, nullptr, 0), KATA_NO_DATA);
+  }
+  kata_stream_close(a);
+  kata_stream_close(b);
+  kata_skeleton_destroy(student);
+  kata_clip_destroy(sclip);
+}
+
+TEST_F(TeacherCapi, RestartMatchesFromTheStartAndDetachStopsScoring) {
+  kata_stream s = open(skel, "cmu");
+  EXPECT_EQ(kata_stream_restart_teacher(s), KATA_E_STATE);
+  kata_teacher_desc d = desc();
+  d.clip = clip;
+  d.first_frame = kFirst;
+  ASSERT_EQ(kata_stream_attach_teacher(s, &d), KATA_OK) << kata_stream_last_error(s);
+  const double dt = kata_clip_frame_time(clip);
+  kata_result r;
+  r.struct_size = sizeof r;
+  kata_score_record sc;
+  sc.struct_size = sizeof sc;
+  // The teacher's own frames 1..60: the match follows, frame for frame.
+  for (uint32_t i = 0; i < 60; ++i) ASSERT_EQ(kata_stream_push(s, i * dt, frame(kFirst + i).data(), joints), KATA_OK);
+  ASSERT_EQ(kata_stream_read_newest(s, &r, &sc, nullptr, 0, nullptr, 0), KATA_OK);
+  EXPECT_GE(r.matched_teacher_frame, 50);
+  // From the clip's start again: without a restart the monotone match cannot go back ...
+  kata_stream_reset(s);
+  ASSERT_EQ(kata_stream_push(s, 60 * dt, frame(kFirst).data(), joints), KATA_OK);
+  ASSERT_EQ(kata_stream_push(s, 61 * dt, frame(kFirst + 1).data(), joints), KATA_OK);
+  ASSERT_EQ(kata_stream_read_newest(s, &r, &sc, nullptr, 0, nullptr, 0), KATA_OK);
+  EXPECT_GE(r.matched_teacher_frame, 50);
+  // ... with one it does, and calibrates again.
+  ASSERT_EQ(kata_stream_restart_teacher(s), KATA_OK);
+  kata_stream_reset(s);
+  for (uint32_t i = 0; i < 3; ++i) ASSERT_EQ(kata_stream_push(s, (70 + i) * dt, frame(kFirst + i).data(), joints), KATA_OK);
+  ASSERT_EQ(kata_stream_read_newest(s, &r, &sc, nullptr, 0, nullptr, 0), KATA_OK);
+  EXPECT_LE(r.matched_teacher_frame, 3);
+  EXPECT_EQ(sc.state, KATA_SCORE_CALIBRATING);
+
+  ASSERT_EQ(kata_stream_detach_teacher(s), KATA_OK);
+  EXPECT_EQ(kata_stream_ghost_joint_count(s), 0u);
+  ASSERT_EQ(kata_stream_push(s, 80 * dt, frame(kFirst + 3).data(), joints), KATA_OK);
+  ASSERT_EQ(kata_stream_read_newest(s, &r, &sc, nullptr, 0, nullptr, 0), KATA_OK);
+  EXPECT_EQ(r.flags & (KATA_RESULT_SCORED | KATA_RESULT_GHOST), 0u);
+  EXPECT_EQ(r.matched_teacher_frame, -1);
+  EXPECT_EQ(sc.distance, 0.0f);
+  EXPECT_EQ(kata_stream_restart_teacher(s), KATA_E_STATE);
+  EXPECT_EQ(kata_stream_detach_teacher(s), KATA_OK) << "without a teacher too";
+  kata_stream_close(s);
+}
+
+TEST_F(TeacherCapi, DescSizesMotionsAndNullsAreChecked) {
+  kata_stream s = open(skel, "cmu");
+  kata_teacher_desc d = desc();
+  d.clip = clip;
+  d.first_frame = kFirst;
+  // 0.2's struct (every field before features) is accepted: a 0.2 caller keeps working.
+  d.struct_size = static_cast<uint32_t>(offsetof(kata_teacher_desc, features));
+  EXPECT_EQ(kata_stream_attach_teacher(s, &d), KATA_OK) << kata_stream_last_error(s);
+  EXPECT_GT(kata_stream_ghost_joint_count(s), 0u);
+  for (uint32_t size : {0u, 4u, static_cast<uint32_t>(sizeof d) + 8u, static_cast<uint32_t>(sizeof d) - 8u}) {
+    d.struct_size = size;
+    EXPECT_EQ(kata_stream_attach_teacher(s, &d), KATA_E_INVALID_ARGUMENT) << size;
+  }
+  d.struct_size = sizeof d;
+  std::vector<float> f(KATA_GPD_DIMS, 0.1f);
+  d.features = f.data();
+  d.frames = 1;
+  EXPECT_EQ(kata_stream_attach_teacher(s, &d), KATA_E_INVALID_ARGUMENT) << "a clip and features";
+  EXPECT_NE(std::strstr(kata_stream_last_error(s), "one teacher motion"), nullptr) << kata_stream_last_error(s);
+  d.clip = nullptr;
+  d.first_frame = 0;
+  d.ghost = 0;
+  d.frames = 0;
+  EXPECT_EQ(kata_stream_attach_teacher(s, &d), KATA_E_INVALID_ARGUMENT) << "features without frames";
+  d.frames = 1;
+  f[7] = NAN;
+  EXPECT_EQ(kata_stream_attach_teacher(s, &d), KATA_E_INVALID_ARGUMENT) << "non-finite features";
+  EXPECT_GT(kata_stream_ghost_joint_count(s), 0u) << "a refused call leaves the old teacher";
+  EXPECT_EQ(kata_stream_read_newest(nullptr, nullptr, nullptr, nullptr, 0, nullptr, 0), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_read_newest(s, nullptr, nullptr, nullptr, 0, nullptr, 0), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_detach_teacher(nullptr), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_restart_teacher(nullptr), KATA_E_NULL_POINTER);
+  kata_stream_close(s);
+}
+
+}  // namespace
