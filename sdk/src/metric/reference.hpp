@@ -35,6 +35,10 @@ class Reference {
   // Median distance between consecutive reference frames (clip only; 0 for a pose): the scale of
   // one frame of teacher motion, used by the alignment's step penalty.
   double step_cost() const { return step_cost_; }
+  // Median distance between two unrelated frames of the clip (pairs at least a second apart when
+  // the clip is long enough; 0 for a pose): the cost of being at the wrong place, which sets the
+  // alignment's re-localisation margin (align.hpp).
+  double spread() const { return spread_; }
   const Metric& metric() const { return *metric_; }
   // Projection of frame j: kProjectionRows x stride floats (Metric::part_projections).
   const float* part_projection(int j) const {
@@ -51,6 +55,7 @@ class Reference {
   int frames_ = 0, stride_ = 0;
   double frame_time_ = 0.0;
   double step_cost_ = 0.0;
+  double spread_ = 0.0;
   AlignedFloats rows_;
 };
 

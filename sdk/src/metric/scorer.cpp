@@ -60,6 +60,7 @@ const ScoreRecord& Scorer::score_lost(double t) {
   record_.score = 0.0f;
   for (int q = 0; q < kParts; ++q) record_.parts[q] = record_.part_distance[q] = record_.part_scores[q] = 0.0f;
   record_.matched = aligner_.match();
+  record_.matched_time = record_.matched * reference_->frame_time();
   record_.state = ScoreState::kTrackingLost;
   // The cue is withdrawn at once: nothing about the pose is known.
   record_.part_to_fix = shown_ = candidate_ = -1;
@@ -114,13 +115,14 @@ void Scorer::finish(double t) {
   record_.distance = static_cast<float>(d);
   record_.score = static_cast<float>(calibrated_score(d, c.d50, c.slope));
   record_.matched = j;
+  record_.matched_time = j * ref.frame_time();
   feedback(t);
 }
 
 void Scorer::feedback(double t) {
   const Reference& ref = *reference_;
   ScoreState state = ScoreState::kScoring;
-  if (ref.kind() == ReferenceKind::kClip && record_.matched == ref.frames() - 1) {
+  if (ref.kind() == ReferenceKind::kClip && !aligner_.options().loop && record_.matched == aligner_.last()) {
     if (at_end_since_ < 0.0) at_end_since_ = t;
     if (t - at_end_since_ >= feedback_.finished_time && ref.frames() > 1) state = ScoreState::kTeacherFinished;
   } else {

@@ -42,6 +42,9 @@ struct ScoreRecord {
   // new candidate has held for FeedbackOptions::hold_time seconds (hysteresis).
   int32_t part_to_fix = -1;
   ScoreState state = ScoreState::kScoring;
+  // Where the student is in the routine: matched * the clip's frame time, seconds from the
+  // clip's first frame (0 for a pose reference).
+  double matched_time = 0.0;
 };
 
 // How feedback is held and when the states apply.
@@ -85,7 +88,10 @@ class Scorer {
 
   const ScoreRecord& last() const { return record_; }
   const Reference& reference() const { return *reference_; }
-  // Restarts the alignment (the next frame is matched from the clip's start) and the frame count.
+  // The alignment's re-localisations since construction or reset (Aligner::relocations).
+  int64_t relocations() const { return aligner_.relocations(); }
+  const Aligner& aligner() const { return aligner_; }
+  // Restarts the alignment (the next frame is matched anywhere in the section) and the frame count.
   void reset();
 
  private:
