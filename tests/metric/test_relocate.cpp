@@ -13,7 +13,9 @@
 #include <vector>
 
 #include "fixtures.hpp"
+#include "common/error.hpp"
 #include "metric/align.hpp"
+#include "metric/align_dtw.hpp"
 #include "io/model_file.hpp"
 #include "stream/stream.hpp"
 
@@ -262,6 +264,66 @@ TEST_F(Relocate, LoopedSectionFollowsEveryRepetition) {
   }
   EXPECT_GE(close, 0.95 * judged) << close << " of " << judged;
   EXPECT_EQ(r.relocations, 0);
+}
+
+}  // namespace
+}  // namespace kata
+
+namespace kata {
+namespace {
+
+// Real pairs, same motion, different bodies (different subjects for the walks; the default
+// lesson's pair for the dance): the online matched frames agree with the offline subsequence
+// DTW (metric/align_dtw.hpp) within 0.25 s on >= 90% of the frames, on each pair.
+TEST(RelocateVsDtw, OnlineAgreesWithTheOfflineReferenceOnRealPairs) {
+  const char* pairs[][2] = {{"02_01.bvh", "07_01.bvh"}, {"07_01.bvh", "02_01.bvh"}, {"02_02.bvh", "07_01.bvh"},
+                            {"07_01.bvh", "02_02.bvh"}, {"05_18.bvh", "05_19_on_02.bvh"}};
+  const auto& metric = shipped_metric();
+  const int stride = metric->stride();
+  int all = 0, all_close = 0;
+  for (const auto& p : pairs) {
+    const auto& teacher = test::clip_rows(p[0]);
+    const auto& student = test::clip_rows(p[1]);
+    const auto ref = std::make_shared<const metric::Reference>(metric, teacher.data(), test::clip_frames(p[0]), 1.0 / kFps);
+    const int n = test::clip_frames(p[1]);
+    std::vector<float> rows(static_cast<size_t>(n) * stride);
+    metric::AlignedFloats proj(static_cast<size_t>(metric::kProjectionRows) * stride);
+    metric::Metric::Workspace ws = metric->make_workspace();
+    for (int i = 0; i < n; ++i) {
+      metric->part_projections(student.data() + static_cast<size_t>(i) * gpd::kDims, ws, proj.data());
+      std::copy(proj.data() + static_cast<size_t>(metric::kParts) * stride,
+                proj.data() + static_cast<size_t>(metric::kParts + 1) * stride, rows.data() + static_cast<size_t>(i) * stride);
+    }
+    const std::vector<int> dtw = metric::subsequence_dtw(*ref, rows.data(), n);
+    metric::Aligner aligner(ref);
+    int close = 0;
+    for (int i = 0; i < n; ++i) {
+      const int m = aligner.align(rows.data() + static_cast<size_t>(i) * stride, i / kFps);
+      if (std::abs(m - dtw[static_cast<size_t>(i)]) <= 0.25 * kFps) ++close;
+    }
+    std::printf("%s <- %s: online within 0.25 s of DTW on %.1f%% of %d frames (%lld moves)\n", p[0], p[1],
+                100.0 * close / n, n, static_cast<long long>(aligner.relocations()));
+    EXPECT_GE(close, 0.90 * n) << p[0] << " <- " << p[1];
+    all += n, all_close += close;
+  }
+  std::printf("all pairs: %.1f%%\n", 100.0 * all_close / all);
+}
+
+// The DTW path itself on a known truth: the teacher's own frames at 0.8x from 40% on.
+TEST(RelocateVsDtw, DtwFindsAKnownSubsequence) {
+  const auto& metric = shipped_metric();
+  const int stride = metric->stride();
+  const auto& teacher = test::clip_rows("05_02.bvh");
+  const int frames = test::clip_frames("05_02.bvh");
+  const auto ref = std::make_shared<const metric::Reference>(metric, teacher.data(), frames, 1.0 / kFps);
+  const int start = static_cast<int>(0.4 * frames), n = frames - start;
+  std::vector<float> rows(static_cast<size_t>(n) * stride);
+  for (int i = 0; i < n; ++i)
+    std::copy(ref->alignment_projection(start + i), ref->alignment_projection(start + i) + stride,
+              rows.data() + static_cast<size_t>(i) * stride);
+  const std::vector<int> dtw = metric::subsequence_dtw(*ref, rows.data(), n);
+  for (int i = 0; i < n; ++i) ASSERT_EQ(dtw[static_cast<size_t>(i)], start + i) << i;
+  EXPECT_THROW(metric::subsequence_dtw(*ref, rows.data(), 0), Error);
 }
 
 }  // namespace

@@ -62,12 +62,13 @@ int Aligner::align(const float* s, double t) {
   for (int j = a; j <= b; ++j) c[j] = std::sqrt(detail::dist2f(s, ref.alignment_projection(j), stride));
   double* cur = cost_cur_.data();
   if (!started_) {
-    // Open begin: a path starts within the band at the section's start, or anywhere else for
-    // the cost of a jump (a student who joins late is found as after a skip; a student who
-    // starts with the teacher is not moved to a look-alike later in the clip).
+    // Open begin: a path starts anywhere, those outside the band at the section's start for a
+    // tenth of a jump: enough that a student who starts with the teacher is not placed in a
+    // look-alike later in the clip (a cyclic walk), little enough that one who joins late is
+    // found about as soon as after a skip.
     student_dt_ = ft;
-    const double jump = jump_cost();
-    for (int j = a; j <= b; ++j) cur[j] = c[j] + (j - a <= span_ ? 0.0 : jump);
+    const double prior = 0.1 * jump_cost();
+    for (int j = a; j <= b; ++j) cur[j] = c[j] + (j - a <= span_ ? 0.0 : prior);
   } else {
     const double dt = std::max(0.0, t - last_time_);
     // The jump cost is set in seconds, so it follows the student's frame rate, smoothed over

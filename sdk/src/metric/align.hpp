@@ -19,8 +19,8 @@
 // after about P / (c_wrong - c_right) frames: relocate_time seconds when the wrong place is as
 // far as two unrelated teacher frames (Reference::spread) and the right one fits exactly.
 //
-// The first frame after construction or reset starts a path at the section's start, or anywhere
-// else for the cost P of a jump (join anywhere: found as after a skip). A section (first_frame..last_frame) restricts the match to a part of the clip;
+// The first frame after construction or reset starts a path anywhere in the section (join
+// anywhere), those away from its start for 0.1 P (ties go to the start). A section (first_frame..last_frame) restricts the match to a part of the clip;
 // with loop, its last frame is followed by its first (practice a section over and over).
 //
 // Cost per frame: one distance of stride floats per section frame and K + 1 comparisons per

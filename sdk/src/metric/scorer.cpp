@@ -73,6 +73,12 @@ const ScoreRecord& Scorer::score(const float* x, double t) {
   return record_;
 }
 
+const ScoreRecord& Scorer::score_matched(const float* x, double t, int matched) {
+  reference_->metric().part_projections(x, ws_, p_.data());
+  finish(t, std::clamp(matched, 0, reference_->frames() - 1));
+  return record_;
+}
+
 void Scorer::score_batch(Scorer* const* scorers, const float* const* x, const double* t, int n) {
   // Small fixed-size pointer tables per kBatch group: no allocation.
   for (int f0 = 0; f0 < n; f0 += detail::kBatch) {
@@ -88,12 +94,12 @@ void Scorer::score_batch(Scorer* const* scorers, const float* const* x, const do
   }
 }
 
-void Scorer::finish(double t) {
+void Scorer::finish(double t, int matched) {
   const Reference& ref = *reference_;
   const Metric& m = ref.metric();
   const int stride = m.stride();
   float* p = p_.data();
-  const int j = aligner_.align(p + static_cast<size_t>(kParts) * stride, t);
+  const int j = matched >= 0 ? matched : aligner_.align(p + static_cast<size_t>(kParts) * stride, t);
   // e-projections per part: D_p = P_p(x) - P_p(y_j); u = sum_p D_p; part p = u . D_p.
   const float* py = ref.part_projection(j);
   for (int i = 0; i < kParts * stride; ++i) p[i] -= py[i];

@@ -72,6 +72,10 @@ class Scorer {
 
   // Scores features x (kDims floats) of a frame at time t (seconds, increasing). Allocation-free.
   const ScoreRecord& score(const float* x, double t);
+  // The same against teacher frame `matched` (clamped to the clip) given by an offline alignment
+  // (align_dtw.hpp), instead of the online alignment's match, which does not see the frame.
+  // Allocation-free.
+  const ScoreRecord& score_matched(const float* x, double t, int matched);
   // Scores one frame on each of n scorers at once, sharing each pass over W (the scorers must
   // use the same Metric and be distinct). Allocation-free; results equal score()'s.
   static void score_batch(Scorer* const* scorers, const float* const* x, const double* t, int n);
@@ -95,7 +99,7 @@ class Scorer {
   void reset();
 
  private:
-  void finish(double t);
+  void finish(double t, int matched = -1);  // matched >= 0: that frame, not the alignment's
   void feedback(double t);
 
   std::shared_ptr<const Reference> reference_;
