@@ -419,6 +419,10 @@ typedef struct kata_score_record {
   float part_scores[KATA_PART_COUNT]; /* each part's own calibrated score, 0..100 */
   int32_t part_to_fix;             /* kata_body_part to correct, -1 for none (see below) */
   int32_t state;                   /* kata_score_state: whether the scores are to be shown */
+  /* Added with the re-localising alignment: where the student is in the routine, the matched
+   * frame's time, matched_reference_frame x the clip's frame time, seconds from the reference
+   * clip's first frame (0 for a pose). */
+  double matched_reference_time;
 } kata_score_record;
 
 /* Sets a single-pose reference on a stream: features is one GPD v1 vector (count =
@@ -681,6 +685,10 @@ typedef struct kata_result {
   int64_t computed_ns;         /* CLOCK_MONOTONIC ns when this result was complete */
   int32_t matched_teacher_frame; /* teacher frame the score matched (index from first_frame), -1 */
   uint32_t ghost_joint_count;  /* joints in this result's ghost (0 without one) */
+  /* Added with the re-localising alignment (a caller whose struct_size ends before it does not
+   * receive it): the matched frame's time, seconds from the teacher's first_frame; -1 unless
+   * scored. */
+  double matched_teacher_time;
 } kata_result;
 
 /* Moves every unread result, oldest first (at most `capacity`), to the caller's arrays and sets
@@ -829,6 +837,10 @@ typedef struct kata_result_message {
   float part_scores[KATA_PART_COUNT]; /* each part's calibrated score, 0..100 (0 unless scored) */
   int32_t part_to_fix;           /* kata_body_part to correct, -1 for none (as kata_score_record) */
   int32_t state;                 /* kata_score_state of the scored frame */
+  /* Added with the re-localising alignment (schemas/result.fbs field 19): the matched teacher
+   * frame's time, seconds from the teacher's first frame; -1 unless scored or from an older
+   * runtime. */
+  double matched_teacher_time;
 } kata_result_message;
 
 /* Reads one ZeroMQ message of a kata runtime (16-byte topic + FlatBuffer, schemas/result.fbs):
