@@ -124,6 +124,7 @@ TEST_F(MetricCapi, FollowsAClipReferenceFrameByFrame) {
     ASSERT_EQ(kata_stream_score(s, &r), KATA_OK) << kata_stream_last_error(s);
     ASSERT_EQ(r.frame_index, static_cast<int64_t>(f - 1));
     ASSERT_EQ(r.matched_reference_frame, static_cast<int32_t>(f - 1));
+    ASSERT_DOUBLE_EQ(r.matched_reference_time, (f - 1) * dt);  // where the student is in the routine
     ASSERT_EQ(r.distance, 0.0f) << f;
     ASSERT_EQ(r.score, 100.0f);
   }

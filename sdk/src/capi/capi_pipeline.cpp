@@ -142,6 +142,7 @@ KATA_API kata_status kata_stream_read_results(kata_stream stream, kata_result* r
     k.arrival_ns = r.arrival_ns;
     k.computed_ns = r.computed_ns;
     k.matched_teacher_frame = r.scored ? r.matched_frame : -1;
+    k.matched_teacher_time = r.scored ? r.score.matched_time : -1.0;
     k.ghost_joint_count = r.has_ghost ? static_cast<uint32_t>(p.ghost_joint_count()) : 0u;
     auto* dst = reinterpret_cast<unsigned char*>(results) + static_cast<size_t>(n) * result_size;
     std::memcpy(dst, &k, std::min<size_t>(result_size, sizeof k));
