@@ -82,18 +82,16 @@ int Aligner::align(const float* s, double t) {
     std::swap(cost_prev_, cost_cur_);
     cur = cost_cur_.data();
     const double* prev = cost_prev_.data();
-    for (int j = a; j <= b; ++j) {
-      double best = jump;  // min_i D(n-1, i) is 0 after the re-basing below
-      for (int k = 0; k <= k_max; ++k) {
-        int i = j - k;
-        if (i < a) {
-          if (!options_.loop) break;
-          i += n;
-        }
-        best = std::min(best, prev[i] + penalty * std::max(0.0, k - advance) + hold * std::max(0.0, advance - k));
-      }
-      cur[j] = best + c[j];
+    // One pass per step k over the section (the inner loops vectorise): a jump from the best
+    // place (0 after the re-basing below), or a step of k from j - k.
+    for (int j = a; j <= b; ++j) cur[j] = jump;
+    for (int k = 0; k <= k_max; ++k) {
+      const double pk = penalty * std::max(0.0, k - advance) + hold * std::max(0.0, advance - k);
+      for (int j = a + k; j <= b; ++j) cur[j] = std::min(cur[j], prev[j - k] + pk);
+      if (options_.loop)  // the section's end is followed by its start
+        for (int j = a; j < a + k; ++j) cur[j] = std::min(cur[j], prev[j - k + n] + pk);
     }
+    for (int j = a; j <= b; ++j) cur[j] += c[j];
   }
   // Re-base on the section's cheapest frame, the best place anywhere.
   int best = a;

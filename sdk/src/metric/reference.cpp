@@ -38,6 +38,11 @@ void Reference::build(const float* features) {
   for (int j = 0; j < frames_; ++j)
     metric_->part_projections(features + static_cast<size_t>(j) * gpd::kDims, ws,
                               rows_.data() + static_cast<size_t>(j) * kProjectionRows * stride_);
+  align_rows_ = AlignedFloats(static_cast<size_t>(frames_) * stride_);
+  for (int j = 0; j < frames_; ++j)
+    std::copy(part_projection(j) + static_cast<size_t>(kParts) * stride_,
+              part_projection(j) + static_cast<size_t>(kParts + 1) * stride_,
+              align_rows_.data() + static_cast<size_t>(j) * stride_);
   if (frames_ > 1) {
     std::vector<double> steps(static_cast<size_t>(frames_ - 1));
     for (int j = 0; j + 1 < frames_; ++j)

@@ -44,8 +44,9 @@ class Reference {
   const float* part_projection(int j) const {
     return rows_.data() + static_cast<size_t>(j) * kProjectionRows * stride_;
   }
-  // The static-blocks projection of frame j (stride floats): what the alignment compares.
-  const float* alignment_projection(int j) const { return part_projection(j) + static_cast<size_t>(kParts) * stride_; }
+  // The static-blocks projection of frame j (stride floats): what the alignment compares. A
+  // contiguous copy (frames x stride), so the alignment's pass over the whole clip streams it.
+  const float* alignment_projection(int j) const { return align_rows_.data() + static_cast<size_t>(j) * stride_; }
 
  private:
   void build(const float* features);
@@ -57,6 +58,7 @@ class Reference {
   double step_cost_ = 0.0;
   double spread_ = 0.0;
   AlignedFloats rows_;
+  AlignedFloats align_rows_;
 };
 
 }  // namespace kata::metric
