@@ -168,6 +168,7 @@ void Lesson::on_result(const transport::ResultFields& f) {
   std::copy(std::begin(f.parts), std::end(f.parts), r.parts);
   std::copy(std::begin(f.part_scores), std::end(f.part_scores), r.part_scores);
   r.matched = f.matched_teacher_frame;
+  r.matched_time = f.matched_teacher_time;
   r.part_to_fix = f.part_to_fix;
   r.latency_ns = f.published_ns > 0 ? f.published_ns - f.arrival_ns : f.computed_ns - f.arrival_ns;
   r.has_ghost = f.ghost != nullptr && f.ghost_joints == data_.ghost_joints;

@@ -58,6 +58,8 @@ struct FrameRecord {
   float parts[metric::kParts] = {};        // the split of distance^2 over the five parts
   float part_scores[metric::kParts] = {};  // each part's calibrated 0-100 score
   int32_t matched = -1;       // teacher frame matched, counted from first_frame
+  double matched_time = -1.0; // where the student is in the routine: the matched frame's time,
+                              // seconds from first_frame (-1: not scored, or a recording's frame)
   int32_t part_to_fix = -1;   // the scorer's part to fix (lowest part score, held 0.5 s), -1: none
   int64_t latency_ns = 0;     // frame in -> result published, steady clock
   bool has_ghost = false;
