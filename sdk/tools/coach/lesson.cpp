@@ -95,6 +95,14 @@ Lesson::Lesson(const LessonSettings& settings) {
   auto student_pipeline = std::make_unique<pipeline::Pipeline>(config);
   pipeline::TeacherOptions options;
   options.alignment.window = settings.window;
+  // Practice modes: clip frames to reference frames (counted from first_frame); the Aligner
+  // refuses a section outside the clip, naming it.
+  if (settings.teacher_start >= 0) options.alignment.first_frame = settings.teacher_start - settings.first_frame;
+  if (settings.loop_first >= 0) {
+    options.alignment.first_frame = settings.loop_first - settings.first_frame;
+    options.alignment.last_frame = settings.loop_last - settings.first_frame;
+    options.alignment.loop = true;
+  }
   student_pipeline->set_teacher(teacher_ref, options);
 
   clip_positions_ = clip_positions(student, settings.first_frame);

@@ -44,6 +44,11 @@ struct LessonSettings {
   int first_frame = 1;         // first frame of each clip (1 skips the CMU converter's T-pose)
   double speed = 1.0;          // playback rate (1 = real time)
   double window = 0.5;         // alignment window, teacher seconds
+  // Practice (teacher clip frames, like first_frame; -1: unset): the lesson starts at
+  // teacher_start (the teacher before it is not used), or loops the section loop_first..loop_last.
+  // Not kept in recordings.
+  int teacher_start = -1;
+  int loop_first = -1, loop_last = -1;
   // Where the runtime publishes results (ZeroMQ PUB, bound); "*" as the port: any free one.
   std::string publish = "tcp://127.0.0.1:*";
 };
