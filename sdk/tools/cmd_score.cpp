@@ -38,6 +38,7 @@ struct ScoreArgs {
   std::string align = "online";  // online (the live Aligner) or dtw (offline subsequence DTW)
   int teacher_start = -1;        // practice: the lesson starts at this teacher clip frame
   std::vector<int> loop;         // practice: loop teacher clip frames A..B
+  double relocate_time = kata::metric::AlignmentOptions{}.relocate_time;
 };
 
 void run_score(const ScoreArgs& a) {
@@ -95,6 +96,7 @@ void run_score(const ScoreArgs& a) {
   }
   metric::AlignmentOptions options;
   options.window = a.window;
+  options.relocate_time = a.relocate_time;
   auto to_row = [&](int clip_frame, const char* flag) {
     if (clip_frame < a.first || clip_frame - a.first >= teacher_frames)
       throw Error(ErrorKind::kInvalidArgument, std::string(flag) + " " + std::to_string(clip_frame) + " is outside " +
@@ -222,6 +224,10 @@ void setup(CLI::App& app) {
       ->check(CLI::IsMember({"online", "dtw"}));
   cmd->add_option("--teacher-start", args->teacher_start,
                   "practice: the lesson starts at this teacher clip frame (the teacher before it is not used)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--relocate-time", args->relocate_time,
+                  "online alignment: re-localisation margin, seconds (default 0.2); 0: follow the band only, never "
+                  "move elsewhere (issue 3's aligner)")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--loop", args->loop, "practice: loop teacher clip frames A..B (two numbers: A B)")->expected(2);
   cmd->add_option("--out", args->out, "output CSV")->required();
