@@ -360,8 +360,10 @@ KATA_API double kata_stream_body_height(kata_stream stream);
  *   d = |W^T (x'' - y'')|   (x'', y'': normalised, unit-length GPD v1 features; d dimensionless)
  *   score = 100 / (1 + (d / delta*)^2)   (100 at d = 0, 50 at d = delta*, 20 at 2 delta*)
  * and splits d^2 over five body parts (they sum to d^2; a part may be slightly negative). The
- * reference is one pose, or a teacher clip that the stream follows with an online monotone
- * alignment (each frame is matched to the best teacher frame just ahead of the last match).
+ * reference is one pose, or a teacher clip that the stream follows with an online alignment:
+ * each frame is matched to the best teacher frame just ahead of the last match, and the match
+ * moves anywhere in the clip when the student is clearly elsewhere (joined late, skipped ahead or
+ * back); a student who pauses holds the teacher (docs/model/alignment.md).
  * Memory: loading a model and setting a reference allocate; scoring never does.
  * Threads: a model is immutable and may be shared by any number of streams and threads; a
  * stream keeps what it needs from the model, which may be freed while streams still use it. */
@@ -449,7 +451,7 @@ KATA_API kata_status kata_stream_set_reference_bvh(kata_stream stream, kata_mode
                                                    const char* preset, uint32_t first_frame, int32_t pose_frame);
 /* Removes the stream's reference (kata_stream_score then returns KATA_E_STATE). [stream owner] */
 KATA_API kata_status kata_stream_clear_reference(kata_stream stream);
-/* Restarts a clip reference's alignment: the next frame is matched from the clip's start.
+/* Restarts a clip reference's alignment: the next frame is matched anywhere (the start preferred).
  * [stream owner] */
 KATA_API kata_status kata_stream_restart_reference(kata_stream stream);
 /* Copies the score record of the stream's newest feature vector into *out. Every vector is
