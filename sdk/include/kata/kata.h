@@ -449,6 +449,14 @@ KATA_API kata_status kata_stream_set_reference_clip(kata_stream stream, kata_mod
  * below -1: KATA_E_INVALID_ARGUMENT. [stream owner] */
 KATA_API kata_status kata_stream_set_reference_bvh(kata_stream stream, kata_model model, kata_clip clip,
                                                    const char* preset, uint32_t first_frame, int32_t pose_frame);
+/* Practice modes on a clip reference: from the next frame the stream follows only the reference's
+ * frames first_frame..last_frame (0-based, as matched_reference_frame; last_frame -1: the clip's
+ * end), so first_frame alone is "start here"; loop != 0 joins the section's end to its start (a
+ * section practised over and over: never "teacher finished"). The alignment restarts; the score
+ * calibration is kept. KATA_E_STATE without a reference, KATA_E_INVALID_ARGUMENT for a section
+ * outside the clip (nothing changes). Allocates: call it between frames. [stream owner] */
+KATA_API kata_status kata_stream_set_practice_section(kata_stream stream, int32_t first_frame, int32_t last_frame,
+                                                      int32_t loop);
 /* Removes the stream's reference (kata_stream_score then returns KATA_E_STATE). [stream owner] */
 KATA_API kata_status kata_stream_clear_reference(kata_stream stream);
 /* Restarts a clip reference's alignment: the next frame is matched anywhere (the start preferred).
