@@ -47,6 +47,15 @@ void Scorer::reset() {
   record_ = ScoreRecord{};
 }
 
+void Scorer::set_section(int first, int last, bool loop) {
+  AlignmentOptions o = aligner_.options();
+  o.first_frame = first;
+  o.last_frame = last;
+  o.loop = loop;
+  aligner_ = Aligner(reference_, o);  // throws before anything changes
+  at_end_since_ = -1.0;
+}
+
 void Scorer::set_calibration(const ScoreCalibration& calibration) {
   validate_calibration(calibration);
   calibration_ = calibration;

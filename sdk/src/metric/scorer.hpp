@@ -90,6 +90,12 @@ class Scorer {
   void set_calibration(const ScoreCalibration& calibration);
   const ScoreCalibration& calibration() const { return calibration_; }
 
+  // Practice: follows only the reference frames first..last (last -1: the clip's end), looping
+  // when `loop`, from the next frame on (the alignment restarts; the calibration is kept). Throws
+  // kInvalidArgument for a section outside the clip (the scorer is then unchanged). Allocates:
+  // call it between frames.
+  void set_section(int first, int last, bool loop);
+
   const ScoreRecord& last() const { return record_; }
   const Reference& reference() const { return *reference_; }
   // The alignment's re-localisations since construction or reset (Aligner::relocations).
