@@ -192,6 +192,7 @@ function showFrame(f) {
     $('fix').textContent = f.fix >= 0 ? setup.part_labels[f.fix] : 'nothing: well done';
     $('fix').style.color = f.fix >= 0 ? scoreColour(f.part_scores[f.fix]) : '';
     $('matched').textContent = f.matched;
+    $('matched-time').textContent = f.matched_time !== undefined ? f.matched_time.toFixed(2) : '-';
     $('latency').textContent = (f.latency_us / 1000).toFixed(2) + ' ms';
     f.part_scores.forEach((s, p) => {
       $('share' + p).textContent = s.toFixed(0);

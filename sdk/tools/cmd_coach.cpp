@@ -257,6 +257,17 @@ void setup(CLI::App& app) {
   cmd->add_option("--first-frame", a->lesson.first_frame, "first frame of each clip (default 1: skips CMU's T-pose)");
   cmd->add_option("--speed", a->lesson.speed, "playback rate, 1 = real time (default 1)");
   cmd->add_option("--window", a->lesson.window, "alignment window, teacher seconds (default 0.5)");
+  cmd->add_option("--teacher-start", a->lesson.teacher_start,
+                  "practice: start at this teacher clip frame (the teacher before it is not used)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option_function<std::vector<int>>(
+         "--loop",
+         [a](const std::vector<int>& v) {
+           if (v[0] < 0 || v[0] > v[1]) throw CLI::ValidationError("--loop", "takes teacher clip frames A B, 0 <= A <= B");
+           a->lesson.loop_first = v[0], a->lesson.loop_last = v[1];
+         },
+         "practice: loop teacher clip frames A..B")
+      ->expected(2);
   cmd->add_option("--publish", a->lesson.publish,
                   "ZeroMQ endpoint the runtime publishes results on (default tcp://127.0.0.1:*, any free port)");
   cmd->add_flag("--headless", a->headless, "no viewer, plain progress lines (CI)");

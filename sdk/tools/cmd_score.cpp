@@ -1,5 +1,6 @@
 // kata score: scores every frame of a student clip against a teacher (one pose, or the whole clip
 // followed with online alignment) with a .kata model; one CSV row per student frame.
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <limits>
@@ -12,6 +13,7 @@
 #include "io/bvh.hpp"
 #include "io/model_file.hpp"
 #include "metric/model.hpp"
+#include "metric/align_dtw.hpp"
 #include "metric/parts.hpp"
 #include "metric/scorer.hpp"
 #include "io/clip_features.hpp"
@@ -33,6 +35,10 @@ struct ScoreArgs {
   int teacher_frame = -1;  // -1: the whole teacher clip is the reference
   int first = 0;
   double window = 0.5;
+  std::string align = "online";  // online (the live Aligner) or dtw (offline subsequence DTW)
+  int teacher_start = -1;        // practice: the lesson starts at this teacher clip frame
+  std::vector<int> loop;         // practice: loop teacher clip frames A..B
+  double relocate_time = kata::metric::AlignmentOptions{}.relocate_time;
 };
 
 void run_score(const ScoreArgs& a) {
@@ -90,7 +96,39 @@ void run_score(const ScoreArgs& a) {
   }
   metric::AlignmentOptions options;
   options.window = a.window;
+  options.relocate_time = a.relocate_time;
+  auto to_row = [&](int clip_frame, const char* flag) {
+    if (clip_frame < a.first || clip_frame - a.first >= teacher_frames)
+      throw Error(ErrorKind::kInvalidArgument, std::string(flag) + " " + std::to_string(clip_frame) + " is outside " +
+                                                   a.teacher + " (frames " + std::to_string(a.first) + ".." +
+                                                   std::to_string(a.first + teacher_frames - 1) + ")");
+    return clip_frame - a.first;
+  };
+  if (a.teacher_start >= 0) options.first_frame = to_row(a.teacher_start, "--teacher-start");
+  if (!a.loop.empty()) {
+    if (a.loop.size() != 2 || a.loop[0] > a.loop[1])
+      throw Error(ErrorKind::kInvalidArgument, "--loop takes two teacher clip frames A B with A <= B");
+    options.first_frame = to_row(a.loop[0], "--loop");
+    options.last_frame = to_row(a.loop[1], "--loop");
+    options.loop = true;
+  }
   metric::Scorer scorer(ref, options);
+  // The offline reference: every student frame's teacher frame from a subsequence DTW over the
+  // same static-blocks projections (metric/align_dtw.hpp); the scores are the same scorer's.
+  std::vector<int> dtw;
+  if (a.align == "dtw" && a.teacher_frame < 0) {
+    const metric::Metric& m = *metric;
+    const int stride = m.stride(), n = static_cast<int>(sf.size() / gpd::kDims);
+    std::vector<float> rows(static_cast<size_t>(n) * stride);
+    metric::AlignedFloats p(static_cast<size_t>(metric::kProjectionRows) * stride);
+    metric::Metric::Workspace ws = m.make_workspace();
+    for (int i = 0; i < n; ++i) {
+      m.part_projections(sf.data() + static_cast<size_t>(i) * gpd::kDims, ws, p.data());
+      std::copy(p.data() + static_cast<size_t>(metric::kParts) * stride,
+                p.data() + static_cast<size_t>(metric::kParts + 1) * stride, rows.data() + static_cast<size_t>(i) * stride);
+    }
+    dtw = metric::subsequence_dtw(*ref, rows.data(), n);
+  }
 
   std::FILE* out = std::fopen(a.out.c_str(), "w");
   if (!out) throw Error(ErrorKind::kIo, a.out + ": cannot open for writing");
@@ -99,7 +137,7 @@ void run_score(const ScoreArgs& a) {
   std::fprintf(out, ",matched_teacher_frame");
   for (int q = 0; q < metric::kParts; ++q) std::fprintf(out, ",%s_distance", metric::part_name(q));
   for (int q = 0; q < metric::kParts; ++q) std::fprintf(out, ",%s_score", metric::part_name(q));
-  std::fprintf(out, ",part_to_fix,state\n");
+  std::fprintf(out, ",part_to_fix,state,matched_teacher_time\n");
   // The summary covers the frames with a score to show (state "scoring").
   double score_sum = 0.0, part_score_sum[metric::kParts] = {};
   int scored = 0, finished = 0;
@@ -108,16 +146,19 @@ void run_score(const ScoreArgs& a) {
   for (int f = 0; f < student_frames; ++f) {
     const double t = f * student.frame_time;
     const bool has_row = row < ss.rows.size() && ss.rows[row] == f;
-    const metric::ScoreRecord& r =
-        has_row ? scorer.score(sf.data() + (row++) * gpd::kDims, t) : scorer.score_lost(t);
+    const float* x = has_row ? sf.data() + row * gpd::kDims : nullptr;
+    const metric::ScoreRecord& r = !has_row      ? scorer.score_lost(t)
+                                   : dtw.empty() ? scorer.score(x, t)
+                                                 : scorer.score_matched(x, t, dtw[row]);
+    if (has_row) ++row;
     const int matched = a.teacher_frame >= 0 ? a.teacher_frame : r.matched + a.first;
     std::fprintf(out, "%d,%.6f,%.7g,%.4f", f + a.first, t, r.distance, r.score);
     for (float p : r.parts) std::fprintf(out, ",%.7g", p);
     std::fprintf(out, ",%d", matched);
     for (float p : r.part_distance) std::fprintf(out, ",%.7g", p);
     for (float p : r.part_scores) std::fprintf(out, ",%.4f", p);
-    std::fprintf(out, ",%s,%s\n", r.part_to_fix >= 0 ? metric::part_name(r.part_to_fix) : "",
-                 kStates[static_cast<int>(r.state)]);
+    std::fprintf(out, ",%s,%s,%.6f\n", r.part_to_fix >= 0 ? metric::part_name(r.part_to_fix) : "",
+                 kStates[static_cast<int>(r.state)], matched * teacher.frame_time);
     if (r.state == metric::ScoreState::kTeacherFinished) ++finished;
     if (r.state != metric::ScoreState::kScoring) continue;
     ++scored;
@@ -141,7 +182,9 @@ void run_score(const ScoreArgs& a) {
   std::printf("%s vs %s: %d frames (%d scored, %d after the teacher clip ended) against %s, mean score %.1f (%s), "
               "most to fix: %s -> %s\n",
               a.student.c_str(), a.teacher.c_str(), student_frames, scored, finished,
-              a.teacher_frame >= 0 ? ("teacher frame " + std::to_string(a.teacher_frame)).c_str() : "the teacher clip (aligned)",
+              a.teacher_frame >= 0 ? ("teacher frame " + std::to_string(a.teacher_frame)).c_str()
+              : dtw.empty()        ? "the teacher clip (aligned online)"
+                                   : "the teacher clip (aligned by DTW)",
               mean, parts.c_str(), good ? "nothing (good)" : metric::part_name(worst), a.out.c_str());
 }
 
@@ -175,6 +218,18 @@ void setup(CLI::App& app) {
   cmd->add_option("--first-frame", args->first, "first frame of each clip (1 skips the CMU converter's T-pose); default 0");
   cmd->add_option("--window", args->window, "alignment window ahead of the last match, teacher seconds (default 0.5)")
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--align", args->align,
+                  "online (default): the live re-localising alignment; dtw: the offline reference, a subsequence "
+                  "DTW of the whole student clip over the same projections, scored by the same scorer")
+      ->check(CLI::IsMember({"online", "dtw"}));
+  cmd->add_option("--teacher-start", args->teacher_start,
+                  "practice: the lesson starts at this teacher clip frame (the teacher before it is not used)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--relocate-time", args->relocate_time,
+                  "online alignment: re-localisation margin, seconds (default 0.2); 0: follow the band only, never "
+                  "move elsewhere (issue 3's aligner)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--loop", args->loop, "practice: loop teacher clip frames A..B (two numbers: A B)")->expected(2);
   cmd->add_option("--out", args->out, "output CSV")->required();
   cmd->callback([args] { run_score(*args); });
 }

@@ -126,6 +126,7 @@ TEST_F(MetricCapi, FollowsAClipReferenceFrameByFrame) {
     ASSERT_EQ(kata_stream_score(s, &r), KATA_OK) << kata_stream_last_error(s);
     ASSERT_EQ(r.frame_index, static_cast<int64_t>(f - 1));
     ASSERT_EQ(r.matched_reference_frame, static_cast<int32_t>(f - 1));
+    ASSERT_DOUBLE_EQ(r.matched_reference_time, (f - 1) * dt);  // where the student is in the routine
     ASSERT_EQ(r.distance, 0.0f) << f;
     ASSERT_EQ(r.score, 100.0f);
   }
@@ -136,6 +137,36 @@ TEST_F(MetricCapi, FollowsAClipReferenceFrameByFrame) {
   EXPECT_EQ(kata_stream_clear_reference(s), KATA_OK);
   EXPECT_EQ(kata_stream_score(s, &r), KATA_E_STATE);
   kata_stream_close(s);
+}
+
+// Practice: a looped section of the clip. The whole clip pushed live is matched only inside the
+// section; on the section's own frames exactly; a section outside the clip and a pose reference
+// are refused by name.
+TEST_F(MetricCapi, PracticeSectionLoopsAPartOfTheClip) {
+  kata_model m = nullptr;
+  ASSERT_EQ(kata_model_load(ctx, path.c_str(), &m), KATA_OK);
+  kata_stream s = open();
+  EXPECT_EQ(kata_stream_set_practice_section(s, 0, -1, 0), KATA_E_STATE);
+  ASSERT_EQ(kata_stream_set_reference_bvh(s, m, clip, "cmu", 1, -1), KATA_OK) << kata_stream_last_error(s);
+  const uint32_t frames = kata_clip_frame_count(clip);
+  EXPECT_EQ(kata_stream_set_practice_section(s, 50, static_cast<int32_t>(frames), 1), KATA_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(kata_stream_last_error(s)).find("practice section"), std::string::npos) << kata_stream_last_error(s);
+  EXPECT_EQ(kata_stream_set_practice_section(s, 80, 40, 1), KATA_E_INVALID_ARGUMENT);
+  ASSERT_EQ(kata_stream_set_practice_section(s, 40, 140, 1), KATA_OK) << kata_stream_last_error(s);
+  const double dt = kata_clip_frame_time(clip);
+  kata_score_record r{};
+  r.struct_size = sizeof r;
+  int exact = 0;
+  for (uint32_t f = 1; f < frames; ++f) {
+    ASSERT_EQ(kata_stream_push(s, (f - 1) * dt, positions(f).data(), kata_skeleton_joint_count(skel)), KATA_OK);
+    ASSERT_EQ(kata_stream_score(s, &r), KATA_OK) << kata_stream_last_error(s);
+    ASSERT_GE(r.matched_reference_frame, 40) << f;
+    ASSERT_LE(r.matched_reference_frame, 140) << f;
+    if (f - 1 >= 50 && f - 1 <= 140 && r.matched_reference_frame == static_cast<int32_t>(f - 1)) ++exact;
+  }
+  EXPECT_GE(exact, 85);  // of the 91 frames 50..140 (the first frames of the section settle)
+  kata_stream_close(s);
+  kata_model_free(m);
 }
 
 TEST_F(MetricCapi, PoseReferenceFromFeaturesScoresOtherFramesLower) {

@@ -121,6 +121,8 @@ TEST_F(PipelineCapi, EveryFrameScoredAndGhostedWhenReadAtAQuarterOfThePushRate) 
     EXPECT_EQ(all_scores[i].matched_reference_frame, want[i].matched_reference_frame) << i;
     for (int q = 0; q < KATA_PART_COUNT; ++q) EXPECT_EQ(all_scores[i].parts[q], want[i].parts[q]) << i;
     EXPECT_EQ(r.matched_teacher_frame, want[i].matched_reference_frame);
+    EXPECT_EQ(r.matched_teacher_time, want[i].matched_reference_time);
+    EXPECT_EQ(all_scores[i].matched_reference_time, want[i].matched_reference_time);
     // The ghost: the matched teacher frame solved by a separate retargeter, placed over the student.
     const std::vector<float> tf = frame(teacher, static_cast<uint32_t>(1 + r.matched_teacher_frame));
     const std::vector<float> sf = frame(student, i + 1);

@@ -194,7 +194,9 @@ TEST(CliLandmarks, LostFramesKeepTheirRowsAsTrackingLost) {
   std::getline(in, line);
   int rows = 0, lost_rows = 0, scored_rows = 0;
   while (std::getline(in, line)) {
-    const std::string state = line.substr(line.rfind(',') + 1);
+    // state is the column before the last (matched_teacher_time, issue 21).
+    const std::string head = line.substr(0, line.rfind(','));
+    const std::string state = head.substr(head.rfind(',') + 1);
     const int frame = std::stoi(line.substr(0, line.find(',')));
     // --first-frame 1 skips the array's first frame too: CSV frame = array index.
     EXPECT_EQ(frame, rows + 1) << "one row per source frame, numbered from --first-frame";

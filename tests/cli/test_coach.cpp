@@ -50,6 +50,7 @@ struct Row {
   float score = 0.0f;
   float part_scores[kata::metric::kParts] = {};
   int part_to_fix = -2, matched = -2;
+  double matched_time = -2.0;
 };
 
 std::vector<Row> read_csv(const std::string& path) {
@@ -61,13 +62,14 @@ std::vector<Row> read_csv(const std::string& path) {
     std::vector<std::string> cells;
     std::stringstream ss(line);
     for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
-    if (cells.size() != 17) continue;
+    if (cells.size() != 18) continue;
     Row r;
     r.state = std::stoi(cells[2]);
     r.score = std::stof(cells[3]);
     for (int p = 0; p < kata::metric::kParts; ++p) r.part_scores[p] = std::stof(cells[10 + static_cast<size_t>(p)]);
     r.part_to_fix = std::stoi(cells[15]);
     r.matched = std::stoi(cells[16]);
+    r.matched_time = std::stod(cells[17]);
     rows.push_back(r);
   }
   return rows;
@@ -217,6 +219,9 @@ TEST(CliCoach, HeadlessLessonEqualsThePipelineRunInProcess) {
       ASSERT_EQ(rows[i].part_scores[q], e.part_scores[i][static_cast<size_t>(q)]) << "frame " << i << " part " << q;
     ASSERT_EQ(rows[i].part_to_fix, e.part_to_fix[i]) << "frame " << i;
     ASSERT_EQ(rows[i].matched, e.matched[i]) << "frame " << i;
+    if (rows[i].matched >= 0) {
+      ASSERT_NEAR(rows[i].matched_time, rows[i].matched * 0.0083333, 1e-6) << "frame " << i;
+    }
     if (rows[i].state == 1 || rows[i].state == 3) mean += rows[i].score, ++n;
     named += rows[i].part_to_fix >= 0;
     calibrating += rows[i].state == 0;
@@ -239,6 +244,11 @@ TEST(CliCoach, HeadlessLessonEqualsThePipelineRunInProcess) {
     ASSERT_EQ(f.part_to_fix, e.part_to_fix[sequence]) << "published frame " << sequence;
     ASSERT_EQ(f.part_scores[4], e.part_scores[sequence][4]) << "published frame " << sequence;
     ASSERT_EQ(f.matched_teacher_frame, e.matched[sequence]) << "published frame " << sequence;
+    // Where the student is in the routine: the matched frame at the teacher's 120 fps (its BVH
+    // frame time .0083333 s).
+    if (f.scored) {
+      ASSERT_NEAR(f.matched_teacher_time, e.matched[sequence] * 0.0083333, 1e-9) << sequence;
+    }
   }
 
   // The report: one self-contained page (inline SVG, no script, nothing fetched) naming the clips

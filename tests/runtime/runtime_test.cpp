@@ -170,6 +170,7 @@ TEST_P(runtime_end_to_end, EveryFrameOutInOrderEqualToTheInProcessPipeline) {
         EXPECT_EQ(r[i].distance, expected[i].result.score.distance);
         for (int k = 0; k < 5; ++k) EXPECT_EQ(r[i].parts[k], expected[i].result.score.parts[k]);
         EXPECT_EQ(r[i].matched_teacher_frame, expected[i].result.matched_frame);
+        EXPECT_EQ(r[i].matched_teacher_time, expected[i].result.score.matched_time);
         EXPECT_EQ(ghosts[ids[s]][i], expected[i].ghost);
         EXPECT_GT(r[i].arrival_ns, 0);
         EXPECT_LE(r[i].arrival_ns, r[i].computed_ns);

@@ -134,6 +134,7 @@ TEST(runtime_wire, ResultRoundTrip) {
   r.score = 75.0f;
   for (int i = 0; i < 5; ++i) r.parts[i] = 0.01f * static_cast<float>(i);
   r.matched_teacher_frame = 99;
+  r.matched_teacher_time = 0.825;
   for (int i = 0; i < 5; ++i) r.part_scores[i] = 50.0f + static_cast<float>(i);
   r.part_to_fix = 3;
   r.state = 3;  // teacher finished
@@ -152,6 +153,7 @@ TEST(runtime_wire, ResultRoundTrip) {
   EXPECT_EQ(o.score, 75.0f);
   EXPECT_EQ(o.parts[4], 0.04f);
   EXPECT_EQ(o.matched_teacher_frame, 99);
+  EXPECT_EQ(o.matched_teacher_time, 0.825);
   EXPECT_EQ(o.part_scores[0], 50.0f);
   EXPECT_EQ(o.part_scores[4], 54.0f);
   EXPECT_EQ(o.part_to_fix, 3);

@@ -378,8 +378,10 @@ KATA_API double kata_stream_body_height(kata_stream stream);
  *   d = |W^T (x'' - y'')|   (x'', y'': normalised, unit-length GPD v1 features; d dimensionless)
  *   score = 100 / (1 + (d / delta*)^2)   (100 at d = 0, 50 at d = delta*, 20 at 2 delta*)
  * and splits d^2 over five body parts (they sum to d^2; a part may be slightly negative). The
- * teacher is one pose, or a clip that the stream follows with an online monotone
- * alignment (each frame is matched to the best teacher frame just ahead of the last match).
+ * teacher is one pose, or a clip that the stream follows with an online alignment: each frame is
+ * matched to the best teacher frame just ahead of the last match, and the match moves anywhere in
+ * the clip when the student is clearly elsewhere (joined late, skipped ahead or back); a student
+ * who pauses holds the teacher (docs/model/alignment.md).
  * Memory: loading a model and attaching a teacher allocate; scoring never does.
  * Threads: a model is immutable and may be shared by any number of streams and threads; a
  * stream keeps what it needs from the model, which may be freed while streams still use it. */
@@ -437,7 +439,21 @@ typedef struct kata_score_record {
   float part_scores[KATA_PART_COUNT]; /* each part's own calibrated score, 0..100 */
   int32_t part_to_fix;             /* kata_body_part to correct, -1 for none (see below) */
   int32_t state;                   /* kata_score_state: whether the scores are to be shown */
+  /* Added with the re-localising alignment: where the student is in the routine, the matched
+   * frame's time, matched_reference_frame x the clip's frame time, seconds from the reference
+   * clip's first frame (0 for a pose). */
+  double matched_reference_time;
 } kata_score_record;
+
+/* Practice modes on a clip teacher: from the next frame the stream follows only the teacher's
+ * frames first_frame..last_frame (0-based, as matched_teacher_frame; last_frame -1: the clip's
+ * end), so first_frame alone is "start here"; loop != 0 joins the section's end to its start (a
+ * section practised over and over: never "teacher finished"). The alignment restarts; the score
+ * calibration is kept. KATA_E_STATE without a teacher (or with a one-pose teacher),
+ * KATA_E_INVALID_ARGUMENT for a section outside the clip (nothing changes). Allocates: call it
+ * between frames. [stream owner] */
+KATA_API kata_status kata_stream_set_practice_section(kata_stream stream, int32_t first_frame, int32_t last_frame,
+                                                      int32_t loop);
 
 /* ---- Deprecated: the 0.x "reference" calls ----
  * DEPRECATED since 1.0; removed in 2.0, not before 2027-06-01. Each is a thin wrapper over the
@@ -744,6 +760,10 @@ typedef struct kata_result {
   int64_t computed_ns;         /* CLOCK_MONOTONIC ns when this result was complete */
   int32_t matched_teacher_frame; /* teacher frame the score matched (index from first_frame), -1 */
   uint32_t ghost_joint_count;  /* joints in this result's ghost (0 without one) */
+  /* Added with the re-localising alignment (a caller whose struct_size ends before it does not
+   * receive it): the matched frame's time, seconds from the teacher's first_frame; -1 unless
+   * scored. */
+  double matched_teacher_time;
 } kata_result;
 
 /* Moves every unread result, oldest first (at most `capacity`), to the caller's arrays and sets
@@ -904,6 +924,10 @@ typedef struct kata_result_message {
   float part_scores[KATA_PART_COUNT]; /* each part's calibrated score, 0..100 (0 unless scored) */
   int32_t part_to_fix;           /* kata_body_part to correct, -1 for none (as kata_score_record) */
   int32_t state;                 /* kata_score_state of the scored frame */
+  /* Added with the re-localising alignment (schemas/result.fbs field 19): the matched teacher
+   * frame's time, seconds from the teacher's first frame; -1 unless scored or from an older
+   * runtime. */
+  double matched_teacher_time;
 } kata_result_message;
 
 /* Reads one ZeroMQ message of a kata runtime (16-byte topic + FlatBuffer, schemas/result.fbs):

@@ -123,6 +123,7 @@ inline void copy_score(const kata::pipeline::Result& r, kata_score_record* out) 
   for (int q = 0; q < KATA_PART_COUNT; ++q) k.part_scores[q] = r.score.part_scores[q];
   k.part_to_fix = r.score.part_to_fix;
   k.state = static_cast<int32_t>(r.score.state);
+  k.matched_reference_time = r.score.matched_time;
   const uint32_t caller_size = out->struct_size;
   std::memcpy(out, &k, std::min<size_t>(caller_size, sizeof k));
   out->struct_size = caller_size;

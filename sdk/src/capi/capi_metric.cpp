@@ -159,6 +159,19 @@ KATA_API kata_status kata_stream_restart_reference(kata_stream stream) {
   return kata_stream_restart_teacher(stream);
 }
 
+KATA_API kata_status kata_stream_set_practice_section(kata_stream stream, int32_t first_frame, int32_t last_frame,
+                                                      int32_t loop) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  kata::metric::Scorer* scorer = stream->pipeline.scorer();
+  if (!scorer) return refuse(stream, KATA_E_STATE, "kata_stream_set_practice_section: no teacher is attached");
+  if (scorer->reference().kind() != kata::metric::ReferenceKind::kClip)
+    return refuse(stream, KATA_E_STATE, "kata_stream_set_practice_section: the teacher is a pose, not a clip");
+  return guarded_stream(stream, [&] {
+    scorer->set_section(first_frame, last_frame, loop != 0);
+    return KATA_OK;
+  });
+}
+
 KATA_API kata_status kata_stream_score(kata_stream stream, kata_score_record* out) {
   if (!stream) return KATA_E_NULL_POINTER;
   if (!out) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_score: out is NULL");

@@ -121,6 +121,7 @@ void copy_result(const kata::pipeline::Pipeline& p, const kata::pipeline::Result
   k.arrival_ns = r.arrival_ns;
   k.computed_ns = r.computed_ns;
   k.matched_teacher_frame = r.scored ? r.matched_frame : -1;
+  k.matched_teacher_time = r.scored ? r.score.matched_time : -1.0;
   k.ghost_joint_count = r.has_ghost ? static_cast<uint32_t>(p.ghost_joint_count()) : 0u;
   std::memcpy(out, &k, std::min<size_t>(result_size, sizeof k));
   std::memcpy(out, &result_size, sizeof result_size);

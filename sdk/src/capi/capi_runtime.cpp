@@ -166,6 +166,7 @@ KATA_API kata_status kata_message_read_result(const void* message, size_t size, 
     k.published_ns = r.published_ns;
     k.scored = r.scored ? 1 : 0;
     k.matched_teacher_frame = r.matched_teacher_frame;
+    k.matched_teacher_time = r.matched_teacher_time;
     k.distance = r.distance;
     k.score = r.score;
     for (int i = 0; i < KATA_PART_COUNT; ++i) k.parts[i] = r.parts[i];

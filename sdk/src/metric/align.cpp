@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <string>
 
 #include "common/error.hpp"
 
@@ -11,62 +12,114 @@ namespace kata::metric {
 Aligner::Aligner(std::shared_ptr<const Reference> reference, AlignmentOptions options)
     : reference_(std::move(reference)), options_(options) {
   if (!reference_) throw Error(ErrorKind::kInvalidArgument, "scorer: null reference");
-  if (!(options_.window > 0.0) || !(options_.max_rate > 0.0) || !(options_.step_penalty >= 0.0))
-    throw Error(ErrorKind::kInvalidArgument, "scorer: alignment window and max rate must be > 0, step penalty >= 0");
-  if (reference_->kind() == ReferenceKind::kClip) {
-    cost_prev_.assign(static_cast<size_t>(reference_->frames()), 0.0);
-    cost_cur_.assign(static_cast<size_t>(reference_->frames()), 0.0);
-  }
+  if (!(options_.window > 0.0) || !(options_.max_rate > 0.0) || !(options_.step_penalty >= 0.0) || !(options_.hold_penalty >= 0.0) ||
+      !(options_.relocate_time >= 0.0) || !std::isfinite(options_.relocate_time))
+    throw Error(ErrorKind::kInvalidArgument,
+                "scorer: alignment window and max rate must be > 0, step penalty and relocate time >= 0");
+  if (reference_->kind() != ReferenceKind::kClip) return;
+  const int frames = reference_->frames();
+  const int last = options_.last_frame < 0 ? frames - 1 : options_.last_frame;
+  if (options_.first_frame < 0 || options_.first_frame > last || last >= frames)
+    throw Error(ErrorKind::kInvalidArgument, "scorer: practice section " + std::to_string(options_.first_frame) +
+                                                 ".." + std::to_string(options_.last_frame) +
+                                                 " is not inside the teacher clip's " + std::to_string(frames) +
+                                                 " frames");
+  first_ = options_.first_frame;
+  last_ = last;
+  span_ = std::max(1, static_cast<int>(std::ceil(options_.window / reference_->frame_time())));
+  cost_prev_.assign(static_cast<size_t>(frames), 0.0);
+  cost_cur_.assign(static_cast<size_t>(frames), 0.0);
+  local_.assign(static_cast<size_t>(frames), 0.0f);
+  match_ = first_;
 }
 
 void Aligner::reset() {
-  lo_ = 0;
-  hi_ = -1;
-  match_ = 0;
+  started_ = false;
+  match_ = first_;
+  relocations_ = 0;
   last_time_ = 0.0;
+}
+
+int Aligner::wrap(int j) const {
+  const int n = last_ - first_ + 1;
+  if (j < first_) return j + n;
+  if (j > last_) return j - n;
+  return j;
+}
+
+double Aligner::jump_cost() const {
+  return options_.relocate_time > 0.0 ? options_.relocate_time / student_dt_ * reference_->spread()
+                                      : std::numeric_limits<double>::infinity();
 }
 
 int Aligner::align(const float* s, double t) {
   if (reference_->kind() != ReferenceKind::kClip) return 0;
   const Reference& ref = *reference_;
-  const int last = ref.frames() - 1;
+  const int a = first_, b = last_, n = b - a + 1;
   const int stride = ref.metric().stride();
-  const int span = std::max(1, static_cast<int>(std::ceil(options_.window / ref.frame_time())));
-  auto cost = [&](int j) { return std::sqrt(static_cast<double>(detail::dist2f(s, ref.alignment_projection(j), stride))); };
-  constexpr double kInf = std::numeric_limits<double>::infinity();
-  if (hi_ < 0) {  // first frame after construction or reset: open begin within the window
-    lo_ = 0;
-    hi_ = std::min(last, span);
-    for (int j = lo_; j <= hi_; ++j) cost_cur_[j] = cost(j);
+  const double ft = ref.frame_time();
+  float* c = local_.data();
+  for (int j = a; j <= b; ++j) c[j] = std::sqrt(detail::dist2f(s, ref.alignment_projection(j), stride));
+  double* cur = cost_cur_.data();
+  if (!started_) {
+    // Open begin: a path starts anywhere, those outside the band at the section's start for a
+    // tenth of a jump: enough that a student who starts with the teacher is not placed in a
+    // look-alike later in the clip (a cyclic walk), little enough that one who joins late is
+    // found about as soon as after a skip.
+    student_dt_ = ft;
+    const double prior = 0.1 * jump_cost();
+    for (int j = a; j <= b; ++j) cur[j] = c[j] + (j - a <= span_ ? 0.0 : prior);
   } else {
-    const double dt = t - last_time_;
-    const double advance = (dt > 0.0 ? dt : 0.0) / ref.frame_time();  // expected teacher frames
-    const int k_max = std::max(1, static_cast<int>(std::ceil(options_.max_rate * advance)));
-    const double penalty = options_.step_penalty * ref.step_cost();
-    const int plo = lo_, phi = hi_;
+    const double dt = std::max(0.0, t - last_time_);
+    // The jump cost is set in seconds, so it follows the student's frame rate, smoothed over
+    // about 10 frames (a gap after lost tracking counts as at most 0.1 s).
+    if (dt > 0.0) student_dt_ += 0.1 * (std::min(dt, 0.1) - student_dt_);
+    const double advance = dt / ft;  // expected teacher frames
+    // Steps beyond the band are never needed: further moves are jumps.
+    const int k_max = std::min({std::max(1, static_cast<int>(std::ceil(options_.max_rate * advance))), span_, n - 1});
+    const double penalty = options_.step_penalty * ref.step_cost(), hold = options_.hold_penalty * ref.step_cost();
+    const double jump = jump_cost();
     std::swap(cost_prev_, cost_cur_);
-    lo_ = match_;
-    hi_ = std::min({last, phi + k_max, match_ + span});
-    for (int j = lo_; j <= hi_; ++j) {
-      double best = kInf;
-      for (int k = 0; k <= k_max; ++k) {
-        const int i = j - k;
-        if (i < plo) break;
-        if (i <= phi) best = std::min(best, cost_prev_[i] + penalty * std::max(0.0, k - advance));
-      }
-      cost_cur_[j] = best == kInf ? kInf : best + cost(j);
+    cur = cost_cur_.data();
+    const double* prev = cost_prev_.data();
+    // One pass per step k over the section (the inner loops vectorise): a jump from the best
+    // place (0 after the re-basing below), or a step of k from j - k.
+    for (int j = a; j <= b; ++j) cur[j] = jump;
+    for (int k = 0; k <= k_max; ++k) {
+      const double pk = penalty * std::max(0.0, k - advance) + hold * std::max(0.0, advance - k);
+      for (int j = a + k; j <= b; ++j) cur[j] = std::min(cur[j], prev[j - k] + pk);
+      if (options_.loop)  // the section's end is followed by its start
+        for (int j = a; j < a + k; ++j) cur[j] = std::min(cur[j], prev[j - k + n] + pk);
+    }
+    for (int j = a; j <= b; ++j) cur[j] += c[j];
+  }
+  // Re-base on the section's cheapest frame, the best place anywhere.
+  int best = a;
+  for (int j = a + 1; j <= b; ++j)
+    if (cur[j] < cur[best]) best = j;
+  const double base = cur[best];
+  for (int j = a; j <= b; ++j) cur[j] -= base;
+  if (!started_) {
+    match_ = best;
+    started_ = true;
+  } else {
+    // The local band just ahead of the last match, then the move if the best place elsewhere is
+    // cheaper by the margin.
+    int local = match_;
+    for (int k = 1; k <= std::min(span_, n - 1); ++k) {
+      const int j = options_.loop ? wrap(match_ + k) : match_ + k;
+      if (j > b) break;
+      if (cur[j] < cur[local]) local = j;
+    }
+    if (cur[local] > jump_cost()) {
+      match_ = best;
+      ++relocations_;
+    } else {
+      match_ = local;
     }
   }
-  // Open end: the band's cheapest frame is the match; costs are re-based on it so they stay
-  // small over long streams.
-  int arg = lo_;
-  for (int j = lo_ + 1; j <= hi_; ++j)
-    if (cost_cur_[j] < cost_cur_[arg]) arg = j;
-  const double base = cost_cur_[arg];
-  for (int j = lo_; j <= hi_; ++j) cost_cur_[j] -= base;
-  match_ = arg;
   last_time_ = t;
-  return arg;
+  return match_;
 }
 
 }  // namespace kata::metric

@@ -1,17 +1,34 @@
-// Online alignment of a student stream to a teacher clip (issue 3): an open-end DTW restricted to
-// a band that moves forward with the match.
+// Online alignment of a student stream to a teacher clip (issues 3 and 21): a streaming DTW over
+// the whole clip (or a practice section of it) with a jump transition, so that the match follows
+// a student who joins anywhere, skips ahead or back, repeats, pauses or changes tempo.
 //
 // With c(n, j) = |s_n - s_j| the distance of the static-blocks projections (reference.hpp) of
-// student frame n and teacher frame j, the accumulated cost is
-// D(n, j) = c(n, j) + min_{k = 0..K} [D(n-1, j-k) + penalty(k)], K = max(1, ceil(max_rate *
-// dt_student / frame_time)), penalty as in AlignmentOptions::step_penalty. Only j in
-// [m(n-1), m(n-1) + window] is evaluated, and the match is m(n) = argmin_j D(n, j) over the band:
-// never backwards, and never more than K frames ahead of the band's previous end. The first frame
-// matches within [0, window] of the clip's start.
+// student frame n and teacher frame j, every teacher frame j of the section carries the cost of
+// the best warping path that ends there now:
+//   D(n, j) = c(n, j) + min( min_{k = 0..K} [D(n-1, j-k) + penalty(k)],  min_i D(n-1, i) + P ),
+// K = max(1, ceil(max_rate * dt_student / frame_time)) (the largest step; holding, k = 0, is
+// nearly free, so a paused student holds the teacher), penalty(k) as in AlignmentOptions::step_penalty and hold_penalty, and P the
+// cost of a jump: a path may restart anywhere for P (AlignmentOptions::relocate_time). Costs are
+// re-based on their minimum each frame, so they stay within max c + P over any stream.
 //
+// The match m(n) is the cheapest frame of the local band [m(n-1), m(n-1) + window] (the path
+// just ahead, as in issue 3's aligner) unless the cheapest frame of the whole section is cheaper
+// by more than P: then the match moves there (re-localisation). Once moved, the old place must
+// win back the same margin, so repeated moves (a cyclic walk) do not flicker between cycles.
+// After a skip the wrong place's path gains about c_wrong - c_right per frame, so the move comes
+// after about P / (c_wrong - c_right) frames: relocate_time seconds when the wrong place is as
+// far as two unrelated teacher frames (Reference::spread) and the right one fits exactly.
+//
+// The first frame after construction or reset starts a path anywhere in the section (join
+// anywhere), those away from its start for 0.1 P (ties go to the start). A section (first_frame..last_frame) restricts the match to a part of the clip;
+// with loop, its last frame is followed by its first (practice a section over and over).
+//
+// Cost per frame: one distance of stride floats per section frame and K + 1 comparisons per
+// section frame (docs/model/alignment.md has the figure for the default teacher).
 // Threads: an Aligner belongs to one stream, used by one thread at a time.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <vector>
 
@@ -21,7 +38,8 @@ namespace kata::metric {
 
 // Online alignment of a student to a clip reference.
 struct AlignmentOptions {
-  // How far ahead of the last match a student frame may be matched, in teacher seconds.
+  // The local band: how far ahead of the last match a student frame may be matched without a
+  // re-localisation, in teacher seconds.
   double window = 0.5;
   // The fastest the teacher may advance per student second (2 = the student may run twice as
   // fast); sets the largest step of the warping path.
@@ -33,13 +51,31 @@ struct AlignmentOptions {
   // since students pause and lag. 0.25 was the best of {0, 0.25, 0.5, 1} on the shipped clips
   // slowed by 10%, sped up by 15% and delayed by 0.3 s (tests/metric/test_align.cpp).
   double step_penalty = 0.25;
+  // Cost of advancing less than expected, per teacher frame short, in the same units:
+  // hold(k) = hold_penalty * step_cost * max(0, a - k), added to penalty(k). Small next to the
+  // cost of a real mismatch (a teacher frame of motion costs about step_cost), so a student who
+  // pauses still holds the teacher; it breaks the ties where the teacher holds still, so the
+  // match moves on through a held pose at the expected rate instead of staying at its start.
+  double hold_penalty = 0.1;
+  // Re-localisation margin, seconds: the jump cost P (and the margin a better place elsewhere
+  // must win by) is relocate_time / dt_student * Reference::spread, the cost of this long at the
+  // distance of two unrelated teacher frames. 0 turns re-localisation off (the match only
+  // follows the band, as issue 3's aligner did). 0.2 s: on the tests' students a skip is found
+  // 0.2-0.9 s after it (0.3 s: 0.2-1.1 s), and a 20-cycle walk never moves between cycles
+  // (tests/metric/test_relocate.cpp).
+  double relocate_time = 0.2;
+  // Practice section: teacher frames first_frame..last_frame (last_frame -1: the clip's end).
+  int32_t first_frame = 0;
+  int32_t last_frame = -1;
+  // Loop the section: its last frame is followed by its first.
+  bool loop = false;
 };
 
 // Follows one student stream along a clip reference. Allocates at construction only.
 class Aligner {
  public:
   // Throws kInvalidArgument for a null reference or options out of range (window and max rate
-  // > 0, step penalty >= 0).
+  // > 0, step penalty and relocate time >= 0, a section inside the clip with first <= last).
   explicit Aligner(std::shared_ptr<const Reference> reference, AlignmentOptions options = {});
 
   // Matches the frame whose static-blocks projection is s (Reference::alignment_projection
@@ -47,16 +83,29 @@ class Aligner {
   // reference always matches frame 0. Allocation-free.
   int align(const float* s, double t);
   int match() const { return match_; }
+  // Re-localisations since construction or reset (moves outside the local band).
+  int64_t relocations() const { return relocations_; }
   const AlignmentOptions& options() const { return options_; }
-  // The next frame is matched from the clip's start again.
+  // The section's frames (first..last of the clip; 0..0 for a pose).
+  int first() const { return first_; }
+  int last() const { return last_; }
+  // The next frame is matched anywhere in the section again.
   void reset();
 
  private:
+  int wrap(int j) const;      // j folded into the section when looping
+  double jump_cost() const;  // P, for the current student frame interval
+
   std::shared_ptr<const Reference> reference_;
   AlignmentOptions options_;
-  std::vector<double> cost_prev_, cost_cur_;  // accumulated DTW cost over teacher frames
-  int lo_ = 0, hi_ = -1, match_ = 0;
+  int first_ = 0, last_ = 0, span_ = 1;
+  std::vector<double> cost_prev_, cost_cur_;  // accumulated cost D over teacher frames
+  std::vector<float> local_;                  // c(n, j) of this frame
+  bool started_ = false;
+  int match_ = 0;
+  int64_t relocations_ = 0;
   double last_time_ = 0.0;
+  double student_dt_ = 0.0;  // smoothed student frame interval, seconds
 };
 
 }  // namespace kata::metric

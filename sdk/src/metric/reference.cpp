@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -37,12 +38,33 @@ void Reference::build(const float* features) {
   for (int j = 0; j < frames_; ++j)
     metric_->part_projections(features + static_cast<size_t>(j) * gpd::kDims, ws,
                               rows_.data() + static_cast<size_t>(j) * kProjectionRows * stride_);
+  align_rows_ = AlignedFloats(static_cast<size_t>(frames_) * stride_);
+  for (int j = 0; j < frames_; ++j)
+    std::copy(part_projection(j) + static_cast<size_t>(kParts) * stride_,
+              part_projection(j) + static_cast<size_t>(kParts + 1) * stride_,
+              align_rows_.data() + static_cast<size_t>(j) * stride_);
   if (frames_ > 1) {
     std::vector<double> steps(static_cast<size_t>(frames_ - 1));
     for (int j = 0; j + 1 < frames_; ++j)
       steps[static_cast<size_t>(j)] = std::sqrt(dist2(alignment_projection(j + 1), alignment_projection(j), stride_));
     std::nth_element(steps.begin(), steps.begin() + static_cast<long>(steps.size() / 2), steps.end());
     step_cost_ = steps[steps.size() / 2];
+    // Up to 4,096 pairs (a, b) with b a pseudo-random offset of at least a second (or a third of
+    // the clip if shorter) after a, wrapping: the offsets vary, so a cyclic clip's period cannot
+    // pair every frame with its own phase.
+    const int gap = std::max(1, std::min(static_cast<int>(std::lround(1.0 / frame_time_)), frames_ / 3));
+    const int pairs = std::min(frames_, 4096);
+    std::vector<double> far(static_cast<size_t>(pairs));
+    uint64_t state = 0x9e3779b97f4a7c15ull;
+    for (int i = 0; i < pairs; ++i) {
+      state = state * 6364136223846793005ull + 1442695040888963407ull;
+      const int a = static_cast<int>(static_cast<int64_t>(i) * frames_ / pairs);
+      const int span = std::max(1, frames_ - 2 * gap + 1);
+      const int b = (a + gap + static_cast<int>((state >> 33) % static_cast<uint64_t>(span))) % frames_;
+      far[static_cast<size_t>(i)] = std::sqrt(dist2(alignment_projection(a), alignment_projection(b), stride_));
+    }
+    std::nth_element(far.begin(), far.begin() + static_cast<long>(far.size() / 2), far.end());
+    spread_ = far[far.size() / 2];
   }
 }
 

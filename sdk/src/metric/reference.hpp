@@ -35,13 +35,18 @@ class Reference {
   // Median distance between consecutive reference frames (clip only; 0 for a pose): the scale of
   // one frame of teacher motion, used by the alignment's step penalty.
   double step_cost() const { return step_cost_; }
+  // Median distance between two unrelated frames of the clip (pairs at least a second apart when
+  // the clip is long enough; 0 for a pose): the cost of being at the wrong place, which sets the
+  // alignment's re-localisation margin (align.hpp).
+  double spread() const { return spread_; }
   const Metric& metric() const { return *metric_; }
   // Projection of frame j: kProjectionRows x stride floats (Metric::part_projections).
   const float* part_projection(int j) const {
     return rows_.data() + static_cast<size_t>(j) * kProjectionRows * stride_;
   }
-  // The static-blocks projection of frame j (stride floats): what the alignment compares.
-  const float* alignment_projection(int j) const { return part_projection(j) + static_cast<size_t>(kParts) * stride_; }
+  // The static-blocks projection of frame j (stride floats): what the alignment compares. A
+  // contiguous copy (frames x stride), so the alignment's pass over the whole clip streams it.
+  const float* alignment_projection(int j) const { return align_rows_.data() + static_cast<size_t>(j) * stride_; }
 
  private:
   void build(const float* features);
@@ -51,7 +56,9 @@ class Reference {
   int frames_ = 0, stride_ = 0;
   double frame_time_ = 0.0;
   double step_cost_ = 0.0;
+  double spread_ = 0.0;
   AlignedFloats rows_;
+  AlignedFloats align_rows_;
 };
 
 }  // namespace kata::metric

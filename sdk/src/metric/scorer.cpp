@@ -47,6 +47,15 @@ void Scorer::reset() {
   record_ = ScoreRecord{};
 }
 
+void Scorer::set_section(int first, int last, bool loop) {
+  AlignmentOptions o = aligner_.options();
+  o.first_frame = first;
+  o.last_frame = last;
+  o.loop = loop;
+  aligner_ = Aligner(reference_, o);  // throws before anything changes
+  at_end_since_ = -1.0;
+}
+
 void Scorer::set_calibration(const ScoreCalibration& calibration) {
   validate_calibration(calibration);
   calibration_ = calibration;
@@ -60,6 +69,7 @@ const ScoreRecord& Scorer::score_lost(double t) {
   record_.score = 0.0f;
   for (int q = 0; q < kParts; ++q) record_.parts[q] = record_.part_distance[q] = record_.part_scores[q] = 0.0f;
   record_.matched = aligner_.match();
+  record_.matched_time = record_.matched * reference_->frame_time();
   record_.state = ScoreState::kTrackingLost;
   // The cue is withdrawn at once: nothing about the pose is known.
   record_.part_to_fix = shown_ = candidate_ = -1;
@@ -69,6 +79,12 @@ const ScoreRecord& Scorer::score_lost(double t) {
 const ScoreRecord& Scorer::score(const float* x, double t) {
   reference_->metric().part_projections(x, ws_, p_.data());
   finish(t);
+  return record_;
+}
+
+const ScoreRecord& Scorer::score_matched(const float* x, double t, int matched) {
+  reference_->metric().part_projections(x, ws_, p_.data());
+  finish(t, std::clamp(matched, 0, reference_->frames() - 1));
   return record_;
 }
 
@@ -87,12 +103,12 @@ void Scorer::score_batch(Scorer* const* scorers, const float* const* x, const do
   }
 }
 
-void Scorer::finish(double t) {
+void Scorer::finish(double t, int matched) {
   const Reference& ref = *reference_;
   const Metric& m = ref.metric();
   const int stride = m.stride();
   float* p = p_.data();
-  const int j = aligner_.align(p + static_cast<size_t>(kParts) * stride, t);
+  const int j = matched >= 0 ? matched : aligner_.align(p + static_cast<size_t>(kParts) * stride, t);
   // e-projections per part: D_p = P_p(x) - P_p(y_j); u = sum_p D_p; part p = u . D_p.
   const float* py = ref.part_projection(j);
   for (int i = 0; i < kParts * stride; ++i) p[i] -= py[i];
@@ -114,13 +130,14 @@ void Scorer::finish(double t) {
   record_.distance = static_cast<float>(d);
   record_.score = static_cast<float>(calibrated_score(d, c.d50, c.slope));
   record_.matched = j;
+  record_.matched_time = j * ref.frame_time();
   feedback(t);
 }
 
 void Scorer::feedback(double t) {
   const Reference& ref = *reference_;
   ScoreState state = ScoreState::kScoring;
-  if (ref.kind() == ReferenceKind::kClip && record_.matched == ref.frames() - 1) {
+  if (ref.kind() == ReferenceKind::kClip && !aligner_.options().loop && record_.matched == aligner_.last()) {
     if (at_end_since_ < 0.0) at_end_since_ = t;
     if (t - at_end_since_ >= feedback_.finished_time && ref.frames() > 1) state = ScoreState::kTeacherFinished;
   } else {

@@ -42,6 +42,9 @@ struct ScoreRecord {
   // new candidate has held for FeedbackOptions::hold_time seconds (hysteresis).
   int32_t part_to_fix = -1;
   ScoreState state = ScoreState::kScoring;
+  // Where the student is in the routine: matched * the clip's frame time, seconds from the
+  // clip's first frame (0 for a pose reference).
+  double matched_time = 0.0;
 };
 
 // How feedback is held and when the states apply.
@@ -69,6 +72,10 @@ class Scorer {
 
   // Scores features x (kDims floats) of a frame at time t (seconds, increasing). Allocation-free.
   const ScoreRecord& score(const float* x, double t);
+  // The same against teacher frame `matched` (clamped to the clip) given by an offline alignment
+  // (align_dtw.hpp), instead of the online alignment's match, which does not see the frame.
+  // Allocation-free.
+  const ScoreRecord& score_matched(const float* x, double t, int matched);
   // Scores one frame on each of n scorers at once, sharing each pass over W (the scorers must
   // use the same Metric and be distinct). Allocation-free; results equal score()'s.
   static void score_batch(Scorer* const* scorers, const float* const* x, const double* t, int n);
@@ -83,13 +90,22 @@ class Scorer {
   void set_calibration(const ScoreCalibration& calibration);
   const ScoreCalibration& calibration() const { return calibration_; }
 
+  // Practice: follows only the reference frames first..last (last -1: the clip's end), looping
+  // when `loop`, from the next frame on (the alignment restarts; the calibration is kept). Throws
+  // kInvalidArgument for a section outside the clip (the scorer is then unchanged). Allocates:
+  // call it between frames.
+  void set_section(int first, int last, bool loop);
+
   const ScoreRecord& last() const { return record_; }
   const Reference& reference() const { return *reference_; }
-  // Restarts the alignment (the next frame is matched from the clip's start) and the frame count.
+  // The alignment's re-localisations since construction or reset (Aligner::relocations).
+  int64_t relocations() const { return aligner_.relocations(); }
+  const Aligner& aligner() const { return aligner_; }
+  // Restarts the alignment (the next frame is matched anywhere in the section) and the frame count.
   void reset();
 
  private:
-  void finish(double t);
+  void finish(double t, int matched = -1);  // matched >= 0: that frame, not the alignment's
   void feedback(double t);
 
   std::shared_ptr<const Reference> reference_;

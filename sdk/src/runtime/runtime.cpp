@@ -490,6 +490,7 @@ bool Runtime::drain_results(transport::Encoder& encoder) {
         f.state = static_cast<int32_t>(r.score.state);
       }
       f.matched_teacher_frame = r.matched_frame;
+      f.matched_teacher_time = r.scored ? r.score.matched_time : -1.0;
       if (r.has_ghost) {
         f.ghost = w.ghosts.data() + k * kMaxGhostJoints * 3;
         f.ghost_joints = s.ghost_joints;

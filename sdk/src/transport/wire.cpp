@@ -180,6 +180,7 @@ Bytes Encoder::result(const ResultFields& r) {
   const fb::PartBreakdown parts(r.parts[0], r.parts[1], r.parts[2], r.parts[3], r.parts[4]);
   o.add_parts(&parts);
   o.add_matched_teacher_frame(r.matched_teacher_frame);
+  o.add_matched_teacher_time(r.matched_teacher_time);
   const fb::PartScores part_scores(r.part_scores[0], r.part_scores[1], r.part_scores[2], r.part_scores[3],
                                    r.part_scores[4]);
   if (r.scored) o.add_part_scores(&part_scores);
@@ -302,6 +303,7 @@ MessageKind Decoder::decode(const void* data, size_t size) {
       for (float& p : o.parts) p = 0.0f;
     }
     o.matched_teacher_frame = r->matched_teacher_frame();
+    o.matched_teacher_time = r->matched_teacher_time();
     if (const auto* scores = r->part_scores()) {
       o.part_scores[0] = scores->torso_head();
       o.part_scores[1] = scores->left_arm();

@@ -61,6 +61,7 @@ struct ResultFields {
   float distance = 0.0f, score = 0.0f;
   float parts[5] = {};
   int32_t matched_teacher_frame = -1;
+  double matched_teacher_time = -1.0;  // seconds from the teacher's first frame; -1 unless scored
   const float* ghost = nullptr;  // ghost_joints x 3, or null
   int ghost_joints = 0;
   const float* features = nullptr;  // feature_count floats, or null

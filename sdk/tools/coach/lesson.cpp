@@ -95,6 +95,14 @@ Lesson::Lesson(const LessonSettings& settings) {
   auto student_pipeline = std::make_unique<pipeline::Pipeline>(config);
   pipeline::TeacherOptions options;
   options.alignment.window = settings.window;
+  // Practice modes: clip frames to reference frames (counted from first_frame); the Aligner
+  // refuses a section outside the clip, naming it.
+  if (settings.teacher_start >= 0) options.alignment.first_frame = settings.teacher_start - settings.first_frame;
+  if (settings.loop_first >= 0) {
+    options.alignment.first_frame = settings.loop_first - settings.first_frame;
+    options.alignment.last_frame = settings.loop_last - settings.first_frame;
+    options.alignment.loop = true;
+  }
   student_pipeline->set_teacher(teacher_ref, options);
 
   clip_positions_ = clip_positions(student, settings.first_frame);
@@ -168,6 +176,7 @@ void Lesson::on_result(const transport::ResultFields& f) {
   std::copy(std::begin(f.parts), std::end(f.parts), r.parts);
   std::copy(std::begin(f.part_scores), std::end(f.part_scores), r.part_scores);
   r.matched = f.matched_teacher_frame;
+  r.matched_time = f.matched_teacher_time;
   r.part_to_fix = f.part_to_fix;
   r.latency_ns = f.published_ns > 0 ? f.published_ns - f.arrival_ns : f.computed_ns - f.arrival_ns;
   r.has_ghost = f.ghost != nullptr && f.ghost_joints == data_.ghost_joints;

@@ -44,6 +44,11 @@ struct LessonSettings {
   int first_frame = 1;         // first frame of each clip (1 skips the CMU converter's T-pose)
   double speed = 1.0;          // playback rate (1 = real time)
   double window = 0.5;         // alignment window, teacher seconds
+  // Practice (teacher clip frames, like first_frame; -1: unset): the lesson starts at
+  // teacher_start (the teacher before it is not used), or loops the section loop_first..loop_last.
+  // Not kept in recordings.
+  int teacher_start = -1;
+  int loop_first = -1, loop_last = -1;
   // Where the runtime publishes results (ZeroMQ PUB, bound); "*" as the port: any free one.
   std::string publish = "tcp://127.0.0.1:*";
 };
@@ -58,6 +63,8 @@ struct FrameRecord {
   float parts[metric::kParts] = {};        // the split of distance^2 over the five parts
   float part_scores[metric::kParts] = {};  // each part's calibrated 0-100 score
   int32_t matched = -1;       // teacher frame matched, counted from first_frame
+  double matched_time = -1.0; // where the student is in the routine: the matched frame's time,
+                              // seconds from first_frame (-1: not scored, or a recording's frame)
   int32_t part_to_fix = -1;   // the scorer's part to fix (lowest part score, held 0.5 s), -1: none
   int64_t latency_ns = 0;     // frame in -> result published, steady clock
   bool has_ghost = false;

@@ -236,7 +236,9 @@ std::string frame_json(const LessonData& d, size_t i) {
       if (p) s += ',';
       append(s, "%.3f", part_share(r, p));
     }
-    s += "],\"fix\":" + std::to_string(r.part_to_fix) + ",\"matched\":" + std::to_string(r.matched) + ",\"latency_us\":";
+    s += "],\"fix\":" + std::to_string(r.part_to_fix) + ",\"matched\":" + std::to_string(r.matched);
+    if (r.matched_time >= 0.0) append(s, ",\"matched_time\":%.3f", r.matched_time);
+    s += ",\"latency_us\":";
     append(s, "%.1f", r.latency_ns / 1e3);
   }
   s += ",\"joints\":";

@@ -263,14 +263,14 @@ void write_results_csv(const LessonData& d, const std::string& path) {
   std::fprintf(out, "frame,time,state,score,distance");
   for (int p = 0; p < metric::kParts; ++p) std::fprintf(out, ",%s", metric::part_name(p));
   for (int p = 0; p < metric::kParts; ++p) std::fprintf(out, ",%s_score", metric::part_name(p));
-  std::fprintf(out, ",part_to_fix,matched_teacher_frame\n");
+  std::fprintf(out, ",part_to_fix,matched_teacher_frame,matched_teacher_time\n");
   for (size_t i = 0; i < static_cast<size_t>(d.pushed); ++i) {
     const FrameRecord& r = d.frames[i];
     std::fprintf(out, "%lld,%.6f,%d,%.9g,%.9g", static_cast<long long>(r.frame), r.time, static_cast<int>(r.state), r.score,
                  r.distance);
     for (float p : r.parts) std::fprintf(out, ",%.9g", p);
     for (float p : r.part_scores) std::fprintf(out, ",%.9g", p);
-    std::fprintf(out, ",%d,%d\n", r.part_to_fix, r.matched);
+    std::fprintf(out, ",%d,%d,%.6f\n", r.part_to_fix, r.matched, r.matched_time);
   }
   const bool ok = std::fflush(out) == 0 && !std::ferror(out);
   std::fclose(out);

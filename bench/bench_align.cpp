@@ -1,0 +1,93 @@
+// The re-localising alignment's cost per frame (issue 21) on the default lesson's teacher, CMU
+// 05_18 (1,829 frames, rank-50 shipped model): the Aligner alone, fed the student's (05_19 on
+// subject 2's body) static-blocks projections, with re-localisation (a pass over the whole clip
+// every frame) and without it (relocate_time 0: the same DP, the same pass, no moves), and the
+// whole-clip pass's distance part on its own.
+#include <benchmark/benchmark.h>
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "io/bvh.hpp"
+#include "io/clip_features.hpp"
+#include "io/model_file.hpp"
+#include "metric/align.hpp"
+#include "metric/scorer.hpp"
+
+namespace kata {
+namespace {
+
+struct AlignFixture {
+  std::shared_ptr<const metric::Reference> ref;
+  std::vector<float> student;  // n x stride static-blocks projections
+  int n = 0, stride = 0;
+};
+
+const AlignFixture& align_fixture() {
+  static const AlignFixture f = [] {
+    AlignFixture r;
+    const auto metric = std::make_shared<const metric::Metric>(
+        metric::load_model(std::string(KATA_DATA_DIR) + "/../models/default.kata"));
+    auto rows = [&](const char* name) {
+      const BvhClip clip = load_bvh(std::string(KATA_DATA_DIR) + "/cmu/" + name);
+      return clip_features(clip, make_gpd_map(clip.skeleton, preset_joint_names("cmu")), metric->stencil(), 1);
+    };
+    const std::vector<float> teacher = rows("05_18.bvh"), student = rows("05_19_on_02.bvh");
+    r.ref = std::make_shared<const metric::Reference>(metric, teacher.data(),
+                                                      static_cast<int>(teacher.size() / gpd::kDims), 1.0 / 120);
+    r.stride = metric->stride();
+    r.n = static_cast<int>(student.size() / gpd::kDims);
+    r.student.resize(static_cast<size_t>(r.n) * r.stride);
+    metric::AlignedFloats p(static_cast<size_t>(metric::kProjectionRows) * r.stride);
+    metric::Metric::Workspace ws = metric->make_workspace();
+    for (int i = 0; i < r.n; ++i) {
+      metric->part_projections(student.data() + static_cast<size_t>(i) * gpd::kDims, ws, p.data());
+      std::copy(p.data() + static_cast<size_t>(metric::kParts) * r.stride,
+                p.data() + static_cast<size_t>(metric::kParts + 1) * r.stride,
+                r.student.data() + static_cast<size_t>(i) * r.stride);
+    }
+    return r;
+  }();
+  return f;
+}
+
+void run_aligner(benchmark::State& state, double relocate_time) {
+  const AlignFixture& f = align_fixture();
+  metric::AlignmentOptions o;
+  o.relocate_time = relocate_time;
+  metric::Aligner aligner(f.ref, o);
+  int i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(aligner.align(f.student.data() + static_cast<size_t>(i) * f.stride, i / 120.0));
+    if (++i == f.n) {
+      i = 0;
+      aligner.reset();
+    }
+  }
+  state.counters["teacher_frames"] = f.ref->frames();
+  state.counters["moves"] = static_cast<double>(aligner.relocations());
+}
+
+void Align_Relocating(benchmark::State& state) { run_aligner(state, 0.2); }
+BENCHMARK(Align_Relocating);
+void Align_NoRelocation(benchmark::State& state) { run_aligner(state, 0.0); }
+BENCHMARK(Align_NoRelocation);
+
+// The distances alone: one dist2f of stride floats per teacher frame.
+void Align_DistancePass(benchmark::State& state) {
+  const AlignFixture& f = align_fixture();
+  const int m = f.ref->frames();
+  std::vector<float> c(static_cast<size_t>(m));
+  int i = 0;
+  for (auto _ : state) {
+    const float* s = f.student.data() + static_cast<size_t>(i) * f.stride;
+    for (int j = 0; j < m; ++j) c[j] = metric::detail::dist2f(s, f.ref->alignment_projection(j), f.stride);
+    benchmark::DoNotOptimize(c.data());
+    if (++i == f.n) i = 0;
+  }
+}
+BENCHMARK(Align_DistancePass);
+
+}  // namespace
+}  // namespace kata
