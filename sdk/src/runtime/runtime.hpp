@@ -90,6 +90,7 @@ struct StreamCounters {
   uint64_t result_queue_full = 0; // results dropped: the queue to the I/O thread was full
   uint64_t published = 0;         // results handed to ZeroMQ
   uint64_t send_failed = 0;       // results ZeroMQ refused (never blocks)
+  uint64_t stopped = 0;           // frames push() refused (kStopped): stop() had begun
 };
 
 // Arrival -> published latency histogram: bucket i holds latencies in [2^(i/8), 2^((i+1)/8)) ns
@@ -132,12 +133,15 @@ class Runtime {
   // (seconds), xyz joints x 3 floats. restart: the source restarted (the stream's kinetics and
   // teacher alignment restart first). [any thread; one producer per stream keeps its order]
   // kOk, kNotFound (no such stream), kWrongJointCount (more than max_joints), kState (queue
-  // full: dropped and counted) or kNullPointer. Never blocks, never allocates.
+  // full: dropped and counted), kStopped (stop() has begun: not taken, counted) or kNullPointer.
+  // Never blocks, never allocates.
   Status push(uint64_t stream_id, uint64_t sequence, double capture_time, const float* xyz, int joints,
               bool restart = false);
 
   // Lets workers finish every queued frame, flushes every pipeline, sends every result, then
   // stops the threads and closes the sockets (idempotent). [any thread but a runtime thread]
+  // A push racing it is either taken (kOk; its result is sent before stop returns) or refused
+  // (kStopped); from then on every push is refused.
   void stop();
 
   // A snapshot of the counters. [any thread]
@@ -184,7 +188,7 @@ class Runtime {
   std::atomic<bool> ingest_stopped_{false};
   std::atomic<int> workers_done_{0};
   std::thread io_thread_;
-  bool stopped_ = false;
+  std::atomic<bool> stopped_{false};
   // Snapshot of the I/O thread's counters for other threads.
   mutable std::mutex io_counters_mutex_;
   transport::IngestCounters ingest_snapshot_;
