@@ -105,7 +105,7 @@ struct Runtime::StreamState {
   uint64_t next_result_sequence = 0;             // I/O thread only
   struct alignas(64) Atomics {
     std::atomic<uint64_t> frames_in{0}, queue_full{0}, refused{0}, results{0}, pipeline_dropped{0},
-        result_queue_full{0}, published{0}, send_failed{0}, stopped{0};
+        result_queue_full{0}, published{0}, send_failed{0}, stopped{0}, stale{0}, unauthorised{0};
   } counters;
 };
 
@@ -630,6 +630,8 @@ StreamCounters read(const Atomics& a) {
   c.published = a.published.load();
   c.send_failed = a.send_failed.load();
   c.stopped = a.stopped.load();
+  c.stale = a.stale.load();
+  c.unauthorised = a.unauthorised.load();
   return c;
 }
 }  // namespace
@@ -638,6 +640,13 @@ std::optional<StreamCounters> Runtime::stream_counters(uint64_t stream_id) const
   const StreamState* s = find(stream_id);
   if (!s) return std::nullopt;
   return read(s->counters);
+}
+
+std::vector<std::pair<uint64_t, StreamCounters>> Runtime::all_stream_counters() const {
+  std::vector<std::pair<uint64_t, StreamCounters>> out;
+  std::lock_guard<std::mutex> lock(open_mutex_);
+  for (const auto& s : streams_) out.emplace_back(s->definition.stream_id, read(s->counters));
+  return out;
 }
 
 RuntimeCounters Runtime::counters() const {
@@ -656,6 +665,8 @@ RuntimeCounters Runtime::counters() const {
       out.total.published += c.published;
       out.total.send_failed += c.send_failed;
       out.total.stopped += c.stopped;
+      out.total.stale += c.stale;
+      out.total.unauthorised += c.unauthorised;
     }
   }
   std::lock_guard<std::mutex> lock(io_counters_mutex_);
