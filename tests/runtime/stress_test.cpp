@@ -288,11 +288,11 @@ TEST(runtime_stress, PluginsLoadedAndUnloadedAroundRunningRuntimes) {
 
 // stop() while several threads push (issue 28), 1,000 times: each push is either taken (kOk, and
 // its result reaches the sink before stop() returns) or refused (kStopped, counted per stream);
-// once a thread saw kStopped it never sees kOk again; every frame is accounted for. Four lanes of
-// 250 runtimes each run side by side (a stop waits for the workers' 50 ms idle wake-up).
+// once a thread saw kStopped it never sees kOk again; every frame is accounted for. Eight lanes of
+// 125 runtimes each run side by side (a stop waits for the workers' 50 ms idle wake-up).
 TEST(runtime_stress, PushesRacingStopAreTakenOrRefusedNeverLost) {
   const Clip& c = clip();
-  constexpr int kLanes = 4, kRounds = 250, kPushers = 3, kMaxFrames = 400;
+  constexpr int kLanes = 8, kRounds = 125, kPushers = 3, kMaxFrames = 400;
   std::atomic<int> failures{0};
   std::atomic<uint64_t> taken_total{0}, refused_total{0};
   auto lane = [&](int lane_index) {
