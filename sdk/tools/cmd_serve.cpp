@@ -62,7 +62,34 @@ using kata::serve::ServeConfig;
 using kata::serve::TeacherSource;
 using kata::serve::parse_config;
 
-void run_serve(const std::string& file) {
+// --counters FILE: every stream's counters after the stop, as JSON ({"streams": {"<id>": {name:
+// count}}, "ingest": {...}}), by the names of runtime::kDropCauses plus frames_in, results and
+// published: what tests/support/accounting.py balances against the frames a test sent.
+void write_counters(const std::string& path, const kata::runtime::Runtime& runtime) {
+  std::FILE* f = std::fopen(path.c_str(), "w");
+  if (!f) throw Error(ErrorKind::kIo, "serve: cannot write " + path);
+  std::fprintf(f, "{\"streams\": {");
+  const char* sep = "";
+  for (const auto& [id, c] : runtime.all_stream_counters()) {
+    std::fprintf(f, "%s\n  \"%llu\": {\"frames_in\": %llu, \"results\": %llu, \"published\": %llu", sep,
+                 static_cast<unsigned long long>(id), static_cast<unsigned long long>(c.frames_in),
+                 static_cast<unsigned long long>(c.results), static_cast<unsigned long long>(c.published));
+    for (const kata::runtime::DropCause& cause : kata::runtime::kDropCauses)
+      std::fprintf(f, ", \"%s\": %llu", cause.name, static_cast<unsigned long long>(c.*cause.count));
+    std::fprintf(f, "}");
+    sep = ",";
+  }
+  const kata::transport::IngestCounters i = runtime.counters().ingest;
+  std::fprintf(f, "},\n \"ingest\": {\"received\": %llu, \"frames\": %llu, \"dropped\": %llu, \"unknown_stream\": %llu, "
+               "\"out_of_order\": %llu, \"sequence_gaps\": %llu, \"other_shard\": %llu}}\n",
+               static_cast<unsigned long long>(i.received), static_cast<unsigned long long>(i.frames),
+               static_cast<unsigned long long>(i.dropped_total()), static_cast<unsigned long long>(i.unknown_stream),
+               static_cast<unsigned long long>(i.out_of_order), static_cast<unsigned long long>(i.sequence_gaps),
+               static_cast<unsigned long long>(i.other_shard));
+  if (std::fclose(f) != 0) throw Error(ErrorKind::kIo, "serve: cannot write " + path);
+}
+
+void run_serve(const std::string& file, const std::string& counters_path) {
   ServeConfig config = parse_config(file);
   std::shared_ptr<const kata::metric::Metric> metric;
   if (!config.model.empty())
@@ -147,13 +174,16 @@ void run_serve(const std::string& file) {
   std::fprintf(stderr, "\nkata serve: stopped; %llu frames in, %llu results published, %llu ingest messages dropped\n",
                static_cast<unsigned long long>(c.total.frames_in), static_cast<unsigned long long>(c.total.published),
                static_cast<unsigned long long>(c.ingest.dropped_total()));
+  if (!counters_path.empty()) write_counters(counters_path, runtime);
 }
 
 void setup(CLI::App& app) {
   auto path = std::make_shared<std::string>();
+  auto counters = std::make_shared<std::string>();
   CLI::App* cmd = app.add_subcommand("serve", "run a live stage from a TOML config: ZeroMQ frames in, scores and ghosts out");
   cmd->add_option("--config", *path, "the TOML config (see docs/runtime.md)")->required();
-  cmd->callback([path] { run_serve(*path); });
+  cmd->add_option("--counters", *counters, "after the stop, write every stream's counters to this JSON file (tests)");
+  cmd->callback([path, counters] { run_serve(*path, *counters); });
 }
 
 const kata::cli::RegisterCommand reg(setup);

@@ -13,6 +13,7 @@
 #include "runtime/plugin.hpp"
 #include "runtime/plugin_host.hpp"
 #include "runtime/runtime.hpp"
+#include "support/accounting.hpp"
 #include "support/temp_paths.hpp"
 
 namespace kata::runtime {
@@ -76,6 +77,7 @@ TEST(runtime_plugin, BvhReplaySourceIntoCsvSinkThroughTheRuntime) {
               std::string::npos)
         << e.what();
   }
+  StreamCounters counted;  // stream 5's, after the stop
   {
     PluginInstance sink(sink_plugin, "path=" + csv_path, target);
     RuntimeConfig config;
@@ -93,6 +95,7 @@ TEST(runtime_plugin, BvhReplaySourceIntoCsvSinkThroughTheRuntime) {
     const RuntimeCounters c = runtime.counters();
     EXPECT_EQ(c.total.frames_in, static_cast<uint64_t>(frames));
     EXPECT_EQ(c.total.results, static_cast<uint64_t>(frames));
+    counted = runtime.stream_counters(5).value();
   }
   std::ifstream in(csv_path);
   std::string line;
@@ -111,6 +114,10 @@ TEST(runtime_plugin, BvhReplaySourceIntoCsvSinkThroughTheRuntime) {
     ++rows;
   }
   EXPECT_EQ(rows, frames);
+  // Every frame the source plugin played is a row of the sink's file.
+  EXPECT_EQ(kata::test::unaccounted(5, {static_cast<uint64_t>(frames), static_cast<uint64_t>(rows)}, counted,
+                                    kata::test::Delivery::kSinks),
+            "");
 }
 
 }  // namespace

@@ -18,6 +18,7 @@
 #include "pipeline/pipeline.hpp"
 #include "runtime/runtime.hpp"
 #include "transport/wire.hpp"
+#include "support/accounting.hpp"
 #include "support/alloc_counter.hpp"
 #include "support/zmq_subscriber.hpp"
 
@@ -119,6 +120,7 @@ TEST_P(runtime_end_to_end, EveryFrameOutInOrderEqualToTheInProcessPipeline) {
   const int frames = 150;
   for (uint64_t id : ids) runtime.open_stream(fx.definition(id), fx.setup(true));
 
+  std::map<uint64_t, kata::test::StreamTally> tally;  // frames pushed, results received
   void* context = zmq_ctx_new();
   {
     // Joins after the streams were opened: the definitions come again on its join.
@@ -136,10 +138,12 @@ TEST_P(runtime_end_to_end, EveryFrameOutInOrderEqualToTheInProcessPipeline) {
     ASSERT_EQ(definitions.size(), 2u) << "a late subscriber must get every skeleton definition";
 
     for (int i = 0; i < frames; ++i)
-      for (int s = 0; s < 2; ++s)
+      for (int s = 0; s < 2; ++s) {
         ASSERT_EQ(runtime.push(ids[s], static_cast<uint64_t>(i), i * fx.student.frame_time, fx.frame(first[s] + i),
                                fx.joints()),
                   Status::kOk);
+        ++tally[ids[s]].sent;
+      }
 
     std::map<uint64_t, std::vector<transport::ResultFields>> got;
     std::map<uint64_t, std::vector<std::vector<float>>> ghosts;
@@ -150,6 +154,7 @@ TEST_P(runtime_end_to_end, EveryFrameOutInOrderEqualToTheInProcessPipeline) {
       const transport::ResultFields& r = decoder.result();
       got[r.stream_id].push_back(r);
       ghosts[r.stream_id].emplace_back(r.ghost, r.ghost + 3 * r.ghost_joints);
+      ++tally[r.stream_id].received;
       ++total;
     }
     runtime.stop();
@@ -184,6 +189,7 @@ TEST_P(runtime_end_to_end, EveryFrameOutInOrderEqualToTheInProcessPipeline) {
   EXPECT_EQ(c.total.results, 2u * frames);
   EXPECT_EQ(c.total.published, 2u * frames);
   EXPECT_EQ(c.total.queue_full + c.total.result_queue_full + c.total.pipeline_dropped + c.total.refused, 0u);
+  EXPECT_TRUE(kata::test::every_frame_accounted(runtime, tally));
 }
 
 INSTANTIATE_TEST_SUITE_P(transports, runtime_end_to_end, ::testing::Values("tcp", "ipc"));
@@ -246,6 +252,9 @@ TEST(runtime_stall, StalledSubscriberLosesMessagesNotThePipelinesRate) {
     EXPECT_EQ(received + gaps, static_cast<uint64_t>(frames));
     EXPECT_GT(gaps, 0u) << "the high-water marks should have dropped messages";
     EXPECT_LT(received, 1000u) << "memory bounded: far fewer than all queued";
+    runtime.stop();
+    // ZeroMQ's drops are not the runtime's to count: the subscriber counts them (its gaps).
+    EXPECT_TRUE(kata::test::every_frame_accounted(runtime, {{1, {static_cast<uint64_t>(frames), received, gaps}}}));
   }
   zmq_ctx_term(context);
 }
@@ -259,6 +268,7 @@ TEST(runtime_ingest, StreamsFromTheirDefinitionRestartCounted) {
   config.ingest.endpoints = {"bind:" + unique_ipc("ingest")};
   Runtime runtime(config);
 
+  int results = 0;  // received by the subscriber
   void* context = zmq_ctx_new();
   {
     test::ZmqSubscriber sub(context, runtime.publish_endpoint());
@@ -280,7 +290,7 @@ TEST(runtime_ingest, StreamsFromTheirDefinitionRestartCounted) {
     // The source restarts: sequence and its clock back to 0.
     for (int i = 0; i < 20; ++i) send(encoder.frame(3, static_cast<uint64_t>(i), i * dt, fx.frame(100 + i), fx.joints()));
 
-    int results = 0;
+    results = 0;
     int64_t restarts_seen = 0, last_index = -1;
     const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
     while (results < 50 && std::chrono::steady_clock::now() < deadline) {
@@ -305,6 +315,8 @@ TEST(runtime_ingest, StreamsFromTheirDefinitionRestartCounted) {
   EXPECT_EQ(c.ingest.restarts, 1u);
   EXPECT_EQ(c.ingest.frames, 50u);
   EXPECT_EQ(c.total.refused, 0u);
+  // The 50 frames after the definition (the one before it is the ingest's unknown_stream above).
+  EXPECT_TRUE(kata::test::every_frame_accounted(runtime, {{3, {50, static_cast<uint64_t>(results)}}}));
 }
 
 TEST(runtime_alloc, PushWorkerAndResultQueuesAllocateNothingPerFrame) {
@@ -314,15 +326,23 @@ TEST(runtime_alloc, PushWorkerAndResultQueuesAllocateNothingPerFrame) {
   // No publisher: libzmq itself mallocs every message it sends (200 allocations for 200 results
   // when one is bound), which this test cannot tell from ours.
   config.workers = 2;
+  std::map<uint64_t, kata::test::StreamTally> tally;  // sent by the test, received by the sink
+  Sink sink;  // on the I/O thread: read after stop (joined)
+  sink.on_result = [&tally](const transport::ResultFields& r) { ++tally.at(r.stream_id).received; };
+  config.sinks.push_back(sink);
+  tally[1];
+  tally[2];  // every node made before the runtime runs: the sink's at() never allocates
   Runtime runtime(config);
   runtime.open_stream(fx.definition(1), fx.setup(true));
   runtime.open_stream(fx.definition(2), fx.setup(true));
   auto push_and_wait = [&](int first, int count) {
     for (int i = first; i < first + count; ++i)
-      for (uint64_t id : {1u, 2u})
+      for (uint64_t id : {1u, 2u}) {
+        ++tally[id].sent;
         if (runtime.push(id, static_cast<uint64_t>(i), i * fx.student.frame_time, fx.frame(1 + i), fx.joints()) !=
             Status::kOk)
           return false;
+      }
     const uint64_t want = 2u * static_cast<uint64_t>(first + count);
     for (int tries = 0; tries < 2000 && runtime.counters().total.results < want; ++tries)
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
@@ -334,6 +354,8 @@ TEST(runtime_alloc, PushWorkerAndResultQueuesAllocateNothingPerFrame) {
   const long allocated = kata::test::allocations() - before;
   ASSERT_TRUE(done);
   EXPECT_EQ(allocated, 0) << "per-frame path allocated";
+  runtime.stop();
+  EXPECT_TRUE(kata::test::every_frame_accounted(runtime, tally, kata::test::Delivery::kSinks));
 }
 
 }  // namespace

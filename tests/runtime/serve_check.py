@@ -5,6 +5,8 @@ refused with file:line. Unique paths per run; every wait bounded."""
 import os, signal, subprocess, sys, tempfile, time
 
 kata, source, python_dir, plugin_dir, c_subscriber = sys.argv[1:6]
+sys.path.insert(0, os.path.join(source, "tests", "support"))
+import accounting  # noqa: E402
 with tempfile.TemporaryDirectory(prefix="kata_serve_test_") as tmp:
     bad = os.path.join(tmp, "bad.toml")
     open(bad, "w").write('[ingest]\nendpoints = ["bind:ipc://%s/a"]\n[publish]\nendpoints = ["ipc://%s/b"]\n'
@@ -18,7 +20,9 @@ with tempfile.TemporaryDirectory(prefix="kata_serve_test_") as tmp:
         '[scoring]\nmodel = "%s/models/default.kata"\nteacher = "%s/data/cmu/02_01.bvh"\n'
         '[[plugins]]\npath = "%s/csv-sink.so"\nconfig = "path=%s/scores.csv"\n'
         % (tmp, tmp, source, source, plugin_dir, tmp))
-    serve = subprocess.Popen([kata, "serve", "--config", config], stderr=subprocess.PIPE, text=True)
+    counters = os.path.join(tmp, "counters.json")
+    serve = subprocess.Popen([kata, "serve", "--config", config, "--counters", counters], stderr=subprocess.PIPE,
+                             text=True)
     try:
         deadline = time.time() + 20
         while not os.path.exists(os.path.join(tmp, "out")) and time.time() < deadline:
@@ -29,7 +33,10 @@ with tempfile.TemporaryDirectory(prefix="kata_serve_test_") as tmp:
         csub = subprocess.Popen([c_subscriber, "ipc://%s/out" % tmp, "7", "20"], stdout=subprocess.PIPE, text=True)
         time.sleep(0.5)  # the subscriber connects; the skeleton definition reaches it on its join
         subprocess.run([kata, "send", "--bvh", os.path.join(source, "data", "cmu", "07_01.bvh"), "--endpoint",
-                        "ipc://%s/in" % tmp, "--stream-id", "7", "--frames", "120", "--speed", "2"],
+                        "ipc://%s/in" % tmp, "--stream-id", "7", "--frames", "120", "--speed", "2",
+                        # definitions only for 3 s: both subscribers (a Python start takes over
+                        # a second on a loaded machine) are connected before the first result
+                        "--warmup", "3"],
                        check=True, timeout=60)
         out, _ = sub.communicate(timeout=60)
         assert sub.returncode == 0, out
@@ -52,4 +59,6 @@ with tempfile.TemporaryDirectory(prefix="kata_serve_test_") as tmp:
     rows = open(os.path.join(tmp, "scores.csv")).read().splitlines()
     assert len(rows) == 121 and rows[0].startswith("stream_id,"), rows[:3]
     assert all(r.split(",")[7] == "1" for r in rows[1:]), "every row scored"
+    # Every frame sent is a result the csv-sink received (it sees every result the runtime hands on).
+    accounting.check({7: 120}, {7: len(rows) - 1}, accounting.load(counters), where="serve")
 print("serve ok")

@@ -21,6 +21,8 @@ import zmq
 kata, source, python_dir = sys.argv[1:4]
 sys.path.insert(0, python_dir)
 from kata.fb.Result import Result  # noqa: E402
+sys.path.insert(0, os.path.join(source, "tests", "support"))
+import accounting  # noqa: E402
 
 STREAMS, SHARDS, FRAMES = 48, 3, 300
 SPEED = 0.5  # the 120 Hz CMU clip at 60 Hz: 48 x 60 = 2880 frames/s into the proxy
@@ -64,7 +66,11 @@ class Stage:
                     % (source, source))
             if shard is not None:
                 f.write("[shard]\ncount = %d\nindex = %d\n" % (SHARDS, shard))
-        self.start(name, ["serve", "--config", config])
+        self.start(name, ["serve", "--config", config, "--counters", self.counters(name)])
+
+    def counters(self, name):
+        """Where kata serve NAME writes its per-stream counters when it stops (accounting.py)."""
+        return os.path.join(self.tmp, name + ".counters.json")
 
     def wait_ready(self, name, timeout=30):
         deadline = time.time() + timeout
@@ -175,6 +181,9 @@ with tempfile.TemporaryDirectory(prefix="kata_shard_%d_" % os.getpid()) as tmp:
         stage.stop_all()
     for i in ids:
         assert ref.gaps(i) == 0, "reference: stream %d got %d of %d" % (i, len(ref.order.get(i, [])), FRAMES)
+    # Every frame sent is a result received or a counted drop (the reference counts none).
+    accounting.check({i: FRAMES for i in ids}, {i: len(ref.order.get(i, [])) for i in ids},
+                     accounting.load(stage.counters("single")), where="reference")
     print("reference: %d results, %d streams" % (ref.received, STREAMS))
 
     def sharded_stage(tag):
@@ -210,6 +219,9 @@ with tempfile.TemporaryDirectory(prefix="kata_shard_%d_" % os.getpid()) as tmp:
         log = open(stage.logs["shard%d" % k]).read()
         mine = sum(1 for i in ids if owner[i] == k)
         assert ("%d results published" % (mine * FRAMES)) in log, log[-400:]
+        accounting.check({i: FRAMES for i in ids if owner[i] == k},
+                         {i: len(consumer.order.get(i, [])) for i in ids}, accounting.load(stage.counters("shard%d" % k)),
+                         where="sharded, shard %d" % k)
     print("sharded: %d results from %d shards, equal to the reference" % (consumer.received, SHARDS))
 
     # 3. SIGKILL one shard while frames flow, restart it.
@@ -236,6 +248,13 @@ with tempfile.TemporaryDirectory(prefix="kata_shard_%d_" % os.getpid()) as tmp:
         else:
             assert g == 0, "stream %d (shard %d, not killed) has %d gaps" % (i, owner[i], g)
             same_as_reference(consumer, i)
+    # The shards not killed account for every frame of theirs (the killed one's counters died with
+    # it: its loss is the consumer's gaps above; so is the proxies' below, which count nothing per stream).
+    for k in range(SHARDS):
+        if k != killed:
+            accounting.check({i: FRAMES for i in ids if owner[i] == k},
+                             {i: len(consumer.order.get(i, [])) for i in ids},
+                             accounting.load(stage.counters("shard%d" % k)), where="killed, shard %d" % k)
     print("killed shard %d: its %d streams resumed, %d frames lost and counted; other shards untouched"
           % (killed, len(killed_ids), lost))
 

@@ -8,6 +8,7 @@
 #include <unistd.h>
 #include <zmq.h>
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <fstream>
@@ -21,6 +22,7 @@
 #include "runtime/plugin.hpp"
 #include "runtime/plugin_host.hpp"
 #include "runtime/runtime.hpp"
+#include "support/accounting.hpp"
 #include "support/temp_paths.hpp"
 #include "support/zmq_subscriber.hpp"
 #include "transport/wire.hpp"
@@ -142,6 +144,9 @@ TEST(runtime_stress, ManyStreamsSeveralPushersSubscribersComeAndGo) {
     ASSERT_EQ(seq.size(), frames) << "stream " << id;
     for (size_t i = 0; i < seq.size(); ++i) EXPECT_EQ(seq[i], i) << "stream " << id;
   }
+  std::map<uint64_t, kata::test::StreamTally> tally;
+  for (const auto& [id, seq] : sequences) tally[id] = {id >= 1000 ? 10u : static_cast<uint64_t>(kFrames), seq.size()};
+  EXPECT_TRUE(kata::test::every_frame_accounted(runtime, tally));
   const RuntimeCounters counters = runtime.counters();
   EXPECT_EQ(counters.streams, static_cast<uint64_t>(kStreams + kLate));
   EXPECT_EQ(counters.total.queue_full + counters.total.result_queue_full + counters.total.pipeline_dropped +
@@ -184,8 +189,12 @@ TEST(runtime_stress, RuntimeDestroyedWhileFramesArrive) {
     config.workers = 2;
     config.ingest.endpoints = {endpoint};
     uint64_t published_by_sink = 0;  // the sink runs on the I/O thread; read after stop (joined)
+    std::array<uint64_t, 4> sunk{};  // per stream
     Sink sink;
-    sink.on_result = [&](const transport::ResultFields&) { ++published_by_sink; };
+    sink.on_result = [&](const transport::ResultFields& r) {
+      ++published_by_sink;
+      ++sunk[r.stream_id];
+    };
     config.sinks.push_back(sink);
     auto runtime = std::make_unique<Runtime>(config);
     const auto limit = Clock::now() + std::chrono::seconds(30);
@@ -193,6 +202,11 @@ TEST(runtime_stress, RuntimeDestroyedWhileFramesArrive) {
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     runtime->stop();
     const RuntimeCounters counters = runtime->counters();
+    // A PUB source joined late sends more than ingest sees: "sent" is what ingest handed on.
+    std::map<uint64_t, kata::test::StreamTally> tally;
+    for (const auto& [id, sc] : runtime->all_stream_counters())
+      tally[id] = {sc.frames_in + sc.queue_full + sc.stopped, sunk[id]};
+    EXPECT_TRUE(kata::test::every_frame_accounted(*runtime, tally, kata::test::Delivery::kSinks)) << "round " << round;
     runtime.reset();  // destroyed while the source keeps sending
     EXPECT_GE(counters.total.results, 40u) << "round " << round;
     EXPECT_GT(counters.ingest.frames, 0u);
@@ -214,6 +228,7 @@ TEST(runtime_stress, PluginsLoadedAndUnloadedAroundRunningRuntimes) {
   for (int round = 0; round < 3; ++round) {
     const std::string csv = (tmp.path() / ("round" + std::to_string(round) + ".csv")).string();
     uint64_t results = 0;
+    StreamCounters counted;
     {
       auto target = std::make_shared<PluginHostTarget>();
       std::shared_ptr<LoadedPlugin> sink_plugin = LoadedPlugin::load(std::string(KATA_PLUGIN_DIR) + "/csv-sink.so");
@@ -232,6 +247,7 @@ TEST(runtime_stress, PluginsLoadedAndUnloadedAroundRunningRuntimes) {
       runtime.stop();
       target->runtime = nullptr;
       results = runtime.counters().total.results;
+      counted = runtime.stream_counters(9).value();
       EXPECT_GE(results, 60u);
     }  // instances deactivated, plugins unloaded
     std::ifstream in(csv);
@@ -240,7 +256,106 @@ TEST(runtime_stress, PluginsLoadedAndUnloadedAroundRunningRuntimes) {
     std::getline(in, line);
     while (std::getline(in, line)) ++rows;
     EXPECT_EQ(rows, results) << "round " << round;
+    // What the source plugin pushed ("sent": what the queue took or refused) is in the file.
+    EXPECT_EQ(kata::test::unaccounted(9, {counted.frames_in + counted.queue_full + counted.stopped, rows}, counted,
+                                      kata::test::Delivery::kSinks),
+              "")
+        << "round " << round;
   }
+}
+
+// stop() while several threads push (issue 28), 1,000 times: each push is either taken (kOk, and
+// its result reaches the sink before stop() returns) or refused (kStopped, counted per stream);
+// once a thread saw kStopped it never sees kOk again; every frame is accounted for. Eight lanes of
+// 125 runtimes each run side by side (a stop waits for the workers' 50 ms idle wake-up).
+TEST(runtime_stress, PushesRacingStopAreTakenOrRefusedNeverLost) {
+  const Clip& c = clip();
+  constexpr int kLanes = 8, kRounds = 125, kPushers = 3, kMaxFrames = 400;
+  std::atomic<int> failures{0};
+  std::atomic<uint64_t> taken_total{0}, refused_total{0};
+  auto lane = [&](int lane_index) {
+    for (int round = 0; round < kRounds && failures.load() == 0; ++round) {
+      RuntimeConfig config;
+      config.workers = 2;
+      config.frame_queue_capacity = 512;
+      // Room for every result a worker's streams can make (2 x kMaxFrames): none is dropped for
+      // a slow I/O thread, so every frame taken is a result the sink receives.
+      config.result_queue_capacity = 1024;
+      config.max_joints = c.joints();
+      config.max_streams = kPushers;
+      std::array<uint64_t, kPushers> sunk{};  // on the I/O thread; read after stop (joined)
+      Sink sink;
+      sink.on_result = [&sunk](const transport::ResultFields& r) { ++sunk[r.stream_id]; };
+      config.sinks.push_back(sink);
+      Runtime runtime(config);
+      for (uint64_t id = 0; id < kPushers; ++id) runtime.open_stream(c.definition(id), setup_from_definition(c.definition(id)));
+      struct Tally {
+        uint64_t ok = 0, full = 0, stopped = 0, ok_after_stopped = 0, other = 0;
+      };
+      std::array<Tally, kPushers> tallies{};
+      std::atomic<bool> go{false};
+      std::vector<std::thread> pushers;
+      for (int p = 0; p < kPushers; ++p)
+        pushers.emplace_back([&, p] {
+          while (!go.load(std::memory_order_acquire)) std::this_thread::yield();
+          Tally& t = tallies[static_cast<size_t>(p)];
+          for (int f = 0; f < kMaxFrames; ++f) {
+            const Status st = runtime.push(static_cast<uint64_t>(p), static_cast<uint64_t>(f), f * c.clip.frame_time,
+                                           c.frame(f + p), c.joints());
+            if (st == Status::kOk) {
+              ++t.ok;
+              if (t.stopped) ++t.ok_after_stopped;
+            } else if (st == Status::kState) {
+              ++t.full;
+            } else if (st == Status::kStopped) {
+              if (++t.stopped >= 3) break;  // a few more after the first: refused every time
+            } else {
+              ++t.other;
+            }
+          }
+        });
+      go.store(true, std::memory_order_release);
+      // Stop at a different moment each round: from before the first push to well into the flow.
+      const int wait_us = (round * 37 + lane_index * 11) % 3000;
+      std::this_thread::sleep_for(std::chrono::microseconds(wait_us));
+      runtime.stop();
+      for (auto& t : pushers) t.join();
+
+      std::map<uint64_t, kata::test::StreamTally> accounts;
+      for (int p = 0; p < kPushers; ++p) {
+        const Tally& t = tallies[static_cast<size_t>(p)];
+        const uint64_t id = static_cast<uint64_t>(p);
+        const StreamCounters sc = runtime.stream_counters(id).value();
+        accounts[id] = {t.ok + t.full + t.stopped, sunk[static_cast<size_t>(p)]};
+        const bool ok = t.ok_after_stopped == 0 && t.other == 0 && sc.stopped == t.stopped &&
+                        sc.queue_full == t.full && sc.frames_in == t.ok && sc.results + sc.refused == t.ok &&
+                        sunk[static_cast<size_t>(p)] == t.ok;
+        if (!ok) {
+          failures.fetch_add(1);
+          ADD_FAILURE() << "lane " << lane_index << " round " << round << " stream " << id << ": pushes kOk " << t.ok
+                        << " (after kStopped " << t.ok_after_stopped << "), kState " << t.full << ", kStopped "
+                        << t.stopped << ", other " << t.other << "; counted frames_in " << sc.frames_in
+                        << ", results " << sc.results << ", refused " << sc.refused << ", stopped " << sc.stopped
+                        << ", queue_full " << sc.queue_full << ", pipeline_dropped " << sc.pipeline_dropped
+                        << ", result_queue_full " << sc.result_queue_full << "; the sink received " << sunk[static_cast<size_t>(p)];
+        }
+        taken_total.fetch_add(t.ok);
+        refused_total.fetch_add(t.stopped);
+      }
+      if (!kata::test::every_frame_accounted(runtime, accounts, kata::test::Delivery::kSinks)) {
+        failures.fetch_add(1);
+        ADD_FAILURE() << "lane " << lane_index << " round " << round << ": "
+                      << kata::test::every_frame_accounted(runtime, accounts, kata::test::Delivery::kSinks).message();
+      }
+    }
+  };
+  std::vector<std::thread> lanes;
+  for (int l = 0; l < kLanes; ++l) lanes.emplace_back(lane, l);
+  for (auto& l : lanes) l.join();
+  EXPECT_EQ(failures.load(), 0);
+  // Both outcomes happened (the test raced): frames taken and pushes refused.
+  EXPECT_GT(taken_total.load(), 0u);
+  EXPECT_GT(refused_total.load(), 0u);
 }
 
 }  // namespace

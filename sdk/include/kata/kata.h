@@ -114,9 +114,11 @@ typedef enum kata_status {
   KATA_E_BUFFER_TOO_SMALL = 12,       /* the caller's buffer is smaller than the result */
   KATA_E_INTERNAL = 13,               /* a bug in kata: please report it */
   KATA_E_STATE = 14,                  /* the call is not valid in the object's current state */
-  KATA_TRACKING_LOST = 15             /* a result, not an error: the frame was accepted (its timestamp
+  KATA_TRACKING_LOST = 15,            /* a result, not an error: the frame was accepted (its timestamp
                                          counts) but too many joints are missing to compute features
                                          (see kata_stream_push_confidence); the stream recovers by itself */
+  KATA_E_STOPPED = 16                 /* the runtime is stopping or stopped: the frame was not taken
+                                         (kata_runtime_push) */
 } kata_status;
 
 /* A static English name for a status ("KATA_OK", ...). Never NULL. [any thread] */
@@ -872,12 +874,16 @@ KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stre
 /* Queues one frame of a stream: the source's sequence number, capture time in seconds (must
  * increase), positions (joint_count x 3 floats). KATA_E_NOT_FOUND (no such stream),
  * KATA_E_WRONG_JOINT_COUNT (more than max_joints), KATA_E_STATE (the worker's queue is full:
- * dropped and counted). Values are checked by the worker (bad frames counted as refused).
+ * dropped and counted), KATA_E_STOPPED (kata_runtime_stop has begun: not taken, counted).
+ * Values are checked by the worker (bad frames counted as refused).
  * Never blocks, never allocates. [any thread] */
 KATA_API kata_status kata_runtime_push(kata_runtime runtime, uint64_t stream_id, uint64_t sequence,
                                        double capture_time, const float* positions, uint32_t joint_count);
 /* Finishes every queued frame, flushes every stream, publishes every result, stops the threads
- * and closes the sockets. Idempotent. [any thread but the runtime's own] */
+ * and closes the sockets. Idempotent. [any thread but the runtime's own]
+ * A kata_runtime_push racing stop on another thread is either taken (it returns KATA_OK and its
+ * result is published before stop returns) or refused (it returns KATA_E_STOPPED); never lost.
+ * Every push after stop began returns KATA_E_STOPPED. */
 KATA_API kata_status kata_runtime_stop(kata_runtime runtime);
 /* Copies the counters (as much as out->struct_size holds). [any thread] */
 KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtime_counters* out);

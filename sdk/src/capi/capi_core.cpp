@@ -102,6 +102,7 @@ KATA_API const char* kata_status_string(kata_status status) {
     case KATA_E_INTERNAL: return "KATA_E_INTERNAL";
     case KATA_E_STATE: return "KATA_E_STATE";
     case KATA_TRACKING_LOST: return "KATA_TRACKING_LOST";
+    case KATA_E_STOPPED: return "KATA_E_STOPPED";
   }
   return "KATA_E_UNKNOWN_STATUS";
 }

@@ -21,6 +21,7 @@ enum class Status : int {
   kInternal = 13,
   kState = 14,                // the call is not valid in the object's current state
   kTrackingLost = 15,         // a frame was accepted but too many joints are missing: no features
+  kStopped = 16,              // the runtime is stopping or stopped: the frame was not taken
 };
 
 }  // namespace kata

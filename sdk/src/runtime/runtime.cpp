@@ -33,6 +33,9 @@ uint64_t mix(uint64_t x) {  // splitmix64 finaliser: spreads sequential ids over
 }
 
 constexpr uint64_t kEmptyKey = ~0ULL;  // a stream id the table cannot hold
+// Set in a worker's enqueue_pos by stop(): the queue takes no more frames. The position below it
+// is then final: exactly the pushes that claimed a cell before, which the worker finishes.
+constexpr size_t kQueueClosed = size_t{1} << (8 * sizeof(size_t) - 1);
 
 }  // namespace
 
@@ -102,7 +105,7 @@ struct Runtime::StreamState {
   uint64_t next_result_sequence = 0;             // I/O thread only
   struct alignas(64) Atomics {
     std::atomic<uint64_t> frames_in{0}, queue_full{0}, refused{0}, results{0}, pipeline_dropped{0},
-        result_queue_full{0}, published{0}, send_failed{0};
+        result_queue_full{0}, published{0}, send_failed{0}, stopped{0}, stale{0}, unauthorised{0};
   } counters;
 };
 
@@ -131,7 +134,7 @@ struct Runtime::Worker {
   std::vector<FrameCell> cells;
   std::vector<float> frame_data;
   size_t mask = 0;
-  alignas(64) std::atomic<size_t> enqueue_pos{0};
+  alignas(64) std::atomic<size_t> enqueue_pos{0};  // | kQueueClosed once stop() began
   alignas(64) size_t dequeue_pos = 0;
   sem_t wake;
   // Results out: single-producer (this worker) / single-consumer (I/O thread) ring.
@@ -209,7 +212,12 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
   io_thread_ = std::thread([this] { io_loop(); });
 }
 
-Runtime::~Runtime() { stop(); }
+Runtime::~Runtime() {
+  stop();
+  // Here, not in stop(): a push that claimed its cell before stop() closed the queue may still
+  // be posting (the worker has finished its frame, the post only wakes nobody).
+  for (auto& w : workers_) sem_destroy(&w->wake);
+}
 
 Runtime::StreamState* Runtime::find(uint64_t stream_id) const {
   const size_t mask = table_keys_.size() - 1;
@@ -304,6 +312,10 @@ Status Runtime::push(uint64_t stream_id, uint64_t sequence, double capture_time,
   size_t pos = w.enqueue_pos.load(std::memory_order_relaxed);
   FrameCell* cell;
   for (;;) {
+    if (pos & kQueueClosed) {  // stop() began: refused, and the caller sees it
+      stream->counters.stopped.fetch_add(1, std::memory_order_relaxed);
+      return Status::kStopped;
+    }
     cell = &w.cells[pos & w.mask];
     const size_t turn = cell->turn.load(std::memory_order_acquire);
     const intptr_t diff = static_cast<intptr_t>(turn) - static_cast<intptr_t>(pos);
@@ -323,8 +335,8 @@ Status Runtime::push(uint64_t stream_id, uint64_t sequence, double capture_time,
   cell->joints = joints;
   cell->restart = restart;
   std::memcpy(cell->xyz, xyz, sizeof(float) * 3 * static_cast<size_t>(joints));
+  stream->counters.frames_in.fetch_add(1, std::memory_order_relaxed);  // before the worker can see it
   cell->turn.store(pos + 1, std::memory_order_release);
-  stream->counters.frames_in.fetch_add(1, std::memory_order_relaxed);
   sem_post(&w.wake);
   return Status::kOk;
 }
@@ -389,6 +401,9 @@ void Runtime::worker_loop(Worker& w) {
       }
       if (sem_timedwait(&w.wake, &deadline) != 0) {
         if (stopping_.load(std::memory_order_acquire)) {
+          // A push that claimed a cell before stop() closed the queue is finished first (its
+          // post is on its way): nothing stop() took is left behind.
+          if (w.dequeue_pos != (w.enqueue_pos.load(std::memory_order_acquire) & ~kQueueClosed)) continue;
           // Queue empty and stopping: flush every pipeline, hand over what it emits, done.
           std::lock_guard<std::mutex> lock(w.owned_mutex);
           for (StreamState* s : w.owned) {
@@ -576,8 +591,7 @@ void Runtime::io_loop() {
 }
 
 void Runtime::stop() {
-  if (stopped_) return;
-  stopped_ = true;
+  if (stopped_.exchange(true)) return;
   if (ingest_ && io_thread_.joinable()) {
     // No frame is ingested once the workers may have looked at their queues for the last time.
     ingest_stop_requested_.store(true, std::memory_order_release);
@@ -587,13 +601,19 @@ void Runtime::stop() {
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
   }
-  stopping_.store(true, std::memory_order_release);
+  // Every queue closed before the workers are told to finish: a racing push either claimed its
+  // cell before (taken: the worker finishes it, its result is sent before stop returns) or sees
+  // the closed queue (refused: kStopped). Under open_mutex_: a stream opens before or not at all.
+  {
+    std::lock_guard<std::mutex> lock(open_mutex_);
+    for (auto& w : workers_) w->enqueue_pos.fetch_or(kQueueClosed, std::memory_order_acq_rel);
+    stopping_.store(true, std::memory_order_release);
+  }
   for (auto& w : workers_) w->thread.join();
   if (io_thread_.joinable()) io_thread_.join();
   // Sockets close on this thread after the I/O thread ended (join is the memory barrier).
   ingest_.reset();
   publisher_.reset();
-  for (auto& w : workers_) sem_destroy(&w->wake);
   if (wake_io_fd_ >= 0) close(wake_io_fd_);
   wake_io_fd_ = -1;
 }
@@ -610,6 +630,9 @@ StreamCounters read(const Atomics& a) {
   c.result_queue_full = a.result_queue_full.load();
   c.published = a.published.load();
   c.send_failed = a.send_failed.load();
+  c.stopped = a.stopped.load();
+  c.stale = a.stale.load();
+  c.unauthorised = a.unauthorised.load();
   return c;
 }
 }  // namespace
@@ -618,6 +641,13 @@ std::optional<StreamCounters> Runtime::stream_counters(uint64_t stream_id) const
   const StreamState* s = find(stream_id);
   if (!s) return std::nullopt;
   return read(s->counters);
+}
+
+std::vector<std::pair<uint64_t, StreamCounters>> Runtime::all_stream_counters() const {
+  std::vector<std::pair<uint64_t, StreamCounters>> out;
+  std::lock_guard<std::mutex> lock(open_mutex_);
+  for (const auto& s : streams_) out.emplace_back(s->definition.stream_id, read(s->counters));
+  return out;
 }
 
 RuntimeCounters Runtime::counters() const {
@@ -635,6 +665,9 @@ RuntimeCounters Runtime::counters() const {
       out.total.result_queue_full += c.result_queue_full;
       out.total.published += c.published;
       out.total.send_failed += c.send_failed;
+      out.total.stopped += c.stopped;
+      out.total.stale += c.stale;
+      out.total.unauthorised += c.unauthorised;
     }
   }
   std::lock_guard<std::mutex> lock(io_counters_mutex_);

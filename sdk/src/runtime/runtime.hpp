@@ -33,6 +33,7 @@
 #include <optional>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include "common/status.hpp"
@@ -90,6 +91,30 @@ struct StreamCounters {
   uint64_t result_queue_full = 0; // results dropped: the queue to the I/O thread was full
   uint64_t published = 0;         // results handed to ZeroMQ
   uint64_t send_failed = 0;       // results ZeroMQ refused (never blocks)
+  uint64_t stopped = 0;           // frames push() refused (kStopped): stop() had begun
+  // Frames of an open stream that ingest dropped before queueing them (issue 22 counts them):
+  uint64_t stale = 0;             // too old to score (the stream's source fell behind)
+  uint64_t unauthorised = 0;      // from a sender the stream does not belong to
+};
+
+// Why a frame of a stream, or its result, did not become a published result: every frame pushed
+// or ingested for a stream ends as a published result or as one count of exactly one of these
+// (tests/support/accounting.hpp checks it per stream at the end of every live test; kata serve
+// --counters writes them by these names). A new cause: a StreamCounters field, its atomic in
+// the runtime's stream state (copied by counters()), and a row here.
+struct DropCause {
+  const char* name;
+  uint64_t StreamCounters::*count;
+};
+inline constexpr DropCause kDropCauses[] = {
+    {"queue_full", &StreamCounters::queue_full},
+    {"stopped", &StreamCounters::stopped},
+    {"stale", &StreamCounters::stale},
+    {"unauthorised", &StreamCounters::unauthorised},
+    {"refused", &StreamCounters::refused},
+    {"pipeline_dropped", &StreamCounters::pipeline_dropped},
+    {"result_queue_full", &StreamCounters::result_queue_full},
+    {"send_failed", &StreamCounters::send_failed},
 };
 
 // Arrival -> published latency histogram: bucket i holds latencies in [2^(i/8), 2^((i+1)/8)) ns
@@ -132,17 +157,22 @@ class Runtime {
   // (seconds), xyz joints x 3 floats. restart: the source restarted (the stream's kinetics and
   // teacher alignment restart first). [any thread; one producer per stream keeps its order]
   // kOk, kNotFound (no such stream), kWrongJointCount (more than max_joints), kState (queue
-  // full: dropped and counted) or kNullPointer. Never blocks, never allocates.
+  // full: dropped and counted), kStopped (stop() has begun: not taken, counted) or kNullPointer.
+  // Never blocks, never allocates.
   Status push(uint64_t stream_id, uint64_t sequence, double capture_time, const float* xyz, int joints,
               bool restart = false);
 
   // Lets workers finish every queued frame, flushes every pipeline, sends every result, then
   // stops the threads and closes the sockets (idempotent). [any thread but a runtime thread]
+  // A push racing it is either taken (kOk; its result is sent before stop returns) or refused
+  // (kStopped); from then on every push is refused.
   void stop();
 
   // A snapshot of the counters. [any thread]
   RuntimeCounters counters() const;
   std::optional<StreamCounters> stream_counters(uint64_t stream_id) const;
+  // Every stream's counters, by stream id, in the order they were opened (allocates). [any thread]
+  std::vector<std::pair<uint64_t, StreamCounters>> all_stream_counters() const;
   // The resolved endpoint the publisher bound last ("" without one) and the ingest's.
   std::string publish_endpoint() const { return publish_endpoint_; }
   std::string ingest_endpoint() const { return ingest_endpoint_; }
@@ -184,7 +214,7 @@ class Runtime {
   std::atomic<bool> ingest_stopped_{false};
   std::atomic<int> workers_done_{0};
   std::thread io_thread_;
-  bool stopped_ = false;
+  std::atomic<bool> stopped_{false};
   // Snapshot of the I/O thread's counters for other threads.
   mutable std::mutex io_counters_mutex_;
   transport::IngestCounters ingest_snapshot_;
