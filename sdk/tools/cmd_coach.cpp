@@ -24,6 +24,7 @@
 #include "coach/recording.hpp"
 #include "coach/viewer_server.hpp"
 #include "data_files.hpp"
+#include "coach/webcam.hpp"
 #include "command.hpp"
 #include "common/error.hpp"
 
@@ -39,6 +40,11 @@ struct CoachArgs {
   int port = 8765;
   std::string viewer_dir, report = "lesson-report.html", csv, record, replay;
   double linger = -1.0;  // seconds to keep serving after the end; < 0: until Ctrl-C (viewer only)
+  // --webcam / --record-teacher (coach/webcam.hpp)
+  bool webcam = false;
+  WebcamSettings cam;
+  double duration = 0.0;  // seconds; 0: until Ctrl-C
+  bool teacher_given = false;
 };
 
 std::atomic<bool> g_interrupted{false};
@@ -116,14 +122,56 @@ class TerminalView {
   std::vector<double> latencies_, sorted_;
 };
 
+// A webcam lesson (or a teacher's recording): the page at http://host:port/webcam.html does the
+// camera and MediaPipe; this waits until Ctrl-C (or --duration), then prints the summary and
+// writes the report and recordings.
+void run_webcam(CoachArgs a) {
+  a.cam.model = a.lesson.model;
+  if (a.teacher_given) a.cam.teacher = a.lesson.teacher;
+  a.cam.first_frame = a.lesson.first_frame;
+  a.cam.window = a.lesson.window;
+  a.cam.publish = a.lesson.publish;
+  if (a.cam.complexity < 0 || a.cam.complexity > 2)
+    throw kata::Error(kata::ErrorKind::kInvalidArgument, "--complexity must be 0 (lite), 1 (full) or 2 (heavy)");
+  WebcamCoach coach(a.cam, a.viewer_dir.empty() ? kata::cli::share_dir() + "/viewer" : a.viewer_dir, a.host, a.port);
+  std::signal(SIGINT, on_interrupt);
+  std::signal(SIGTERM, on_interrupt);
+  if (a.cam.record_teacher.empty())
+    std::printf("webcam lesson: teacher %s; open the page, allow the camera\n", a.cam.teacher.c_str());
+  else
+    std::printf("recording a teacher from the webcam into %s; open the page, allow the camera\n", a.cam.record_teacher.c_str());
+  std::printf("viewer: http://%s:%d/webcam.html?complexity=%d  (open it in a browser)\n", a.host.c_str(), coach.port(),
+              a.cam.complexity);
+  std::fflush(stdout);
+  const auto start = Clock::now();
+  auto last_line = start;
+  while (!g_interrupted && (a.duration <= 0 || Clock::now() - start < std::chrono::duration<double>(a.duration))) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    if (!a.headless && Clock::now() - last_line > std::chrono::seconds(5)) {
+      last_line = Clock::now();
+      std::printf("%s\n", coach.summary().c_str());
+      std::fflush(stdout);
+    }
+  }
+  coach.finish();
+  std::printf("%s\n", coach.summary().c_str());
+  if (!a.cam.record_teacher.empty()) std::printf("teacher recording: %s (+ .times.npy)\n", a.cam.record_teacher.c_str());
+  if (!a.cam.record_student.empty()) std::printf("student recording: %s (+ .times.npy)\n", a.cam.record_student.c_str());
+  if (!a.report.empty()) {
+    coach.write_report(a.report);
+    std::printf("report: %s\n", a.report.c_str());
+  }
+}
+
 void run_coach(CoachArgs a) {
-  if (a.headless) a.no_viewer = true;
-  if (!(a.lesson.speed > 0.0)) throw kata::Error(kata::ErrorKind::kInvalidArgument, "--speed must be > 0");
   // The defaults (the shipped model and lesson) are found from any directory; a path the user gave
   // is taken as given.
   a.lesson.model = kata::cli::default_data_file(a.lesson.model);
   a.lesson.teacher = kata::cli::default_data_file(a.lesson.teacher);
   a.lesson.student = kata::cli::default_data_file(a.lesson.student);
+  if (a.webcam || !a.cam.record_teacher.empty()) return run_webcam(a);
+  if (a.headless) a.no_viewer = true;
+  if (!(a.lesson.speed > 0.0)) throw kata::Error(kata::ErrorKind::kInvalidArgument, "--speed must be > 0");
 
   // The lesson: live (the runtime) or recorded (a file).
   std::unique_ptr<Lesson> live;
@@ -250,7 +298,21 @@ void setup(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "coach", "a live coaching lesson: the student played as a live stream against the teacher (score, part to fix, "
                "ghost every frame), a terminal view, a 3D viewer in the browser, an HTML report at the end");
-  cmd->add_option("--teacher", a->lesson.teacher, "teacher BVH clip (default data/cmu/05_18.bvh)")->check(CLI::ExistingFile);
+  cmd->add_option("--teacher", a->lesson.teacher,
+                  "teacher BVH clip (default data/cmu/05_18.bvh); with --webcam also a landmark recording (.npy from "
+                  "--record-teacher)")
+      ->check(CLI::ExistingFile)
+      ->each([a](const std::string&) { a->teacher_given = true; });
+  cmd->add_flag("--webcam", a->webcam,
+                "the student is a webcam: the page (webcam.html) runs MediaPipe Pose in the browser and sends landmarks");
+  cmd->add_option("--record-teacher", a->cam.record_teacher,
+                  "record the webcam's person as a teacher: landmarks .npy (frames x 33 x 4) + .times.npy; no scoring");
+  cmd->add_option("--record-student", a->cam.record_student, "a webcam lesson also keeps the received landmarks here (.npy)");
+  cmd->add_option("--complexity", a->cam.complexity, "webcam: MediaPipe Pose model, 0 lite (default), 1 full, 2 heavy");
+  cmd->add_option("--teacher-layout", a->cam.teacher_layout, "webcam: layout of a landmark teacher (default mediapipe)");
+  cmd->add_option("--time-units", a->cam.time_units, "webcam: units of a landmark teacher's timestamps: s, ms or auto")
+      ->check(CLI::IsMember({"s", "ms", "auto"}));
+  cmd->add_option("--duration", a->duration, "webcam: stop after this many seconds (default: at Ctrl-C)");
   cmd->add_option("--student", a->lesson.student, "student BVH clip (default data/cmu/05_19_on_02.bvh)")->check(CLI::ExistingFile);
   cmd->add_option("--model", a->lesson.model, ".kata model (default models/default.kata)")->check(CLI::ExistingFile);
   cmd->add_option("--preset", a->lesson.preset, "skeleton preset of both clips (default cmu)");

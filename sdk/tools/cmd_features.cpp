@@ -16,6 +16,7 @@ struct FeaturesArgs {
   std::string bvh, preset, name_map, stencil = "backward", out, dtype = "float32";
   std::string student, up = "y";  // any source (.bvh, .npy, .csv) with --layout and --fps
   double fps = 0.0;
+  std::string time_units = "auto";  // of a landmark array's timestamps
   int first = 0;
 };
 
@@ -34,7 +35,8 @@ void write_rows(const std::string& path, const std::vector<float>& feats, const 
 }
 
 void run_motion_features(const FeaturesArgs& a) {
-  const kata::MotionSource m = kata::load_motion(a.student, a.preset, a.fps, parse_up(a.up), a.first);
+  const kata::MotionSource m = kata::load_motion(a.student, a.preset, a.fps, parse_up(a.up), a.first,
+                                                  kata::parse_time_units(a.time_units));
   std::vector<int> rows;
   int lost = 0;
   const std::vector<float> feats = kata::motion_features(m, kata::parse_stencil(a.stencil), &rows, &lost);
@@ -74,14 +76,18 @@ void setup(CLI::App& app) {
                                                  "through a live stream; timestamps i x frame time, H from the rest pose");
   auto* bvh = cmd->add_option("--bvh", args->bvh, "input BVH clip")->check(CLI::ExistingFile);
   cmd->add_option("--student", args->student,
-                  "input motion of any source: .bvh, or landmarks as .npy (frames, joints, 3|4: x y z [confidence]) or "
-                  ".csv (a row per frame) in the joint order of --layout; rows are the frames that gave features")
+                  "input motion of any source: .bvh, or landmarks as .npy (frames, joints, 3|4|5: x y z [confidence | "
+                  "visibility presence]) or .csv (a row per frame, optionally a timestamp first) in the joint order of --layout; rows are the frames that gave features")
       ->excludes(bvh)
       ->check(CLI::ExistingFile);
   auto* preset = cmd->add_option("--layout,--preset", args->preset,
                                  "layout mapping the input onto the 16 GPD joints: a preset (cmu, h36m, kinect2, "
                                  "azure-kinect, xsens, gpd, ...) or mediapipe (--preset is the old name)");
-  cmd->add_option("--fps", args->fps, "frame rate of a landmark array (.npy/.csv)")->check(CLI::PositiveNumber);
+  cmd->add_option("--fps", args->fps, "frame rate of a landmark array (.npy/.csv) without timestamps")->check(CLI::PositiveNumber);
+  cmd->add_option("--time-units", args->time_units,
+                  "units of a landmark array's timestamps (a .csv's first column, X.times.npy beside X.npy): s, ms or "
+                  "auto (default: from the steps between frames; refused when they fit neither)")
+      ->check(CLI::IsMember({"s", "ms", "auto"}));
   cmd->add_option("--up", args->up, "axes of a landmark array whose layout does not fix them: y (default), z, y-down")
       ->check(CLI::IsMember({"y", "z", "y-down"}));
   cmd->add_option("--name-map", args->name_map, "user name-map file (JSON or 'Hip = joint' lines) instead of a preset")

@@ -26,6 +26,7 @@ struct RetargetArgs {
   std::string teacher, student, preset = "cmu", out;
   std::string teacher_layout, student_layout, up = "y";  // across layouts (landmark arrays, other skeletons)
   double fps = 0.0;
+  std::string time_units = "auto";  // of landmark arrays' timestamps
   double tolerance = 3e-5;
   int max_iterations = 200;
   bool cold = false, no_restore = false;
@@ -56,8 +57,8 @@ void run_across(const RetargetArgs& a) {
     throw Error(ErrorKind::kInvalidArgument,
                 "retarget: across layouts the ghost is the 16 GPD joints: --out must end in .npy");
   const UpAxis up = a.up == "z" ? UpAxis::kZ : a.up == "y-down" ? UpAxis::kYDown : UpAxis::kY;
-  const MotionSource teacher = load_motion(a.teacher, a.teacher_layout, a.fps, up);
-  const MotionSource student = load_motion(a.student, a.student_layout, a.fps, up);
+  const MotionSource teacher = load_motion(a.teacher, a.teacher_layout, a.fps, up, 0, parse_time_units(a.time_units));
+  const MotionSource student = load_motion(a.student, a.student_layout, a.fps, up, 0, parse_time_units(a.time_units));
   const retarget::MappedSide teacher_side{teacher.layout.map, teacher.layout.axes, teacher.skeleton.joint_count()};
   const retarget::MappedSide student_side{student.layout.map, student.layout.axes, student.skeleton.joint_count()};
   std::array<double, kGpdJoints> lengths{};
@@ -74,7 +75,7 @@ void run_across(const RetargetArgs& a) {
     const std::vector<float> all_good(n, 1.0f);
     for (int f = 0; f < student.frames && !stream.bone_lengths(nullptr, nullptr); ++f) {
       const float* conf = student.confidence.empty() ? all_good.data() : student.confidence.data() + f * n;
-      const Status s = stream.push(f * student.frame_time, student.xyz.data() + f * n * 3, conf, static_cast<int>(n));
+      const Status s = stream.push(student.time_of(f), student.xyz.data() + f * n * 3, conf, static_cast<int>(n));
       if (s != Status::kOk && s != Status::kTrackingLost)
         throw Error(ErrorKind::kInvalidArgument, a.student + ": frame " + std::to_string(f) + ": " + stream.last_error());
     }
@@ -207,7 +208,11 @@ void setup(CLI::App& app) {
                   "layout of the teacher (cmu, mediapipe, gpd, kinect2, ...); with it, or --student-layout, or a "
                   "non-BVH input, the ghost is made across layouts on the 16 GPD joints (default cmu for a BVH)");
   cmd->add_option("--student-layout", args->student_layout, "layout of the student (see --teacher-layout)");
-  cmd->add_option("--fps", args->fps, "frame rate of landmark arrays (.npy/.csv)")->check(CLI::PositiveNumber);
+  cmd->add_option("--fps", args->fps, "frame rate of landmark arrays (.npy/.csv) without timestamps")->check(CLI::PositiveNumber);
+  cmd->add_option("--time-units", args->time_units,
+                  "units of landmark arrays' timestamps (a .csv's first column, X.times.npy beside X.npy): s, ms or "
+                  "auto (default: from the steps between frames; refused when they fit neither)")
+      ->check(CLI::IsMember({"s", "ms", "auto"}));
   cmd->add_option("--up", args->up, "axes of landmark arrays whose layout does not fix them: y, z, y-down")
       ->check(CLI::IsMember({"y", "z", "y-down"}));
   cmd->add_option("--joints,--preset", args->preset,

@@ -31,6 +31,7 @@ bool preset_is_name_map(const std::string& layout) {
 struct ScoreArgs {
   std::string model, teacher, student, preset, name_map, out;
   std::string teacher_layout, student_layout, up = "y";  // per-side layouts (default: --layout)
+  std::string time_units = "auto";  // of landmark arrays' timestamps
   double fps = 0.0;
   int teacher_frame = -1;  // -1: the whole teacher clip is the reference
   int first = 0;
@@ -51,6 +52,7 @@ void run_score(const ScoreArgs& a) {
     std::vector<float> features;
     double frame_time = 0.0;
     std::vector<int> rows;  // source frame of each feature row (frames tracking lost have none)
+    std::vector<double> times;  // source frame times, seconds (empty: f x frame_time)
     int frames = 0;         // source frames
   };
   auto load_side = [&](const std::string& path, const std::string& layout) {
@@ -65,10 +67,11 @@ void run_score(const ScoreArgs& a) {
       return side;
     }
     const UpAxis up = a.up == "z" ? UpAxis::kZ : a.up == "y-down" ? UpAxis::kYDown : UpAxis::kY;
-    const MotionSource m = load_motion(path, layout, a.fps, up, a.first);
+    const MotionSource m = load_motion(path, layout, a.fps, up, a.first, parse_time_units(a.time_units));
     int lost = 0;
     side.features = motion_features(m, metric->stencil(), &side.rows, &lost);
     side.frame_time = m.frame_time;
+    side.times = m.times;
     side.frames = m.frames;
     if (lost) std::printf("%s: %d frames tracking lost (no score)\n", path.c_str(), lost);
     return side;
@@ -144,7 +147,7 @@ void run_score(const ScoreArgs& a) {
   static const char* const kStates[] = {"scoring", "calibrating", "tracking_lost", "teacher_finished"};
   size_t row = 0;
   for (int f = 0; f < student_frames; ++f) {
-    const double t = f * student.frame_time;
+    const double t = ss.times.empty() ? f * student.frame_time : ss.times[static_cast<size_t>(f)];
     const bool has_row = row < ss.rows.size() && ss.rows[row] == f;
     const float* x = has_row ? sf.data() + row * gpd::kDims : nullptr;
     const metric::ScoreRecord& r = !has_row      ? scorer.score_lost(t)
@@ -209,7 +212,11 @@ void setup(CLI::App& app) {
                                  "layout of both inputs (cmu, mediapipe, gpd, ...; --preset is the old name)");
   cmd->add_option("--teacher-layout", args->teacher_layout, "layout of the teacher (overrides --layout)");
   cmd->add_option("--student-layout", args->student_layout, "layout of the student (overrides --layout)");
-  cmd->add_option("--fps", args->fps, "frame rate of landmark arrays (.npy/.csv)")->check(CLI::PositiveNumber);
+  cmd->add_option("--fps", args->fps, "frame rate of landmark arrays (.npy/.csv) without timestamps")->check(CLI::PositiveNumber);
+  cmd->add_option("--time-units", args->time_units,
+                  "units of landmark arrays' timestamps (a .csv's first column, X.times.npy beside X.npy): s, ms or "
+                  "auto (default: from the steps between frames; refused when they fit neither)")
+      ->check(CLI::IsMember({"s", "ms", "auto"}));
   cmd->add_option("--up", args->up, "axes of landmark arrays whose layout does not fix them: y, z, y-down")
       ->check(CLI::IsMember({"y", "z", "y-down"}));
   cmd->add_option("--name-map", args->name_map, "name-map file for both clips instead of a preset")

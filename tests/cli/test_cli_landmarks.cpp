@@ -214,4 +214,111 @@ TEST(CliLandmarks, LostFramesKeepTheirRowsAsTrackingLost) {
   EXPECT_GT(scored_rows, frames - 40 - 80);  // calibrating after each restart: 0.25 s
 }
 
+// MediaPipe's shapes (issue 26): timestamps in milliseconds (performance.now()-like, far from 0),
+// with capture jitter, beside the .npy (X.times.npy) or as a CSV's first column, with five channels
+// (x, y, z, visibility, presence). Read with --time-units ms they give the features of the same
+// frames in seconds (to rounding), which differ from a uniform --fps run (the timestamps are used);
+// the units are inferred when left out; steps that fit neither unit are refused naming the file,
+// and a stated unit that does not fit is refused naming the one that does.
+TEST(CliLandmarks, MillisecondTimestampsGiveTheFeaturesOfSeconds) {
+  kata::test::TempDir dir;
+  const kata::BvhClip clip = kata::load_bvh(std::string(KATA_DATA_DIR) + "/cmu/02_01.bvh");
+  const kata::GpdMap map = kata::make_gpd_map(clip.skeleton, kata::preset_joint_names("cmu"));
+  const std::vector<float> pos = kata::clip_positions(clip, 1);
+  const int n = clip.skeleton.joint_count(), frames = std::min(clip.frame_count() - 1, 240);
+  std::vector<float> four, five;
+  std::vector<double> seconds, ms, bad;
+  std::ofstream csv(dir.file("ms.csv"));
+  csv.precision(12);
+  csv << "timestamp_ms,landmarks...\n";
+  for (int f = 0; f < frames; ++f) {
+    const double t = f * clip.frame_time + 0.002 * std::sin(0.7 * f);  // jitter, still increasing
+    seconds.push_back(t);
+    ms.push_back(5.0e6 + 1000.0 * t);
+    bad.push_back(0.7 * f);  // 0.7 s or 0.7 ms a frame: neither is a camera
+    csv << ms.back();
+    for (int g = 0; g < 16; ++g) {
+      const float* p = pos.data() + (static_cast<size_t>(f) * n + map.source[static_cast<size_t>(g)]) * 3;
+      four.insert(four.end(), {p[0], p[1], p[2], 1.0f});
+      five.insert(five.end(), {p[0], p[1], p[2], 1.0f, 1.0f});
+      csv << "," << p[0] << "," << p[1] << "," << p[2] << ",1,1";
+    }
+    csv << "\n";
+  }
+  csv.close();
+  const std::vector<size_t> shape4 = {static_cast<size_t>(frames), 16, 4}, shape5 = {static_cast<size_t>(frames), 16, 5};
+  const std::vector<size_t> times_shape = {static_cast<size_t>(frames)};
+  kata::write_npy(dir.file("s.npy"), four.data(), shape4);
+  kata::write_npy(dir.file("s.times.npy"), seconds.data(), times_shape);
+  kata::write_npy(dir.file("ms.npy"), five.data(), shape5);
+  kata::write_npy(dir.file("ms.times.npy"), ms.data(), times_shape);
+  kata::write_npy(dir.file("uniform.npy"), four.data(), shape4);
+  kata::write_npy(dir.file("bad.npy"), four.data(), shape4);
+  kata::write_npy(dir.file("bad.times.npy"), bad.data(), times_shape);
+
+  auto features = [&](const std::string& in, const std::string& flags, const std::string& out) {
+    const CliResult r = run_cli(dir, "features --student " + dir.file(in) + " --layout gpd " + flags + " --out " + dir.file(out));
+    EXPECT_EQ(r.code, 0) << r.output;
+    std::vector<size_t> shape;
+    return kata::read_npy(dir.file(out), &shape);
+  };
+  const std::vector<double> in_s = features("s.npy", "--time-units s", "a.npy");
+  const std::vector<double> in_ms = features("ms.npy", "--time-units ms", "b.npy");
+  const std::vector<double> inferred = features("ms.npy", "", "c.npy");
+  const std::vector<double> from_csv = features("ms.csv", "--time-units ms", "d.npy");
+  const std::vector<double> uniform = features("uniform.npy", "--fps " + std::to_string(1.0 / clip.frame_time), "e.npy");
+  ASSERT_EQ(in_s.size(), static_cast<size_t>(frames) * 1683);
+  ASSERT_EQ(in_ms.size(), in_s.size());
+  ASSERT_EQ(inferred.size(), in_s.size());
+  ASSERT_EQ(from_csv.size(), in_s.size());
+  ASSERT_EQ(uniform.size(), in_s.size());
+  double worst = 0, worst_csv = 0, jitter = 0;
+  for (size_t i = 0; i < in_s.size(); ++i) {
+    const double scale = 1.0 + std::fabs(in_s[i]);
+    worst = std::max({worst, std::fabs(in_ms[i] - in_s[i]) / scale, std::fabs(inferred[i] - in_s[i]) / scale});
+    worst_csv = std::max(worst_csv, std::fabs(from_csv[i] - in_s[i]) / scale);
+    jitter = std::max(jitter, std::fabs(uniform[i] - in_s[i]) / scale);
+  }
+  std::printf("[ figures ] ms vs s features: worst relative difference %.2g (csv %.2g); uniform --fps vs the "
+              "jittered timestamps: %.2g\n", worst, worst_csv, jitter);
+  EXPECT_LT(worst, 1e-5);
+  EXPECT_LT(worst_csv, 2e-2);  // CSV text with 12 significant digits of position
+  EXPECT_GT(jitter, 1e-2) << "the timestamps must reach the kinetics";
+
+  CliResult r = run_cli(dir, "features --student " + dir.file("bad.npy") + " --layout gpd --out " + dir.file("f.npy"));
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find(dir.file("bad.npy")), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("ambiguous time units"), std::string::npos) << r.output;
+  r = run_cli(dir, "score --model " + std::string(KATA_SOURCE_DIR) + "/models/default.kata --teacher " +
+                       dir.file("bad.npy") + " --teacher-layout gpd --student " + dir.file("s.npy") +
+                       " --student-layout gpd --out " + dir.file("g.csv"));
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find(dir.file("bad.npy")), std::string::npos) << r.output;
+  r = run_cli(dir, "features --student " + dir.file("ms.npy") + " --layout gpd --time-units s --out " + dir.file("f.npy"));
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find("fits milliseconds (--time-units ms)"), std::string::npos) << r.output;
+}
+
+// Five channels: presence is read as confidence with visibility (the smaller of the two), so a
+// joint MediaPipe calls visible but not present is missing: both legs absent for 40 frames are
+// "tracking lost" frames, as a NaN would be; all 1 gives the 4-channel features.
+TEST(CliLandmarks, PresenceGatesJointsLikeVisibility) {
+  kata::test::TempDir dir;
+  const kata::BvhClip clip = kata::load_bvh(std::string(KATA_DATA_DIR) + "/cmu/02_01.bvh");
+  const kata::GpdMap map = kata::make_gpd_map(clip.skeleton, kata::preset_joint_names("cmu"));
+  const std::vector<float> pos = kata::clip_positions(clip, 1);
+  const int n = clip.skeleton.joint_count(), frames = std::min(clip.frame_count() - 1, 200);
+  std::vector<float> five;
+  for (int f = 0; f < frames; ++f)
+    for (int g = 0; g < 16; ++g) {
+      const float* p = pos.data() + (static_cast<size_t>(f) * n + map.source[static_cast<size_t>(g)]) * 3;
+      const float presence = f >= 100 && f < 140 && g >= 10 ? 0.1f : 0.9f;
+      five.insert(five.end(), {p[0], p[1], p[2], 0.95f, presence});
+    }
+  kata::write_npy(dir.file("mp.npy"), five.data(), {static_cast<size_t>(frames), 16, 5});
+  const CliResult r = run_cli(dir, "features --student " + dir.file("mp.npy") + " --layout gpd --fps 120 --out " + dir.file("a.npy"));
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("40 frames tracking lost"), std::string::npos) << r.output;
+}
+
 }  // namespace

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <atomic>
 #include <chrono>
+#include <cmath>
 #include <cstring>
 #include <random>
 #include <string>
@@ -83,6 +84,32 @@ TEST(runtime_wire, FrameRoundTrip) {
   for (int i = 0; i < 9; ++i) EXPECT_EQ(f.xyz[i], xyz[static_cast<size_t>(i)]);
   ASSERT_NE(f.confidence, nullptr);
   EXPECT_EQ(f.confidence[1], 0.5f);
+}
+
+// MediaPipe's presence (frame.fbs field 7, issue 26): the reader sees each joint's confidence as
+// the smaller of confidence and presence (presence alone without confidence), the checksum
+// covers presence, and a frame without it reads as before.
+TEST(runtime_wire, PresenceIsReadAsConfidenceWithVisibility) {
+  Encoder encoder;
+  Decoder decoder;
+  const auto xyz = pose(3, 7, 3);
+  const float visibility[3] = {0.9f, 0.4f, 0.8f}, presence[3] = {0.6f, 0.9f, NAN};
+  Bytes m = encoder.frame(3, 7, 5'000'000LL, xyz.data(), 3, visibility, presence);
+  std::vector<uint8_t> copy(m.data, m.data + m.size);
+  ASSERT_EQ(decoder.decode(copy.data(), copy.size()), MessageKind::kFrame) << decode_error_name(decoder.error());
+  ASSERT_NE(decoder.frame().confidence, nullptr);
+  EXPECT_EQ(decoder.frame().confidence[0], 0.6f);
+  EXPECT_EQ(decoder.frame().confidence[1], 0.4f);
+  EXPECT_TRUE(std::isnan(decoder.frame().confidence[2]));
+  m = encoder.frame(3, 8, 6'000'000LL, xyz.data(), 3, nullptr, presence);
+  copy.assign(m.data, m.data + m.size);
+  ASSERT_EQ(decoder.decode(copy.data(), copy.size()), MessageKind::kFrame) << decode_error_name(decoder.error());
+  EXPECT_EQ(decoder.frame().confidence[1], 0.9f);
+  // A flipped presence value fails the checksum.
+  const float flipped[3] = {0.6f, 0.9f, 0.5f};
+  const uint32_t good = frame_checksum(3, 8, 6'000'000LL, xyz.data(), 3, nullptr, presence);
+  EXPECT_NE(good, frame_checksum(3, 8, 6'000'000LL, xyz.data(), 3, nullptr, flipped));
+  EXPECT_NE(good, frame_checksum(3, 8, 6'000'000LL, xyz.data(), 3, nullptr, nullptr));
 }
 
 TEST(runtime_wire, MisalignedMessageIsCopiedAndRead) {

@@ -62,6 +62,7 @@ class Status(enum.IntEnum):
     E_BUFFER_TOO_SMALL = 12
     E_INTERNAL = 13
     E_STATE = 14
+    TRACKING_LOST = 15  # a result, not an error: the frame was accepted without features
 
 
 class Stencil(enum.IntEnum):
@@ -140,6 +141,25 @@ def _positions_f32(positions, joints=None):
     if joints is not None and a.size != 3 * joints:
         raise ValueError("expected %d joints x 3 floats, got %d floats" % (joints, a.size))
     return a
+
+
+def _time_units_code(units):
+    if units == "s":
+        return 0  # KATA_TIME_SECONDS
+    if units == "ms":
+        return 1  # KATA_TIME_MILLISECONDS
+    raise ValueError('time_units must be "s" or "ms" (or "auto" for a whole recording), not %r' % (units,))
+
+
+def detect_time_units(timestamps):
+    """kata_time_units_detect: "s" or "ms" for recorded timestamps (n >= 2, increasing) from the
+    median step between frames (2..1000 Hz is plausible); raises KataError when it fits neither."""
+    ts = np.ascontiguousarray(timestamps, dtype=np.float64)
+    out = ctypes.c_int(0)
+    status = _n.time_units_detect(ts.ctypes.data, ts.size, ctypes.byref(out))
+    if status:
+        raise KataError(status, _text(_n.context_last_error(None)), "kata_time_units_detect")
+    return "ms" if out.value == 1 else "s"
 
 
 class _Handle:
@@ -465,10 +485,30 @@ class Stream(_Handle):
         if status:
             self._raise(status, "kata_stream_push")
 
-    def push_many(self, timestamps, positions):
+    def push_landmarks(self, timestamp, values, time_units="s"):
+        """kata_stream_push_landmarks: one frame in a landmark source's own shape, values
+        (joints, 3|4|5) float32: x y z [confidence | MediaPipe's visibility presence, read as
+        confidence = the smaller]; timestamp in time_units "s" or "ms"."""
+        a = np.ascontiguousarray(values, dtype=np.float32)
+        if a.ndim != 2 or a.shape[0] != self._joints or a.shape[1] not in (3, 4, 5):
+            raise ValueError("values must be (%d joints, 3, 4 or 5 channels)" % self._joints)
+        status = _n.stream_push_landmarks(self.handle, timestamp, _time_units_code(time_units), _address(a),
+                                          a.shape[0], a.shape[1])
+        if status not in (0, Status.TRACKING_LOST):
+            self._raise(status, "kata_stream_push_landmarks")
+        return status
+
+    def push_many(self, timestamps, positions, time_units=None):
         """Pushes frames i = 0..n-1: timestamps (n,), positions (n, joints, 3) float32, with one
         kata_stream_push per frame (no copy of positions when already C-contiguous float32). A
-        refused frame raises KataError naming its index; the frames before it were pushed."""
+        refused frame raises KataError naming its index; the frames before it were pushed.
+        MediaPipe's shapes: positions (n, joints, 4 or 5) (x y z confidence, or x y z visibility
+        presence: confidence = the smaller) and time_units "s", "ms" or "auto" (from the steps
+        between frames, kata_time_units_detect: refused when they fit neither unit) go through
+        kata_stream_push_landmarks (frames tracking lost are accepted); the default (None) is
+        seconds with 3 channels, as before."""
+        if time_units is not None or np.ndim(positions) == 3 and np.shape(positions)[2] in (4, 5):
+            return self._push_many_landmarks(timestamps, positions, "s" if time_units is None else time_units)
         a = _positions_f32(positions)
         ts = np.ascontiguousarray(timestamps, dtype=np.float64)
         n = len(ts)
@@ -480,6 +520,23 @@ class Stream(_Handle):
             status = push(h, t, base + i * stride, joints)
             if status:
                 raise KataError(status, "frame %d: %s" % (i, _text(_n.stream_last_error(h))), "kata_stream_push")
+        return n
+
+    def _push_many_landmarks(self, timestamps, values, time_units):
+        a = np.ascontiguousarray(values, dtype=np.float32)
+        ts = np.ascontiguousarray(timestamps, dtype=np.float64)
+        n = len(ts)
+        if a.ndim != 3 or a.shape[0] != n or a.shape[1] != self._joints or a.shape[2] not in (3, 4, 5):
+            raise ValueError("values must be (%d frames, %d joints, 3, 4 or 5 channels)" % (n, self._joints))
+        if time_units == "auto":
+            time_units = detect_time_units(ts)
+        units = _time_units_code(time_units)
+        push, h, joints, channels = _n.stream_push_landmarks, self.handle, self._joints, a.shape[2]
+        base, stride = _address(a), 4 * joints * channels
+        for i, t in enumerate(ts.tolist()):
+            status = push(h, t, units, base + i * stride, joints, channels)
+            if status and status != Status.TRACKING_LOST:
+                raise KataError(status, "frame %d: %s" % (i, _text(_n.stream_last_error(h))), "kata_stream_push_landmarks")
         return n
 
     def flush(self):

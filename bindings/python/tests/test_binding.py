@@ -54,6 +54,31 @@ def test_single_push_and_features_match_the_bulk_read(data):
             assert s.body_height > 0
 
 
+def test_mediapipe_shapes_in_milliseconds_give_the_features_of_seconds(data):
+    """Issue 26: five channels (x y z visibility presence) with millisecond timestamps, far from 0,
+    give the features of the same frames in seconds with 3 channels (all joints confident), the
+    units inferred or stated; steps that fit neither unit are refused."""
+    with kata.Context() as ctx, ctx.load_clip(os.path.join(data, "02_01.bvh")) as clip, clip.skeleton() as sk:
+        pos = clip.all_positions()[1:61]  # within the result ring (64)
+        n = len(pos)
+        seconds = np.arange(n) * clip.frame_time
+        five = np.concatenate([pos, np.full(pos.shape[:2] + (2,), 0.9, dtype=np.float32)], axis=2)
+        feats = []
+        for times, values, units in ((seconds, pos, None), (1e6 + 1000 * seconds, five, "ms"),
+                                     (1e6 + 1000 * seconds, five, "auto")):
+            with ctx.open_stream(sk, keep_features=True) as s:
+                s.push_many(times, values, time_units=units)
+                feats.append(s.read_results(features=True).features.copy())
+        assert feats[0].shape == (n, kata.GPD_DIMS)
+        for f in feats[1:]:
+            assert f.shape == feats[0].shape
+            np.testing.assert_allclose(f, feats[0], rtol=1e-4, atol=1e-4)
+        assert kata.detect_time_units(1e6 + 1000 * seconds) == "ms"
+        assert kata.detect_time_units(seconds) == "s"
+        with pytest.raises(kata.KataError, match="ambiguous time units"):
+            kata.detect_time_units(np.arange(n) * 0.7)
+
+
 def read_csv(path):
     with open(path, newline="") as f:
         return list(csv.DictReader(f))

@@ -235,7 +235,8 @@ typedef enum kata_up_axis {
  *          synthesised joint's confidence is the smallest of its landmarks'. World landmarks have
  *          no floor: each frame the floor under the Hip height is the lowest of landmarks 27..32
  *          (ankles, heels, foot indices), so a jump does not raise the Hip height.
- * Pass visibility as the per-joint confidence (kata_stream_push_confidence). */
+ * Pass visibility as the per-joint confidence (kata_stream_push_confidence), or MediaPipe's
+ * whole frame (x, y, z, visibility, presence; milliseconds) to kata_stream_push_landmarks. */
 
 /* The name of built-in layout i (the presets, then "mediapipe"), or NULL past the last.
  * [any thread] */
@@ -324,6 +325,28 @@ KATA_API kata_status kata_stream_push(kata_stream stream, double timestamp, cons
  * [stream owner] */
 KATA_API kata_status kata_stream_push_confidence(kata_stream stream, double timestamp, const float* positions,
                                                  const float* confidences, uint32_t joint_count);
+/* Units of a source's timestamps (kata_stream_push_landmarks). Values are never reused. */
+typedef enum kata_time_units {
+  KATA_TIME_SECONDS = 0,      /* kata's own unit (every other push) */
+  KATA_TIME_MILLISECONDS = 1  /* MediaPipe's (timestamp_ms, performance.now()) */
+} kata_time_units;
+/* kata_stream_push_confidence for a landmark source's own frame shape: `values` holds joint_count
+ * x channels floats, joint by joint: channels 3 (x, y, z: all confident), 4 (x, y, z, confidence)
+ * or 5 (MediaPipe's x, y, z, visibility, presence: the joint's confidence is the smaller of
+ * visibility and presence, so a joint counts only when it is both in the picture and unoccluded;
+ * NaN in either makes it missing). The timestamp is in `units` (converted to seconds: results
+ * carry seconds). KATA_E_INVALID_ARGUMENT for other channel counts or units (nothing changed),
+ * KATA_E_WRONG_JOINT_COUNT when joint_count is not the stream's, else as
+ * kata_stream_push_confidence. Does not allocate (the stream holds its scratch). [stream owner] */
+KATA_API kata_status kata_stream_push_landmarks(kata_stream stream, double timestamp, kata_time_units units,
+                                                const float* values, uint32_t joint_count, uint32_t channels);
+/* The units of a recorded source's timestamps (count >= 2, increasing) from the median step
+ * between frames: plausible camera and mocap rates are 2..1000 Hz, i.e. a step of 0.001..0.5 in
+ * seconds or 1..500 in milliseconds (the ranges do not overlap). A step that fits neither, or
+ * timestamps that do not increase, is refused (KATA_E_INVALID_ARGUMENT, the reason in
+ * kata_context_last_error): state the units instead of guessing. Fewer than two timestamps:
+ * KATA_TIME_SECONDS. [any thread] */
+KATA_API kata_status kata_time_units_detect(const double* timestamps, size_t count, kata_time_units* out);
 /* Confidence gate of kata_stream_push_confidence: a GPD joint (confidence = smallest of the input
  * joints it reads) below `threshold` (default 0.5), NaN, or with a non-finite coordinate is
  * missing and held at its last good position for at most `max_hold` seconds (default 0.5). A

@@ -8,6 +8,7 @@
 
 #include "capi/capi_internal.hpp"
 #include "common/text.hpp"
+#include "common/time_units.hpp"
 #include "io/clip_features.hpp"
 #include "io/file.hpp"
 #include "io/name_map.hpp"
@@ -408,6 +409,49 @@ KATA_API kata_status kata_stream_push_confidence(kata_stream stream, double time
   const kata::Status s = stream->pipeline.push(timestamp, positions, confidences, count);
   if (s != kata::Status::kOk) stream->set_error(stream->pipeline.last_error());
   return kata::capi::to_status(s);
+}
+
+KATA_API kata_status kata_stream_push_landmarks(kata_stream stream, double timestamp, kata_time_units units,
+                                                const float* values, uint32_t joint_count, uint32_t channels) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (!values) {
+    stream->set_error("kata_stream_push_landmarks: values is NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  if (units != KATA_TIME_SECONDS && units != KATA_TIME_MILLISECONDS) {
+    stream->set_error("kata_stream_push_landmarks: units must be KATA_TIME_SECONDS or KATA_TIME_MILLISECONDS");
+    return KATA_E_INVALID_ARGUMENT;
+  }
+  if (channels < 3 || channels > 5) {
+    stream->set_error("kata_stream_push_landmarks: channels must be 3 (x y z), 4 (+ confidence) or 5 (+ visibility, presence)");
+    return KATA_E_INVALID_ARGUMENT;
+  }
+  if (joint_count != stream->landmark_confidence.size()) {
+    std::snprintf(stream->error, sizeof stream->error, "kata_stream_push_landmarks: %u joints, the stream has %zu",
+                  joint_count, stream->landmark_confidence.size());
+    return KATA_E_WRONG_JOINT_COUNT;
+  }
+  float* xyz = stream->landmark_xyz.data();
+  float* confidence = stream->landmark_confidence.data();
+  for (size_t j = 0; j < joint_count; ++j) {
+    const float* v = values + j * channels;
+    xyz[3 * j] = v[0], xyz[3 * j + 1] = v[1], xyz[3 * j + 2] = v[2];
+    // Five channels: a joint is as confident as the smaller of visibility and presence (a NaN
+    // in either stays NaN: missing).
+    confidence[j] = channels == 3 ? 1.0f : channels == 4 ? v[3] : (std::isnan(v[3]) || std::isnan(v[4])) ? NAN : std::fmin(v[3], v[4]);
+  }
+  const double seconds = units == KATA_TIME_MILLISECONDS ? timestamp * 1e-3 : timestamp;
+  return kata_stream_push_confidence(stream, seconds, xyz, confidence, joint_count);
+}
+
+KATA_API kata_status kata_time_units_detect(const double* timestamps, size_t count, kata_time_units* out) {
+  if (!timestamps || !out) return KATA_E_NULL_POINTER;
+  return kata::capi::guarded_context([&] {
+    *out = kata::resolve_time_units(timestamps, count, kata::TimeUnits::kAuto, "timestamps") == kata::TimeUnits::kMilliseconds
+               ? KATA_TIME_MILLISECONDS
+               : KATA_TIME_SECONDS;
+    return KATA_OK;
+  });
 }
 
 KATA_API int64_t kata_stream_lost_frames(kata_stream stream) { return stream ? stream->pipeline.stream().lost_frames() : 0; }

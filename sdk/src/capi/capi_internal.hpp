@@ -3,7 +3,9 @@
 #pragma once
 
 #include <algorithm>
+#include <algorithm>
 #include <cstdio>
+#include <vector>
 #include <cstring>
 #include <memory>
 #include <new>
@@ -95,8 +97,14 @@ struct kata_model_s {
 // A stream is its pipeline (kata::pipeline::Pipeline: stream -> score -> ghost -> result ring);
 // the shim adds only the error text of calls refused before they reach it.
 struct kata_stream_s {
-  explicit kata_stream_s(const kata::pipeline::PipelineConfig& config) : pipeline(config) {}
+  explicit kata_stream_s(const kata::pipeline::PipelineConfig& config)
+      : pipeline(config),
+        landmark_xyz(3 * static_cast<size_t>(std::max(config.stream.input_joints, 0))),
+        landmark_confidence(static_cast<size_t>(std::max(config.stream.input_joints, 0))) {}
   kata::pipeline::Pipeline pipeline;
+  // kata_stream_push_landmarks splits interleaved channels into these (sized at open: no
+  // allocation per frame).
+  std::vector<float> landmark_xyz, landmark_confidence;
   char error[256] = {0};
 
   // Copies a message into the stream's fixed buffer (no allocation: used on the frame path).

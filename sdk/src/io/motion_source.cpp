@@ -1,6 +1,7 @@
 // Landmark arrays and BVH clips behind one reader (see motion_source.hpp).
 #include "io/motion_source.hpp"
 
+#include <algorithm>
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
@@ -46,12 +47,16 @@ void fill_array(MotionSource& m, const std::vector<double>& values, int frames, 
   const int joints = m.skeleton.joint_count();
   m.frames = frames;
   m.xyz.resize(static_cast<size_t>(frames) * joints * 3);
-  if (channels == 4) m.confidence.resize(static_cast<size_t>(frames) * joints);
+  if (channels >= 4) m.confidence.resize(static_cast<size_t>(frames) * joints);
   for (size_t f = 0; f < static_cast<size_t>(frames); ++f)
     for (size_t j = 0; j < static_cast<size_t>(joints); ++j) {
       const double* v = values.data() + (f * joints + j) * static_cast<size_t>(channels);
       for (int k = 0; k < 3; ++k) m.xyz[(f * joints + j) * 3 + static_cast<size_t>(k)] = static_cast<float>(v[k]);
+      // MediaPipe's five channels: visibility and presence; a joint is as confident as the
+      // smaller (std::fmin keeps a NaN in either from hiding: NaN stays missing below).
       if (channels == 4) m.confidence[f * joints + j] = static_cast<float>(v[3]);
+      if (channels == 5)
+        m.confidence[f * joints + j] = std::isnan(v[3]) || std::isnan(v[4]) ? NAN : static_cast<float>(std::fmin(v[3], v[4]));
     }
 }
 
@@ -59,22 +64,62 @@ void fill_array(MotionSource& m, const std::vector<double>& values, int frames, 
 
 namespace {
 
-// A landmark source without frames: the layout's joint list and map, its axes, the frame time.
-MotionSource empty_landmarks(const std::string& name, const std::string& layout_name, double fps, UpAxis up) {
-  if (!(fps > 0.0) || !std::isfinite(fps))
-    throw Error(ErrorKind::kInvalidArgument, name + ": a landmark array needs a frame rate > 0");
+// A landmark source without frames: the layout's joint list and map, its axes (the frame time
+// comes from the frame rate or the timestamps: needs_timing).
+MotionSource empty_landmarks(const std::string& name, const std::string& layout_name, UpAxis up) {
   MotionSource m;
   m.path = name;
   m.skeleton = layout_skeleton(layout_name);
   m.layout = resolve_layout(m.skeleton, layout_name);
   if (!m.layout.fixed_axes) m.layout.axes = up;
+  return m;
+}
+
+// An array without timestamps runs at `fps`.
+void set_frame_rate(MotionSource& m, double fps) {
+  if (!(fps > 0.0) || !std::isfinite(fps))
+    throw Error(ErrorKind::kInvalidArgument, m.path + ": a landmark array without timestamps needs a frame rate > 0 (--fps)");
   m.frame_time = 1.0 / fps;
+}
+
+MotionSource array_of_values(const std::vector<double>& values, const std::vector<size_t>& shape, const std::string& name,
+                             const std::string& layout_name, UpAxis up) {
+  MotionSource m = empty_landmarks(name, layout_name, up);
+  const size_t joints = static_cast<size_t>(m.skeleton.joint_count());
+  if (shape.size() != 3 || shape[1] != joints || shape[2] < 3 || shape[2] > 5 ||
+      shape[0] > static_cast<size_t>(kMaxLandmarkFrames))
+    throw Error(ErrorKind::kParse, name + ": expected shape (frames <= " + std::to_string(kMaxLandmarkFrames) + ", " +
+                                       std::to_string(joints) + ", 3, 4 or 5) for layout " + bounded(layout_name));
+  fill_array(m, values, static_cast<int>(shape[0]), static_cast<int>(shape[2]));
   return m;
 }
 
 }  // namespace
 
-MotionSource load_motion(const std::string& path, const std::string& layout_name, double fps, UpAxis up, int first) {
+std::string times_path_of(const std::string& npy_path) {
+  return (ends_with(npy_path, ".npy") ? npy_path.substr(0, npy_path.size() - 4) : npy_path) + ".times.npy";
+}
+
+void set_timestamps(MotionSource& m, const double* raw, size_t count, TimeUnits units) {
+  if (count != static_cast<size_t>(m.frames))
+    throw Error(ErrorKind::kParse, m.path + ": " + std::to_string(count) + " timestamps for " + std::to_string(m.frames) +
+                                       " frames");
+  const TimeUnits resolved = resolve_time_units(raw, count, units, m.path);
+  const double scale = seconds_per_unit(resolved);
+  m.times.resize(count);
+  for (size_t i = 0; i < count; ++i) m.times[i] = (raw[i] - raw[0]) * scale;
+  if (count >= 2) {
+    std::vector<double> steps(count - 1);
+    for (size_t i = 1; i < count; ++i) steps[i - 1] = m.times[i] - m.times[i - 1];
+    std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
+    m.frame_time = steps[steps.size() / 2];
+  } else {
+    m.frame_time = 1.0 / 30.0;  // one frame: no step to measure, and none needed
+  }
+}
+
+MotionSource load_motion(const std::string& path, const std::string& layout_name, double fps, UpAxis up, int first,
+                         TimeUnits units) {
   MotionSource m;
   m.path = path;
   if (ends_with(path, ".bvh")) {
@@ -100,49 +145,59 @@ MotionSource load_motion(const std::string& path, const std::string& layout_name
     throw Error(ErrorKind::kInvalidArgument, path + ": unknown file type (.bvh, .npy or .csv)");
   if (layout_name.empty())
     throw Error(ErrorKind::kInvalidArgument, path + ": a landmark array needs --layout (mediapipe, gpd, ...)");
-  if (!(fps > 0.0)) throw Error(ErrorKind::kInvalidArgument, path + ": a landmark array needs --fps (> 0)");
   const std::string bytes = format == LandmarkFormat::kNpy
                                 ? std::string()
                                 : read_file_bounded(path, kMaxLandmarkCsvBytes, "landmark CSV file");
   if (format == LandmarkFormat::kNpy) {
     std::vector<size_t> shape;
     const std::vector<double> values = read_npy(path, &shape);
-    m = landmarks_from_values(values, shape, path, layout_name, fps, up);
+    m = array_of_values(values, shape, path, layout_name, up);
+    const std::string times_path = times_path_of(path);
+    if (std::ifstream(times_path)) {
+      std::vector<size_t> times_shape;
+      const std::vector<double> raw = read_npy(times_path, &times_shape);
+      if (times_shape.size() != 1)
+        throw Error(ErrorKind::kParse, times_path + ": timestamps must be a 1-D array (one per frame of " + path + ")");
+      set_timestamps(m, raw.data(), raw.size(), units);
+    } else {
+      set_frame_rate(m, fps);
+    }
   } else {
-    m = parse_landmarks(bytes, format, path, layout_name, fps, up);
+    m = parse_landmarks(bytes, format, path, layout_name, fps, up, units);
   }
   if (first < 0 || first > m.frames) throw Error(ErrorKind::kInvalidArgument, path + ": first frame out of range");
   const size_t joints = static_cast<size_t>(m.skeleton.joint_count());
   m.xyz.erase(m.xyz.begin(), m.xyz.begin() + static_cast<std::ptrdiff_t>(static_cast<size_t>(first) * joints * 3));
   if (!m.confidence.empty())
     m.confidence.erase(m.confidence.begin(), m.confidence.begin() + static_cast<std::ptrdiff_t>(static_cast<size_t>(first) * joints));
+  if (!m.times.empty()) {
+    m.times.erase(m.times.begin(), m.times.begin() + first);
+    const double t0 = m.times.front();  // times stay from the first kept frame
+    for (double& t : m.times) t -= t0;
+  }
   m.frames -= first;
   return m;
 }
 
 MotionSource landmarks_from_values(const std::vector<double>& values, const std::vector<size_t>& shape,
                                    const std::string& name, const std::string& layout_name, double fps, UpAxis up) {
-  MotionSource m = empty_landmarks(name, layout_name, fps, up);
-  const size_t joints = static_cast<size_t>(m.skeleton.joint_count());
-  if (shape.size() != 3 || shape[1] != joints || (shape[2] != 3 && shape[2] != 4) ||
-      shape[0] > static_cast<size_t>(kMaxLandmarkFrames))
-    throw Error(ErrorKind::kParse, name + ": expected shape (frames <= " + std::to_string(kMaxLandmarkFrames) + ", " +
-                                       std::to_string(joints) + ", 3 or 4) for layout " + bounded(layout_name));
-  fill_array(m, values, static_cast<int>(shape[0]), static_cast<int>(shape[2]));
+  MotionSource m = array_of_values(values, shape, name, layout_name, up);
+  set_frame_rate(m, fps);
   return m;
 }
 
 MotionSource parse_landmarks(const std::string& bytes, LandmarkFormat format, const std::string& name,
-                             const std::string& layout_name, double fps, UpAxis up) {
+                             const std::string& layout_name, double fps, UpAxis up, TimeUnits units) {
   if (format == LandmarkFormat::kNpy) {
     std::vector<size_t> shape;
     const std::vector<double> values = parse_npy(bytes, name, &shape);
     return landmarks_from_values(values, shape, name, layout_name, fps, up);
   }
-  MotionSource m = empty_landmarks(name, layout_name, fps, up);
+  MotionSource m = empty_landmarks(name, layout_name, up);
   const int joints = m.skeleton.joint_count();
-  std::vector<double> row, values;
+  std::vector<double> row, values, times;
   int channels = 0, frames = 0, line_no = 0;
+  bool timed = false;  // a leading timestamp column (decided by the first row's count)
   size_t start = 0;
   while (start < bytes.size()) {
     size_t end = bytes.find('\n', start);
@@ -155,20 +210,31 @@ MotionSource parse_landmarks(const std::string& bytes, LandmarkFormat format, co
       if (frames == 0 && channels == 0) continue;  // the header (any lines before the first row)
       throw Error(ErrorKind::kParse, name + ":" + std::to_string(line_no) + ": a field is not a number");
     }
-    const int c = static_cast<int>(row.size()) == 3 * joints ? 3 : static_cast<int>(row.size()) == 4 * joints ? 4 : 0;
-    if (c == 0 || (channels != 0 && c != channels))
+    // joints x 3, 4 or 5 numbers, or one more: a timestamp first.
+    int c = 0;
+    bool t = false;
+    for (int k = 3; k <= 5 && c == 0; ++k) {
+      if (static_cast<int>(row.size()) == k * joints) c = k;
+      else if (static_cast<int>(row.size()) == k * joints + 1) c = k, t = true;
+    }
+    if (c == 0 || (channels != 0 && (c != channels || t != timed)))
       throw Error(ErrorKind::kParse, name + ":" + std::to_string(line_no) + ": " + std::to_string(row.size()) +
-                                         " numbers, expected " + std::to_string(3 * joints) + " or " +
-                                         std::to_string(4 * joints) + " (layout " + bounded(layout_name) + ")");
+                                         " numbers, expected " + std::to_string(3 * joints) + ", " +
+                                         std::to_string(4 * joints) + " or " + std::to_string(5 * joints) +
+                                         " (layout " + bounded(layout_name) + "), optionally after a timestamp, as on "
+                                         "the first row");
     if (frames >= kMaxLandmarkFrames)
       throw Error(ErrorKind::kParse, name + ":" + std::to_string(line_no) + ": more than " +
                                          std::to_string(kMaxLandmarkFrames) + " frames");
-    channels = c;
-    values.insert(values.end(), row.begin(), row.end());
+    channels = c, timed = t;
+    if (timed) times.push_back(row[0]);
+    values.insert(values.end(), row.begin() + (timed ? 1 : 0), row.end());
     ++frames;
   }
   if (frames == 0) throw Error(ErrorKind::kParse, name + ": no frames");
   fill_array(m, values, frames, channels);
+  if (timed) set_timestamps(m, times.data(), times.size(), units);
+  else set_frame_rate(m, fps);
   return m;
 }
 
@@ -198,7 +264,7 @@ std::vector<float> motion_features(const MotionSource& m, gpd::Stencil stencil, 
   const std::vector<float> all_good(static_cast<size_t>(n), 1.0f);  // arrays without confidences
   for (int f = 0; f < m.frames; ++f) {
     const float* conf = m.confidence.empty() ? all_good.data() : m.confidence.data() + static_cast<size_t>(f) * n;
-    const Status s = stream.push(f * m.frame_time, m.xyz.data() + static_cast<size_t>(f) * n * 3, conf, n);
+    const Status s = stream.push(m.time_of(f), m.xyz.data() + static_cast<size_t>(f) * n * 3, conf, n);
     if (s == Status::kTrackingLost) {
       ++*lost;
     } else if (s != Status::kOk) {

@@ -1,14 +1,20 @@
 // A recorded motion from any supported source, for the CLI: a BVH clip, or a landmark array as a
-// NumPy .npy of shape (frames, joints, 3) or (frames, joints, 4) (x, y, z, confidence), or a CSV
-// with one row per frame of joints x 3 (or x 4) numbers (a first line that is not numeric is a
-// header). Landmark arrays name their layout (skeleton.hpp: "mediapipe", "gpd", "azure-kinect",
-// "xsens") and their frame rate; their joints are in the layout's order.
+// NumPy .npy of shape (frames, joints, 3), (frames, joints, 4) (x, y, z, confidence) or
+// (frames, joints, 5) (MediaPipe's x, y, z, visibility, presence: the confidence is the smaller of
+// visibility and presence, so a joint counts only when it is both in the picture and unoccluded),
+// or a CSV with one row per frame of joints x 3, 4 or 5 numbers, optionally after a leading
+// timestamp column (a first line that is not numeric is a header). Landmark arrays name their
+// layout (skeleton.hpp: "mediapipe", "gpd", "azure-kinect", "xsens") and their timing: a frame
+// rate, or timestamps (the CSV's first column, or for `X.npy` a 1-D `X.times.npy` beside it) in
+// seconds or milliseconds (stated, or inferred from the steps; see common/time_units.hpp).
+// Their joints are in the layout's order.
 #pragma once
 
 #include <cstdint>
 #include <string>
 #include <vector>
 
+#include "common/time_units.hpp"
 #include "gpd/gpd.hpp"
 #include "skeleton/skeleton.hpp"
 
@@ -22,13 +28,23 @@ struct MotionSource {
   double frame_time = 0.0;         // seconds
   std::vector<float> xyz;          // frames x joints x 3
   std::vector<float> confidence;   // frames x joints, empty when the source has none
+  // Capture time of each frame, seconds from the first frame; empty: frame i at i x frame_time.
+  // (With timestamps, frame_time is their median step.)
+  std::vector<double> times;
+
+  double time_of(int frame) const { return times.empty() ? frame * frame_time : times[static_cast<size_t>(frame)]; }
 };
 
 // Loads `path` (.bvh, .npy or .csv by extension). layout: the layout name ("" = "cmu" for a BVH;
-// required for arrays); fps: frame rate of an array (required, > 0; a BVH has its own); up: the
-// axes of a layout that does not fix them. `first` skips frames at the start. Errors name the
-// file (and line for CSV).
-MotionSource load_motion(const std::string& path, const std::string& layout, double fps, UpAxis up, int first = 0);
+// required for arrays); fps: frame rate of an array without timestamps (required then, > 0; a BVH
+// has its own; ignored when the array has timestamps); up: the axes of a layout that does not fix
+// them; units: of the array's timestamps (kAuto: inferred, refused naming the file when the steps
+// fit neither unit). `first` skips frames at the start. Errors name the file (and line for CSV).
+MotionSource load_motion(const std::string& path, const std::string& layout, double fps, UpAxis up, int first = 0,
+                         TimeUnits units = TimeUnits::kAuto);
+
+// The sidecar timestamps of a landmark .npy: "X.npy" -> "X.times.npy".
+std::string times_path_of(const std::string& npy_path);
 
 // Bounds of landmark arrays (a larger input is refused, naming the file).
 constexpr uint64_t kMaxLandmarkCsvBytes = uint64_t{1} << 30;  // 1 GiB of CSV text
@@ -37,12 +53,17 @@ constexpr int kMaxLandmarkFrames = 1 << 24;                    // 39 h at 120 Hz
 enum class LandmarkFormat { kNpy, kCsv, kUnknown };
 // A landmark array from its bytes in memory (the parser of load_motion; `name` stands for the
 // file in messages). Throws kata::Error: kParse for malformed bytes (CSV: with the line),
-// kNotFound for an unknown layout, kInvalidArgument for fps <= 0.
+// kNotFound for an unknown layout, kInvalidArgument for fps <= 0 (without timestamps) or for
+// timestamps whose units are ambiguous.
 MotionSource parse_landmarks(const std::string& bytes, LandmarkFormat format, const std::string& name,
-                             const std::string& layout, double fps, UpAxis up);
+                             const std::string& layout, double fps, UpAxis up, TimeUnits units = TimeUnits::kAuto);
 // The same from a parsed .npy's values and shape.
 MotionSource landmarks_from_values(const std::vector<double>& values, const std::vector<size_t>& shape,
                                    const std::string& name, const std::string& layout, double fps, UpAxis up);
+// Gives an array its timestamps (`count` = frames, raw values in `units`, kAuto: inferred), as
+// seconds from the first one; frame_time becomes their median step. Throws kata::Error naming
+// m.path for a wrong count, a timestamp that does not increase or ambiguous units.
+void set_timestamps(MotionSource& m, const double* raw, size_t count, TimeUnits units);
 
 // GPD features of every frame through a live Stream with the source's confidences (the layout's
 // smoothing default applies): one row per emitted vector (frames x gpd::kDims), and the frame index

@@ -117,7 +117,9 @@ struct Runtime::FrameCell {
   int64_t arrival_ns = 0;
   int joints = 0;
   bool restart = false;
-  float* xyz = nullptr;  // points into Worker::frame_data
+  float* xyz = nullptr;         // points into Worker::frame_data
+  float* confidence = nullptr;  // points into Worker::confidence_data
+  bool has_confidence = false;
 };
 
 // A result on its way to the I/O thread.
@@ -133,6 +135,7 @@ struct Runtime::Worker {
   // Frames in: bounded multi-producer / single-consumer ring (Vyukov's bounded queue).
   std::vector<FrameCell> cells;
   std::vector<float> frame_data;
+  std::vector<float> confidence_data;  // cells x max_joints
   size_t mask = 0;
   alignas(64) std::atomic<size_t> enqueue_pos{0};  // | kQueueClosed once stop() began
   alignas(64) size_t dequeue_pos = 0;
@@ -178,7 +181,7 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
       return true;
     };
     handlers.on_frame = [this](const transport::FrameView& f, bool restarted) {
-      push(f.stream_id, f.sequence, static_cast<double>(f.capture_ns) * 1e-9, f.xyz, f.joints, restarted);
+      push(f.stream_id, f.sequence, static_cast<double>(f.capture_ns) * 1e-9, f.xyz, f.joints, restarted, f.confidence);
     };
     ingest_ = std::make_unique<transport::Ingest>(*context_, config_.ingest, std::move(handlers));
     ingest_endpoint_ = ingest_->endpoint();
@@ -194,10 +197,12 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
     worker->index = w;
     worker->cells = std::vector<FrameCell>(frame_cells);
     worker->frame_data.assign(frame_cells * static_cast<size_t>(config_.max_joints) * 3, 0.0f);
+    worker->confidence_data.assign(frame_cells * static_cast<size_t>(config_.max_joints), 0.0f);
     worker->mask = frame_cells - 1;
     for (size_t i = 0; i < frame_cells; ++i) {
       worker->cells[i].turn.store(i, std::memory_order_relaxed);
       worker->cells[i].xyz = worker->frame_data.data() + i * static_cast<size_t>(config_.max_joints) * 3;
+      worker->cells[i].confidence = worker->confidence_data.data() + i * static_cast<size_t>(config_.max_joints);
     }
     worker->results.resize(result_cells);
     worker->ghosts.assign(result_cells * kMaxGhostJoints * 3, 0.0f);
@@ -303,7 +308,7 @@ void Runtime::add_locked(const transport::SkeletonDefinition& definition, pipeli
 }
 
 Status Runtime::push(uint64_t stream_id, uint64_t sequence, double capture_time, const float* xyz, int joints,
-                     bool restart) {
+                     bool restart, const float* confidence) {
   if (!xyz) return Status::kNullPointer;
   StreamState* stream = find(stream_id);
   if (!stream) return Status::kNotFound;
@@ -335,6 +340,8 @@ Status Runtime::push(uint64_t stream_id, uint64_t sequence, double capture_time,
   cell->joints = joints;
   cell->restart = restart;
   std::memcpy(cell->xyz, xyz, sizeof(float) * 3 * static_cast<size_t>(joints));
+  cell->has_confidence = confidence != nullptr;
+  if (confidence) std::memcpy(cell->confidence, confidence, sizeof(float) * static_cast<size_t>(joints));
   stream->counters.frames_in.fetch_add(1, std::memory_order_relaxed);  // before the worker can see it
   cell->turn.store(pos + 1, std::memory_order_release);
   sem_post(&w.wake);
@@ -433,14 +440,14 @@ void Runtime::worker_loop(Worker& w) {
       s.time_offset = s.last_time + 1.0 - cell.capture_time;
     }
     const double t = cell.capture_time + s.time_offset;
-    const Status st = p.push(t, cell.xyz, cell.joints, cell.arrival_ns);
+    const Status st = p.push(t, cell.xyz, cell.has_confidence ? cell.confidence : nullptr, cell.joints, cell.arrival_ns);
     if (st == Status::kOk) {
       const size_t ring = static_cast<size_t>(s.accepted) % s.sequence_ring.size();
       s.sequence_ring[ring] = cell.sequence;
       s.capture_ring[ring] = cell.capture_time;
       s.last_time = t;
       ++s.accepted;
-    } else {
+    } else if (st != Status::kTrackingLost) {  // tracking lost: accepted, no features (the confidence gate)
       s.counters.refused.fetch_add(1, std::memory_order_relaxed);
     }
     cell.turn.store(w.dequeue_pos + w.mask + 1, std::memory_order_release);

@@ -158,9 +158,10 @@ class Runtime {
   // teacher alignment restart first). [any thread; one producer per stream keeps its order]
   // kOk, kNotFound (no such stream), kWrongJointCount (more than max_joints), kState (queue
   // full: dropped and counted), kStopped (stop() has begun: not taken, counted) or kNullPointer.
-  // Never blocks, never allocates.
+  // Never blocks, never allocates. confidence: joints floats (a frame message's confidence,
+  // MediaPipe's visibility) or null (all confident).
   Status push(uint64_t stream_id, uint64_t sequence, double capture_time, const float* xyz, int joints,
-              bool restart = false);
+              bool restart = false, const float* confidence = nullptr);
 
   // Lets workers finish every queued frame, flushes every pipeline, sends every result, then
   // stops the threads and closes the sockets (idempotent). [any thread but a runtime thread]

@@ -1,6 +1,7 @@
 // FlatBuffers encode / verify + decode of kata messages (see wire.hpp for the framing).
 #include "transport/wire.hpp"
 
+#include <cmath>
 #include <cstring>
 
 #include "common/error.hpp"
@@ -69,7 +70,7 @@ bool parse_topic(const uint8_t* topic, uint64_t* stream_id) {
 }
 
 uint32_t frame_checksum(uint64_t stream_id, uint64_t sequence, int64_t capture_ns, const float* xyz,
-                        int joints, const float* confidence) {
+                        int joints, const float* confidence, const float* presence) {
   uint32_t h = 2166136261u;
   h = fnv1a_u64(h, stream_id);
   h = fnv1a_u64(h, sequence);
@@ -77,6 +78,7 @@ uint32_t frame_checksum(uint64_t stream_id, uint64_t sequence, int64_t capture_n
   // Floats are hashed as their little-endian bytes (the wire's); x86-64 and aarch64 are LE.
   h = fnv1a(h, xyz, sizeof(float) * 3 * static_cast<size_t>(joints));
   if (confidence) h = fnv1a(h, confidence, sizeof(float) * static_cast<size_t>(joints));
+  if (presence) h = fnv1a(h, presence, sizeof(float) * static_cast<size_t>(joints));
   return h;
 }
 
@@ -102,12 +104,13 @@ Bytes Encoder::finish(uint64_t stream_id, const char* /*identifier*/) {
 }
 
 Bytes Encoder::frame(uint64_t stream_id, uint64_t sequence, int64_t capture_ns, const float* xyz, int joints,
-                     const float* confidence) {
+                     const float* confidence, const float* presence) {
   auto& b = impl_->builder;
   b.Clear();
   const auto positions = vec3_vector(b, xyz, joints);
-  flatbuffers::Offset<flatbuffers::Vector<float>> conf;
+  flatbuffers::Offset<flatbuffers::Vector<float>> conf, pres;
   if (confidence) conf = b.CreateVector(confidence, static_cast<size_t>(joints));
+  if (presence) pres = b.CreateVector(presence, static_cast<size_t>(joints));
   fb::FrameBuilder f(b);
   f.add_schema_version(kFrameVersion);
   f.add_stream_id(stream_id);
@@ -116,7 +119,8 @@ Bytes Encoder::frame(uint64_t stream_id, uint64_t sequence, int64_t capture_ns, 
   f.add_capture_time(&capture);
   f.add_positions(positions);
   if (confidence) f.add_confidence(conf);
-  f.add_checksum(frame_checksum(stream_id, sequence, capture_ns, xyz, joints, confidence));
+  if (presence) f.add_presence(pres);
+  f.add_checksum(frame_checksum(stream_id, sequence, capture_ns, xyz, joints, confidence, presence));
   b.Finish(f.Finish(), fb::FrameIdentifier());
   return finish(stream_id, fb::FrameIdentifier());
 }
@@ -214,7 +218,8 @@ const char* decode_error_name(DecodeError error) {
 
 Decoder::Decoder(size_t max_message_bytes, bool require_checksum)
     : max_bytes_(max_message_bytes), require_checksum_(require_checksum),
-      scratch_((max_message_bytes + 7) / 8) {}
+      scratch_((max_message_bytes + 7) / 8),
+      combined_(max_message_bytes / 16 + 1) {}  // a joint takes >= 16 bytes (position + presence)
 Decoder::~Decoder() = default;
 
 MessageKind Decoder::fail(DecodeError error) {
@@ -259,11 +264,23 @@ MessageKind Decoder::decode(const void* data, size_t size) {
       if (c->size() != positions->size()) return fail(DecodeError::kMissingField);
       frame_.confidence = c->data();
     }
+    const float* presence = nullptr;
+    if (const auto* p = f->presence()) {
+      if (p->size() != positions->size() || p->size() > combined_.size()) return fail(DecodeError::kMissingField);
+      presence = p->data();
+    }
     if (require_checksum_ || flatbuffers::IsFieldPresent(f, fb::Frame::VT_CHECKSUM)) {
       if (!flatbuffers::IsFieldPresent(f, fb::Frame::VT_CHECKSUM)) return fail(DecodeError::kMissingField);
       if (f->checksum() != frame_checksum(frame_.stream_id, frame_.sequence, frame_.capture_ns, frame_.xyz,
-                                          frame_.joints, frame_.confidence))
+                                          frame_.joints, frame_.confidence, presence))
         return fail(DecodeError::kChecksum);
+    }
+    if (presence) {  // MediaPipe's two channels: a joint is as confident as the smaller (NaN stays NaN)
+      for (int j = 0; j < frame_.joints; ++j) {
+        const float c = frame_.confidence ? frame_.confidence[j] : 1.0f, q = presence[j];
+        combined_[static_cast<size_t>(j)] = std::isnan(c) || std::isnan(q) ? NAN : std::fmin(c, q);
+      }
+      frame_.confidence = combined_.data();
     }
     return MessageKind::kFrame;
   }

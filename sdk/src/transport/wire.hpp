@@ -36,7 +36,7 @@ uint32_t shard_of(uint64_t stream_id, uint32_t shard_count);
 
 // FNV-1a 32 over a frame's values, as schemas/frame.fbs documents for Frame.checksum.
 uint32_t frame_checksum(uint64_t stream_id, uint64_t sequence, int64_t capture_ns, const float* xyz,
-                        int joints, const float* confidence);
+                        int joints, const float* confidence, const float* presence = nullptr);
 
 // A stream's skeleton as carried by a SkeletonDefinition message.
 struct SkeletonDefinition {
@@ -89,7 +89,7 @@ class Encoder {
 
   // A Frame message (checksum filled in). confidence may be null.
   Bytes frame(uint64_t stream_id, uint64_t sequence, int64_t capture_ns, const float* xyz, int joints,
-              const float* confidence = nullptr);
+              const float* confidence = nullptr, const float* presence = nullptr);
   // A SkeletonDefinition message.
   Bytes skeleton(const SkeletonDefinition& definition);
   // A Result message.
@@ -125,7 +125,7 @@ struct FrameView {
   int64_t capture_ns = 0;
   int joints = 0;
   const float* xyz = nullptr;         // joints x 3
-  const float* confidence = nullptr;  // joints, or null
+  const float* confidence = nullptr;  // joints, or null; with a presence field: the smaller of the two
 };
 
 // A verified result; pointers valid until the decoder's next call.
@@ -162,6 +162,7 @@ class Decoder {
   size_t max_bytes_;
   bool require_checksum_;
   std::vector<uint64_t> scratch_;  // 8-byte aligned
+  std::vector<float> combined_;    // min(confidence, presence) per joint (sized at the limit)
   const uint8_t* payload_ = nullptr;
   size_t payload_size_ = 0;
   DecodeError error_ = DecodeError::kNone;

@@ -1,0 +1,66 @@
+#include "common/time_units.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <vector>
+
+#include "common/error.hpp"
+
+namespace kata {
+
+TimeUnits parse_time_units(const std::string& text) {
+  if (text == "s") return TimeUnits::kSeconds;
+  if (text == "ms") return TimeUnits::kMilliseconds;
+  if (text == "auto" || text.empty()) return TimeUnits::kAuto;
+  throw Error(ErrorKind::kInvalidArgument, "time units must be s, ms or auto (got '" + text.substr(0, 16) + "')");
+}
+
+const char* time_units_name(TimeUnits units) {
+  switch (units) {
+    case TimeUnits::kSeconds: return "s";
+    case TimeUnits::kMilliseconds: return "ms";
+    case TimeUnits::kAuto: break;
+  }
+  return "auto";
+}
+
+double seconds_per_unit(TimeUnits units) {
+  return units == TimeUnits::kSeconds ? 1.0 : units == TimeUnits::kMilliseconds ? 1e-3 : 0.0;
+}
+
+namespace {
+
+bool plausible(double step_seconds) { return step_seconds >= kMinPlausibleStep && step_seconds <= kMaxPlausibleStep; }
+
+}  // namespace
+
+TimeUnits resolve_time_units(const double* times, size_t count, TimeUnits stated, const std::string& name) {
+  if (count < 2) return stated == TimeUnits::kAuto ? TimeUnits::kSeconds : stated;
+  // Offline (a file's timestamps): one allocation for the median is fine here.
+  std::vector<double> steps(count - 1);
+  for (size_t i = 1; i < count; ++i) {
+    if (!std::isfinite(times[i]) || !std::isfinite(times[i - 1]) || !(times[i] > times[i - 1]))
+      throw Error(ErrorKind::kInvalidArgument, name + ": timestamp " + std::to_string(i) + " does not increase");
+    steps[i - 1] = times[i] - times[i - 1];
+  }
+  std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
+  const double step = steps[steps.size() / 2];
+  const bool as_seconds = plausible(step), as_ms = plausible(step * 1e-3);
+  char figure[96];
+  std::snprintf(figure, sizeof figure, "the median step between frames is %.6g", step);
+  if (stated == TimeUnits::kAuto) {
+    if (as_seconds) return TimeUnits::kSeconds;
+    if (as_ms) return TimeUnits::kMilliseconds;
+    throw Error(ErrorKind::kInvalidArgument,
+                name + ": ambiguous time units: " + figure + ", a plausible frame step (2..1000 Hz) in neither seconds "
+                       "(0.001..0.5) nor milliseconds (1..500); give --time-units s|ms after checking the timestamps");
+  }
+  if (plausible(step * seconds_per_unit(stated))) return stated;
+  const char* other = stated == TimeUnits::kSeconds ? (as_ms ? "; it fits milliseconds (--time-units ms)" : "")
+                                                    : (as_seconds ? "; it fits seconds (--time-units s)" : "");
+  throw Error(ErrorKind::kInvalidArgument, name + ": timestamps in " + (stated == TimeUnits::kSeconds ? "seconds" : "milliseconds") +
+                                               ": " + figure + ", not a plausible frame step (2..1000 Hz)" + other);
+}
+
+}  // namespace kata

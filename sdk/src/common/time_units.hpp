@@ -1,0 +1,34 @@
+// Units of the timestamps a landmark source gives. MediaPipe reports milliseconds, mocap files and
+// kata seconds; a millisecond file read as seconds has frames 33 "seconds" apart and kinetics near
+// zero, so the units are either stated or inferred from the steps between frames, and refused
+// when the steps fit neither.
+#pragma once
+
+#include <cstddef>
+#include <string>
+
+namespace kata {
+
+enum class TimeUnits { kAuto = 0, kSeconds = 1, kMilliseconds = 2 };
+
+// Plausible steps between frames, seconds: 1000 Hz .. 2 Hz. The ranges of the two units do not
+// overlap (seconds 0.001..0.5, milliseconds 1..500 as raw numbers), so a plausible step names
+// its unit.
+constexpr double kMinPlausibleStep = 0.001;
+constexpr double kMaxPlausibleStep = 0.5;
+
+// "s", "ms" or "auto" -> the units; throws kata::Error(kInvalidArgument) otherwise.
+TimeUnits parse_time_units(const std::string& text);
+const char* time_units_name(TimeUnits units);
+// Seconds per unit (1 or 0.001); kAuto has none (0).
+double seconds_per_unit(TimeUnits units);
+
+// The units of `count` timestamps (count >= 2, increasing) from the median step between them:
+// `stated` when it is kSeconds or kMilliseconds and the step is plausible in it, the unit the step
+// fits when `stated` is kAuto. Throws kata::Error(kInvalidArgument) starting with `name` (the
+// file) when the step is plausible for neither unit (or not for the stated one: the message then
+// names the unit that fits, if any), or when the timestamps do not increase. Fewer than two
+// timestamps: `stated`, or seconds.
+TimeUnits resolve_time_units(const double* times, size_t count, TimeUnits stated, const std::string& name);
+
+}  // namespace kata

@@ -1,0 +1,516 @@
+#include "coach/webcam.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+
+#include <httplib.h>
+#include <nlohmann/json.hpp>
+
+#include "common/error.hpp"
+#include "common/time_units.hpp"
+#include "io/bvh.hpp"
+#include "io/clip_features.hpp"
+#include "io/model_file.hpp"
+#include "io/motion_source.hpp"
+#include "io/npy.hpp"
+#include "metric/parts.hpp"
+#include "metric/scorer.hpp"
+#include "pipeline/pipeline.hpp"
+#include "stream/stream.hpp"
+
+namespace kata::coach {
+
+namespace {
+
+constexpr uint32_t kMagic = 0x3143574bu;  // "KWC1"
+constexpr size_t kHeaderBytes = 48;
+constexpr uint64_t kStudentStream = 2;
+
+double steady_ms() {
+  return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now().time_since_epoch()).count();
+}
+
+const char* state_text(int32_t state) {
+  switch (static_cast<metric::ScoreState>(state)) {
+    case metric::ScoreState::kScoring: return "tracking";
+    case metric::ScoreState::kCalibrating: return "calibrating";
+    case metric::ScoreState::kTrackingLost: return "tracking lost";
+    case metric::ScoreState::kTeacherFinished: return "teacher finished";
+  }
+  return "tracking lost";
+}
+
+struct V3 {
+  double x = 0, y = 0, z = 0;
+};
+V3 at(const float* p, int j) { return {p[3 * j], p[3 * j + 1], p[3 * j + 2]}; }
+double dist(V3 a, V3 b) { return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) + (a.z - b.z) * (a.z - b.z)); }
+
+// GPD joints used by the ghost's placement (spec order): 0 Hip, 3 Neck, 10 LHip, 13 RHip.
+constexpr int kHip = 0, kNeck = 3, kLHip = 10, kRHip = 13;
+
+std::string html_text(const std::string& s) {
+  std::string out;
+  for (char c : s.substr(0, 64)) out += c == '<' ? "&lt;" : c == '>' ? "&gt;" : c == '&' ? "&amp;" : std::string(1, c);
+  return out;
+}
+
+}  // namespace
+
+bool parse_webcam_frame(const std::string& body, WebcamFrame* out, std::string* why) {
+  if (body.size() < kHeaderBytes) return *why = "shorter than the 48-byte header", false;
+  uint32_t magic = 0, count = 0;
+  std::memcpy(&magic, body.data(), 4);
+  std::memcpy(&count, body.data() + 4, 4);
+  if (magic != kMagic) return *why = "bad magic (not a KWC1 frame)", false;
+  if (count != 0 && count != kWebcamLandmarks) return *why = "landmark count must be 0 or 33", false;
+  if (body.size() != kHeaderBytes + sizeof(float) * kWebcamChannels * count) return *why = "size does not match the landmark count", false;
+  double seq = 0;
+  std::memcpy(&seq, body.data() + 8, 8);
+  std::memcpy(&out->capture_ms, body.data() + 16, 8);
+  std::memcpy(&out->landmarks_ms, body.data() + 24, 8);
+  if (!(seq >= 0 && seq < 9.0e15) || seq != std::floor(seq)) return *why = "bad sequence", false;
+  if (!std::isfinite(out->capture_ms) || !std::isfinite(out->landmarks_ms)) return *why = "non-finite time", false;
+  out->sequence = static_cast<uint64_t>(seq);
+  out->landmarks = static_cast<int>(count);
+  std::memcpy(out->values, body.data() + kHeaderBytes, sizeof(float) * kWebcamChannels * count);
+  return true;
+}
+
+struct WebcamCoach::Impl {
+  WebcamSettings settings;
+  bool recording_teacher = false;
+  std::shared_ptr<const metric::Metric> metric;
+  Layout student_layout;
+  std::vector<float> teacher_gpd;  // teacher frames x 16 x 3, Y up, teacher units
+  int teacher_frames = 0;
+  double teacher_frame_time = 0.0;
+  std::unique_ptr<runtime::Runtime> runtime;
+
+  mutable std::mutex mutex;  // frames + events (HTTP threads, the runtime's I/O thread)
+  std::condition_variable changed;
+  struct Received {
+    WebcamFrame frame;
+    double received_ms = 0.0;
+    bool pushed = false, answered = false;
+  };
+  std::vector<Received> frames;       // by sequence (the page's); a gap stays unpushed
+  std::vector<std::string> events;    // "result" events in order of emission
+  struct Scored {
+    uint64_t seq;
+    double time;  // seconds from the first pushed frame
+    std::string state;
+    float score;
+  };
+  std::vector<Scored> timeline;
+  double first_time = -1.0, last_time = -1.0;
+  uint64_t pushed = 0, not_in_frame = 0, lost = 0, refused = 0, malformed = 0, results = 0;
+  uint64_t answered_upto = 0;  // frames below this were answered or passed over
+  nlohmann::json latency = nlohmann::json::object();
+  bool stopping = false;
+
+  httplib::Server server;
+  std::thread thread;
+
+  void load_teacher() {
+    const std::string& path = settings.teacher;
+    const bool bvh = path.size() > 4 && path.compare(path.size() - 4, 4, ".bvh") == 0;
+    std::shared_ptr<const pipeline::Teacher> teacher;
+    Skeleton skeleton;
+    GpdMap map;
+    UpAxis axes = UpAxis::kY;
+    std::vector<float> positions;
+    double frame_time = 0.0;
+    int count = 0;
+    StreamConfig config;
+    if (bvh) {
+      const BvhClip clip = load_bvh(path);
+      if (settings.first_frame < 0 || settings.first_frame >= clip.frame_count())
+        throw Error(ErrorKind::kInvalidArgument, path + ": --first-frame is past its end");
+      skeleton = clip.skeleton;
+      map = resolve_gpd_map(skeleton, settings.teacher_layout.empty() ? "cmu" : settings.teacher_layout, "");
+      config = stream_config_for(skeleton, map, metric->stencil());
+      positions = clip_positions(clip, settings.first_frame);
+      count = clip.frame_count() - settings.first_frame;
+      frame_time = clip.frame_time;
+    } else {
+      const MotionSource m = load_motion(path, settings.teacher_layout.empty() ? "mediapipe" : settings.teacher_layout, 0.0,
+                                         UpAxis::kY, 0, parse_time_units(settings.time_units));
+      skeleton = m.skeleton;
+      map = m.layout.map;
+      axes = m.layout.axes;
+      config.map = map;
+      config.input_joints = skeleton.joint_count();
+      config.stencil = metric->stencil();
+      config.up_axis = axes;
+      config.smoothing = m.layout.smooth;
+      positions = m.xyz;
+      count = m.frames;
+      frame_time = m.frame_time;
+    }
+    teacher_frames = count;
+    teacher_frame_time = frame_time;
+    const auto ref = pipeline::Teacher::from_positions(metric, skeleton, config, positions.data(), count, frame_time);
+    teacher_gpd.resize(static_cast<size_t>(count) * 3 * kGpdJoints);
+    for (int f = 0; f < count; ++f)
+      map_to_gpd(map, bvh ? config.up_axis : axes, positions.data() + static_cast<size_t>(f) * 3 * skeleton.joint_count(),
+                 teacher_gpd.data() + static_cast<size_t>(f) * 3 * kGpdJoints);
+    teacher_ref = ref;
+  }
+  std::shared_ptr<const pipeline::Teacher> teacher_ref;
+
+  explicit Impl(const WebcamSettings& s) : settings(s), recording_teacher(!s.record_teacher.empty()) {
+    const Skeleton student = layout_skeleton("mediapipe");
+    student_layout = resolve_layout(student, "mediapipe");
+    // The student's stream as `kata score` / `kata features` read a mediapipe file (motion_features):
+    // the same map, axes, smoothing and stencil, so the page's frames score as the file's do.
+    pipeline::PipelineConfig config;
+    config.stream.map = student_layout.map;
+    config.stream.input_joints = student.joint_count();
+    config.stream.up_axis = student_layout.axes;
+    config.stream.smoothing = student_layout.smooth;
+    config.student = student;
+    config.result_capacity = 64;
+    if (!recording_teacher) {
+      metric = std::make_shared<const metric::Metric>(metric::load_model(settings.model));
+      config.stream.stencil = metric->stencil();
+      load_teacher();
+    }
+    auto student_pipeline = std::make_unique<pipeline::Pipeline>(config);
+    if (teacher_ref) {
+      pipeline::TeacherOptions options;
+      options.alignment.window = settings.window;
+      student_pipeline->set_teacher(teacher_ref, options);
+    }
+    frames.reserve(30 * 60 * 10);  // ten minutes at 30 Hz before the first growth
+    events.reserve(30 * 60 * 10);
+    runtime::RuntimeConfig rc;
+    rc.workers = 1;
+    rc.max_streams = 1;
+    rc.max_joints = kWebcamLandmarks;
+    rc.frame_queue_capacity = 256;
+    rc.result_queue_capacity = 256;
+    rc.publish.endpoints = {settings.publish};
+    rc.sinks.push_back({[this](const transport::ResultFields& f) { on_result(f); }, {}});
+    runtime = std::make_unique<runtime::Runtime>(rc);
+    transport::SkeletonDefinition d;
+    d.stream_id = kStudentStream;
+    d.revision = 1;
+    d.skeleton = student;
+    d.preset = "mediapipe";
+    d.metres_per_unit = 1.0f;
+    runtime->adopt_stream(d, student_pipeline.get(), [](pipeline::Pipeline* p) { delete p; }, false);
+    student_pipeline.release();
+  }
+
+  // The ghost for a result: teacher frame `matched`'s GPD joints, turned to face the student's way
+  // (the hips' direction in the floor plane), scaled by the student's Hip-Neck length over the
+  // teacher's, stood on the student's Hip; out in MediaPipe world axes (x right, y down, z away).
+  bool ghost_of(int matched, const WebcamFrame& f, float* out) const {
+    if (matched < 0 || matched >= teacher_frames || f.landmarks != kWebcamLandmarks) return false;
+    float xyz[3 * kWebcamLandmarks], s[3 * kGpdJoints];
+    for (int j = 0; j < kWebcamLandmarks; ++j)
+      for (int k = 0; k < 3; ++k) xyz[3 * j + k] = f.values[kWebcamChannels * j + k];
+    map_to_gpd(student_layout.map, student_layout.axes, xyz, s);  // Y up, metres
+    const float* t = teacher_gpd.data() + static_cast<size_t>(matched) * 3 * kGpdJoints;
+    const double ts = dist(at(t, kHip), at(t, kNeck)), ss = dist(at(s, kHip), at(s, kNeck));
+    if (!(ts > 0) || !(ss > 0) || !std::isfinite(ss)) return false;
+    auto yaw = [](const float* p) {
+      return std::atan2(p[3 * kLHip + 2] - p[3 * kRHip + 2], p[3 * kLHip] - p[3 * kRHip]);
+    };
+    const double turn = yaw(s) - yaw(t), c = std::cos(turn), sn = std::sin(turn), scale = ss / ts;
+    const V3 th = at(t, kHip), sh = at(s, kHip);
+    for (int g = 0; g < kGpdJoints; ++g) {
+      const V3 p = at(t, g);
+      const double dx = p.x - th.x, dy = p.y - th.y, dz = p.z - th.z;
+      // Rotation about Y taking the teacher's hip direction (atan2(z, x)) onto the student's.
+      const double rx = c * dx - sn * dz, rz = sn * dx + c * dz;
+      const double x = sh.x + scale * rx, y = sh.y + scale * dy, z = sh.z + scale * rz;
+      out[3 * g] = static_cast<float>(x), out[3 * g + 1] = static_cast<float>(-y), out[3 * g + 2] = static_cast<float>(-z);
+    }
+    return true;
+  }
+
+  void emit(std::string json) {
+    events.push_back(std::move(json));
+    changed.notify_all();
+  }
+
+  std::string simple_event(uint64_t seq, const char* state, double received_ms) {
+    nlohmann::json e = {{"seq", seq}, {"state", state}, {"received_ms", received_ms}, {"result_ms", steady_ms()}};
+    return e.dump();
+  }
+
+  // Frames below `seq` that were pushed but never answered (the confidence gate held them:
+  // no features) are shown as tracking lost. [mutex held]
+  void pass_over(uint64_t seq) {
+    for (; answered_upto < seq && answered_upto < frames.size(); ++answered_upto) {
+      Received& r = frames[answered_upto];
+      if (r.pushed && !r.answered) {
+        r.answered = true;
+        ++lost;
+        emit(simple_event(answered_upto, "tracking lost", r.received_ms));
+      }
+    }
+  }
+
+  void on_result(const transport::ResultFields& f) {  // the runtime's I/O thread
+    std::lock_guard<std::mutex> lock(mutex);
+    const uint64_t seq = f.frame_sequence;
+    if (seq >= frames.size()) return;
+    Received& r = frames[seq];
+    pass_over(seq);
+    r.answered = true;
+    ++results;
+    const char* state = f.scored ? state_text(f.state) : "calibrating";
+    nlohmann::json e = {{"seq", seq},
+                        {"state", state},
+                        {"received_ms", r.received_ms},
+                        {"result_ms", static_cast<double>(f.computed_ns) / 1e6},
+                        {"published_ms", steady_ms()},
+                        {"capture_ms", r.frame.capture_ms}};
+    if (f.scored) {
+      e["score"] = f.score;
+      e["parts"] = std::vector<float>(std::begin(f.part_scores), std::end(f.part_scores));
+      e["fix"] = f.part_to_fix >= 0 ? metric::part_name(f.part_to_fix) : "";
+      e["matched"] = f.matched_teacher_frame;
+      float ghost[3 * kGpdJoints];
+      if (ghost_of(f.matched_teacher_frame, r.frame, ghost)) e["ghost"] = std::vector<float>(ghost, ghost + 3 * kGpdJoints);
+    }
+    const double t = r.frame.capture_ms * 1e-3 - first_time;
+    timeline.push_back({seq, t, state, f.scored ? f.score : 0.0f});
+    emit(e.dump());
+    if (seq + 1 > answered_upto) answered_upto = seq + 1;
+  }
+
+  // [an HTTP thread]
+  std::string receive(const WebcamFrame& f) {
+    std::lock_guard<std::mutex> lock(mutex);
+    const double received = steady_ms();
+    if (f.sequence >= frames.size()) frames.resize(f.sequence + 1);
+    Received& r = frames[f.sequence];
+    r.frame = f;
+    r.received_ms = received;
+    if (f.landmarks == 0) {
+      ++not_in_frame;
+      r.answered = true;
+      emit(simple_event(f.sequence, "not in frame", received));
+    } else {
+      const double t = f.capture_ms * 1e-3;
+      float xyz[3 * kWebcamLandmarks], confidence[kWebcamLandmarks];
+      for (int j = 0; j < kWebcamLandmarks; ++j) {
+        for (int k = 0; k < 3; ++k) xyz[3 * j + k] = f.values[kWebcamChannels * j + k];
+        confidence[j] = f.values[kWebcamChannels * j + 3];
+      }
+      if (t <= last_time) {
+        ++refused;  // out of order or repeated: the stream wants increasing times
+      } else if (recording_teacher) {
+        if (first_time < 0) first_time = t;
+        last_time = t;
+        r.pushed = r.answered = true;
+        ++pushed;
+        timeline.push_back({f.sequence, t - first_time, "recording", 0.0f});
+        emit(simple_event(f.sequence, "recording", received));
+      } else if (runtime->push(kStudentStream, f.sequence, t, xyz, kWebcamLandmarks, false, confidence) == Status::kOk) {
+        if (first_time < 0) first_time = t;
+        last_time = t;
+        r.pushed = true;
+        ++pushed;
+      } else {
+        ++refused;
+      }
+    }
+    nlohmann::json ack = {{"seq", f.sequence}, {"received_ms", received}, {"server_ms", steady_ms()}};
+    return ack.dump();
+  }
+
+  void write_landmarks(const std::string& path) const {
+    std::vector<float> values;
+    std::vector<double> times;
+    for (const Received& r : frames)
+      if (r.pushed) {
+        values.insert(values.end(), r.frame.values, r.frame.values + kWebcamLandmarks * kWebcamChannels);
+        times.push_back(r.frame.capture_ms * 1e-3 - first_time);
+      }
+    if (times.empty()) throw Error(ErrorKind::kInvalidArgument, path + ": no frame with a person was received: nothing to record");
+    write_npy(path, values.data(), {times.size(), static_cast<size_t>(kWebcamLandmarks), static_cast<size_t>(kWebcamChannels)});
+    write_npy(times_path_of(path), times.data(), {times.size()});
+  }
+};
+
+WebcamCoach::WebcamCoach(const WebcamSettings& settings, const std::string& static_dir, const std::string& host, int port)
+    : impl_(std::make_unique<Impl>(settings)) {
+  Impl& m = *impl_;
+  if (!std::ifstream(static_dir + "/webcam.html") || !std::ifstream(static_dir + "/vendor/mediapipe/pose/pose.js"))
+    throw Error(ErrorKind::kIo, static_dir + ": the webcam page or MediaPipe Pose is missing (build the kata_viewer target, "
+                                             "or give --viewer-dir)");
+  if (!m.server.set_mount_point("/", static_dir)) throw Error(ErrorKind::kIo, static_dir + ": cannot serve this directory");
+  m.server.set_file_extension_and_mimetype_mapping("wasm", "application/wasm");
+  m.server.set_file_extension_and_mimetype_mapping("tflite", "application/octet-stream");
+  m.server.set_file_extension_and_mimetype_mapping("binarypb", "application/octet-stream");
+  m.server.set_file_extension_and_mimetype_mapping("data", "application/octet-stream");
+  m.server.Get("/", [](const httplib::Request&, httplib::Response& res) { res.set_redirect("/webcam.html"); });
+  m.server.Get("/webcam/setup", [this](const httplib::Request&, httplib::Response& res) {
+    const Impl& i = *impl_;
+    nlohmann::json j = {{"mode", i.recording_teacher ? "record-teacher" : "lesson"},
+                        {"teacher", i.recording_teacher ? "" : i.settings.teacher},
+                        {"teacher_frames", i.teacher_frames},
+                        {"teacher_frame_time", i.teacher_frame_time},
+                        {"complexity", i.settings.complexity},
+                        {"parts", std::vector<std::string>{metric::part_name(0), metric::part_name(1), metric::part_name(2),
+                                                           metric::part_name(3), metric::part_name(4)}}};
+    res.set_content(j.dump(), "application/json");
+  });
+  m.server.Post("/webcam/frame", [this](const httplib::Request& req, httplib::Response& res) {
+    WebcamFrame f;
+    std::string why;
+    if (!parse_webcam_frame(req.body, &f, &why)) {
+      {
+        std::lock_guard<std::mutex> lock(impl_->mutex);
+        ++impl_->malformed;
+      }
+      res.status = 400;
+      res.set_content("malformed frame: " + why, "text/plain");
+      return;
+    }
+    res.set_content(impl_->receive(f), "application/json");
+  });
+  m.server.Post("/webcam/latency", [this](const httplib::Request& req, httplib::Response& res) {
+    nlohmann::json j = nlohmann::json::parse(req.body, nullptr, false);
+    if (j.is_discarded() || !j.is_object()) {
+      res.status = 400;
+      return;
+    }
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    impl_->latency = std::move(j);
+    res.set_content("{}", "application/json");
+  });
+  m.server.Get("/webcam/status", [this](const httplib::Request&, httplib::Response& res) {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
+    const Impl& i = *impl_;
+    nlohmann::json j = {{"frames", i.frames.size()}, {"results", i.results}, {"pushed", i.pushed},
+                        {"not_in_frame", i.not_in_frame}, {"lost", i.lost}, {"refused", i.refused},
+                        {"malformed", i.malformed}, {"events", i.events.size()}};
+    res.set_content(j.dump(), "application/json");
+  });
+  m.server.Get("/webcam/events", [this](const httplib::Request& req, httplib::Response& res) {
+    size_t first = 0;
+    {
+      std::lock_guard<std::mutex> lock(impl_->mutex);
+      first = impl_->events.size();  // live: from now on (a reconnecting page only needs the newest)
+    }
+    if (req.has_param("from")) first = std::strtoull(req.get_param_value("from").c_str(), nullptr, 10);
+    res.set_header("Cache-Control", "no-cache");
+    res.set_chunked_content_provider("text/event-stream", [this, next = first](size_t, httplib::DataSink& sink) mutable {
+      std::string out;
+      {
+        std::unique_lock<std::mutex> lock(impl_->mutex);
+        impl_->changed.wait_for(lock, std::chrono::milliseconds(250),
+                                [&] { return impl_->stopping || impl_->events.size() > next; });
+        if (impl_->stopping) return false;
+        for (; next < impl_->events.size(); ++next) out += "event: result\ndata: " + impl_->events[next] + "\n\n";
+      }
+      if (out.empty()) out = ": keep-alive\n\n";
+      return sink.write(out.data(), out.size());
+    });
+  });
+  port_ = port == 0 ? m.server.bind_to_any_port(host) : (m.server.bind_to_port(host, port) ? port : -1);
+  if (port_ <= 0) throw Error(ErrorKind::kIo, "webcam: cannot listen on " + host + ":" + std::to_string(port));
+  m.thread = std::thread([this] { impl_->server.listen_after_bind(); });
+}
+
+WebcamCoach::~WebcamCoach() {
+  try {
+    finish();
+  } catch (...) {
+  }
+}
+
+uint64_t WebcamCoach::results() const {
+  std::lock_guard<std::mutex> lock(impl_->mutex);
+  return impl_->results;
+}
+
+void WebcamCoach::finish() {
+  Impl& m = *impl_;
+  if (m.runtime) {
+    m.runtime->stop();  // every pushed frame answered
+    std::lock_guard<std::mutex> lock(m.mutex);
+    m.pass_over(m.frames.size());
+  }
+  {
+    std::lock_guard<std::mutex> lock(m.mutex);
+    if (m.stopping) return;
+    m.stopping = true;
+  }
+  m.changed.notify_all();
+  m.server.stop();
+  if (m.thread.joinable()) m.thread.join();
+  if (!m.settings.record_teacher.empty()) m.write_landmarks(m.settings.record_teacher);
+  if (!m.settings.record_student.empty()) m.write_landmarks(m.settings.record_student);
+}
+
+std::string WebcamCoach::summary() const {
+  const Impl& m = *impl_;
+  std::lock_guard<std::mutex> lock(m.mutex);
+  double sum = 0;
+  int scored = 0;
+  for (const auto& s : m.timeline)
+    if (s.state == "tracking" || s.state == "teacher finished") sum += s.score, ++scored;
+  char line[512];
+  std::snprintf(line, sizeof line,
+                "webcam: %zu frames received (%llu with a person, %llu not in frame, %llu refused), %llu results, %d "
+                "scored, mean score %.2f, %llu tracking lost",
+                m.frames.size(), static_cast<unsigned long long>(m.pushed), static_cast<unsigned long long>(m.not_in_frame),
+                static_cast<unsigned long long>(m.refused), static_cast<unsigned long long>(m.results), scored,
+                scored ? sum / scored : 0.0, static_cast<unsigned long long>(m.lost));
+  std::string out = line;
+  if (m.latency.contains("stages")) out += "; latency per stage (page): " + m.latency["stages"].dump();
+  return out;
+}
+
+void WebcamCoach::write_report(const std::string& path) const {
+  const Impl& m = *impl_;
+  std::lock_guard<std::mutex> lock(m.mutex);
+  std::ofstream out(path);
+  if (!out) throw Error(ErrorKind::kIo, path + ": cannot open for writing");
+  out << "<!doctype html><html><head><meta charset=\"utf-8\"><title>kata webcam lesson</title>"
+         "<style>body{font:14px sans-serif;margin:2em;max-width:60em}td,th{padding:2px 10px;text-align:right}"
+         "svg{background:#f4f4f4}</style></head><body><h1>kata webcam lesson</h1>";
+  out << "<p>Teacher: " << (m.recording_teacher ? "(recording a teacher)" : m.settings.teacher)
+      << "; MediaPipe Pose model complexity " << m.settings.complexity << ".</p>";
+  double sum = 0;
+  int scored = 0;
+  for (const auto& s : m.timeline)
+    if (s.state == "tracking" || s.state == "teacher finished") sum += s.score, ++scored;
+  out << "<p>" << m.frames.size() << " frames received, " << m.pushed << " with a person, " << m.not_in_frame
+      << " not in frame, " << m.lost << " tracking lost; " << scored << " scored, mean score "
+      << (scored ? sum / scored : 0.0) << ".</p>";
+  // Scores over time (inline SVG).
+  const double span = m.timeline.empty() ? 1.0 : std::max(1e-3, m.timeline.back().time);
+  out << "<h2>Score over time</h2><svg width=\"800\" height=\"200\" viewBox=\"0 0 800 200\"><polyline fill=\"none\" "
+         "stroke=\"#2a7\" stroke-width=\"2\" points=\"";
+  for (const auto& s : m.timeline)
+    if (s.state == "tracking" || s.state == "teacher finished")
+      out << 800.0 * s.time / span << "," << 200.0 - 2.0 * s.score << " ";
+  out << "\"/></svg>";
+  out << "<h2>Latency per stage</h2>";
+  if (m.latency.contains("stages") && m.latency["stages"].is_object()) {
+    out << "<table><tr><th>stage</th><th>p50 ms</th><th>p95 ms</th></tr>";
+    for (const auto& [name, v] : m.latency["stages"].items())
+      if (v.is_array() && v.size() == 2 && v[0].is_number() && v[1].is_number())
+        out << "<tr><td style=\"text-align:left\">" << html_text(name) << "</td><td>" << v[0].get<double>()
+            << "</td><td>" << v[1].get<double>() << "</td></tr>";
+    out << "</table><p>Measured on the page over " << m.latency.value("frames", 0)
+        << " frames (the page's clock; kata's receive and result times mapped onto it by the POST round trip).</p>";
+  } else {
+    out << "<p>No latency figures arrived from the page.</p>";
+  }
+  out << "</body></html>\n";
+}
+
+}  // namespace kata::coach
