@@ -127,7 +127,7 @@ class TerminalView {
 // writes the report and recordings.
 void run_webcam(CoachArgs a) {
   a.cam.model = a.lesson.model;
-  if (a.teacher_given) a.cam.teacher = a.lesson.teacher;
+  a.cam.teacher = a.teacher_given ? a.lesson.teacher : kata::cli::default_data_file(a.cam.teacher);
   a.cam.first_frame = a.lesson.first_frame;
   a.cam.window = a.lesson.window;
   a.cam.publish = a.lesson.publish;
