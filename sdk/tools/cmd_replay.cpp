@@ -68,6 +68,7 @@ struct Options {
   double inject_growth_us_per_s = 0.0;  // internal (the judge's own test): added latency per second
   double p99_bound_us = 0.0;  // 0: only the 1.25 x bare ratio bounds --find-max
   int workers = 2;
+  std::string idle = "park";  // the runtime's idle strategy: park | backoff
   std::string data_dir = "data/cmu";
   std::string model = "models/default.kata";
   std::string teacher = "02_01.bvh";
@@ -357,6 +358,7 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
   config.publish.endpoints = {endpoint_for(o, "kata")};
   config.publish.send_hwm = 100000;
   config.skeleton_resend_seconds = 1.0;
+  config.idle.kind = o.idle == "park" ? kata::runtime::IdleStrategy::Kind::kPark : kata::runtime::IdleStrategy::Kind::kBackoff;
   kata::runtime::Runtime runtime(config);
   for (int s = 0; s < streams; ++s) {
     kata::transport::SkeletonDefinition d;
@@ -586,6 +588,7 @@ json run_once(const Options& o, const Clips& c, int streams) {
   j["seconds"] = o.seconds;
   j["transport"] = o.transport;
   j["workers"] = o.workers;
+  j["idle"] = o.idle;
   j["kata"] = kata_result;
   j["bare_zmq"] = bare;
   const double bare_p99 = bare["latency"]["p99_us"].get<double>();
@@ -762,6 +765,9 @@ void setup(CLI::App& app) {
   cmd->add_flag("--find-max", o->find_max, "find the most streams with nothing lost and kata p99 <= 1.25 x bare p99");
   cmd->add_option("--p99-bound-us", o->p99_bound_us, "with --find-max: also kata p99 <= this (us)");
   cmd->add_option("--workers", o->workers, "runtime worker threads")->capture_default_str();
+  cmd->add_option("--idle", o->idle, "the runtime's idle strategy: park (sleep at once) or backoff (spin, yield, park)")
+      ->check(CLI::IsMember({"park", "backoff"}))
+      ->capture_default_str();
   cmd->add_flag("--soak", o->soak, "one long kata phase: nothing lost, RSS flat within 1 %, last windows p50 <= 1.15 x and p99 <= 1.25 x first");
   cmd->add_option("--window", o->window, "with --soak: seconds per latency window")->capture_default_str();
   cmd->add_option("--p99-growth", o->p99_growth,
