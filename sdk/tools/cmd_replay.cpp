@@ -3,6 +3,9 @@
 // process, and, in the same run, a bare ZeroMQ PUB/SUB sending messages of the same size with
 // the same pacing (sleeping between ticks, not spinning). End-to-end latency = frame pushed ->
 // message received, both ends on CLOCK_MONOTONIC (one host). Every phase is bounded in time.
+// --ingest: the frames come from a sender process (`kata replay --sender`) over ZeroMQ through the
+// runtime's Ingest instead of the in-process push; latency from the frame's send. Every run also
+// prints the burst bound (bare p99 + streams x the push / workers, the push timed in this run).
 //
 // --soak: one long kata phase (no bare phase): the subscriber reports the latency per --window
 // seconds, this process samples its resident memory every second; the run fails unless nothing
