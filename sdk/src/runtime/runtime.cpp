@@ -170,6 +170,7 @@ struct Runtime::Worker {
   alignas(64) std::atomic<size_t> result_head{0};  // written by the worker
   alignas(64) std::atomic<size_t> result_tail{0};  // written by the I/O thread
   std::vector<StreamState*> owned;  // the streams of this shard (for the final flush)
+  size_t stream_count = 0;          // streams assigned here (under open_mutex_)
   std::mutex owned_mutex;           // open_stream vs the final flush only
   std::thread thread;
   // Scratch for Pipeline::read.
@@ -291,7 +292,14 @@ void Runtime::add_locked(const transport::SkeletonDefinition& definition, pipeli
   state->definition = definition;
   state->ghost_joints = pipeline->ghost_joint_count();
   state->publish_features = publish_features;
-  state->worker = static_cast<int>(definition.stream_id % static_cast<uint64_t>(workers_.size()));
+  // The worker with the fewest streams (open_mutex_ is held): a burst of every stream's frame
+  // splits evenly over the workers whatever the ids (by id % workers, even ids would all land on
+  // worker 0 of 2 and a burst would queue twice as deep).
+  size_t least = 0;
+  for (size_t w = 1; w < workers_.size(); ++w)
+    if (workers_[w]->stream_count < workers_[least]->stream_count) least = w;
+  ++workers_[least]->stream_count;
+  state->worker = static_cast<int>(least);
   state->sequence_ring.assign(256, 0);
   state->capture_ring.assign(256, 0.0);
   Worker& worker = *workers_[static_cast<size_t>(state->worker)];

@@ -2,7 +2,8 @@
 //
 // Threads and why:
 //   producers (any thread; the I/O thread for ZeroMQ ingest) -> push(stream id, frame)
-//       the frame is copied into the bounded queue of worker (stream id % workers): a lock-free
+//       the frame is copied into the bounded queue of its stream's worker (the one with the
+//       fewest streams when the stream opened, so a burst splits evenly): a lock-free
 //       multi-producer ring (per-cell sequence numbers); a full queue drops the frame and counts
 //       it on its stream. No lock is shared between streams on this path.
 //   workers (N threads) -> each owns the pipelines of its shard, so a pipeline is only ever
