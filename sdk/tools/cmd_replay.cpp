@@ -3,11 +3,15 @@
 // process, and, in the same run, a bare ZeroMQ PUB/SUB sending messages of the same size with
 // the same pacing (sleeping between ticks, not spinning). End-to-end latency = frame pushed ->
 // message received, both ends on CLOCK_MONOTONIC (one host). Every phase is bounded in time.
+// --ingest: the frames come from a sender process (`kata replay --sender`) over ZeroMQ through the
+// runtime's Ingest instead of the in-process push; latency from the frame's send. Every run also
+// prints the burst bound (bare p99 + streams x the push / workers, the push timed in this run).
 //
 // --soak: one long kata phase (no bare phase): the subscriber reports the latency per --window
 // seconds, this process samples its resident memory every second; the run fails unless nothing
 // was lost, the RSS after the first window stayed within 1 % (max - min over min) and the last
-// window's p99 is within --p99-growth (1.25) x the first window's (0: reported, not judged).
+// windows' p50 and p99 are within --p50-growth (1.15) and --p99-growth (1.25) x the first windows'
+// (medians over --judge-windows windows at each end; 0: reported, not judged).
 //
 // The subscriber is this executable again (`kata replay --subscriber ENDPOINT --mode kata|bare`),
 // spawned per phase; it prints "ready" once subscribed and one JSON line of latencies at the end.
@@ -61,9 +65,13 @@ struct Options {
   bool find_max = false;
   bool soak = false;
   double window = 60.0;  // soak: seconds per latency window
-  double p99_growth = 1.25;  // soak: last window's p99 <= this x the first's; 0: reported only
+  double p99_growth = 1.25;  // soak: last windows' p99 <= this x the first's; 0: reported only
+  double p50_growth = 1.15;  // soak: last windows' p50 <= this x the first's; 0: reported only
+  int judge_windows = 1;     // soak: first / last figures are medians over this many windows
+  double inject_growth_us_per_s = 0.0;  // internal (the judge's own test): added latency per second
   double p99_bound_us = 0.0;  // 0: only the 1.25 x bare ratio bounds --find-max
   int workers = 2;
+  std::string idle = "park";  // the runtime's idle strategy: park | backoff
   std::string data_dir = "data/cmu";
   std::string model = "models/default.kata";
   std::string teacher = "02_01.bvh";
@@ -72,8 +80,11 @@ struct Options {
   std::string mode = "kata";
   double deadline = 60.0;
   int expect_definitions = 1;   // subscriber: "ready" once this many streams' definitions came
+  int64_t expect_results = 0;   // subscriber: sample vectors reserved for this many (no reallocation mid-run)
   bool capture_is_send = false; // subscriber: capture_ns is the source's send time (shards mode)
   int shards = 0;               // > 0: the kata phase runs through kata proxy + this many kata serve
+  bool ingest = false;          // the frames come from a sender process over ZeroMQ through Ingest
+  std::string sender;           // internal: the sender process (PUSH to this endpoint)
 };
 
 int64_t now_ns() { return kata::pipeline::now_ns(); }
@@ -85,19 +96,31 @@ double cpu_seconds() {
          1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
-double percentile(std::vector<int64_t>& v, double q) {
-  if (v.empty()) return 0.0;
-  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size() - 1) + 0.5));
-  std::nth_element(v.begin(), v.begin() + static_cast<long>(k), v.end());
-  return static_cast<double>(v[k]) / 1000.0;  // us
+// The q-quantile (us) of a sorted sample (ns): the element at rank round(q (n - 1)).
+double quantile_of_sorted(const std::vector<int64_t>& sorted, double q) {
+  if (sorted.empty()) return 0.0;
+  const size_t k = std::min(sorted.size() - 1, static_cast<size_t>(q * static_cast<double>(sorted.size() - 1) + 0.5));
+  return static_cast<double>(sorted[k]) / 1000.0;
 }
 
-json summary(std::vector<int64_t>& ns) {
+// Percentiles of samples that stay in arrival order: a sorted copy is ranked, never the samples
+// themselves. (Ranking them in place, as this file once did with nth_element before the soak's
+// windows were cut from the same vector by receive time, moved small values to the front and
+// large ones to the back: an apparent latency growth with the age of the run; docs/runtime.md.)
+double percentile(const std::vector<int64_t>& v, double q) {
+  std::vector<int64_t> sorted(v);
+  std::sort(sorted.begin(), sorted.end());
+  return quantile_of_sorted(sorted, q);
+}
+
+json summary(const std::vector<int64_t>& ns) {
+  std::vector<int64_t> sorted(ns);
+  std::sort(sorted.begin(), sorted.end());
   json j;
-  j["p50_us"] = percentile(ns, 0.50);
-  j["p99_us"] = percentile(ns, 0.99);
-  j["p999_us"] = percentile(ns, 0.999);
-  j["max_us"] = ns.empty() ? 0.0 : static_cast<double>(*std::max_element(ns.begin(), ns.end())) / 1000.0;
+  j["p50_us"] = quantile_of_sorted(sorted, 0.50);
+  j["p99_us"] = quantile_of_sorted(sorted, 0.99);
+  j["p999_us"] = quantile_of_sorted(sorted, 0.999);
+  j["max_us"] = sorted.empty() ? 0.0 : static_cast<double>(sorted.back()) / 1000.0;
   return j;
 }
 
@@ -119,7 +142,11 @@ int run_subscriber(const Options& o) {
   std::vector<uint8_t> buffer(1 << 22);
   std::vector<int64_t> total, queue_compute, publish, transport, received_at, source_to_arrival;
   std::set<uint64_t> defined;
-  total.reserve(1 << 20);
+  // Reserved up front: a vector doubling mid-run copies every sample so far inside the measured loop.
+  const size_t reserve = static_cast<size_t>(std::max<int64_t>(o.expect_results + 4096, 1 << 16));
+  for (auto* v : {&total, &queue_compute, &publish, &transport, &received_at}) v->reserve(reserve);
+  if (o.capture_is_send) source_to_arrival.reserve(reserve);
+  int64_t first_received = 0;
   bool ready = !kata_mode;
   uint64_t received = 0, bytes = 0;
   const double cpu0 = cpu_seconds();
@@ -159,8 +186,11 @@ int run_subscriber(const Options& o) {
       }
       if (kind != kata::transport::MessageKind::kResult) continue;
       const auto& r = decoder.result();
+      if (first_received == 0) first_received = t;
+      // The soak judge's own test: a latency that grows by this much per second of the run.
+      const int64_t injected = static_cast<int64_t>(o.inject_growth_us_per_s * 1e-6 * static_cast<double>(t - first_received));
       // Shards: from the source's send (capture_ns, same clock) to here, the proxies included.
-      total.push_back(t - (o.capture_is_send ? r.capture_ns : r.arrival_ns));
+      total.push_back(t - (o.capture_is_send ? r.capture_ns : r.arrival_ns) + injected);
       if (o.capture_is_send) source_to_arrival.push_back(r.arrival_ns - r.capture_ns);
       if (o.window > 0) received_at.push_back(t);
       queue_compute.push_back(r.computed_ns - r.arrival_ns);
@@ -223,8 +253,9 @@ struct Child {
   FILE* out = nullptr;
 };
 
-Child spawn_subscriber(const std::string& endpoint, const std::string& mode, double deadline, double window = 0.0,
-                       int expect_definitions = 1, bool capture_is_send = false) {
+Child spawn_subscriber(const std::string& endpoint, const std::string& mode, double deadline, int64_t expect_results,
+                       double window = 0.0, int expect_definitions = 1, bool capture_is_send = false,
+                       double inject_growth_us_per_s = 0.0) {
   int pipe_fds[2];
   if (pipe(pipe_fds) != 0) throw Error(ErrorKind::kIo, "replay: pipe failed");
   posix_spawn_file_actions_t actions;
@@ -234,7 +265,8 @@ Child spawn_subscriber(const std::string& endpoint, const std::string& mode, dou
   const std::string deadline_text = std::to_string(deadline);
   std::vector<std::string> args = {"kata", "replay", "--subscriber", endpoint, "--mode", mode, "--deadline", deadline_text,
                                    "--window", std::to_string(window), "--expect-definitions",
-                                   std::to_string(expect_definitions)};
+                                   std::to_string(expect_definitions), "--expect-results", std::to_string(expect_results),
+                                   "--inject-growth-us-per-s", std::to_string(inject_growth_us_per_s)};
   if (capture_is_send) args.push_back("--capture-is-send");
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
@@ -302,7 +334,42 @@ kata::runtime::StreamSetup setup_for(const Clips& c, size_t clip) {
   return s;
 }
 
+double thread_cpu_us() {
+  timespec t{};
+  clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+  return 1e6 * static_cast<double>(t.tv_sec) + 1e-3 * static_cast<double>(t.tv_nsec);
+}
+
+double measure_push_us(const Clips& c) {
+  const kata::runtime::StreamSetup setup = setup_for(c, 0);
+  kata::pipeline::Pipeline p(setup.pipeline);
+  p.set_teacher(setup.teacher, setup.teacher_options);
+  const int joints = c.clips[0].skeleton.joint_count();
+  const int frames = static_cast<int>(c.positions[0].size() / (3 * static_cast<size_t>(joints)));
+  std::vector<kata::pipeline::Result> out(256);
+  int64_t i = 0;
+  auto run = [&](int n) {
+    for (int k = 0; k < n; ++k, ++i) {
+      p.push(static_cast<double>(i) * c.clips[0].frame_time,
+             c.positions[0].data() + static_cast<size_t>(i % frames) * 3 * static_cast<size_t>(joints), joints);
+      if (p.pending() >= 128) p.read(out.data(), nullptr, nullptr, out.size());
+    }
+  };
+  run(300);
+  std::vector<double> per_frame;
+  for (int b = 0; b < 7; ++b) {
+    const double t0 = thread_cpu_us();
+    run(300);
+    per_frame.push_back((thread_cpu_us() - t0) / 300.0);
+  }
+  std::sort(per_frame.begin(), per_frame.end());
+  return per_frame[per_frame.size() / 2];
+}
+
 // Sleeps to each tick (absolute deadlines: no drift) and calls send(tick) for every tick.
+template <typename Send>
+void paced(const Options& o, int64_t ticks, Send send);
+void paced_ticks(const Options& o, int64_t ticks, const std::function<void(int64_t)>& send) { paced(o, ticks, send); }
 template <typename Send>
 void paced(const Options& o, int64_t ticks, Send send) {
   const auto start = std::chrono::steady_clock::now();
@@ -324,6 +391,120 @@ double resident_mib() {
   return static_cast<double>(resident) * static_cast<double>(sysconf(_SC_PAGESIZE)) / (1024.0 * 1024.0);
 }
 
+// ---- the sender process (--ingest): what a mocap stage or `kata send` does -------------------
+//
+// Definitions every 200 ms until the parent writes "go" on stdin, then the streams' frames paced
+// at --rate, each stamped with its send time (capture_ns, CLOCK_MONOTONIC) just before zmq_send;
+// one JSON line at the end (sent, CPU).
+
+void paced_ticks(const Options& o, int64_t ticks, const std::function<void(int64_t)>& send);
+
+int run_sender(const Options& o) {
+  std::vector<kata::BvhClip> clips;
+  std::vector<std::vector<float>> positions;
+  for (const char* name : {"02_02.bvh", "05_02.bvh", "05_03.bvh", "07_01.bvh", "09_01.bvh", "02_01.bvh"}) {
+    clips.push_back(kata::load_bvh(o.data_dir + "/" + name));
+    positions.push_back(kata::clip_positions(clips.back(), 1));
+  }
+  void* context = zmq_ctx_new();
+  void* push = zmq_socket(context, ZMQ_PUSH);
+  int hwm = 1 << 20, linger = 5000;
+  zmq_setsockopt(push, ZMQ_SNDHWM, &hwm, sizeof hwm);
+  zmq_setsockopt(push, ZMQ_LINGER, &linger, sizeof linger);
+  if (zmq_connect(push, o.sender.c_str()) != 0) {
+    std::fprintf(stderr, "sender: cannot connect %s: %s\n", o.sender.c_str(), zmq_strerror(zmq_errno()));
+    return 1;
+  }
+  kata::transport::Encoder encoder;
+  std::atomic<bool> go{false};
+  std::thread announcer([&] {
+    for (int round = 0; !go.load() && round < 600; ++round) {
+      for (int s = 0; s < o.streams; ++s) {
+        kata::transport::SkeletonDefinition d;
+        d.stream_id = static_cast<uint64_t>(s);
+        d.revision = 1;
+        d.skeleton = clips[static_cast<size_t>(s) % clips.size()].skeleton;
+        d.preset = "cmu";
+        d.frame_rate = static_cast<float>(o.rate);
+        const auto m = encoder.skeleton(d);
+        zmq_send(push, m.data, m.size, 0);
+      }
+      for (int k = 0; k < 20 && !go.load(); ++k) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+  });
+  char line[16] = {};
+  const bool started = std::fgets(line, sizeof line, stdin) != nullptr && std::strncmp(line, "go", 2) == 0;
+  go.store(true);
+  announcer.join();  // the encoder and socket are this thread's from here
+  uint64_t sent = 0;
+  const double cpu0 = cpu_seconds();
+  std::vector<int64_t> last_stamp(static_cast<size_t>(o.streams), 0);
+  if (started) {
+    const int64_t ticks = static_cast<int64_t>(o.seconds * o.rate);
+    paced_ticks(o, ticks, [&](int64_t t) {
+      for (int s = 0; s < o.streams; ++s) {
+        const size_t clip = static_cast<size_t>(s) % clips.size();
+        const int joints = clips[clip].skeleton.joint_count();
+        const int frames = static_cast<int>(positions[clip].size() / (3 * static_cast<size_t>(joints)));
+        const float* xyz = positions[clip].data() + static_cast<size_t>((t + s) % frames) * 3 * static_cast<size_t>(joints);
+        // The send time, but never closer than 20 us to the stream's previous frame: a sender
+        // catching up after a stall (a loaded machine) would otherwise stamp two frames of a stream
+        // a few us apart, which the pipeline refuses (kMinTimeStep). The clamp acts only then.
+        const int64_t stamp = std::max(now_ns(), last_stamp[static_cast<size_t>(s)] + 20'000);
+        last_stamp[static_cast<size_t>(s)] = stamp;
+        const auto m = encoder.frame(static_cast<uint64_t>(s), static_cast<uint64_t>(t), stamp, xyz, joints);
+        if (zmq_send(push, m.data, m.size, ZMQ_DONTWAIT) >= 0) ++sent;
+      }
+    });
+  }
+  json j;
+  j["sent"] = sent;
+  j["sender_cpu_seconds"] = cpu_seconds() - cpu0;
+  std::printf("%s\n", j.dump().c_str());
+  std::fflush(stdout);
+  zmq_close(push);
+  zmq_ctx_term(context);
+  return started ? 0 : 1;
+}
+
+// The sender process, with a pipe to its stdin ("go") and one from its stdout.
+struct SenderChild {
+  pid_t pid = -1;
+  FILE* in = nullptr;
+  FILE* out = nullptr;
+};
+
+SenderChild spawn_sender(const Options& o, const std::string& endpoint, int streams) {
+  int to_child[2], from_child[2];
+  if (pipe(to_child) != 0 || pipe(from_child) != 0) throw Error(ErrorKind::kIo, "replay: pipe failed");
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, to_child[0], 0);
+  posix_spawn_file_actions_adddup2(&actions, from_child[1], 1);
+  posix_spawn_file_actions_addclose(&actions, to_child[1]);
+  posix_spawn_file_actions_addclose(&actions, from_child[0]);
+  std::vector<std::string> args = {"kata", "replay", "--sender", endpoint, "--streams", std::to_string(streams),
+                                   "--seconds", std::to_string(o.seconds), "--rate", std::to_string(o.rate),
+                                   "--data", o.data_dir};
+  std::vector<char*> argv;
+  for (auto& a : args) argv.push_back(a.data());
+  argv.push_back(nullptr);
+  SenderChild c;
+  if (posix_spawn(&c.pid, "/proc/self/exe", &actions, nullptr, argv.data(), environ) != 0)
+    throw Error(ErrorKind::kIo, "replay: cannot start the sender process");
+  posix_spawn_file_actions_destroy(&actions);
+  close(to_child[0]);
+  close(from_child[1]);
+  c.in = fdopen(to_child[1], "w");
+  c.out = fdopen(from_child[0], "r");
+  return c;
+}
+
+// The pipeline's own cost in this run: a hot push loop (as BM_PipelinePush: one stream with the
+// teacher, results read in blocks) timed by this thread's CPU clock, the median of 7 blocks of
+// 300 frames after 300 warm-up frames (us per frame).
+double measure_push_us(const Clips& c);
+
 json run_kata(const Options& o, const Clips& c, int streams, double* message_bytes) {
   kata::runtime::RuntimeConfig config;
   config.workers = o.workers;
@@ -331,8 +512,17 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
   config.publish.endpoints = {endpoint_for(o, "kata")};
   config.publish.send_hwm = 100000;
   config.skeleton_resend_seconds = 1.0;
+  config.idle.kind = o.idle == "park" ? kata::runtime::IdleStrategy::Kind::kPark : kata::runtime::IdleStrategy::Kind::kBackoff;
+  if (o.ingest) {
+    config.ingest.endpoints = {"bind:" + endpoint_for(o, "ingest")};
+    config.ingest.kind = kata::transport::IngestKind::kPull;
+    config.ingest.receive_hwm = 1 << 20;
+    config.configure_stream = [&c](const kata::transport::SkeletonDefinition& d) {
+      return setup_for(c, static_cast<size_t>(d.stream_id % c.clips.size()));
+    };
+  }
   kata::runtime::Runtime runtime(config);
-  for (int s = 0; s < streams; ++s) {
+  for (int s = 0; s < streams && !o.ingest; ++s) {
     kata::transport::SkeletonDefinition d;
     d.stream_id = static_cast<uint64_t>(s);
     d.revision = 1;
@@ -342,7 +532,11 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
     d.frame_rate = static_cast<float>(o.rate);
     runtime.open_stream(d, setup_for(c, clip));
   }
-  Child child = spawn_subscriber(runtime.publish_endpoint(), "kata", o.seconds + 30.0, o.soak ? o.window : 0.0);
+  const int64_t expected = static_cast<int64_t>(o.seconds * o.rate) * streams;
+  Child child = spawn_subscriber(runtime.publish_endpoint(), "kata", o.seconds + 30.0, expected, o.soak ? o.window : 0.0,
+                                 o.ingest ? streams : 1, o.ingest, o.inject_growth_us_per_s);
+  SenderChild sender;
+  if (o.ingest) sender = spawn_sender(o, runtime.ingest_endpoint(), streams);
   if (read_line(child.out) != "ready") throw Error(ErrorKind::kIo, "replay: the kata subscriber did not start");
   const int64_t ticks = static_cast<int64_t>(o.seconds * o.rate);
   uint64_t sent = 0, refused_push = 0;
@@ -351,7 +545,30 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
   const int64_t ticks_per_second = std::max<int64_t>(1, static_cast<int64_t>(o.rate));
   const double cpu0 = cpu_seconds();
   const auto wall0 = std::chrono::steady_clock::now();
-  paced(o, ticks, [&](int64_t t) {
+  json sender_report;
+  if (o.ingest) {
+    // Every stream is open (the subscriber saw its definition); the sender starts its frames.
+    std::fputs("go\n", sender.in);
+    std::fflush(sender.in);
+    paced(o, ticks, [&](int64_t t) {
+      if (o.soak && t % ticks_per_second == 0) rss_mib.push_back(resident_mib());
+    });
+    const std::string line = read_line(sender.out);
+    std::fclose(sender.in);
+    std::fclose(sender.out);
+    int status = 0;
+    waitpid(sender.pid, &status, 0);
+    if (line.empty()) throw Error(ErrorKind::kIo, "replay: the sender process reported nothing");
+    sender_report = json::parse(line);
+    sent = sender_report["sent"].get<uint64_t>();
+    refused_push = static_cast<uint64_t>(ticks) * static_cast<uint64_t>(streams) - sent;  // the sender's refusals
+    // The sender has exited (its linger flushed the socket): wait until ingest has read every
+    // frame (bounded), or stop() would leave the last ones unread in the socket.
+    const auto limit = std::chrono::steady_clock::now() + std::chrono::seconds(5);
+    while (runtime.counters().ingest.frames < sent && std::chrono::steady_clock::now() < limit)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
+  if (!o.ingest) paced(o, ticks, [&](int64_t t) {
     if (o.soak && t % ticks_per_second == 0) rss_mib.push_back(resident_mib());
     for (int s = 0; s < streams; ++s) {
       const size_t clip = static_cast<size_t>(s) % c.clips.size();
@@ -376,6 +593,20 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
   j["runtime_drops"] = counters.total.queue_full + counters.total.result_queue_full + counters.total.pipeline_dropped +
                        counters.total.refused + counters.total.send_failed;
   j["publisher_cpu_percent_of_one_core"] = 100.0 * cpu / wall;
+  // Every thread of this process (pushing or ingest, workers, the I/O thread, libzmq's) per frame.
+  j["cpu_us_per_frame"] = sent ? 1e6 * cpu / static_cast<double>(sent) : 0.0;
+  j["runtime_drops_by_cause"] = {{"queue_full", counters.total.queue_full},
+                                 {"result_queue_full", counters.total.result_queue_full},
+                                 {"pipeline_dropped", counters.total.pipeline_dropped},
+                                 {"refused", counters.total.refused},
+                                 {"send_failed", counters.total.send_failed}};
+  if (o.ingest) {
+    j["path"] = "ingest: a sender process -> ZeroMQ PUSH/PULL -> Ingest (verifier, checksum) -> runtime";
+    j["sender_cpu_seconds"] = sender_report["sender_cpu_seconds"];
+    j["ingest_dropped"] = counters.ingest.dropped_total();
+  } else {
+    j["path"] = "in-process push";
+  }
   *message_bytes = j["mean_message_bytes"].get<double>();
   if (o.soak) j["rss_mib"] = rss_mib;
   return j;
@@ -392,7 +623,7 @@ json run_bare(const Options& o, int streams, size_t message_bytes) {
   char endpoint[256];
   size_t size = sizeof endpoint;
   zmq_getsockopt(pub, ZMQ_LAST_ENDPOINT, endpoint, &size);
-  Child child = spawn_subscriber(endpoint, "bare", o.seconds + 30.0);
+  Child child = spawn_subscriber(endpoint, "bare", o.seconds + 30.0, static_cast<int64_t>(o.seconds * o.rate) * streams);
   read_line(child.out);
   uint8_t join[64];
   zmq_pollitem_t item{pub, 0, ZMQ_POLLIN, 0};
@@ -489,7 +720,8 @@ json run_sharded(const Options& o, const Clips& c, int streams, double* message_
   };
   // Definitions until every stream is open on its shard and announced to the subscriber (each
   // shard loads the model and teacher first; bounded by the subscriber's own deadline).
-  Child child = spawn_subscriber(ep("rout"), "kata", o.seconds + 60.0, 0.0, streams, true);
+  Child child = spawn_subscriber(ep("rout"), "kata", o.seconds + 60.0, static_cast<int64_t>(o.seconds * o.rate) * streams,
+                                 0.0, streams, true);
   std::atomic<bool> ready{false};
   std::thread announcer([&] {
     while (!ready.load()) {
@@ -557,29 +789,60 @@ json run_once(const Options& o, const Clips& c, int streams) {
   j["seconds"] = o.seconds;
   j["transport"] = o.transport;
   j["workers"] = o.workers;
+  j["idle"] = o.idle;
   j["kata"] = kata_result;
   j["bare_zmq"] = bare;
   const double bare_p99 = bare["latency"]["p99_us"].get<double>();
   const double bare_p50 = bare["latency"]["p50_us"].get<double>();
   j["p99_ratio_kata_over_bare"] = bare_p99 > 0 ? kata_result["latency"]["p99_us"].get<double>() / bare_p99 : 0.0;
   j["p50_difference_us"] = kata_result["latency"]["p50_us"].get<double>() - bare_p50;
+  // The burst bound: a frame of a K-stream burst waits for at most K / workers pushes ahead of it
+  // on its worker, then rides ZeroMQ: bare ZeroMQ's p99 + K x the hot push / workers, with the
+  // push measured in this run (measure_push_us, as BM_PipelinePush).
+  const double push_us = measure_push_us(c);
+  const double bound = bare_p99 + static_cast<double>(streams) * push_us / static_cast<double>(o.workers);
+  j["push_us"] = push_us;
+  j["burst_bound_us"] = bound;
+  j["p99_ratio_kata_over_burst_bound"] = kata_result["latency"]["p99_us"].get<double>() / bound;
+  // The runtime's own cost (ingest decode or push, queues, encode, send) beyond the pipeline's.
+  if (kata_result.contains("cpu_us_per_frame"))
+    j["runtime_cpu_us_per_frame_beyond_push"] = kata_result["cpu_us_per_frame"].get<double>() - push_us;
   return j;
 }
 
+// --find-max's criterion: nothing lost (kata and bare), and kata's p99 within --p99-bound-us, or
+// without it within 1.25 x the burst bound (compute included: 1.25 x bare alone, the old rule,
+// ignored that a burst's frames queue behind each other's compute).
 bool passes(const Options& o, const json& r) {
   if (r["kata"]["lost"].get<int64_t>() != 0 || r["bare_zmq"]["lost"].get<int64_t>() != 0) return false;
-  if (r["p99_ratio_kata_over_bare"].get<double>() > 1.25) return false;
-  if (o.p99_bound_us > 0 && r["kata"]["latency"]["p99_us"].get<double>() > o.p99_bound_us) return false;
-  return true;
+  if (r["kata"]["runtime_drops"].get<uint64_t>() != 0) return false;
+  if (o.p99_bound_us > 0) return r["kata"]["latency"]["p99_us"].get<double>() <= o.p99_bound_us;
+  return r["p99_ratio_kata_over_burst_bound"].get<double>() <= 1.25;
 }
 
 void print_line(const json& r) {
+  const json& st = r["kata"]["stages"];
   std::printf("streams %4d  kata p50 %8.1f us p99 %9.1f us lost %lld | bare p50 %8.1f us p99 %9.1f us lost %lld | "
-              "p99 ratio %.2f\n",
+              "p99 / bare %.2f | burst bound %.1f us (bare p99 + %d x push %.1f us / %d workers), p99 / bound %.2f\n",
               r["streams"].get<int>(), r["kata"]["latency"]["p50_us"].get<double>(),
               r["kata"]["latency"]["p99_us"].get<double>(), static_cast<long long>(r["kata"]["lost"].get<int64_t>()),
               r["bare_zmq"]["latency"]["p50_us"].get<double>(), r["bare_zmq"]["latency"]["p99_us"].get<double>(),
-              static_cast<long long>(r["bare_zmq"]["lost"].get<int64_t>()), r["p99_ratio_kata_over_bare"].get<double>());
+              static_cast<long long>(r["bare_zmq"]["lost"].get<int64_t>()), r["p99_ratio_kata_over_bare"].get<double>(),
+              r["burst_bound_us"].get<double>(), r["streams"].get<int>(), r["push_us"].get<double>(),
+              r["workers"].get<int>(), r["p99_ratio_kata_over_burst_bound"].get<double>());
+  std::printf("  stages p50 / p99 (us):%s arrival->computed %.1f / %.1f, computed->published %.1f / %.1f, "
+              "published->received %.1f / %.1f\n",
+              st.contains("source_to_arrival")
+                  ? (" send->arrival " + std::to_string(st["source_to_arrival"]["p50_us"].get<double>()) + " / " +
+                     std::to_string(st["source_to_arrival"]["p99_us"].get<double>()) + ",").c_str()
+                  : "",
+              st["arrival_to_computed"]["p50_us"].get<double>(), st["arrival_to_computed"]["p99_us"].get<double>(),
+              st["computed_to_published"]["p50_us"].get<double>(), st["computed_to_published"]["p99_us"].get<double>(),
+              st["published_to_received"]["p50_us"].get<double>(), st["published_to_received"]["p99_us"].get<double>());
+  if (r.contains("runtime_cpu_us_per_frame_beyond_push"))
+    std::printf("  CPU per frame %.1f us (every thread of the kata process), push %.1f us: the runtime's own %.1f us\n",
+                r["kata"]["cpu_us_per_frame"].get<double>(), r["push_us"].get<double>(),
+                r["runtime_cpu_us_per_frame_beyond_push"].get<double>());
   std::fflush(stdout);
 }
 
@@ -607,39 +870,69 @@ json run_soak(const Options& o, const Clips& c) {
   }
   const double drift = lo > 0 && hi >= lo ? 100.0 * (hi - lo) / lo : 100.0;
   const auto& windows = k["windows"];
-  // The last window may be partial (the tail after the last full window): the last full one counts.
-  const size_t full = static_cast<size_t>(o.seconds / o.window);
-  const size_t last = std::min(windows.size(), full) - 1;
-  const double first_p99 = windows.empty() ? 0.0 : windows[0]["p99_us"].get<double>();
-  const double last_p99 = windows.empty() ? 0.0 : windows[last]["p99_us"].get<double>();
+  // The last window may be partial (the tail after the last full window): full ones only. The
+  // first and last figures are medians over --judge-windows windows each (one slow window, a
+  // neighbour's build, does not decide the run; a growth moves every window).
+  const size_t full = std::min(windows.size(), static_cast<size_t>(o.seconds / o.window));
+  const size_t span = static_cast<size_t>(std::max(1, o.judge_windows));
+  if (full < 2 * span)
+    throw Error(ErrorKind::kInvalidArgument, "replay: --soak needs --seconds >= 2 x --judge-windows x --window");
+  auto median_of = [&](size_t begin, const char* key) {
+    std::vector<double> v;
+    for (size_t i = begin; i < begin + span; ++i) v.push_back(windows[i][key].get<double>());
+    std::sort(v.begin(), v.end());
+    return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+  };
+  const double first_p50 = median_of(0, "p50_us"), last_p50 = median_of(full - span, "p50_us");
+  const double first_p99 = median_of(0, "p99_us"), last_p99 = median_of(full - span, "p99_us");
+  const double p50_ratio = first_p50 > 0 ? last_p50 / first_p50 : 0.0;
   const double ratio = first_p99 > 0 ? last_p99 / first_p99 : 0.0;
   const int64_t lost = k["lost"].get<int64_t>();
   const uint64_t drops = k["runtime_drops"].get<uint64_t>();
   j["rss_after_first_window_mib"] = {{"min", lo}, {"max", hi}, {"drift_percent", drift}};
-  j["p99_first_window_us"] = first_p99;
-  j["p99_last_window_us"] = last_p99;
+  j["judge_windows"] = span;
+  j["p50_first_windows_us"] = first_p50;
+  j["p50_last_windows_us"] = last_p50;
+  j["p50_ratio_last_over_first"] = p50_ratio;
+  j["p99_first_windows_us"] = first_p99;
+  j["p99_last_windows_us"] = last_p99;
   j["p99_ratio_last_over_first"] = ratio;
   j["lost"] = lost;
-  const bool latency_ok = o.p99_growth <= 0 || ratio <= o.p99_growth;
+  const bool p50_ok = o.p50_growth <= 0 || p50_ratio <= o.p50_growth;
+  const bool p99_ok = o.p99_growth <= 0 || ratio <= o.p99_growth;
+  j["p50_growth_bound"] = o.p50_growth;
   j["p99_growth_bound"] = o.p99_growth;
-  const bool pass = lost == 0 && drops == 0 && drift <= 1.0 && !windows.empty() && latency_ok;
+  const bool rss_ok = drift <= 1.0;
+  const bool pass = lost == 0 && drops == 0 && rss_ok && p50_ok && p99_ok;
   j["pass"] = pass;
+  std::string why;
+  if (lost != 0 || drops != 0) why += " lost";
+  if (!rss_ok) why += " rss";
+  if (!p50_ok) why += " p50-growth";
+  if (!p99_ok) why += " p99-growth";
   std::printf("soak: %d streams x %.0f Hz for %.0f s | sent %lld lost %lld drops %llu | RSS after %.0f s %.2f..%.2f MiB "
-              "(%.2f %%) | p99 first %.0f s %.1f us, last %.1f us (x%.2f) | %s\n",
+              "(%.2f %%) | median of %zu x %.0f s windows, first -> last: p50 %.1f -> %.1f us (x%.2f), p99 %.1f -> %.1f us "
+              "(x%.2f) | %s%s\n",
               o.streams, o.rate, o.seconds, static_cast<long long>(k["sent"].get<int64_t>()), static_cast<long long>(lost),
-              static_cast<unsigned long long>(drops), o.window, lo, hi, drift, o.window, first_p99, last_p99, ratio,
-              pass ? "pass" : "FAIL");
+              static_cast<unsigned long long>(drops), o.window, lo, hi, drift, span, o.window, first_p50, last_p50, p50_ratio,
+              first_p99, last_p99, ratio, pass ? "pass" : "FAIL:", why.c_str());
   std::fflush(stdout);
   return j;
 }
 
 void run_replay(const Options& o) {
+  if (!o.sender.empty()) {
+    const int code = run_sender(o);
+    if (code != 0) throw CLI::RuntimeError(code);
+    return;
+  }
   if (!o.subscriber.empty()) {
     const int code = run_subscriber(o);
     if (code != 0) throw CLI::RuntimeError(code);
     return;
   }
   if (o.transport != "tcp" && o.transport != "ipc") throw Error(ErrorKind::kInvalidArgument, "replay: --transport tcp|ipc");
+  if (o.ingest && o.shards > 0) throw Error(ErrorKind::kInvalidArgument, "replay: --ingest and --shards exclude each other");
   if (o.streams < 1 || !(o.rate > 0) || !(o.seconds > 0) || o.seconds > (o.soak ? 86400 : 600))
     throw Error(ErrorKind::kInvalidArgument, "replay: --streams >= 1, --rate > 0, 0 < --seconds <= 600 (soak: 86400)");
   std::signal(SIGPIPE, SIG_IGN);
@@ -679,8 +972,9 @@ void run_replay(const Options& o) {
       }
     }
     report["max_streams"] = good;
-    report["criterion"] = "nothing lost (kata and bare), kata p99 <= 1.25 x bare p99" +
-                          std::string(o.p99_bound_us > 0 ? ", kata p99 <= --p99-bound-us" : "");
+    report["criterion"] = std::string("nothing lost (kata and bare), ") +
+                          (o.p99_bound_us > 0 ? "kata p99 <= --p99-bound-us"
+                                              : "kata p99 <= 1.25 x (bare p99 + streams x push / workers)");
     report["p99_bound_us"] = o.p99_bound_us;
     report["at_max"] = best;
     report["trials"] = trials;
@@ -694,7 +988,7 @@ void run_replay(const Options& o) {
     f << report.dump(2) << "\n";
   }
   if (o.soak && !report["pass"].get<bool>())
-    throw Error(ErrorKind::kInvalidArgument, "replay: the soak failed its criteria (nothing lost, RSS within 1 %, p99 within --p99-growth x)");
+    throw Error(ErrorKind::kInvalidArgument, "replay: the soak failed its criteria (nothing lost, RSS within 1 %, p50 and p99 within --p50-growth and --p99-growth x)");
 }
 
 void setup(CLI::App& app) {
@@ -706,20 +1000,37 @@ void setup(CLI::App& app) {
   cmd->add_option("--rate", o->rate, "frames per second per stream")->capture_default_str();
   cmd->add_option("--transport", o->transport, "tcp or ipc")->capture_default_str();
   cmd->add_option("--out", o->out, "report JSON");
-  cmd->add_flag("--find-max", o->find_max, "find the most streams with nothing lost and kata p99 <= 1.25 x bare p99");
+  cmd->add_flag("--find-max", o->find_max,
+                "find the most streams with nothing lost and kata p99 <= --p99-bound-us (without it: <= 1.25 x the "
+                "burst bound, bare p99 + streams x push / workers)");
   cmd->add_option("--p99-bound-us", o->p99_bound_us, "with --find-max: also kata p99 <= this (us)");
   cmd->add_option("--workers", o->workers, "runtime worker threads")->capture_default_str();
-  cmd->add_flag("--soak", o->soak, "one long kata phase: nothing lost, RSS flat within 1 %, last window p99 <= 1.25 x first");
+  cmd->add_option("--idle", o->idle, "the runtime's idle strategy: park (sleep at once) or backoff (spin, yield, park)")
+      ->check(CLI::IsMember({"park", "backoff"}))
+      ->capture_default_str();
+  cmd->add_flag("--soak", o->soak, "one long kata phase: nothing lost, RSS flat within 1 %, last windows p50 <= 1.15 x and p99 <= 1.25 x first");
   cmd->add_option("--window", o->window, "with --soak: seconds per latency window")->capture_default_str();
   cmd->add_option("--p99-growth", o->p99_growth,
                   "with --soak: the last window's p99 must be <= this x the first's (0: reported, not judged)")
       ->capture_default_str();
+  cmd->add_option("--p50-growth", o->p50_growth,
+                  "with --soak: the last windows' p50 must be <= this x the first's (0: reported, not judged)")
+      ->capture_default_str();
+  cmd->add_option("--judge-windows", o->judge_windows,
+                  "with --soak: the first and last p50 / p99 are medians over this many windows each")
+      ->capture_default_str();
   cmd->add_option("--data", o->data_dir, "directory of the CMU clips")->capture_default_str();
   cmd->add_option("--model", o->model, "the .kata model")->capture_default_str();
+  cmd->add_flag("--ingest", o->ingest,
+                "the frames come from a sender process over ZeroMQ (PUSH -> the runtime's PULL Ingest, verifier and "
+                "checksum), as kata send does, instead of the in-process push; latency from the frame's send");
   cmd->add_option("--subscriber", o->subscriber)->group("");  // internal: the subscriber process
+  cmd->add_option("--sender", o->sender)->group("");          // internal: the sender process (--ingest)
   cmd->add_option("--mode", o->mode)->group("");
   cmd->add_option("--deadline", o->deadline)->group("");
   cmd->add_option("--expect-definitions", o->expect_definitions)->group("");
+  cmd->add_option("--expect-results", o->expect_results)->group("");
+  cmd->add_option("--inject-growth-us-per-s", o->inject_growth_us_per_s)->group("");  // the judge's own test
   cmd->add_flag("--capture-is-send", o->capture_is_send)->group("");
   cmd->add_option("--shards", o->shards,
                   "run the kata phase through two kata proxy processes (frames, results) and this many kata serve "

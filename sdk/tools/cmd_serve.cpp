@@ -17,6 +17,8 @@
 //   [runtime]
 //   workers = 2
 //   skeleton_resend_seconds = 1.0
+//   idle = "park"                              # or "backoff": spin idle_spin_us before sleeping
+//   idle_spin_us = 300                         # (runtime.hpp IdleStrategy; docs/runtime.md)
 //   [scoring]                                  # optional: without it, features only
 //   model = "models/default.kata"              # relative paths: from the config file's directory
 //   teacher = "data/cmu/02_01.bvh"             # the default teacher

@@ -176,10 +176,15 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
   c.runtime.ingest.shard_index = static_cast<uint32_t>(shard_index);
 
   const toml::table& rt = section(file, root, "runtime", false);
-  check_keys(file, rt, {"workers", "skeleton_resend_seconds", "max_streams"}, "runtime");
+  check_keys(file, rt, {"workers", "skeleton_resend_seconds", "max_streams", "idle", "idle_spin_us"}, "runtime");
   c.runtime.workers = static_cast<int>(read_range(file, rt, "workers", 2, 1, 64));
   c.runtime.skeleton_resend_seconds = read_positive(file, rt, "skeleton_resend_seconds", 1.0);
   c.runtime.max_streams = static_cast<int>(read_range(file, rt, "max_streams", 1024, 1, 1 << 20));
+  const std::string idle = read<std::string>(file, rt, "idle", "park");
+  if (idle != "park" && idle != "backoff") refuse(file, rt.get("idle")->source(), "idle must be \"park\" or \"backoff\"");
+  c.runtime.idle.kind = idle == "backoff" ? kata::runtime::IdleStrategy::Kind::kBackoff : kata::runtime::IdleStrategy::Kind::kPark;
+  c.runtime.idle.io_spin_ns = 1000 * read_range(file, rt, "idle_spin_us", c.runtime.idle.io_spin_ns / 1000, 0, 100000);
+  c.runtime.idle.io_yield_ns = c.runtime.idle.io_spin_ns;
 
   const toml::table& scoring = section(file, root, "scoring", false);
   check_keys(file, scoring, {"model", "teacher", "first_frame", "ghost", "teachers"}, "scoring");

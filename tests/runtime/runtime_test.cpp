@@ -5,6 +5,8 @@
 #include <unistd.h>
 #include <zmq.h>
 
+#include <time.h>
+
 #include <chrono>
 #include <cstring>
 #include <map>
@@ -110,9 +112,11 @@ class runtime_end_to_end : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(runtime_end_to_end, EveryFrameOutInOrderEqualToTheInProcessPipeline) {
   Fixture& fx = fixture();
-  const std::string transport = GetParam();
+  const std::string param = GetParam();  // "tcp", "ipc", or "tcp-backoff" (the backoff idle strategy)
+  const std::string transport = param.substr(0, 3);
   RuntimeConfig config;
   config.workers = 2;
+  if (param == "tcp-backoff") config.idle.kind = runtime::IdleStrategy::Kind::kBackoff;
   config.publish.endpoints = {transport == "tcp" ? "tcp://127.0.0.1:*" : unique_ipc("e2e")};
   Runtime runtime(config);
   const uint64_t ids[2] = {11, 12};
@@ -192,7 +196,34 @@ TEST_P(runtime_end_to_end, EveryFrameOutInOrderEqualToTheInProcessPipeline) {
   EXPECT_TRUE(kata::test::every_frame_accounted(runtime, tally));
 }
 
-INSTANTIATE_TEST_SUITE_P(transports, runtime_end_to_end, ::testing::Values("tcp", "ipc"));
+INSTANTIATE_TEST_SUITE_P(transports, runtime_end_to_end, ::testing::Values("tcp", "ipc", "tcp-backoff"));
+
+// The backoff idle strategy spins only while a worker holds a frame: a runtime with open streams
+// and no frames costs (almost) no CPU. A thread left spinning would burn about a core-second here.
+TEST(runtime_idle, BackoffBurnsNoCpuWithoutFrames) {
+  Fixture& fx = fixture();
+  RuntimeConfig config;
+  config.workers = 2;
+  config.idle.kind = runtime::IdleStrategy::Kind::kBackoff;
+  config.publish.endpoints = {"tcp://127.0.0.1:*"};
+  Runtime runtime(config);
+  runtime.open_stream(fx.definition(5), fx.setup(true));
+  for (int i = 0; i < 4; ++i)  // a few frames first: every thread has run its backoff once
+    ASSERT_EQ(runtime.push(5, static_cast<uint64_t>(i), i * fx.student.frame_time, fx.frame(1 + i), fx.joints()),
+              Status::kOk);
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  auto cpu = [] {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) + 1e-9 * static_cast<double>(t.tv_nsec);
+  };
+  const double before = cpu();
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  const double used = cpu() - before;
+  EXPECT_LT(used, 0.1) << "CPU seconds in one idle second";
+  runtime.stop();
+  EXPECT_EQ(runtime.counters().total.results, 4u);
+}
 
 TEST(runtime_stall, StalledSubscriberLosesMessagesNotThePipelinesRate) {
   Fixture& fx = fixture();

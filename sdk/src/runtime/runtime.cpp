@@ -1,6 +1,7 @@
 // The runtime (threading model in runtime.hpp).
 #include "runtime/runtime.hpp"
 
+#include <sched.h>
 #include <semaphore.h>
 #include <sys/eventfd.h>
 #include <unistd.h>
@@ -36,6 +37,31 @@ constexpr uint64_t kEmptyKey = ~0ULL;  // a stream id the table cannot hold
 // Set in a worker's enqueue_pos by stop(): the queue takes no more frames. The position below it
 // is then final: exactly the pushes that claimed a cell before, which the worker finishes.
 constexpr size_t kQueueClosed = size_t{1} << (8 * sizeof(size_t) - 1);
+
+inline void cpu_relax() {
+#if defined(__x86_64__) || defined(__i386__)
+  __builtin_ia32_pause();
+#elif defined(__aarch64__)
+  asm volatile("yield");
+#endif
+}
+
+// Backs off until ready() or the budget is spent: spins (pause) for spin_ns, then yields the
+// CPU until yield_ns. True when ready() became true.
+template <typename Ready>
+bool back_off(int64_t spin_ns, int64_t yield_ns, Ready ready) {
+  const int64_t start = pipeline::now_ns();
+  for (unsigned n = 0;; ++n) {
+    if (ready()) return true;
+    if ((n & 15) != 15) {  // look at the clock every 16 turns
+      cpu_relax();
+      continue;
+    }
+    const int64_t spent = pipeline::now_ns() - start;
+    if (spent >= yield_ns && spent >= spin_ns) return ready();
+    if (spent >= spin_ns) sched_yield();
+  }
+}
 
 }  // namespace
 
@@ -140,6 +166,8 @@ struct Runtime::Worker {
   alignas(64) std::atomic<size_t> enqueue_pos{0};  // | kQueueClosed once stop() began
   alignas(64) size_t dequeue_pos = 0;
   sem_t wake;
+  // Between taking a frame and handing over its results (the I/O thread backs off on it).
+  alignas(64) std::atomic<bool> busy{false};
   // Results out: single-producer (this worker) / single-consumer (I/O thread) ring.
   std::vector<ResultCell> results;
   std::vector<float> ghosts;     // result cells x max ghost joints x 3
@@ -148,6 +176,7 @@ struct Runtime::Worker {
   alignas(64) std::atomic<size_t> result_head{0};  // written by the worker
   alignas(64) std::atomic<size_t> result_tail{0};  // written by the I/O thread
   std::vector<StreamState*> owned;  // the streams of this shard (for the final flush)
+  size_t stream_count = 0;          // streams assigned here (under open_mutex_)
   std::mutex owned_mutex;           // open_stream vs the final flush only
   std::thread thread;
   // Scratch for Pipeline::read.
@@ -276,7 +305,14 @@ void Runtime::add_locked(const transport::SkeletonDefinition& definition, pipeli
   state->definition = definition;
   state->ghost_joints = pipeline->ghost_joint_count();
   state->publish_features = publish_features;
-  state->worker = static_cast<int>(definition.stream_id % static_cast<uint64_t>(workers_.size()));
+  // The worker with the fewest streams (open_mutex_ is held): a burst of every stream's frame
+  // splits evenly over the workers whatever the ids (by id % workers, even ids would all land on
+  // worker 0 of 2 and a burst would queue twice as deep).
+  size_t least = 0;
+  for (size_t w = 1; w < workers_.size(); ++w)
+    if (workers_[w]->stream_count < workers_[least]->stream_count) least = w;
+  ++workers_[least]->stream_count;
+  state->worker = static_cast<int>(least);
   state->sequence_ring.assign(256, 0);
   state->capture_ring.assign(256, 0.0);
   Worker& worker = *workers_[static_cast<size_t>(state->worker)];
@@ -395,10 +431,15 @@ void Runtime::worker_loop(Worker& w) {
     (void)!write(wake_io_fd_, &one, sizeof one);
   };
 
+  const IdleStrategy& idle = config_.idle;
+  const bool backoff = idle.kind == IdleStrategy::Kind::kBackoff;
   for (;;) {
-    // Wait for a frame; every 50 ms look at the stop flag.
-    if (sem_trywait(&w.wake) != 0) {
+    // Wait for a frame (backing off first, by the idle strategy); every 50 ms look at the stop flag.
+    if (sem_trywait(&w.wake) != 0 &&
+        !(backoff && (wake_io(), w.busy.store(false, std::memory_order_release),
+                      back_off(idle.worker_spin_ns, idle.worker_yield_ns, [&] { return sem_trywait(&w.wake) == 0; })))) {
       wake_io();
+      w.busy.store(false, std::memory_order_release);
       timespec deadline;
       clock_gettime(CLOCK_REALTIME, &deadline);
       deadline.tv_nsec += 50'000'000;
@@ -424,6 +465,15 @@ void Runtime::worker_loop(Worker& w) {
           return;
         }
         continue;
+      }
+    }
+    if (backoff) {
+      // The I/O thread's wake-up, if it sleeps, overlaps this frame's compute; it then backs off
+      // on busy until the result is there instead of parking again.
+      w.busy.store(true, std::memory_order_seq_cst);
+      if (io_sleeping_.exchange(false)) {
+        const uint64_t one = 1;
+        (void)!write(wake_io_fd_, &one, sizeof one);
       }
     }
     FrameCell& cell = w.cells[w.dequeue_pos & w.mask];
@@ -480,6 +530,12 @@ void Runtime::send_definitions(const uint8_t* prefix, size_t prefix_size) {
 bool Runtime::results_pending() const {
   for (const auto& w : workers_)
     if (w->result_head.load(std::memory_order_acquire) != w->result_tail.load(std::memory_order_relaxed)) return true;
+  return false;
+}
+
+bool Runtime::workers_busy() const {
+  for (const auto& w : workers_)
+    if (w->busy.load(std::memory_order_acquire)) return true;
   return false;
 }
 
@@ -545,7 +601,15 @@ void Runtime::io_loop() {
       std::chrono::duration<double>(config_.skeleton_resend_seconds > 0 ? config_.skeleton_resend_seconds : 1.0));
   auto next_resend = clock::now() + resend_every;
   auto last_snapshot = clock::now();
+  const IdleStrategy& idle = config_.idle;
+  const bool backoff = idle.kind == IdleStrategy::Kind::kBackoff;
   for (;;) {
+    // A frame in a worker: wait for its result awake (bounded) rather than park and be woken.
+    if (backoff && !results_pending() && workers_busy() &&
+        back_off(idle.io_spin_ns, idle.io_yield_ns, [&] { return results_pending() || !workers_busy(); }) &&
+        results_pending()) {
+      drain_results(encoder);
+    }
     zmq_pollitem_t items[3];
     int n = 0;
     items[n++] = zmq_pollitem_t{nullptr, wake_io_fd_, ZMQ_POLLIN, 0};

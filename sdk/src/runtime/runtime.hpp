@@ -2,7 +2,8 @@
 //
 // Threads and why:
 //   producers (any thread; the I/O thread for ZeroMQ ingest) -> push(stream id, frame)
-//       the frame is copied into the bounded queue of worker (stream id % workers): a lock-free
+//       the frame is copied into the bounded queue of its stream's worker (the one with the
+//       fewest streams when the stream opened, so a burst splits evenly): a lock-free
 //       multi-producer ring (per-cell sequence numbers); a full queue drops the frame and counts
 //       it on its stream. No lock is shared between streams on this path.
 //   workers (N threads) -> each owns the pipelines of its shard, so a pipeline is only ever
@@ -64,6 +65,31 @@ struct Sink {
   std::function<void()> flush;  // optional; on the I/O thread after the last result
 };
 
+// How a runtime thread waits for work (docs/runtime.md, "Idle strategy"). A parked thread costs no
+// CPU but a wake-up from sleep (a futex or eventfd and the scheduler: tens of us on a VM) each
+// time work is handed to it; a thread that backs off keeps looking for a while first.
+struct IdleStrategy {
+  enum class Kind {
+    kPark,     // sleep at once: a worker in its semaphore, the I/O thread in zmq_poll
+    kBackoff,  // spin (cpu pause) for spin_ns, then sched_yield until yield_ns, then park
+  };
+  // Park by default: on the 2-core VM shared with other load, backoff measured no better at one
+  // stream and no clear gain at 64 (a spinning or yielding thread loses its CPU to the others
+  // anyway; docs/runtime.md has the side-by-side figures). Backoff is for dedicated cores.
+  Kind kind = Kind::kPark;
+  // A worker out of frames backs off this long before it parks (frames of a burst that arrive a
+  // little apart find it awake).
+  int64_t worker_spin_ns = 5'000;
+  int64_t worker_yield_ns = 5'000;
+  // The I/O thread: a worker that takes a frame wakes a parked I/O thread at once (the wake-up
+  // overlaps the frame's compute), and the I/O thread backs off, waiting for that result, up to
+  // this long instead of parking (yielding after io_spin_ns: a yield on a loaded machine gives the
+  // CPU away for a time slice, so by default it only spins). Its CPU is bounded by the frames'
+  // compute time: it spins only while a worker holds a frame, at most io_yield_ns per frame.
+  int64_t io_spin_ns = 300'000;
+  int64_t io_yield_ns = 300'000;
+};
+
 struct RuntimeConfig {
   int workers = 2;                 // worker threads (>= 1); streams are sharded by id over them
   int frame_queue_capacity = 4096; // frames queued per worker (rounded up to a power of two)
@@ -78,6 +104,7 @@ struct RuntimeConfig {
   // teacher. Throwing refuses the stream (counted). Runs on the I/O thread.
   std::function<StreamSetup(const transport::SkeletonDefinition&)> configure_stream;
   double skeleton_resend_seconds = 1.0;  // periodic re-send of every skeleton definition
+  IdleStrategy idle;                     // how workers and the I/O thread wait for work
   std::vector<Sink> sinks;               // in-process consumers of every result
 };
 
@@ -192,6 +219,7 @@ class Runtime {
   void io_loop();
   bool drain_results(transport::Encoder& encoder);
   bool results_pending() const;
+  bool workers_busy() const;
   void send_definitions(const uint8_t* prefix, size_t prefix_size);
 
   RuntimeConfig config_;
