@@ -491,13 +491,16 @@ void Runtime::worker_loop(Worker& w) {
     }
     const double t = cell.capture_time + s.time_offset;
     const Status st = p.push(t, cell.xyz, cell.has_confidence ? cell.confidence : nullptr, cell.joints, cell.arrival_ns);
-    if (st == Status::kOk) {
+    // kInternal: the pipeline kept the frame (its frame index moved on) but withheld a non-finite
+    // vector; the frame keeps its sequence slot so that later results map to their own frames.
+    if (st == Status::kOk || st == Status::kInternal) {
       const size_t ring = static_cast<size_t>(s.accepted) % s.sequence_ring.size();
       s.sequence_ring[ring] = cell.sequence;
       s.capture_ring[ring] = cell.capture_time;
       s.last_time = t;
       ++s.accepted;
-    } else if (st != Status::kTrackingLost) {  // tracking lost: accepted, no features (the confidence gate)
+    }
+    if (st != Status::kOk && st != Status::kTrackingLost) {  // tracking lost: accepted, no features (the confidence gate)
       s.counters.refused.fetch_add(1, std::memory_order_relaxed);
     }
     cell.turn.store(w.dequeue_pos + w.mask + 1, std::memory_order_release);
