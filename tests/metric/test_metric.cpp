@@ -31,17 +31,33 @@ TEST(Metric, NormaliseMatchesDoublePrecision) {
   }
 }
 
+// The product with the W the metric holds (16-bit integers times a column scale) to float
+// rounding, and with the model's float W within the bound the quantisation guarantees: every
+// weight is within half a step of the model's (plus the float rounding of q * step: 0.51 steps),
+// so |du_c| <= 0.51 step_c * sum_i |x''_i|.
 TEST(Metric, ProjectionMatchesDenseProduct) {
   const metric::Model& model = test::test_model();
   const metric::Metric metric(model);
   const Eigen::MatrixXd w = test::dense_w(model);
+  const std::vector<float> held = metric.weights();
+  Eigen::MatrixXd wq(gpd::kDims, model.rank);
+  for (int c = 0; c < model.rank; ++c)
+    for (int i = 0; i < gpd::kDims; ++i) {
+      wq(i, c) = held[static_cast<size_t>(c) * gpd::kDims + i];
+      ASSERT_LE(std::abs(wq(i, c) - w(i, c)), 0.51 * metric.weight_step(c)) << i << " " << c;
+    }
   auto ws = metric.make_workspace();
   std::vector<float> u(static_cast<size_t>(model.rank));
   for (int f : {3, 200}) {
     const float* x = test::clip_row("05_02.bvh", f);
     metric.project(x, ws, u.data());
-    const Vec ref = w.transpose() * test::dense_normalised(model, x);
-    for (int c = 0; c < model.rank; ++c) ASSERT_NEAR(u[c], ref[c], 2e-6 * ref.norm()) << c;
+    const Vec xn = test::dense_normalised(model, x);
+    const Vec ref = wq.transpose() * xn;
+    const Vec exact = w.transpose() * xn;
+    for (int c = 0; c < model.rank; ++c) {
+      ASSERT_NEAR(u[c], ref[c], 2e-6 * ref.norm()) << c;
+      ASSERT_NEAR(u[c], exact[c], 0.51 * metric.weight_step(c) * xn.lpNorm<1>() + 2e-6 * ref.norm()) << c;
+    }
   }
 }
 
@@ -84,8 +100,10 @@ TEST(Kernels, WideKernelsAgreeWithBaseline) {
   for (int rank : {50, 8, 3, 12, 20, 64, 70, 130}) {
     // Synthetic W and input, two groups; every implementation called directly.
     std::vector<int> begin = {0, 700, 1683};
-    std::vector<float> w(static_cast<size_t>(gpd::kDims) * rank), xp(gpd::kDims), x(gpd::kDims);
-    for (size_t i = 0; i < w.size(); ++i) w[i] = static_cast<float>(std::sin(0.37 * double(i)));
+    std::vector<int16_t> w(static_cast<size_t>(gpd::kDims) * rank);
+    std::vector<float> xp(gpd::kDims), x(gpd::kDims), scale(static_cast<size_t>(rank));
+    for (size_t i = 0; i < w.size(); ++i) w[i] = static_cast<int16_t>(std::lround(32767.0 * std::sin(0.37 * double(i))));
+    for (int c = 0; c < rank; ++c) scale[static_cast<size_t>(c)] = 3e-5f * static_cast<float>(1 + c % 3);
     const std::vector<int> perm = [] {
       std::vector<int> p(gpd::kDims);
       for (int i = 0; i < gpd::kDims; ++i) p[i] = (i * 7) % gpd::kDims;
@@ -95,6 +113,7 @@ TEST(Kernels, WideKernelsAgreeWithBaseline) {
     for (int i = 0; i < gpd::kDims; ++i) x[i] = static_cast<float>(std::cos(0.11 * i));
     metric::detail::BlockedW bw;
     bw.data = w.data();
+    bw.column_scale = scale.data();
     bw.rows = gpd::kDims;
     bw.rank = rank;
     bw.out_stride = (rank + 7) / 8 * 8;
@@ -110,7 +129,8 @@ TEST(Kernels, WideKernelsAgreeWithBaseline) {
         for (int k = begin[g]; k < begin[g + 1]; ++k)
           for (int c = 0; c < width; ++c)
             dense[static_cast<size_t>(g) * bw.out_stride + c0 + c] +=
-                double(w[static_cast<size_t>(gpd::kDims) * c0 + static_cast<size_t>(k) * width + c]) * xp[perm[k]];
+                double(w[static_cast<size_t>(gpd::kDims) * c0 + static_cast<size_t>(k) * width + c]) *
+                double(scale[static_cast<size_t>(c0 + c)]) * xp[perm[k]];
       }
     for (const Impl& impl : impls) {
       std::vector<float> xp2(gpd::kDims);
