@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <string>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -13,6 +15,7 @@
 #include "gpd/gpd.hpp"
 #include "metric/kernels.hpp"
 #include "metric/metric.hpp"
+#include "io/model_file.hpp"
 
 namespace kata {
 namespace {
@@ -59,6 +62,43 @@ TEST(Metric, ProjectionMatchesDenseProduct) {
       ASSERT_NEAR(u[c], exact[c], 0.51 * metric.weight_step(c) * xn.lpNorm<1>() + 2e-6 * ref.norm()) << c;
     }
   }
+}
+
+// What the 16-bit W costs the shipped model's verdicts: distances and calibrated scores of real
+// student/teacher frame pairs (CMU 05_02 against 02_01 and 02_01 against 07_01), the compiled
+// metric against the plain formula with the model's float W in double precision.
+TEST(Metric, SixteenBitWeightsKeepTheShippedModelsScores) {
+  const metric::Model model = metric::load_model(std::string(KATA_SOURCE_DIR) + "/models/default.kata");
+  const metric::Metric metric(model);
+  const Eigen::MatrixXd w = test::dense_w(model);
+  const metric::ScoreCalibration& cal = metric.calibration();
+  auto ws = metric.make_workspace();
+  std::vector<float> ux(static_cast<size_t>(model.rank)), uy(static_cast<size_t>(model.rank));
+  double worst_relative = 0.0, worst_score = 0.0;
+  int pairs = 0;
+  for (const auto& [student, teacher] : {std::pair<const char*, const char*>{"05_02.bvh", "02_01.bvh"},
+                                         {"02_01.bvh", "07_01.bvh"}, {"02_01.bvh", "02_01.bvh"}}) {
+    const int sf = test::clip_frames(student), tf = test::clip_frames(teacher);
+    for (int k = 0; k < 100; ++k) {
+      const int i = 1 + (k * 37) % (sf - 1), j = 1 + (k * 53 + 11) % (tf - 1);
+      const float* x = test::clip_row(student, i);
+      const float* y = test::clip_row(teacher, j);
+      metric.project(x, ws, ux.data());
+      metric.project(y, ws, uy.data());
+      double d2 = 0.0;
+      for (int c = 0; c < model.rank; ++c) d2 += double(ux[c] - uy[c]) * double(ux[c] - uy[c]);
+      const double d = std::sqrt(d2);
+      const double exact = (w.transpose() * (test::dense_normalised(model, x) - test::dense_normalised(model, y))).norm();
+      if (exact > 1e-3) worst_relative = std::max(worst_relative, std::abs(d - exact) / exact);
+      worst_score = std::max(worst_score, std::abs(metric::calibrated_score(d, cal.d50, cal.slope) -
+                                                   metric::calibrated_score(exact, cal.d50, cal.slope)));
+      ++pairs;
+    }
+  }
+  std::printf("  %d frame pairs: largest relative distance error %.2e, largest score difference %.4f points\n", pairs,
+              worst_relative, worst_score);
+  EXPECT_LT(worst_relative, 1e-3);
+  EXPECT_LT(worst_score, 0.05);
 }
 
 TEST(Metric, ScoreMapIsCalibratedAndMonotone) {
