@@ -186,10 +186,12 @@ void Metric_Kernel(benchmark::State& state) {
   std::vector<float> p(static_cast<size_t>(metric::kProjectionRows) * f.metric->stride());
   f.metric->part_projections(f.rows.data(), ws, p.data());
   // A blocked view equivalent to the metric's (same sizes and grouping, random values).
-  std::vector<float> w(static_cast<size_t>(gpd::kDims) * kRank, 0.5f);
+  std::vector<int16_t> w(static_cast<size_t>(gpd::kDims) * kRank, 16384);
+  std::vector<float> scale(static_cast<size_t>(kRank), 1.0f / 32768);
   const std::vector<int> groups = {0, 400, 800, 1200, 1591, gpd::kDims};
   metric::detail::BlockedW bw;
   bw.data = w.data();
+  bw.column_scale = scale.data();
   bw.rows = gpd::kDims;
   bw.rank = kRank;
   bw.out_stride = f.metric->stride();

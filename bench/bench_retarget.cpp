@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <string>
 #include <vector>
 
@@ -58,16 +59,21 @@ void BM_Retarget(benchmark::State& state, const std::string& preset, bool warm, 
   const Stream& s = stream(preset);
   RetargetOptions options;
   if (!basin_checks) options.cold_check_interval = 0;
+  // KATA_BENCH_COLD_PROBE=k: basin-check probe length k (RetargetOptions::cold_check_probe; 0 = full checks).
+  if (const char* probe = std::getenv("KATA_BENCH_COLD_PROBE")) options.cold_check_probe = std::atoi(probe);
   Retargeter rt(s.selection.parents, s.student_lengths, options, s.student_dirs);
   std::vector<double> ghost(3 * static_cast<size_t>(s.joints));
   size_t f = 0;
   long iterations = 0, frames = 0;
-  double worst_bone = 0.0;
+  double worst_bone = 0.0, stress_sum = 0.0;
+  long switched = 0;
   for (auto _ : state) {
     if (!warm) rt.reset();
     const auto& r = rt.retarget(s.frames[f].data(), ghost.data());
     benchmark::DoNotOptimize(ghost.data());
     iterations += r.iterations;
+    stress_sum += r.stress;
+    switched += r.switched ? 1 : 0;
     worst_bone = std::max(worst_bone, r.max_bone_error);
     ++frames;
     if (++f == s.frames.size()) {
@@ -79,6 +85,10 @@ void BM_Retarget(benchmark::State& state, const std::string& preset, bool warm, 
   state.counters["pairs"] = rt.table().pairs;
   state.counters["spg_iter"] = static_cast<double>(iterations) / static_cast<double>(frames);
   state.counters["max_bone_err"] = worst_bone;
+  // The quality side of the cost: the mean stress of the optima the stream followed (the
+  // paper's objective; lower is better) and the share of frames whose basin check switched.
+  state.counters["stress_mean"] = stress_sum / static_cast<double>(frames);
+  state.counters["switched"] = static_cast<double>(switched) / static_cast<double>(frames);
 }
 BENCHMARK_CAPTURE(BM_Retarget, cmu21_warm, std::string("cmu"), true)->Unit(benchmark::kMicrosecond);
 BENCHMARK_CAPTURE(BM_Retarget, cmu21_cold, std::string("cmu"), false)->Unit(benchmark::kMicrosecond);

@@ -6,6 +6,8 @@
 #include <array>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
+#include <limits>
 #include <random>
 #include <vector>
 
@@ -207,3 +209,51 @@ TEST(GpdFast, PerFrameKernelsDoNotAllocate) {
 }
 
 }  // namespace
+
+namespace kata::gpd {
+namespace {
+
+// The per-frame checks' reduction (largest_magnitude_bits), each ISA and the dispatcher, against
+// the plain formula: max |v| over finite values, and "some value is not finite", on lengths that
+// cover every tail, with NaN, +-Inf, the largest float and negative zero planted anywhere.
+TEST(GpdChecks, LargestMagnitudeBitsMatchesPlainFormula) {
+  using Fn = uint32_t (*)(const float*, int);
+  std::vector<std::pair<const char*, Fn>> impls = {
+      {"dispatch", [](const float* v, int n) { return largest_magnitude_bits(v, n); }},
+      {"sse4", [](const float* v, int n) { return detail::sse4::largest_magnitude_bits(v, n); }}};
+  if (detail::avx2::compiled() && cpu_has_avx2())
+    impls.push_back({"avx2", [](const float* v, int n) { return detail::avx2::largest_magnitude_bits(v, n); }});
+  const float specials[] = {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
+                            -std::numeric_limits<float>::infinity(), std::numeric_limits<float>::max(),
+                            -std::numeric_limits<float>::max(), -0.0f, 1e9f, -1.0000001e9f};
+  uint32_t seed = 12345;
+  auto next = [&seed] {
+    seed = seed * 1664525u + 1013904223u;
+    return seed;
+  };
+  for (int n : {0, 1, 7, 8, 15, 16, 17, 31, 48, 93, 1683}) {
+    for (int trial = 0; trial < 40; ++trial) {
+      std::vector<float> v(static_cast<size_t>(n));
+      for (float& x : v) x = (static_cast<float>(next() % 20001) - 10000.0f) * 1e-2f;
+      if (n > 0 && trial > 0) v[next() % static_cast<uint32_t>(n)] = specials[trial % 8];
+      bool finite = true;
+      float largest = 0.0f;
+      for (float x : v) {
+        finite = finite && std::isfinite(x);
+        if (std::isfinite(x)) largest = std::max(largest, std::fabs(x));
+      }
+      for (const auto& [name, fn] : impls) {
+        const uint32_t bits = fn(v.data(), n);
+        EXPECT_EQ(bits < 0x7f800000u, finite) << name << " n " << n << " trial " << trial;
+        if (finite) {
+          float got;
+          std::memcpy(&got, &bits, sizeof got);
+          EXPECT_EQ(got, largest) << name << " n " << n << " trial " << trial;
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+}  // namespace kata::gpd

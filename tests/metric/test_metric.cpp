@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
+#include <string>
 #include <vector>
 
 #include <Eigen/Dense>
@@ -13,6 +15,7 @@
 #include "gpd/gpd.hpp"
 #include "metric/kernels.hpp"
 #include "metric/metric.hpp"
+#include "io/model_file.hpp"
 
 namespace kata {
 namespace {
@@ -31,18 +34,71 @@ TEST(Metric, NormaliseMatchesDoublePrecision) {
   }
 }
 
+// The product with the W the metric holds (16-bit integers times a column scale) to float
+// rounding, and with the model's float W within the bound the quantisation guarantees: every
+// weight is within half a step of the model's (plus the float rounding of q * step: 0.51 steps),
+// so |du_c| <= 0.51 step_c * sum_i |x''_i|.
 TEST(Metric, ProjectionMatchesDenseProduct) {
   const metric::Model& model = test::test_model();
   const metric::Metric metric(model);
   const Eigen::MatrixXd w = test::dense_w(model);
+  const std::vector<float> held = metric.weights();
+  Eigen::MatrixXd wq(gpd::kDims, model.rank);
+  for (int c = 0; c < model.rank; ++c)
+    for (int i = 0; i < gpd::kDims; ++i) {
+      wq(i, c) = held[static_cast<size_t>(c) * gpd::kDims + i];
+      ASSERT_LE(std::abs(wq(i, c) - w(i, c)), 0.51 * metric.weight_step(c)) << i << " " << c;
+    }
   auto ws = metric.make_workspace();
   std::vector<float> u(static_cast<size_t>(model.rank));
   for (int f : {3, 200}) {
     const float* x = test::clip_row("05_02.bvh", f);
     metric.project(x, ws, u.data());
-    const Vec ref = w.transpose() * test::dense_normalised(model, x);
-    for (int c = 0; c < model.rank; ++c) ASSERT_NEAR(u[c], ref[c], 2e-6 * ref.norm()) << c;
+    const Vec xn = test::dense_normalised(model, x);
+    const Vec ref = wq.transpose() * xn;
+    const Vec exact = w.transpose() * xn;
+    for (int c = 0; c < model.rank; ++c) {
+      ASSERT_NEAR(u[c], ref[c], 2e-6 * ref.norm()) << c;
+      ASSERT_NEAR(u[c], exact[c], 0.51 * metric.weight_step(c) * xn.lpNorm<1>() + 2e-6 * ref.norm()) << c;
+    }
   }
+}
+
+// What the 16-bit W costs the shipped model's verdicts: distances and calibrated scores of real
+// student/teacher frame pairs (CMU 05_02 against 02_01 and 02_01 against 07_01), the compiled
+// metric against the plain formula with the model's float W in double precision.
+TEST(Metric, SixteenBitWeightsKeepTheShippedModelsScores) {
+  const metric::Model model = metric::load_model(std::string(KATA_SOURCE_DIR) + "/models/default.kata");
+  const metric::Metric metric(model);
+  const Eigen::MatrixXd w = test::dense_w(model);
+  const metric::ScoreCalibration& cal = metric.calibration();
+  auto ws = metric.make_workspace();
+  std::vector<float> ux(static_cast<size_t>(model.rank)), uy(static_cast<size_t>(model.rank));
+  double worst_relative = 0.0, worst_score = 0.0;
+  int pairs = 0;
+  for (const auto& [student, teacher] : {std::pair<const char*, const char*>{"05_02.bvh", "02_01.bvh"},
+                                         {"02_01.bvh", "07_01.bvh"}, {"02_01.bvh", "02_01.bvh"}}) {
+    const int sf = test::clip_frames(student), tf = test::clip_frames(teacher);
+    for (int k = 0; k < 100; ++k) {
+      const int i = 1 + (k * 37) % (sf - 1), j = 1 + (k * 53 + 11) % (tf - 1);
+      const float* x = test::clip_row(student, i);
+      const float* y = test::clip_row(teacher, j);
+      metric.project(x, ws, ux.data());
+      metric.project(y, ws, uy.data());
+      double d2 = 0.0;
+      for (int c = 0; c < model.rank; ++c) d2 += double(ux[c] - uy[c]) * double(ux[c] - uy[c]);
+      const double d = std::sqrt(d2);
+      const double exact = (w.transpose() * (test::dense_normalised(model, x) - test::dense_normalised(model, y))).norm();
+      if (exact > 1e-3) worst_relative = std::max(worst_relative, std::abs(d - exact) / exact);
+      worst_score = std::max(worst_score, std::abs(metric::calibrated_score(d, cal.d50, cal.slope) -
+                                                   metric::calibrated_score(exact, cal.d50, cal.slope)));
+      ++pairs;
+    }
+  }
+  std::printf("  %d frame pairs: largest relative distance error %.2e, largest score difference %.4f points\n", pairs,
+              worst_relative, worst_score);
+  EXPECT_LT(worst_relative, 1e-3);
+  EXPECT_LT(worst_score, 0.05);
 }
 
 TEST(Metric, ScoreMapIsCalibratedAndMonotone) {
@@ -84,8 +140,10 @@ TEST(Kernels, WideKernelsAgreeWithBaseline) {
   for (int rank : {50, 8, 3, 12, 20, 64, 70, 130}) {
     // Synthetic W and input, two groups; every implementation called directly.
     std::vector<int> begin = {0, 700, 1683};
-    std::vector<float> w(static_cast<size_t>(gpd::kDims) * rank), xp(gpd::kDims), x(gpd::kDims);
-    for (size_t i = 0; i < w.size(); ++i) w[i] = static_cast<float>(std::sin(0.37 * double(i)));
+    std::vector<int16_t> w(static_cast<size_t>(gpd::kDims) * rank);
+    std::vector<float> xp(gpd::kDims), x(gpd::kDims), scale(static_cast<size_t>(rank));
+    for (size_t i = 0; i < w.size(); ++i) w[i] = static_cast<int16_t>(std::lround(32767.0 * std::sin(0.37 * double(i))));
+    for (int c = 0; c < rank; ++c) scale[static_cast<size_t>(c)] = 3e-5f * static_cast<float>(1 + c % 3);
     const std::vector<int> perm = [] {
       std::vector<int> p(gpd::kDims);
       for (int i = 0; i < gpd::kDims; ++i) p[i] = (i * 7) % gpd::kDims;
@@ -95,6 +153,7 @@ TEST(Kernels, WideKernelsAgreeWithBaseline) {
     for (int i = 0; i < gpd::kDims; ++i) x[i] = static_cast<float>(std::cos(0.11 * i));
     metric::detail::BlockedW bw;
     bw.data = w.data();
+    bw.column_scale = scale.data();
     bw.rows = gpd::kDims;
     bw.rank = rank;
     bw.out_stride = (rank + 7) / 8 * 8;
@@ -110,7 +169,8 @@ TEST(Kernels, WideKernelsAgreeWithBaseline) {
         for (int k = begin[g]; k < begin[g + 1]; ++k)
           for (int c = 0; c < width; ++c)
             dense[static_cast<size_t>(g) * bw.out_stride + c0 + c] +=
-                double(w[static_cast<size_t>(gpd::kDims) * c0 + static_cast<size_t>(k) * width + c]) * xp[perm[k]];
+                double(w[static_cast<size_t>(gpd::kDims) * c0 + static_cast<size_t>(k) * width + c]) *
+                double(scale[static_cast<size_t>(c0 + c)]) * xp[perm[k]];
       }
     for (const Impl& impl : impls) {
       std::vector<float> xp2(gpd::kDims);

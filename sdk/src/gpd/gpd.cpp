@@ -37,7 +37,11 @@ void to_local_frame(const float* world, double height, GeometryState& state, flo
   const double ux = (double(world[3 * kLHip]) - world[3 * kRHip]) + (double(world[3 * kLShoulder]) - world[3 * kRShoulder]);
   const double uz =
       (double(world[3 * kLHip + 2]) - world[3 * kRHip + 2]) + (double(world[3 * kLShoulder + 2]) - world[3 * kRShoulder + 2]);
-  const double norm = std::hypot(ux, uz);
+  // sqrt of the sum of squares, not std::hypot (a library call several times the cost): a
+  // stream's joints lie within +-1e9 input units (stream.hpp), where the squares cannot
+  // overflow; hypot only for the wild values a caller may hand in directly.
+  double norm = std::sqrt(ux * ux + uz * uz);
+  if (!(norm < 1e150)) norm = std::hypot(ux, uz);
   double c = 1.0, s = 0.0;
   if (norm >= 1e-6) {
     c = ux / norm;
@@ -87,6 +91,11 @@ void static_features(const float* local, float hip_height, GeometryState& state,
   } else {
     detail::sse4::static_features(local, hip_height, state, out);
   }
+}
+
+uint32_t largest_magnitude_bits(const float* v, int n) {
+  if (detail::avx2::compiled() && cpu_has_avx2()) return detail::avx2::largest_magnitude_bits(v, n);
+  return detail::sse4::largest_magnitude_bits(v, n);
 }
 
 DifferenceWeights backward_weights(double h1, double h2) {

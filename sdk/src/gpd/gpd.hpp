@@ -53,6 +53,13 @@ void to_local_frame(const float* world, double height, GeometryState& state, flo
 // CPU has it.
 void static_features(const float* local, float hip_height, GeometryState& state, float* out);
 
+// The largest magnitude among n floats, as its IEEE bit pattern with the sign cleared. These
+// patterns order as the magnitudes do, with Inf (0x7f800000) above every finite value and NaN
+// above Inf: the result is < 0x7f800000 iff every value is finite, and <= the pattern of a
+// bound b iff every |v[i]| <= b. One branch-free pass (vectorised; AVX2 when the CPU has it),
+// for the per-frame checks that need the offending value only when they fail.
+uint32_t largest_magnitude_bits(const float* v, int n);
+
 // Finite-difference weights over three samples f0, f1, f2 (spec section 5): the derivative is
 // v = wv[0] f0 + wv[1] f1 + wv[2] f2, likewise a with wa.
 struct DifferenceWeights {

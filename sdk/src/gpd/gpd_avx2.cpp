@@ -30,6 +30,8 @@ void static_features(const float* local, float hip_height, GeometryState& state,
   sse4::static_features(local, hip_height, state, out);
 }
 
+uint32_t largest_magnitude_bits(const float* v, int n) noexcept { return sse4::largest_magnitude_bits(v, n); }
+
 }  // namespace kata::gpd::detail::avx2
 
 #endif

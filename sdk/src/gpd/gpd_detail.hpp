@@ -176,12 +176,14 @@ constexpr float kFastPathExtent = 1e15f;
 namespace sse4 {
 // Baseline kernel (x86-64-v2: SSE4.2). Runs on every supported CPU.
 void static_features(const float* local, float hip_height, GeometryState& state, float* out) noexcept;
+uint32_t largest_magnitude_bits(const float* v, int n) noexcept;
 }  // namespace sse4
 namespace avx2 {
 // True when this build contains the AVX2+FMA kernel (x86 builds).
 bool compiled() noexcept;
 // AVX2+FMA kernel (x86-64-v3). Call only when kata::cpu_has_avx2() and compiled().
 void static_features(const float* local, float hip_height, GeometryState& state, float* out) noexcept;
+uint32_t largest_magnitude_bits(const float* v, int n) noexcept;
 }  // namespace avx2
 
 }  // namespace kata::gpd::detail

@@ -354,3 +354,23 @@ inline void kernel(const float* local, float hip_height, GeometryState& state, f
 void static_features(const float* local, float hip_height, GeometryState& state, float* out) noexcept {
   kernel(local, hip_height, state, out);
 }
+
+uint32_t largest_magnitude_bits(const float* v, int n) noexcept {
+  // Sixteen lanes: whole vectors on every ISA, and independent max chains for the vector units.
+  uint32_t lane[16] = {};
+  int i = 0;
+  for (; i + 16 <= n; i += 16)
+    for (int l = 0; l < 16; ++l) {
+      uint32_t b;
+      __builtin_memcpy(&b, v + i + l, sizeof b);
+      lane[l] = lane[l] > (b & 0x7fffffffu) ? lane[l] : (b & 0x7fffffffu);
+    }
+  for (; i < n; ++i) {
+    uint32_t b;
+    __builtin_memcpy(&b, v + i, sizeof b);
+    lane[0] = lane[0] > (b & 0x7fffffffu) ? lane[0] : (b & 0x7fffffffu);
+  }
+  uint32_t m = 0;
+  for (int l = 0; l < 16; ++l) m = m > lane[l] ? m : lane[l];
+  return m;
+}

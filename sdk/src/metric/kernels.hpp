@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 
 namespace kata::metric::detail {
 
@@ -20,9 +21,17 @@ constexpr int kBatch = 4;
 // are split into chunks of kChunk (the last one narrower); chunk c
 // holds columns [c*kChunk, c*kChunk + width_c) row-major and unpadded (row stride width_c),
 // starting at data + rows * c * kChunk. Unpadded rows keep the bytes streamed per frame at
-// exactly rows x rank floats, the limit of a memory-bound product.
+// exactly rows x rank values, the limit of a memory-bound product.
+//
+// Values are 16-bit integers with one scale per column (issue 23): W[k, c] = data[k, c] *
+// column_scale[c], the scale max_k |W[k, c]| / 32767, so every weight is within half a step
+// (2^-16 of its column's largest) of the model's float. Half the bytes of float W: the product is
+// bound by the bytes it reads (from L2 when hot, from memory when a paced frame finds the caches
+// cold), and the kernels convert in registers. Each output column is multiplied by its scale
+// once, after the last row.
 struct BlockedW {
-  const float* data = nullptr;
+  const int16_t* data = nullptr;
+  const float* column_scale = nullptr;  // rank floats
   int rows = 0;
   int rank = 0;
   int out_stride = 0;  // floats per output row of V: rank rounded up to a multiple of 8
@@ -32,7 +41,8 @@ struct BlockedW {
 };
 
 // V (groups x out_stride floats, padding columns written as 0) = for each group g, the partial
-// product sum over its rows k of xn[perm[k]] * W[k, :]. xn: rows floats in feature order.
+// product (sum over its rows k of xn[perm[k]] * data[k, :]) * column_scale. xn: rows floats in
+// feature order.
 void project_groups(const BlockedW& w, const float* xp, float* v);
 // The same for n <= kBatch vectors at once: xp[f], v[f] for f < n.
 void project_groups_batch(const BlockedW& w, const float* const* xp, float* const* v, int n);

@@ -33,6 +33,28 @@ constexpr int kSlabNV = W >= 16 ? 4 : 2;
 constexpr int kTile = 64;
 
 inline B load(const float* p) { return B::load_unaligned(p); }
+// W values: W 16-bit integers widened and converted in registers (one load of half the bytes).
+inline B load_w(const int16_t* p) {
+#if defined(__AVX512F__)
+  static_assert(W == 16, "AVX-512 batches hold 16 floats");
+  // (the maskz forms: GCC 12 warns on the plain ones, whose pass-through lanes are undefined)
+  const __m512i q = _mm512_maskz_cvtepi16_epi32(0xFFFF, _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p)));
+  return B(_mm512_maskz_cvtepi32_ps(0xFFFF, q));
+#elif defined(__AVX2__)
+  static_assert(W == 8, "AVX2 batches hold 8 floats");
+  return B(_mm256_cvtepi32_ps(_mm256_cvtepi16_epi32(_mm_loadu_si128(reinterpret_cast<const __m128i*>(p)))));
+#elif defined(__SSE4_1__)
+  static_assert(W == 4, "SSE batches hold 4 floats");
+  return B(_mm_cvtepi32_ps(_mm_cvtepi16_epi32(_mm_loadl_epi64(reinterpret_cast<const __m128i*>(p)))));
+#elif defined(__aarch64__)
+  static_assert(W == 4, "NEON batches hold 4 floats");
+  return B(vcvtq_f32_s32(vmovl_s16(vld1_s16(p))));
+#else
+  alignas(64) float f[W];
+  for (int i = 0; i < W; ++i) f[i] = static_cast<float>(p[i]);
+  return B::load_aligned(f);
+#endif
+}
 inline void store(float* p, const B& v) { v.store_unaligned(p); }
 // acc + w * x with the ISA's multiply-add (fused where it exists); the same everywhere below.
 // xsimd 8 has no fused AVX-512 fma (its generic x * y + z may or may not be contracted), so
@@ -61,20 +83,41 @@ inline void vector_offsets(int c0, int n, int nv, int* off) {
 }
 
 // One pass of one group of one chunk: NV vectors at columns off[] over rows [begin, end).
+// How far ahead of the row being multiplied W is prefetched, bytes. A paced frame finds W in
+// memory, and the hardware prefetchers stop at every 4 KiB page: without a software prefetch each
+// page would begin with a demand miss (and, under a hypervisor, a cold two-level page walk). One
+// page ahead covers the memory latency at the rate the rows are consumed; in a hot frame the
+// prefetches hit L1/L2 and cost an issue slot each.
+constexpr int kPrefetchAhead = 4096;
+inline void prefetch_row(const int16_t* row, int stride) {
+  const char* p = reinterpret_cast<const char*>(row) + kPrefetchAhead;
+  // Two lines per row: rows up to 64 int16 columns (128 bytes) stay covered.
+  __builtin_prefetch(p);
+  if (stride > 32) __builtin_prefetch(p + 64);
+}
+// The first page of a pass, which no earlier row prefetched.
+inline void prefetch_start(const int16_t* rows) {
+  const char* p = reinterpret_cast<const char*>(rows);
+  for (int b = 0; b < kPrefetchAhead; b += 64) __builtin_prefetch(p + b);
+}
+
+// The sums are multiplied by the column scales (scale: the chunk's first column) as they are
+// stored: the same single rounding as project_many's scale_columns.
 template <int NV>
-void group_pass(const float* rows, int stride, const float* xp, const int* perm, int begin, int end, const int* off,
-                float* out) {
+void group_pass(const int16_t* rows, int stride, const float* xp, const int* perm, int begin, int end, const int* off,
+                const float* scale, float* out) {
   B acc[NV];
   for (int v = 0; v < NV; ++v) acc[v] = B(0.0f);
   for (int i = begin; i < end; ++i) {
     const B xi(xp[perm[i]]);
-    const float* row = rows + static_cast<ptrdiff_t>(i) * stride;
-    for (int v = 0; v < NV; ++v) acc[v] = madd(load(row + off[v]), xi, acc[v]);
+    const int16_t* row = rows + static_cast<ptrdiff_t>(i) * stride;
+    prefetch_row(row, stride);
+    for (int v = 0; v < NV; ++v) acc[v] = madd(load_w(row + off[v]), xi, acc[v]);
   }
-  for (int v = 0; v < NV; ++v) store(out + off[v], acc[v]);
+  for (int v = 0; v < NV; ++v) store(out + off[v], acc[v] * load(scale + off[v]));
 }
 
-using PassFn = void (*)(const float*, int, const float*, const int*, int, int, const int*, float*);
+using PassFn = void (*)(const int16_t*, int, const float*, const int*, int, int, const int*, const float*, float*);
 
 PassFn pick_pass(int nv) {
   switch (nv) {
@@ -90,14 +133,21 @@ PassFn pick_pass(int nv) {
 }
 
 // A chunk narrower than one batch: scalar, the accumulator row on the stack.
-void group_narrow(const float* rows, int width, const float* xp, const int* perm, int begin, int end, float* out) {
+void group_narrow(const int16_t* rows, int width, const float* xp, const int* perm, int begin, int end,
+                  const float* scale, float* out) {
   float acc[W] = {};
   for (int i = begin; i < end; ++i) {
     const float xi = xp[perm[i]];
-    const float* row = rows + static_cast<ptrdiff_t>(i) * width;
-    for (int c = 0; c < width; ++c) acc[c] = madd1(row[c], xi, acc[c]);
+    const int16_t* row = rows + static_cast<ptrdiff_t>(i) * width;
+    for (int c = 0; c < width; ++c) acc[c] = madd1(static_cast<float>(row[c]), xi, acc[c]);
   }
-  for (int c = 0; c < width; ++c) out[c] = acc[c];
+  for (int c = 0; c < width; ++c) out[c] = acc[c] * scale[c];
+}
+
+// out[c] *= scale[c] for c < width, each column once (the overlapped vectors of a row must not
+// be scaled twice): the batched kernel's last step, the same rounding as group_pass's store.
+inline void scale_columns(float* out, const float* scale, int width) {
+  for (int c = 0; c < width; ++c) out[c] *= scale[c];
 }
 
 // Zeroes the padding columns [width, round8(width)) of one output row.
@@ -110,15 +160,15 @@ inline void zero_padding(float* out, int width) {
 // holds the running sums of the previous tiles; the first tile starts from 0 instead, so the
 // outputs need no zeroing pass: a fused multiply-add onto 0 rounds exactly as onto a loaded 0).
 template <int F, int NV, bool kFirst>
-void slab(const float* rows, int stride, const float* const* xp, const int* perm, int begin, int end, const int* off,
+void slab(const int16_t* rows, int stride, const float* const* xp, const int* perm, int begin, int end, const int* off,
           float* const* out) {
   B acc[F][NV];
   for (int f = 0; f < F; ++f)
     for (int v = 0; v < NV; ++v) acc[f][v] = kFirst ? B(0.0f) : load(out[f] + off[v]);
   for (int i = begin; i < end; ++i) {
-    const float* row = rows + static_cast<ptrdiff_t>(i) * stride;
+    const int16_t* row = rows + static_cast<ptrdiff_t>(i) * stride;
     B w[NV];
-    for (int v = 0; v < NV; ++v) w[v] = load(row + off[v]);
+    for (int v = 0; v < NV; ++v) w[v] = load_w(row + off[v]);
     const int src = perm[i];
     for (int f = 0; f < F; ++f) {
       const B xi(xp[f][src]);
@@ -130,7 +180,7 @@ void slab(const float* rows, int stride, const float* const* xp, const int* perm
 }
 
 template <int F>
-using SlabFn = void (*)(const float*, int, const float* const*, const int*, int, int, const int*, float* const*);
+using SlabFn = void (*)(const int16_t*, int, const float* const*, const int*, int, int, const int*, float* const*);
 
 template <int F, bool kFirst>
 SlabFn<F> pick_slab_of(int nv) {
@@ -155,18 +205,20 @@ SlabFn<F> pick_slab(int nv, bool first) {
 void project_one(const BlockedW& w, const float* xp, float* v) {
   for (int c0 = 0; c0 < w.rank; c0 += kChunk) {
     const int width = w.rank - c0 < kChunk ? w.rank - c0 : kChunk;
-    const float* rows = w.data + static_cast<ptrdiff_t>(w.rows) * c0;
+    const int16_t* rows = w.data + static_cast<ptrdiff_t>(w.rows) * c0;
+    const float* scale = w.column_scale + c0;
+    prefetch_start(rows);
     for (int g = 0; g < w.groups; ++g) {
       float* out = v + static_cast<ptrdiff_t>(g) * w.out_stride + c0;
       if (width < W) {
-        group_narrow(rows, width, xp, w.perm, w.group_begin[g], w.group_begin[g + 1], out);
+        group_narrow(rows, width, xp, w.perm, w.group_begin[g], w.group_begin[g + 1], scale, out);
       } else {
         for (int p0 = 0; p0 < width; p0 += kMaxNV * W) {
           const int n = width - p0 < kMaxNV * W ? width - p0 : kMaxNV * W;
           const int nv = (n + W - 1) / W;
           int off[kMaxNV];
           vector_offsets(p0, n, nv, off);
-          pick_pass(nv)(rows, width, xp, w.perm, w.group_begin[g], w.group_begin[g + 1], off, out);
+          pick_pass(nv)(rows, width, xp, w.perm, w.group_begin[g], w.group_begin[g + 1], off, scale, out);
         }
       }
       zero_padding(out, width);
@@ -179,12 +231,13 @@ void project_many(const BlockedW& w, const float* const* xp, float* const* v) {
   float* out[F];
   for (int c0 = 0; c0 < w.rank; c0 += kChunk) {
     const int width = w.rank - c0 < kChunk ? w.rank - c0 : kChunk;
-    const float* rows = w.data + static_cast<ptrdiff_t>(w.rows) * c0;
+    const int16_t* rows = w.data + static_cast<ptrdiff_t>(w.rows) * c0;
+    const float* scale = w.column_scale + c0;
     for (int g = 0; g < w.groups; ++g) {
       for (int f = 0; f < F; ++f) out[f] = v[f] + static_cast<ptrdiff_t>(g) * w.out_stride + c0;
       if (width < W) {
         for (int f = 0; f < F; ++f) {
-          group_narrow(rows, width, xp[f], w.perm, w.group_begin[g], w.group_begin[g + 1], out[f]);
+          group_narrow(rows, width, xp[f], w.perm, w.group_begin[g], w.group_begin[g + 1], scale, out[f]);
           zero_padding(out[f], width);
         }
         continue;
@@ -204,7 +257,10 @@ void project_many(const BlockedW& w, const float* const* xp, float* const* v) {
         for (int v0 = 0, n = lead; v0 < nv; v0 += n, n = kSlabNV)
           pick_slab<F>(n, t0 == w.group_begin[g])(rows, width, xp, w.perm, t0, t1, off + v0, out);
       }
-      for (int f = 0; f < F; ++f) zero_padding(out[f], width);
+      for (int f = 0; f < F; ++f) {
+        scale_columns(out[f], scale, width);
+        zero_padding(out[f], width);
+      }
     }
   }
 }

@@ -79,17 +79,30 @@ Metric::Metric(const Model& model) {
   }
   group_begin_.push_back(gpd::kDims);
 
-  // W: column-major kDims x rank in the model -> chunks of kChunk columns, row-major, rows permuted.
-  w_ = AlignedFloats(static_cast<size_t>(gpd::kDims) * rank_);
-  float* dst = w_.data();
+  // W: column-major kDims x rank in the model -> 16-bit integers with one scale per column
+  // (kernels.hpp), in chunks of kChunk columns, row-major, rows permuted.
+  column_scale_ = AlignedFloats(static_cast<size_t>(rank_));
+  for (int c = 0; c < rank_; ++c) {
+    float largest = 0.0f;
+    for (int i = 0; i < gpd::kDims; ++i)
+      largest = std::max(largest, std::abs(model.w[static_cast<size_t>(c) * gpd::kDims + i]));
+    column_scale_.data()[c] = largest / 32767.0f;
+  }
+  w_.assign(static_cast<size_t>(gpd::kDims) * rank_, 0);
+  int16_t* dst = w_.data();
   for (int c0 = 0; c0 < rank_; c0 += detail::kChunk) {
     const int width = std::min(detail::kChunk, rank_ - c0);
-    float* chunk = dst + static_cast<size_t>(gpd::kDims) * c0;
+    int16_t* chunk = dst + static_cast<size_t>(gpd::kDims) * c0;
     for (int k = 0; k < gpd::kDims; ++k)
-      for (int c = 0; c < width; ++c)
-        chunk[static_cast<size_t>(k) * width + c] = model.w[static_cast<size_t>(c0 + c) * gpd::kDims + perm_[k]];
+      for (int c = 0; c < width; ++c) {
+        const float step = column_scale_.data()[c0 + c];
+        const float value = model.w[static_cast<size_t>(c0 + c) * gpd::kDims + perm_[k]];
+        const double q = step > 0.0f ? std::nearbyint(static_cast<double>(value) / step) : 0.0;
+        chunk[static_cast<size_t>(k) * width + c] = static_cast<int16_t>(std::clamp(q, -32767.0, 32767.0));
+      }
   }
   blocked_.data = w_.data();
+  blocked_.column_scale = column_scale_.data();
   blocked_.rows = gpd::kDims;
   blocked_.rank = rank_;
   blocked_.out_stride = stride_;
@@ -117,6 +130,19 @@ Metric::Metric(const Model& model) {
   combine_.row_begin = combine_begin_.data();
   combine_.group = combine_group_.data();
   combine_.weight = combine_weight_.data();
+}
+
+std::vector<float> Metric::weights() const {
+  std::vector<float> w(static_cast<size_t>(gpd::kDims) * rank_);
+  for (int c0 = 0; c0 < rank_; c0 += detail::kChunk) {
+    const int width = std::min(detail::kChunk, rank_ - c0);
+    const int16_t* chunk = w_.data() + static_cast<size_t>(gpd::kDims) * c0;
+    for (int k = 0; k < gpd::kDims; ++k)
+      for (int c = 0; c < width; ++c)
+        w[static_cast<size_t>(c0 + c) * gpd::kDims + perm_[k]] =
+            static_cast<float>(chunk[static_cast<size_t>(k) * width + c]) * column_scale_.data()[c0 + c];
+  }
+  return w;
 }
 
 Metric::Workspace Metric::make_workspace() const {

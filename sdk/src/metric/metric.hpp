@@ -2,6 +2,7 @@
 // score map and the aligned float buffers the kernels work on.
 //
 // Per frame:  x'' = unit((x - min) / (max - min))   (or the block-balanced variant, model.hpp)
+//             (W held as 16-bit integers with a scale per column: weights(), kernels.hpp)
 //             e = x'' - y'',  u = W^T e = W^T x'' - W^T y''   (W^T y'' precomputed per reference)
 //             d = |u|,  score = 100 / (1 + (d / delta*)^2)
 //             part p = sum_i share_p(i) e_i (M e)_i,  M = W W^T,  (M e)_i = W_i . u  (parts.hpp)
@@ -71,6 +72,13 @@ class Metric {
   // Number of dimension groups (distinct part sets) and the rows of W each holds.
   int groups() const { return static_cast<int>(group_mask_.size()); }
 
+  // W as the kernels apply it: column-major kDims x rank floats, W[i, c] = q[i, c] *
+  // weight_step(c) with q the stored 16-bit integers (kernels.hpp BlockedW), each within half a
+  // step of the model's W. For tests and diagnostics (allocates).
+  std::vector<float> weights() const;
+  // The quantum of column c: max_i |W[i, c]| / 32767 of the model's W.
+  float weight_step(int c) const { return column_scale_.data()[c]; }
+
   // Scratch of one projection, sized once (never reallocated by the calls below).
   struct Workspace {
     AlignedFloats xp;  // kDims: x' (normalised, before unit length), feature order
@@ -101,7 +109,8 @@ class Metric {
   Normalisation normalisation_ = Normalisation::kMinMaxUnit;
   std::vector<int> perm_;          // row k of the blocked W multiplies feature perm_[k]
   AlignedFloats shift_, gain_;     // per feature: x' = (x - shift) * gain
-  AlignedFloats w_;                // blocked W (kernels.hpp)
+  std::vector<int16_t> w_;         // blocked W, 16-bit (kernels.hpp)
+  AlignedFloats column_scale_;     // rank: W[., c] = w_ * column_scale_[c]
   std::vector<int> group_begin_;   // groups + 1
   std::vector<uint8_t> group_mask_;  // part bit set per group
   std::vector<uint8_t> group_static_;  // 1 when the group's dimensions are in blocks 1..8

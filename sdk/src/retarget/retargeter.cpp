@@ -252,9 +252,22 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
     warm_frames_ = 0;
     to_soa(n, baseline_.data(), x_cold_.data());
     SpgOptions cold = options_.solver;
-    const SpgResult rc = solver_.minimize(solve, x_cold_.data(), cold);
+    if (options_.cold_check_probe > 0) cold.max_iterations = std::min(cold.max_iterations, options_.cold_check_probe);
+    SpgResult rc = solver_.minimize(solve, x_cold_.data(), cold);
     report_.iterations += rc.iterations;
     report_.evaluations += rc.evaluations;
+    if (!rc.converged && rc.iterations < options_.solver.max_iterations && rc.stress < r.stress) {
+      // Below the warm optimum already: a lower basin; the solve goes on to convergence.
+      SpgOptions rest = options_.solver;
+      rest.max_iterations = options_.solver.max_iterations - rc.iterations;
+      rest.initial_step = rc.last_step;
+      const SpgResult more = solver_.minimize(solve, x_cold_.data(), rest);
+      report_.iterations += more.iterations;
+      report_.evaluations += more.evaluations;
+      rc.stress = more.stress;
+      rc.converged = more.converged;
+      rc.last_step = more.last_step;
+    }
     report_.cold_checked = true;
     if (rc.stress < r.stress * (1.0 - 1e-6)) {
       std::copy(x_cold_.begin(), x_cold_.end(), x_.begin());

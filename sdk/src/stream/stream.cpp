@@ -21,6 +21,20 @@ double height_from_lengths(const double* len) {
   return len[0] + len[1] + len[2] + 0.5 * ((len[3] + len[4]) + (len[5] + len[6]));
 }
 
+// The per-frame checks (finite input, mapped joints within range, a finite vector out) each run
+// one branch-free pass (gpd::largest_magnitude_bits) and look for the offending value only when
+// it fails.
+using gpd::largest_magnitude_bits;
+
+constexpr uint32_t kInfBits = 0x7f800000u;
+// kMaxCoordinate as a float bit pattern (1e9 is exact in float).
+const uint32_t kMaxCoordinateBits = [] {
+  const float limit = static_cast<float>(kMaxCoordinate);
+  uint32_t b;
+  std::memcpy(&b, &limit, sizeof b);
+  return b;
+}();
+
 double distance3(const float* a, const float* b) {
   const double dx = double(a[0]) - b[0], dy = double(a[1]) - b[1], dz = double(a[2]) - b[2];
   return std::sqrt(dx * dx + dy * dy + dz * dz);
@@ -133,7 +147,7 @@ Status Stream::push(double t, const float* xyz, const float* confidence, int joi
     return refuse(Status::kTimestampNotIncreasing,
                   "push: timestamp %.17g s is %.3g s after the previous one, below the minimum step %g s", t,
                   t - last_time_, kMinTimeStep);
-  if (!confidence) {
+  if (!confidence && largest_magnitude_bits(xyz, 3 * joint_count) >= kInfBits) {
     // Only the mapped joints matter, but a NaN anywhere means a broken frame: refuse it whole.
     for (int i = 0; i < 3 * joint_count; ++i) {
       if (!std::isfinite(xyz[i]))
@@ -146,23 +160,35 @@ Status Stream::push(double t, const float* xyz, const float* confidence, int joi
   float mapped[3 * gpd::kJoints];
   bool good[gpd::kJoints];
   const int missing = gate(t, xyz, confidence, mapped, good);
-  for (int j = 0; j < gpd::kJoints; ++j) {
-    for (int k = 0; k < 3; ++k) {
-      if (!(std::fabs(mapped[3 * j + k]) <= kMaxCoordinate))
-        return refuse(Status::kInvalidArgument,
-                      "push: joint %s (input joint %d) has a coordinate %g beyond the plausible +-%g input units",
-                      kGpdJointNames[static_cast<size_t>(j)], config_.map.source[j], double(mapped[3 * j + k]),
-                      kMaxCoordinate);
+  if (largest_magnitude_bits(mapped, 3 * gpd::kJoints) > kMaxCoordinateBits) {
+    for (int j = 0; j < gpd::kJoints; ++j) {
+      for (int k = 0; k < 3; ++k) {
+        if (!(std::fabs(mapped[3 * j + k]) <= kMaxCoordinate))
+          return refuse(Status::kInvalidArgument,
+                        "push: joint %s (input joint %d) has a coordinate %g beyond the plausible +-%g input units",
+                        kGpdJointNames[static_cast<size_t>(j)], config_.map.source[j], double(mapped[3 * j + k]),
+                        kMaxCoordinate);
+      }
     }
   }
   if (height_ > 0.0) {
+    // Squared distances against the squared reach: no square root unless a joint is refused.
     const double reach = kMaxReach * height_;
-    for (int j = 1; j < gpd::kJoints; ++j) {
-      const double d = distance3(mapped + 3 * j, mapped);
-      if (!(d <= reach))
-        return refuse(Status::kInvalidArgument,
-                      "push: joint %s (input joint %d) is %g body heights from the hip, beyond the plausible %g",
-                      kGpdJointNames[static_cast<size_t>(j)], config_.map.source[j], d / height_, kMaxReach);
+    const double reach2 = reach * reach;
+    auto hip_distance2 = [&](int j) {
+      const double dx = double(mapped[3 * j]) - mapped[0], dy = double(mapped[3 * j + 1]) - mapped[1],
+                   dz = double(mapped[3 * j + 2]) - mapped[2];
+      return dx * dx + dy * dy + dz * dz;
+    };
+    bool within = true;
+    for (int j = 1; j < gpd::kJoints; ++j) within &= hip_distance2(j) <= reach2;
+    if (!within) {
+      for (int j = 1; j < gpd::kJoints; ++j)
+        if (!(hip_distance2(j) <= reach2))
+          return refuse(Status::kInvalidArgument,
+                        "push: joint %s (input joint %d) is %g body heights from the hip, beyond the plausible %g",
+                        kGpdJointNames[static_cast<size_t>(j)], config_.map.source[j],
+                        std::sqrt(hip_distance2(j)) / height_, kMaxReach);
     }
   }
   float floor = floor_;
@@ -473,11 +499,13 @@ void Stream::emit(int64_t frame, bool central) {
   // Finite by construction inside the plausibility range; checked so a bug can never hand out a
   // NaN: a non-finite vector is withheld (the previous one stays the newest) and reported.
   const float* vector = vectors_.data() + static_cast<size_t>(slot) * gpd::kDims;
-  for (int i = 0; i < gpd::kDims; ++i) {
-    if (!std::isfinite(vector[i])) {
-      withheld_dim_ = i;
-      withheld_frame_ = frame;
-      return;
+  if (largest_magnitude_bits(vector, gpd::kDims) >= kInfBits) {
+    for (int i = 0; i < gpd::kDims; ++i) {
+      if (!std::isfinite(vector[i])) {
+        withheld_dim_ = i;
+        withheld_frame_ = frame;
+        return;
+      }
     }
   }
   out_time_ = time_[slot];
