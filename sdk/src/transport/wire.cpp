@@ -150,6 +150,7 @@ Bytes Encoder::skeleton(const SkeletonDefinition& d) {
   k.add_preset(preset);
   if (!d.name_map.empty()) k.add_name_map(name_map);
   k.add_frame_rate(d.frame_rate);
+  if (d.closed) k.add_closed(true);
   b.Finish(k.Finish(), fb::SkeletonDefinitionIdentifier());
   return finish(d.stream_id, fb::SkeletonDefinitionIdentifier());
 }
@@ -354,7 +355,14 @@ SkeletonDefinition Decoder::skeleton() const {
   d.up_axis = k->up_axis() == fb::UpAxis::Z ? UpAxis::kZ : UpAxis::kY;
   d.metres_per_unit = k->metres_per_unit();
   d.frame_rate = k->frame_rate();
+  d.closed = k->closed();
   return d;
 }
+
+uint32_t Decoder::skeleton_revision() const { return fb::GetSkeletonDefinition(payload_)->revision(); }
+int Decoder::skeleton_joints() const {
+  return static_cast<int>(fb::GetSkeletonDefinition(payload_)->joint_names()->size());
+}
+bool Decoder::skeleton_closed() const { return fb::GetSkeletonDefinition(payload_)->closed(); }
 
 }  // namespace kata::transport

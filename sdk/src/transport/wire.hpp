@@ -48,6 +48,7 @@ struct SkeletonDefinition {
   UpAxis up_axis = UpAxis::kY;
   float metres_per_unit = 0.0f;  // 0 = unknown
   float frame_rate = 0.0f;       // Hz, 0 = unknown
+  bool closed = false;           // the source ends the stream (schemas/skeleton.fbs)
 };
 
 // The published fields of one result (schemas/result.fbs documents each).
@@ -152,6 +153,11 @@ class Decoder {
   // Copies the definition out (allocates: skeleton definitions are rare). Throws
   // kata::Error(kInvalidArgument) when the skeleton itself is inconsistent.
   SkeletonDefinition skeleton() const;
+  // The last decoded definition's revision, joint count and closed flag, read without copying
+  // (the ingest judges limits and ownership before it allocates anything).
+  uint32_t skeleton_revision() const;
+  int skeleton_joints() const;
+  bool skeleton_closed() const;
   const ResultFields& result() const { return result_; }
 
   size_t max_message_bytes() const { return max_bytes_; }
