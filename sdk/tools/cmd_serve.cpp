@@ -27,6 +27,8 @@
 //   [[plugins]]                                # any number: sources and sinks (kata_plugin.h)
 //   path = "build/plugins/csv-sink.so"
 //   config = "path=scores.csv"
+#include <sys/resource.h>
+
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -64,6 +66,16 @@ using kata::serve::parse_config;
 
 void run_serve(const std::string& file) {
   ServeConfig config = parse_config(file);
+  for (const std::string& w : config.warnings) std::fprintf(stderr, "kata serve: warning: %s\n", w.c_str());
+  // Connections need descriptors: the soft limit up to the hard one (a flood of idle
+  // connections is cut by [ingest] max_connections long before either).
+  {
+    rlimit limit{};
+    if (getrlimit(RLIMIT_NOFILE, &limit) == 0 && limit.rlim_cur < limit.rlim_max) {
+      limit.rlim_cur = limit.rlim_max;
+      setrlimit(RLIMIT_NOFILE, &limit);
+    }
+  }
   std::shared_ptr<const kata::metric::Metric> metric;
   if (!config.model.empty())
     metric = std::make_shared<const kata::metric::Metric>(kata::metric::load_model(config.model));
@@ -124,17 +136,27 @@ void run_serve(const std::string& file) {
     uint64_t window[kata::runtime::kLatencyBuckets];
     for (int i = 0; i < kata::runtime::kLatencyBuckets; ++i)
       window[i] = c.latency_histogram[i] - previous.latency_histogram[i];
-    const uint64_t drops = c.total.queue_full + c.total.result_queue_full + c.total.pipeline_dropped +
-                           c.total.send_failed + c.ingest.dropped_total();
+    // Every frame that came in is scored or counted in one drop cause (the pipeline's refusals
+    // included: frames with bad values or a time that does not increase).
+    const uint64_t drops = c.total.queue_full + c.total.refused + c.total.result_queue_full +
+                           c.total.pipeline_dropped + c.total.send_failed + c.ingest.dropped_total();
+    const auto& in = c.ingest;
     std::fprintf(stderr,
-                 "\rstreams %llu | in %.0f frames/s | out %.0f results/s | drops %llu (ingest %llu, gaps %llu, "
-                 "restarts %llu) | latency in->out p50 %.0f us p99 %.0f us   ",
+                 "\rstreams %llu | in %.0f frames/s | out %.0f results/s | drops %llu (not owner %llu, limit %llu, "
+                 "window %llu, stale %llu, malformed %llu, other ingest %llu, refused %llu, queues %llu) | gaps %llu, "
+                 "restarts %llu | latency in->out p50 %.0f us p99 %.0f us   ",
                  static_cast<unsigned long long>(c.streams),
                  static_cast<double>(c.total.frames_in - previous.total.frames_in) / dt,
                  static_cast<double>(c.total.published - previous.total.published) / dt,
-                 static_cast<unsigned long long>(drops), static_cast<unsigned long long>(c.ingest.dropped_total()),
-                 static_cast<unsigned long long>(c.ingest.sequence_gaps),
-                 static_cast<unsigned long long>(c.ingest.restarts),
+                 static_cast<unsigned long long>(drops), static_cast<unsigned long long>(in.not_owner),
+                 static_cast<unsigned long long>(in.refused_limit), static_cast<unsigned long long>(in.out_of_window),
+                 static_cast<unsigned long long>(in.stale), static_cast<unsigned long long>(in.malformed_total()),
+                 static_cast<unsigned long long>(in.dropped_total() - in.not_owner - in.refused_limit -
+                                                 in.out_of_window - in.stale - in.malformed_total()),
+                 static_cast<unsigned long long>(c.total.refused),
+                 static_cast<unsigned long long>(c.total.queue_full + c.total.result_queue_full +
+                                                 c.total.pipeline_dropped + c.total.send_failed),
+                 static_cast<unsigned long long>(in.sequence_gaps), static_cast<unsigned long long>(in.restarts),
                  kata::runtime::latency_percentile(window, 0.5) / 1000.0,
                  kata::runtime::latency_percentile(window, 0.99) / 1000.0);
     previous = c;
@@ -147,6 +169,23 @@ void run_serve(const std::string& file) {
   std::fprintf(stderr, "\nkata serve: stopped; %llu frames in, %llu results published, %llu ingest messages dropped\n",
                static_cast<unsigned long long>(c.total.frames_in), static_cast<unsigned long long>(c.total.published),
                static_cast<unsigned long long>(c.ingest.dropped_total()));
+  const auto& in = c.ingest;
+  std::fprintf(stderr,
+               "kata serve: ingest %llu messages received = %llu frames + %llu definitions + %llu repeated + %llu closes"
+               " + %llu other shard + %llu dropped (not owner %llu, limit %llu, window %llu, stale %llu, malformed %llu,"
+               " unknown stream %llu, joints %llu, order %llu, refused definitions %llu, results %llu); frames: %llu "
+               "refused by the pipeline, %llu lost in queues; connections %llu (%llu refused)\n",
+               static_cast<unsigned long long>(in.received), static_cast<unsigned long long>(in.frames),
+               static_cast<unsigned long long>(in.skeletons), static_cast<unsigned long long>(in.repeated_skeletons),
+               static_cast<unsigned long long>(in.closes), static_cast<unsigned long long>(in.other_shard),
+               static_cast<unsigned long long>(in.dropped_total()), static_cast<unsigned long long>(in.not_owner),
+               static_cast<unsigned long long>(in.refused_limit), static_cast<unsigned long long>(in.out_of_window),
+               static_cast<unsigned long long>(in.stale), static_cast<unsigned long long>(in.malformed_total()),
+               static_cast<unsigned long long>(in.unknown_stream), static_cast<unsigned long long>(in.wrong_joint_count),
+               static_cast<unsigned long long>(in.out_of_order), static_cast<unsigned long long>(in.refused_skeletons),
+               static_cast<unsigned long long>(in.other_kind), static_cast<unsigned long long>(c.total.refused),
+               static_cast<unsigned long long>(c.total.queue_full + c.total.result_queue_full + c.total.send_failed),
+               static_cast<unsigned long long>(in.connections), static_cast<unsigned long long>(in.connections_refused));
 }
 
 void setup(CLI::App& app) {
