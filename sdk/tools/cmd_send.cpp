@@ -70,7 +70,19 @@ void run_send(const Options& o) {
   if ((bind ? zmq_bind(socket, endpoint.c_str()) : zmq_connect(socket, endpoint.c_str())) != 0)
     throw Error(ErrorKind::kIo, "send: cannot use " + o.endpoint + ": " + zmq_strerror(zmq_errno()));
   kata::transport::Encoder encoder;
-  auto send = [&](kata::transport::Bytes m) { zmq_send(socket, m.data, m.size, 0); };
+  // A server that refuses this sender (an unknown key) leaves no peer to queue for: a send that
+  // waits 5 s ends the run with an error rather than hanging.
+  const int send_timeout_ms = 5000;
+  zmq_setsockopt(socket, ZMQ_SNDTIMEO, &send_timeout_ms, sizeof send_timeout_ms);
+  auto send = [&](kata::transport::Bytes m) {
+    if (zmq_send(socket, m.data, m.size, 0) < 0) {
+      const std::string reason = zmq_strerror(zmq_errno());
+      zmq_close(socket);
+      zmq_ctx_term(context);
+      throw Error(ErrorKind::kIo, "send: " + o.endpoint + " took nothing for 5 s (" + reason +
+                                      "; with CURVE: is this sender's key in the server's client directory?)");
+    }
+  };
   auto send_definitions = [&] {
     for (int k = 0; k < o.streams; ++k) {
       d.stream_id = o.stream_id + static_cast<uint64_t>(k);
