@@ -7,10 +7,21 @@
 //   [ingest]                                   # required
 //   endpoints = ["tcp://127.0.0.1:5555"]       # connected; "bind:tcp://*:5555" binds
 //   kind = "sub"                               # or "pull"
-//   max_message_bytes = 1048576
+//   max_message_bytes = 1048576                # larger: counted and dropped (4x: sender dropped)
+//   max_connections = 256                      # connections held at once (0: no limit)
+//   max_streams_per_sender = 64                # (sub: default max_streams, one upstream)
+//   sequence_window = 65536                    # a larger forward jump is out_of_window
+//   max_frame_age_ms = 250                     # older frames (by the stream's clock) dropped; 0 off
+//   idle_stream_seconds = 300                  # streams without traffic closed; 0 never
+//   server_key = "keys/stage.pub"              # CURVE: the upstream's public key (connecting ingest)
 //   [publish]                                  # required
 //   endpoints = ["tcp://127.0.0.1:5556"]
 //   send_hwm = 10000
+//   server_key = "keys/proxy.pub"              # CURVE: a "connect:" proxy's public key
+//   [security]                                 # CURVE (docs/deploy.md); without a key only this
+//   key = "keys/server.secret"                 #   host may be bound: this server's pair
+//   clients = "keys/clients"                   # allowed senders' and subscribers' *.pub
+//   insecure = false                           # true: bind beyond this host without keys (warned)
 //   [shard]                                    # optional: one of several shards (docs/deploy.md)
 //   count = 3                                  # streams split by kata_shard_of(stream id, count)
 //   index = 0                                  # this process scores the streams of shard 0
@@ -133,9 +144,12 @@ void run_serve(const std::string& file) {
     const double dt = std::chrono::duration<double>(now - last).count();
     if (dt < config.status_seconds) continue;
     const auto c = runtime.counters();
-    uint64_t window[kata::runtime::kLatencyBuckets];
-    for (int i = 0; i < kata::runtime::kLatencyBuckets; ++i)
+    uint64_t window[kata::runtime::kLatencyBuckets], age[kata::runtime::kLatencyBuckets];
+    static_assert(kata::transport::IngestCounters::kAgeBuckets == kata::runtime::kLatencyBuckets, "one bucket scheme");
+    for (int i = 0; i < kata::runtime::kLatencyBuckets; ++i) {
       window[i] = c.latency_histogram[i] - previous.latency_histogram[i];
+      age[i] = c.ingest.age_histogram[i] - previous.ingest.age_histogram[i];
+    }
     // Every frame that came in is scored or counted in one drop cause (the pipeline's refusals
     // included: frames with bad values or a time that does not increase).
     const uint64_t drops = c.total.queue_full + c.total.refused + c.total.result_queue_full +
@@ -144,7 +158,7 @@ void run_serve(const std::string& file) {
     std::fprintf(stderr,
                  "\rstreams %llu | in %.0f frames/s | out %.0f results/s | drops %llu (not owner %llu, limit %llu, "
                  "window %llu, stale %llu, malformed %llu, other ingest %llu, refused %llu, queues %llu) | gaps %llu, "
-                 "restarts %llu | latency in->out p50 %.0f us p99 %.0f us   ",
+                 "restarts %llu | latency in->out p50 %.0f us p99 %.0f us | source age p50 %.0f us p99 %.0f us   ",
                  static_cast<unsigned long long>(c.streams),
                  static_cast<double>(c.total.frames_in - previous.total.frames_in) / dt,
                  static_cast<double>(c.total.published - previous.total.published) / dt,
@@ -158,7 +172,9 @@ void run_serve(const std::string& file) {
                                                  c.total.pipeline_dropped + c.total.send_failed),
                  static_cast<unsigned long long>(in.sequence_gaps), static_cast<unsigned long long>(in.restarts),
                  kata::runtime::latency_percentile(window, 0.5) / 1000.0,
-                 kata::runtime::latency_percentile(window, 0.99) / 1000.0);
+                 kata::runtime::latency_percentile(window, 0.99) / 1000.0,
+                 kata::runtime::latency_percentile(age, 0.5) / 1000.0,
+                 kata::runtime::latency_percentile(age, 0.99) / 1000.0);
     previous = c;
     last = now;
   }

@@ -136,6 +136,10 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
   c.runtime.skeleton_resend_seconds = read_positive(file, rt, "skeleton_resend_seconds", 1.0);
   c.runtime.max_streams = static_cast<int>(read_range(file, rt, "max_streams", 1024, 1, 1 << 20));
   limits.max_streams = static_cast<uint32_t>(c.runtime.max_streams);
+  // A SUB ingest reads one upstream (a stage, or a frames proxy that carries every source): by
+  // default that one sender may define every stream.
+  if (!ingest.get("max_streams_per_sender") && c.runtime.ingest.kind == kata::transport::IngestKind::kSub)
+    limits.max_streams_per_sender = limits.max_streams;
 
   // [security]: CURVE keys (docs/deploy.md). Without them only this host may be bound to.
   const toml::table& security = section(file, root, "security", false);

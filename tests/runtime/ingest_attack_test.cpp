@@ -186,6 +186,28 @@ TEST(runtime_attack, ForgedDefinitionCannotTakeTheStream) {
     EXPECT_EQ(c.ingest.restarts, 0u);
     EXPECT_EQ(c.ingest.repeated_skeletons, 1u);
     expect_adds_up(c.ingest, real.sent + forger.sent);
+    // The same counters in the published stats message (every second), adding up there too.
+    bool stats_seen = false;
+    const auto end = Clock::now() + std::chrono::seconds(5);
+    while (!stats_seen && Clock::now() < end) {
+      if (sub.next(100) != transport::MessageKind::kStats) continue;
+      const transport::StatsFields st = sub.decoder.stats();
+      if (st.received != real.sent + forger.sent) continue;
+      stats_seen = true;
+      EXPECT_EQ(st.not_owner, 21u);
+      EXPECT_EQ(st.frames + st.definitions + st.repeated_definitions + st.closes + st.other_shard + st.dropped,
+                st.received);
+      EXPECT_EQ(st.malformed + st.not_owner + st.refused_limit + st.refused_definitions + st.unknown_stream +
+                    st.wrong_joint_count + st.out_of_order + st.out_of_window + st.stale + st.other_kind,
+                st.dropped);
+      EXPECT_EQ(st.frames_in, st.frames);
+      ASSERT_EQ(st.per_stream.size(), 1u);
+      EXPECT_EQ(st.per_stream[0].stream_id, kReal);
+      EXPECT_EQ(st.per_stream[0].published, 120u);
+      EXPECT_EQ(st.per_stream[0].results + st.per_stream[0].refused + st.per_stream[0].queue_full,
+                st.per_stream[0].frames_in + st.per_stream[0].queue_full);
+    }
+    EXPECT_TRUE(stats_seen) << "a stats message with every message counted";
   }
   zmq_ctx_term(context);
 }
@@ -448,6 +470,12 @@ TEST(runtime_attack, IdleConnectionsCannotLockTheSenderOut) {
       real.definition(clip().definition(kReal));
       joined = sub.joined(kReal, 0) || sub.joined(kReal, 1);
     }
+    // A connection cut over the limit may have delivered the definition before it was cut: its
+    // streams wait for the owner's next periodic definition (kata send re-sends every second),
+    // which the source's new connection sends here before its frames.
+    std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+    real.definition(clip().definition(kReal));
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
     if (joined)
       for (int i = 0; i < 120; ++i) real.frame(kReal, static_cast<uint64_t>(i), 1 + i);
     const auto seen = joined ? sub.results(kReal, 120) : std::multiset<uint64_t>{};

@@ -624,6 +624,58 @@ void Runtime::send_definitions(const uint8_t* prefix, size_t prefix_size) {
   }
 }
 
+void Runtime::send_stats(transport::Encoder& encoder) {
+  if (!publisher_) return;
+  if (ingest_) {
+    std::lock_guard<std::mutex> lock(io_counters_mutex_);
+    ingest_snapshot_ = ingest_->counters();
+  }
+  const RuntimeCounters c = counters();
+  const transport::IngestCounters& in = c.ingest;
+  transport::StatsFields f;
+  f.streams = c.streams;
+  f.closed_streams = c.closed_streams;
+  f.received = in.received;
+  f.frames = in.frames;
+  f.definitions = in.skeletons;
+  f.repeated_definitions = in.repeated_skeletons;
+  f.closes = in.closes;
+  f.other_shard = in.other_shard;
+  f.dropped = in.dropped_total();
+  f.malformed = in.malformed_total();
+  f.not_owner = in.not_owner;
+  f.refused_limit = in.refused_limit;
+  f.refused_definitions = in.refused_skeletons;
+  f.unknown_stream = in.unknown_stream;
+  f.wrong_joint_count = in.wrong_joint_count;
+  f.out_of_order = in.out_of_order;
+  f.out_of_window = in.out_of_window;
+  f.stale = in.stale;
+  f.other_kind = in.other_kind;
+  f.sequence_gaps = in.sequence_gaps;
+  f.restarts = in.restarts;
+  f.connections = in.connections;
+  f.connections_refused = in.connections_refused;
+  f.frames_in = c.total.frames_in;
+  f.queue_full = c.total.queue_full;
+  f.refused = c.total.refused;
+  f.results = c.total.results;
+  f.results_dropped = c.total.pipeline_dropped + c.total.result_queue_full;
+  f.published = c.total.published;
+  f.send_failed = c.total.send_failed;
+  {
+    std::lock_guard<std::mutex> lock(open_mutex_);
+    for (const auto& s : streams_) {
+      if (!s->live) continue;
+      const StreamCounters k = read_counters(*s);
+      f.per_stream.push_back({s->definition.stream_id, k.frames_in, k.queue_full, k.refused, k.results,
+                              k.pipeline_dropped + k.result_queue_full, k.published});
+    }
+  }
+  f.published_ns = pipeline::now_ns();
+  publisher_->send(encoder.stats(f));
+}
+
 bool Runtime::results_pending() const {
   for (const auto& w : workers_)
     if (w->result_head.load(std::memory_order_acquire) != w->result_tail.load(std::memory_order_relaxed)) return true;
@@ -726,6 +778,7 @@ void Runtime::io_loop() {
     const auto now = clock::now();
     if (now >= next_resend) {
       send_definitions(nullptr, 0);
+      send_stats(encoder);
       next_resend = now + resend_every;
     }
     if (ingest_ && now - last_snapshot > std::chrono::milliseconds(50)) {

@@ -174,6 +174,7 @@ class Runtime {
   bool drain_results(transport::Encoder& encoder);
   bool results_pending() const;
   void send_definitions(const uint8_t* prefix, size_t prefix_size);
+  void send_stats(transport::Encoder& encoder);  // schemas/stats.fbs, with the periodic definitions
 
   RuntimeConfig config_;
   std::string publish_endpoint_, ingest_endpoint_;

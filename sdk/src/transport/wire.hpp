@@ -73,6 +73,23 @@ struct ResultFields {
   int32_t state = 0;
 };
 
+// The counters a runtime publishes (schemas/stats.fbs documents each), on the topic of stream id
+// kStatsStreamId.
+inline constexpr uint64_t kStatsStreamId = ~0ULL;
+struct StreamStatsFields {
+  uint64_t stream_id = 0, frames_in = 0, queue_full = 0, refused = 0, results = 0, results_dropped = 0, published = 0;
+};
+struct StatsFields {
+  int64_t published_ns = 0;
+  uint64_t streams = 0, closed_streams = 0;
+  uint64_t received = 0, frames = 0, definitions = 0, repeated_definitions = 0, closes = 0, other_shard = 0, dropped = 0;
+  uint64_t malformed = 0, not_owner = 0, refused_limit = 0, refused_definitions = 0, unknown_stream = 0,
+           wrong_joint_count = 0, out_of_order = 0, out_of_window = 0, stale = 0, other_kind = 0;
+  uint64_t sequence_gaps = 0, restarts = 0, connections = 0, connections_refused = 0;
+  uint64_t frames_in = 0, queue_full = 0, refused = 0, results = 0, results_dropped = 0, published = 0, send_failed = 0;
+  std::vector<StreamStatsFields> per_stream;
+};
+
 // A view of one message's bytes (topic included); valid until the encoder's next call.
 struct Bytes {
   const uint8_t* data = nullptr;
@@ -94,6 +111,8 @@ class Encoder {
   Bytes skeleton(const SkeletonDefinition& definition);
   // A Result message.
   Bytes result(const ResultFields& fields);
+  // A Stats message (topic: kStatsStreamId).
+  Bytes stats(const StatsFields& fields);
 
  private:
   Bytes finish(uint64_t stream_id, const char* identifier);
@@ -117,7 +136,7 @@ enum class DecodeError {
 };
 const char* decode_error_name(DecodeError error);
 
-enum class MessageKind { kNone, kFrame, kSkeleton, kResult };
+enum class MessageKind { kNone, kFrame, kSkeleton, kResult, kStats };
 
 // A verified frame; pointers are valid until the decoder's next call.
 struct FrameView {
@@ -159,6 +178,8 @@ class Decoder {
   int skeleton_joints() const;
   bool skeleton_closed() const;
   const ResultFields& result() const { return result_; }
+  // Copies a verified Stats message out (allocates: a monitor's path, once a second).
+  StatsFields stats() const;
 
   size_t max_message_bytes() const { return max_bytes_; }
 

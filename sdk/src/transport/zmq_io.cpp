@@ -10,6 +10,7 @@
 #include <atomic>
 #include <cerrno>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 
@@ -144,6 +145,7 @@ Ingest::Ingest(Context& context, const IngestOptions& options, Handlers handlers
   shard_count_ = options.shard_count;
   shard_index_ = options.shard_index;
   max_connections_ = options.max_connections;
+  log_refusals_ = options.log_refusals;
   socket_ = zmq_socket(context.get(), options.kind == IngestKind::kSub ? ZMQ_SUB : ZMQ_PULL);
   if (!socket_) throw Error(ErrorKind::kIo, "ZeroMQ: cannot create an ingest socket: " + zmq_reason());
   try {
@@ -233,6 +235,14 @@ void Ingest::housekeeping(int64_t now_ns) {
   }
 }
 
+void Ingest::reset() {
+  table_ = IngestTable(table_.limits());
+  counters_ = IngestCounters{};
+  generation_.clear();
+  open_connections_ = 0;
+  next_expiry_ns_ = 0;
+}
+
 int Ingest::poll(int max_messages) {
   housekeeping();
   int count = 0;
@@ -315,7 +325,7 @@ void Ingest::refused(SenderToken sender, TableVerdict cause, uint64_t stream_id)
     case TableVerdict::kAccepted:
     case TableVerdict::kRepeated: return;
   }
-  if (table_.first_refusal(sender, cause))
+  if (log_refusals_ && table_.first_refusal(sender, cause))
     std::fprintf(stderr, "\nkata ingest: sender %s %s (stream %llu); counted, not logged again\n",
                  describe(sender).c_str(), why, static_cast<unsigned long long>(stream_id));
 }
@@ -334,6 +344,7 @@ void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t n
       ++counters_.malformed[static_cast<int>(decoder_.error())];
       return;
     case MessageKind::kResult:
+    case MessageKind::kStats:
       ++counters_.other_kind;
       return;
     case MessageKind::kSkeleton: {
@@ -387,6 +398,10 @@ void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t n
       if (v != TableVerdict::kAccepted) return refused(sender, v, f.stream_id);
       if (restarted) ++counters_.restarts;
       counters_.sequence_gaps += gap;
+      if (age_ns >= 0) {
+        const int bucket = age_ns < 1 ? 0 : static_cast<int>(8.0 * std::log2(static_cast<double>(age_ns)));
+        ++counters_.age_histogram[std::min(std::max(bucket, 0), IngestCounters::kAgeBuckets - 1)];
+      }
       ++counters_.frames;
       if (handlers_.on_frame) handlers_.on_frame(f, restarted);
       return;

@@ -115,6 +115,8 @@ struct IngestOptions {
   // CURVE (a server, or a client of curve.remote_server); its max_message_bytes is replaced by
   // 4 x the limit above (ZMQ_MAXMSGSIZE: a larger message drops its sender unread).
   SocketSecurity security;
+  // Log the first refusal of each cause per sender on stderr (the fuzz target turns it off).
+  bool log_refusals = true;
 };
 
 // What the ingest counted. Every received message lands in exactly one of frames, skeletons,
@@ -144,6 +146,10 @@ struct IngestCounters {
   uint64_t connections = 0;         // connections accepted or made (not messages)
   uint64_t disconnections = 0;      // connections closed (by the peer, ZeroMQ's limits or ours)
   uint64_t connections_refused = 0; // connections closed at once: max_connections reached
+  // The source's age of every frame handed on: arrival - capture beyond the stream's quickest
+  // delivery (ingest_table.hpp), in the runtime's latency buckets (2^(i/8) ns, kAgeBuckets).
+  static constexpr int kAgeBuckets = 8 * 36;
+  uint64_t age_histogram[kAgeBuckets] = {};
   uint64_t malformed_total() const;
   uint64_t dropped_total() const;   // every message refused (repeated skeletons are not refused)
 };
@@ -181,6 +187,9 @@ class Ingest {
   // Connection events (the connection limit, orphaned streams) and idle expiry; poll() calls it,
   // and the owner of the socket calls it at least every 100 ms. [the ingest's thread]
   void housekeeping(int64_t now_ns = -1);
+  // Forgets every stream, sender and counter: the state of a new ingest, without a new socket
+  // (the fuzz target runs each input on a fresh state). [the ingest's thread]
+  void reset();
   void* socket() const { return socket_; }
   // The last endpoint bound or connected, resolved (a "bind:tcp://127.0.0.1:*" reports its port).
   std::string endpoint() const;
@@ -194,6 +203,7 @@ class Ingest {
   Decoder decoder_;
   uint32_t shard_count_ = 1, shard_index_ = 0;
   uint32_t max_connections_ = 0;
+  bool log_refusals_ = true;
   Handlers handlers_;
   IngestTable table_;
   IngestCounters counters_;
