@@ -1,6 +1,8 @@
 /* Prints kata scores as they arrive: plain C over libzmq, each message read by libkata's
  * kata_message_read_result (verifies the FlatBuffer; no FlatBuffers library in C needed).
  *   c_subscriber ENDPOINT [STREAM_ID] [COUNT]      e.g. c_subscriber tcp://127.0.0.1:5556 7 100
+ * CURVE (docs/deploy.md): KATA_CURVE_PUBLIC, KATA_CURVE_SECRET (this subscriber's keys) and
+ * KATA_CURVE_SERVER (the server's public key), each 40 Z85 characters, in the environment.
  * Exits 0 after COUNT results (0: run forever), 1 when nothing arrives for 10 s. */
 #define _POSIX_C_SOURCE 200809L
 #include <inttypes.h>
@@ -24,6 +26,16 @@ int main(int argc, char** argv) {
   if (argc > 3) count = atol(argv[3]);
   context = zmq_ctx_new();
   sub = zmq_socket(context, ZMQ_SUB);
+  if (getenv("KATA_CURVE_SERVER")) {
+    const char* keys[3] = {getenv("KATA_CURVE_SERVER"), getenv("KATA_CURVE_PUBLIC"), getenv("KATA_CURVE_SECRET")};
+    const int options[3] = {ZMQ_CURVE_SERVERKEY, ZMQ_CURVE_PUBLICKEY, ZMQ_CURVE_SECRETKEY};
+    int i;
+    for (i = 0; i < 3; ++i)
+      if (!keys[i] || zmq_setsockopt(sub, options[i], keys[i], 40) != 0) {
+        fprintf(stderr, "CURVE: KATA_CURVE_SERVER, KATA_CURVE_PUBLIC and KATA_CURVE_SECRET must be 40-character keys\n");
+        return 2;
+      }
+  }
   if (argc > 2) { /* the topic of one stream: its id as 16 lowercase hex digits */
     snprintf(topic, sizeof topic, "%016" PRIx64, (uint64_t)strtoull(argv[2], NULL, 10));
     zmq_setsockopt(sub, ZMQ_SUBSCRIBE, topic, 16);

@@ -5,6 +5,7 @@ readers flatc --python generates from the installed schemas (python3-flatbuffers
   python_subscriber.py --endpoint tcp://127.0.0.1:5556 [--stream ID] [--count N] [--timeout S]
                        [--python-dir DIR]   # where kata/fb/ lives: build/python, or
                                             # <prefix>/share/kata/python when installed
+                       [--key ME.secret --server-key SERVER.pub]   # CURVE (kata keygen; docs/deploy.md)
 
 Every kata message is one ZeroMQ frame: 16 bytes of topic (the stream id as lowercase hex, so
 subscribing to one stream's topic selects it) and then the FlatBuffer; its file identifier
@@ -12,12 +13,21 @@ subscribing to one stream's topic selects it) and then the FlatBuffer; its file 
 runtime stamps results with (valid on the runtime's host)."""
 import argparse
 import os
+import re
 import sys
 import time
 
 import zmq
 
 TOPIC = 16
+
+
+def read_key_file(path):
+    """The public (and secret) key of a `kata keygen` file: lines `public = "..."`, `secret = "..."`."""
+    keys = dict(re.findall(r'^\s*(public|secret)\s*=\s*"([^"]{40})"', open(path).read(), re.M))
+    if "public" not in keys:
+        raise SystemExit("%s: no public key" % path)
+    return keys
 
 
 def main():
@@ -27,6 +37,8 @@ def main():
     ap.add_argument("--count", type=int, default=0, help="exit after this many results (0: run until Ctrl-C)")
     ap.add_argument("--timeout", type=float, default=0.0, help="exit 1 when nothing arrives for this long (s)")
     ap.add_argument("--python-dir", default=os.environ.get("KATA_PYTHON_DIR", ""))
+    ap.add_argument("--key", help="CURVE: this subscriber's key pair (kata keygen's .secret)")
+    ap.add_argument("--server-key", help="CURVE: the server's public key (.pub)")
     args = ap.parse_args()
     if args.python_dir:
         sys.path.insert(0, args.python_dir)
@@ -34,6 +46,15 @@ def main():
     from kata.fb.SkeletonDefinition import SkeletonDefinition
 
     sub = zmq.Context.instance().socket(zmq.SUB)
+    if args.key or args.server_key:
+        if not (args.key and args.server_key):
+            raise SystemExit("CURVE needs both --key and --server-key")
+        own = read_key_file(args.key)
+        if "secret" not in own:
+            raise SystemExit("%s: not a .secret file" % args.key)
+        sub.curve_publickey = own["public"].encode()
+        sub.curve_secretkey = own["secret"].encode()
+        sub.curve_serverkey = read_key_file(args.server_key)["public"].encode()
     sub.setsockopt(zmq.SUBSCRIBE, b"" if args.stream is None else b"%016x" % args.stream)
     sub.connect(args.endpoint)
     poller = zmq.Poller()

@@ -22,12 +22,17 @@
 
 #include "command.hpp"
 #include "common/error.hpp"
+#include "transport/curve.hpp"
 
 namespace {
 
 struct ProxyArgs {
-  std::string frontend = "tcp://*:5560";
-  std::string backend = "tcp://*:5561";
+  // This host only by default; other hosts with --key and --clients (or --insecure).
+  std::string frontend = "tcp://127.0.0.1:5560";
+  std::string backend = "tcp://127.0.0.1:5561";
+  std::string key, clients;  // CURVE: the proxy's .secret, the allowed clients' key directory
+  bool insecure = false;
+  int64_t max_message_bytes = 1 << 20;
   double seconds = 0.0;          // 0: until a signal
   double status_interval = 1.0;  // seconds; 0: quiet
   int hwm = 100000;              // messages queued per peer before ZeroMQ drops (PUB side)
@@ -37,7 +42,27 @@ std::atomic<bool> g_stop{false};
 extern "C" void on_signal(int) { g_stop.store(true); }
 
 void run_proxy(const ProxyArgs& a) {
+  kata::transport::CurveOptions curve;
+  if (!a.key.empty()) {
+    curve.own = kata::transport::read_key_file(a.key);
+    if (curve.own.secret_key.empty()) throw kata::Error(kata::ErrorKind::kInvalidArgument, "proxy: --key must be a .secret file");
+    if (!a.clients.empty()) curve.allowed_clients = kata::transport::read_key_directory(a.clients);
+  } else if (!a.clients.empty()) {
+    throw kata::Error(kata::ErrorKind::kInvalidArgument, "proxy: --clients needs --key");
+  }
+  for (const std::string* e : {&a.frontend, &a.backend})
+    if (kata::transport::reachable_beyond_host(*e) && !curve.enabled()) {
+      if (!a.insecure)
+        throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                          "proxy: " + *e + " is reachable from other hosts without keys: give --key and --clients "
+                          "(kata keygen; docs/deploy.md), or --insecure");
+      std::fprintf(stderr, "kata proxy: warning: %s bound without keys (--insecure): anyone on the network can "
+                           "publish and subscribe\n", e->c_str());
+    }
   zmq::context_t context(1);
+  // The ZAP handler answers for both sides (one allow-list), before they bind.
+  std::unique_ptr<kata::transport::ZapHandler> zap;
+  if (curve.enabled()) zap = std::make_unique<kata::transport::ZapHandler>(context.handle(), curve.allowed_clients);
   zmq::socket_t frontend(context, zmq::socket_type::xsub);
   zmq::socket_t backend(context, zmq::socket_type::xpub);
   // Every process gets its own control endpoint.
@@ -48,6 +73,9 @@ void run_proxy(const ProxyArgs& a) {
     s->set(zmq::sockopt::rcvhwm, a.hwm);
     s->set(zmq::sockopt::sndhwm, a.hwm);
     s->set(zmq::sockopt::linger, 0);
+    s->set(zmq::sockopt::maxmsgsize, a.max_message_bytes);
+    s->set(zmq::sockopt::handshake_ivl, 2000);
+    kata::transport::apply_curve(s->handle(), curve);
   }
   try {
     frontend.bind(a.frontend);
@@ -97,6 +125,11 @@ void run_proxy(const ProxyArgs& a) {
   }
   controller.send(zmq::str_buffer("TERMINATE"), zmq::send_flags::none);
   proxy.join();
+  frontend.close();
+  backend.close();
+  control.close();
+  controller.close();
+  zap.reset();  // its socket closes before the context terminates
   std::printf("\nkata proxy: stopped\n");
 }
 
@@ -109,6 +142,11 @@ void setup(CLI::App& app) {
   cmd->add_option("--seconds", a->seconds, "stop after this many seconds (0: on SIGINT/SIGTERM)")->capture_default_str();
   cmd->add_option("--status-interval", a->status_interval, "seconds between status lines (0: none)")->capture_default_str();
   cmd->add_option("--hwm", a->hwm, "high-water mark per peer, messages")->capture_default_str()->check(CLI::PositiveNumber);
+  cmd->add_option("--key", a->key, "CURVE: the proxy's key pair (kata keygen's .secret)");
+  cmd->add_option("--clients", a->clients, "CURVE: directory of allowed publishers' and subscribers' public keys (*.pub)");
+  cmd->add_flag("--insecure", a->insecure, "allow binding beyond this host without keys (warned)");
+  cmd->add_option("--max-message-bytes", a->max_message_bytes, "larger messages drop their sender (ZMQ_MAXMSGSIZE)")
+      ->capture_default_str();
   cmd->callback([a] { run_proxy(*a); });
 }
 

@@ -16,6 +16,7 @@
 #include "common/error.hpp"
 #include "io/bvh.hpp"
 #include "io/clip_features.hpp"
+#include "transport/curve.hpp"
 #include "transport/wire.hpp"
 
 namespace {
@@ -29,6 +30,9 @@ struct Options {
   double speed = 1.0;
   int first_frame = 1, frames = 0, loops = 1, streams = 1;
   double definition_interval = 1.0, warmup = 0.0;
+  std::string key, server_key;  // CURVE: this sender's .secret, the server's .pub
+  bool close = false;           // end each stream with a closing definition
+  bool live_clock = false;      // capture times from this host's clock, not the clip's
 };
 
 void run_send(const Options& o) {
@@ -52,12 +56,33 @@ void run_send(const Options& o) {
   int linger = 2000, hwm = 1000000;
   zmq_setsockopt(socket, ZMQ_LINGER, &linger, sizeof linger);
   zmq_setsockopt(socket, ZMQ_SNDHWM, &hwm, sizeof hwm);
+  if (!o.key.empty() || !o.server_key.empty()) {
+    if (o.key.empty() || o.server_key.empty())
+      throw Error(ErrorKind::kInvalidArgument, "send: CURVE needs both --key (this sender's .secret) and --server-key");
+    kata::transport::CurveOptions curve;
+    curve.own = kata::transport::read_key_file(o.key);
+    if (curve.own.secret_key.empty()) throw Error(ErrorKind::kInvalidArgument, "send: --key must be a .secret file");
+    curve.remote_server = kata::transport::read_key_file(o.server_key).public_key;
+    kata::transport::apply_curve(socket, curve);
+  }
   const bool bind = o.endpoint.rfind("bind:", 0) == 0;
   const std::string endpoint = bind ? o.endpoint.substr(5) : o.endpoint;
   if ((bind ? zmq_bind(socket, endpoint.c_str()) : zmq_connect(socket, endpoint.c_str())) != 0)
     throw Error(ErrorKind::kIo, "send: cannot use " + o.endpoint + ": " + zmq_strerror(zmq_errno()));
   kata::transport::Encoder encoder;
-  auto send = [&](kata::transport::Bytes m) { zmq_send(socket, m.data, m.size, 0); };
+  // A server that refuses this sender (an unknown key) leaves no peer to queue for: a send that
+  // waits 5 s ends the run with an error rather than hanging.
+  const int send_timeout_ms = 5000;
+  zmq_setsockopt(socket, ZMQ_SNDTIMEO, &send_timeout_ms, sizeof send_timeout_ms);
+  auto send = [&](kata::transport::Bytes m) {
+    if (zmq_send(socket, m.data, m.size, 0) < 0) {
+      const std::string reason = zmq_strerror(zmq_errno());
+      zmq_close(socket);
+      zmq_ctx_term(context);
+      throw Error(ErrorKind::kIo, "send: " + o.endpoint + " took nothing for 5 s (" + reason +
+                                      "; with CURVE: is this sender's key in the server's client directory?)");
+    }
+  };
   auto send_definitions = [&] {
     for (int k = 0; k < o.streams; ++k) {
       d.stream_id = o.stream_id + static_cast<uint64_t>(k);
@@ -88,14 +113,21 @@ void run_send(const Options& o) {
         send_definitions();
         next_definition += interval;
       }
-      // Capture time: the clip's time, continuing over loops (the source's clock).
-      const int64_t capture_ns = static_cast<int64_t>(static_cast<double>(sequence) * clip.frame_time * 1e9);
+      // Capture time: the clip's time, continuing over loops (the source's clock), or this host's.
+      const int64_t capture_ns =
+          o.live_clock ? std::chrono::duration_cast<std::chrono::nanoseconds>(
+                             std::chrono::steady_clock::now().time_since_epoch()).count()
+                       : static_cast<int64_t>(static_cast<double>(sequence) * clip.frame_time * 1e9);
       for (int k = 0; k < o.streams; ++k) {
         const int frame = (f + k) % available;
         send(encoder.frame(o.stream_id + static_cast<uint64_t>(k), sequence, capture_ns,
                            positions.data() + static_cast<size_t>(frame) * 3 * static_cast<size_t>(joints), joints));
       }
     }
+  if (o.close) {
+    d.closed = true;
+    send_definitions();
+  }
   zmq_close(socket);
   zmq_ctx_term(context);
   std::fprintf(stderr, "kata send: %llu frames of %d stream(s) from %llu sent\n", static_cast<unsigned long long>(sequence),
@@ -117,6 +149,10 @@ void setup(CLI::App& app) {
   cmd->add_option("--streams", o->streams, "streams from --stream-id on (stream k starts k frames later)")->capture_default_str();
   cmd->add_option("--definition-interval", o->definition_interval, "seconds between skeleton definition re-sends")->capture_default_str();
   cmd->add_option("--warmup", o->warmup, "seconds of definitions only before the first frame")->capture_default_str();
+  cmd->add_option("--key", o->key, "CURVE: this sender's key pair (kata keygen's .secret)");
+  cmd->add_option("--server-key", o->server_key, "CURVE: the server's public key (.pub)");
+  cmd->add_flag("--close", o->close, "close the streams at the end (a closing definition)");
+  cmd->add_flag("--live-clock", o->live_clock, "capture times from this host's steady clock (stale frames judged)");
   cmd->callback([o] { run_send(*o); });
 }
 

@@ -7,10 +7,21 @@
 //   [ingest]                                   # required
 //   endpoints = ["tcp://127.0.0.1:5555"]       # connected; "bind:tcp://*:5555" binds
 //   kind = "sub"                               # or "pull"
-//   max_message_bytes = 1048576
+//   max_message_bytes = 1048576                # larger: counted and dropped (4x: sender dropped)
+//   max_connections = 256                      # connections held at once (0: no limit)
+//   max_streams_per_sender = 64                # (sub: default max_streams, one upstream)
+//   sequence_window = 65536                    # a larger forward jump is out_of_window
+//   max_frame_age_ms = 250                     # older frames (by the stream's clock) dropped; 0 off
+//   idle_stream_seconds = 300                  # streams without traffic closed; 0 never
+//   server_key = "keys/stage.pub"              # CURVE: the upstream's public key (connecting ingest)
 //   [publish]                                  # required
 //   endpoints = ["tcp://127.0.0.1:5556"]
 //   send_hwm = 10000
+//   server_key = "keys/proxy.pub"              # CURVE: a "connect:" proxy's public key
+//   [security]                                 # CURVE (docs/deploy.md); without a key only this
+//   key = "keys/server.secret"                 #   host may be bound: this server's pair
+//   clients = "keys/clients"                   # allowed senders' and subscribers' *.pub
+//   insecure = false                           # true: bind beyond this host without keys (warned)
 //   [shard]                                    # optional: one of several shards (docs/deploy.md)
 //   count = 3                                  # streams split by kata_shard_of(stream id, count)
 //   index = 0                                  # this process scores the streams of shard 0
@@ -29,6 +40,8 @@
 //   [[plugins]]                                # any number: sources and sinks (kata_plugin.h)
 //   path = "build/plugins/csv-sink.so"
 //   config = "path=scores.csv"
+#include <sys/resource.h>
+
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -93,6 +106,16 @@ void write_counters(const std::string& path, const kata::runtime::Runtime& runti
 
 void run_serve(const std::string& file, const std::string& counters_path) {
   ServeConfig config = parse_config(file);
+  for (const std::string& w : config.warnings) std::fprintf(stderr, "kata serve: warning: %s\n", w.c_str());
+  // Connections need descriptors: the soft limit up to the hard one (a flood of idle
+  // connections is cut by [ingest] max_connections long before either).
+  {
+    rlimit limit{};
+    if (getrlimit(RLIMIT_NOFILE, &limit) == 0 && limit.rlim_cur < limit.rlim_max) {
+      limit.rlim_cur = limit.rlim_max;
+      setrlimit(RLIMIT_NOFILE, &limit);
+    }
+  }
   std::shared_ptr<const kata::metric::Metric> metric;
   if (!config.model.empty())
     metric = std::make_shared<const kata::metric::Metric>(kata::metric::load_model(config.model));
@@ -150,22 +173,37 @@ void run_serve(const std::string& file, const std::string& counters_path) {
     const double dt = std::chrono::duration<double>(now - last).count();
     if (dt < config.status_seconds) continue;
     const auto c = runtime.counters();
-    uint64_t window[kata::runtime::kLatencyBuckets];
-    for (int i = 0; i < kata::runtime::kLatencyBuckets; ++i)
+    uint64_t window[kata::runtime::kLatencyBuckets], age[kata::runtime::kLatencyBuckets];
+    static_assert(kata::transport::IngestCounters::kAgeBuckets == kata::runtime::kLatencyBuckets, "one bucket scheme");
+    for (int i = 0; i < kata::runtime::kLatencyBuckets; ++i) {
       window[i] = c.latency_histogram[i] - previous.latency_histogram[i];
-    const uint64_t drops = c.total.queue_full + c.total.result_queue_full + c.total.pipeline_dropped +
-                           c.total.send_failed + c.ingest.dropped_total();
+      age[i] = c.ingest.age_histogram[i] - previous.ingest.age_histogram[i];
+    }
+    // Every frame that came in is scored or counted in one drop cause (the pipeline's refusals
+    // included: frames with bad values or a time that does not increase).
+    const uint64_t drops = c.total.queue_full + c.total.refused + c.total.result_queue_full +
+                           c.total.pipeline_dropped + c.total.send_failed + c.ingest.dropped_total();
+    const auto& in = c.ingest;
     std::fprintf(stderr,
-                 "\rstreams %llu | in %.0f frames/s | out %.0f results/s | drops %llu (ingest %llu, gaps %llu, "
-                 "restarts %llu) | latency in->out p50 %.0f us p99 %.0f us   ",
+                 "\rstreams %llu | in %.0f frames/s | out %.0f results/s | drops %llu (not owner %llu, limit %llu, "
+                 "window %llu, stale %llu, malformed %llu, other ingest %llu, refused %llu, queues %llu) | gaps %llu, "
+                 "restarts %llu | latency in->out p50 %.0f us p99 %.0f us | source age p50 %.0f us p99 %.0f us   ",
                  static_cast<unsigned long long>(c.streams),
                  static_cast<double>(c.total.frames_in - previous.total.frames_in) / dt,
                  static_cast<double>(c.total.published - previous.total.published) / dt,
-                 static_cast<unsigned long long>(drops), static_cast<unsigned long long>(c.ingest.dropped_total()),
-                 static_cast<unsigned long long>(c.ingest.sequence_gaps),
-                 static_cast<unsigned long long>(c.ingest.restarts),
+                 static_cast<unsigned long long>(drops), static_cast<unsigned long long>(in.not_owner),
+                 static_cast<unsigned long long>(in.refused_limit), static_cast<unsigned long long>(in.out_of_window),
+                 static_cast<unsigned long long>(in.stale), static_cast<unsigned long long>(in.malformed_total()),
+                 static_cast<unsigned long long>(in.dropped_total() - in.not_owner - in.refused_limit -
+                                                 in.out_of_window - in.stale - in.malformed_total()),
+                 static_cast<unsigned long long>(c.total.refused),
+                 static_cast<unsigned long long>(c.total.queue_full + c.total.result_queue_full +
+                                                 c.total.pipeline_dropped + c.total.send_failed),
+                 static_cast<unsigned long long>(in.sequence_gaps), static_cast<unsigned long long>(in.restarts),
                  kata::runtime::latency_percentile(window, 0.5) / 1000.0,
-                 kata::runtime::latency_percentile(window, 0.99) / 1000.0);
+                 kata::runtime::latency_percentile(window, 0.99) / 1000.0,
+                 kata::runtime::latency_percentile(age, 0.5) / 1000.0,
+                 kata::runtime::latency_percentile(age, 0.99) / 1000.0);
     previous = c;
     last = now;
   }
@@ -176,6 +214,23 @@ void run_serve(const std::string& file, const std::string& counters_path) {
   std::fprintf(stderr, "\nkata serve: stopped; %llu frames in, %llu results published, %llu ingest messages dropped\n",
                static_cast<unsigned long long>(c.total.frames_in), static_cast<unsigned long long>(c.total.published),
                static_cast<unsigned long long>(c.ingest.dropped_total()));
+  const auto& in = c.ingest;
+  std::fprintf(stderr,
+               "kata serve: ingest %llu messages received = %llu frames + %llu definitions + %llu repeated + %llu closes"
+               " + %llu other shard + %llu dropped (not owner %llu, limit %llu, window %llu, stale %llu, malformed %llu,"
+               " unknown stream %llu, joints %llu, order %llu, refused definitions %llu, results %llu); frames: %llu "
+               "refused by the pipeline, %llu lost in queues; connections %llu (%llu refused)\n",
+               static_cast<unsigned long long>(in.received), static_cast<unsigned long long>(in.frames),
+               static_cast<unsigned long long>(in.skeletons), static_cast<unsigned long long>(in.repeated_skeletons),
+               static_cast<unsigned long long>(in.closes), static_cast<unsigned long long>(in.other_shard),
+               static_cast<unsigned long long>(in.dropped_total()), static_cast<unsigned long long>(in.not_owner),
+               static_cast<unsigned long long>(in.refused_limit), static_cast<unsigned long long>(in.out_of_window),
+               static_cast<unsigned long long>(in.stale), static_cast<unsigned long long>(in.malformed_total()),
+               static_cast<unsigned long long>(in.unknown_stream), static_cast<unsigned long long>(in.wrong_joint_count),
+               static_cast<unsigned long long>(in.out_of_order), static_cast<unsigned long long>(in.refused_skeletons),
+               static_cast<unsigned long long>(in.other_kind), static_cast<unsigned long long>(c.total.refused),
+               static_cast<unsigned long long>(c.total.queue_full + c.total.result_queue_full + c.total.send_failed),
+               static_cast<unsigned long long>(in.connections), static_cast<unsigned long long>(in.connections_refused));
   if (!counters_path.empty()) write_counters(counters_path, runtime);
 }
 

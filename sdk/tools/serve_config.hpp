@@ -28,6 +28,8 @@ struct ServeConfig {
     std::string path, config;
   };
   std::vector<Plugin> plugins;
+  bool insecure = false;              // [security] insecure = true
+  std::vector<std::string> warnings;  // printed at start (an insecure endpoint beyond this host)
 };
 
 // Reads and checks a config file; relative paths resolve from the file's directory.

@@ -1,5 +1,5 @@
 // Writes seed inputs for fuzz_ingest (its input layout: messages, each a 2-byte little-endian
-// length and the bytes) from real motion: a CMU clip's skeleton definition and frames, made by
+// header, the length in its low 14 bits and the sender in its high 2, then the bytes) from real motion: a CMU clip's skeleton definition and frames, made by
 // the encoder every sender uses. Usage: make_ingest_seeds OUT_DIR CLIP.bvh
 #include <cstdio>
 #include <cstdint>
@@ -13,9 +13,10 @@
 
 namespace {
 
-void add(std::vector<uint8_t>& out, kata::transport::Bytes m) {
-  out.push_back(static_cast<uint8_t>(m.size & 0xff));
-  out.push_back(static_cast<uint8_t>((m.size >> 8) & 0xff));
+void add(std::vector<uint8_t>& out, kata::transport::Bytes m, int sender = 0) {
+  const size_t header = m.size | (static_cast<size_t>(sender) << 14);
+  out.push_back(static_cast<uint8_t>(header & 0xff));
+  out.push_back(static_cast<uint8_t>((header >> 8) & 0xff));
   out.insert(out.end(), m.data, m.data + m.size);
 }
 
@@ -68,6 +69,41 @@ int main(int argc, char** argv) {
     add(s, encoder.skeleton(bare));
     for (int f = 0; f < 6; ++f) add(s, frame(9, static_cast<uint64_t>(f), 20 + f));
     write(out + "/gaps-restart-two-streams", s);
+  }
+  {  // forged: sender 1 redefines, restarts, pushes into and closes sender 0's stream; wild sequences
+    std::vector<uint8_t> s;
+    add(s, encoder.skeleton(d));
+    for (int f = 0; f < 6; ++f) add(s, frame(7, static_cast<uint64_t>(f), f));
+    kata::transport::SkeletonDefinition forged = d;
+    forged.revision = 9;
+    add(s, encoder.skeleton(forged), 1);
+    add(s, frame(7, 0, 30), 1);
+    add(s, frame(7, 1ULL << 62, 31), 1);
+    add(s, frame(7, 1ULL << 62, 6), 0);
+    add(s, frame(7, ~0ULL, 7), 0);
+    add(s, frame(7, 6, 8), 0);
+    kata::transport::SkeletonDefinition close = d;
+    close.closed = true;
+    add(s, encoder.skeleton(close), 1);
+    add(s, frame(7, 7, 9), 0);
+    forged.revision = 2;  // the owner's own revision: a restart
+    add(s, encoder.skeleton(forged), 0);
+    add(s, frame(7, 0, 10), 0);
+    add(s, encoder.skeleton(close), 0);  // the owner closes; the id is free for sender 2
+    add(s, encoder.skeleton(d), 2);
+    add(s, frame(7, 0, 11), 2);
+    write(out + "/forged-definitions-and-sequences", s);
+  }
+  {  // a flood: sender 3 defines more streams than its limit, sender 0 one stream beside it
+    std::vector<uint8_t> s;
+    for (uint64_t id = 100; id < 108; ++id) {
+      kata::transport::SkeletonDefinition flood = d;
+      flood.stream_id = id;
+      add(s, encoder.skeleton(flood), 3);
+    }
+    add(s, encoder.skeleton(d), 0);
+    for (int f = 0; f < 4; ++f) add(s, frame(7, static_cast<uint64_t>(f), f), 0);
+    write(out + "/definition-flood", s);
   }
   return 0;
 }

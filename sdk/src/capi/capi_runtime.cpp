@@ -44,6 +44,10 @@ KATA_API void kata_runtime_desc_init(kata_runtime_desc* desc) {
   desc->send_hwm = 10000;
   desc->max_message_bytes = 1u << 20;
   desc->skeleton_resend_seconds = 1.0;
+  desc->max_streams_per_sender = 64;
+  desc->max_connections = 256;
+  desc->max_frame_age_seconds = 0.25;
+  desc->idle_stream_seconds = 300.0;
 }
 
 KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtime_desc* desc, kata_runtime* out) {
@@ -68,6 +72,32 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
     config.ingest.kind = d.ingest_pull ? kata::transport::IngestKind::kPull : kata::transport::IngestKind::kSub;
     config.ingest.max_message_bytes = d.max_message_bytes;
     config.skeleton_resend_seconds = d.skeleton_resend_seconds;
+    if (d.max_streams_per_sender < 1 || !(d.max_frame_age_seconds >= 0.0) || !(d.idle_stream_seconds >= 0.0) ||
+        d.max_frame_age_seconds > 3600.0 || d.idle_stream_seconds > 1e7)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        "kata_runtime_create: max_streams_per_sender >= 1, max_frame_age_seconds 0..3600, "
+                        "idle_stream_seconds 0..1e7");
+    auto& limits = config.ingest.limits;
+    limits.max_streams = d.max_streams;
+    limits.max_streams_per_sender = d.max_streams_per_sender;
+    limits.max_frame_age_ns = static_cast<int64_t>(d.max_frame_age_seconds * 1e9);
+    limits.idle_ns = static_cast<int64_t>(d.idle_stream_seconds * 1e9);
+    config.ingest.max_connections = d.max_connections;
+    if (d.key_file && d.key_file[0]) {
+      const kata::transport::KeyPair own = kata::transport::read_key_file(d.key_file);
+      if (own.secret_key.empty())
+        throw kata::Error(kata::ErrorKind::kInvalidArgument, std::string(d.key_file) + ": not a .secret key file");
+      std::vector<std::string> allowed;
+      if (d.client_keys_dir && d.client_keys_dir[0]) allowed = kata::transport::read_key_directory(d.client_keys_dir);
+      for (auto* curve : {&config.ingest.security.curve, &config.publish.security.curve}) {
+        curve->own = own;
+        curve->allowed_clients = allowed;
+      }
+      if (d.ingest_server_key_file && d.ingest_server_key_file[0])
+        config.ingest.security.curve.remote_server = kata::transport::read_key_file(d.ingest_server_key_file).public_key;
+    } else if ((d.client_keys_dir && d.client_keys_dir[0]) || (d.ingest_server_key_file && d.ingest_server_key_file[0])) {
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_runtime_create: CURVE keys need key_file");
+    }
     auto r = std::make_unique<kata_runtime_s>();
     r->runtime = std::make_unique<kata::runtime::Runtime>(std::move(config));
     *out = r.release();
@@ -129,6 +159,11 @@ KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtim
   k.ingest_dropped = c.ingest.dropped_total();
   k.ingest_sequence_gaps = c.ingest.sequence_gaps;
   k.ingest_restarts = c.ingest.restarts;
+  k.ingest_not_owner = c.ingest.not_owner;
+  k.ingest_refused_limit = c.ingest.refused_limit;
+  k.ingest_out_of_window = c.ingest.out_of_window;
+  k.ingest_stale = c.ingest.stale;
+  k.closed_streams = c.closed_streams;
   const uint32_t caller = out->struct_size;
   std::memcpy(out, &k, std::min<size_t>(caller, sizeof k));
   out->struct_size = caller;

@@ -33,7 +33,8 @@ uint64_t mix(uint64_t x) {  // splitmix64 finaliser: spreads sequential ids over
   return x ^ (x >> 31);
 }
 
-constexpr uint64_t kEmptyKey = ~0ULL;  // a stream id the table cannot hold
+constexpr uint64_t kEmptyKey = ~0ULL;      // stream ids the table cannot hold: a free slot,
+constexpr uint64_t kTombstone = ~0ULL - 1;  // and a closed stream's slot (reused by a later open)
 // Set in a worker's enqueue_pos by stop(): the queue takes no more frames. The position below it
 // is then final: exactly the pushes that claimed a cell before, which the worker finishes.
 constexpr size_t kQueueClosed = size_t{1} << (8 * sizeof(size_t) - 1);
@@ -114,6 +115,13 @@ StreamSetup setup_from_definition(const transport::SkeletonDefinition& d) {
 // ---------------------------------------------------------------------------------------------
 
 struct Runtime::StreamState {
+  // Closing (stream table in runtime.hpp): a closed state is retired once its worker is past its
+  // last frame, then reused by a later open; push() checks both after it found the state.
+  std::atomic<uint64_t> id{kEmptyKey};
+  std::atomic<bool> closed{false};
+  bool live = false;                             // open_mutex_: open (in the table)
+  bool retired = false;                          // open_mutex_: counters moved to retired_totals_
+  size_t retire_pos = 0;                         // the worker's enqueue position at the close
   transport::SkeletonDefinition definition;
   std::unique_ptr<pipeline::Pipeline, std::function<void(pipeline::Pipeline*)>> pipeline;  // its worker only
   bool publish_features = false;
@@ -132,6 +140,7 @@ struct Runtime::StreamState {
   struct alignas(64) Atomics {
     std::atomic<uint64_t> frames_in{0}, queue_full{0}, refused{0}, results{0}, pipeline_dropped{0},
         result_queue_full{0}, published{0}, send_failed{0}, stopped{0}, stale{0}, unauthorised{0};
+    std::atomic<int> in_push{0};  // pushes between find() and their published cell
   } counters;
 };
 
@@ -165,6 +174,7 @@ struct Runtime::Worker {
   size_t mask = 0;
   alignas(64) std::atomic<size_t> enqueue_pos{0};  // | kQueueClosed once stop() began
   alignas(64) size_t dequeue_pos = 0;
+  std::atomic<size_t> done_pos{0};  // dequeue_pos once the frame's results were handed over
   sem_t wake;
   // Between taking a frame and handing over its results (the I/O thread backs off on it).
   alignas(64) std::atomic<bool> busy{false};
@@ -198,6 +208,19 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
 
   streams_.reserve(static_cast<size_t>(config_.max_streams));
   context_ = std::make_unique<transport::Context>(1);
+  // CURVE servers ask the context's ZAP handler about every client (curve.hpp).
+  {
+    const auto& in = config_.ingest.security.curve;
+    const auto& out = config_.publish.security.curve;
+    const bool in_server = in.enabled() && in.remote_server.empty() && !config_.ingest.endpoints.empty();
+    const bool out_server = out.enabled() && out.remote_server.empty() && !config_.publish.endpoints.empty();
+    if (in_server || out_server) {
+      std::vector<std::string> allowed;
+      if (in_server) allowed = in.allowed_clients;
+      if (out_server) allowed.insert(allowed.end(), out.allowed_clients.begin(), out.allowed_clients.end());
+      context_->authenticate(std::move(allowed));
+    }
+  }
   if (!config_.publish.endpoints.empty()) {
     publisher_ = std::make_unique<transport::Publisher>(*context_, config_.publish);
     publish_endpoint_ = publisher_->endpoint();
@@ -205,10 +228,14 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
   if (!config_.ingest.endpoints.empty()) {
     transport::Ingest::Handlers handlers;
     handlers.on_skeleton = [this](const transport::SkeletonDefinition& d) {
-      if (find(d.stream_id)) return false;  // a new revision of an open stream is refused (counted)
+      if (find(d.stream_id)) return false;
       open_announced(d);
       return true;
     };
+    // The owner's new revision restarts the stream with it (the ingest restarts the next frame):
+    // the same skeleton keeps its pipeline, another one is opened anew.
+    handlers.on_revision = [this](const transport::SkeletonDefinition& d) { return revise_announced(d); };
+    handlers.on_close = [this](uint64_t id) { close_stream(id); };
     handlers.on_frame = [this](const transport::FrameView& f, bool restarted) {
       push(f.stream_id, f.sequence, static_cast<double>(f.capture_ns) * 1e-9, f.xyz, f.joints, restarted, f.confidence);
     };
@@ -258,7 +285,7 @@ Runtime::StreamState* Runtime::find(uint64_t stream_id) const {
   for (size_t i = mix(stream_id) & mask, n = 0; n <= mask; i = (i + 1) & mask, ++n) {
     const uint64_t key = table_keys_[i].load(std::memory_order_acquire);
     if (key == stream_id) return table_values_[i].load(std::memory_order_acquire);
-    if (key == kEmptyKey) return nullptr;
+    if (key == kEmptyKey) return nullptr;  // tombstones are skipped
   }
   return nullptr;
 }
@@ -277,6 +304,11 @@ void Runtime::open_locked(const transport::SkeletonDefinition& definition, const
 }
 
 void Runtime::open_announced(const transport::SkeletonDefinition& d) {
+  // Refused before anything is allocated: a flood of definitions costs a counter each.
+  {
+    std::lock_guard<std::mutex> lock(open_mutex_);
+    check_open(d);
+  }
   const StreamSetup setup = config_.configure_stream ? config_.configure_stream(d) : setup_from_definition(d);
   std::lock_guard<std::mutex> lock(open_mutex_);
   open_locked(d, setup);
@@ -288,20 +320,141 @@ void Runtime::adopt_stream(const transport::SkeletonDefinition& definition, pipe
   add_locked(definition, pipeline, std::move(release), publish_features);
 }
 
-void Runtime::add_locked(const transport::SkeletonDefinition& definition, pipeline::Pipeline* pipeline,
-                         std::function<void(pipeline::Pipeline*)> release, bool publish_features) {
-  // Owned only once nothing below can throw: a refused pipeline stays the caller's.
+void Runtime::check_open(const transport::SkeletonDefinition& definition) const {
   if (stopping_.load()) throw Error(ErrorKind::kInvalidArgument, "runtime: stopping, no new stream");
-  if (definition.stream_id == kEmptyKey) throw Error(ErrorKind::kInvalidArgument, "runtime: stream id 2^64-1 is reserved");
+  if (definition.stream_id >= kTombstone)
+    throw Error(ErrorKind::kInvalidArgument, "runtime: stream ids 2^64-2 and 2^64-1 are reserved");
   if (find(definition.stream_id))
     throw Error(ErrorKind::kInvalidArgument, "runtime: stream " + std::to_string(definition.stream_id) + " is open");
   if (stream_count_.load() >= static_cast<uint64_t>(config_.max_streams))
     throw Error(ErrorKind::kInvalidArgument, "runtime: max_streams reached");
   if (definition.skeleton.joint_count() > config_.max_joints)
     throw Error(ErrorKind::kInvalidArgument, "runtime: the skeleton has more joints than max_joints");
+}
+
+namespace {
+// Two definitions that one pipeline serves alike (a revision may change only what it does not read).
+bool same_shape(const transport::SkeletonDefinition& a, const transport::SkeletonDefinition& b) {
+  return a.skeleton.names == b.skeleton.names && a.skeleton.parents == b.skeleton.parents &&
+         a.skeleton.has_rest_pose == b.skeleton.has_rest_pose && a.skeleton.offsets == b.skeleton.offsets &&
+         a.preset == b.preset && a.name_map == b.name_map && a.up_axis == b.up_axis;
+}
+}  // namespace
+
+bool Runtime::revise_announced(const transport::SkeletonDefinition& d) {
+  {
+    std::lock_guard<std::mutex> lock(open_mutex_);
+    StreamState* s = find(d.stream_id);
+    if (!s) return false;
+    if (same_shape(s->definition, d)) {
+      // The pipeline stays; the ingest marks the next frame a restart. Definitions are read
+      // by the I/O thread (this thread) only.
+      s->definition = d;
+      definitions_dirty_.store(true, std::memory_order_release);
+      return true;
+    }
+  }
+  close_stream(d.stream_id);
+  open_announced(d);
+  return true;
+}
+
+bool Runtime::close_stream(uint64_t stream_id) {
+  std::lock_guard<std::mutex> lock(open_mutex_);
+  StreamState* s = find(stream_id);
+  if (!s) return false;
+  s->closed.store(true, std::memory_order_seq_cst);
+  const size_t mask = table_keys_.size() - 1;
+  for (size_t i = mix(stream_id) & mask, n = 0; n <= mask; i = (i + 1) & mask, ++n)
+    if (table_keys_[i].load(std::memory_order_relaxed) == stream_id) {
+      table_keys_[i].store(kTombstone, std::memory_order_release);
+      break;
+    }
+  // A push that found the state before the close finishes its cell first (a few instructions).
+  while (s->counters.in_push.load(std::memory_order_seq_cst) != 0) std::this_thread::yield();
+  Worker& w = *workers_[static_cast<size_t>(s->worker)];
+  s->retire_pos = w.enqueue_pos.load(std::memory_order_acquire);
+  {
+    std::lock_guard<std::mutex> owned_lock(w.owned_mutex);
+    for (size_t i = 0; i < w.owned.size(); ++i)
+      if (w.owned[i] == s) {
+        w.owned[i] = w.owned.back();
+        w.owned.pop_back();
+        break;
+      }
+  }
+  s->live = false;
+  retiring_.push_back(s);
+  retiring_count_.fetch_add(1, std::memory_order_release);
+  ++closed_streams_;
+  return true;
+}
+
+void Runtime::retire_closed(transport::Encoder& encoder) {
+  // A closed stream is retired once its worker handed over the results of its last frame and
+  // the I/O thread sent them; then its pipeline is released and its state reused.
+  std::vector<StreamState*> ready;
+  {
+    std::lock_guard<std::mutex> lock(open_mutex_);
+    for (size_t i = 0; i < retiring_.size();) {
+      StreamState* s = retiring_[i];
+      if (workers_[static_cast<size_t>(s->worker)]->done_pos.load(std::memory_order_acquire) >= s->retire_pos) {
+        ready.push_back(s);
+        retiring_[i] = retiring_.back();
+        retiring_.pop_back();
+      } else {
+        ++i;
+      }
+    }
+  }
+  if (ready.empty()) return;
+  drain_results(encoder);
+  std::lock_guard<std::mutex> lock(open_mutex_);
+  for (StreamState* s : ready) {
+    const StreamCounters c = read_counters(*s);
+    retired_totals_.frames_in += c.frames_in;
+    retired_totals_.queue_full += c.queue_full;
+    retired_totals_.refused += c.refused;
+    retired_totals_.results += c.results;
+    retired_totals_.pipeline_dropped += c.pipeline_dropped;
+    retired_totals_.result_queue_full += c.result_queue_full;
+    retired_totals_.published += c.published;
+    retired_totals_.send_failed += c.send_failed;
+    s->pipeline.reset();
+    s->retired = true;
+    s->id.store(kEmptyKey, std::memory_order_release);
+    free_states_.push_back(s);
+    stream_count_.fetch_sub(1);
+    retiring_count_.fetch_sub(1, std::memory_order_release);
+  }
+}
+
+void Runtime::add_locked(const transport::SkeletonDefinition& definition, pipeline::Pipeline* pipeline,
+                         std::function<void(pipeline::Pipeline*)> release, bool publish_features) {
+  // Owned only once nothing below can throw: a refused pipeline stays the caller's.
+  check_open(definition);
   if (pipeline->ghost_joint_count() > kMaxGhostJoints)
     throw Error(ErrorKind::kInvalidArgument, "runtime: the ghost has more than 64 joints");
-  auto state = std::make_unique<StreamState>();
+  // A retired state is reused (its counters went into retired_totals_); else a new one.
+  std::unique_ptr<StreamState> fresh;
+  StreamState* reused = nullptr;
+  if (!free_states_.empty()) {
+    reused = free_states_.back();
+  } else {
+    fresh = std::make_unique<StreamState>();
+  }
+  StreamState* state = reused ? reused : fresh.get();
+  state->closed.store(false);
+  state->retired = false;
+  state->retire_pos = 0;
+  state->accepted = 0;
+  state->time_offset = 0.0;
+  state->last_time = 0.0;
+  state->next_result_sequence = 0;
+  for (auto* c : {&state->counters.frames_in, &state->counters.queue_full, &state->counters.refused,
+                  &state->counters.results, &state->counters.pipeline_dropped, &state->counters.result_queue_full,
+                  &state->counters.published, &state->counters.send_failed})
+    c->store(0, std::memory_order_relaxed);
   state->definition = definition;
   state->ghost_joints = pipeline->ghost_joint_count();
   state->publish_features = publish_features;
@@ -323,15 +476,19 @@ void Runtime::add_locked(const transport::SkeletonDefinition& definition, pipeli
     worker.read_features.assign(kReadBatch * gpd::kDims, 0.0f);
   }
   state->pipeline = std::unique_ptr<pipeline::Pipeline, std::function<void(pipeline::Pipeline*)>>(pipeline, std::move(release));
-  StreamState* raw = state.get();
-  streams_.push_back(std::move(state));  // reserved: cannot throw
+  StreamState* raw = state;
+  if (reused) free_states_.pop_back();
+  else streams_.push_back(std::move(fresh));  // reserved: cannot throw
+  raw->live = true;
+  raw->id.store(definition.stream_id, std::memory_order_release);
   {
     std::lock_guard<std::mutex> owned_lock(worker.owned_mutex);
     worker.owned.push_back(raw);
   }
   const size_t mask = table_keys_.size() - 1;
   for (size_t i = mix(definition.stream_id) & mask;; i = (i + 1) & mask) {
-    if (table_keys_[i].load(std::memory_order_relaxed) == kEmptyKey) {
+    const uint64_t key = table_keys_[i].load(std::memory_order_relaxed);
+    if (key == kEmptyKey || key == kTombstone) {
       table_values_[i].store(raw, std::memory_order_release);
       table_keys_[i].store(definition.stream_id, std::memory_order_release);
       break;
@@ -349,6 +506,16 @@ Status Runtime::push(uint64_t stream_id, uint64_t sequence, double capture_time,
   StreamState* stream = find(stream_id);
   if (!stream) return Status::kNotFound;
   if (joints < 0 || joints > config_.max_joints) return Status::kWrongJointCount;
+  // Against a close on another thread: either close_stream sees this push in flight and waits
+  // for its cell, or this push sees the close (seq_cst on both sides); a state reused for
+  // another stream since find() shows another id.
+  stream->counters.in_push.fetch_add(1, std::memory_order_seq_cst);
+  struct Leave {
+    std::atomic<int>& n;
+    ~Leave() { n.fetch_sub(1, std::memory_order_release); }
+  } leave{stream->counters.in_push};
+  if (stream->closed.load(std::memory_order_seq_cst) || stream->id.load(std::memory_order_acquire) != stream_id)
+    return Status::kNotFound;
   Worker& w = *workers_[static_cast<size_t>(stream->worker)];
   size_t pos = w.enqueue_pos.load(std::memory_order_relaxed);
   FrameCell* cell;
@@ -506,6 +673,7 @@ void Runtime::worker_loop(Worker& w) {
     cell.turn.store(w.dequeue_pos + w.mask + 1, std::memory_order_release);
     ++w.dequeue_pos;
     move_results(s);
+    w.done_pos.store(w.dequeue_pos, std::memory_order_release);  // closed streams retire past it
     wake_io();
   }
 }
@@ -516,7 +684,8 @@ void Runtime::send_definitions(const uint8_t* prefix, size_t prefix_size) {
   std::vector<StreamState*> streams;
   {
     std::lock_guard<std::mutex> lock(open_mutex_);
-    for (const auto& s : streams_) streams.push_back(s.get());
+    for (const auto& s : streams_)
+    if (s->live) streams.push_back(s.get());
   }
   char topic[transport::kTopicBytes];
   for (StreamState* s : streams) {
@@ -528,6 +697,58 @@ void Runtime::send_definitions(const uint8_t* prefix, size_t prefix_size) {
       ++skeletons_sent_;
     }
   }
+}
+
+void Runtime::send_stats(transport::Encoder& encoder) {
+  if (!publisher_) return;
+  if (ingest_) {
+    std::lock_guard<std::mutex> lock(io_counters_mutex_);
+    ingest_snapshot_ = ingest_->counters();
+  }
+  const RuntimeCounters c = counters();
+  const transport::IngestCounters& in = c.ingest;
+  transport::StatsFields f;
+  f.streams = c.streams;
+  f.closed_streams = c.closed_streams;
+  f.received = in.received;
+  f.frames = in.frames;
+  f.definitions = in.skeletons;
+  f.repeated_definitions = in.repeated_skeletons;
+  f.closes = in.closes;
+  f.other_shard = in.other_shard;
+  f.dropped = in.dropped_total();
+  f.malformed = in.malformed_total();
+  f.not_owner = in.not_owner;
+  f.refused_limit = in.refused_limit;
+  f.refused_definitions = in.refused_skeletons;
+  f.unknown_stream = in.unknown_stream;
+  f.wrong_joint_count = in.wrong_joint_count;
+  f.out_of_order = in.out_of_order;
+  f.out_of_window = in.out_of_window;
+  f.stale = in.stale;
+  f.other_kind = in.other_kind;
+  f.sequence_gaps = in.sequence_gaps;
+  f.restarts = in.restarts;
+  f.connections = in.connections;
+  f.connections_refused = in.connections_refused;
+  f.frames_in = c.total.frames_in;
+  f.queue_full = c.total.queue_full;
+  f.refused = c.total.refused;
+  f.results = c.total.results;
+  f.results_dropped = c.total.pipeline_dropped + c.total.result_queue_full;
+  f.published = c.total.published;
+  f.send_failed = c.total.send_failed;
+  {
+    std::lock_guard<std::mutex> lock(open_mutex_);
+    for (const auto& s : streams_) {
+      if (!s->live) continue;
+      const StreamCounters k = read_counters(*s);
+      f.per_stream.push_back({s->definition.stream_id, k.frames_in, k.queue_full, k.refused, k.results,
+                              k.pipeline_dropped + k.result_queue_full, k.published});
+    }
+  }
+  f.published_ns = pipeline::now_ns();
+  publisher_->send(encoder.stats(f));
 }
 
 bool Runtime::results_pending() const {
@@ -634,16 +855,20 @@ void Runtime::io_loop() {
     }
     if (definitions_dirty_.exchange(false, std::memory_order_acq_rel)) send_definitions(nullptr, 0);
     drain_results(encoder);
+    if (retiring_count_.load(std::memory_order_acquire) > 0) retire_closed(encoder);
     if (publisher_item >= 0 && (items[publisher_item].revents & ZMQ_POLLIN))
       publisher_->poll_joins([this](const uint8_t* prefix, size_t size) { send_definitions(prefix, size); });
     if (ingest_stop_requested_.load(std::memory_order_acquire)) {
       ingest_stopped_.store(true, std::memory_order_release);
     } else if (ingest_item >= 0 && (items[ingest_item].revents & ZMQ_POLLIN)) {
       ingest_->poll(256);
+    } else if (ingest_) {
+      ingest_->housekeeping();  // connection events and idle expiry, also while no frame comes
     }
     const auto now = clock::now();
     if (now >= next_resend) {
       send_definitions(nullptr, 0);
+      send_stats(encoder);
       next_resend = now + resend_every;
     }
     if (ingest_ && now - last_snapshot > std::chrono::milliseconds(50)) {
@@ -711,6 +936,8 @@ StreamCounters read(const Atomics& a) {
 }
 }  // namespace
 
+StreamCounters Runtime::read_counters(const StreamState& s) { return read(s.counters); }
+
 std::optional<StreamCounters> Runtime::stream_counters(uint64_t stream_id) const {
   const StreamState* s = find(stream_id);
   if (!s) return std::nullopt;
@@ -728,8 +955,12 @@ RuntimeCounters Runtime::counters() const {
   RuntimeCounters out;
   {
     std::lock_guard<std::mutex> lock(open_mutex_);
-    out.streams = streams_.size();
+    out.streams = 0;
+    out.total = retired_totals_;
+    out.closed_streams = closed_streams_;
     for (const auto& s : streams_) {
+      if (s->retired) continue;  // live or closing: its own counters
+      if (s->live) ++out.streams;
       const StreamCounters c = read(s->counters);
       out.total.frames_in += c.frames_in;
       out.total.queue_full += c.queue_full;

@@ -152,7 +152,9 @@ int latency_bucket(int64_t ns);
 double latency_percentile(const uint64_t* histogram, double q);
 
 struct RuntimeCounters {
-  uint64_t streams = 0;
+  uint64_t streams = 0;           // open now
+  uint64_t closed_streams = 0;    // closed since the start (by their owner, idle, a new shape);
+                                  // their counters stay in total
   uint64_t latency_histogram[kLatencyBuckets] = {};  // arrival -> published, every published result
   StreamCounters total;           // summed over streams
   transport::IngestCounters ingest;
@@ -179,6 +181,11 @@ class Runtime {
   // [any thread] Throws kata::Error(kInvalidArgument) as open_stream does.
   void adopt_stream(const transport::SkeletonDefinition& definition, pipeline::Pipeline* pipeline,
                     std::function<void(pipeline::Pipeline*)> release, bool publish_features);
+
+  // Closes a stream: its id is free at once (push says kNotFound), its pipeline is released
+  // once its worker is past its last frame and the results were sent, and its state is reused
+  // by a later open. false: no such stream. [any thread but a worker's]
+  bool close_stream(uint64_t stream_id);
 
   // Queues a frame of a stream: sequence is the source's, capture_time its timestamp
   // (seconds), xyz joints x 3 floats. restart: the source restarted (the stream's kinetics and
@@ -212,6 +219,11 @@ class Runtime {
   struct Worker;
   struct FrameCell;
   StreamState* find(uint64_t stream_id) const;
+  // The stream table (ingest-driven lifetimes): refusals before any allocation, revisions, retiring.
+  void check_open(const transport::SkeletonDefinition& definition) const;
+  bool revise_announced(const transport::SkeletonDefinition& definition);
+  void retire_closed(transport::Encoder& encoder);
+  static StreamCounters read_counters(const StreamState& s);
   void open_locked(const transport::SkeletonDefinition& definition, const StreamSetup& setup);
   void add_locked(const transport::SkeletonDefinition& definition, pipeline::Pipeline* pipeline,
                   std::function<void(pipeline::Pipeline*)> release, bool publish_features);
@@ -221,6 +233,7 @@ class Runtime {
   bool results_pending() const;
   bool workers_busy() const;
   void send_definitions(const uint8_t* prefix, size_t prefix_size);
+  void send_stats(transport::Encoder& encoder);  // schemas/stats.fbs, with the periodic definitions
 
   RuntimeConfig config_;
   std::string publish_endpoint_, ingest_endpoint_;
@@ -229,7 +242,12 @@ class Runtime {
   // stores), so push() finds a stream without a lock.
   std::vector<std::atomic<uint64_t>> table_keys_;
   std::vector<std::atomic<StreamState*>> table_values_;
-  std::vector<std::unique_ptr<StreamState>> streams_;  // owned; guarded by open_mutex_
+  std::vector<std::unique_ptr<StreamState>> streams_;  // owned (live, retiring, free); guarded by open_mutex_
+  std::vector<StreamState*> retiring_;                 // closed, waiting for their worker; open_mutex_
+  std::vector<StreamState*> free_states_;              // retired, reused by the next open; open_mutex_
+  std::atomic<int> retiring_count_{0};
+  StreamCounters retired_totals_;                      // counters of retired streams; open_mutex_
+  uint64_t closed_streams_ = 0;                        // open_mutex_
   mutable std::mutex open_mutex_;                      // open_stream and counters only
   std::atomic<uint64_t> stream_count_{0};
   std::atomic<bool> definitions_dirty_{false};

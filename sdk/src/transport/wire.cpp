@@ -8,6 +8,7 @@
 #include "kata_schemas/frame_generated.h"
 #include "kata_schemas/result_generated.h"
 #include "kata_schemas/skeleton_generated.h"
+#include "kata_schemas/stats_generated.h"
 
 namespace kata::transport {
 
@@ -154,6 +155,7 @@ Bytes Encoder::skeleton(const SkeletonDefinition& d) {
   k.add_preset(preset);
   if (!d.name_map.empty()) k.add_name_map(name_map);
   k.add_frame_rate(d.frame_rate);
+  if (d.closed) k.add_closed(true);
   b.Finish(k.Finish(), fb::SkeletonDefinitionIdentifier());
   return finish(d.stream_id, fb::SkeletonDefinitionIdentifier());
 }
@@ -194,6 +196,95 @@ Bytes Encoder::result(const ResultFields& r) {
   if (r.features) o.add_features(features);
   b.Finish(o.Finish(), fb::ResultIdentifier());
   return finish(r.stream_id, fb::ResultIdentifier());
+}
+
+Bytes Encoder::stats(const StatsFields& f) {
+  auto& b = impl_->builder;
+  b.Clear();
+  std::vector<flatbuffers::Offset<fb::StreamStats>> per;
+  per.reserve(f.per_stream.size());
+  for (const StreamStatsFields& p : f.per_stream)
+    per.push_back(fb::CreateStreamStats(b, p.stream_id, p.frames_in, p.queue_full, p.refused, p.results,
+                                        p.results_dropped, p.published));
+  const auto per_v = b.CreateVector(per);
+  fb::StatsBuilder k(b);
+  k.add_schema_version(1);
+  const fb::Time published(f.published_ns);
+  k.add_published_time(&published);
+  k.add_streams(f.streams);
+  k.add_closed_streams(f.closed_streams);
+  k.add_received(f.received);
+  k.add_frames(f.frames);
+  k.add_definitions(f.definitions);
+  k.add_repeated_definitions(f.repeated_definitions);
+  k.add_closes(f.closes);
+  k.add_other_shard(f.other_shard);
+  k.add_dropped(f.dropped);
+  k.add_malformed(f.malformed);
+  k.add_not_owner(f.not_owner);
+  k.add_refused_limit(f.refused_limit);
+  k.add_refused_definitions(f.refused_definitions);
+  k.add_unknown_stream(f.unknown_stream);
+  k.add_wrong_joint_count(f.wrong_joint_count);
+  k.add_out_of_order(f.out_of_order);
+  k.add_out_of_window(f.out_of_window);
+  k.add_stale(f.stale);
+  k.add_other_kind(f.other_kind);
+  k.add_sequence_gaps(f.sequence_gaps);
+  k.add_restarts(f.restarts);
+  k.add_connections(f.connections);
+  k.add_connections_refused(f.connections_refused);
+  k.add_frames_in(f.frames_in);
+  k.add_queue_full(f.queue_full);
+  k.add_refused(f.refused);
+  k.add_results(f.results);
+  k.add_results_dropped(f.results_dropped);
+  k.add_published(f.published);
+  k.add_send_failed(f.send_failed);
+  k.add_per_stream(per_v);
+  b.Finish(k.Finish(), fb::StatsIdentifier());
+  return finish(kStatsStreamId, fb::StatsIdentifier());
+}
+
+StatsFields Decoder::stats() const {
+  const fb::Stats* k = fb::GetStats(payload_);
+  StatsFields f;
+  f.published_ns = k->published_time() ? k->published_time()->nanoseconds() : 0;
+  f.streams = k->streams();
+  f.closed_streams = k->closed_streams();
+  f.received = k->received();
+  f.frames = k->frames();
+  f.definitions = k->definitions();
+  f.repeated_definitions = k->repeated_definitions();
+  f.closes = k->closes();
+  f.other_shard = k->other_shard();
+  f.dropped = k->dropped();
+  f.malformed = k->malformed();
+  f.not_owner = k->not_owner();
+  f.refused_limit = k->refused_limit();
+  f.refused_definitions = k->refused_definitions();
+  f.unknown_stream = k->unknown_stream();
+  f.wrong_joint_count = k->wrong_joint_count();
+  f.out_of_order = k->out_of_order();
+  f.out_of_window = k->out_of_window();
+  f.stale = k->stale();
+  f.other_kind = k->other_kind();
+  f.sequence_gaps = k->sequence_gaps();
+  f.restarts = k->restarts();
+  f.connections = k->connections();
+  f.connections_refused = k->connections_refused();
+  f.frames_in = k->frames_in();
+  f.queue_full = k->queue_full();
+  f.refused = k->refused();
+  f.results = k->results();
+  f.results_dropped = k->results_dropped();
+  f.published = k->published();
+  f.send_failed = k->send_failed();
+  if (const auto* per = k->per_stream())
+    for (const fb::StreamStats* p : *per)
+      f.per_stream.push_back({p->stream_id(), p->frames_in(), p->queue_full(), p->refused(), p->results(),
+                              p->results_dropped(), p->published()});
+  return f;
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -338,6 +429,12 @@ MessageKind Decoder::decode(const void* data, size_t size) {
     o.feature_count = r->features() ? static_cast<int>(r->features()->size()) : 0;
     return MessageKind::kResult;
   }
+  if (flatbuffers::BufferHasIdentifier(payload_, fb::StatsIdentifier())) {
+    if (!fb::VerifyStatsBuffer(verifier)) return fail(DecodeError::kVerifier);
+    if (fb::GetStats(payload_)->schema_version() != 1) return fail(DecodeError::kVersion);
+    if (stream_id_ != kStatsStreamId) return fail(DecodeError::kTopicMismatch);
+    return MessageKind::kStats;
+  }
   return fail(DecodeError::kUnknownIdentifier);
 }
 
@@ -373,7 +470,14 @@ SkeletonDefinition Decoder::skeleton() const {
   d.up_axis = k->up_axis() == fb::UpAxis::Z ? UpAxis::kZ : UpAxis::kY;
   d.metres_per_unit = k->metres_per_unit();
   d.frame_rate = k->frame_rate();
+  d.closed = k->closed();
   return d;
 }
+
+uint32_t Decoder::skeleton_revision() const { return fb::GetSkeletonDefinition(payload_)->revision(); }
+int Decoder::skeleton_joints() const {
+  return static_cast<int>(fb::GetSkeletonDefinition(payload_)->joint_names()->size());
+}
+bool Decoder::skeleton_closed() const { return fb::GetSkeletonDefinition(payload_)->closed(); }
 
 }  // namespace kata::transport

@@ -48,6 +48,7 @@ struct SkeletonDefinition {
   UpAxis up_axis = UpAxis::kY;
   float metres_per_unit = 0.0f;  // 0 = unknown
   float frame_rate = 0.0f;       // Hz, 0 = unknown
+  bool closed = false;           // the source ends the stream (schemas/skeleton.fbs)
 };
 
 // The published fields of one result (schemas/result.fbs documents each).
@@ -73,6 +74,23 @@ struct ResultFields {
   int32_t state = 0;
 };
 
+// The counters a runtime publishes (schemas/stats.fbs documents each), on the topic of stream id
+// kStatsStreamId.
+inline constexpr uint64_t kStatsStreamId = ~0ULL;
+struct StreamStatsFields {
+  uint64_t stream_id = 0, frames_in = 0, queue_full = 0, refused = 0, results = 0, results_dropped = 0, published = 0;
+};
+struct StatsFields {
+  int64_t published_ns = 0;
+  uint64_t streams = 0, closed_streams = 0;
+  uint64_t received = 0, frames = 0, definitions = 0, repeated_definitions = 0, closes = 0, other_shard = 0, dropped = 0;
+  uint64_t malformed = 0, not_owner = 0, refused_limit = 0, refused_definitions = 0, unknown_stream = 0,
+           wrong_joint_count = 0, out_of_order = 0, out_of_window = 0, stale = 0, other_kind = 0;
+  uint64_t sequence_gaps = 0, restarts = 0, connections = 0, connections_refused = 0;
+  uint64_t frames_in = 0, queue_full = 0, refused = 0, results = 0, results_dropped = 0, published = 0, send_failed = 0;
+  std::vector<StreamStatsFields> per_stream;
+};
+
 // A view of one message's bytes (topic included); valid until the encoder's next call.
 struct Bytes {
   const uint8_t* data = nullptr;
@@ -94,6 +112,8 @@ class Encoder {
   Bytes skeleton(const SkeletonDefinition& definition);
   // A Result message.
   Bytes result(const ResultFields& fields);
+  // A Stats message (topic: kStatsStreamId).
+  Bytes stats(const StatsFields& fields);
 
  private:
   Bytes finish(uint64_t stream_id, const char* identifier);
@@ -117,7 +137,7 @@ enum class DecodeError {
 };
 const char* decode_error_name(DecodeError error);
 
-enum class MessageKind { kNone, kFrame, kSkeleton, kResult };
+enum class MessageKind { kNone, kFrame, kSkeleton, kResult, kStats };
 
 // A verified frame; pointers are valid until the decoder's next call.
 struct FrameView {
@@ -153,7 +173,14 @@ class Decoder {
   // Copies the definition out (allocates: skeleton definitions are rare). Throws
   // kata::Error(kInvalidArgument) when the skeleton itself is inconsistent.
   SkeletonDefinition skeleton() const;
+  // The last decoded definition's revision, joint count and closed flag, read without copying
+  // (the ingest judges limits and ownership before it allocates anything).
+  uint32_t skeleton_revision() const;
+  int skeleton_joints() const;
+  bool skeleton_closed() const;
   const ResultFields& result() const { return result_; }
+  // Copies a verified Stats message out (allocates: a monitor's path, once a second).
+  StatsFields stats() const;
 
   size_t max_message_bytes() const { return max_bytes_; }
 

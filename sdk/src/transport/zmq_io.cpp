@@ -1,9 +1,17 @@
 // ZeroMQ publisher and ingest (see zmq_io.hpp).
 #include "transport/zmq_io.hpp"
 
+#include <arpa/inet.h>
+#include <netinet/in.h>
+#include <sys/socket.h>
 #include <zmq.h>
 
+#include <algorithm>
+#include <atomic>
 #include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <cstring>
 
 #include "common/error.hpp"
@@ -33,7 +41,23 @@ Context::Context(int io_threads) : context_(zmq_ctx_new()) {
   zmq_ctx_set(context_, ZMQ_IO_THREADS, io_threads);
 }
 
-Context::~Context() { zmq_ctx_term(context_); }
+Context::~Context() {
+  zap_.reset();  // its socket closes before the context terminates
+  zmq_ctx_term(context_);
+}
+
+void Context::authenticate(std::vector<std::string> allowed_client_keys) {
+  if (zap_) throw Error(ErrorKind::kInvalidArgument, "ZeroMQ: the context's ZAP handler is already running");
+  zap_ = std::make_unique<ZapHandler>(context_, std::move(allowed_client_keys));
+}
+
+void apply_security(void* socket, const SocketSecurity& security) {
+  const int64_t max_size = security.max_message_bytes > 0 ? security.max_message_bytes : -1;
+  if (zmq_setsockopt(socket, ZMQ_MAXMSGSIZE, &max_size, sizeof max_size) != 0)
+    throw Error(ErrorKind::kIo, "ZeroMQ: cannot set ZMQ_MAXMSGSIZE: " + zmq_reason());
+  set_int(socket, ZMQ_HANDSHAKE_IVL, security.handshake_ms, "ZMQ_HANDSHAKE_IVL");
+  apply_curve(socket, security.curve);
+}
 
 // ---------------------------------------------------------------------------------------------
 
@@ -45,6 +69,7 @@ Publisher::Publisher(Context& context, const PublisherOptions& options) {
     set_int(socket_, ZMQ_SNDHWM, options.send_hwm, "ZMQ_SNDHWM");
     set_int(socket_, ZMQ_LINGER, 0, "ZMQ_LINGER");
     set_int(socket_, ZMQ_XPUB_VERBOSE, 1, "ZMQ_XPUB_VERBOSE");
+    apply_security(socket_, options.security);
     for (const std::string& e : options.endpoints) {
       const bool connect = e.rfind("connect:", 0) == 0;
       const std::string endpoint = connect ? e.substr(8) : e;
@@ -96,24 +121,57 @@ uint64_t IngestCounters::malformed_total() const {
 }
 
 uint64_t IngestCounters::dropped_total() const {
-  return malformed_total() + refused_skeletons + unknown_stream + wrong_joint_count + out_of_order + other_kind;
+  return malformed_total() + refused_skeletons + unknown_stream + wrong_joint_count + out_of_order + other_kind +
+         not_owner + refused_limit + out_of_window + stale;
 }
+
+namespace {
+
+int64_t steady_now_ns() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+std::atomic<uint64_t> g_monitor_counter{0};
+
+}  // namespace
 
 Ingest::Ingest(Context& context, const IngestOptions& options, Handlers handlers)
     : decoder_(options.max_message_bytes, options.require_checksum), handlers_(std::move(handlers)),
-      receive_buffer_(options.max_message_bytes + 1) {
+      table_(options.limits) {
   if (options.endpoints.empty()) throw Error(ErrorKind::kInvalidArgument, "ingest: no endpoint");
   if (options.shard_count > 1 && options.shard_index >= options.shard_count)
     throw Error(ErrorKind::kInvalidArgument, "ingest: shard index must be below the shard count");
   shard_count_ = options.shard_count;
   shard_index_ = options.shard_index;
+  max_connections_ = options.max_connections;
+  log_refusals_ = options.log_refusals;
   socket_ = zmq_socket(context.get(), options.kind == IngestKind::kSub ? ZMQ_SUB : ZMQ_PULL);
   if (!socket_) throw Error(ErrorKind::kIo, "ZeroMQ: cannot create an ingest socket: " + zmq_reason());
   try {
     set_int(socket_, ZMQ_RCVHWM, options.receive_hwm, "ZMQ_RCVHWM");
     set_int(socket_, ZMQ_LINGER, 0, "ZMQ_LINGER");
+    // ZeroMQ's limit sits above ours: a message a little too large is read, counted as oversized
+    // and dropped (its sender stays connected); one past 4 x the limit drops its sender before it
+    // is buffered, so no message can cost more memory than that.
+    SocketSecurity security = options.security;
+    security.max_message_bytes = std::max<int64_t>(4 * static_cast<int64_t>(options.max_message_bytes), 1 << 16);
+    apply_security(socket_, security);
     if (options.kind == IngestKind::kSub && zmq_setsockopt(socket_, ZMQ_SUBSCRIBE, "", 0) != 0)
       throw Error(ErrorKind::kIo, "ingest: cannot subscribe: " + zmq_reason());
+    // Connection events: the limit on connections, and a closed connection's streams orphaned.
+    const std::string monitor_endpoint = "inproc://kata-ingest-monitor-" + std::to_string(g_monitor_counter++);
+    if (zmq_socket_monitor(socket_, monitor_endpoint.c_str(),
+                           ZMQ_EVENT_ACCEPTED | ZMQ_EVENT_CONNECTED | ZMQ_EVENT_DISCONNECTED) != 0)
+      throw Error(ErrorKind::kIo, "ingest: cannot monitor the socket: " + zmq_reason());
+    monitor_ = zmq_socket(context.get(), ZMQ_PAIR);
+    if (!monitor_) throw Error(ErrorKind::kIo, "ingest: cannot read the socket's events: " + zmq_reason());
+    set_int(monitor_, ZMQ_LINGER, 0, "ZMQ_LINGER");
+    // No high-water mark on the events: a lost DISCONNECTED would count a connection forever
+    // (a flood of connections brings thousands of events between two reads).
+    set_int(monitor_, ZMQ_RCVHWM, 0, "ZMQ_RCVHWM");
+    if (zmq_connect(monitor_, monitor_endpoint.c_str()) != 0)
+      throw Error(ErrorKind::kIo, "ingest: cannot read the socket's events: " + zmq_reason());
     for (const std::string& e : options.endpoints) {
       const bool bind = e.rfind("bind:", 0) == 0;
       const std::string endpoint = bind ? e.substr(5) : e;
@@ -122,6 +180,7 @@ Ingest::Ingest(Context& context, const IngestOptions& options, Handlers handlers
                     std::string("ingest: cannot ") + (bind ? "bind " : "connect ") + endpoint + ": " + zmq_reason());
     }
   } catch (...) {
+    if (monitor_) zmq_close(monitor_);
     zmq_close(socket_);
     throw;
   }
@@ -129,38 +188,150 @@ Ingest::Ingest(Context& context, const IngestOptions& options, Handlers handlers
 
 std::string Ingest::endpoint() const { return last_endpoint(socket_); }
 
-Ingest::~Ingest() { zmq_close(socket_); }
+Ingest::~Ingest() {
+  zmq_socket_monitor(socket_, nullptr, 0);
+  zmq_close(monitor_);
+  zmq_close(socket_);
+}
+
+void Ingest::housekeeping(int64_t now_ns) {
+  if (now_ns < 0) now_ns = steady_now_ns();
+  // Connection events: two parts, (uint16 event, uint32 value = the descriptor) and the endpoint.
+  for (int guard = 0; monitor_ && guard < 4096; ++guard) {
+    uint8_t event[6];
+    if (zmq_recv(monitor_, event, sizeof event, ZMQ_DONTWAIT) < 0) break;
+    char endpoint[256];
+    zmq_recv(monitor_, endpoint, sizeof endpoint, 0);
+    uint16_t kind;
+    uint32_t value;
+    std::memcpy(&kind, event, 2);
+    std::memcpy(&value, event + 2, 4);
+    const int fd = static_cast<int>(value);
+    if (kind == ZMQ_EVENT_ACCEPTED || kind == ZMQ_EVENT_CONNECTED) {
+      ++counters_.connections;
+      ++open_connections_;
+      if (kind == ZMQ_EVENT_ACCEPTED && max_connections_ > 0 && open_connections_ > max_connections_) {
+        // Closing the descriptor is ZeroMQ's; shutting it down makes ZeroMQ see the end and
+        // close it (a DISCONNECTED event follows).
+        ++counters_.connections_refused;
+        ::shutdown(fd, SHUT_RDWR);
+      }
+    } else if (kind == ZMQ_EVENT_DISCONNECTED) {
+      ++counters_.disconnections;
+      if (open_connections_ > 0) --open_connections_;
+      uint32_t& generation = generation_[fd];
+      table_.sender_gone(connection_sender(fd, generation));
+      ++generation;
+    }
+  }
+  if (now_ns >= next_expiry_ns_) {
+    next_expiry_ns_ = now_ns + 1'000'000'000;  // idleness is judged once a second
+    expired_.clear();
+    table_.expire(now_ns, &expired_);
+    for (uint64_t id : expired_) {
+      ++counters_.expired;
+      if (handlers_.on_close) handlers_.on_close(id);
+    }
+  }
+}
+
+void Ingest::reset() {
+  table_ = IngestTable(table_.limits());
+  counters_ = IngestCounters{};
+  generation_.clear();
+  open_connections_ = 0;
+  next_expiry_ns_ = 0;
+}
 
 int Ingest::poll(int max_messages) {
+  housekeeping();
   int count = 0;
+  zmq_msg_t message;
+  zmq_msg_init(&message);
   while (count < max_messages) {
-    // Received into a buffer one byte larger than the limit: a longer message is truncated by
-    // ZeroMQ but zmq_recv returns its full size, so it is recognised as oversized.
-    const int n = zmq_recv(socket_, receive_buffer_.data(), receive_buffer_.size(), ZMQ_DONTWAIT);
-    if (n < 0) break;
+    // ZeroMQ refuses a message above ZMQ_MAXMSGSIZE before buffering it (and drops its sender).
+    if (zmq_msg_recv(&message, socket_, ZMQ_DONTWAIT) < 0) break;
     ++count;
     ++counters_.received;
-    // A multi-part message: only the first part is a kata message; drain the rest.
-    int more = 0;
-    size_t more_size = sizeof more;
-    zmq_getsockopt(socket_, ZMQ_RCVMORE, &more, &more_size);
-    bool multipart = false;
-    while (more) {
-      multipart = true;
-      uint8_t sink;
-      zmq_recv(socket_, &sink, 1, 0);
-      zmq_getsockopt(socket_, ZMQ_RCVMORE, &more, &more_size);
+    // Who sent it: the CURVE key the ZAP handler vouched for, else the connection.
+    SenderToken sender = kLocalSender;
+    if (const char* user = zmq_msg_gets(&message, "User-Id"); user && *user) {
+      sender = key_sender(user);
+    } else {
+      const int fd = zmq_msg_get(&message, ZMQ_SRCFD);
+      if (fd >= 0) {
+        const auto it = generation_.find(fd);
+        sender = connection_sender(fd, it == generation_.end() ? 0 : it->second);
+      }
     }
+    // A multi-part message: only the first part is a kata message; drain the rest.
+    bool multipart = zmq_msg_more(&message) != 0;
     if (multipart) {
+      zmq_msg_t rest;
+      zmq_msg_init(&rest);
+      int more = 1;
+      while (more) {
+        if (zmq_msg_recv(&rest, socket_, 0) < 0) break;
+        more = zmq_msg_more(&rest);
+      }
+      zmq_msg_close(&rest);
       ++counters_.malformed[static_cast<int>(DecodeError::kUnknownIdentifier)];
       continue;
     }
-    handle(receive_buffer_.data(), static_cast<size_t>(n));
+    handle(zmq_msg_data(&message), zmq_msg_size(&message), sender, steady_now_ns());
   }
+  zmq_msg_close(&message);
   return count;
 }
 
-void Ingest::handle(const void* data, size_t size) {
+std::string Ingest::describe(SenderToken sender) const {
+  if (sender == kLocalSender) return "local";
+  if (is_key_sender(sender)) {
+    char text[32];
+    std::snprintf(text, sizeof text, "key %016llx", static_cast<unsigned long long>(sender));
+    return text;
+  }
+  const int fd = static_cast<int>(sender & 0xffffffffu) - 1;
+  sockaddr_storage address{};
+  socklen_t size = sizeof address;
+  char text[INET6_ADDRSTRLEN + 16] = "connection";
+  if (getpeername(fd, reinterpret_cast<sockaddr*>(&address), &size) == 0) {
+    char host[INET6_ADDRSTRLEN] = "";
+    if (address.ss_family == AF_INET) {
+      const auto* a = reinterpret_cast<const sockaddr_in*>(&address);
+      inet_ntop(AF_INET, &a->sin_addr, host, sizeof host);
+      std::snprintf(text, sizeof text, "%s:%u", host, ntohs(a->sin_port));
+    } else if (address.ss_family == AF_INET6) {
+      const auto* a = reinterpret_cast<const sockaddr_in6*>(&address);
+      inet_ntop(AF_INET6, &a->sin6_addr, host, sizeof host);
+      std::snprintf(text, sizeof text, "[%s]:%u", host, ntohs(a->sin6_port));
+    } else {
+      std::snprintf(text, sizeof text, "local socket %d", fd);
+    }
+  }
+  return text;
+}
+
+void Ingest::refused(SenderToken sender, TableVerdict cause, uint64_t stream_id) {
+  const char* why = "";
+  switch (cause) {
+    case TableVerdict::kNotOwner: ++counters_.not_owner; why = "sends for a stream another sender owns"; break;
+    case TableVerdict::kLimit: ++counters_.refused_limit; why = "defines streams beyond a limit"; break;
+    case TableVerdict::kUnknownStream: ++counters_.unknown_stream; return;
+    case TableVerdict::kWrongJoints: ++counters_.wrong_joint_count; return;
+    case TableVerdict::kOutOfOrder: ++counters_.out_of_order; return;
+    case TableVerdict::kOutOfWindow: ++counters_.out_of_window; why = "sends sequence numbers far outside the window"; break;
+    case TableVerdict::kStale: ++counters_.stale; return;
+    case TableVerdict::kAccepted:
+    case TableVerdict::kRepeated: return;
+  }
+  if (log_refusals_ && table_.first_refusal(sender, cause))
+    std::fprintf(stderr, "\nkata ingest: sender %s %s (stream %llu); counted, not logged again\n",
+                 describe(sender).c_str(), why, static_cast<unsigned long long>(stream_id));
+}
+
+void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t now_ns) {
+  if (now_ns < 0) now_ns = steady_now_ns();
   uint64_t topic_stream = 0;
   if (shard_count_ > 1 && size >= kTopicBytes && parse_topic(static_cast<const uint8_t*>(data), &topic_stream) &&
       shard_of(topic_stream, shard_count_) != shard_index_) {
@@ -173,9 +344,27 @@ void Ingest::handle(const void* data, size_t size) {
       ++counters_.malformed[static_cast<int>(decoder_.error())];
       return;
     case MessageKind::kResult:
+    case MessageKind::kStats:
       ++counters_.other_kind;
       return;
     case MessageKind::kSkeleton: {
+      const uint64_t id = decoder_.stream_id();
+      // Ownership and limits first: a refused definition allocates nothing.
+      if (decoder_.skeleton_closed()) {
+        const TableVerdict v = table_.judge_close(sender, id);
+        if (v != TableVerdict::kAccepted) return refused(sender, v, id);
+        table_.forget(id);
+        ++counters_.closes;
+        if (handlers_.on_close) handlers_.on_close(id);
+        return;
+      }
+      bool is_new = false;
+      const TableVerdict v = table_.judge_definition(sender, id, decoder_.skeleton_revision(), &is_new);
+      if (v == TableVerdict::kRepeated) {
+        ++counters_.repeated_skeletons;
+        return;
+      }
+      if (v != TableVerdict::kAccepted) return refused(sender, v, id);
       SkeletonDefinition definition;
       try {
         definition = decoder_.skeleton();
@@ -183,51 +372,36 @@ void Ingest::handle(const void* data, size_t size) {
         ++counters_.refused_skeletons;
         return;
       }
-      Known& known = streams_[definition.stream_id];
-      if (known.accepted && known.revision == definition.revision) {
-        ++counters_.repeated_skeletons;
-        return;
-      }
       bool accepted = false;
       try {
-        accepted = handlers_.on_skeleton ? handlers_.on_skeleton(definition) : true;
+        if (is_new) accepted = handlers_.on_skeleton ? handlers_.on_skeleton(definition) : true;
+        else accepted = handlers_.on_revision ? handlers_.on_revision(definition) : false;
       } catch (const Error&) {
         accepted = false;
       }
-      known.revision = definition.revision;
-      known.joints = definition.skeleton.joint_count();
-      known.any_frame = false;
-      known.accepted = accepted;
-      if (accepted) ++counters_.skeletons;
-      else ++counters_.refused_skeletons;
+      if (!accepted) {
+        ++counters_.refused_skeletons;
+        return;
+      }
+      table_.commit_definition(sender, id, definition.revision, definition.skeleton.joint_count(), now_ns);
+      ++counters_.skeletons;
+      if (!is_new) ++counters_.revisions;
       return;
     }
     case MessageKind::kFrame: {
       const FrameView& f = decoder_.frame();
-      auto it = streams_.find(f.stream_id);
-      if (it == streams_.end() || !it->second.accepted) {
-        ++counters_.unknown_stream;
-        return;
-      }
-      Known& known = it->second;
-      if (f.joints != known.joints) {
-        ++counters_.wrong_joint_count;
-        return;
-      }
       bool restarted = false;
-      if (known.any_frame) {
-        if (f.sequence == 0 && known.last_sequence > 0) {
-          restarted = true;
-          ++counters_.restarts;
-        } else if (f.sequence <= known.last_sequence) {
-          ++counters_.out_of_order;
-          return;
-        } else {
-          counters_.sequence_gaps += f.sequence - known.last_sequence - 1;
-        }
+      uint64_t gap = 0;
+      int64_t age_ns = -1;
+      const TableVerdict v =
+          table_.judge_frame(sender, f.stream_id, f.sequence, f.capture_ns, f.joints, now_ns, &restarted, &gap, &age_ns);
+      if (v != TableVerdict::kAccepted) return refused(sender, v, f.stream_id);
+      if (restarted) ++counters_.restarts;
+      counters_.sequence_gaps += gap;
+      if (age_ns >= 0) {
+        const int bucket = age_ns < 1 ? 0 : static_cast<int>(8.0 * std::log2(static_cast<double>(age_ns)));
+        ++counters_.age_histogram[std::min(std::max(bucket, 0), IngestCounters::kAgeBuckets - 1)];
       }
-      known.any_frame = true;
-      known.last_sequence = f.sequence;
       ++counters_.frames;
       if (handlers_.on_frame) handlers_.on_frame(f, restarted);
       return;

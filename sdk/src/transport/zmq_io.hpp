@@ -6,10 +6,13 @@
 
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <string>
 #include <unordered_map>
 #include <vector>
 
+#include "transport/curve.hpp"
+#include "transport/ingest_table.hpp"
 #include "transport/wire.hpp"
 
 namespace kata::transport {
@@ -22,10 +25,26 @@ class Context {
   Context(const Context&) = delete;
   Context& operator=(const Context&) = delete;
   void* get() const { return context_; }
+  // Starts the context's ZAP handler (curve.hpp) with this allow-list of client public keys,
+  // before any CURVE server socket binds. Once per context; throws kata::Error(kIo).
+  void authenticate(std::vector<std::string> allowed_client_keys);
+  const ZapHandler* zap() const { return zap_.get(); }
 
  private:
   void* context_;
+  std::unique_ptr<ZapHandler> zap_;
 };
+
+// Options every kata socket shares: CURVE, the largest message ZeroMQ accepts (ZMQ_MAXMSGSIZE:
+// a peer sending more is disconnected before the message is buffered) and the time a peer has to
+// complete its handshake (ZMQ_HANDSHAKE_IVL: a silent connection is closed, freeing its descriptor).
+struct SocketSecurity {
+  CurveOptions curve;
+  int64_t max_message_bytes = 1 << 20;
+  int handshake_ms = 2000;
+};
+// Applies them to a socket before it binds or connects. Throws kata::Error(kIo).
+void apply_security(void* socket, const SocketSecurity& security);
 
 struct PublisherOptions {
   // Endpoints to bind (tcp://127.0.0.1:5555, ipc:///tmp/kata.sock, ...). At least one.
@@ -36,6 +55,8 @@ struct PublisherOptions {
   // ZMQ_SNDHWM: messages queued per subscriber before ZeroMQ drops that subscriber's newest
   // (ZeroMQ's per-subscriber drops; they show as result_sequence gaps at the subscriber).
   int send_hwm = 10000;
+  // CURVE and limits (subscribers send only subscriptions: a small ZMQ_MAXMSGSIZE).
+  SocketSecurity security{CurveOptions{}, 4096, 2000};
 };
 
 // An XPUB socket: publishes never block (ZMQ_DONTWAIT; a PUB drops at the high-water mark
@@ -85,6 +106,17 @@ struct IngestOptions {
   // other_shard and dropped after reading the topic (nothing else is parsed).
   uint32_t shard_count = 1;
   uint32_t shard_index = 0;
+  // Who may send what (ingest_table.hpp): streams per sender and in all, the sequence window,
+  // stale frames, idle expiry.
+  IngestLimits limits;
+  // Connections held at once (bound endpoints); one more is closed at once (connections_refused).
+  // 0: no limit.
+  uint32_t max_connections = 256;
+  // CURVE (a server, or a client of curve.remote_server); its max_message_bytes is replaced by
+  // 4 x the limit above (ZMQ_MAXMSGSIZE: a larger message drops its sender unread).
+  SocketSecurity security;
+  // Log the first refusal of each cause per sender on stderr (the fuzz target turns it off).
+  bool log_refusals = true;
 };
 
 // What the ingest counted. Every received message lands in exactly one of frames, skeletons,
@@ -103,6 +135,21 @@ struct IngestCounters {
   uint64_t restarts = 0;            // sequence back to 0: the source restarted (frame handed on)
   uint64_t sequence_gaps = 0;       // frames missing between accepted ones (not messages)
   uint64_t other_shard = 0;         // messages of streams another shard owns (not refused)
+  // Who may send what (since 0.3; ingest_table.hpp).
+  uint64_t not_owner = 0;           // a definition, close or frame from a sender that does not own the stream
+  uint64_t refused_limit = 0;       // a definition beyond a streams limit (nothing allocated)
+  uint64_t out_of_window = 0;       // a sequence too far after the last one
+  uint64_t stale = 0;               // a frame older than max_frame_age by the stream's clock
+  uint64_t closes = 0;              // streams closed by their owner (messages; not refused)
+  uint64_t expired = 0;             // streams closed for idleness (not messages)
+  uint64_t revisions = 0;           // new revisions from the owner that restarted a stream (in skeletons)
+  uint64_t connections = 0;         // connections accepted or made (not messages)
+  uint64_t disconnections = 0;      // connections closed (by the peer, ZeroMQ's limits or ours)
+  uint64_t connections_refused = 0; // connections closed at once: max_connections reached
+  // The source's age of every frame handed on: arrival - capture beyond the stream's quickest
+  // delivery (ingest_table.hpp), in the runtime's latency buckets (2^(i/8) ns, kAgeBuckets).
+  static constexpr int kAgeBuckets = 8 * 36;
+  uint64_t age_histogram[kAgeBuckets] = {};
   uint64_t malformed_total() const;
   uint64_t dropped_total() const;   // every message refused (repeated skeletons are not refused)
 };
@@ -119,6 +166,11 @@ class Ingest {
     // A frame of a known stream, in order. restarted: the source restarted (sequence 0 after
     // later ones): the receiver should restart the stream's kinetics.
     std::function<void(const FrameView&, bool restarted)> on_frame;
+    // A new revision of an open stream from its owner: the receiver restarts the stream with it.
+    // Return false to refuse it (counted in refused_skeletons; the stream keeps the old one).
+    std::function<bool(const SkeletonDefinition&)> on_revision;
+    // The stream ended (its owner closed it, or it was idle past the limit). [ingest's thread]
+    std::function<void(uint64_t stream_id)> on_close;
   };
 
   Ingest(Context& context, const IngestOptions& options, Handlers handlers);
@@ -128,29 +180,37 @@ class Ingest {
 
   // Reads up to max_messages without blocking. Returns how many were read.
   int poll(int max_messages);
-  // Handles one message's bytes as if the socket had delivered it (counted the same way; the
-  // fuzz target drives the ingest's whole path through it). [the ingest's thread]
-  void handle(const void* data, size_t size);
+  // Handles one message's bytes as if the socket had delivered it from `sender` at now_ns
+  // (steady clock; counted the same way; the fuzz target drives the ingest's whole path through
+  // it). [the ingest's thread]
+  void handle(const void* data, size_t size, SenderToken sender = kLocalSender, int64_t now_ns = -1);
+  // Connection events (the connection limit, orphaned streams) and idle expiry; poll() calls it,
+  // and the owner of the socket calls it at least every 100 ms. [the ingest's thread]
+  void housekeeping(int64_t now_ns = -1);
+  // Forgets every stream, sender and counter: the state of a new ingest, without a new socket
+  // (the fuzz target runs each input on a fresh state). [the ingest's thread]
+  void reset();
   void* socket() const { return socket_; }
   // The last endpoint bound or connected, resolved (a "bind:tcp://127.0.0.1:*" reports its port).
   std::string endpoint() const;
   const IngestCounters& counters() const { return counters_; }
 
  private:
-  struct Known {
-    uint32_t revision = 0;
-    int joints = 0;
-    bool accepted = false;
-    bool any_frame = false;
-    uint64_t last_sequence = 0;
-  };
+  void refused(SenderToken sender, TableVerdict cause, uint64_t stream_id);
+  std::string describe(SenderToken sender) const;
   void* socket_ = nullptr;
+  void* monitor_ = nullptr;  // PAIR socket reading this socket's connection events
   Decoder decoder_;
   uint32_t shard_count_ = 1, shard_index_ = 0;
+  uint32_t max_connections_ = 0;
+  bool log_refusals_ = true;
   Handlers handlers_;
-  std::unordered_map<uint64_t, Known> streams_;
+  IngestTable table_;
   IngestCounters counters_;
-  std::vector<uint8_t> receive_buffer_;
+  std::unordered_map<int, uint32_t> generation_;  // per connection descriptor
+  uint32_t open_connections_ = 0;
+  int64_t next_expiry_ns_ = 0;
+  std::vector<uint64_t> expired_;
 };
 
 }  // namespace kata::transport

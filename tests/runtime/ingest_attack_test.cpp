@@ -1,0 +1,495 @@
+// Attacks on the ingest (issue 22), each against a real stream beside it, over loopback TCP: a
+// runtime with a PULL ingest in this process, the real source and the attackers on their own
+// PUSH sockets (so their own connections), a SUB reading the results. The real stream must keep
+// every result, the forged messages must be counted by cause, and the ingest's counters must add
+// up: every message received lands in exactly one counter. Every wait is bounded.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/mman.h>
+#include <sys/resource.h>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <netinet/in.h>
+#include <arpa/inet.h>
+#include <unistd.h>
+#include <zmq.h>
+
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <fstream>
+#include <set>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "io/bvh.hpp"
+#include "io/clip_features.hpp"
+#include "pipeline/pipeline.hpp"
+#include "runtime/runtime.hpp"
+#include "transport/wire.hpp"
+
+namespace kata::runtime {
+namespace {
+
+using transport::SkeletonDefinition;
+using Clock = std::chrono::steady_clock;
+
+int64_t now_ns() { return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count(); }
+
+struct Clip {
+  BvhClip clip = load_bvh(std::string(KATA_DATA_DIR) + "/cmu/07_01.bvh");
+  std::vector<float> positions = clip_positions(clip);
+  int joints() const { return clip.skeleton.joint_count(); }
+  const float* frame(int i) const {
+    return positions.data() + static_cast<size_t>(i % (clip.frame_count() - 1)) * 3 * static_cast<size_t>(joints());
+  }
+  SkeletonDefinition definition(uint64_t id, uint32_t revision = 1) const {
+    SkeletonDefinition d;
+    d.stream_id = id;
+    d.revision = revision;
+    d.skeleton = clip.skeleton;
+    d.preset = "cmu";
+    return d;
+  }
+};
+
+const Clip& clip() {
+  static Clip c;
+  return c;
+}
+
+// One sender: its own PUSH socket, so its own connection.
+struct Sender {
+  void* socket;
+  transport::Encoder encoder;
+  uint64_t sent = 0;
+  Sender(void* context, const std::string& endpoint) : socket(zmq_socket(context, ZMQ_PUSH)) {
+    int linger = 2000;
+    zmq_setsockopt(socket, ZMQ_LINGER, &linger, sizeof linger);
+    zmq_connect(socket, endpoint.c_str());
+  }
+  ~Sender() { zmq_close(socket); }
+  void send(transport::Bytes m) {
+    zmq_send(socket, m.data, m.size, 0);
+    ++sent;
+  }
+  void definition(const SkeletonDefinition& d) { send(encoder.skeleton(d)); }
+  // A frame of a live source at 120 Hz: sent at its capture time (the host's clock), one
+  // frame period after the previous one at the earliest.
+  int64_t next_ns = 0;
+  void frame(uint64_t id, uint64_t sequence, int clip_frame) {
+    const int64_t now = now_ns();
+    if (next_ns == 0 || next_ns < now - 100'000'000) next_ns = now;
+    std::this_thread::sleep_until(Clock::time_point(std::chrono::nanoseconds(next_ns)));
+    send(encoder.frame(id, sequence, next_ns, clip().frame(clip_frame), clip().joints()));
+    next_ns += 8'333'333;
+  }
+};
+
+struct Subscriber {
+  void* socket;
+  transport::Decoder decoder;
+  std::vector<uint8_t> buffer = std::vector<uint8_t>(1 << 20);
+  Subscriber(void* context, const std::string& endpoint) : socket(zmq_socket(context, ZMQ_SUB)) {
+    int linger = 0, hwm = 100000;
+    zmq_setsockopt(socket, ZMQ_LINGER, &linger, sizeof linger);
+    zmq_setsockopt(socket, ZMQ_RCVHWM, &hwm, sizeof hwm);
+    zmq_setsockopt(socket, ZMQ_SUBSCRIBE, "", 0);
+    zmq_connect(socket, endpoint.c_str());
+  }
+  ~Subscriber() { zmq_close(socket); }
+  transport::MessageKind next(int timeout_ms) {
+    zmq_pollitem_t item{socket, 0, ZMQ_POLLIN, 0};
+    if (zmq_poll(&item, 1, timeout_ms) <= 0) return transport::MessageKind::kNone;
+    const int n = zmq_recv(socket, buffer.data(), buffer.size(), 0);
+    if (n < 0) return transport::MessageKind::kNone;
+    return decoder.decode(buffer.data(), static_cast<size_t>(n));
+  }
+  // Waits until the stream's definition comes back (the stream is open and we are joined).
+  bool joined(uint64_t id, int seconds = 10) {
+    const auto end = Clock::now() + std::chrono::seconds(seconds);
+    while (Clock::now() < end)
+      if (next(100) == transport::MessageKind::kSkeleton && decoder.stream_id() == id) return true;
+    return false;
+  }
+  // Frame sequences of the stream's results until `want` arrived or the time is up.
+  std::multiset<uint64_t> results(uint64_t id, size_t want, int seconds = 20) {
+    std::multiset<uint64_t> seen;
+    const auto end = Clock::now() + std::chrono::seconds(seconds);
+    while (seen.size() < want && Clock::now() < end)
+      if (next(100) == transport::MessageKind::kResult && decoder.result().stream_id == id)
+        seen.insert(decoder.result().frame_sequence);
+    // Anything more within a short grace period (a forged result would show here).
+    const auto grace = Clock::now() + std::chrono::milliseconds(300);
+    while (Clock::now() < grace)
+      if (next(50) == transport::MessageKind::kResult && decoder.result().stream_id == id)
+        seen.insert(decoder.result().frame_sequence);
+    return seen;
+  }
+};
+
+RuntimeConfig config_for_tests() {
+  RuntimeConfig config;
+  config.workers = 2;
+  config.publish.endpoints = {"tcp://127.0.0.1:*"};
+  config.ingest.kind = transport::IngestKind::kPull;
+  config.ingest.endpoints = {"bind:tcp://127.0.0.1:*"};
+  return config;
+}
+
+// Every message received is in exactly one counter, and the senders' total was received
+// (loopback TCP loses nothing).
+void expect_adds_up(const transport::IngestCounters& c, uint64_t sent) {
+  EXPECT_EQ(c.received, sent);
+  EXPECT_EQ(c.frames + c.skeletons + c.repeated_skeletons + c.closes + c.other_shard + c.dropped_total(), c.received);
+}
+
+std::multiset<uint64_t> sequences(uint64_t first, uint64_t last) {
+  std::multiset<uint64_t> s;
+  for (uint64_t i = first; i <= last; ++i) s.insert(i);
+  return s;
+}
+
+// Waits until the runtime received `n` ingest messages (its snapshot lags by up to 50 ms).
+void wait_received(const Runtime& runtime, uint64_t n) {
+  const auto end = Clock::now() + std::chrono::seconds(10);
+  while (runtime.counters().ingest.received < n && Clock::now() < end)
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+}
+
+constexpr uint64_t kReal = 7;
+
+TEST(runtime_attack, ForgedDefinitionCannotTakeTheStream) {
+  Runtime runtime(config_for_tests());
+  void* context = zmq_ctx_new();
+  {
+    Subscriber sub(context, runtime.publish_endpoint());
+    Sender real(context, runtime.ingest_endpoint()), forger(context, runtime.ingest_endpoint());
+    real.definition(clip().definition(kReal));
+    ASSERT_TRUE(sub.joined(kReal));
+    for (int i = 0; i < 40; ++i) real.frame(kReal, static_cast<uint64_t>(i), 1 + i);
+    wait_received(runtime, real.sent);
+    // A higher revision from another sender, with a skeleton of its own, and its frames.
+    SkeletonDefinition forged = clip().definition(kReal, 9);
+    forger.definition(forged);
+    for (int i = 0; i < 20; ++i) forger.frame(kReal, static_cast<uint64_t>(40 + i), 500 + i);
+    wait_received(runtime, real.sent + forger.sent);
+    // The real source re-sends its definition (periodic) and goes on.
+    real.definition(clip().definition(kReal));
+    for (int i = 40; i < 120; ++i) real.frame(kReal, static_cast<uint64_t>(i), 1 + i);
+    const auto seen = sub.results(kReal, 120);
+    EXPECT_EQ(seen, sequences(0, 119)) << "the real stream keeps every result, and only its own";
+    wait_received(runtime, real.sent + forger.sent);
+    const RuntimeCounters c = runtime.counters();
+    EXPECT_EQ(c.ingest.not_owner, 21u) << "the forged definition and its 20 frames";
+    EXPECT_EQ(c.ingest.restarts, 0u);
+    EXPECT_EQ(c.ingest.repeated_skeletons, 1u);
+    expect_adds_up(c.ingest, real.sent + forger.sent);
+    // The same counters in the published stats message (every second), adding up there too.
+    bool stats_seen = false;
+    const auto end = Clock::now() + std::chrono::seconds(5);
+    while (!stats_seen && Clock::now() < end) {
+      if (sub.next(100) != transport::MessageKind::kStats) continue;
+      const transport::StatsFields st = sub.decoder.stats();
+      if (st.received != real.sent + forger.sent) continue;
+      stats_seen = true;
+      EXPECT_EQ(st.not_owner, 21u);
+      EXPECT_EQ(st.frames + st.definitions + st.repeated_definitions + st.closes + st.other_shard + st.dropped,
+                st.received);
+      EXPECT_EQ(st.malformed + st.not_owner + st.refused_limit + st.refused_definitions + st.unknown_stream +
+                    st.wrong_joint_count + st.out_of_order + st.out_of_window + st.stale + st.other_kind,
+                st.dropped);
+      EXPECT_EQ(st.frames_in, st.frames);
+      ASSERT_EQ(st.per_stream.size(), 1u);
+      EXPECT_EQ(st.per_stream[0].stream_id, kReal);
+      EXPECT_EQ(st.per_stream[0].published, 120u);
+      EXPECT_EQ(st.per_stream[0].results + st.per_stream[0].refused + st.per_stream[0].queue_full,
+                st.per_stream[0].frames_in + st.per_stream[0].queue_full);
+    }
+    EXPECT_TRUE(stats_seen) << "a stats message with every message counted";
+  }
+  zmq_ctx_term(context);
+}
+
+TEST(runtime_attack, WildSequencesCannotPoisonTheStream) {
+  Runtime runtime(config_for_tests());
+  void* context = zmq_ctx_new();
+  {
+    Subscriber sub(context, runtime.publish_endpoint());
+    Sender real(context, runtime.ingest_endpoint()), forger(context, runtime.ingest_endpoint());
+    real.definition(clip().definition(kReal));
+    ASSERT_TRUE(sub.joined(kReal));
+    for (int i = 0; i < 40; ++i) real.frame(kReal, static_cast<uint64_t>(i), 1 + i);
+    // Wild numbers on the owner's own connection (a broken source) ...
+    real.frame(kReal, 1ULL << 62, 300);
+    real.frame(kReal, ~0ULL, 301);
+    wait_received(runtime, real.sent);
+    // ... and forty forged restarts (sequence 0) from another sender.
+    for (int i = 0; i < 40; ++i) forger.frame(kReal, 0, 600 + i);
+    wait_received(runtime, real.sent + forger.sent);
+    for (int i = 40; i < 120; ++i) real.frame(kReal, static_cast<uint64_t>(i), 1 + i);
+    const auto seen = sub.results(kReal, 120);
+    EXPECT_EQ(seen, sequences(0, 119)) << "every real frame scored once, no forged restart published";
+    wait_received(runtime, real.sent + forger.sent);
+    const RuntimeCounters c = runtime.counters();
+    EXPECT_EQ(c.ingest.out_of_window, 2u);
+    EXPECT_EQ(c.ingest.out_of_order, 0u);
+    EXPECT_EQ(c.ingest.sequence_gaps, 0u) << "no gap counted for the wild numbers";
+    EXPECT_EQ(c.ingest.not_owner, 40u);
+    EXPECT_EQ(c.ingest.restarts, 0u);
+    expect_adds_up(c.ingest, real.sent + forger.sent);
+  }
+  zmq_ctx_term(context);
+}
+
+TEST(runtime_attack, DefinitionFloodIsRefusedCheaplyAndExpires) {
+  RuntimeConfig config = config_for_tests();
+  config.ingest.limits.max_streams_per_sender = 64;
+  config.ingest.limits.idle_ns = 1'500'000'000;  // 1.5 s: the flood's streams expire in the test
+  Runtime runtime(config);
+  void* context = zmq_ctx_new();
+  {
+    Subscriber sub(context, runtime.publish_endpoint());
+    Sender flood(context, runtime.ingest_endpoint());
+    for (uint64_t id = 1000; id < 2024; ++id) flood.definition(clip().definition(id));
+    wait_received(runtime, flood.sent);
+    RuntimeCounters c = runtime.counters();
+    EXPECT_EQ(c.streams, 64u) << "a sender opens at most max_streams_per_sender";
+    EXPECT_EQ(c.ingest.refused_limit, 1024u - 64u);
+    // A real sender still gets in, and keeps every result.
+    Sender real(context, runtime.ingest_endpoint());
+    real.definition(clip().definition(kReal));
+    ASSERT_TRUE(sub.joined(kReal));
+    for (int i = 0; i < 120; ++i) real.frame(kReal, static_cast<uint64_t>(i), 1 + i);
+    EXPECT_EQ(sub.results(kReal, 120), sequences(0, 119));
+    // Idle streams expire: the flood's 64 (silent since) and then the real one.
+    const auto end = Clock::now() + std::chrono::seconds(10);
+    while (runtime.counters().streams > 0 && Clock::now() < end)
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    c = runtime.counters();
+    EXPECT_EQ(c.streams, 0u);
+    EXPECT_EQ(c.closed_streams, 65u);
+    EXPECT_EQ(c.ingest.expired, 65u);
+    EXPECT_EQ(c.total.published, 120u) << "a closed stream's counters stay in the totals";
+    // The ids are free again: the flood's sender may define 64 anew.
+    for (uint64_t id = 3000; id < 3064; ++id) flood.definition(clip().definition(id));
+    wait_received(runtime, flood.sent + real.sent);
+    c = runtime.counters();
+    EXPECT_EQ(c.streams, 64u);
+    expect_adds_up(c.ingest, flood.sent + real.sent);
+  }
+  zmq_ctx_term(context);
+}
+
+long rss_kb() {
+  std::ifstream status("/proc/self/status");
+  std::string line;
+  while (std::getline(status, line))
+    if (line.rfind("VmRSS:", 0) == 0) return std::stol(line.substr(6));
+  return -1;
+}
+
+TEST(runtime_attack, OversizedMessageCostsNoMemory) {
+  Runtime runtime(config_for_tests());  // max_message_bytes 1 MiB
+  void* context = zmq_ctx_new();
+  {
+    Subscriber sub(context, runtime.publish_endpoint());
+    Sender real(context, runtime.ingest_endpoint());
+    real.definition(clip().definition(kReal));
+    ASSERT_TRUE(sub.joined(kReal));
+    const long before = rss_kb();
+    // 256 MB from another connection, sent without a copy from pages never written (they cost
+    // this process nothing until someone stores them).
+    const size_t size = 256u << 20;
+    void* pages = mmap(nullptr, size, PROT_READ, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+    ASSERT_NE(pages, MAP_FAILED);
+    void* big = zmq_socket(context, ZMQ_PUSH);
+    int linger = 0;
+    zmq_setsockopt(big, ZMQ_LINGER, &linger, sizeof linger);
+    zmq_connect(big, runtime.ingest_endpoint().c_str());
+    zmq_msg_t message;
+    zmq_msg_init_data(&message, pages, size, nullptr, nullptr);
+    zmq_msg_send(&message, big, 0);
+    for (int i = 0; i < 120; ++i) {
+      real.frame(kReal, static_cast<uint64_t>(i), 1 + i);
+      if (i % 10 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    EXPECT_EQ(sub.results(kReal, 120), sequences(0, 119));
+    const long grown_mb = (rss_kb() - before) / 1024;
+    std::printf("RSS grew %ld MB around a 256 MB message\n", grown_mb);
+    EXPECT_LT(grown_mb, 50);
+    zmq_close(big);
+    munmap(pages, size);
+    const RuntimeCounters c = runtime.counters();
+    EXPECT_GE(c.ingest.disconnections, 1u) << "ZeroMQ dropped the connection that sent it";
+    expect_adds_up(c.ingest, real.sent);
+  }
+  zmq_ctx_term(context);
+}
+
+TEST(runtime_attack, StaleFramesAreDroppedNotScoredLate) {
+  Runtime runtime(config_for_tests());  // max frame age 250 ms
+  void* context = zmq_ctx_new();
+  {
+    Subscriber sub(context, runtime.publish_endpoint());
+    Sender real(context, runtime.ingest_endpoint());
+    real.definition(clip().definition(kReal));
+    ASSERT_TRUE(sub.joined(kReal));
+    transport::Encoder& e = real.encoder;
+    const int64_t dt = 33'333'333;  // 30 Hz
+    const int64_t start = now_ns();
+    uint64_t sequence = 0;
+    // 30 frames at their time.
+    for (int i = 0; i < 30; ++i) {
+      std::this_thread::sleep_until(Clock::time_point(std::chrono::nanoseconds(start + i * dt)));
+      real.send(e.frame(kReal, sequence++, now_ns(), clip().frame(1 + i), clip().joints()));
+    }
+    // An outage of a second, then the 30 frames captured during it arrive at once, then live again.
+    std::this_thread::sleep_until(Clock::time_point(std::chrono::nanoseconds(start + 60 * dt)));
+    int expected_stale = 0;
+    const int64_t burst = now_ns();
+    for (int i = 30; i < 60; ++i) {
+      const int64_t capture = start + i * dt;
+      if (burst - capture > 250'000'000 + 5'000'000) ++expected_stale;  // 5 ms spared for the delivery
+      real.send(e.frame(kReal, sequence++, capture, clip().frame(1 + i), clip().joints()));
+    }
+    for (int i = 60; i < 90; ++i) {
+      std::this_thread::sleep_until(Clock::time_point(std::chrono::nanoseconds(start + i * dt)));
+      real.send(e.frame(kReal, sequence++, now_ns(), clip().frame(1 + i), clip().joints()));
+    }
+    const auto seen = sub.results(kReal, 90u - static_cast<size_t>(expected_stale));
+    wait_received(runtime, real.sent);
+    const RuntimeCounters c = runtime.counters();
+    // Frames within a few milliseconds of the bound may fall either way on a loaded machine.
+    EXPECT_NEAR(static_cast<double>(c.ingest.stale), expected_stale, 2.0);
+    EXPECT_EQ(seen.size() + c.ingest.stale, 90u) << "every frame either scored or counted stale";
+    EXPECT_EQ(c.ingest.out_of_order, 0u) << "a fresh frame after stale ones is in order";
+    expect_adds_up(c.ingest, real.sent);
+  }
+  zmq_ctx_term(context);
+}
+
+TEST(runtime_attack, OwnerRevisionRestartsAndCloseFreesTheId) {
+  Runtime runtime(config_for_tests());
+  void* context = zmq_ctx_new();
+  {
+    Subscriber sub(context, runtime.publish_endpoint());
+    Sender real(context, runtime.ingest_endpoint()), other(context, runtime.ingest_endpoint());
+    real.definition(clip().definition(kReal, 1));
+    ASSERT_TRUE(sub.joined(kReal));
+    for (int i = 0; i < 30; ++i) real.frame(kReal, static_cast<uint64_t>(i), 1 + i);
+    // The owner's new revision (same skeleton): the stream restarts, numbering from 0 again.
+    real.definition(clip().definition(kReal, 2));
+    for (int i = 0; i < 30; ++i) real.frame(kReal, static_cast<uint64_t>(i), 100 + i);
+    auto seen = sub.results(kReal, 60);
+    EXPECT_EQ(seen.size(), 60u);
+    wait_received(runtime, real.sent);
+    RuntimeCounters c = runtime.counters();
+    EXPECT_EQ(c.ingest.revisions, 1u);
+    EXPECT_EQ(c.ingest.restarts, 1u);
+    EXPECT_EQ(c.total.refused, 0u) << "the restart kept the pipeline's time increasing";
+    // A revision with another skeleton (bones twice as long) reopens the stream with it.
+    SkeletonDefinition small = clip().definition(kReal, 3);
+    for (auto& o : small.skeleton.offsets) o *= 2.0;
+    real.definition(small);
+    wait_received(runtime, real.sent);
+    c = runtime.counters();
+    EXPECT_EQ(c.streams, 1u);
+    EXPECT_EQ(c.closed_streams, 1u);
+    // Only the owner closes: another sender's close is refused.
+    SkeletonDefinition close = small;
+    close.closed = true;
+    other.definition(close);
+    wait_received(runtime, real.sent + other.sent);
+    EXPECT_EQ(runtime.counters().streams, 1u);
+    real.definition(close);
+    wait_received(runtime, real.sent + other.sent);
+    c = runtime.counters();
+    EXPECT_EQ(c.streams, 0u);
+    EXPECT_EQ(c.ingest.closes, 1u);
+    EXPECT_EQ(c.ingest.not_owner, 1u);
+    // The id is free: another sender may define it now.
+    other.definition(clip().definition(kReal, 1));
+    wait_received(runtime, real.sent + other.sent);
+    c = runtime.counters();
+    EXPECT_EQ(c.streams, 1u);
+    expect_adds_up(c.ingest, real.sent + other.sent);
+  }
+  zmq_ctx_term(context);
+}
+
+// 1,100 idle TCP connections against a server limited to 1,024 open files: they are closed
+// (beyond max_connections at once, the rest once their handshake time is up) and the real
+// sender gets in.
+TEST(runtime_attack, IdleConnectionsCannotLockTheSenderOut) {
+  rlimit limit{};
+  getrlimit(RLIMIT_NOFILE, &limit);
+  if (limit.rlim_max < 1024) GTEST_SKIP() << "needs 1024 open files";
+  limit.rlim_cur = 1024;
+  ASSERT_EQ(setrlimit(RLIMIT_NOFILE, &limit), 0);
+  RuntimeConfig config = config_for_tests();
+  config.ingest.max_connections = 64;
+  Runtime runtime(config);
+  const std::string endpoint = runtime.ingest_endpoint();
+  const int port = std::stoi(endpoint.substr(endpoint.rfind(':') + 1));
+  // The idle connections come from a child process (its own open-file limit).
+  int ready[2];
+  ASSERT_EQ(pipe(ready), 0);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    rlimit more{4096, 4096};
+    setrlimit(RLIMIT_NOFILE, &more);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(static_cast<uint16_t>(port));
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    int opened = 0;
+    for (int i = 0; i < 1100; ++i) {
+      const int fd = socket(AF_INET, SOCK_STREAM, 0);
+      if (fd >= 0 && connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0) ++opened;
+    }
+    (void)!write(ready[1], &opened, sizeof opened);
+    pause();
+    _exit(0);
+  }
+  close(ready[1]);
+  int opened = 0;
+  ASSERT_EQ(read(ready[0], &opened, sizeof opened), static_cast<ssize_t>(sizeof opened));
+  close(ready[0]);
+  std::printf("%d idle connections held\n", opened);
+  void* context = zmq_ctx_new();
+  {
+    Subscriber sub(context, runtime.publish_endpoint());
+    Sender real(context, endpoint);
+    // A refused connection may lose what it carried: the source re-sends its definition (as
+    // kata send does) until the stream is open.
+    bool joined = false;
+    for (int attempt = 0; attempt < 40 && !joined; ++attempt) {
+      real.definition(clip().definition(kReal));
+      joined = sub.joined(kReal, 0) || sub.joined(kReal, 1);
+    }
+    // A connection cut over the limit may have delivered the definition before it was cut: its
+    // streams wait for the owner's next periodic definition (kata send re-sends every second),
+    // which the source's new connection sends here before its frames.
+    std::this_thread::sleep_for(std::chrono::milliseconds(2500));
+    real.definition(clip().definition(kReal));
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    if (joined)
+      for (int i = 0; i < 120; ++i) real.frame(kReal, static_cast<uint64_t>(i), 1 + i);
+    const auto seen = joined ? sub.results(kReal, 120) : std::multiset<uint64_t>{};
+    kill(child, SIGKILL);
+    waitpid(child, nullptr, 0);
+    ASSERT_TRUE(joined) << "the real sender's definition never got in";
+    EXPECT_EQ(seen, sequences(0, 119));
+    const RuntimeCounters c = runtime.counters();
+    EXPECT_GT(c.ingest.connections_refused, 0u);
+    EXPECT_LE(c.ingest.received, real.sent);
+    EXPECT_EQ(c.ingest.frames, 120u);
+  }
+  zmq_ctx_term(context);
+}
+
+}  // namespace
+}  // namespace kata::runtime
