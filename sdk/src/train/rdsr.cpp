@@ -49,6 +49,22 @@ Eigen::VectorXd Normaliser::operator()(const float* x) const {
   return v;
 }
 
+void weigh_kinetics(Normaliser& n, double gain) {
+  if (!(gain > 0.0) || !std::isfinite(gain))
+    throw Error(ErrorKind::kInvalidArgument, "normalisation: the kinetic weight must be finite and > 0");
+  if (n.kind == metric::Normalisation::kMinMaxUnit) {
+    n.shift.assign(gpd::kDims, 0.0f);
+    n.scale.assign(gpd::kDims, 0.0f);
+    for (int i = 0; i < gpd::kDims; ++i) {
+      const double range = static_cast<double>(n.max[i]) - n.min[i];
+      n.shift[i] = n.min[i];
+      n.scale[i] = range > 0 ? static_cast<float>(1.0 / range) : 0.0f;
+    }
+    n.kind = metric::Normalisation::kBlockBalanced;
+  }
+  for (int i = gpd::kOffsetJk; i < gpd::kDims; ++i) n.scale[i] = static_cast<float>(n.scale[i] * gain);
+}
+
 Normaliser fit_normaliser(const std::vector<const float*>& rows, metric::Normalisation kind) {
   if (rows.empty()) throw Error(ErrorKind::kInvalidArgument, "normalisation: no training poses");
   Normaliser n;

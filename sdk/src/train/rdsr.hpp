@@ -28,6 +28,12 @@ struct Normaliser {
 // rows: pointers to raw feature vectors (gpd::kDims floats each).
 Normaliser fit_normaliser(const std::vector<const float*>& rows, metric::Normalisation kind);
 
+// Multiplies the normalised kinetics block (block 9) by `gain` before the unit-length step. A
+// min/max normaliser becomes the per-dimension shift/scale kind (shift = min, scale = 1 / range,
+// 0 for a constant dimension) with the same output at gain 1; a block-balanced one keeps its
+// kind. Throws kInvalidArgument unless gain is finite and > 0.
+void weigh_kinetics(Normaliser& n, double gain);
+
 // A pair of poses (as columns of some matrix) with a 1/0 label.
 struct IndexPair {
   int a = 0, b = 0;
