@@ -553,6 +553,30 @@ TEST(Rdsr, PcaRestriction) {
   EXPECT_LE((sub.w - basis * (basis.transpose() * sub.w)).norm(), 1e-8);  // inside span(P)
 }
 
+TEST(Rdsr, NegativeWeightKeepsWhatNegativesDifferIn) {
+  // Negative pairs differ only along dimension 0, positives a little everywhere: with the
+  // negatives' scatter in the numerator W keeps dimension 0 (|W^T e_0| near 1), the beta
+  // reported is negative_weight x Tr(X S_C X^T) / Tr(S_B), and without negative pairs it refuses.
+  const int d = 12, n = 200, p = 60;
+  Eigen::MatrixXd x = random_matrix(d, n, 15), pa = random_matrix(d, p, 16);
+  Eigen::MatrixXd pb = pa + 0.3 * random_matrix(d, p, 17);
+  Eigen::MatrixXd na = random_matrix(d, p, 18), nb = na;
+  nb.row(0) += 3.0 * Eigen::RowVectorXd::Ones(p);
+  RdsrOptions opt;
+  opt.rank = 3;
+  opt.lasso.gamma = 0.5;
+  opt.negative_weight = 10.0;
+  const RdsrResult r = train_rdsr(x, pa, pb, opt, {}, na, nb);
+  EXPECT_GT(r.w.row(0).norm(), 0.99);
+  EXPECT_NEAR(r.trace_sb, within_scatter(na, nb, 1).trace(), 1e-9 * r.trace_sb);
+  EXPECT_NEAR(r.beta_absolute, 10.0 * r.trace_sc / r.trace_sb, 1e-12 * r.beta_absolute);
+  opt.negative_weight = 0.0;
+  const RdsrResult plain = train_rdsr(x, pa, pb, opt);
+  EXPECT_LT(plain.w.row(0).norm(), r.w.row(0).norm());
+  opt.negative_weight = 1.0;
+  EXPECT_THROW(train_rdsr(x, pa, pb, opt), kata::Error);
+}
+
 #include "train/retrieval.hpp"
 
 TEST(Retrieval, HandComputedPrecisionAtScope) {

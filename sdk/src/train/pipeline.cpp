@@ -198,7 +198,18 @@ TrainOutput train_model(ClipStore& store, const std::vector<std::string>& clips,
   stage("normalise + sample");
   if (!cfg.lasso_compare_dir.empty()) write_lasso_benchmark(x, cfg, say);
   // 4. RDSR.
-  out.rdsr = train_rdsr(x, pa, pb, cfg.rdsr, log);
+  Eigen::MatrixXd na, nb;
+  if (cfg.rdsr.negative_weight > 0.0) {
+    std::vector<const float*> neg_a, neg_b;
+    for (size_t i = 0; i < pr.label.size(); ++i)
+      if (pr.label[i] == 0) {
+        neg_a.push_back(pr.a[i]);
+        neg_b.push_back(pr.b[i]);
+      }
+    na = normalised_columns(out.normaliser, neg_a);
+    nb = normalised_columns(out.normaliser, neg_b);
+  }
+  out.rdsr = train_rdsr(x, pa, pb, cfg.rdsr, log, na, nb);
   for (const auto& s : out.rdsr.stages) out.stages.push_back(s);
   t0 = clock::now();
   // 5. delta*: eq. 37's best threshold on the training pairs.
