@@ -1,6 +1,7 @@
 // kata eval: the paper's transition-decision precision (eq. 36-37, best threshold by exhaustive
 // search) on a test pair file, for JCD, WJCD, GPD + L2, GPD + LMS, GPD + RDSR and RDSR with N' = 0;
 // with --retrieval also the content-based pose retrieval of the paper's section 6 (retrieval.hpp).
+#include <algorithm>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -34,6 +35,18 @@ struct EvalArgs {
   int stride = 4;      // k-means over every stride-th frame (120 fps: 30 fps)
   std::vector<int> retrieval_subjects;  // empty: every clip of --data with a motion type
   std::string motion_types;             // default: <data>/README.md
+  // Record the precision figures in the first model's metadata (TrainingInfo.evaluation, each
+  // named "<figure_prefix>: <method>") and write that model to store_in (may be the input).
+  std::string store_in, figure_prefix;
+};
+
+// What a distance weighs on the test pairs: the share of its square that comes from the
+// kinetics block (block 9) against the static blocks 1-8, per label, and the precision of each
+// part alone (cross terms of W^T e between the parts left out of the shares).
+struct WeighRow {
+  std::string method, model;
+  double kinetic_share_pos = 0.0, kinetic_share_neg = 0.0;
+  double static_only = 0.0, kinetic_only = 0.0;
 };
 
 const std::vector<int> kScopes = {5, 10, 20};
@@ -65,6 +78,34 @@ void run_eval(const EvalArgs& a) {
   const PairRows tr = pair_rows(store, test.pairs);
   const PairRows trn = pair_rows(store, train_pairs);
   std::vector<Row> rows;
+  std::vector<WeighRow> weigh;
+  // Static part, kinetic part (squared distances of each alone) -> shares and precision alone.
+  auto weigh_row = [&](const std::string& method, const std::string& model, const std::vector<double>& st,
+                       const std::vector<double>& ki) {
+    WeighRow w{method, model};
+    double sp = 0.0, sn = 0.0;
+    int np = 0, nn = 0;
+    for (size_t i = 0; i < st.size(); ++i) {
+      const double tot = st[i] + ki[i];
+      const double share = tot > 0 ? ki[i] / tot : 0.0;
+      if (tr.label[i] == 1) {
+        sp += share;
+        ++np;
+      } else {
+        sn += share;
+        ++nn;
+      }
+    }
+    w.kinetic_share_pos = np ? sp / np : 0.0;
+    w.kinetic_share_neg = nn ? sn / nn : 0.0;
+    w.static_only = best_threshold(st, tr.label).precision;
+    w.kinetic_only = best_threshold(ki, tr.label).precision;
+    std::printf("  weighs %-15s %-28s kinetic share of d^2: positives %.3f negatives %.3f; precision static "
+                "only %.4f, kinetic only %.4f\n",
+                method.c_str(), model.c_str(), w.kinetic_share_pos, w.kinetic_share_neg, w.static_only,
+                w.kinetic_only);
+    return w;
+  };
   // Section 6: k-means pose centres per subject, each a query against the rest of the pool.
   kata::train::RetrievalSet rset;
   std::vector<int> rcat, rsub;
@@ -113,8 +154,16 @@ void run_eval(const EvalArgs& a) {
       d[i] = jcd(tr.a[i], tr.b[i], false);
       dw[i] = jcd(tr.a[i], tr.b[i], true);
     }
+    std::vector<double> dl(n), dpos(n), dvel(n);
+    for (size_t i = 0; i < n; ++i) {
+      dl[i] = jcd_local(tr.a[i], tr.b[i]);
+      dpos[i] = jcd(tr.a[i], tr.b[i], false, 0.0);
+      dvel[i] = d[i] - dpos[i];
+    }
     add("JCD", "-", "raw", d);
+    add("JCD (issue 27)", "-", "raw", dl);
     add("WJCD", "-", "raw", dw);
+    weigh.push_back(weigh_row("JCD", "-", dpos, dvel));
     if (a.retrieval) {
       Eigen::MatrixXd rd(rn, rn), rdw(rn, rn);
       for (Eigen::Index i = 0; i < rn; ++i)
@@ -141,6 +190,21 @@ void run_eval(const EvalArgs& a) {
     }
     const std::string nn = norm_name(model.normalisation);
     add("GPD+L2", label, nn, l2);
+    {
+      const Eigen::Index ks = kata::gpd::kOffsetJk, kk = kata::gpd::kKineticDims;
+      const Eigen::MatrixXd ps = w.topRows(ks).transpose() * diff.topRows(ks);
+      const Eigen::MatrixXd pk = w.bottomRows(kk).transpose() * diff.bottomRows(kk);
+      std::vector<double> ls(n), lk(n), rs(n), rk(n);
+      for (size_t i = 0; i < n; ++i) {
+        const auto c = static_cast<Eigen::Index>(i);
+        ls[i] = diff.col(c).topRows(ks).squaredNorm();
+        lk[i] = diff.col(c).bottomRows(kk).squaredNorm();
+        rs[i] = ps.col(c).squaredNorm();
+        rk[i] = pk.col(c).squaredNorm();
+      }
+      weigh.push_back(weigh_row("GPD+L2", label, ls, lk));
+      weigh.push_back(weigh_row("GPD+RDSR", label, rs, rk));
+    }
     const Eigen::MatrixXd rx = a.retrieval ? normalised_columns(norm, rrows) : Eigen::MatrixXd();
     if (a.retrieval) radd("GPD+L2", label, nn, pairwise_sq_l2(rx));
     if (!train_pairs.empty()) {
@@ -178,6 +242,24 @@ void run_eval(const EvalArgs& a) {
     fixed.p.total = static_cast<int>(n);
     rows.push_back(fixed);
   }
+  if (!a.store_in.empty()) {
+    if (a.models.empty()) throw kata::Error(kata::ErrorKind::kInvalidArgument, "eval: --store-in needs --model");
+    kata::metric::Model m = kata::metric::load_model(a.models[0]);
+    const std::string label0 = a.labels.empty() ? std::filesystem::path(a.models[0]).stem().string() : a.labels[0];
+    const std::string prefix = a.figure_prefix.empty() ? std::filesystem::path(a.pairs).stem().string() : a.figure_prefix;
+    for (const auto& r : rows) {
+      if (r.model != "-" && r.model != label0) continue;
+      const std::string name = prefix + ": " + r.method;
+      auto& ev = m.info.evaluation;
+      auto it = std::find_if(ev.begin(), ev.end(), [&](const auto& f) { return f.first == name; });
+      if (it != ev.end())
+        it->second = r.p.precision;
+      else
+        ev.push_back({name, r.p.precision});
+    }
+    kata::metric::save_model(a.store_in, m);
+    std::printf("figures stored as '%s: <method>' in %s\n", prefix.c_str(), a.store_in.c_str());
+  }
   if (a.out_dir.empty()) return;
   std::filesystem::create_directories(a.out_dir);
   const std::string csv = a.out_dir + "/eval.csv";
@@ -192,6 +274,13 @@ void run_eval(const EvalArgs& a) {
       for (size_t s = 0; s < kScopes.size(); ++s)
         out << "Retrieval " << r.pool << ": " << r.method << "," << r.model << "," << r.normalisation << "," << r.p[s]
             << "," << kScopes[s] << ",0," << r.queries << "\n";
+  }
+  {
+    std::ofstream out(a.out_dir + "/weighs.csv");
+    out << "method,model,kinetic_share_positives,kinetic_share_negatives,static_only,kinetic_only\n";
+    for (const auto& w : weigh)
+      out << w.method << "," << w.model << "," << w.kinetic_share_pos << "," << w.kinetic_share_neg << ","
+          << w.static_only << "," << w.kinetic_only << "\n";
   }
   const std::string rcsv = a.out_dir + "/retrieval.csv";
   if (a.retrieval) {
@@ -222,6 +311,20 @@ void run_eval(const EvalArgs& a) {
       out << "| " << r.method << " | " << r.model << " | " << r.normalisation << " | " << buf << " |\n";
     }
     if (a.plot) out << "\n![precision by method](eval.png)\n";
+    out << "\n## What each distance weighs\n\n"
+           "Share of the squared distance from the kinetics block (block 9: velocities and accelerations; "
+           "for JCD its velocity term) against the static blocks 1-8 (for JCD its position term), mean "
+           "over the test pairs of each label, and the precision of each part alone (eq. 37). For RDSR "
+           "the parts are |W_static^T e_static|^2 and |W_kin^T e_kin|^2 (their cross term is left out "
+           "of the shares).\n\n"
+           "| method | model | kinetic share, positives | kinetic share, negatives | static part alone | "
+           "kinetic part alone |\n|---|---|---|---|---|---|\n";
+    for (const auto& wr : weigh) {
+      char buf[128];
+      std::snprintf(buf, sizeof buf, "%.3f | %.3f | %.4f | %.4f", wr.kinetic_share_pos, wr.kinetic_share_neg,
+                    wr.static_only, wr.kinetic_only);
+      out << "| " << wr.method << " | " << wr.model << " | " << buf << " |\n";
+    }
     if (a.retrieval) {
       out << "\n## Retrieval (Section 6)\n\n"
           << "Per subject, K = " << a.clusters << " k-means pose centres (seed " << a.seed
@@ -279,6 +382,11 @@ void setup(CLI::App& app) {
   cmd->add_option("--retrieval-subjects", a->retrieval_subjects, "retrieval: CMU subjects (default: all clips)")
       ->delimiter(',');
   cmd->add_option("--motion-types", a->motion_types, "retrieval: README with a 'motion type' table (default <data>/README.md)");
+  cmd->add_option("--store-in", a->store_in, "write the first --model with this evaluation's precision figures in its "
+                                             "metadata (model-info lists them) to this file (may be the input)");
+  cmd->add_option("--figure-prefix", a->figure_prefix,
+                  "name of the stored figures: '<prefix>: <method>' (default: the test pair file's name); say the "
+                  "protocol and the held-out subjects");
   cmd->callback([a] { run_eval(*a); });
 }
 

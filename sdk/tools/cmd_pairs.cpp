@@ -19,6 +19,7 @@ struct PairsArgs {
   std::vector<int> subjects;
   int split_every = 0, threads = 2;
   kata::train::TransitionOptions tr;
+  kata::train::UniformTransitionOptions ut;
   kata::train::CrossBodyOptions cb;
   int per_class = 500;
   uint64_t seed = 1;
@@ -57,6 +58,13 @@ void run_pairs(PairsArgs a) {
     cmd << " --tau-f " << (a.tr.tau_f > 0 ? a.tr.tau_f : a.tau) << " --window " << a.tr.window << " --max-attempts "
         << a.tr.max_attempts;
     pairs = transition_pairs(store, clips, a.tr, a.threads, log);
+  } else if (a.protocol == "transition-uniform") {
+    a.ut.tau = a.tau;
+    a.ut.per_class = a.per_class;
+    a.ut.seed = a.seed;
+    cmd << " --pos-below " << a.ut.pos_below << " --neg-above " << a.ut.neg_above << " --future-frames "
+        << a.ut.future_frames << " --max-draws " << a.ut.max_attempts;
+    pairs = uniform_transition_pairs(store, clips, a.ut, a.threads, log);
   } else {
     a.cb.tau = a.tau;
     a.cb.per_class = a.per_class;
@@ -81,17 +89,24 @@ void setup(CLI::App& app) {
   auto a = std::make_shared<PairsArgs>();
   CLI::App* cmd = app.add_subcommand(
       "pairs", "labeled pose pairs (CSV clip_a,frame_a,clip_b,frame_b,label) by a reproducible proxy protocol: "
-               "'transition' (future agreement) or 'cross-body' (same frame on two bodies vs. close-but-rotated poses)");
+               "'transition' (future agreement, j among i's matches), 'transition-uniform' (future agreement, i and j "
+               "drawn uniformly then filtered: issue 27's independent protocol) or 'cross-body' (same frame on two "
+               "bodies vs. close-but-rotated poses)");
   cmd->add_option("clips", a->clips, "BVH files relative to --data (default: every clip of --subjects)");
   cmd->add_option("--data", a->data, "folder of BVH clips")->required();
   cmd->add_option("--subjects", a->subjects, "CMU subject numbers (files NN_*.bvh)")->delimiter(',');
-  cmd->add_option("--protocol", a->protocol, "transition | cross-body")->check(CLI::IsMember({"transition", "cross-body"}));
+  cmd->add_option("--protocol", a->protocol, "transition | transition-uniform | cross-body")
+      ->check(CLI::IsMember({"transition", "transition-uniform", "cross-body"}));
   cmd->add_option("--out", a->out, "output CSV")->required();
   cmd->add_option("--per-class", a->per_class, "pairs per label (balanced)");
   cmd->add_option("--seed", a->seed, "random seed");
   cmd->add_option("--tau", a->tau, "eq. 35 filter: mean joint distance below tau (body heights)");
   cmd->add_option("--tau-f", a->tr.tau_f, "transition: future threshold (default tau)");
   cmd->add_option("--window", a->tr.window, "transition: future window (s)");
+  cmd->add_option("--pos-below", a->ut.pos_below, "transition-uniform: positive when the future mean MJD is below this");
+  cmd->add_option("--neg-above", a->ut.neg_above, "transition-uniform: negative when the future mean MJD is above this");
+  cmd->add_option("--future-frames", a->ut.future_frames, "transition-uniform: future frames k = 1..N (120 = 1 s at 120 Hz)");
+  cmd->add_option("--max-draws", a->ut.max_attempts, "transition-uniform: uniform (i, j) draws before giving up");
   cmd->add_option("--min-gap", a->cb.min_gap, "cross-body negatives: min frame distance (s)");
   cmd->add_option("--min-angle", a->cb.min_angle, "cross-body negatives: some joint rotated more than this (deg)");
   cmd->add_option("--scaled-bodies", a->cb.scaled_bodies, "cross-body: rescaled bodies per clip");

@@ -44,7 +44,16 @@ struct ScoreArgs {
 
 void run_score(const ScoreArgs& a) {
   using namespace kata;
-  const auto metric = std::make_shared<const metric::Metric>(metric::load_model(a.model));
+  const metric::Model loaded = metric::load_model(a.model);
+  // A transition model (its evaluation figures name a transition protocol) scores similarity of
+  // futures, not a performance: say so, the scores below are not coaching scores.
+  for (const auto& figure : loaded.info.evaluation)
+    if (figure.first.find("protocol transition") != std::string::npos) {
+      std::fprintf(stderr, "note: %s is a transition model (%s); for coaching scores use models/default.kata "
+                           "(docs/model/transition.md)\n", a.model.c_str(), figure.first.c_str());
+      break;
+    }
+  const auto metric = std::make_shared<const metric::Metric>(loaded);
   // Features must use the stencil the model was trained with.
   // BVH clips through a preset or name map (row i = clip frame first + i); any other source
   // (landmark arrays, other layouts) through its layout, rows = frames that gave features.
@@ -197,7 +206,12 @@ void setup(CLI::App& app) {
       "score", "score each student frame against a teacher pose or clip: CSV of frame, time (s), distance, score "
                "(0-100), the five parts of distance^2, matched teacher frame, the five part distances and part "
                "scores (0-100), the part to fix and the feedback state");
-  cmd->add_option("--model", args->model, ".kata model")->required()->check(CLI::ExistingFile);
+  cmd->add_option("--model", args->model,
+                  ".kata model: models/default.kata for coaching (calibrated scores); models/transition.kata only "
+                  "ranks transition candidates between clips of different motion (0.836 vs JCD 0.620, held-out "
+                  "subjects 1+9, issue 27's protocol; below JCD within one subject: docs/model/transition.md)")
+      ->required()
+      ->check(CLI::ExistingFile);
   cmd->add_option("--teacher", args->teacher, "teacher motion: .bvh, or a landmark .npy/.csv (see kata features)")
       ->required()
       ->check(CLI::ExistingFile);

@@ -25,7 +25,7 @@ struct TrainArgs {
   std::vector<int> subjects;
   int unlabeled = 5000, rank = 50, threads = 2, split_every = 0, pca = 0;
   uint64_t seed = 1;
-  double alpha = 1.0, gamma = 0.05, lasso_tol = 1e-9;
+  double alpha = 1.0, gamma = 0.05, lasso_tol = 1e-9, kinetic_weight = 1.0, negative_weight = 0.0;
   bool alpha_absolute = false;
   std::vector<double> sweep_alphas;
   std::vector<int> sweep_ranks;
@@ -61,6 +61,8 @@ void run_train(const TrainArgs& a) {
   cfg.seed = a.seed;
   cfg.normalisation = a.normalisation == "block-balanced" ? kata::metric::Normalisation::kBlockBalanced
                                                           : kata::metric::Normalisation::kMinMaxUnit;
+  cfg.kinetic_weight = a.kinetic_weight;
+  cfg.rdsr.negative_weight = a.negative_weight;
   cfg.rdsr.rank = a.rank;
   cfg.rdsr.alpha = a.alpha;
   cfg.rdsr.alpha_relative = !a.alpha_absolute;
@@ -88,6 +90,9 @@ void run_train(const TrainArgs& a) {
   p["gamma"] = a.gamma;
   p["lasso_tol"] = a.lasso_tol;
   p["normalisation"] = a.normalisation;
+  p["kinetic_weight"] = a.kinetic_weight;
+  p["negative_weight"] = a.negative_weight;
+  p["beta_absolute_value"] = out.rdsr.beta_absolute;
   p["solver"] = a.solver;
   p["pca"] = a.pca;
   p["stencil"] = a.stencil;
@@ -160,6 +165,12 @@ void setup(CLI::App& app) {
   cmd->add_option("--lasso-tol", a->lasso_tol, "KKT tolerance of the sparse coding");
   cmd->add_option("--normalisation", a->normalisation, "minmax (spec: min/max then unit length) | block-balanced")
       ->check(CLI::IsMember({"minmax", "block-balanced"}));
+  cmd->add_option("--kinetic-weight", a->kinetic_weight,
+                  "gain on the normalised kinetics block before unit length (1: off; != 1 stores the "
+                  "normalisation as per-dimension shift/scale)");
+  cmd->add_option("--negative-weight", a->negative_weight,
+                  "add the negative pairs' scatter to the trace ratio's numerator, relative to Tr(X S_C X^T) "
+                  "(0: the paper's RDSR; not in the paper)");
   cmd->add_option("--solver", a->solver, "trace ratio: newton | bisection | both (both must agree)")
       ->check(CLI::IsMember({"newton", "bisection", "both"}));
   cmd->add_option("--sweep-alpha", a->sweep_alphas, "also write a model per alpha (x --sweep-rank): OUT_a<alpha>_r<rank>.kata")

@@ -110,3 +110,32 @@ TEST(CliScore, AJointThePresetNeedsIsMissingNamesTheFileTheCorrectionAndTheJoint
 }
 
 }  // namespace
+
+// Issue 27's tool path as a user runs it: pairs by the independent protocol, `kata eval` with
+// the figures stored in a copy of a model under a name that says the protocol, `model-info`
+// listing them, and `kata score` warning that a model evaluated on a transition protocol is not
+// a coaching model.
+TEST(CliTransition, ProtocolPairsEvalStoresNamedFiguresScoreNotes) {
+  const std::string data = std::string(KATA_DATA_DIR) + "/cmu";
+  const std::string pairs = kata::test::temp_path("kata_cli_uniform_pairs.csv");
+  CliRun r = run("pairs --data " + data + " 02_01.bvh 02_02.bvh 07_01.bvh --protocol transition-uniform --per-class 6 "
+                 "--seed 3 --max-draws 2000000 --out " + pairs);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("12 pairs (6 positive, 6 negative)"), std::string::npos) << r.output;
+  const std::string model = kata::test::temp_path("kata_cli_transition.kata");
+  r = run("eval --data " + data + " --pairs " + pairs + " --model " + std::string(KATA_SOURCE_DIR) +
+          "/models/default.kata --label m --store-in " + model + " --figure-prefix 'test, protocol transition-uniform'");
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("JCD (issue 27)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("weighs GPD+RDSR"), std::string::npos) << r.output;
+  r = run("model-info " + model);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("test, protocol transition-uniform: GPD+RDSR"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("test, protocol transition-uniform: JCD (issue 27)"), std::string::npos) << r.output;
+  const std::string csv = kata::test::temp_path("kata_cli_transition_scores.csv");
+  r = run("score --model " + model + " --teacher " + data + "/02_01.bvh --student " + data +
+          "/02_02.bvh --preset cmu --out " + csv);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("is a transition model"), std::string::npos) << r.output;
+  for (const std::string& f : {pairs, model, csv}) std::remove(f.c_str());
+}

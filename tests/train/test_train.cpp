@@ -244,6 +244,7 @@ TEST(Linalg, PartialEigenMatchesFullSolver) {
 #include <fstream>
 #include <set>
 
+#include "common/error.hpp"
 #include "train/clips.hpp"
 #include "train/evaluate.hpp"
 #include "train/pairs.hpp"
@@ -395,6 +396,104 @@ TEST(Pairs, TransitionIsReproducibleBalancedAndFileRoundTrips) {
   }
 }
 
+// Issue 27's independent protocol, checked against its own definition computed here from the
+// block-1 joint coordinates (hip at the origin, so MJD is the mean over 16 joints of which the
+// hip adds 0).
+TEST(Pairs, UniformTransitionFollowsTheIndependentProtocol) {
+  ClipStore store(kData);
+  const std::vector<std::string> clips = {"02_01.bvh", "02_02.bvh", "07_01.bvh", "05_02.bvh"};
+  UniformTransitionOptions o;
+  o.per_class = 12;
+  o.seed = 5;
+  o.max_attempts = 5000000;
+  const auto p1 = uniform_transition_pairs(store, clips, o, 2);
+  const auto p2 = uniform_transition_pairs(store, clips, o, 2);
+  ASSERT_EQ(p1.size(), 24u);
+  auto mjd = [](const float* a, const float* b) {
+    double s = 0.0;
+    for (int j = 0; j < 15; ++j)
+      s += std::hypot(static_cast<double>(a[3 * j]) - b[3 * j], static_cast<double>(a[3 * j + 1]) - b[3 * j + 1],
+                      static_cast<double>(a[3 * j + 2]) - b[3 * j + 2]);
+    return s / 16.0;
+  };
+  int pos = 0;
+  for (size_t i = 0; i < p1.size(); ++i) {
+    const PairRecord& r = p1[i];
+    EXPECT_EQ(r.frame_a, p2[i].frame_a);
+    EXPECT_EQ(r.clip_b, p2[i].clip_b);
+    EXPECT_NE(r.clip_a, r.clip_b);
+    const ClipData& a = store.get(r.clip_a);
+    const ClipData& b = store.get(r.clip_b);
+    // Frame 0 dropped: index 2 of the rest is BVH frame 3; i < (F - 1) - 120.
+    EXPECT_GE(r.frame_a, 3);
+    EXPECT_GE(r.frame_b, 3);
+    EXPECT_LT(r.frame_a - 1, a.frames - 1 - 120);
+    EXPECT_LT(r.frame_b - 1, b.frames - 1 - 120);
+    EXPECT_LT(mjd(a.row(r.frame_a), b.row(r.frame_b)), 0.06);
+    double f = 0.0;
+    for (int k = 1; k <= 120; ++k) f += mjd(a.row(r.frame_a + k), b.row(r.frame_b + k));
+    f /= 120.0;
+    if (r.label == 1) {
+      EXPECT_LT(f, 0.06);
+      ++pos;
+    } else {
+      EXPECT_GT(f, 0.12);
+    }
+  }
+  EXPECT_EQ(pos, 12);
+}
+
+TEST(Eval, IssueJcdHasNoHipTerms) {
+  ClipStore store(kData);
+  const ClipData& a = store.get("02_01.bvh");
+  const ClipData& b = store.get("07_01.bvh");
+  const float* x = a.row(100);
+  const float* y = b.row(80);
+  double hand = 0.0;
+  for (int j = 0; j < 15; ++j)
+    for (int c = 0; c < 3; ++c) {
+      const double dp = static_cast<double>(x[3 * j + c]) - y[3 * j + c];
+      const double dv = static_cast<double>(x[1591 + 6 * j + c]) - y[1591 + 6 * j + c];
+      hand += dp * dp + dv * dv;
+    }
+  EXPECT_NEAR(jcd_local(x, y), hand, 1e-12 * hand);
+  // The eq. 42 JCD adds the hip height and its velocity on top.
+  const double dh = static_cast<double>(x[45]) - y[45], dvh = static_cast<double>(x[1681]) - y[1681];
+  EXPECT_NEAR(jcd(x, y, false), hand + dh * dh + dvh * dvh, 1e-12 * hand);
+}
+
+TEST(Normaliser, KineticWeightScalesBlockNineOnly) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<float> u(-2.0f, 2.0f);
+  std::vector<std::vector<float>> data(20, std::vector<float>(kata::gpd::kDims));
+  std::vector<const float*> rows;
+  for (auto& r : data) {
+    for (float& v : r) v = u(rng);
+    r[7] = 0.5f;  // a constant dimension
+    rows.push_back(r.data());
+  }
+  Normaliser n = fit_normaliser(rows, kata::metric::Normalisation::kMinMaxUnit);
+  const double gain = 3.0;
+  weigh_kinetics(n, gain);
+  EXPECT_EQ(n.kind, kata::metric::Normalisation::kBlockBalanced);
+  std::vector<double> got(kata::gpd::kDims), want(kata::gpd::kDims);
+  const float* x = rows[4];
+  n.apply(x, got.data());
+  double ss = 0.0;
+  for (int i = 0; i < kata::gpd::kDims; ++i) {
+    float lo = rows[0][i], hi = rows[0][i];
+    for (const float* r : rows) {
+      lo = std::min(lo, r[i]);
+      hi = std::max(hi, r[i]);
+    }
+    const double v = hi > lo ? (static_cast<double>(x[i]) - lo) / (static_cast<double>(hi) - lo) : 0.0;
+    want[i] = i >= 1591 ? gain * v : v;
+    ss += want[i] * want[i];
+  }
+  for (int i = 0; i < kata::gpd::kDims; ++i) EXPECT_NEAR(got[i], want[i] / std::sqrt(ss), 1e-6) << i;
+  EXPECT_THROW(weigh_kinetics(n, 0.0), kata::Error);
+}
+
 TEST(Eval, HandMadePairFile) {
   // Three identical pairs (distance 0) labelled similar, one identical pair labelled dissimilar,
   // three pairs of clearly different poses labelled dissimilar: the best any threshold can do is
@@ -452,6 +551,30 @@ TEST(Rdsr, PcaRestriction) {
   Eigen::MatrixXd basis;
   top_eigen(centered_scatter(x, 1), 6, &basis);
   EXPECT_LE((sub.w - basis * (basis.transpose() * sub.w)).norm(), 1e-8);  // inside span(P)
+}
+
+TEST(Rdsr, NegativeWeightKeepsWhatNegativesDifferIn) {
+  // Negative pairs differ only along dimension 0, positives a little everywhere: with the
+  // negatives' scatter in the numerator W keeps dimension 0 (|W^T e_0| near 1), the beta
+  // reported is negative_weight x Tr(X S_C X^T) / Tr(S_B), and without negative pairs it refuses.
+  const int d = 12, n = 200, p = 60;
+  Eigen::MatrixXd x = random_matrix(d, n, 15), pa = random_matrix(d, p, 16);
+  Eigen::MatrixXd pb = pa + 0.3 * random_matrix(d, p, 17);
+  Eigen::MatrixXd na = random_matrix(d, p, 18), nb = na;
+  nb.row(0) += 3.0 * Eigen::RowVectorXd::Ones(p);
+  RdsrOptions opt;
+  opt.rank = 3;
+  opt.lasso.gamma = 0.5;
+  opt.negative_weight = 10.0;
+  const RdsrResult r = train_rdsr(x, pa, pb, opt, {}, na, nb);
+  EXPECT_GT(r.w.row(0).norm(), 0.99);
+  EXPECT_NEAR(r.trace_sb, within_scatter(na, nb, 1).trace(), 1e-9 * r.trace_sb);
+  EXPECT_NEAR(r.beta_absolute, 10.0 * r.trace_sc / r.trace_sb, 1e-12 * r.beta_absolute);
+  opt.negative_weight = 0.0;
+  const RdsrResult plain = train_rdsr(x, pa, pb, opt);
+  EXPECT_LT(plain.w.row(0).norm(), r.w.row(0).norm());
+  opt.negative_weight = 1.0;
+  EXPECT_THROW(train_rdsr(x, pa, pb, opt), kata::Error);
 }
 
 #include "train/retrieval.hpp"

@@ -410,6 +410,17 @@ KATA_API double kata_stream_body_height(kata_stream stream);
  * Memory: loading a model and attaching a teacher allocate; scoring never does.
  * Threads: a model is immutable and may be shared by any number of streams and threads; a
  * stream keeps what it needs from the model, which may be freed while streams still use it. */
+/* Which shipped model for which job (figures: docs/model/scores.md, docs/model/transition.md):
+ *   models/default.kata     coaching, a student against a teacher: cross-body precision 1.000 on
+ *                           held-out subjects 1 and 9; it carries the calibrated score map.
+ *   models/transition.kata  ranking candidate cut points between two clips of different motion
+ *                           (held-out subjects 1+9 pooled, issue 27's protocol: 0.836 vs JCD 0.620;
+ *                           the project's: 0.903 vs 0.640). Between two clips of one subject its
+ *                           recipe is below JCD (leave one subject out, mean 0.730 vs 0.764;
+ *                           walking 0.635 vs 0.975): there use JCD on the features' joint
+ *                           coordinates and velocities. No calibration: not a coaching score.
+ * kata_model_metadata(m, "data") names the training data; the evaluation figures and the
+ * protocol they used are listed by `kata model-info`. */
 
 /* A loaded, verified model. */
 typedef struct kata_model_s* kata_model;

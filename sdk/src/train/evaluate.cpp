@@ -35,6 +35,17 @@ double jcd(const float* a, const float* b, bool weighted, double lambda) {
   return pos + lambda * vel;
 }
 
+double jcd_local(const float* a, const float* b) {
+  double sum = 0.0;
+  for (int j = 0; j < 15; ++j)
+    for (int c = 0; c < 3; ++c) {
+      const double dp = static_cast<double>(a[3 * j + c]) - b[3 * j + c];
+      const double dv = static_cast<double>(a[gpd::kOffsetJk + 6 * j + c]) - b[gpd::kOffsetJk + 6 * j + c];
+      sum += dp * dp + dv * dv;
+    }
+  return sum;
+}
+
 Eigen::VectorXd lms_weights(const Eigen::MatrixXd& da, const Eigen::MatrixXd& db, const std::vector<int>& label,
                             double ridge) {
   const Eigen::Index p = da.cols();

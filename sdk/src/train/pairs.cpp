@@ -174,6 +174,53 @@ std::vector<PairRecord> transition_pairs(ClipStore& store, const std::vector<std
   return finish(std::move(pos), std::move(neg), rng, log, o.per_class);
 }
 
+std::vector<PairRecord> uniform_transition_pairs(ClipStore& store, const std::vector<std::string>& clips,
+                                                 const UniformTransitionOptions& o, int threads, const PairLog& log) {
+  if (clips.size() < 2) throw Error(ErrorKind::kInvalidArgument, "pairs: the transition protocol needs >= 2 clips");
+  if (o.future_frames < 1) throw Error(ErrorKind::kInvalidArgument, "pairs: future frames must be >= 1");
+  store.load(clips, threads);
+  std::vector<const ClipData*> data;
+  for (const auto& c : clips) data.push_back(&store.get(c));
+  Rng rng(o.seed);
+  std::vector<PairRecord> pos, neg;
+  long long attempts = 0, close = 0;
+  // Frame 0 (the T-pose) dropped: a clip of F BVH frames has length F - 1 and its index i is
+  // BVH frame i + 1, so 2 <= i < length - future_frames is BVH frame 3 .. F - future_frames - 1
+  // (a count of F - future_frames - 3 frames); the last future frame is then F - 1.
+  constexpr int kFirstFrame = 3;
+  auto frame_count = [&](const ClipData& c) { return c.frames - o.future_frames - kFirstFrame; };
+  for (; attempts < o.max_attempts; ++attempts) {
+    if (static_cast<int>(pos.size()) >= o.per_class && static_cast<int>(neg.size()) >= o.per_class) break;
+    const int ca = rng.below(static_cast<int>(clips.size()));
+    int cb = rng.below(static_cast<int>(clips.size()) - 1);
+    if (cb >= ca) ++cb;
+    const ClipData& a = *data[static_cast<size_t>(ca)];
+    const ClipData& b = *data[static_cast<size_t>(cb)];
+    const int na = frame_count(a), nb = frame_count(b);
+    if (na <= 0 || nb <= 0) continue;
+    const int i = kFirstFrame + rng.below(na);
+    const int j = kFirstFrame + rng.below(nb);
+    if (ClipData::joint_distance(a.row(i), b.row(j)) >= o.tau) continue;
+    ++close;
+    double sum = 0.0;
+    for (int k = 1; k <= o.future_frames; ++k) sum += ClipData::joint_distance(a.row(i + k), b.row(j + k));
+    const double future = sum / o.future_frames;
+    PairRecord r{clips[static_cast<size_t>(ca)], i, clips[static_cast<size_t>(cb)], j, 0};
+    if (future < o.pos_below) {
+      if (static_cast<int>(pos.size()) < o.per_class) {
+        r.label = 1;
+        pos.push_back(r);
+      }
+    } else if (future > o.neg_above && static_cast<int>(neg.size()) < o.per_class) {
+      neg.push_back(r);
+    }
+  }
+  if (log)
+    log("uniform transition pairs: " + std::to_string(pos.size()) + " positive, " + std::to_string(neg.size()) +
+        " negative after " + std::to_string(attempts) + " draws (" + std::to_string(close) + " within tau)");
+  return finish(std::move(pos), std::move(neg), rng, log, o.per_class);
+}
+
 std::vector<PairRecord> cross_body_pairs(ClipStore& store, const std::vector<std::string>& clips,
                                          const CrossBodyOptions& o, int threads, const PairLog& log) {
   if (clips.empty()) throw Error(ErrorKind::kInvalidArgument, "pairs: no clips");

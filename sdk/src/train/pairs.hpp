@@ -60,12 +60,33 @@ struct CrossBodyOptions {
   int max_attempts = 200000;
 };
 
+// "Uniform transition" (the independent protocol of issue 27): two different clips a, b drawn
+// uniformly, then frames i in a and j in b each uniformly from 2 <= i < length - future_frames,
+// where length and i count the clip without frame 0 (BVH frame = i + 1); kept only when
+// MJD(L_a[i], L_b[j]) < tau (MJD = the eq. 35 mean joint distance). Label from the future:
+// f = mean over k = 1..future_frames of MJD(L_a[i+k], L_b[j+k]); positive if f < pos_below,
+// negative if f > neg_above, discarded otherwise. Unlike `transition`, the pair (i, j) is drawn
+// uniformly and then filtered (poses that match often weigh more), j is not picked among i's
+// matches, and the future starts at k = 1 in frames, not seconds.
+struct UniformTransitionOptions {
+  double tau = 0.06;         // current MJD below this (body heights)
+  double pos_below = 0.06;   // future mean MJD below this: positive
+  double neg_above = 0.12;   // future mean MJD above this: negative
+  int future_frames = 120;   // 1 s at 120 Hz
+  int per_class = 500;
+  uint64_t seed = 1;
+  long long max_attempts = 50000000;  // uniform draws (most fail the tau filter; each costs one MJD)
+};
+
 using PairLog = std::function<void(const std::string&)>;
 
 // `clips` are BVH file names relative to the store's data folder. Balanced: per_class of each
 // label (fewer of both, equal, if the attempts run out; the log says so).
 std::vector<PairRecord> transition_pairs(ClipStore& store, const std::vector<std::string>& clips,
                                          const TransitionOptions& options, int threads, const PairLog& log = {});
+std::vector<PairRecord> uniform_transition_pairs(ClipStore& store, const std::vector<std::string>& clips,
+                                                 const UniformTransitionOptions& options, int threads,
+                                                 const PairLog& log = {});
 std::vector<PairRecord> cross_body_pairs(ClipStore& store, const std::vector<std::string>& clips,
                                          const CrossBodyOptions& options, int threads, const PairLog& log = {});
 

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <ctime>
 #include <filesystem>
@@ -170,6 +171,10 @@ TrainOutput train_model(ClipStore& store, const std::vector<std::string>& clips,
   fit_rows.insert(fit_rows.end(), pr.a.begin(), pr.a.end());
   fit_rows.insert(fit_rows.end(), pr.b.begin(), pr.b.end());
   out.normaliser = fit_normaliser(fit_rows, cfg.normalisation);
+  if (cfg.kinetic_weight != 1.0) {
+    weigh_kinetics(out.normaliser, cfg.kinetic_weight);
+    say(fmt("  kinetics (block 9) weighted x %g in the normalisation (stored as shift/scale)", cfg.kinetic_weight));
+  }
   // 3. N' unlabeled poses, sampled without replacement (partial Fisher-Yates, seeded).
   const int n = std::min<int>(cfg.unlabeled, static_cast<int>(pool.size()));
   std::mt19937_64 rng(cfg.seed);
@@ -193,7 +198,18 @@ TrainOutput train_model(ClipStore& store, const std::vector<std::string>& clips,
   stage("normalise + sample");
   if (!cfg.lasso_compare_dir.empty()) write_lasso_benchmark(x, cfg, say);
   // 4. RDSR.
-  out.rdsr = train_rdsr(x, pa, pb, cfg.rdsr, log);
+  Eigen::MatrixXd na, nb;
+  if (cfg.rdsr.negative_weight > 0.0) {
+    std::vector<const float*> neg_a, neg_b;
+    for (size_t i = 0; i < pr.label.size(); ++i)
+      if (pr.label[i] == 0) {
+        neg_a.push_back(pr.a[i]);
+        neg_b.push_back(pr.b[i]);
+      }
+    na = normalised_columns(out.normaliser, neg_a);
+    nb = normalised_columns(out.normaliser, neg_b);
+  }
+  out.rdsr = train_rdsr(x, pa, pb, cfg.rdsr, log, na, nb);
   for (const auto& s : out.rdsr.stages) out.stages.push_back(s);
   t0 = clock::now();
   // 5. delta*: eq. 37's best threshold on the training pairs.
@@ -211,10 +227,10 @@ TrainOutput train_model(ClipStore& store, const std::vector<std::string>& clips,
 
   metric::Model& m = out.model;
   m.stencil = store.stencil();
-  m.normalisation = cfg.normalisation;
+  m.normalisation = out.normaliser.kind;
   m.min = out.normaliser.min;
   m.max = out.normaliser.max;
-  if (cfg.normalisation == metric::Normalisation::kBlockBalanced) {
+  if (out.normaliser.kind == metric::Normalisation::kBlockBalanced) {
     m.shift = out.normaliser.shift;
     m.scale = out.normaliser.scale;
   }

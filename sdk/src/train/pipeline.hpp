@@ -24,6 +24,13 @@ struct TrainConfig {
   uint64_t seed = 1;
   metric::Normalisation normalisation = metric::Normalisation::kMinMaxUnit;
   RdsrOptions rdsr;
+  // Gain on the normalised kinetics block (block 9, dims 1591..1682) before the unit-length step;
+  // 1 = the plain normalisation. Min/max normalisation squeezes the kinetics (their ranges are
+  // set by rare fast frames), so they carry little of |x''|; a transition metric needs them.
+  // With a gain != 1 the model stores its normalisation as per-dimension shift and scale
+  // (Normalisation::kBlockBalanced's arrays, which any scorer applies): shift = min, scale =
+  // gain / (max - min) for min/max.
+  double kinetic_weight = 1.0;
   // When set: also write the benchmark set of the sparse-coding stage there (X.npy, d x N'
   // normalised poses, and problems.csv: 20 problems i with our objective, support and time) for
   // docs/model/lasso_vs_sklearn.py.

@@ -49,6 +49,22 @@ Eigen::VectorXd Normaliser::operator()(const float* x) const {
   return v;
 }
 
+void weigh_kinetics(Normaliser& n, double gain) {
+  if (!(gain > 0.0) || !std::isfinite(gain))
+    throw Error(ErrorKind::kInvalidArgument, "normalisation: the kinetic weight must be finite and > 0");
+  if (n.kind == metric::Normalisation::kMinMaxUnit) {
+    n.shift.assign(gpd::kDims, 0.0f);
+    n.scale.assign(gpd::kDims, 0.0f);
+    for (int i = 0; i < gpd::kDims; ++i) {
+      const double range = static_cast<double>(n.max[i]) - n.min[i];
+      n.shift[i] = n.min[i];
+      n.scale[i] = range > 0 ? static_cast<float>(1.0 / range) : 0.0f;
+    }
+    n.kind = metric::Normalisation::kBlockBalanced;
+  }
+  for (int i = gpd::kOffsetJk; i < gpd::kDims; ++i) n.scale[i] = static_cast<float>(n.scale[i] * gain);
+}
+
 Normaliser fit_normaliser(const std::vector<const float*>& rows, metric::Normalisation kind) {
   if (rows.empty()) throw Error(ErrorKind::kInvalidArgument, "normalisation: no training poses");
   Normaliser n;
@@ -142,7 +158,7 @@ double projected_distance(const Eigen::MatrixXd& w, const Eigen::VectorXd& x, co
 }
 
 RdsrResult train_rdsr(const Eigen::MatrixXd& x, const Eigen::MatrixXd& pa, const Eigen::MatrixXd& pb,
-                      const RdsrOptions& opt, const Log& log) {
+                      const RdsrOptions& opt, const Log& log, const Eigen::MatrixXd& na, const Eigen::MatrixXd& nb) {
   const Eigen::Index d = pa.rows();
   if (pb.rows() != d || pa.cols() != pb.cols() || (x.cols() > 0 && x.rows() != d))
     throw Error(ErrorKind::kInvalidArgument, "rdsr: inconsistent matrix sizes");
@@ -190,9 +206,20 @@ RdsrResult train_rdsr(const Eigen::MatrixXd& x, const Eigen::MatrixXd& pa, const
   const Eigen::MatrixXd sl = laplacian_scatter(x, codes, opt.threads);
   res.trace_sl = sl.trace();
   stage("X S_L X^T (eq. 17-18)");
-  const Eigen::MatrixXd a = centered_scatter(x, opt.threads);
+  Eigen::MatrixXd a = centered_scatter(x, opt.threads);
   res.trace_sc = a.trace();
   stage("A = X S_C X^T (eq. 23)");
+  if (opt.negative_weight > 0.0) {
+    if (na.cols() == 0 || na.cols() != nb.cols() || na.rows() != d || nb.rows() != d)
+      throw Error(ErrorKind::kInvalidArgument, "rdsr: the negative weight needs negative pairs");
+    const Eigen::MatrixXd sb = within_scatter(na, nb, opt.threads);
+    res.trace_sb = sb.trace();
+    res.beta_absolute = opt.negative_weight * res.trace_sc / std::max(res.trace_sb, 1e-300);
+    a += res.beta_absolute * sb;
+    say(fmt("  A += beta S_B: %.0f negative pairs, Tr(S_B) = %.6g, ", static_cast<double>(na.cols()), res.trace_sb) +
+        fmt("beta = %.6g (absolute)", res.beta_absolute));
+    stage("S_B (negative pairs)");
+  }
   res.alpha_absolute = opt.alpha_relative ? opt.alpha * res.trace_sl / std::max(res.trace_sw, 1e-300) : opt.alpha;
   const Eigen::MatrixXd b = sl + res.alpha_absolute * sw;
   say(fmt("  Tr(X S_L X^T) = %.6g, Tr(S_W) = %.6g, alpha = %.6g (absolute)", res.trace_sl, res.trace_sw,

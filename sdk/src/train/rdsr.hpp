@@ -28,6 +28,12 @@ struct Normaliser {
 // rows: pointers to raw feature vectors (gpd::kDims floats each).
 Normaliser fit_normaliser(const std::vector<const float*>& rows, metric::Normalisation kind);
 
+// Multiplies the normalised kinetics block (block 9) by `gain` before the unit-length step. A
+// min/max normaliser becomes the per-dimension shift/scale kind (shift = min, scale = 1 / range,
+// 0 for a constant dimension) with the same output at gain 1; a block-balanced one keeps its
+// kind. Throws kInvalidArgument unless gain is finite and > 0.
+void weigh_kinetics(Normaliser& n, double gain);
+
 // A pair of poses (as columns of some matrix) with a 1/0 label.
 struct IndexPair {
   int a = 0, b = 0;
@@ -54,6 +60,13 @@ struct RdsrOptions {
   // Not in the paper: the classic remedy (as PCA before LDA) for scatter matrices that are
   // near-singular in directions the training poses barely span. 0 = the paper's problem.
   int pca = 0;
+  // > 0: add the negative pairs' scatter to the numerator, A = X S_C X^T + beta S_B with S_B the
+  // eq. 13 scatter of the negative pairs' differences and beta = negative_weight x Tr(X S_C X^T) /
+  // Tr(S_B) (so 1 gives both terms the same trace). Not in the paper: its A only spreads the
+  // unlabeled poses; with it W also keeps apart what the proxy labels call dissimilar, which a
+  // transition metric needs when every candidate pair is already close in pose. The PCA
+  // restriction then takes the top directions of this A. 0 = the paper's A.
+  double negative_weight = 0.0;
   // Extra (alpha, rank) combinations solved on the same scatter matrices (sweeps; Newton only).
   std::vector<double> sweep_alphas;
   std::vector<int> sweep_ranks;
@@ -77,6 +90,7 @@ struct RdsrResult {
   int eigen_solves = 0;
   double alpha_absolute = 0.0;
   double trace_sl = 0.0, trace_sw = 0.0, trace_sc = 0.0;
+  double trace_sb = 0.0, beta_absolute = 0.0;  // negative pairs' scatter (negative_weight > 0)
   SparseCodingStats coding;
   std::vector<StageTime> stages;
   std::vector<RdsrVariant> variants;  // one per sweep_alphas x sweep_ranks
@@ -86,8 +100,10 @@ using Log = std::function<void(const std::string&)>;
 
 // x: d x N' normalised unlabeled poses (N' may be 0: eq. 46, W = the r smallest eigenvectors of
 // S_W); pa, pb: d x P normalised ends of the positive pairs.
+// na, nb: d x Q normalised ends of the negative pairs (used only when negative_weight > 0).
 RdsrResult train_rdsr(const Eigen::MatrixXd& x, const Eigen::MatrixXd& pa, const Eigen::MatrixXd& pb,
-                      const RdsrOptions& options, const Log& log = {});
+                      const RdsrOptions& options, const Log& log = {}, const Eigen::MatrixXd& na = {},
+                      const Eigen::MatrixXd& nb = {});
 
 // S_W of eq. 13 from the pair ends.
 Eigen::MatrixXd within_scatter(const Eigen::MatrixXd& pa, const Eigen::MatrixXd& pb, int threads);
