@@ -872,14 +872,14 @@ typedef struct kata_runtime_desc {
   int32_t ingest_pull;              /* 1: a PULL socket; 0 (default): SUB to every topic */
   uint32_t max_message_bytes;       /* larger ingest messages are dropped. Default 1 MiB */
   double skeleton_resend_seconds;   /* periodic re-send of skeleton definitions. Default 1 */
-  /* ---- since 0.3: who may send what (docs/deploy.md, docs/runtime.md) ----
+  /* ---- since 1.0: who may send what (docs/deploy.md, docs/runtime.md) ----
    * CURVE: key_file is this runtime's key pair (the .secret file of `kata keygen`); with it the
    * publisher and a bound ingest are CURVE servers that admit only the public keys in
    * client_keys_dir (*.pub files); a connecting ingest is a client of ingest_server_key_file
    * (the stage's .pub). NULL: no CURVE (then bind to this host only). */
-  const char* key_file;
-  const char* client_keys_dir;
-  const char* ingest_server_key_file;
+  const char* key_file;               /* this runtime's .secret key file, or NULL */
+  const char* client_keys_dir;        /* directory of the admitted clients' .pub files, or NULL */
+  const char* ingest_server_key_file; /* a connecting ingest's server .pub file, or NULL */
   uint32_t max_streams_per_sender;  /* streams one ingest sender may define. Default 64 */
   uint32_t max_connections;         /* ingest connections held at once (0: no limit). Default 256 */
   double max_frame_age_seconds;     /* older ingest frames are dropped (0: never). Default 0.25 */
@@ -900,7 +900,7 @@ typedef struct kata_runtime_counters {
   uint64_t ingest_dropped;          /* ingest messages refused (malformed, unknown stream, ...) */
   uint64_t ingest_sequence_gaps;    /* frames missing between accepted ingest frames */
   uint64_t ingest_restarts;         /* sources that restarted (sequence back to 0) */
-  /* since 0.3: the causes inside ingest_dropped that an attack or a misconfigured sender shows */
+  /* since 1.0: the causes inside ingest_dropped that an attack or a misconfigured sender shows */
   uint64_t ingest_not_owner;        /* messages for a stream another sender owns */
   uint64_t ingest_refused_limit;    /* definitions beyond a streams limit */
   uint64_t ingest_out_of_window;    /* sequence numbers far beyond the last one */
