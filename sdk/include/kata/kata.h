@@ -604,6 +604,16 @@ KATA_API kata_status kata_model_calibration(kata_model model, kata_score_calibra
  * kata_stream_restart_teacher. Allocates. [stream owner] */
 KATA_API kata_status kata_stream_set_calibration(kata_stream stream, const kata_score_calibration* calibration);
 
+/* Practice modes on a clip teacher: from the next frame the stream follows only the teacher's
+ * frames first_frame..last_frame (0-based, as matched_teacher_frame; last_frame -1: the clip's
+ * end), so first_frame alone is "start here"; loop != 0 joins the section's end to its start (a
+ * section practised over and over: never "teacher finished"). The alignment restarts; the score
+ * calibration is kept. KATA_E_STATE without a teacher (or with a one-pose teacher),
+ * KATA_E_INVALID_ARGUMENT for a section outside the clip (nothing changes). Allocates: call it
+ * between frames. [stream owner] */
+KATA_API kata_status kata_stream_set_practice_section(kata_stream stream, int32_t first_frame, int32_t last_frame,
+                                                      int32_t loop);
+
 /* ##############################################################################################
  * Task 3 - read results: every pushed frame's score, matched teacher frame and ghost
  *
@@ -636,15 +646,6 @@ typedef struct kata_score_record {
   double matched_reference_time;
 } kata_score_record;
 
-/* Practice modes on a clip teacher: from the next frame the stream follows only the teacher's
- * frames first_frame..last_frame (0-based, as matched_teacher_frame; last_frame -1: the clip's
- * end), so first_frame alone is "start here"; loop != 0 joins the section's end to its start (a
- * section practised over and over: never "teacher finished"). The alignment restarts; the score
- * calibration is kept. KATA_E_STATE without a teacher (or with a one-pose teacher),
- * KATA_E_INVALID_ARGUMENT for a section outside the clip (nothing changes). Allocates: call it
- * between frames. [stream owner] */
-KATA_API kata_status kata_stream_set_practice_section(kata_stream stream, int32_t first_frame, int32_t last_frame,
-                                                      int32_t loop);
 
 /* kata_result.flags */
 #define KATA_RESULT_SCORED 1u /* the score record is valid (a teacher is attached) */
