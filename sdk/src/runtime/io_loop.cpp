@@ -1,0 +1,223 @@
+// The I/O thread (runtime.hpp, "threads"): it owns every ZeroMQ socket. It reads the ingest,
+// sends skeleton definitions (on a subscriber's join and periodically) and stats, drains the
+// workers' result rings into FlatBuffers messages and the sink plugins, and sleeps in zmq_poll
+// with an eventfd that workers write when a result is ready and it is asleep.
+#include "runtime/runtime_internal.hpp"
+
+namespace kata::runtime {
+
+using namespace internal;
+
+void Runtime::send_definitions(const uint8_t* prefix, size_t prefix_size) {
+  if (!publisher_) return;
+  transport::Encoder encoder;  // rare path (joins, periodic): its own builder is fine
+  std::vector<StreamState*> streams;
+  {
+    std::lock_guard<std::mutex> lock(open_mutex_);
+    for (const auto& s : streams_)
+    if (s->live) streams.push_back(s.get());
+  }
+  char topic[transport::kTopicBytes];
+  for (StreamState* s : streams) {
+    transport::write_topic(s->definition.stream_id, topic);
+    if (prefix_size > transport::kTopicBytes || (prefix_size > 0 && std::memcmp(topic, prefix, prefix_size) != 0))
+      continue;
+    if (publisher_->send(encoder.skeleton(s->definition))) {
+      std::lock_guard<std::mutex> lock(io_counters_mutex_);
+      ++skeletons_sent_;
+    }
+  }
+}
+
+void Runtime::send_stats(transport::Encoder& encoder) {
+  if (!publisher_) return;
+  if (ingest_) {
+    std::lock_guard<std::mutex> lock(io_counters_mutex_);
+    ingest_snapshot_ = ingest_->counters();
+  }
+  const RuntimeCounters c = counters();
+  const transport::IngestCounters& in = c.ingest;
+  transport::StatsFields f;
+  f.streams = c.streams;
+  f.closed_streams = c.closed_streams;
+  f.received = in.received;
+  f.frames = in.frames;
+  f.definitions = in.skeletons;
+  f.repeated_definitions = in.repeated_skeletons;
+  f.closes = in.closes;
+  f.other_shard = in.other_shard;
+  f.dropped = in.dropped_total();
+  f.malformed = in.malformed_total();
+  f.not_owner = in.not_owner;
+  f.refused_limit = in.refused_limit;
+  f.refused_definitions = in.refused_skeletons;
+  f.unknown_stream = in.unknown_stream;
+  f.wrong_joint_count = in.wrong_joint_count;
+  f.out_of_order = in.out_of_order;
+  f.out_of_window = in.out_of_window;
+  f.stale = in.stale;
+  f.other_kind = in.other_kind;
+  f.sequence_gaps = in.sequence_gaps;
+  f.restarts = in.restarts;
+  f.connections = in.connections;
+  f.connections_refused = in.connections_refused;
+  f.frames_in = c.total.frames_in;
+  f.queue_full = c.total.queue_full;
+  f.refused = c.total.refused;
+  f.results = c.total.results;
+  f.results_dropped = c.total.pipeline_dropped + c.total.result_queue_full;
+  f.published = c.total.published;
+  f.send_failed = c.total.send_failed;
+  {
+    std::lock_guard<std::mutex> lock(open_mutex_);
+    for (const auto& s : streams_) {
+      if (!s->live) continue;
+      const StreamCounters k = read_counters(*s);
+      f.per_stream.push_back({s->definition.stream_id, k.frames_in, k.queue_full, k.refused, k.results,
+                              k.pipeline_dropped + k.result_queue_full, k.published});
+    }
+  }
+  f.published_ns = pipeline::now_ns();
+  publisher_->send(encoder.stats(f));
+}
+
+bool Runtime::results_pending() const {
+  for (const auto& w : workers_)
+    if (w->result_head.load(std::memory_order_acquire) != w->result_tail.load(std::memory_order_relaxed)) return true;
+  return false;
+}
+
+bool Runtime::workers_busy() const {
+  for (const auto& w : workers_)
+    if (w->busy.load(std::memory_order_acquire)) return true;
+  return false;
+}
+
+bool Runtime::drain_results(transport::Encoder& encoder) {
+  bool any = false;
+  for (auto& wp : workers_) {
+    Worker& w = *wp;
+    size_t tail = w.result_tail.load(std::memory_order_relaxed);
+    const size_t head = w.result_head.load(std::memory_order_acquire);
+    for (; tail != head; ++tail) {
+      const size_t k = tail & w.result_mask;
+      const ResultCell& cell = w.results[k];
+      auto& s = *static_cast<StreamState*>(cell.stream);
+      const pipeline::Result& r = cell.result;
+      transport::ResultFields f;
+      f.stream_id = s.definition.stream_id;
+      f.result_sequence = s.next_result_sequence++;
+      f.frame_sequence = cell.frame_sequence;
+      f.frame_index = r.frame_index;
+      f.capture_ns = static_cast<int64_t>(r.capture_time * 1e9);
+      f.arrival_ns = r.arrival_ns;
+      f.computed_ns = cell.computed_ns;
+      f.scored = r.scored;
+      if (r.scored) {
+        f.distance = r.score.distance;
+        f.score = r.score.score;
+        for (int i = 0; i < 5; ++i) f.parts[i] = r.score.parts[i];
+        for (int i = 0; i < 5; ++i) f.part_scores[i] = r.score.part_scores[i];
+        f.part_to_fix = r.score.part_to_fix;
+        f.state = static_cast<int32_t>(r.score.state);
+      }
+      f.matched_teacher_frame = r.matched_frame;
+      f.matched_teacher_time = r.scored ? r.score.matched_time : -1.0;
+      if (r.has_ghost) {
+        f.ghost = w.ghosts.data() + k * kMaxGhostJoints * 3;
+        f.ghost_joints = s.ghost_joints;
+      }
+      if (s.publish_features) {
+        f.features = w.features.data() + k * gpd::kDims;
+        f.feature_count = gpd::kDims;
+      }
+      if (publisher_) {
+        f.published_ns = pipeline::now_ns();
+        if (publisher_->send(encoder.result(f))) {
+          s.counters.published.fetch_add(1, std::memory_order_relaxed);
+          latency_histogram_[latency_bucket(f.published_ns - f.arrival_ns)].fetch_add(1, std::memory_order_relaxed);
+        }
+        else
+          s.counters.send_failed.fetch_add(1, std::memory_order_relaxed);
+      }
+      for (const Sink& sink : config_.sinks) sink.on_result(f);  // after the send: no added latency
+      any = true;
+    }
+    w.result_tail.store(tail, std::memory_order_release);
+  }
+  return any;
+}
+
+void Runtime::io_loop() {
+  transport::Encoder encoder;
+  using clock = std::chrono::steady_clock;
+  const auto resend_every = std::chrono::duration_cast<clock::duration>(
+      std::chrono::duration<double>(config_.skeleton_resend_seconds > 0 ? config_.skeleton_resend_seconds : 1.0));
+  auto next_resend = clock::now() + resend_every;
+  auto last_snapshot = clock::now();
+  const IdleStrategy& idle = config_.idle;
+  const bool backoff = idle.kind == IdleStrategy::Kind::kBackoff;
+  for (;;) {
+    // A frame in a worker: wait for its result awake (bounded) rather than park and be woken.
+    if (backoff && !results_pending() && workers_busy() &&
+        back_off(idle.io_spin_ns, idle.io_yield_ns, [&] { return results_pending() || !workers_busy(); }) &&
+        results_pending()) {
+      drain_results(encoder);
+    }
+    zmq_pollitem_t items[3];
+    int n = 0;
+    items[n++] = zmq_pollitem_t{nullptr, wake_io_fd_, ZMQ_POLLIN, 0};
+    const int publisher_item = publisher_ ? n : -1;
+    if (publisher_) items[n++] = zmq_pollitem_t{publisher_->socket(), 0, ZMQ_POLLIN, 0};
+    const int ingest_item = ingest_ ? n : -1;
+    if (ingest_) items[n++] = zmq_pollitem_t{ingest_->socket(), 0, ZMQ_POLLIN, 0};
+    const auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(next_resend - clock::now()).count();
+    // Announce the sleep, then look once more: a result queued before the flag was set is sent
+    // now; one queued after it comes with an eventfd write.
+    io_sleeping_.store(true);
+    const bool pending = results_pending();
+    zmq_poll(items, n, pending ? 0 : static_cast<long>(std::max<long long>(0, std::min<long long>(wait, 100))));
+    io_sleeping_.store(false);
+
+    if (items[0].revents & ZMQ_POLLIN) {
+      uint64_t value;
+      (void)!read(wake_io_fd_, &value, sizeof value);
+    }
+    if (definitions_dirty_.exchange(false, std::memory_order_acq_rel)) send_definitions(nullptr, 0);
+    drain_results(encoder);
+    if (retiring_count_.load(std::memory_order_acquire) > 0) retire_closed(encoder);
+    if (publisher_item >= 0 && (items[publisher_item].revents & ZMQ_POLLIN))
+      publisher_->poll_joins([this](const uint8_t* prefix, size_t size) { send_definitions(prefix, size); });
+    if (ingest_stop_requested_.load(std::memory_order_acquire)) {
+      ingest_stopped_.store(true, std::memory_order_release);
+    } else if (ingest_item >= 0 && (items[ingest_item].revents & ZMQ_POLLIN)) {
+      ingest_->poll(256);
+    } else if (ingest_) {
+      ingest_->housekeeping();  // connection events and idle expiry, also while no frame comes
+    }
+    const auto now = clock::now();
+    if (now >= next_resend) {
+      send_definitions(nullptr, 0);
+      send_stats(encoder);
+      next_resend = now + resend_every;
+    }
+    if (ingest_ && now - last_snapshot > std::chrono::milliseconds(50)) {
+      std::lock_guard<std::mutex> lock(io_counters_mutex_);
+      ingest_snapshot_ = ingest_->counters();
+      last_snapshot = now;
+    }
+    if (workers_done_.load(std::memory_order_acquire) == static_cast<int>(workers_.size())) {
+      drain_results(encoder);
+      for (const Sink& sink : config_.sinks)
+        if (sink.flush) sink.flush();
+      if (ingest_) {
+        std::lock_guard<std::mutex> lock(io_counters_mutex_);
+        ingest_snapshot_ = ingest_->counters();
+      }
+      return;
+    }
+  }
+}
+
+
+}  // namespace kata::runtime

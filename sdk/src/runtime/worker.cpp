@@ -1,0 +1,191 @@
+// The workers (runtime.hpp, "threads"): each owns the pipelines of its shard of streams and is the
+// only thread that touches them. Frames come in through a bounded multi-producer /
+// single-consumer queue per worker (push(), any thread, never blocks); results go out to the I/O
+// thread through a single-producer / single-consumer ring. A worker parks in its semaphore (or
+// backs off first, by the idle strategy) when it has no frame.
+#include "runtime/runtime_internal.hpp"
+
+namespace kata::runtime {
+
+using namespace internal;
+
+Status Runtime::push(uint64_t stream_id, uint64_t sequence, double capture_time, const float* xyz, int joints,
+                     bool restart, const float* confidence) {
+  if (!xyz) return Status::kNullPointer;
+  StreamState* stream = find(stream_id);
+  if (!stream) return Status::kNotFound;
+  if (joints < 0 || joints > config_.max_joints) return Status::kWrongJointCount;
+  // Against a close on another thread: either close_stream sees this push in flight and waits
+  // for its cell, or this push sees the close (seq_cst on both sides); a state reused for
+  // another stream since find() shows another id.
+  stream->counters.in_push.fetch_add(1, std::memory_order_seq_cst);
+  struct Leave {
+    std::atomic<int>& n;
+    ~Leave() { n.fetch_sub(1, std::memory_order_release); }
+  } leave{stream->counters.in_push};
+  if (stream->closed.load(std::memory_order_seq_cst) || stream->id.load(std::memory_order_acquire) != stream_id)
+    return Status::kNotFound;
+  Worker& w = *workers_[static_cast<size_t>(stream->worker)];
+  size_t pos = w.enqueue_pos.load(std::memory_order_relaxed);
+  FrameCell* cell;
+  for (;;) {
+    if (pos & kQueueClosed) {  // stop() began: refused, and the caller sees it
+      stream->counters.stopped.fetch_add(1, std::memory_order_relaxed);
+      return Status::kStopped;
+    }
+    cell = &w.cells[pos & w.mask];
+    const size_t turn = cell->turn.load(std::memory_order_acquire);
+    const intptr_t diff = static_cast<intptr_t>(turn) - static_cast<intptr_t>(pos);
+    if (diff == 0) {
+      if (w.enqueue_pos.compare_exchange_weak(pos, pos + 1, std::memory_order_relaxed)) break;
+    } else if (diff < 0) {
+      stream->counters.queue_full.fetch_add(1, std::memory_order_relaxed);
+      return Status::kState;
+    } else {
+      pos = w.enqueue_pos.load(std::memory_order_relaxed);
+    }
+  }
+  cell->stream = stream;
+  cell->sequence = sequence;
+  cell->capture_time = capture_time;
+  cell->arrival_ns = pipeline::now_ns();
+  cell->joints = joints;
+  cell->restart = restart;
+  std::memcpy(cell->xyz, xyz, sizeof(float) * 3 * static_cast<size_t>(joints));
+  cell->has_confidence = confidence != nullptr;
+  if (confidence) std::memcpy(cell->confidence, confidence, sizeof(float) * static_cast<size_t>(joints));
+  stream->counters.frames_in.fetch_add(1, std::memory_order_relaxed);  // before the worker can see it
+  cell->turn.store(pos + 1, std::memory_order_release);
+  sem_post(&w.wake);
+  return Status::kOk;
+}
+
+void Runtime::worker_loop(Worker& w) {
+  bool signalled = false;
+  auto move_results = [&](StreamState& s) {
+    pipeline::Pipeline& p = *s.pipeline;
+    for (;;) {
+      float* features = s.publish_features ? w.read_features.data() : nullptr;
+      const size_t n = p.read(w.read_buffer.data(), w.read_ghosts.data(), features, kReadBatch);
+      if (n == 0) break;
+      const int64_t computed = pipeline::now_ns();
+      for (size_t i = 0; i < n; ++i) {
+        const pipeline::Result& r = w.read_buffer[i];
+        s.counters.results.fetch_add(1, std::memory_order_relaxed);
+        const size_t head = w.result_head.load(std::memory_order_relaxed);
+        if (head - w.result_tail.load(std::memory_order_acquire) > w.result_mask) {
+          s.counters.result_queue_full.fetch_add(1, std::memory_order_relaxed);
+          continue;
+        }
+        const size_t k = head & w.result_mask;
+        ResultCell& cell = w.results[k];
+        cell.stream = &s;
+        cell.result = r;
+        cell.computed_ns = r.computed_ns ? r.computed_ns : computed;  // the pipeline's stamp
+        const size_t ring = static_cast<size_t>(r.frame_index) % s.sequence_ring.size();
+        cell.frame_sequence = s.sequence_ring[ring];
+        cell.result.capture_time = s.capture_ring[ring];
+        const size_t ghost_floats = 3 * static_cast<size_t>(s.ghost_joints);
+        if (ghost_floats)
+          std::memcpy(w.ghosts.data() + k * kMaxGhostJoints * 3, w.read_ghosts.data() + i * ghost_floats,
+                      ghost_floats * sizeof(float));
+        if (features)
+          std::memcpy(w.features.data() + k * gpd::kDims, features + i * gpd::kDims, gpd::kDims * sizeof(float));
+        w.result_head.store(head + 1, std::memory_order_release);
+        signalled = true;
+      }
+    }
+    s.counters.pipeline_dropped.store(p.dropped(), std::memory_order_relaxed);
+  };
+  // Wakes the I/O thread after every result (so it sends while this worker computes the next),
+  // with a syscall only when it is asleep in zmq_poll.
+  auto wake_io = [&] {
+    if (!signalled) return;
+    signalled = false;
+    if (!io_sleeping_.exchange(false)) return;
+    const uint64_t one = 1;
+    (void)!write(wake_io_fd_, &one, sizeof one);
+  };
+
+  const IdleStrategy& idle = config_.idle;
+  const bool backoff = idle.kind == IdleStrategy::Kind::kBackoff;
+  for (;;) {
+    // Wait for a frame (backing off first, by the idle strategy); every 50 ms look at the stop flag.
+    if (sem_trywait(&w.wake) != 0 &&
+        !(backoff && (wake_io(), w.busy.store(false, std::memory_order_release),
+                      back_off(idle.worker_spin_ns, idle.worker_yield_ns, [&] { return sem_trywait(&w.wake) == 0; })))) {
+      wake_io();
+      w.busy.store(false, std::memory_order_release);
+      timespec deadline;
+      clock_gettime(CLOCK_REALTIME, &deadline);
+      deadline.tv_nsec += 50'000'000;
+      if (deadline.tv_nsec >= 1'000'000'000) {
+        deadline.tv_sec += 1;
+        deadline.tv_nsec -= 1'000'000'000;
+      }
+      if (sem_timedwait(&w.wake, &deadline) != 0) {
+        if (stopping_.load(std::memory_order_acquire)) {
+          // A push that claimed a cell before stop() closed the queue is finished first (its
+          // post is on its way): nothing stop() took is left behind.
+          if (w.dequeue_pos != (w.enqueue_pos.load(std::memory_order_acquire) & ~kQueueClosed)) continue;
+          // Queue empty and stopping: flush every pipeline, hand over what it emits, done.
+          std::lock_guard<std::mutex> lock(w.owned_mutex);
+          for (StreamState* s : w.owned) {
+            s->pipeline->flush();
+            move_results(*s);
+          }
+          wake_io();
+          workers_done_.fetch_add(1, std::memory_order_release);
+          const uint64_t one = 1;
+          (void)!write(wake_io_fd_, &one, sizeof one);
+          return;
+        }
+        continue;
+      }
+    }
+    if (backoff) {
+      // The I/O thread's wake-up, if it sleeps, overlaps this frame's compute; it then backs off
+      // on busy until the result is there instead of parking again.
+      w.busy.store(true, std::memory_order_seq_cst);
+      if (io_sleeping_.exchange(false)) {
+        const uint64_t one = 1;
+        (void)!write(wake_io_fd_, &one, sizeof one);
+      }
+    }
+    FrameCell& cell = w.cells[w.dequeue_pos & w.mask];
+    // A post means some producer published a cell, not necessarily this one (two producers may
+    // finish out of order): wait the few instructions until the one in turn is published.
+    while (cell.turn.load(std::memory_order_acquire) != w.dequeue_pos + 1) std::this_thread::yield();
+    StreamState& s = *cell.stream;
+    pipeline::Pipeline& p = *s.pipeline;
+    if (cell.restart && s.accepted > 0) {
+      p.reset();
+      p.restart_teacher();
+      move_results(s);
+      // One second after the newest time: past any gap that still joins segments.
+      s.time_offset = s.last_time + 1.0 - cell.capture_time;
+    }
+    const double t = cell.capture_time + s.time_offset;
+    const Status st = p.push(t, cell.xyz, cell.has_confidence ? cell.confidence : nullptr, cell.joints, cell.arrival_ns);
+    // kInternal: the pipeline kept the frame (its frame index moved on) but withheld a non-finite
+    // vector; the frame keeps its sequence slot so that later results map to their own frames.
+    if (st == Status::kOk || st == Status::kInternal) {
+      const size_t ring = static_cast<size_t>(s.accepted) % s.sequence_ring.size();
+      s.sequence_ring[ring] = cell.sequence;
+      s.capture_ring[ring] = cell.capture_time;
+      s.last_time = t;
+      ++s.accepted;
+    }
+    if (st != Status::kOk && st != Status::kTrackingLost) {  // tracking lost: accepted, no features (the confidence gate)
+      s.counters.refused.fetch_add(1, std::memory_order_relaxed);
+    }
+    cell.turn.store(w.dequeue_pos + w.mask + 1, std::memory_order_release);
+    ++w.dequeue_pos;
+    move_results(s);
+    w.done_pos.store(w.dequeue_pos, std::memory_order_release);  // closed streams retire past it
+    wake_io();
+  }
+}
+
+
+}  // namespace kata::runtime
