@@ -37,7 +37,7 @@ def main(path):
             out.append(line.replace("/*", "/** @file", 1))
             first = False
             continue
-        if stripped.startswith("/* ====") or stripped.startswith("/* ----") or stripped.startswith("/* (section"):
+        if stripped.startswith(("/* ====", "/* ----", "/* ####", "/* (section")):
             # A banner documents what follows it directly (a group's only declaration, e.g.
             # kata_shard_of), else it is the text of its section.
             out.append(line.replace("/*", "/**", 1) if documents_next(lines, len(out)) else line)

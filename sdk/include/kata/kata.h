@@ -2,6 +2,10 @@
  * kata.h - the C ABI of kata, a real-time SDK for 3D human pose: GPD v1 features on live
  * streams, scoring against a teacher with a learned metric, and retargeting.
  *
+ * Reading order: the basics (versions, limits, status codes, context), then one group per task,
+ * each opening with an example: 1 open a stream, 2 attach a teacher, 3 read results, 4 retarget,
+ * 5 run many streams, 6 read messages; the deprecated calls last.
+ *
  * Conventions (they hold for every function below unless it says otherwise):
  * - Every fallible call returns a kata_status. KATA_OK is 0; KATA_NO_DATA is a result, not an
  *   error. Values are never reassigned; new ones are only added.
@@ -135,6 +139,16 @@ KATA_API void kata_context_destroy(kata_context context);
 /* The message of the last failed call made on this context from the calling thread, or "".
  * Valid until that thread's next call on the context. [any thread] */
 KATA_API const char* kata_context_last_error(kata_context context);
+
+/* ##############################################################################################
+ * Task 1 - open a stream: skeletons, clips, a live stream of frames in and GPD features out
+ *
+ * kata_context ctx;  kata_clip clip;  kata_skeleton skel;  kata_stream s;  kata_stream_desc d;
+ * kata_context_create(&ctx);  kata_clip_load_bvh(ctx, "data/cmu/02_01.bvh", &clip);
+ * kata_clip_skeleton(clip, &skel);  kata_stream_desc_init(&d);  d.preset = "cmu";
+ * kata_stream_open(ctx, skel, &d, &s);                           -- allocates, once
+ * kata_stream_push(s, t, xyz, kata_skeleton_joint_count(skel));  -- per frame: no allocation
+ * ############################################################################################ */
 
 /* ==== Skeletons =========================================================================== */
 
@@ -371,6 +385,16 @@ KATA_API int64_t kata_stream_feature_count(kata_stream stream);
 /* The stream's body height H in input units (0 while calibrating). [stream owner] */
 KATA_API double kata_stream_body_height(kata_stream stream);
 
+/* ##############################################################################################
+ * Task 2 - attach a teacher: what the stream is compared with (a model and a teacher motion)
+ *
+ * kata_model m;  kata_model_load(ctx, "models/default.kata", &m);
+ * kata_teacher_desc t;  kata_teacher_desc_init(&t);
+ * t.model = m;  t.clip = teacher_clip;  t.first_frame = 1;   -- or t.features / t.joints, ghost = 0
+ * kata_stream_attach_teacher(s, &t);                         -- allocates, once
+ * kata_stream_restart_teacher(s);  kata_stream_detach_teacher(s);
+ * ############################################################################################ */
+
 /* ==== Models and scoring ================================================================== */
 /* (section: models and scoring)
  * A model (.kata file: normalisation ranges, the learned W, the threshold delta*) scores a
@@ -412,6 +436,89 @@ KATA_API kata_stencil kata_model_stencil(kata_model model);
  * NULL model. [any thread] */
 KATA_API const char* kata_model_metadata(kata_model model, const char* key);
 
+/* ---- The ghost's solver settings (kata_teacher_desc.retarget, kata_retargeter_create) ---- */
+/* How a retargeter solves. Fill with kata_retarget_desc_init, then change fields. */
+typedef struct kata_retarget_desc {
+  uint32_t struct_size;        /* sizeof(kata_retarget_desc) */
+  const char* preset;          /* joint set: "cmu" (default) or "gpd" */
+  double gradient_tolerance;   /* stop when |grad| <= this x sqrt(sum pi delta^2). Default 3e-5 */
+  uint32_t max_iterations;     /* SPG iteration cap per frame. Default 200 */
+  int32_t warm_start;          /* 1 (default): start from the previous frame's solution */
+  int32_t restore_bone_lengths;/* 1 (default): reset every bone to the student's exact length */
+} kata_retarget_desc;
+
+/* Fills desc with the defaults above (struct_size set). [any thread] */
+KATA_API void kata_retarget_desc_init(kata_retarget_desc* desc);
+
+/* ==== Pipeline: every frame scored, with the teacher's pose on the student's body ========= */
+/* (section: pipeline, since 0.2)
+ * A stream with a teacher attached runs, in each push, for every feature vector it emits:
+ *   score against the teacher (clip alignment picks the matched teacher frame)
+ *   -> that teacher frame retargeted onto the student's bones (warm-started solve, exact bones)
+ *   -> placed over the student's pose of the same frame: the "ghost" to draw over the student.
+ * Each emitted vector becomes one kata_result in a ring of desc.result_capacity entries; the
+ * caller drains them with kata_stream_read_results at any rate (push at 120 Hz, read at 30 Hz:
+ * nothing is lost while the ring holds what arrives between reads; when it is full the oldest
+ * unread result is overwritten and counted by kata_stream_results_dropped).
+ * Times: capture_time is the caller's timestamp of the frame (seconds); arrival_ns and
+ * computed_ns are CLOCK_MONOTONIC nanoseconds (C++ steady_clock): when the push began and when
+ * the result was complete. Memory: kata_stream_attach_teacher allocates; pushes and reads never
+ * do. Threads: [stream owner] for every call. */
+
+/* What a stream is compared with: its teacher. One concept, whatever the teacher is given as:
+ *   motion         how it is given                                   a ghost?
+ *   a recorded clip   clip (BVH)                                     yes
+ *   joint positions   skeleton + positions + frames + frame_time     yes
+ *   GPD features      features + frames + frame_time (kata_stream_features of a teacher stream)  no
+ *   the 16 GPD joints joints + body_height, one held pose (frames = 1)   no
+ * Exactly one of clip, skeleton/positions, features, joints is set. A clip (frames > 1, pose_frame
+ * -1) is followed by the online alignment; pose_frame >= first_frame makes that one frame a
+ * single-pose teacher. A teacher given as features or GPD joints has no joint positions to
+ * retarget: set ghost = 0 for it (ghost = 1 is refused). Fill with kata_teacher_desc_init. */
+typedef struct kata_teacher_desc {
+  uint32_t struct_size;      /* sizeof(kata_teacher_desc) (0.2's smaller size is accepted too) */
+  kata_model model;          /* required; the stream must use the model's stencil */
+  /* The teacher's motion: a recorded clip ... */
+  kata_clip clip;            /* a BVH clip, or NULL and one of the forms below */
+  /* ... or frames of joint positions: `frames` x kata_skeleton_joint_count(skeleton) x 3 floats,
+   * row-major, +Y up, frame_time seconds apart (copied). */
+  kata_skeleton skeleton;
+  const float* positions;    /* frames x joints x 3 floats, or NULL */
+  uint32_t frames;           /* frames of positions or features (joints: 1) */
+  double frame_time;         /* seconds between frames of positions or features */
+  const char* preset;        /* the teacher's GPD joint map (kata_preset_name). NULL: "cmu" */
+  uint32_t first_frame;      /* teacher frames first_frame..end (1 skips CMU's T-pose). Default 0 */
+  int32_t pose_frame;        /* -1 (default): follow the whole clip; >= first_frame: that frame only */
+  int32_t ghost;             /* 1 (default): make a ghost per result (the student skeleton needs rest
+                                offsets and the same joint names as the teacher); 0: scores only */
+  const kata_retarget_desc* retarget;  /* the ghost's solver (joint set "cmu" or "gpd"); NULL: defaults */
+  /* ---- since 1.0 (a 0.2 caller passes the smaller struct_size: these stay NULL / 0) */
+  /* ... or GPD v1 feature vectors: `frames` x KATA_GPD_DIMS floats, row-major (copied) ... */
+  const float* features;
+  /* ... or one pose as the 16 GPD joints' world positions: KATA_GPD_JOINTS x 3 floats, GPD joint
+   * order, +Y up, any units (copied), held still (kinetics zero), with its body height in the same
+   * units. (A moving teacher of 16 GPD joints: positions on kata_skeleton_create_layout "gpd".) */
+  const float* joints;
+  double body_height;        /* the joints' body height, in their units */
+} kata_teacher_desc;
+
+/* Fills desc with the defaults above (struct_size set). [any thread] */
+KATA_API void kata_teacher_desc_init(kata_teacher_desc* desc);
+/* Attaches a teacher to a stream in one call: model, teacher motion, and (from the stream's own
+ * skeleton) the student's body. Replaces any teacher; a refused call leaves the old one in
+ * place. The alignment starts at the teacher's first frame. Errors (stencil mismatch, unknown
+ * preset, a ghost joint missing from one skeleton, bad frames or features, two motions given,
+ * desc->struct_size other than a released sizeof(kata_teacher_desc)) go to
+ * kata_stream_last_error. Allocates. [stream owner] */
+KATA_API kata_status kata_stream_attach_teacher(kata_stream stream, const kata_teacher_desc* desc);
+/* Removes the stream's teacher: later results are not scored (no KATA_RESULT_SCORED) and carry
+ * no ghost. KATA_OK without one too. [stream owner] */
+KATA_API kata_status kata_stream_detach_teacher(kata_stream stream);
+/* Restarts the teacher: the next frame is matched from the teacher's first frame, the ghost's
+ * solve starts cold and the score calibrates again (KATA_SCORE_CALIBRATING). KATA_E_STATE
+ * without a teacher. [stream owner] */
+KATA_API kata_status kata_stream_restart_teacher(kata_stream stream);
+
 /* The five body parts of a score breakdown, in array order. */
 typedef enum kata_body_part {
   KATA_PART_TORSO_HEAD = 0, /* Hip, Chest, Neck, Head */
@@ -421,78 +528,6 @@ typedef enum kata_body_part {
   KATA_PART_RIGHT_LEG = 4,  /* RHip, RKnee, RFoot */
   KATA_PART_COUNT = 5
 } kata_body_part;
-
-/* One scored frame. The caller sets struct_size = sizeof(kata_score_record). */
-typedef struct kata_score_record {
-  uint32_t struct_size;            /* sizeof(kata_score_record), set by the caller */
-  int32_t matched_reference_frame; /* teacher clip frame matched (0-based index into the
-                                      reference's frames); 0 for a pose reference */
-  int64_t frame_index;             /* the stream frame scored (as in kata_stream_features) */
-  double timestamp;                /* that frame's timestamp, seconds */
-  float distance;                  /* d, dimensionless (>= 0) */
-  float score;                     /* 0..100 */
-  float parts[KATA_PART_COUNT];    /* split of d^2 by kata_body_part; sums to d^2 */
-  /* Added with the calibrated score (section "Score calibration and feedback" below); a caller
-   * whose struct_size ends before a field does not receive it. */
-  float part_scores[KATA_PART_COUNT]; /* each part's own calibrated score, 0..100 */
-  int32_t part_to_fix;             /* kata_body_part to correct, -1 for none (see below) */
-  int32_t state;                   /* kata_score_state: whether the scores are to be shown */
-} kata_score_record;
-
-/* ---- Deprecated: the 0.x "reference" calls ----
- * DEPRECATED since 1.0; removed in 2.0, not before 2027-06-01. Each is a thin wrapper over the
- * teacher (kata_stream_attach_teacher with ghost = 0, kata_stream_detach_teacher,
- * kata_stream_restart_teacher) and behaves as it did in 0.2; the replacement is named per call. */
-
-/* Use kata_stream_attach_teacher with kata_teacher_desc.features, frames = 1, ghost = 0.
- * Sets a single-pose reference on a stream: features is one GPD v1 vector (count =
- * KATA_GPD_DIMS floats, e.g. a frame from kata_stream_features of a teacher stream), copied.
- * Replaces any previous reference. KATA_E_INVALID_ARGUMENT when the stream's stencil differs
- * from the model's or the features are not finite. Errors go to kata_stream_last_error.
- * Allocates. [stream owner] */
-KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_attach_teacher with desc.features")
-kata_status kata_stream_set_reference_pose(kata_stream stream, kata_model model, const float* features,
-                                           size_t count);
-/* Use kata_stream_attach_teacher with kata_teacher_desc.joints and .body_height, ghost = 0.
- * Sets a single-pose reference from the 16 GPD joints' world positions (KATA_GPD_JOINTS x 3
- * floats in GPD joint order, +Y up, any units) and the body height in the same units: a held
- * pose (kinetics zero). [stream owner] */
-KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_attach_teacher with desc.joints")
-kata_status kata_stream_set_reference_joints(kata_stream stream, kata_model model, const float* joints,
-                                             size_t count, double body_height);
-/* Use kata_stream_attach_teacher with kata_teacher_desc.features, .frames, .frame_time, ghost = 0.
- * Sets a clip reference: `frames` GPD v1 vectors (frames x KATA_GPD_DIMS floats, row-major),
- * frame_time seconds apart; copied into projections computed once. [stream owner] */
-KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_attach_teacher with desc.features")
-kata_status kata_stream_set_reference_clip(kata_stream stream, kata_model model, const float* features,
-                                           uint32_t frames, double frame_time);
-/* Use kata_stream_attach_teacher with kata_teacher_desc.clip (.preset, .first_frame,
- * .pose_frame), ghost = 0.
- * Sets a reference from a recorded clip, its features computed here with the model's stencil
- * (clip frames first_frame.. end; 1 skips the CMU converter's T-pose) through the named preset
- * ("cmu", ...). pose_frame >= 0: only that clip frame, as a pose reference; -1: the whole clip;
- * below -1: KATA_E_INVALID_ARGUMENT. [stream owner] */
-KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_attach_teacher with desc.clip")
-kata_status kata_stream_set_reference_bvh(kata_stream stream, kata_model model, kata_clip clip,
-                                          const char* preset, uint32_t first_frame, int32_t pose_frame);
-/* Use kata_stream_detach_teacher.
- * Removes the stream's reference (kata_stream_score then returns KATA_E_STATE). [stream owner] */
-KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_detach_teacher")
-kata_status kata_stream_clear_reference(kata_stream stream);
-/* Use kata_stream_restart_teacher.
- * Restarts a clip reference's alignment: the next frame is matched from the clip's start.
- * [stream owner] */
-KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_restart_teacher")
-kata_status kata_stream_restart_reference(kata_stream stream);
-/* Use kata_stream_read_newest (or kata_stream_read_results for every frame).
- * Copies the score record of the stream's newest feature vector into *out. Every vector is
- * scored in the push that emits it (so the alignment sees every frame, whatever the read rate);
- * a vector emitted before the reference was set is scored by this call. A later call without a
- * new push returns the same record. KATA_NO_DATA before the first feature vector; KATA_E_STATE
- * without a reference; KATA_E_INTERNAL (a bug, the record is withheld) when the score is not
- * finite. Does not allocate. [stream owner] */
-KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_read_newest")
-kata_status kata_stream_score(kata_stream stream, kata_score_record* out);
 
 /* ==== Score calibration and feedback ====================================================== */
 /* The score is a calibrated map of the distance d: score = 100 / (1 + (d / d50)^slope), fitted
@@ -531,6 +566,94 @@ KATA_API kata_status kata_model_calibration(kata_model model, kata_score_calibra
  * kata_stream_restart_teacher. Allocates. [stream owner] */
 KATA_API kata_status kata_stream_set_calibration(kata_stream stream, const kata_score_calibration* calibration);
 
+/* ##############################################################################################
+ * Task 3 - read results: every pushed frame's score, matched teacher frame and ghost
+ *
+ * kata_result r[64];  kata_score_record sc[64];  uint32_t n;
+ * r[0].struct_size = sizeof r[0];  sc[0].struct_size = sizeof sc[0];
+ * kata_stream_read_results(s, r, sc, NULL, 0, NULL, 0, 64, &n);  -- every frame, oldest first
+ * kata_stream_read_newest(s, r, sc, NULL, 0, NULL, 0);           -- or only the newest
+ * draw(sc[0].score, sc[0].part_to_fix, r[0].matched_teacher_frame);
+ * ############################################################################################ */
+
+/* ==== Score records and results =========================================================== */
+/* One scored frame. The caller sets struct_size = sizeof(kata_score_record). */
+typedef struct kata_score_record {
+  uint32_t struct_size;            /* sizeof(kata_score_record), set by the caller */
+  int32_t matched_reference_frame; /* teacher clip frame matched (0-based index into the
+                                      reference's frames); 0 for a pose reference */
+  int64_t frame_index;             /* the stream frame scored (as in kata_stream_features) */
+  double timestamp;                /* that frame's timestamp, seconds */
+  float distance;                  /* d, dimensionless (>= 0) */
+  float score;                     /* 0..100 */
+  float parts[KATA_PART_COUNT];    /* split of d^2 by kata_body_part; sums to d^2 */
+  /* Added with the calibrated score (section "Score calibration and feedback" below); a caller
+   * whose struct_size ends before a field does not receive it. */
+  float part_scores[KATA_PART_COUNT]; /* each part's own calibrated score, 0..100 */
+  int32_t part_to_fix;             /* kata_body_part to correct, -1 for none (see below) */
+  int32_t state;                   /* kata_score_state: whether the scores are to be shown */
+} kata_score_record;
+
+/* kata_result.flags */
+#define KATA_RESULT_SCORED 1u /* the score record is valid (a teacher is attached) */
+#define KATA_RESULT_GHOST 2u  /* the ghost was made */
+
+/* One emitted feature vector's result. */
+typedef struct kata_result {
+  uint32_t struct_size;        /* set by the caller in results[0]: sizeof(kata_result) */
+  uint32_t flags;              /* KATA_RESULT_* */
+  uint64_t sequence;           /* 0, 1, 2... per stream, one per emitted vector (gaps = dropped) */
+  int64_t frame_index;         /* the stream frame (as kata_stream_features reports it) */
+  double capture_time;         /* the caller's timestamp of that frame, seconds */
+  int64_t arrival_ns;          /* CLOCK_MONOTONIC ns when the push that emitted it began */
+  int64_t computed_ns;         /* CLOCK_MONOTONIC ns when this result was complete */
+  int32_t matched_teacher_frame; /* teacher frame the score matched (index from first_frame), -1 */
+  uint32_t ghost_joint_count;  /* joints in this result's ghost (0 without one) */
+} kata_result;
+
+/* Moves every unread result, oldest first (at most `capacity`), to the caller's arrays and sets
+ * *count. Each array may be NULL except results:
+ *   results  capacity entries of results[0].struct_size bytes (set it to sizeof(kata_result));
+ *   scores   capacity entries of scores[0].struct_size bytes (sizeof(kata_score_record));
+ *   ghosts   ghost_capacity floats: entry i at i x 3 x kata_stream_ghost_joint_count() (x, y, z
+ *            per ghost joint, the student's units, placed over the student; zeros without one);
+ *   features feature_capacity floats: entry i at i x KATA_GPD_DIMS (needs desc.keep_features).
+ * KATA_E_BUFFER_TOO_SMALL (nothing moved) when ghosts or features hold fewer than capacity
+ * entries. *count = 0 and KATA_OK when nothing is unread. Does not allocate. [stream owner] */
+KATA_API kata_status kata_stream_read_results(kata_stream stream, kata_result* results, kata_score_record* scores,
+                                              float* ghosts, size_t ghost_capacity, float* features,
+                                              size_t feature_capacity, uint32_t capacity, uint32_t* count);
+/* The newest result, for a caller that only draws the latest frame: the newest unread result
+ * into *result (result->struct_size set by the caller) and, each when not NULL, its score record
+ * (score->struct_size set), ghost (ghost_capacity >= 3 x kata_stream_ghost_joint_count() floats)
+ * and features (feature_capacity >= KATA_GPD_DIMS floats; needs desc.keep_features). Every older
+ * unread result is passed over (marked read; not counted as dropped): the same as draining the
+ * ring with kata_stream_read_results and keeping the last entry. KATA_NO_DATA (nothing written)
+ * when nothing is unread: no new result since the last read. Does not allocate. [stream owner] */
+KATA_API kata_status kata_stream_read_newest(kata_stream stream, kata_result* result, kata_score_record* score,
+                                             float* ghost, size_t ghost_capacity, float* features,
+                                             size_t feature_capacity);
+/* Results overwritten before they were read (a full ring), since the stream was opened; 0 for
+ * NULL. [stream owner] */
+KATA_API uint64_t kata_stream_results_dropped(kata_stream stream);
+/* Unread results in the ring; 0 for NULL. [stream owner] */
+KATA_API uint32_t kata_stream_results_pending(kata_stream stream);
+/* Joints of the stream's ghosts (0 without a ghost). [stream owner] */
+KATA_API uint32_t kata_stream_ghost_joint_count(kata_stream stream);
+/* For ghost joint i, the index of the student skeleton joint it stands for (-1 when out of
+ * range). [stream owner] */
+KATA_API int32_t kata_stream_ghost_joint_source(kata_stream stream, uint32_t i);
+
+/* ##############################################################################################
+ * Task 4 - retarget: a teacher's posture on a student's body, frame by frame
+ *
+ * kata_retargeter rt;  kata_retargeter_create(ctx, student_skeleton, NULL, &rt);
+ * float ghost[3 * 64];  kata_retarget_info info;  info.struct_size = sizeof info;
+ * kata_retargeter_solve(rt, teacher_xyz, teacher_joints, ghost, 3 * 64, &info);
+ * kata_retargeter_place(rt, student_xyz, student_joints, ghost, 3 * 64);
+ * kata_retargeter_destroy(rt);
+ * ############################################################################################ */
+
 /* ==== Retargeting ========================================================================= */
 /* Puts a teacher's posture onto a student's body, frame after frame (skeleton-independent
  * distance matrices + a warm-started non-monotone spectral gradient solve, then exact bone
@@ -547,16 +670,6 @@ KATA_API kata_status kata_stream_set_calibration(kata_stream stream, const kata_
 /* Per-student retargeting state (warm start, buffers). */
 typedef struct kata_retargeter_s* kata_retargeter;
 
-/* How a retargeter solves. Fill with kata_retarget_desc_init, then change fields. */
-typedef struct kata_retarget_desc {
-  uint32_t struct_size;        /* sizeof(kata_retarget_desc) */
-  const char* preset;          /* joint set: "cmu" (default) or "gpd" */
-  double gradient_tolerance;   /* stop when |grad| <= this x sqrt(sum pi delta^2). Default 3e-5 */
-  uint32_t max_iterations;     /* SPG iteration cap per frame. Default 200 */
-  int32_t warm_start;          /* 1 (default): start from the previous frame's solution */
-  int32_t restore_bone_lengths;/* 1 (default): reset every bone to the student's exact length */
-} kata_retarget_desc;
-
 /* What one kata_retargeter_solve did. */
 typedef struct kata_retarget_info {
   uint32_t struct_size;         /* set by the caller: sizeof(kata_retarget_info) */
@@ -568,8 +681,6 @@ typedef struct kata_retarget_info {
   double max_bone_error;        /* the same for the returned ghost (after the restoring step) */
 } kata_retarget_info;
 
-/* Fills desc with the defaults above (struct_size set). [any thread] */
-KATA_API void kata_retarget_desc_init(kata_retarget_desc* desc);
 /* Creates a retargeter for the student `student` (a skeleton with rest offsets; copied, may be
  * destroyed afterwards). desc may be NULL for the defaults; else desc->struct_size must be
  * sizeof(kata_retarget_desc). Errors (unknown preset, missing
@@ -660,124 +771,15 @@ KATA_API kata_status kata_retargeter_local_rotations(kata_retargeter retargeter,
                                                      float* positions, size_t position_capacity,
                                                      double* residual);
 
-/* ==== Pipeline: every frame scored, with the teacher's pose on the student's body ========= */
-/* (section: pipeline, since 0.2)
- * A stream with a teacher attached runs, in each push, for every feature vector it emits:
- *   score against the teacher (clip alignment picks the matched teacher frame)
- *   -> that teacher frame retargeted onto the student's bones (warm-started solve, exact bones)
- *   -> placed over the student's pose of the same frame: the "ghost" to draw over the student.
- * Each emitted vector becomes one kata_result in a ring of desc.result_capacity entries; the
- * caller drains them with kata_stream_read_results at any rate (push at 120 Hz, read at 30 Hz:
- * nothing is lost while the ring holds what arrives between reads; when it is full the oldest
- * unread result is overwritten and counted by kata_stream_results_dropped).
- * Times: capture_time is the caller's timestamp of the frame (seconds); arrival_ns and
- * computed_ns are CLOCK_MONOTONIC nanoseconds (C++ steady_clock): when the push began and when
- * the result was complete. Memory: kata_stream_attach_teacher allocates; pushes and reads never
- * do. Threads: [stream owner] for every call. */
-
-/* What a stream is compared with: its teacher. One concept, whatever the teacher is given as:
- *   motion         how it is given                                   a ghost?
- *   a recorded clip   clip (BVH)                                     yes
- *   joint positions   skeleton + positions + frames + frame_time     yes
- *   GPD features      features + frames + frame_time (kata_stream_features of a teacher stream)  no
- *   the 16 GPD joints joints + body_height, one held pose (frames = 1)   no
- * Exactly one of clip, skeleton/positions, features, joints is set. A clip (frames > 1, pose_frame
- * -1) is followed by the online alignment; pose_frame >= first_frame makes that one frame a
- * single-pose teacher. A teacher given as features or GPD joints has no joint positions to
- * retarget: set ghost = 0 for it (ghost = 1 is refused). Fill with kata_teacher_desc_init. */
-typedef struct kata_teacher_desc {
-  uint32_t struct_size;      /* sizeof(kata_teacher_desc) (0.2's smaller size is accepted too) */
-  kata_model model;          /* required; the stream must use the model's stencil */
-  /* The teacher's motion: a recorded clip ... */
-  kata_clip clip;            /* a BVH clip, or NULL and one of the forms below */
-  /* ... or frames of joint positions: `frames` x kata_skeleton_joint_count(skeleton) x 3 floats,
-   * row-major, +Y up, frame_time seconds apart (copied). */
-  kata_skeleton skeleton;
-  const float* positions;    /* frames x joints x 3 floats, or NULL */
-  uint32_t frames;           /* frames of positions or features (joints: 1) */
-  double frame_time;         /* seconds between frames of positions or features */
-  const char* preset;        /* the teacher's GPD joint map (kata_preset_name). NULL: "cmu" */
-  uint32_t first_frame;      /* teacher frames first_frame..end (1 skips CMU's T-pose). Default 0 */
-  int32_t pose_frame;        /* -1 (default): follow the whole clip; >= first_frame: that frame only */
-  int32_t ghost;             /* 1 (default): make a ghost per result (the student skeleton needs rest
-                                offsets and the same joint names as the teacher); 0: scores only */
-  const kata_retarget_desc* retarget;  /* the ghost's solver (joint set "cmu" or "gpd"); NULL: defaults */
-  /* ---- since 1.0 (a 0.2 caller passes the smaller struct_size: these stay NULL / 0) */
-  /* ... or GPD v1 feature vectors: `frames` x KATA_GPD_DIMS floats, row-major (copied) ... */
-  const float* features;
-  /* ... or one pose as the 16 GPD joints' world positions: KATA_GPD_JOINTS x 3 floats, GPD joint
-   * order, +Y up, any units (copied), held still (kinetics zero), with its body height in the same
-   * units. (A moving teacher of 16 GPD joints: positions on kata_skeleton_create_layout "gpd".) */
-  const float* joints;
-  double body_height;        /* the joints' body height, in their units */
-} kata_teacher_desc;
-
-/* Fills desc with the defaults above (struct_size set). [any thread] */
-KATA_API void kata_teacher_desc_init(kata_teacher_desc* desc);
-/* Attaches a teacher to a stream in one call: model, teacher motion, and (from the stream's own
- * skeleton) the student's body. Replaces any teacher; a refused call leaves the old one in
- * place. The alignment starts at the teacher's first frame. Errors (stencil mismatch, unknown
- * preset, a ghost joint missing from one skeleton, bad frames or features, two motions given,
- * desc->struct_size other than a released sizeof(kata_teacher_desc)) go to
- * kata_stream_last_error. Allocates. [stream owner] */
-KATA_API kata_status kata_stream_attach_teacher(kata_stream stream, const kata_teacher_desc* desc);
-/* Removes the stream's teacher: later results are not scored (no KATA_RESULT_SCORED) and carry
- * no ghost. KATA_OK without one too. [stream owner] */
-KATA_API kata_status kata_stream_detach_teacher(kata_stream stream);
-/* Restarts the teacher: the next frame is matched from the teacher's first frame, the ghost's
- * solve starts cold and the score calibrates again (KATA_SCORE_CALIBRATING). KATA_E_STATE
- * without a teacher. [stream owner] */
-KATA_API kata_status kata_stream_restart_teacher(kata_stream stream);
-
-/* kata_result.flags */
-#define KATA_RESULT_SCORED 1u /* the score record is valid (a teacher is attached) */
-#define KATA_RESULT_GHOST 2u  /* the ghost was made */
-
-/* One emitted feature vector's result. */
-typedef struct kata_result {
-  uint32_t struct_size;        /* set by the caller in results[0]: sizeof(kata_result) */
-  uint32_t flags;              /* KATA_RESULT_* */
-  uint64_t sequence;           /* 0, 1, 2... per stream, one per emitted vector (gaps = dropped) */
-  int64_t frame_index;         /* the stream frame (as kata_stream_features reports it) */
-  double capture_time;         /* the caller's timestamp of that frame, seconds */
-  int64_t arrival_ns;          /* CLOCK_MONOTONIC ns when the push that emitted it began */
-  int64_t computed_ns;         /* CLOCK_MONOTONIC ns when this result was complete */
-  int32_t matched_teacher_frame; /* teacher frame the score matched (index from first_frame), -1 */
-  uint32_t ghost_joint_count;  /* joints in this result's ghost (0 without one) */
-} kata_result;
-
-/* Moves every unread result, oldest first (at most `capacity`), to the caller's arrays and sets
- * *count. Each array may be NULL except results:
- *   results  capacity entries of results[0].struct_size bytes (set it to sizeof(kata_result));
- *   scores   capacity entries of scores[0].struct_size bytes (sizeof(kata_score_record));
- *   ghosts   ghost_capacity floats: entry i at i x 3 x kata_stream_ghost_joint_count() (x, y, z
- *            per ghost joint, the student's units, placed over the student; zeros without one);
- *   features feature_capacity floats: entry i at i x KATA_GPD_DIMS (needs desc.keep_features).
- * KATA_E_BUFFER_TOO_SMALL (nothing moved) when ghosts or features hold fewer than capacity
- * entries. *count = 0 and KATA_OK when nothing is unread. Does not allocate. [stream owner] */
-KATA_API kata_status kata_stream_read_results(kata_stream stream, kata_result* results, kata_score_record* scores,
-                                              float* ghosts, size_t ghost_capacity, float* features,
-                                              size_t feature_capacity, uint32_t capacity, uint32_t* count);
-/* The newest result, for a caller that only draws the latest frame: the newest unread result
- * into *result (result->struct_size set by the caller) and, each when not NULL, its score record
- * (score->struct_size set), ghost (ghost_capacity >= 3 x kata_stream_ghost_joint_count() floats)
- * and features (feature_capacity >= KATA_GPD_DIMS floats; needs desc.keep_features). Every older
- * unread result is passed over (marked read; not counted as dropped): the same as draining the
- * ring with kata_stream_read_results and keeping the last entry. KATA_NO_DATA (nothing written)
- * when nothing is unread: no new result since the last read. Does not allocate. [stream owner] */
-KATA_API kata_status kata_stream_read_newest(kata_stream stream, kata_result* result, kata_score_record* score,
-                                             float* ghost, size_t ghost_capacity, float* features,
-                                             size_t feature_capacity);
-/* Results overwritten before they were read (a full ring), since the stream was opened; 0 for
- * NULL. [stream owner] */
-KATA_API uint64_t kata_stream_results_dropped(kata_stream stream);
-/* Unread results in the ring; 0 for NULL. [stream owner] */
-KATA_API uint32_t kata_stream_results_pending(kata_stream stream);
-/* Joints of the stream's ghosts (0 without a ghost). [stream owner] */
-KATA_API uint32_t kata_stream_ghost_joint_count(kata_stream stream);
-/* For ghost joint i, the index of the student skeleton joint it stands for (-1 when out of
- * range). [stream owner] */
-KATA_API int32_t kata_stream_ghost_joint_source(kata_stream stream, uint32_t i);
+/* ##############################################################################################
+ * Task 5 - run many streams: a runtime, its workers and ZeroMQ in and out
+ *
+ * kata_runtime_desc rd;  kata_runtime rt;  kata_runtime_desc_init(&rd);
+ * rd.publish_endpoints = "tcp://127.0.0.1:5555";  kata_runtime_create(ctx, &rd, &rt);
+ * kata_runtime_add_stream(rt, 42, &s, "cmu", 0);         -- the runtime owns s now (s = NULL)
+ * kata_runtime_push(rt, 42, sequence, t, xyz, joints);   -- any thread, never blocks
+ * kata_runtime_stop(rt);  kata_runtime_destroy(rt);
+ * ############################################################################################ */
 
 /* ==== Runtime: many streams, ZeroMQ in and out ============================================ */
 /* (section: runtime, since 0.2)
@@ -877,6 +879,16 @@ KATA_API const char* kata_runtime_ingest_endpoint(kata_runtime runtime);
  * so a producer in any language computes which shard owns a stream. [any thread] */
 KATA_API uint32_t kata_shard_of(uint64_t stream_id, uint32_t shard_count);
 
+/* ##############################################################################################
+ * Task 6 - read messages: a subscriber of a runtime's results, in C
+ *
+ * -- a ZeroMQ SUB socket connected to kata_runtime_publish_endpoint(rt), subscribed to ""
+ * int n = zmq_recv(sub, buffer, sizeof buffer, 0);
+ * kata_result_message msg;  msg.struct_size = sizeof msg;
+ * if (kata_message_read_result(buffer, (size_t)n, &msg) == KATA_OK)
+ *   draw(msg.stream_id, msg.score, msg.ghost, msg.ghost_joint_count);
+ * ############################################################################################ */
+
 /* ---- Reading published messages (for subscribers in C; no FlatBuffers library needed) ---- */
 
 /* One result message, read by kata_message_read_result. */
@@ -912,6 +924,66 @@ typedef struct kata_result_message {
  * definition); KATA_E_PARSE: refused (truncated, corrupt, unknown). Allocates once per thread
  * (a scratch buffer for misaligned messages). [any thread] */
 KATA_API kata_status kata_message_read_result(const void* message, size_t size, kata_result_message* out);
+
+/* ##############################################################################################
+ * Deprecated - kept for one major version (each names its replacement)
+ *
+ * ############################################################################################ */
+
+/* ---- Deprecated: the 0.x "reference" calls ----
+ * DEPRECATED since 1.0; removed in 2.0, not before 2027-06-01. Each is a thin wrapper over the
+ * teacher (kata_stream_attach_teacher with ghost = 0, kata_stream_detach_teacher,
+ * kata_stream_restart_teacher) and behaves as it did in 0.2; the replacement is named per call. */
+
+/* Use kata_stream_attach_teacher with kata_teacher_desc.features, frames = 1, ghost = 0.
+ * Sets a single-pose reference on a stream: features is one GPD v1 vector (count =
+ * KATA_GPD_DIMS floats, e.g. a frame from kata_stream_features of a teacher stream), copied.
+ * Replaces any previous reference. KATA_E_INVALID_ARGUMENT when the stream's stencil differs
+ * from the model's or the features are not finite. Errors go to kata_stream_last_error.
+ * Allocates. [stream owner] */
+KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_attach_teacher with desc.features")
+kata_status kata_stream_set_reference_pose(kata_stream stream, kata_model model, const float* features,
+                                           size_t count);
+/* Use kata_stream_attach_teacher with kata_teacher_desc.joints and .body_height, ghost = 0.
+ * Sets a single-pose reference from the 16 GPD joints' world positions (KATA_GPD_JOINTS x 3
+ * floats in GPD joint order, +Y up, any units) and the body height in the same units: a held
+ * pose (kinetics zero). [stream owner] */
+KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_attach_teacher with desc.joints")
+kata_status kata_stream_set_reference_joints(kata_stream stream, kata_model model, const float* joints,
+                                             size_t count, double body_height);
+/* Use kata_stream_attach_teacher with kata_teacher_desc.features, .frames, .frame_time, ghost = 0.
+ * Sets a clip reference: `frames` GPD v1 vectors (frames x KATA_GPD_DIMS floats, row-major),
+ * frame_time seconds apart; copied into projections computed once. [stream owner] */
+KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_attach_teacher with desc.features")
+kata_status kata_stream_set_reference_clip(kata_stream stream, kata_model model, const float* features,
+                                           uint32_t frames, double frame_time);
+/* Use kata_stream_attach_teacher with kata_teacher_desc.clip (.preset, .first_frame,
+ * .pose_frame), ghost = 0.
+ * Sets a reference from a recorded clip, its features computed here with the model's stencil
+ * (clip frames first_frame.. end; 1 skips the CMU converter's T-pose) through the named preset
+ * ("cmu", ...). pose_frame >= 0: only that clip frame, as a pose reference; -1: the whole clip;
+ * below -1: KATA_E_INVALID_ARGUMENT. [stream owner] */
+KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_attach_teacher with desc.clip")
+kata_status kata_stream_set_reference_bvh(kata_stream stream, kata_model model, kata_clip clip,
+                                          const char* preset, uint32_t first_frame, int32_t pose_frame);
+/* Use kata_stream_detach_teacher.
+ * Removes the stream's reference (kata_stream_score then returns KATA_E_STATE). [stream owner] */
+KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_detach_teacher")
+kata_status kata_stream_clear_reference(kata_stream stream);
+/* Use kata_stream_restart_teacher.
+ * Restarts a clip reference's alignment: the next frame is matched from the clip's start.
+ * [stream owner] */
+KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_restart_teacher")
+kata_status kata_stream_restart_reference(kata_stream stream);
+/* Use kata_stream_read_newest (or kata_stream_read_results for every frame).
+ * Copies the score record of the stream's newest feature vector into *out. Every vector is
+ * scored in the push that emits it (so the alignment sees every frame, whatever the read rate);
+ * a vector emitted before the reference was set is scored by this call. A later call without a
+ * new push returns the same record. KATA_NO_DATA before the first feature vector; KATA_E_STATE
+ * without a reference; KATA_E_INTERNAL (a bug, the record is withheld) when the score is not
+ * finite. Does not allocate. [stream owner] */
+KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_read_newest")
+kata_status kata_stream_score(kata_stream stream, kata_score_record* out);
 
 #ifdef __cplusplus
 }
