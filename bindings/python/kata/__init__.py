@@ -19,6 +19,7 @@ it that is still open before it is destroyed (kata.h requires that order).
 """
 import ctypes
 import enum
+import os
 import warnings
 import weakref
 
@@ -29,6 +30,14 @@ from . import _native as _n
 __all__ = ["Context", "Skeleton", "Clip", "Model", "Stream", "Retargeter", "ResultBuffer", "Results",
            "ScoreRecord", "KataError", "Status", "Stencil", "UpAxis", "BodyPart", "version", "library_path",
            "GPD_DIMS", "GPD_JOINTS", "RESULT_SCORED", "RESULT_GHOST", "RESULT_DTYPE", "SCORE_DTYPE", "presets"]
+
+# kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the
+# installed package; used from a checkout, they are the build's (<repo>/build/python/kata/fb).
+if not os.path.isdir(os.path.join(os.path.dirname(os.path.abspath(__file__)), "fb")):
+    _build_fb = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..",
+                                              "build", "python", "kata"))
+    if os.path.isdir(os.path.join(_build_fb, "fb")):
+        __path__.append(_build_fb)
 
 GPD_DIMS = _n.GPD_DIMS
 GPD_JOINTS = _n.GPD_JOINTS
