@@ -1,6 +1,7 @@
 """Puts the native parts into the package as it is built (pyproject.toml has the metadata):
 libkata.so from $KATA_LIBRARY or <repo>/build/lib, and the FlatBuffers readers flatc generated
-(kata/fb/*.py) from $KATA_PYTHON_FB or <repo>/build/python/kata/fb. The version is kata.h's."""
+(kata/fb/*.py) from $KATA_PYTHON_FB or <repo>/build/python/kata/fb, and the scoring model
+(kata/models/default.kata) from $KATA_MODEL or <repo>/models/default.kata. The version is kata.h's."""
 import os
 import re
 import shutil
@@ -50,6 +51,11 @@ class BuildWithNative(build_py):
         shutil.rmtree(fb_out, ignore_errors=True)
         shutil.copytree(_fb_dir(), fb_out, ignore=shutil.ignore_patterns("__pycache__"))
         open(os.path.join(fb_out, "__init__.py"), "a").close()
+        model = os.environ.get("KATA_MODEL") or os.path.join(REPO, "models", "default.kata")
+        if not os.path.isfile(model):
+            raise SystemExit("kata: the default model %s is missing (set KATA_MODEL)" % model)
+        os.makedirs(os.path.join(package, "models"), exist_ok=True)
+        shutil.copyfile(model, os.path.join(package, "models", "default.kata"))
 
 
 class PlatformWheel(bdist_wheel):
