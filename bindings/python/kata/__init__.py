@@ -149,7 +149,8 @@ def presets() -> List[str]:
     """Names of the built-in layouts (kata_layout_name): every joint-map preset ("cmu", ...), then
     "mediapipe". Each is a valid open_stream(preset=...); create_layout makes the skeleton of
     "mediapipe", "gpd", "azure-kinect" and "xsens"."""
-    out, i = [], 0
+    out: List[str] = []
+    i = 0
     while True:
         name = _n.layout_name(i)
         if name is None:
@@ -932,6 +933,19 @@ class ResultMessage:
     __slots__ = ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_ns", "arrival_ns",
                  "computed_ns", "published_ns", "scored", "matched_teacher_frame", "distance", "score", "parts",
                  "part_scores", "part_to_fix", "state", "ghost")
+    stream_id: int
+    result_sequence: int
+    frame_sequence: int
+    frame_index: int
+    capture_ns: int
+    arrival_ns: int
+    computed_ns: int
+    published_ns: int
+    matched_teacher_frame: int
+    distance: float
+    score: float
+    part_to_fix: int
+    state: int
 
     def __init__(self, m: "_n.ResultMessage") -> None:
         for name in ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_ns", "arrival_ns",

@@ -9,6 +9,7 @@ import ctypes
 import ctypes.util
 import os
 import sys
+from typing import Any
 
 # The C ABI major version this binding is written against (kata.h KATA_VERSION_MAJOR), and the
 # oldest minor that has every function declared below (1.0: the teacher as the one way).
@@ -263,3 +264,9 @@ for _name, (_restype, _argtypes) in _SIGNATURES.items():
     _f.restype = _restype
     _f.argtypes = _argtypes
     globals()[_name[len("kata_"):]] = _f
+
+
+def __getattr__(name: str) -> Any:
+    """For type checkers: every C function above is set in globals() by the loop, so a name that
+    reaches here is not one (PEP 562)."""
+    raise AttributeError("kata._native has no C function %r" % name)

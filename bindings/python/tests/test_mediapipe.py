@@ -4,6 +4,7 @@ on the CMU joints, face and hand points at fixed offsets, origin at the hip midp
 import csv
 import os
 import subprocess
+import sys
 from types import SimpleNamespace
 
 import numpy as np
@@ -115,3 +116,22 @@ def test_low_visibility_loses_tracking_and_a_bad_shape_names_it(recording, data)
     assert r.lost_frames > 100 and len(r.scored) == 0
     with pytest.raises(ValueError, match=r"frames x 33 x 3, 4 or 5.*\(10, 31, 3\)"):
         kata.mediapipe.score(np.zeros((10, 31, 3)), np.arange(10), os.path.join(data, "07_01.bvh"))
+
+
+def test_the_readme_example_runs_as_printed(recording, repo, tmp_path):
+    """README.md's MediaPipe example, run as printed (its comment lines included) on a recording
+    saved where it reads it; the mean it prints is the one score() gives."""
+    text = open(os.path.join(repo, "README.md"), encoding="utf-8").read()
+    start = text.index("```python\n# pip install --no-build-isolation ./bindings/python")
+    code = text[start + len("```python\n"):text.index("```", start + 10)]
+    assert len([line for line in code.splitlines() if line.strip()]) <= 10
+    landmarks, timestamps_ms = recording
+    four = np.concatenate([landmarks, np.full(landmarks.shape[:2] + (1,), 0.95, np.float32)], axis=2)
+    np.save(tmp_path / "student_landmarks.npy", four)
+    np.save(tmp_path / "student_timestamps_ms.npy", timestamps_ms)
+    os.symlink(os.path.join(repo, "data"), tmp_path / "data")
+    p = subprocess.run([sys.executable, "-c", code], cwd=tmp_path, capture_output=True, text=True,
+                       env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path)))
+    assert p.returncode == 0, p.stderr
+    expected = kata.mediapipe.score(four, timestamps_ms, os.path.join(repo, "data", "cmu", "02_01.bvh"), first_frame=1)
+    assert "mean score %.1f over %d frames" % (expected.mean_score, len(expected.scored)) in p.stdout
