@@ -21,7 +21,7 @@ cd "$(dirname "$0")"
 PACKAGES=(build-essential cmake pkg-config libeigen3-dev libzmq3-dev cppzmq-dev libflatbuffers-dev
           flatbuffers-compiler flatbuffers-compiler-dev libgtest-dev libgmock-dev libbenchmark-dev
           libcli11-dev nlohmann-json3-dev libxsimd-dev ccache libtomlplusplus-dev libcpp-httplib-dev python3 python3-numpy python3-matplotlib python3-zmq python3-flatbuffers
-          python3-pytest mono-mcs mono-runtime abigail-tools xz-utils doxygen
+          python3-pytest python3-setuptools python3-wheel python3-venv python3-pip python3-mypy mono-mcs mono-runtime abigail-tools xz-utils doxygen
           chromium chromium-driver python3-selenium python3-pil)
 # Only `./build.sh fuzz`, `fuzz-smoke` and `tsan` need these (Debian's clang, its libFuzzer and
 # sanitizer runtimes).

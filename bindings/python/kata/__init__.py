@@ -19,16 +19,27 @@ it that is still open before it is destroyed (kata.h requires that order).
 """
 import ctypes
 import enum
+import os
+import time
 import warnings
 import weakref
+from typing import Any, List, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _native as _n
 
-__all__ = ["Context", "Skeleton", "Clip", "Model", "Stream", "Retargeter", "ResultBuffer", "Results",
+__all__ = ["Runtime", "shard_of", "Subscriber", "ResultMessage", "read_message", "ScoreState", "default_model_path", "Context", "Skeleton", "Clip", "Model", "Stream", "Retargeter", "ResultBuffer", "Results",
            "ScoreRecord", "KataError", "Status", "Stencil", "UpAxis", "BodyPart", "version", "library_path",
            "GPD_DIMS", "GPD_JOINTS", "RESULT_SCORED", "RESULT_GHOST", "RESULT_DTYPE", "SCORE_DTYPE", "presets"]
+
+# kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the
+# installed package; used from a checkout, they are the build's (<repo>/build/python/kata/fb).
+if not os.path.isdir(os.path.join(os.path.dirname(os.path.abspath(__file__)), "fb")):
+    _build_fb = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "..", "..",
+                                              "build", "python", "kata"))
+    if os.path.isdir(os.path.join(_build_fb, "fb")):
+        __path__.append(_build_fb)
 
 GPD_DIMS = _n.GPD_DIMS
 GPD_JOINTS = _n.GPD_JOINTS
@@ -62,7 +73,8 @@ class Status(enum.IntEnum):
     E_BUFFER_TOO_SMALL = 12
     E_INTERNAL = 13
     E_STATE = 14
-    TRACKING_LOST = 15  # a result, not an error: the frame was accepted without features
+    #: not an error: the frame was accepted without features (too many joints missing)
+    TRACKING_LOST = 15
 
 
 class Stencil(enum.IntEnum):
@@ -71,8 +83,18 @@ class Stencil(enum.IntEnum):
 
 
 class UpAxis(enum.IntEnum):
-    Y = 0
-    Z = 1
+    """How a stream reads its frames' axes (kata_up_axis)."""
+    Y = 0       #: +Y up (BVH, most engines)
+    Z = 1       #: +Z up: (x, y, z) is read as (x, z, -y)
+    Y_DOWN = 2  #: camera frame, x right, y down, z away (MediaPipe world landmarks, Azure Kinect)
+
+
+class ScoreState(enum.IntEnum):
+    """Whether a score record's scores are to be shown (kata_score_state)."""
+    SCORING = 0           #: the scores are this frame's
+    CALIBRATING = 1       #: the first 0.25 s after a teacher is attached or restarted
+    TRACKING_LOST = 2     #: fewer than 13 of the 16 GPD joints tracked; scores are 0
+    TEACHER_FINISHED = 3  #: the student has outlasted the teacher clip by 0.25 s
 
 
 class BodyPart(enum.IntEnum):
@@ -111,11 +133,26 @@ def _utf8(s):
     return None if s is None else (s if isinstance(s, bytes) else str(s).encode("utf-8"))
 
 
-def presets():
-    """Names of the built-in joint-map presets (kata_preset_name)."""
-    out, i = [], 0
+def default_model_path() -> str:
+    """The scoring model shipped with kata: inside the installed package (kata/models/default.kata),
+    else a checkout's models/default.kata."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    for path in (os.path.join(here, "models", "default.kata"),
+                 os.path.normpath(os.path.join(here, "..", "..", "..", "models", "default.kata"))):
+        if os.path.isfile(path):
+            return path
+    raise FileNotFoundError("kata: no default.kata inside the package (%s/models) nor in a checkout; "
+                            "pass a model path" % here)
+
+
+def presets() -> List[str]:
+    """Names of the built-in layouts (kata_layout_name): every joint-map preset ("cmu", ...), then
+    "mediapipe". Each is a valid open_stream(preset=...); create_layout makes the skeleton of
+    "mediapipe", "gpd", "azure-kinect" and "xsens"."""
+    out: List[str] = []
+    i = 0
     while True:
-        name = _n.preset_name(i)
+        name = _n.layout_name(i)
         if name is None:
             return out
         out.append(name.decode())
@@ -247,6 +284,13 @@ class Context(_Handle):
         return self._make(Skeleton, "kata_skeleton_create", _n.skeleton_create, n, c_names, par.ctypes.data,
                           None if rest is None else rest.ctypes.data)
 
+    def create_layout(self, layout: str) -> "Skeleton":
+        """kata_skeleton_create_layout: the joint list of a built-in layout as a skeleton without
+        rest pose: "mediapipe" (33 landmarks in MediaPipe's order, metres, camera axes), "gpd"
+        (16 GPD joints), "azure-kinect" (32 joints, millimetres: stream with UpAxis.Y_DOWN),
+        "xsens" (23 segments, metres: UpAxis.Z). Unknown names raise E_NOT_FOUND. [any thread]"""
+        return self._make(Skeleton, "kata_skeleton_create_layout", _n.skeleton_create_layout, _utf8(layout))
+
     def load_skeleton_bvh(self, path):
         """kata_skeleton_load_bvh: the HIERARCHY of a BVH file."""
         return self._make(Skeleton, "kata_skeleton_load_bvh", _n.skeleton_load_bvh, _utf8(path))
@@ -266,15 +310,18 @@ class Context(_Handle):
 
     def open_stream(self, skeleton, preset="cmu", name_map=None, stencil=None, up_axis=None, max_gap=None,
                     history_capacity=None, body_height=None, calibration_frames=None, result_capacity=None,
-                    keep_features=None):
+                    keep_features=None, name_map_text=None):
         """kata_stream_open with a kata_stream_desc: arguments left None keep kata_stream_desc_init's
-        defaults. Give a preset name or name_map (a file path), not both."""
+        defaults. Give a preset name (a layout, see presets()), name_map (a file path) or
+        name_map_text (the contents of a name-map file; kata_stream_open_name_map), only one.
+        up_axis: UpAxis (ignored for "mediapipe", which is always camera axes). max_gap: seconds.
+        body_height: input units, 0 = estimated. [any thread]"""
         d = _n.StreamDesc()
         _n.stream_desc_init(ctypes.byref(d))
         if d.struct_size != ctypes.sizeof(_n.StreamDesc):
             raise ImportError("kata_stream_desc layout differs from this binding's (%d vs %d bytes)"
                               % (d.struct_size, ctypes.sizeof(_n.StreamDesc)))
-        d.preset = None if name_map is not None else _utf8(preset)
+        d.preset = None if (name_map is not None or name_map_text is not None) else _utf8(preset)
         d.name_map_path = _utf8(name_map)
         for field, value in (("stencil", stencil), ("up_axis", up_axis), ("max_gap", max_gap),
                              ("history_capacity", history_capacity), ("body_height", body_height),
@@ -282,9 +329,36 @@ class Context(_Handle):
                              ("keep_features", keep_features)):
             if value is not None:
                 setattr(d, field, int(value) if field in ("stencil", "up_axis", "keep_features") else value)
-        s = self._make(Stream, "kata_stream_open", _n.stream_open, skeleton.handle, ctypes.byref(d))
+        if name_map_text is not None:
+            s = self._make(Stream, "kata_stream_open_name_map", _n.stream_open_name_map, skeleton.handle,
+                           ctypes.byref(d), _utf8(name_map_text))
+        else:
+            s = self._make(Stream, "kata_stream_open", _n.stream_open, skeleton.handle, ctypes.byref(d))
         s._joints = skeleton.joint_count
         return s
+
+    def create_runtime(self, workers: Optional[int] = None, max_streams: Optional[int] = None,
+                       max_joints: Optional[int] = None, queue_capacity: Optional[int] = None,
+                       publish: Optional[str] = None, send_hwm: Optional[int] = None, ingest: Optional[str] = None,
+                       ingest_pull: Optional[bool] = None, max_message_bytes: Optional[int] = None,
+                       skeleton_resend_seconds: Optional[float] = None) -> "Runtime":
+        """kata_runtime_create: many streams on worker threads, every result published on ZeroMQ.
+        publish: comma-separated endpoints to bind ("tcp://127.0.0.1:*" picks a free port: see
+        Runtime.publish_endpoint); ingest: endpoints to read frames from ("bind:" prefix binds).
+        Arguments left None keep kata_runtime_desc_init's defaults. [any thread]"""
+        d = _n.RuntimeDesc()
+        _n.runtime_desc_init(ctypes.byref(d))
+        for field, value in (("workers", workers), ("max_streams", max_streams), ("max_joints", max_joints),
+                             ("queue_capacity", queue_capacity), ("send_hwm", send_hwm),
+                             ("max_message_bytes", max_message_bytes),
+                             ("skeleton_resend_seconds", skeleton_resend_seconds)):
+            if value is not None:
+                setattr(d, field, value)
+        d.publish_endpoints = _utf8(publish)
+        d.ingest_endpoints = _utf8(ingest)
+        if ingest_pull is not None:
+            d.ingest_pull = 1 if ingest_pull else 0
+        return self._make(Runtime, "kata_runtime_create", _n.runtime_create, ctypes.byref(d))
 
     def create_retargeter(self, student, **options):
         """kata_retargeter_create: student is a Skeleton with rest offsets. options: preset ("cmu" or
@@ -328,6 +402,20 @@ class Skeleton(_Handle):
     @property
     def parents(self):
         return np.array([_n.skeleton_joint_parent(self.handle, i) for i in range(self.joint_count)], dtype=np.int32)
+
+    @property
+    def offsets(self) -> Optional[np.ndarray]:
+        """Rest offsets (joints, 3) float64 from each parent, skeleton units (the root's: its rest
+        position), by kata_skeleton_joint_offset; None for a bare live source (no rest pose)."""
+        out = np.empty((self.joint_count, 3), dtype=np.float64)
+        h = self.handle
+        for i in range(self.joint_count):
+            status = _n.skeleton_joint_offset(h, i, out[i].ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+            if status == Status.E_STATE:
+                return None
+            if status:
+                raise KataError(status, "joint %d" % i, "kata_skeleton_joint_offset")
+        return out
 
 
 class Clip(_Handle):
@@ -408,7 +496,8 @@ class Model(_Handle):
 
 class ScoreRecord:
     """One scored frame (kata_score_record), as plain Python values."""
-    __slots__ = ("matched_reference_frame", "frame_index", "timestamp", "distance", "score", "parts")
+    __slots__ = ("matched_reference_frame", "frame_index", "timestamp", "distance", "score", "parts",
+                 "part_scores", "part_to_fix", "state")
 
     def __init__(self, rec):
         self.matched_reference_frame = rec.matched_reference_frame
@@ -417,6 +506,9 @@ class ScoreRecord:
         self.distance = rec.distance
         self.score = rec.score
         self.parts = tuple(rec.parts)
+        self.part_scores = tuple(rec.part_scores)
+        self.part_to_fix = rec.part_to_fix
+        self.state = rec.state
 
     def __repr__(self):
         return "ScoreRecord(frame=%d, score=%.2f, distance=%.5g)" % (self.frame_index, self.score, self.distance)
@@ -476,14 +568,29 @@ class Stream(_Handle):
     def joint_count(self):
         return self._joints
 
-    def push(self, timestamp, positions):
-        """kata_stream_push: one frame (joints x 3 float32; other dtypes are converted)."""
+    def push(self, timestamp: float, positions: Any, confidences: Any = None) -> Status:
+        """kata_stream_push (or kata_stream_push_confidence with confidences): one frame, timestamp
+        in seconds (must increase by at least KATA_MIN_TIME_STEP), positions (joints, 3) in input
+        units (float32 C-contiguous is passed without a copy; other arrays are converted), and
+        optionally one confidence per joint (e.g. MediaPipe visibility; below the gate's threshold
+        or NaN: the joint is missing and held). Returns Status.OK, or Status.TRACKING_LOST (accepted
+        without features: too many joints missing). A refused frame raises KataError and changes
+        nothing. Does not allocate in C. [stream owner: one thread at a time]"""
         a = positions
         if type(a) is not np.ndarray or a.dtype != np.float32 or not a.flags.c_contiguous:
             a = _positions_f32(a)
-        status = _n.stream_push(self.handle, timestamp, _address(a), a.size // 3)
-        if status:
-            self._raise(status, "kata_stream_push")
+        if confidences is None:
+            status = _n.stream_push(self.handle, timestamp, _address(a), a.size // 3)
+        else:
+            c = confidences
+            if type(c) is not np.ndarray or c.dtype != np.float32 or not c.flags.c_contiguous:
+                c = np.ascontiguousarray(c, dtype=np.float32)
+            if c.size * 3 != a.size:
+                raise ValueError("confidences: one per joint (%d), got %d" % (a.size // 3, c.size))
+            status = _n.stream_push_confidence(self.handle, timestamp, _address(a), _address(c), a.size // 3)
+        if status and status != Status.TRACKING_LOST:
+            self._raise(status, "kata_stream_push_confidence" if confidences is not None else "kata_stream_push")
+        return Status(status)
 
     def push_landmarks(self, timestamp, values, time_units="s"):
         """kata_stream_push_landmarks: one frame in a landmark source's own shape, values
@@ -498,29 +605,90 @@ class Stream(_Handle):
             self._raise(status, "kata_stream_push_landmarks")
         return status
 
-    def push_many(self, timestamps, positions, time_units=None):
-        """Pushes frames i = 0..n-1: timestamps (n,), positions (n, joints, 3) float32, with one
-        kata_stream_push per frame (no copy of positions when already C-contiguous float32). A
-        refused frame raises KataError naming its index; the frames before it were pushed.
+    def push_many(self, timestamps: Any, positions: Any, confidences: Any = None, time_units: Any = None) -> int:
+        """Pushes frames i = 0..n-1: timestamps (n,) seconds, positions (n, joints, 3) float32 and
+        optionally confidences (n, joints), with one kata_stream_push(_confidence) per frame (no
+        copy of positions when already C-contiguous float32). A refused frame raises KataError
+        naming its index; the frames before it were pushed. Returns the frames reported
+        TRACKING_LOST (accepted without features). [stream owner]
         MediaPipe's shapes: positions (n, joints, 4 or 5) (x y z confidence, or x y z visibility
         presence: confidence = the smaller) and time_units "s", "ms" or "auto" (from the steps
         between frames, kata_time_units_detect: refused when they fit neither unit) go through
-        kata_stream_push_landmarks (frames tracking lost are accepted); the default (None) is
-        seconds with 3 channels, as before."""
+        kata_stream_push_landmarks (frames tracking lost are accepted)."""
         if time_units is not None or np.ndim(positions) == 3 and np.shape(positions)[2] in (4, 5):
+            if confidences is not None:
+                raise ValueError("confidences go in the positions' 4th/5th channel with time_units")
             return self._push_many_landmarks(timestamps, positions, "s" if time_units is None else time_units)
         a = _positions_f32(positions)
         ts = np.ascontiguousarray(timestamps, dtype=np.float64)
         n = len(ts)
-        if a.size != n * 3 * self._joints:
-            raise ValueError("positions must be %d frames x %d joints x 3" % (n, self._joints))
-        push, h, joints = _n.stream_push, self.handle, self._joints
+        joints = self._joints
+        if a.size != n * 3 * joints:
+            raise ValueError("positions must be %d frames x %d joints x 3" % (n, joints))
+        h = self.handle
         base, stride = a.ctypes.data, 12 * joints
+        lost = 0
+        if confidences is None:
+            push = _n.stream_push
+            for i, t in enumerate(ts.tolist()):
+                status = push(h, t, base + i * stride, joints)
+                if status:
+                    if status == Status.TRACKING_LOST:
+                        lost += 1
+                        continue
+                    raise KataError(status, "frame %d: %s" % (i, _text(_n.stream_last_error(h))), "kata_stream_push")
+            return lost
+        c = np.ascontiguousarray(confidences, dtype=np.float32)
+        if c.size != n * joints:
+            raise ValueError("confidences must be %d frames x %d joints" % (n, joints))
+        push_c = _n.stream_push_confidence
+        cbase, cstride = c.ctypes.data, 4 * joints
         for i, t in enumerate(ts.tolist()):
-            status = push(h, t, base + i * stride, joints)
+            status = push_c(h, t, base + i * stride, cbase + i * cstride, joints)
             if status:
-                raise KataError(status, "frame %d: %s" % (i, _text(_n.stream_last_error(h))), "kata_stream_push")
-        return n
+                if status == Status.TRACKING_LOST:
+                    lost += 1
+                    continue
+                raise KataError(status, "frame %d: %s" % (i, _text(_n.stream_last_error(h))),
+                                "kata_stream_push_confidence")
+        return lost
+
+    def set_confidence_gate(self, threshold: float = 0.5, max_hold: float = 0.5,
+                            max_missing_share: float = 0.25) -> None:
+        """kata_stream_set_confidence_gate: a GPD joint below `threshold` (or NaN) is missing and
+        held at its last good position for at most `max_hold` seconds; more than
+        max_missing_share x 16 joints missing (or one missing longer) is TRACKING_LOST. Takes effect
+        at the next push. [stream owner]"""
+        status = _n.stream_set_confidence_gate(self.handle, threshold, max_hold, max_missing_share)
+        if status:
+            self._raise(status, "kata_stream_set_confidence_gate")
+
+    def set_smoothing(self, enabled: bool = True, min_cutoff: float = 2.0, beta: float = 1.0,
+                      d_cutoff: float = 1.0) -> None:
+        """kata_stream_set_smoothing: the One-Euro filter on the 16 mapped joints (cutoff =
+        min_cutoff + beta x |speed| Hz, speed in input units per second low-passed at d_cutoff Hz).
+        On by default for "mediapipe" (2 Hz, 1.0, 1 Hz), off otherwise. [stream owner]"""
+        status = _n.stream_set_smoothing(self.handle, 1 if enabled else 0, min_cutoff, beta, d_cutoff)
+        if status:
+            self._raise(status, "kata_stream_set_smoothing")
+
+    @property
+    def lost_frames(self) -> int:
+        """Frames reported TRACKING_LOST so far (kata_stream_lost_frames). [stream owner]"""
+        return int(_n.stream_lost_frames(self.handle))
+
+    def bone_lengths(self) -> Optional[Tuple[np.ndarray, np.ndarray]]:
+        """kata_stream_bone_lengths: (lengths, spread), each (16,) float64 in input units, GPD joint
+        order (lengths[0] = 0), estimated from the first 60 frames whose 16 joints are all good
+        (noise-corrected; kata.h); None until those frames were seen. [stream owner]"""
+        lengths = np.zeros(GPD_JOINTS, dtype=np.float64)
+        spread = np.zeros(GPD_JOINTS, dtype=np.float64)
+        status = _n.stream_bone_lengths(self.handle, lengths.ctypes.data, spread.ctypes.data, GPD_JOINTS)
+        if status == Status.NO_DATA:
+            return None
+        if status:
+            self._raise(status, "kata_stream_bone_lengths")
+        return lengths, spread
 
     def _push_many_landmarks(self, timestamps, values, time_units):
         a = np.ascontiguousarray(values, dtype=np.float32)
@@ -533,11 +701,14 @@ class Stream(_Handle):
         units = _time_units_code(time_units)
         push, h, joints, channels = _n.stream_push_landmarks, self.handle, self._joints, a.shape[2]
         base, stride = _address(a), 4 * joints * channels
+        lost = 0
         for i, t in enumerate(ts.tolist()):
             status = push(h, t, units, base + i * stride, joints, channels)
-            if status and status != Status.TRACKING_LOST:
+            if status == Status.TRACKING_LOST:
+                lost += 1
+            elif status:
                 raise KataError(status, "frame %d: %s" % (i, _text(_n.stream_last_error(h))), "kata_stream_push_landmarks")
-        return n
+        return lost
 
     def flush(self):
         """kata_stream_flush: end of a take."""
@@ -781,7 +952,204 @@ class Retargeter(_Handle):
             self._raise(status, "kata_retargeter_place")
         return ghost
 
+    @property
+    def rotation_joint_count(self) -> int:
+        """Joints the local rotations cover (the student skeleton's); 0 without a rest pose."""
+        return int(_n.retargeter_rotation_joint_count(self.handle))
+
+    def local_rotations(self, ghost: np.ndarray) -> Tuple[np.ndarray, np.ndarray, np.ndarray, float]:
+        """kata_retargeter_local_rotations: the ghost (from solve) as what a game engine animates:
+        (rotations (J, 4) float32 unit quaternions x, y, z, w (w >= 0), each relative to its parent,
+        the root's world; root_position (3,); positions (J, 3), every joint's forward kinematics;
+        residual, the largest ghost-to-FK distance, student units). J = rotation_joint_count.
+        E_STATE without a rest pose. [retargeter owner]"""
+        g = _positions_f32(ghost)
+        j = self.rotation_joint_count
+        rotations = np.empty((j, 4), dtype=np.float32)
+        root = np.empty(3, dtype=np.float32)
+        positions = np.empty((j, 3), dtype=np.float32)
+        residual = ctypes.c_double()
+        status = _n.retargeter_local_rotations(self.handle, g.ctypes.data, g.size, rotations.ctypes.data,
+                                               rotations.size, root.ctypes.data, positions.ctypes.data,
+                                               positions.size, ctypes.byref(residual))
+        if status:
+            self._raise(status, "kata_retargeter_local_rotations")
+        return rotations, root, positions, residual.value
+
     def reset(self):
         status = _n.retargeter_reset(self.handle)
         if status:
             self._raise(status, "kata_retargeter_reset")
+
+
+# ---- messages: a subscriber of a runtime's (or `kata serve`'s) results ------------------------------
+
+class ResultMessage:
+    """One result message (kata_result_message) as Python values: stream_id, result_sequence,
+    frame_sequence, frame_index, capture_ns (source clock), arrival_ns / computed_ns /
+    published_ns (CLOCK_MONOTONIC ns on the runtime's host), scored, matched_teacher_frame,
+    distance (dimensionless), score (0..100), parts (split of d^2), part_scores, part_to_fix
+    (BodyPart or -1), state (ScoreState), ghost ((G, 3) float32 copy, or None)."""
+    __slots__ = ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_ns", "arrival_ns",
+                 "computed_ns", "published_ns", "scored", "matched_teacher_frame", "distance", "score", "parts",
+                 "part_scores", "part_to_fix", "state", "ghost")
+    stream_id: int
+    result_sequence: int
+    frame_sequence: int
+    frame_index: int
+    capture_ns: int
+    arrival_ns: int
+    computed_ns: int
+    published_ns: int
+    matched_teacher_frame: int
+    distance: float
+    score: float
+    part_to_fix: int
+    state: int
+
+    def __init__(self, m: "_n.ResultMessage") -> None:
+        for name in ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_ns", "arrival_ns",
+                     "computed_ns", "published_ns", "matched_teacher_frame", "distance", "score", "part_to_fix",
+                     "state"):
+            setattr(self, name, getattr(m, name))
+        self.scored = bool(m.scored)
+        self.parts = tuple(m.parts)
+        self.part_scores = tuple(m.part_scores)
+        # The C ghost pointer is valid only until this thread's next call: copied now.
+        self.ghost = (np.ctypeslib.as_array(m.ghost, shape=(m.ghost_joint_count, 3)).copy()
+                      if m.ghost_joint_count and m.ghost else None)
+
+    def __repr__(self) -> str:
+        return "ResultMessage(stream=%d, seq=%d, score=%.2f)" % (self.stream_id, self.result_sequence, self.score)
+
+
+_message = _n.ResultMessage()
+
+
+def read_message(message: bytes) -> Optional[ResultMessage]:
+    """kata_message_read_result: one ZeroMQ message of a kata runtime (16-byte topic + FlatBuffer),
+    checked by the FlatBuffers verifier. A ResultMessage; None for a valid message that is not a
+    result (a skeleton definition); KataError E_PARSE for a refused one (truncated, corrupt).
+    [any thread]"""
+    m = _n.ResultMessage()
+    m.struct_size = ctypes.sizeof(m)
+    data = bytes(message)
+    status = _n.message_read_result(data, len(data), ctypes.byref(m))
+    if status == Status.NO_DATA:
+        return None
+    if status:
+        raise KataError(status, "message of %d bytes refused" % len(data), "kata_message_read_result")
+    return ResultMessage(m)
+
+
+class Subscriber:
+    """A ZeroMQ SUB socket on a runtime's publish endpoint (Debian's python3-zmq), decoding result
+    messages with kata_message_read_result. stream: only that stream id (its topic), or all.
+    Skeleton definitions and refused messages are counted (skipped, refused), never returned.
+
+        with kata.Subscriber("tcp://127.0.0.1:5556") as sub:
+            msg = sub.receive(timeout=1.0)   # a ResultMessage, or None after 1 s without one
+
+    One thread at a time (ZeroMQ sockets are not thread-safe)."""
+
+    def __init__(self, endpoint: str, stream: Optional[int] = None, receive_hwm: int = 100000) -> None:
+        import zmq  # python3-zmq: only a subscriber needs it
+        self._zmq = zmq
+        self._socket = zmq.Context.instance().socket(zmq.SUB)
+        self._socket.setsockopt(zmq.LINGER, 0)
+        self._socket.setsockopt(zmq.RCVHWM, receive_hwm)
+        self._socket.setsockopt(zmq.SUBSCRIBE, b"" if stream is None else b"%016x" % stream)
+        self._socket.connect(endpoint)
+        self._poller = zmq.Poller()
+        self._poller.register(self._socket, zmq.POLLIN)
+        self.skipped = 0  #: valid messages that are not results (skeleton definitions)
+        self.refused = 0  #: messages the verifier refused
+
+    def receive(self, timeout: Optional[float] = None) -> Optional[ResultMessage]:
+        """The next result message; None when none arrives within timeout seconds (None: wait)."""
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            wait = None if deadline is None else max(0.0, deadline - time.monotonic())
+            if not self._poller.poll(None if wait is None else int(wait * 1000)):
+                return None
+            try:
+                m = read_message(self._socket.recv())
+            except KataError:
+                self.refused += 1
+                continue
+            if m is None:
+                self.skipped += 1
+                continue
+            return m
+
+    def close(self) -> None:
+        self._socket.close(0)
+
+    def __enter__(self) -> "Subscriber":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+class Runtime(_Handle):
+    """Many streams, ZeroMQ in and out (kata_runtime). push may be called from any thread (one
+    producer per stream keeps its order); it never blocks: a full worker queue drops and counts."""
+    _release = _n.runtime_destroy
+
+    def add_stream(self, stream_id: int, stream: "Stream", preset: Optional[str] = None,
+                   publish_features: bool = False) -> None:
+        """kata_runtime_add_stream: hands `stream` to the runtime under stream_id; the runtime owns
+        it afterwards (the Stream object is closed here without freeing it). preset: the joint map
+        named in the published skeleton definition (None: "cmu"). [any thread]"""
+        h = ctypes.c_void_p(stream.handle)
+        status = _n.runtime_add_stream(self.handle, stream_id, ctypes.byref(h), _utf8(preset),
+                                       1 if publish_features else 0)
+        if status:
+            raise KataError(status, _text(_n.context_last_error(self._context.handle)), "kata_runtime_add_stream")
+        stream._h = None  # owned by the runtime now
+        if stream._context is not None:
+            stream._context._children.discard(stream)
+        self._joints = getattr(self, "_joints", {})
+        self._joints[stream_id] = stream._joints
+
+    def push(self, stream_id: int, sequence: int, capture_time: float, positions: Any) -> None:
+        """kata_runtime_push: queues one frame (capture_time seconds, increasing; positions
+        (joints, 3) float32). KataError E_NOT_FOUND (no such stream), E_STATE (queue full: dropped
+        and counted). Never blocks, never allocates in C. [any thread]"""
+        a = positions
+        if type(a) is not np.ndarray or a.dtype != np.float32 or not a.flags.c_contiguous:
+            a = _positions_f32(a)
+        status = _n.runtime_push(self.handle, stream_id, sequence, capture_time, _address(a), a.size // 3)
+        if status:
+            raise KataError(status, "stream %d frame %d" % (stream_id, sequence), "kata_runtime_push")
+
+    def stop(self) -> None:
+        """kata_runtime_stop: finishes every queued frame, publishes every result, stops the threads."""
+        status = _n.runtime_stop(self.handle)
+        if status:
+            raise KataError(status, "stop failed", "kata_runtime_stop")
+
+    def counters(self) -> dict:
+        """kata_runtime_get_counters as a dict (streams, frames_in, queue_full, refused, results,
+        results_dropped, published, ingest_*). [any thread]"""
+        c = _n.RuntimeCounters()
+        c.struct_size = ctypes.sizeof(c)
+        status = _n.runtime_get_counters(self.handle, ctypes.byref(c))
+        if status:
+            raise KataError(status, "counters", "kata_runtime_get_counters")
+        return {name: getattr(c, name) for name, _ in _n.RuntimeCounters._fields_[1:]}
+
+    @property
+    def publish_endpoint(self) -> str:
+        """The endpoint the publisher bound last, resolved (a "*" port shows its number)."""
+        return _text(_n.runtime_publish_endpoint(self.handle)) or ""
+
+    @property
+    def ingest_endpoint(self) -> str:
+        return _text(_n.runtime_ingest_endpoint(self.handle)) or ""
+
+
+def shard_of(stream_id: int, shard_count: int) -> int:
+    """kata_shard_of: the shard (0..shard_count-1) that scores stream_id (FNV-1a; stable)."""
+    return int(_n.shard_of(stream_id, shard_count))

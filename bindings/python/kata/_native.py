@@ -9,6 +9,7 @@ import ctypes
 import ctypes.util
 import os
 import sys
+from typing import Any
 
 # The C ABI major version this binding is written against (kata.h KATA_VERSION_MAJOR), and the
 # oldest minor that has every function declared below (1.0: the teacher as the one way).
@@ -120,7 +121,23 @@ class TeacherDesc(ctypes.Structure):
 class ScoreRecord(ctypes.Structure):
     _fields_ = [("struct_size", ctypes.c_uint32), ("matched_reference_frame", ctypes.c_int32),
                 ("frame_index", ctypes.c_int64), ("timestamp", ctypes.c_double), ("distance", ctypes.c_float),
-                ("score", ctypes.c_float), ("parts", ctypes.c_float * PART_COUNT)]
+                ("score", ctypes.c_float), ("parts", ctypes.c_float * PART_COUNT),
+                # with the calibrated score
+                ("part_scores", ctypes.c_float * PART_COUNT), ("part_to_fix", ctypes.c_int32),
+                ("state", ctypes.c_int32)]
+
+
+class ResultMessage(ctypes.Structure):
+    _fields_ = [("struct_size", ctypes.c_uint32), ("ghost_joint_count", ctypes.c_uint32),
+                ("stream_id", ctypes.c_uint64), ("result_sequence", ctypes.c_uint64),
+                ("frame_sequence", ctypes.c_uint64), ("frame_index", ctypes.c_int64),
+                ("capture_ns", ctypes.c_int64), ("arrival_ns", ctypes.c_int64), ("computed_ns", ctypes.c_int64),
+                ("published_ns", ctypes.c_int64), ("scored", ctypes.c_int32),
+                ("matched_teacher_frame", ctypes.c_int32), ("distance", ctypes.c_float),
+                ("score", ctypes.c_float), ("parts", ctypes.c_float * PART_COUNT),
+                ("ghost", ctypes.POINTER(ctypes.c_float)),
+                ("part_scores", ctypes.c_float * PART_COUNT), ("part_to_fix", ctypes.c_int32),
+                ("state", ctypes.c_int32)]
 
 
 class Result(ctypes.Structure):
@@ -128,6 +145,21 @@ class Result(ctypes.Structure):
                 ("frame_index", ctypes.c_int64), ("capture_time", ctypes.c_double), ("arrival_ns", ctypes.c_int64),
                 ("computed_ns", ctypes.c_int64), ("matched_teacher_frame", ctypes.c_int32),
                 ("ghost_joint_count", ctypes.c_uint32)]
+
+
+class RuntimeDesc(ctypes.Structure):
+    _fields_ = [("struct_size", ctypes.c_uint32), ("workers", ctypes.c_uint32), ("max_streams", ctypes.c_uint32),
+                ("max_joints", ctypes.c_uint32), ("queue_capacity", ctypes.c_uint32),
+                ("publish_endpoints", ctypes.c_char_p), ("send_hwm", ctypes.c_int32),
+                ("ingest_endpoints", ctypes.c_char_p), ("ingest_pull", ctypes.c_int32),
+                ("max_message_bytes", ctypes.c_uint32), ("skeleton_resend_seconds", ctypes.c_double)]
+
+
+class RuntimeCounters(ctypes.Structure):
+    _fields_ = [("struct_size", ctypes.c_uint32), ("streams", ctypes.c_uint32)] + [
+        (name, ctypes.c_uint64) for name in ("frames_in", "queue_full", "refused", "results", "results_dropped",
+                                             "published", "ingest_received", "ingest_dropped",
+                                             "ingest_sequence_gaps", "ingest_restarts")]
 
 
 # ---- functions -------------------------------------------------------------------------------------
@@ -201,6 +233,32 @@ _SIGNATURES = {
     "kata_stream_results_pending": (_u32, [_p]),
     "kata_stream_ghost_joint_count": (_u32, [_p]),
     "kata_stream_ghost_joint_source": (_i32, [_p, _u32]),
+    # layouts, confidence, smoothing, bone lengths
+    "kata_layout_name": (_s, [_u32]),
+    "kata_skeleton_create_layout": (_st, [_p, _s, _pp]),
+    "kata_skeleton_joint_offset": (_st, [_p, _u32, ctypes.POINTER(_d)]),
+    "kata_stream_open_name_map": (_st, [_p, _p, ctypes.POINTER(StreamDesc), _s, _pp]),
+    "kata_stream_push_confidence": (_st, [_p, _d, _p, _p, _u32]),
+    "kata_stream_set_confidence_gate": (_st, [_p, ctypes.c_float, _d, _d]),
+    "kata_stream_set_smoothing": (_st, [_p, _i32, _d, _d, _d]),
+    "kata_stream_lost_frames": (_i64, [_p]),
+    "kata_stream_bone_lengths": (_st, [_p, _p, _p, _sz]),
+    # local rotations
+    "kata_retargeter_rotation_joint_count": (_u32, [_p]),
+    "kata_retargeter_local_rotations": (_st, [_p, _p, _sz, _p, _sz, _p, _p, _sz, ctypes.POINTER(_d)]),
+    # messages
+    "kata_message_read_result": (_st, [_p, _sz, ctypes.POINTER(ResultMessage)]),
+    "kata_shard_of": (_u32, [_u64, _u32]),
+    # the runtime
+    "kata_runtime_desc_init": (None, [ctypes.POINTER(RuntimeDesc)]),
+    "kata_runtime_create": (_st, [_p, ctypes.POINTER(RuntimeDesc), _pp]),
+    "kata_runtime_destroy": (None, [_p]),
+    "kata_runtime_add_stream": (_st, [_p, _u64, _pp, _s, _i32]),
+    "kata_runtime_push": (_st, [_p, _u64, _u64, _d, _p, _u32]),
+    "kata_runtime_stop": (_st, [_p]),
+    "kata_runtime_get_counters": (_st, [_p, ctypes.POINTER(RuntimeCounters)]),
+    "kata_runtime_publish_endpoint": (_s, [_p]),
+    "kata_runtime_ingest_endpoint": (_s, [_p]),
 }
 
 for _name, (_restype, _argtypes) in _SIGNATURES.items():
@@ -208,3 +266,9 @@ for _name, (_restype, _argtypes) in _SIGNATURES.items():
     _f.restype = _restype
     _f.argtypes = _argtypes
     globals()[_name[len("kata_"):]] = _f
+
+
+def __getattr__(name: str) -> Any:
+    """For type checkers: every C function above is set in globals() by the loop, so a name that
+    reaches here is not one (PEP 562)."""
+    raise AttributeError("kata._native has no C function %r" % name)

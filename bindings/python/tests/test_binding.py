@@ -331,3 +331,17 @@ def test_a_library_of_another_major_version_is_refused():
                        cwd=os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
     assert p.returncode != 0
     assert "ImportError" in p.stderr and "version 7.0.0" in p.stderr and "needs 1.x" in p.stderr, p.stderr
+
+
+def test_the_package_carries_its_library_and_message_readers():
+    """Installed (wheel_test.py): libkata is the one inside the package; from a checkout, the
+    build's. Either way kata.fb (the FlatBuffers readers) is importable beside the binding."""
+    import kata
+    import kata.fb.Result
+    package = os.path.dirname(os.path.realpath(kata.__file__))
+    if os.environ.get("KATA_TEST_INSTALLED") == "1":
+        assert "site-packages" in package
+        assert kata._native.found_by == "package folder"
+        assert os.path.dirname(os.path.realpath(kata.library_path)) == package
+        assert os.path.dirname(os.path.realpath(kata.fb.Result.__file__)) == os.path.join(package, "fb")
+    assert hasattr(kata.fb.Result, "Result") and kata.version()[0] == 1

@@ -1,0 +1,177 @@
+"""MediaPipe Pose in, scores out: a recording (or a live feed) of Pose world landmarks scored
+against a teacher (a BVH clip) through the "mediapipe" layout (kata.h "Layouts": 33 landmarks,
+metres, camera axes x right / y down / z away; pelvis, chest, neck and head synthesised; smoothed
+by default) and kata_stream_push_confidence with each landmark's visibility as its confidence.
+
+    import kata.mediapipe
+    r = kata.mediapipe.score(landmarks, timestamps_ms, "teacher.bvh")
+    print(r.mean_score, r.scores["score"])
+
+landmarks: a sequence of MediaPipe results (the Pose solution's objects with
+.pose_world_landmarks.landmark[i].x/.y/.z/.visibility, or the Pose Landmarker's with
+.pose_world_landmarks[0][i]; a frame without a person (None or empty) is skipped), or an array
+frames x 33 x 3, 4 or 5 (x, y, z[, visibility[, presence]]); confidence = visibility, or the
+smaller of visibility and presence (no channel: fully confident). timestamps_ms: one per frame,
+milliseconds (MediaPipe's), increasing."""
+import os
+from typing import Any, Optional, Sequence, Union
+
+import numpy as np
+
+import kata
+
+LANDMARKS = 33
+
+__all__ = ["LANDMARKS", "landmarks_array", "Scorer", "Scores", "score"]
+
+
+def _frame_landmarks(result: Any) -> Optional[Sequence[Any]]:
+    """The 33 landmarks of one MediaPipe result object, or None without a person."""
+    world = getattr(result, "pose_world_landmarks", result)
+    if world is None:
+        return None
+    if hasattr(world, "landmark"):  # the Pose solution: a NormalizedLandmarkList-like message
+        world = world.landmark
+    elif len(world) and not hasattr(world[0], "x"):  # the Pose Landmarker: one list per person
+        world = world[0]
+    return world if len(world) else None
+
+
+def landmarks_array(landmarks: Any) -> np.ndarray:
+    """landmarks (see the module) as a (frames, 33, 5) float32 array x, y, z, visibility, presence;
+    frames without a person are NaN (skipped by Scorer.push_many)."""
+    if isinstance(landmarks, np.ndarray) and landmarks.dtype != object:
+        a = landmarks
+        if a.ndim != 3 or a.shape[1] != LANDMARKS or a.shape[2] not in (3, 4, 5):
+            raise ValueError("MediaPipe landmarks must be frames x 33 x 3, 4 or 5 (x, y, z[, visibility[, presence]]); "
+                             "got shape %s" % (a.shape,))
+        out = np.ones((a.shape[0], LANDMARKS, 5), dtype=np.float32)
+        out[:, :, :a.shape[2]] = a
+        return out
+    frames = list(landmarks)
+    out = np.full((len(frames), LANDMARKS, 5), np.nan, dtype=np.float32)
+    for f, result in enumerate(frames):
+        lms = _frame_landmarks(result)
+        if lms is None:
+            continue
+        if len(lms) != LANDMARKS:
+            raise ValueError("frame %d: %d landmarks; MediaPipe Pose has 33" % (f, len(lms)))
+        for i, lm in enumerate(lms):
+            out[f, i] = (lm.x, lm.y, lm.z, getattr(lm, "visibility", 1.0), getattr(lm, "presence", 1.0))
+    return out
+
+
+class Scores:
+    """What a Scorer read: results (RESULT_DTYPE) and scores (SCORE_DTYPE) numpy arrays, one per
+    frame that gave features; mean_score over the frames with ScoreState.SCORING; lost_frames:
+    frames accepted without features (tracking lost)."""
+
+    def __init__(self, results: np.ndarray, scores: np.ndarray, lost_frames: int, skipped_frames: int) -> None:
+        self.results = results
+        self.scores = scores
+        self.lost_frames = lost_frames
+        self.skipped_frames = skipped_frames  #: frames without a person (not pushed)
+        scoring = (results["flags"] & kata.RESULT_SCORED != 0) & (scores["state"] == kata.ScoreState.SCORING)
+        self.scored = scores[scoring]
+        self.mean_score = float(self.scored["score"].mean()) if len(self.scored) else float("nan")
+
+    def __len__(self) -> int:
+        return len(self.results)
+
+    def __repr__(self) -> str:
+        return "Scores(%d results, %d scored, mean %.1f)" % (len(self), len(self.scored), self.mean_score)
+
+
+class Scorer:
+    """A MediaPipe stream with a teacher attached: push landmarks (live or a recording), read
+    scores. teacher: a BVH path or a kata.Clip; model: a .kata path (default: the shipped one);
+    first_frame: the teacher's first frame (1 skips a CMU clip's T-pose); teacher_preset: the
+    teacher's layout ("cmu"). Owns its context; close() or a with block releases it. One thread
+    at a time."""
+
+    def __init__(self, teacher: Union[str, "os.PathLike[str]", kata.Clip], model: Optional[str] = None,
+                 first_frame: int = 0, teacher_preset: str = "cmu", smoothing: bool = True,
+                 result_capacity: int = 1024) -> None:
+        self._ctx = kata.Context()
+        self._model = self._ctx.load_model(model or kata.default_model_path())
+        clip = teacher if isinstance(teacher, kata.Clip) else self._ctx.load_clip(os.fspath(teacher))
+        with self._ctx.create_layout("mediapipe") as skeleton:
+            self.stream = self._ctx.open_stream(skeleton, preset="mediapipe", stencil=self._model.stencil,
+                                                result_capacity=result_capacity)
+        if not smoothing:
+            self.stream.set_smoothing(False)
+        self.stream.attach_teacher(self._model, clip=clip, preset=teacher_preset, first_frame=first_frame,
+                                   ghost=False)
+        if clip is not teacher:
+            clip.close()
+        self._buffer = self.stream.result_buffer(result_capacity, ghosts=False)
+        self._results: list = []
+        self._scores: list = []
+        self.skipped_frames = 0
+
+    def push(self, landmarks: Any, timestamp_ms: float) -> kata.Status:
+        """One frame: a MediaPipe result object or a (33, 3..5) array, at timestamp_ms milliseconds.
+        Status.OK or Status.TRACKING_LOST; a frame without a person is skipped (Status.NO_DATA)."""
+        a = landmarks_array(np.asarray(landmarks, dtype=np.float32)[None] if isinstance(landmarks, np.ndarray)
+                            else [landmarks])[0]
+        if np.isnan(a[:, 0]).all():
+            self.skipped_frames += 1
+            return kata.Status.NO_DATA
+        status = self.stream.push(timestamp_ms / 1000.0, a[:, :3], np.minimum(a[:, 3], a[:, 4]))
+        self._drain_if_full()
+        return status
+
+    def push_many(self, landmarks: Any, timestamps_ms: Any) -> int:
+        """A recording (see the module): frames without a person are skipped; returns the frames
+        pushed. Reads results as it goes, so any length fits."""
+        a = landmarks_array(landmarks)
+        t = np.asarray(timestamps_ms, dtype=np.float64) / 1000.0
+        if t.shape != (len(a),):
+            raise ValueError("timestamps_ms: one per frame (%d), got shape %s" % (len(a), t.shape))
+        present = ~np.isnan(a[:, :, 0]).all(axis=1)
+        self.skipped_frames += int((~present).sum())
+        a, t = a[present], t[present]
+        positions = np.ascontiguousarray(a[:, :, :3])
+        confidences = np.ascontiguousarray(np.minimum(a[:, :, 3], a[:, :, 4]))
+        chunk = max(self._buffer.capacity // 2, 1)
+        for start in range(0, len(a), chunk):
+            self.stream.push_many(t[start:start + chunk], positions[start:start + chunk],
+                                  confidences[start:start + chunk])
+            self._drain()
+        return len(a)
+
+    def _drain_if_full(self) -> None:
+        if self.stream.results_pending >= self._buffer.capacity // 2:
+            self._drain()
+
+    def _drain(self) -> None:
+        r = self.stream.read_results(self._buffer)
+        if len(r):
+            self._results.append(r.results.copy())
+            self._scores.append(r.scores.copy())
+
+    def read(self) -> Scores:
+        """Every result since the last read, as Scores."""
+        self._drain()
+        results = np.concatenate(self._results) if self._results else np.zeros(0, dtype=kata.RESULT_DTYPE)
+        scores = np.concatenate(self._scores) if self._scores else np.zeros(0, dtype=kata.SCORE_DTYPE)
+        self._results, self._scores = [], []
+        return Scores(results, scores, self.stream.lost_frames, self.skipped_frames)
+
+    def close(self) -> None:
+        self._ctx.close()
+
+    def __enter__(self) -> "Scorer":
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+
+def score(landmarks: Any, timestamps_ms: Any, teacher: Union[str, "os.PathLike[str]"], model: Optional[str] = None,
+          first_frame: int = 0, teacher_preset: str = "cmu") -> Scores:
+    """Scores a MediaPipe recording (see the module) against a BVH teacher: a Scorer, every frame
+    pushed, every result read."""
+    with Scorer(teacher, model, first_frame=first_frame, teacher_preset=teacher_preset) as s:
+        s.push_many(landmarks, timestamps_ms)
+        return s.read()
