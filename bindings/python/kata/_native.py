@@ -152,7 +152,13 @@ class RuntimeDesc(ctypes.Structure):
                 ("max_joints", ctypes.c_uint32), ("queue_capacity", ctypes.c_uint32),
                 ("publish_endpoints", ctypes.c_char_p), ("send_hwm", ctypes.c_int32),
                 ("ingest_endpoints", ctypes.c_char_p), ("ingest_pull", ctypes.c_int32),
-                ("max_message_bytes", ctypes.c_uint32), ("skeleton_resend_seconds", ctypes.c_double)]
+                ("max_message_bytes", ctypes.c_uint32), ("skeleton_resend_seconds", ctypes.c_double),
+                # since 1.0 (kata.h: who may send what). kata_runtime_desc_init writes the whole
+                # struct of the library's kata.h, so this one must be at least as large.
+                ("key_file", ctypes.c_char_p), ("client_keys_dir", ctypes.c_char_p),
+                ("ingest_server_key_file", ctypes.c_char_p), ("max_streams_per_sender", ctypes.c_uint32),
+                ("max_connections", ctypes.c_uint32), ("max_frame_age_seconds", ctypes.c_double),
+                ("idle_stream_seconds", ctypes.c_double)]
 
 
 class RuntimeCounters(ctypes.Structure):
