@@ -44,7 +44,9 @@ if(rc)
   message(FATAL_ERROR "pkg-config --cflags --libs kata failed:\n${err}")
 endif()
 separate_arguments(pc_flags UNIX_COMMAND "${pc_flags}")
-execute_process(COMMAND cc -std=c99 ${flags} ${SOURCE_DIR}/samples/stream_features.c ${pc_flags} ${link_flags}
+separate_arguments(cc_flags UNIX_COMMAND "${flags}")
+separate_arguments(cc_link_flags UNIX_COMMAND "${link_flags}")
+execute_process(COMMAND cc -std=c99 ${cc_flags} ${SOURCE_DIR}/samples/stream_features.c ${pc_flags} ${cc_link_flags}
                         -o ${WORK_DIR}/stream_features_pc
                 RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 if(rc)
