@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "common/error.hpp"
+#include "transport/ingest_table.hpp"
 #include "transport/wire.hpp"
 #include "transport/zmq_io.hpp"
 
@@ -503,6 +504,40 @@ TEST(runtime_publisher, SeesEachJoinWithItsTopicAndNeverBlocks) {
   for (int i = 0; i < 5000; ++i) publisher.send(encoder.frame(7, static_cast<uint64_t>(i), i, xyz.data(), 3));
   EXPECT_EQ(publisher.sent() + publisher.failed(), 5000u);
   zmq_close(sub);
+}
+
+// A message read after its connection's close was seen (it waited in the socket's queue) is
+// from kClosedConnection: the stream it defines is an orphan, so the source's next connection
+// claims it with its next definition, and no dead sender keeps it locked.
+TEST(runtime_ingest_table, LateMessagesOfAClosedConnectionOwnNothing) {
+  IngestTable table;
+  const SenderToken reconnected = connection_sender(7, 1), other = connection_sender(8, 0);
+  bool is_new = false;
+  ASSERT_EQ(table.judge_definition(kClosedConnection, 42, 1, &is_new), TableVerdict::kAccepted);
+  EXPECT_TRUE(is_new);
+  table.commit_definition(kClosedConnection, 42, 1, 3, 0);
+  // Its own late frames still reach the orphan, in order.
+  bool restarted = false;
+  uint64_t gap = 0;
+  int64_t age = 0;
+  EXPECT_EQ(table.judge_frame(kClosedConnection, 42, 0, 0, 3, 1, &restarted, &gap, &age), TableVerdict::kAccepted);
+  // Frames from another sender are refused until it defines the stream; then it owns it.
+  EXPECT_EQ(table.judge_frame(reconnected, 42, 1, 0, 3, 2, &restarted, &gap, &age), TableVerdict::kNotOwner);
+  ASSERT_EQ(table.judge_definition(reconnected, 42, 1, &is_new), TableVerdict::kAccepted);
+  EXPECT_FALSE(is_new);
+  table.commit_definition(reconnected, 42, 1, 3, 3);
+  EXPECT_EQ(table.judge_frame(reconnected, 42, 1, 0, 3, 4, &restarted, &gap, &age), TableVerdict::kAccepted);
+  // Now owned: neither a third sender nor a late message of a closed connection may take it.
+  EXPECT_EQ(table.judge_definition(other, 42, 2, &is_new), TableVerdict::kNotOwner);
+  EXPECT_EQ(table.judge_definition(kClosedConnection, 42, 2, &is_new), TableVerdict::kNotOwner);
+  EXPECT_EQ(table.judge_frame(kClosedConnection, 42, 2, 0, 3, 5, &restarted, &gap, &age), TableVerdict::kNotOwner);
+  // A closed connection's streams count against no sender's limit.
+  IngestTable small(IngestLimits{4, 1});
+  for (uint64_t id = 1; id <= 3; ++id) {
+    ASSERT_EQ(small.judge_definition(kClosedConnection, id, 1, &is_new), TableVerdict::kAccepted);
+    small.commit_definition(kClosedConnection, id, 1, 3, 0);
+  }
+  EXPECT_EQ(small.streams(), 3u);
 }
 
 }  // namespace

@@ -30,14 +30,18 @@ namespace kata::transport {
 
 // Who sent a message: the CURVE key's hash (bit 63 set) or a connection (file descriptor and
 // its generation, bumped when the connection closes, so a reused descriptor is a new sender).
-// 0: a message without a connection (handed in directly, inproc).
+// 0: a message without a connection (handed in directly, inproc). kClosedConnection: a message
+// read after its connection's close was seen (it waited in the socket's queue): it cannot own a
+// stream (a stream it defines is an orphan at once, claimed by the next definition), since its
+// descriptor's next user is another sender.
 using SenderToken = uint64_t;
 inline constexpr SenderToken kLocalSender = 0;
+inline constexpr SenderToken kClosedConnection = ~0ULL;
 inline SenderToken connection_sender(int fd, uint32_t generation) {
   return (static_cast<uint64_t>(generation) << 32) | static_cast<uint32_t>(fd + 1);
 }
 SenderToken key_sender(const char* user_id);  // FNV-1a 64 of the key text, bit 63 set
-inline bool is_key_sender(SenderToken t) { return (t >> 63) != 0; }
+inline bool is_key_sender(SenderToken t) { return (t >> 63) != 0 && t != kClosedConnection; }
 
 struct IngestLimits {
   uint32_t max_streams = 1024;           // streams the ingest holds in all
@@ -94,7 +98,9 @@ class IngestTable {
   const IngestLimits& limits() const { return limits_; }
 
  private:
-  static constexpr SenderToken kNoOwner = ~0ULL;
+  // An orphan's owner is the closed connection: its late messages still reach it (in order),
+  // and any sender's definition claims it.
+  static constexpr SenderToken kNoOwner = kClosedConnection;
   static constexpr int kResync = 3;
   struct Stream {
     SenderToken owner = kNoOwner;

@@ -194,8 +194,7 @@ Ingest::~Ingest() {
   zmq_close(socket_);
 }
 
-void Ingest::housekeeping(int64_t now_ns) {
-  if (now_ns < 0) now_ns = steady_now_ns();
+void Ingest::read_connection_events() {
   // Connection events: two parts, (uint16 event, uint32 value = the descriptor) and the endpoint.
   for (int guard = 0; monitor_ && guard < 4096; ++guard) {
     uint8_t event[6];
@@ -210,6 +209,7 @@ void Ingest::housekeeping(int64_t now_ns) {
     if (kind == ZMQ_EVENT_ACCEPTED || kind == ZMQ_EVENT_CONNECTED) {
       ++counters_.connections;
       ++open_connections_;
+      connections_[fd].open = true;
       if (kind == ZMQ_EVENT_ACCEPTED && max_connections_ > 0 && open_connections_ > max_connections_) {
         // Closing the descriptor is ZeroMQ's; shutting it down makes ZeroMQ see the end and
         // close it (a DISCONNECTED event follows).
@@ -219,11 +219,30 @@ void Ingest::housekeeping(int64_t now_ns) {
     } else if (kind == ZMQ_EVENT_DISCONNECTED) {
       ++counters_.disconnections;
       if (open_connections_ > 0) --open_connections_;
-      uint32_t& generation = generation_[fd];
-      table_.sender_gone(connection_sender(fd, generation));
-      ++generation;
+      Connection& c = connections_[fd];
+      table_.sender_gone(connection_sender(fd, c.generation));
+      ++c.generation;
+      c.open = false;
     }
   }
+}
+
+SenderToken Ingest::connection_of(int fd) {
+  auto it = connections_.find(fd);
+  if (it == connections_.end() || !it->second.open) {
+    // ZeroMQ reports a connection (from its I/O thread) before it reads anything from it, so a
+    // connection that is not open yet has its event waiting; one that stays closed after the
+    // events are read sent this message before it closed.
+    read_connection_events();
+    it = connections_.find(fd);
+    if (it == connections_.end() || !it->second.open) return kClosedConnection;
+  }
+  return connection_sender(fd, it->second.generation);
+}
+
+void Ingest::housekeeping(int64_t now_ns) {
+  if (now_ns < 0) now_ns = steady_now_ns();
+  read_connection_events();
   if (now_ns >= next_expiry_ns_) {
     next_expiry_ns_ = now_ns + 1'000'000'000;  // idleness is judged once a second
     expired_.clear();
@@ -238,7 +257,7 @@ void Ingest::housekeeping(int64_t now_ns) {
 void Ingest::reset() {
   table_ = IngestTable(table_.limits());
   counters_ = IngestCounters{};
-  generation_.clear();
+  connections_.clear();
   open_connections_ = 0;
   next_expiry_ns_ = 0;
 }
@@ -259,10 +278,7 @@ int Ingest::poll(int max_messages) {
       sender = key_sender(user);
     } else {
       const int fd = zmq_msg_get(&message, ZMQ_SRCFD);
-      if (fd >= 0) {
-        const auto it = generation_.find(fd);
-        sender = connection_sender(fd, it == generation_.end() ? 0 : it->second);
-      }
+      if (fd >= 0) sender = connection_of(fd);
     }
     // A multi-part message: only the first part is a kata message; drain the rest.
     bool multipart = zmq_msg_more(&message) != 0;
@@ -286,6 +302,7 @@ int Ingest::poll(int max_messages) {
 
 std::string Ingest::describe(SenderToken sender) const {
   if (sender == kLocalSender) return "local";
+  if (sender == kClosedConnection) return "(a connection closed since)";
   if (is_key_sender(sender)) {
     char text[32];
     std::snprintf(text, sizeof text, "key %016llx", static_cast<unsigned long long>(sender));

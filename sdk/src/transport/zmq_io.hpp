@@ -207,7 +207,17 @@ class Ingest {
   Handlers handlers_;
   IngestTable table_;
   IngestCounters counters_;
-  std::unordered_map<int, uint32_t> generation_;  // per connection descriptor
+  // Reads the connection events waiting (the limit on connections, orphaned streams).
+  void read_connection_events();
+  // Who sent a message that arrived on descriptor `fd`.
+  SenderToken connection_of(int fd);
+  // Per connection descriptor: its generation (bumped when its connection closes, so a reused
+  // descriptor is a new sender) and whether a connection holds it now.
+  struct Connection {
+    uint32_t generation = 0;
+    bool open = false;
+  };
+  std::unordered_map<int, Connection> connections_;
   uint32_t open_connections_ = 0;
   int64_t next_expiry_ns_ = 0;
   std::vector<uint64_t> expired_;
