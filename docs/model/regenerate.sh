@@ -26,6 +26,9 @@ $KATA calibrate --model models/default.kata --out models/default.kata --delta-st
 # The score map (total and per part), fitted on real cross-subject clip pairs, chosen by
 # leave-one-subject-out (calibrate.py; report in eval-calibration/calibration.md).
 /usr/bin/python3 docs/model/calibrate.py $KATA $DATA models/default.kata docs/model/eval-calibration
+# The part to fix against local-frame geometry on real pairs of different subjects (issue 21;
+# report in eval-part-fix/part_fix.md; measures only, the model is not changed).
+/usr/bin/python3 docs/model/part_fix.py measure $KATA $DATA models/default.kata docs/model/eval-part-fix
 # The transition model (same options, transition pairs; no calibration stored: the default map).
 $KATA train --data $DATA --subjects 2,5,7 --pairs $P/train-transition.csv --unlabeled 5000 --seed 1 --rank 50 \
   --alpha 10000 --pca 400 --gamma 0.05 --normalisation minmax --out models/transition.kata | tee docs/model/train-transition.log

@@ -37,6 +37,10 @@
 //   ghost = true
 //   [scoring.teachers]                         # per stream id (decimal), optional
 //   "7" = "data/cmu/05_02.bvh"
+//   teacher_start = 300                        # practice (in [scoring], before the subtables): start
+//   loop = [300, 600]                          #   at clip frame N, or loop clip frames A..B
+//   [scoring.practice]                         # per stream id, optional
+//   "7" = { loop = [120, 480] }                # or { teacher_start = N }
 //   [[plugins]]                                # any number: sources and sinks (kata_plugin.h)
 //   path = "build/plugins/csv-sink.so"
 //   config = "path=scores.csv"
@@ -132,16 +136,49 @@ void run_serve(const std::string& file, const std::string& counters_path) {
   };
   load_teacher(config.default_teacher);
   for (const auto& [id, t] : config.teachers) load_teacher(t);
+  // A practice section in the teacher's clip frames -> the alignment's rows, checked against the
+  // clip here (at start), so that a section outside it is refused with its file:line.
+  auto alignment_for = [&](const kata::serve::Practice& p, const TeacherSource& t) {
+    kata::metric::AlignmentOptions o;
+    if (p.where.empty() || t.path.empty() || !metric) return o;
+    const int frames = teachers.at(t.path)->reference->frames();
+    auto row = [&](int clip_frame) {
+      if (clip_frame < t.first_frame || clip_frame - t.first_frame >= frames)
+        throw Error(ErrorKind::kParse, p.where + ": practice frame " + std::to_string(clip_frame) + " is outside " +
+                                           t.path + " (frames " + std::to_string(t.first_frame) + ".." +
+                                           std::to_string(t.first_frame + frames - 1) + ")");
+      return clip_frame - t.first_frame;
+    };
+    if (p.teacher_start >= 0) o.first_frame = row(p.teacher_start);
+    if (p.loop_first >= 0) {
+      o.first_frame = row(p.loop_first);
+      o.last_frame = row(p.loop_last);
+      o.loop = true;
+    }
+    return o;
+  };
+  auto teacher_of = [&](uint64_t id) -> const TeacherSource& {
+    const auto it = config.teachers.find(id);
+    return it != config.teachers.end() ? it->second : config.default_teacher;
+  };
+  auto practice_of = [&](uint64_t id) -> const kata::serve::Practice& {
+    const auto it = config.practices.find(id);
+    return it != config.practices.end() ? it->second : config.default_practice;
+  };
+  alignment_for(config.default_practice, config.default_teacher);
+  for (const auto& [id, t] : config.teachers) alignment_for(practice_of(id), t);
+  for (const auto& [id, p] : config.practices) alignment_for(p, teacher_of(id));
 
   config.runtime.configure_stream = [&](const kata::transport::SkeletonDefinition& d) {
     kata::runtime::StreamSetup s = kata::runtime::setup_from_definition(d);
     if (!metric) return s;
     s.pipeline.stream.stencil = metric->stencil();
-    const auto it = config.teachers.find(d.stream_id);
-    const std::string& path = it != config.teachers.end() ? it->second.path : config.default_teacher.path;
+    const TeacherSource& source = teacher_of(d.stream_id);
+    const std::string& path = source.path;
     if (!path.empty()) {
       s.teacher = teachers.at(path);
       s.teacher_options.ghost = config.ghost && d.skeleton.has_rest_pose;
+      s.teacher_options.alignment = alignment_for(practice_of(d.stream_id), source);  // checked at start
     }
     std::fprintf(stderr, "\nstream %llu: %d joints, %s\n", static_cast<unsigned long long>(d.stream_id),
                  d.skeleton.joint_count(), path.empty() ? "features only" : path.c_str());

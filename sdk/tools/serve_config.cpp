@@ -110,6 +110,27 @@ void check_keys(const std::string& file, const toml::table& t, std::initializer_
   }
 }
 
+// teacher_start = N or loop = [A, B] (not both) in `table` (the [scoring] table or one stream's
+// inline table of [scoring.practice]).
+Practice read_practice(const std::string& file, const toml::table& table) {
+  Practice p;
+  if (table.get("teacher_start"))
+    p.teacher_start = static_cast<int>(read_range(file, table, "teacher_start", 0, 0, 1 << 30));
+  if (const toml::node* n = table.get("loop")) {
+    const toml::array* a = n->as_array();
+    if (!a || a->size() != 2 || !(*a)[0].is_integer() || !(*a)[1].is_integer())
+      refuse(file, n->source(), "'loop' must be two teacher clip frames [A, B]");
+    const int64_t first = *(*a)[0].value<int64_t>(), last = *(*a)[1].value<int64_t>();
+    if (first < 0 || last < first || last > (1 << 30)) refuse(file, n->source(), "'loop' = [A, B] needs 0 <= A <= B");
+    if (p.teacher_start >= 0) refuse(file, n->source(), "give teacher_start or loop, not both");
+    p.loop_first = static_cast<int>(first);
+    p.loop_last = static_cast<int>(last);
+  }
+  const toml::node* at = table.get("loop") ? table.get("loop") : table.get("teacher_start");
+  if (at) p.where = file + ":" + std::to_string(at->source().begin.line);
+  return p;
+}
+
 }  // namespace
 
 ServeConfig parse_root(const std::string& file, const toml::table& root) {
@@ -258,7 +279,8 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
   check_reach(c.runtime.publish.endpoints, "publish", false);
 
   const toml::table& scoring = section(file, root, "scoring", false);
-  check_keys(file, scoring, {"model", "teacher", "first_frame", "ghost", "teachers"}, "scoring");
+  check_keys(file, scoring, {"model", "teacher", "first_frame", "ghost", "teachers", "teacher_start", "loop", "practice"},
+             "scoring");
   if (!scoring.empty()) {
     const std::string model = read<std::string>(file, scoring, "model", "");
     if (model.empty()) throw Error(ErrorKind::kParse, file + ":1: [scoring] needs model");
@@ -277,6 +299,22 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
         const unsigned long long id = std::strtoull(id_text.c_str(), &end, 10);
         if (id_text.empty() || *end) refuse(file, node.source(), "teacher keys are stream ids (decimal)");
         c.teachers[id] = TeacherSource{resolve_at(node, *path, "teacher"), c.default_teacher.first_frame};
+      }
+    }
+    c.default_practice = read_practice(file, scoring);
+    if (const toml::node* t = scoring.get("practice")) {
+      if (!t->is_table()) refuse(file, t->source(), "[scoring.practice] must be a table");
+      for (const auto& [key, node] : *t->as_table()) {
+        const toml::table* one = node.as_table();
+        if (!one) refuse(file, node.source(), "a practice is a table: { teacher_start = N } or { loop = [A, B] }");
+        check_keys(file, *one, {"teacher_start", "loop"}, "scoring.practice");
+        char* end = nullptr;
+        const std::string id_text(key.str());
+        const unsigned long long id = std::strtoull(id_text.c_str(), &end, 10);
+        if (id_text.empty() || *end) refuse(file, node.source(), "practice keys are stream ids (decimal)");
+        Practice p = read_practice(file, *one);
+        if (p.where.empty()) p.where = file + ":" + std::to_string(node.source().begin.line);
+        c.practices[id] = p;
       }
     }
   }

@@ -17,11 +17,23 @@ struct TeacherSource {
   int first_frame = 1;
 };
 
+// Practice (issue 21; kata score --teacher-start / --loop): which teacher clip frames a stream
+// follows. Clip frame numbers (as the teacher file counts them, first_frame included); checked
+// against the clip once it is loaded (Practice::where names the setting in a refusal).
+struct Practice {
+  int teacher_start = -1;  // the lesson starts at this clip frame; -1: the clip's first
+  int loop_first = -1;     // loop = [A, B]: clip frames A..B over and over; -1: no loop
+  int loop_last = -1;
+  std::string where;       // "file:line" of the setting; empty: none set
+};
+
 struct ServeConfig {
   runtime::RuntimeConfig runtime;  // shard count / index are in runtime.ingest
   std::string model;  // empty: features only
   TeacherSource default_teacher;
   std::map<uint64_t, TeacherSource> teachers;
+  Practice default_practice;                 // [scoring] teacher_start / loop
+  std::map<uint64_t, Practice> practices;    // [scoring.practice] per stream id
   bool ghost = true;
   double status_seconds = 1.0;
   struct Plugin {

@@ -276,6 +276,9 @@ TEST(CliCoach, HeadlessLessonEqualsThePipelineRunInProcess) {
     ASSERT_EQ(again[i].score, rows[i].score) << "frame " << i;
     ASSERT_EQ(again[i].part_scores[2], rows[i].part_scores[2]) << "frame " << i;
     ASSERT_EQ(again[i].part_to_fix, rows[i].part_to_fix) << "frame " << i;
+    // Where the student was in the routine is kept in the recording too (array matched_time).
+    ASSERT_EQ(again[i].matched, rows[i].matched) << "frame " << i;
+    ASSERT_EQ(again[i].matched_time, rows[i].matched_time) << "frame " << i;
   }
 }
 

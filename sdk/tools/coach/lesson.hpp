@@ -46,7 +46,7 @@ struct LessonSettings {
   double window = 0.5;         // alignment window, teacher seconds
   // Practice (teacher clip frames, like first_frame; -1: unset): the lesson starts at
   // teacher_start (the teacher before it is not used), or loops the section loop_first..loop_last.
-  // Not kept in recordings.
+  // Kept in recordings (array 'practice').
   int teacher_start = -1;
   int loop_first = -1, loop_last = -1;
   // Where the runtime publishes results (ZeroMQ PUB, bound); "*" as the port: any free one.

@@ -144,8 +144,10 @@ void write_recording(const LessonData& d, const std::string& path) {
   std::vector<float> score(F), distance(F), parts(F * metric::kParts), part_scores(F * metric::kParts);
   std::vector<int32_t> fix(F), matched(F);
   std::vector<int64_t> latency(F);
+  std::vector<double> matched_time(F);
   for (size_t i = 0; i < F; ++i) {
     const FrameRecord& r = d.frames[i];
+    matched_time[i] = r.matched_time;
     time[i] = r.time, state[i] = static_cast<uint8_t>(r.state), has_ghost[i] = r.has_ghost;
     score[i] = r.score, distance[i] = r.distance, fix[i] = r.part_to_fix, matched[i] = r.matched;
     latency[i] = r.latency_ns;
@@ -162,6 +164,7 @@ void write_recording(const LessonData& d, const std::string& path) {
   std::string text = d.settings.model + "\n" + d.settings.teacher + "\n" + d.settings.student + "\n" + d.settings.preset + "\n";
   for (const std::string& n : d.joint_names) text += n + "\n";
   const size_t K = static_cast<size_t>(metric::kParts);
+  const int32_t practice[3] = {d.settings.teacher_start, d.settings.loop_first, d.settings.loop_last};
   const std::vector<std::pair<std::string, Array>> arrays = {
       {"positions", make_array("<f4", {F, J, 3}, d.positions.data())},
       {"time", make_array("<f8", {F}, time.data())},
@@ -181,6 +184,9 @@ void write_recording(const LessonData& d, const std::string& path) {
       {"hips", make_array("<i4", {2}, hips)},
       {"numbers", make_array("<f8", {9}, numbers)},
       {"text", make_array("|u1", {text.size()}, reinterpret_cast<const uint8_t*>(text.data()))},
+      // Added with the practice modes (issue 21); a recording without them reads as before.
+      {"matched_time", make_array("<f8", {F}, matched_time.data())},
+      {"practice", make_array("<i4", {3}, practice)},
   };
   std::vector<std::pair<std::string, std::string>> files;
   for (const auto& [name, a] : arrays) files.emplace_back(name + ".npy", npy_bytes(a));
@@ -231,6 +237,14 @@ LessonData read_recording(const std::string& path) {
   const auto fix = take<int32_t>(arrays, path, "part_to_fix", "<i4", {F});
   const auto matched = take<int32_t>(arrays, path, "matched", "<i4", {F});
   const auto latency = take<int64_t>(arrays, path, "latency_ns", "<i8", {F});
+  // Optional (recordings from before issue 21 have neither): where the student was in the routine,
+  // and the practice section (teacher_start, loop_first, loop_last; -1: unset).
+  const auto matched_time =
+      arrays.count("matched_time") ? take<double>(arrays, path, "matched_time", "<f8", {F}) : std::vector<double>(F, -1.0);
+  if (arrays.count("practice")) {
+    const auto practice = take<int32_t>(arrays, path, "practice", "<i4", {3});
+    d.settings.teacher_start = practice[0], d.settings.loop_first = practice[1], d.settings.loop_last = practice[2];
+  }
   const auto text_bytes = take<uint8_t>(arrays, path, "text", "|u1", {0});
   std::vector<std::string> lines;
   std::string line;
@@ -249,6 +263,8 @@ LessonData read_recording(const std::string& path) {
     r.frame = static_cast<int64_t>(i), r.time = time[i], r.state = static_cast<FrameState>(state[i]);
     r.score = score[i], r.distance = distance[i], r.part_to_fix = fix[i], r.matched = matched[i];
     r.latency_ns = latency[i], r.has_ghost = has_ghost[i] != 0 && G > 0;
+    if (!std::isfinite(matched_time[i])) throw Error(ErrorKind::kParse, path + ": frame " + std::to_string(i) + ": matched_time is not finite");
+    r.matched_time = matched_time[i];
     std::copy(parts.begin() + static_cast<ptrdiff_t>(i * metric::kParts),
               parts.begin() + static_cast<ptrdiff_t>((i + 1) * metric::kParts), r.parts);
     std::copy(part_scores.begin() + static_cast<ptrdiff_t>(i * metric::kParts),

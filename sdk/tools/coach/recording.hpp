@@ -21,6 +21,10 @@
 //   numbers       float64 (9)        frame_time, delta_star, speed, window, first_frame,
 //                                    teacher_frames, student_frames, d50, good_score
 //   text          uint8   (n)        UTF-8 lines: model, teacher, student, preset, then the J joint names
+//   matched_time  float64 (F)        where the student is in the routine: the matched teacher frame's
+//                                    time, seconds from first_frame (-1: not scored; optional on read)
+//   practice      int32   (3)        teacher_start, loop_first, loop_last (teacher clip frames; -1:
+//                                    unset; optional on read)
 #pragma once
 
 #include <string>
