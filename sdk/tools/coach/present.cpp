@@ -1,3 +1,6 @@
+// The viewer's events are JSON written here by hand (frame_json runs for every frame the viewer
+// gets); the report is data handed to a Mustache template (coach/report.html.mustache), its
+// figures computed here, its charts drawn by uPlot in the reader's browser.
 #include "coach/present.hpp"
 
 #include <algorithm>
