@@ -20,7 +20,7 @@ cd "$(dirname "$0")"
 # Debian packages the build, tests, benchmarks and reports need (nothing is downloaded otherwise).
 PACKAGES=(build-essential cmake pkg-config libeigen3-dev libzmq3-dev cppzmq-dev libflatbuffers-dev
           flatbuffers-compiler flatbuffers-compiler-dev libgtest-dev libgmock-dev libbenchmark-dev
-          libcli11-dev nlohmann-json3-dev libxsimd-dev ccache libtomlplusplus-dev libcpp-httplib-dev python3 python3-numpy python3-matplotlib python3-zmq python3-flatbuffers
+          libcli11-dev nlohmann-json3-dev libxsimd-dev ccache libtomlplusplus-dev libcpp-httplib-dev libzip-dev libkainjow-mustache-dev python3 python3-numpy python3-matplotlib python3-zmq python3-flatbuffers
           python3-pytest python3-setuptools python3-wheel python3-venv python3-pip python3-mypy mono-mcs mono-runtime abigail-tools xz-utils doxygen
           chromium chromium-driver python3-selenium python3-pil)
 # Only `./build.sh fuzz`, `fuzz-smoke` and `tsan` need these (Debian's clang, its libFuzzer and
@@ -30,7 +30,7 @@ FUZZ_PACKAGES=(clang-14 libclang-rt-14-dev)
 # libraries the core links; header-only packages are shared with the host).
 CLANG_PACKAGES=(clang)
 AARCH64_PACKAGES=(g++-aarch64-linux-gnu qemu-user libzmq3-dev:arm64 libgtest-dev:arm64 libflatbuffers-dev:arm64
-                  libcpp-httplib-dev:arm64)  # the CLI's viewer server is configured (not built) here
+                  libcpp-httplib-dev:arm64 libzip-dev:arm64)  # the CLI's viewer server and .npz are configured (not built) here
 JOBS=${JOBS:-2}
 
 deps() {  # deps [package...]: the given packages, or PACKAGES

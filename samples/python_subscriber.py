@@ -7,8 +7,9 @@ readers flatc --python generates from the installed schemas (python3-flatbuffers
                                             # <prefix>/share/kata/python when installed
                        [--key ME.secret --server-key SERVER.pub]   # CURVE (kata keygen; docs/deploy.md)
 
-With the kata Python package installed (pip install bindings/python), no --python-dir is needed:
-the package carries the same readers as kata.fb (one package named kata, not two).
+With the kata Python package installed (pip install bindings/python, or cmake --install), no
+--python-dir is needed: the package carries the same readers as kata.fb (one package named kata,
+not two).
 
 Every kata message is one ZeroMQ frame: 16 bytes of topic (the stream id as lowercase hex, so
 subscribing to one stream's topic selects it) and then the FlatBuffer; its file identifier

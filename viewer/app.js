@@ -5,6 +5,7 @@
 // last frame it received. window.kata exposes counters for tests (frames, states seen, ...).
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
+import uPlot from 'uplot';
 
 const kata = (window.kata = { frames: 0, connected: false, reconnects: 0, drawn: 0, lastId: -1, ended: false, mode: '',
   states: {}, state: '', partColours: [] });
@@ -103,8 +104,7 @@ function resize() {
   } else {
     ctx2d.canvas.width = w; ctx2d.canvas.height = h;
   }
-  const tc = $('timeline-canvas');
-  tc.width = tc.clientWidth; tc.height = tc.clientHeight;
+  if (timeline) timeline.setSize(timelineSize());
 }
 window.addEventListener('resize', resize);
 
@@ -209,27 +209,35 @@ function showFrame(f) {
   kata.partColours = setup.part_labels.map((_, p) => partColour(p));
 }
 
+// The score over the lesson (uPlot, served from vendor/uplot): seconds of the student's clip
+// across the whole lesson, 0-100 up, gaps where a frame has no score.
+let timeline = null;
+function timelineSize() {
+  const d = $('timeline');
+  return { width: Math.max(d.clientWidth, 100), height: Math.max(d.clientHeight, 60) };
+}
+function buildTimeline() {
+  const axis = { stroke: '#9aa3ad', grid: { stroke: '#3a4048', width: 1 }, ticks: { stroke: '#3a4048', width: 1 },
+    font: '11px system-ui', labelFont: '11px system-ui' };
+  timeline = new uPlot({
+    ...timelineSize(), legend: { show: false }, cursor: { show: false },
+    scales: { x: { time: false, range: () => [0, Math.max((setup.frames - 1) * setup.frame_time, 1e-3)] },
+              y: { range: [0, 100] } },
+    axes: [{ ...axis, label: 'score over the lesson', labelSize: 16, size: 34, values: (u, ticks) => ticks.map((t) => t + ' s') },
+           { ...axis, size: 40, splits: () => [0, 50, 100] }],
+    series: [{}, { label: 'score', stroke: '#e8e8e8', width: 1.5, points: { show: false } }],
+  }, [[], []], $('timeline'));
+  kata.timeline = timeline;
+}
 function drawTimeline() {
-  const c = $('timeline-canvas'), g = c.getContext('2d');
-  g.fillStyle = '#23272d'; g.fillRect(0, 0, c.width, c.height);
   if (!setup) return;
-  const n = Math.max(setup.frames, 1), h = c.height - 18;
-  g.strokeStyle = '#3a4048'; g.fillStyle = '#9aa3ad'; g.font = '11px system-ui';
-  for (const v of [0, 50, 100]) {
-    const y = 4 + h * (1 - v / 100);
-    g.beginPath(); g.moveTo(28, y); g.lineTo(c.width, y); g.stroke();
-    g.fillText(String(v), 4, y + 4);
-  }
-  g.fillText('score over the lesson', 32, c.height - 4);
-  g.strokeStyle = '#e8e8e8'; g.lineWidth = 1.5; g.beginPath();
-  let started = false;
+  if (!timeline) buildTimeline();
+  const times = [], values = [];
   for (let i = 0; i < scores.length; ++i) {
-    if (scores[i] === null || scores[i] === undefined) { started = false; continue; }
-    const x = 28 + (c.width - 30) * i / n, y = 4 + h * (1 - scores[i] / 100);
-    if (started) g.lineTo(x, y); else g.moveTo(x, y);
-    started = true;
+    times.push(i * setup.frame_time);
+    values.push(scores[i] === undefined ? null : scores[i]);
   }
-  g.stroke();
+  timeline.setData([times, values]);
 }
 let timelineDirty = false;
 setInterval(() => { if (timelineDirty) { drawTimeline(); timelineDirty = false; } }, 200);

@@ -7,12 +7,12 @@ While a recorded lesson is replayed into the viewer (loopback only):
      (saturated colours; the background and the floor grid are grey),
   3. it colours each body part by its part score (the page's colour of every part equals the
      score colour of that part's score in the newest frame, computed here) and shows the states
-     (calibrating at the start, then tracking),
+     (calibrating at the start, then tracking), and draws the scores so far on its uPlot timeline,
   4. it survives a server restart: the coach is killed, the page notices, a new coach starts on
      the same port, and the page reconnects by itself and receives more frames,
   5. after that lesson ends, a new live lesson on the same port (teacher CMU 09_01, 1.2 s, against
      a longer student, 07_01) is picked up by the page, which shows "teacher finished".
-Then the HTML report renders in headless Chromium without a console error.
+Then the HTML report renders in headless Chromium without a console error, its two uPlot charts drawn.
 
 Usage: coach_browser_test.py --kata build/bin/kata --source-dir . [--screenshots DIR]
 Exit 0 on success; every wait is bounded (the whole test takes under a minute).
@@ -101,10 +101,11 @@ def main():
                        cwd=a.source_dir, check=True, stdout=subprocess.DEVNULL, timeout=120)
         log_path = os.path.join(work, "coach.log")
         log = open(log_path, "w")
-        # Quarter speed: the lesson (7 s of motion, 29 s played) outlasts Chromium's start-up on a
-        # loaded machine, so the restart below happens mid-lesson. Port 0: the coach takes a free
+        # 0.15x speed: the lesson (7 s of motion, 48 s played) outlasts Chromium's start-up on a
+        # loaded machine (at 0.25x, 29 s, it ended before the restart once at load 15), so the
+        # restart below happens mid-lesson; the restart comes after 60 frames, so this costs nothing. Port 0: the coach takes a free
         # port (no race with other tests); the restarts reuse it.
-        servers.append(start_replay(kata, a.source_dir, recording, 0, log, 0.25))
+        servers.append(start_replay(kata, a.source_dir, recording, 0, log, 0.15))
         port = wait_for("the coach's viewer port", lambda: viewer_port(log_path), 20)
         url = f"http://127.0.0.1:{port}/"
         wait_for("the coach's viewer to listen", lambda: socket.socket().connect_ex(("127.0.0.1", port)) == 0, 20)
@@ -149,6 +150,16 @@ def main():
         print(f"restart: reconnected ({driver.execute_script('return window.kata.reconnects')} reconnections), "
               f"{frames() - before} frames since")
 
+        # The score timeline (uPlot, served from the viewer's vendor/uplot): the frames' scores so
+        # far as its line, drawn on its canvas (checked here, after the restart: the lesson
+        # need not be running).
+        wait_for("the timeline to hold scores", lambda: driver.execute_script(
+            "return window.kata.timeline ? window.kata.timeline.data[1].filter(v => v !== null).length : 0") >= 30, 10)
+        timeline_ink = driver.execute_script(
+            "const c = document.querySelector('#timeline .uplot canvas'); if (!c) return -1;"
+            "const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data; let n = 0;"
+            "for (let k = 0; k < d.length; k += 4) n += d[k] > 200 && d[k + 1] > 200 && d[k + 2] > 200; return n;")
+        assert timeline_ink > 100, f"the score timeline draws no line ({timeline_ink} light pixels)"
         # The lesson ends; a new live lesson on the same port is picked up (the page polls /status).
         wait_for("the end of the replayed lesson", lambda: driver.execute_script("return window.kata.ended"), 40)
         servers[1].send_signal(signal.SIGTERM)
@@ -170,10 +181,18 @@ def main():
         errors = [e for e in driver.get_log("browser") if e.get("level") == "SEVERE"]
         assert not errors, f"console errors in the report: {errors}"
         svgs = driver.execute_script("return document.querySelectorAll('svg').length")
-        assert svgs >= 6, f"the report has {svgs} SVG drawings (expected the charts, the body and 3 moments)"
+        assert svgs >= 4, f"the report has {svgs} SVG drawings (expected the body and 3 moments)"
+        # The two uPlot charts (inlined in the report), drawn: lines on their canvases.
+        charts = driver.execute_script("return window.kataReport ? window.kataReport.charts : -1")
+        assert charts == 2, f"the report drew {charts} charts (expected 2: the score, the parts)"
+        inked = driver.execute_script(
+            "return Array.from(document.querySelectorAll('.uplot canvas')).map(c => {"
+            "  const d = c.getContext('2d').getImageData(0, 0, c.width, c.height).data; let n = 0;"
+            "  for (let k = 3; k < d.length; k += 4) n += d[k] > 0; return n; })")
+        assert len(inked) == 2 and min(inked) > 2000, f"chart canvases with ink: {inked} pixels"
         if a.screenshots:
             driver.save_screenshot(os.path.join(a.screenshots, "coach-report.png"))
-        print(f"report: rendered, {svgs} SVG drawings, no console error")
+        print(f"report: rendered, {svgs} SVG drawings, charts with {inked} inked pixels, no console error")
         return 0
     finally:
         if driver:

@@ -4,6 +4,7 @@
 // or the runtime's code), and what it publishes over ZeroMQ (read here by a subscriber) too. A recorded
 // lesson replays to the same results; a damaged recording is refused naming the file.
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <zmq.h>
 
 #include <array>
@@ -14,6 +15,7 @@
 #include <fstream>
 #include <map>
 #include <memory>
+#include <set>
 #include <sstream>
 #include <string>
 #include <thread>
@@ -251,8 +253,8 @@ TEST(CliCoach, HeadlessLessonEqualsThePipelineRunInProcess) {
     }
   }
 
-  // The report: one self-contained page (inline SVG, no script, nothing fetched) naming the clips
-  // by file name only.
+  // The report: one self-contained page (inline SVG drawings, uPlot and its data inline, nothing
+  // fetched) naming the clips by file name only.
   std::ifstream in(report);
   std::stringstream ss;
   ss << in.rdbuf();
@@ -261,9 +263,60 @@ TEST(CliCoach, HeadlessLessonEqualsThePipelineRunInProcess) {
   EXPECT_NE(html.find("The three lowest moments"), std::string::npos);
   EXPECT_NE(html.find("Each body part over time"), std::string::npos);
   EXPECT_NE(html.find("05_19_on_02.bvh"), std::string::npos);
-  EXPECT_EQ(html.find("<script"), std::string::npos);
+  EXPECT_NE(html.find("var uPlot="), std::string::npos) << "the chart library inlined";
+  EXPECT_EQ(html.find("<script src"), std::string::npos);
   EXPECT_EQ(html.find("src=\"http"), std::string::npos);
+  EXPECT_EQ(html.find("href=\"http"), std::string::npos);
   EXPECT_EQ(html.find(KATA_SOURCE_DIR), std::string::npos) << "no absolute path of this machine";
+  // The charts' data: every frame's time and score (null where the CSV has no score), each part's.
+  const std::string open_tag = "<script type=\"application/json\" id=\"report-data\">";
+  const size_t data_at = html.find(open_tag);
+  ASSERT_NE(data_at, std::string::npos);
+  const size_t data_end = html.find("</script>", data_at);
+  const nlohmann::json chart = nlohmann::json::parse(html.substr(data_at + open_tag.size(), data_end - data_at - open_tag.size()));
+  ASSERT_EQ(chart["time"].size(), rows.size());
+  ASSERT_EQ(chart["parts"].size(), static_cast<size_t>(kata::metric::kParts));
+  EXPECT_EQ(chart["marks"].size(), 3u);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    if (rows[i].state == 1 || rows[i].state == 3) {
+      ASSERT_NEAR(chart["total"][i].get<double>(), rows[i].score, 0.005) << "frame " << i;
+      ASSERT_NEAR(chart["parts"][3]["values"][i].get<double>(), rows[i].part_scores[3], 0.005) << "frame " << i;
+    } else {
+      ASSERT_TRUE(chart["total"][i].is_null()) << "frame " << i;
+    }
+  }
+
+  // The recording as NumPy reads it: the arrays, dtypes and shapes of recording.hpp.
+  {
+    const std::string check =
+        "import numpy as np\n"
+        "z = np.load(\"" + rec + "\")\n"
+        "F, J, G = len(z[\"time\"]), len(z[\"joint_parents\"]), len(z[\"ghost_sources\"])\n"
+        "want = dict(positions=(\"<f4\", (F, J, 3)), time=(\"<f8\", (F,)), state=(\"|u1\", (F,)), score=(\"<f4\", (F,)),\n"
+        "  distance=(\"<f4\", (F,)), parts=(\"<f4\", (F, 5)), part_scores=(\"<f4\", (F, 5)), part_to_fix=(\"<i4\", (F,)),\n"
+        "  matched=(\"<i4\", (F,)), latency_ns=(\"<i8\", (F,)), ghosts=(\"<f4\", (F, G, 3)), has_ghost=(\"|u1\", (F,)),\n"
+        "  joint_parents=(\"<i4\", (J,)), joint_part=(\"<i4\", (J,)), ghost_sources=(\"<i4\", (G,)), hips=(\"<i4\", (2,)),\n"
+        "  numbers=(\"<f8\", (9,)), text=(\"|u1\", (len(z[\"text\"]),)))\n"
+        "got = {k: (z[k].dtype.str, z[k].shape) for k in z.files}\n"
+        "assert got == want, (got, want)\n"
+        "lines = bytes(z[\"text\"]).decode().split(\"\\n\")\n"
+        "assert len(lines) == 4 + J + 1 and lines[-1] == \"\", lines\n"
+        "print(F, J, G > 0, int(z[\"numbers\"][6]), lines[1].split(\"/\")[-1], sorted(set(z[\"state\"].tolist())))\n";
+    std::FILE* p = popen(("/usr/bin/python3 -c '" + check + "' 2>&1").c_str(), "r");
+    ASSERT_NE(p, nullptr);
+    std::string out;
+    char buf[4096];
+    for (size_t read; (read = std::fread(buf, 1, sizeof buf, p)) > 0;) out.append(buf, read);
+    ASSERT_EQ(pclose(p), 0) << out;
+    // F frames (the CSV's rows), the student's 31 CMU joints, a ghost, the teacher's file, the
+    // states the CSV has.
+    std::set<int> states;
+    for (const Row& row : rows) states.insert(row.state);
+    std::string state_list;
+    for (int st : states) state_list += (state_list.empty() ? "" : ", ") + std::to_string(st);
+    EXPECT_EQ(out, std::to_string(rows.size()) + " 31 True " + std::to_string(rows.size()) + " 05_18.bvh [" + state_list + "]\n")
+        << out;
+  }
 
   // The recording replays to the same per-frame results.
   const std::string csv2 = dir.file("replay.csv");

@@ -1,14 +1,24 @@
+// The viewer's events are JSON written here by hand (frame_json runs for every frame the viewer
+// gets); the report is data handed to a Mustache template (coach/report.html.mustache), its
+// figures computed here, its charts drawn by uPlot in the reader's browser.
 #include "coach/present.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <stdexcept>
 
+#include <kainjow/mustache.hpp>
+#include <nlohmann/json.hpp>
+
+#include "coach/report_assets.hpp"
 #include "common/error.hpp"
 
 namespace kata::coach {
 namespace {
+
+namespace mustache = kainjow::mustache;
 
 // Colours of the five parts (lines of the per-part chart) and of the two figures.
 const char* const kPartColour[metric::kParts] = {"#6c5ce7", "#0984e3", "#00b894", "#e17055", "#d63031"};
@@ -48,18 +58,6 @@ std::string json_string(const std::string& s) {
     out += c;
   }
   return out + "\"";
-}
-
-std::string html_escape(const std::string& s) {
-  std::string out;
-  for (char c : s) {
-    if (c == '<') out += "&lt;";
-    else if (c == '>') out += "&gt;";
-    else if (c == '&') out += "&amp;";
-    else if (c == '"') out += "&quot;";
-    else out += c;
-  }
-  return out;
 }
 
 // The file name of a path (reports carry no absolute paths of this machine).
@@ -111,85 +109,39 @@ View view_of(const LessonData& d, const float* joints) {
   return v;
 }
 
-// Draws a skeleton (joints x 3, parents) into an SVG group: x0, y0 = where the root goes,
+std::string fixed(const char* fmt, double v) {
+  char buf[48];
+  std::snprintf(buf, sizeof buf, fmt, v);
+  return buf;
+}
+
+// A skeleton (joints x 3, parents) as the bones of an SVG drawing: x0, y0 = where the root goes,
 // scale = pixels per unit; colour per bone from `bone_colour(child joint)`.
 template <class BoneColour>
-void draw_figure(std::string& svg, const float* joints, const std::vector<int>& parents, const View& v, double x0,
-                 double y0, double scale, double width, BoneColour bone_colour) {
-  auto px = [&](int j) { return x0 - ((joints[3 * j] * v.ax + joints[3 * j + 2] * v.az) - v.cx) * scale; };
-  auto py = [&](int j) { return y0 - (joints[3 * j + 1] - v.cy) * scale; };
+void add_bones(mustache::list& bones, const float* joints, const std::vector<int>& parents, const View& v, double x0,
+               double y0, double scale, BoneColour bone_colour) {
+  auto px = [&](int j) { return fixed("%.1f", x0 - ((joints[3 * j] * v.ax + joints[3 * j + 2] * v.az) - v.cx) * scale); };
+  auto py = [&](int j) { return fixed("%.1f", y0 - (joints[3 * j + 1] - v.cy) * scale); };
   for (size_t j = 1; j < parents.size(); ++j) {
     const int p = parents[j];
     if (p < 0) continue;
-    svg += "<line x1=\"";
-    append(svg, "%.1f", px(p));
-    svg += "\" y1=\"";
-    append(svg, "%.1f", py(p));
-    svg += "\" x2=\"";
-    append(svg, "%.1f", px(static_cast<int>(j)));
-    svg += "\" y2=\"";
-    append(svg, "%.1f", py(static_cast<int>(j)));
-    svg += "\" stroke=\"" + bone_colour(static_cast<int>(j)) + "\" stroke-width=\"";
-    append(svg, "%.1f", width);
-    svg += "\" stroke-linecap=\"round\"/>";
+    const int c = static_cast<int>(j);
+    bones.push_back(mustache::object{
+        {"x1", px(p)}, {"y1", py(p)}, {"x2", px(c)}, {"y2", py(c)}, {"colour", bone_colour(c)}});
   }
 }
 
-// A line chart of series over time: values 0..ymax, x = seconds.
+// A chart's line: its values over time (NaN = gap).
 struct Series {
   std::string colour, label;
-  std::vector<double> values;  // NaN = gap
+  std::vector<double> values;
 };
 
-std::string chart(const std::vector<double>& time, const std::vector<Series>& series, double ymax,
-                  const std::string& ylabel, const std::vector<size_t>& marks) {
-  const double w = 860, h = 240, left = 50, right = 15, top = 12, bottom = 34;
-  const double tmax = time.empty() ? 1.0 : std::max(time.back(), 1e-6);
-  auto X = [&](double t) { return left + (w - left - right) * t / tmax; };
-  auto Y = [&](double v) { return top + (h - top - bottom) * (1.0 - std::clamp(v, 0.0, ymax) / ymax); };
-  std::string s = "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 860 240\" width=\"860\" height=\"240\">";
-  for (int k = 0; k <= 4; ++k) {
-    const double v = ymax * k / 4;
-    s += "<line x1=\"50\" x2=\"845\" y1=\"";
-    append(s, "%.1f", Y(v));
-    s += "\" y2=\"";
-    append(s, "%.1f", Y(v));
-    s += "\" stroke=\"#ddd\"/><text x=\"44\" y=\"";
-    append(s, "%.1f", Y(v) + 4);
-    s += "\" text-anchor=\"end\" font-size=\"11\">";
-    append(s, ymax > 1.5 ? "%.0f" : "%.2f", v);
-    s += "</text>";
-  }
-  const int step = tmax > 20 ? 5 : tmax > 8 ? 2 : 1;
-  for (int t = 0; t <= static_cast<int>(tmax); t += step) {
-    s += "<text x=\"";
-    append(s, "%.1f", X(t));
-    s += "\" y=\"";
-    append(s, "%.1f", h - 16);
-    s += "\" text-anchor=\"middle\" font-size=\"11\">" + std::to_string(t) + " s</text>";
-  }
-  s += "<text x=\"12\" y=\"120\" font-size=\"11\" transform=\"rotate(-90 12 120)\" text-anchor=\"middle\">" + ylabel +
-       "</text>";
-  for (size_t m = 0; m < marks.size(); ++m) {
-    s += "<line x1=\"";
-    append(s, "%.1f", X(time[marks[m]]));
-    s += "\" x2=\"";
-    append(s, "%.1f", X(time[marks[m]]));
-    s += "\" y1=\"12\" y2=\"206\" stroke=\"#c0392b\" stroke-dasharray=\"4 3\"/><text x=\"";
-    append(s, "%.1f", X(time[marks[m]]) + 3);
-    s += "\" y=\"24\" font-size=\"11\" fill=\"#c0392b\">" + std::to_string(m + 1) + "</text>";
-  }
-  for (const Series& ser : series) {
-    s += "<polyline fill=\"none\" stroke=\"" + ser.colour + "\" stroke-width=\"1.6\" points=\"";
-    for (size_t i = 0; i < time.size(); ++i) {
-      if (!std::isfinite(ser.values[i])) continue;
-      append(s, "%.1f,", X(time[i]));
-      append(s, "%.1f ", Y(ser.values[i]));
-    }
-    s += "\"/>";
-  }
-  s += "</svg>";
-  return s;
+// A chart series' values as JSON: NaN (no score) -> null, a gap in the line.
+nlohmann::json chart_values(const std::vector<double>& values) {
+  nlohmann::json out = nlohmann::json::array();
+  for (double v : values) out.push_back(std::isfinite(v) ? nlohmann::json(std::round(v * 100.0) / 100.0) : nlohmann::json());
+  return out;
 }
 
 }  // namespace
@@ -311,82 +263,50 @@ void write_report(const LessonData& d, const std::string& path) {
   std::sort(latencies.begin(), latencies.end());
   auto pct = [&](double q) { return latencies.empty() ? 0.0 : latencies[static_cast<size_t>(q * (latencies.size() - 1))]; };
 
-  std::string h;
-  h += "<!DOCTYPE html>\n<html lang=\"en\"><head><meta charset=\"utf-8\"><title>kata lesson report</title>\n"
-       "<link rel=\"icon\" href=\"data:,\">\n<style>"
-       "body{font-family:system-ui,sans-serif;max-width:900px;margin:24px auto;color:#2d3436;line-height:1.45}"
-       "h1{margin-bottom:4px}.big{font-size:44px;font-weight:700}.muted{color:#636e72}"
-       "table{border-collapse:collapse}td,th{padding:3px 10px;border-bottom:1px solid #eee;text-align:left}"
-       ".moments{display:flex;gap:14px;flex-wrap:wrap}.moment{border:1px solid #ddd;border-radius:8px;padding:8px}"
-       ".key span{display:inline-block;margin-right:14px}.sw{display:inline-block;width:12px;height:12px;border-radius:2px;"
-       "margin-right:4px;vertical-align:-1px}</style></head><body>\n";
-  h += "<h1>Your lesson</h1><p class=\"muted\">" + html_escape(base_name(d.settings.student)) + " (you) following " +
-       html_escape(base_name(d.settings.teacher)) + " (the teacher), " + std::to_string(d.pushed) + " frames, ";
-  append(h, "%.1f", d.pushed * d.frame_time);
-  h += " s.</p>\n<p><span class=\"big\" style=\"color:" + score_colour(mean) + "\">";
-  append(h, "%.0f", mean);
-  h += "</span> / 100 &nbsp; mean score</p>\n";
-  h += "<p>Each moment of your movement is compared with the teacher's matching moment (the teacher's clip is "
-       "followed as you go, so being a little faster or slower is fine). <b>100</b> means your pose matches the "
-       "teacher's; <b>50</b> means a clear difference; low scores mean a very different pose. Each body part gets "
-       "its own score on the same scale. ";
-  if (scored_frames) {
-    h += std::string("Your weakest part on average: <b>") + kPartLabel[weakest] + "</b> (";
-    append(h, "%.0f", part_mean[weakest]);
-    h += "). ";
-    if (named) {
-      h += std::string("The part to fix named most often: <b>") + kPartLabel[most_fixed] + "</b> (" +
-           std::to_string(100 * fix_count[most_fixed] / scored_frames) + "% of the time).";
-    } else {
-      h += "No part needed fixing: every moment scored at or above ";
-      append(h, "%.0f", d.good_score);
-      h += ".";
-    }
+  mustache::data page;
+  page.set("student", base_name(d.settings.student));
+  page.set("teacher", base_name(d.settings.teacher));
+  page.set("frames", std::to_string(d.pushed));
+  page.set("seconds", fixed("%.1f", d.pushed * d.frame_time));
+  page.set("mean", fixed("%.0f", mean));
+  page.set("mean_colour", score_colour(mean));
+  page.set("good_score", fixed("%.0f", d.good_score));
+  page.set("scored", scored_frames > 0);
+  page.set("weakest_part", kPartLabel[weakest]);
+  page.set("weakest_mean", fixed("%.0f", part_mean[weakest]));
+  page.set("named", named > 0);
+  page.set("most_fixed_part", kPartLabel[most_fixed]);
+  page.set("most_fixed_percent", std::to_string(scored_frames ? 100 * fix_count[most_fixed] / scored_frames : 0));
+  page.set("ghost_colour", kGhostColour);
+
+  mustache::list part_rows;
+  for (int p = 0; p < metric::kParts; ++p) {
+    part_rows.push_back(mustache::object{
+        {"label", kPartLabel[p]},
+        {"colour", kPartColour[p]},
+        {"mean", fixed("%.0f", part_mean[p])},
+        {"mean_colour", score_colour(part_mean[p])},
+        {"fix_percent", fixed("%.0f", scored_frames ? 100.0 * fix_count[p] / scored_frames : 0.0)}});
   }
-  h += "</p>\n<h2>Score over time</h2>\n";
-  h += chart(time, {total}, 100.0, "score (0-100)", lows);
-  h += "<p class=\"muted\">Dashed red lines: the three lowest moments, shown below. Gaps: moments without a score "
-       "(the start, or tracking lost).</p>\n";
-  h += "<h2>Each body part over time</h2>\n<p>The score of each body part, 0-100, on the same scale as the total. "
-       "The part to fix is the lowest one, named when the total is below ";
-  append(h, "%.0f", d.good_score);
-  h += " and it has stayed the lowest for half a second.</p>\n";
-  h += chart(time, parts, 100.0, "part score (0-100)", {});
-  h += "<p class=\"key\">";
-  for (int p = 0; p < metric::kParts; ++p)
-    h += std::string("<span><i class=\"sw\" style=\"background:") + kPartColour[p] + "\"></i>" + kPartLabel[p] + "</span>";
-  h += "</p>\n";
+  page.set("parts", part_rows);
 
   // Body diagram: each bone coloured by its part's mean score (red 0 -> amber 50 -> green 100).
-  h += "<h2>Your body, part by part</h2>\n<div style=\"display:flex;gap:24px;align-items:center\">";
+  mustache::list body;
   if (d.pushed > 0) {
     const float* pose = d.frame_positions(0);
     const View v = view_of(d, pose);
     double lo = 1e30, hi = -1e30;
     for (int j = 0; j < d.joints; ++j) lo = std::min(lo, double(pose[3 * j + 1])), hi = std::max(hi, double(pose[3 * j + 1]));
     const double scale = 300.0 / std::max(hi - lo, 1e-6);
-    std::string svg = "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 260 360\" width=\"260\" height=\"360\">";
-    auto colour = [&](int j) { return score_colour(part_mean[d.joint_part[static_cast<size_t>(j)]]); };
-    draw_figure(svg, pose, d.joint_parents, v, 130, 330 - (pose[1] - lo) * scale, scale, 9, colour);
-    svg += "</svg>";
-    h += svg;
+    add_bones(body, pose, d.joint_parents, v, 130, 330 - (pose[1] - lo) * scale, scale,
+              [&](int j) { return score_colour(part_mean[d.joint_part[static_cast<size_t>(j)]]); });
   }
-  h += "<table><tr><th>part</th><th>mean score</th><th>named as the part to fix</th></tr>";
-  for (int p = 0; p < metric::kParts; ++p) {
-    h += "<tr><td><i class=\"sw\" style=\"background:" + score_colour(part_mean[p]) + "\"></i>" + kPartLabel[p] + "</td><td>";
-    append(h, "%.0f", part_mean[p]);
-    h += "</td><td>";
-    append(h, "%.0f%% of the time", scored_frames ? 100.0 * fix_count[p] / scored_frames : 0.0);
-    h += "</td></tr>";
-  }
-  h += "</table></div>\n<p class=\"muted\">Colours: each part's mean score: green = close to the teacher (100), amber "
-       "= a clear difference (50), red = far from it (0).</p>\n";
+  page.set("has_body", d.pushed > 0);
+  page.set("bones", body);
 
   // The three lowest moments: student and ghost (the teacher's pose on your body) side by side.
-  h += "<h2>The three lowest moments</h2>\n<p>Left: <b>you</b>, each body part in the colour of its score at that "
-       "moment. Right: the <b style=\"color:" + std::string(kGhostColour) +
-       "\">teacher's pose on your body</b> (the \"ghost\": same moment, your bone lengths). Both are drawn facing "
-       "you.</p>\n<div class=\"moments\">";
+  mustache::list moments;
+  const std::vector<int> gp = ghost_parents(d);
   for (size_t m = 0; m < lows.size(); ++m) {
     const size_t i = lows[m];
     const FrameRecord& r = d.frames[i];
@@ -395,33 +315,28 @@ void write_report(const LessonData& d, const std::string& path) {
     double lo = 1e30, hi = -1e30;
     for (int j = 0; j < d.joints; ++j) lo = std::min(lo, double(pose[3 * j + 1])), hi = std::max(hi, double(pose[3 * j + 1]));
     const double scale = 200.0 / std::max(hi - lo + 6.0, 1e-6);
-    std::string svg = "<svg xmlns=\"http://www.w3.org/2000/svg\" viewBox=\"0 0 260 250\" width=\"260\" height=\"250\">";
     const double root_y = 230 - (pose[1] - lo) * scale;
     // You: each bone in its part's score at that moment; the ghost in one colour.
-    draw_figure(svg, pose, d.joint_parents, v, 70, root_y, scale, 5,
-                [&](int j) { return score_colour(r.part_scores[d.joint_part[static_cast<size_t>(j)]]); });
-    if (r.has_ghost) {
-      const std::vector<int> gp = ghost_parents(d);
-      draw_figure(svg, d.frame_ghost(i), gp, v, 190, root_y, scale, 5, [](int) { return std::string(kGhostColour); });
-    }
-    svg += "<text x=\"70\" y=\"246\" text-anchor=\"middle\" font-size=\"11\">you</text><text x=\"190\" y=\"246\" "
-           "text-anchor=\"middle\" font-size=\"11\">teacher (ghost)</text></svg>";
-    h += "<div class=\"moment\"><b>" + std::to_string(m + 1) + ".</b> at ";
-    append(h, "%.2f s", r.time);
-    h += ", score ";
-    append(h, "%.0f", r.score);
-    if (r.part_to_fix >= 0) h += std::string(", fix: <b>") + kPartLabel[r.part_to_fix] + "</b>";
-    h += "<br>" + svg + "<br><span class=\"muted\" style=\"font-size:12px\">";
-    for (int p = 0; p < metric::kParts; ++p) {
-      h += std::string(p ? ", " : "") + kPartLabel[p] + " ";
-      append(h, "%.0f", r.part_scores[p]);
-    }
-    h += "</span></div>";
+    mustache::list bones;
+    add_bones(bones, pose, d.joint_parents, v, 70, root_y, scale,
+              [&](int j) { return score_colour(r.part_scores[d.joint_part[static_cast<size_t>(j)]]); });
+    if (r.has_ghost) add_bones(bones, d.frame_ghost(i), gp, v, 190, root_y, scale, [](int) { return std::string(kGhostColour); });
+    mustache::list scores;
+    for (int p = 0; p < metric::kParts; ++p)
+      scores.push_back(mustache::object{
+          {"label", kPartLabel[p]}, {"score", fixed("%.0f", r.part_scores[p])}, {"last", p + 1 == metric::kParts}});
+    moments.push_back(mustache::object{{"number", std::to_string(m + 1)},
+                                       {"time", fixed("%.2f", r.time)},
+                                       {"score", fixed("%.0f", r.score)},
+                                       {"has_fix", r.part_to_fix >= 0},
+                                       {"fix", r.part_to_fix >= 0 ? kPartLabel[r.part_to_fix] : ""},
+                                       {"bones", bones},
+                                       {"part_scores", scores}});
   }
-  h += "</div>\n";
+  page.set("moments", moments);
 
-  h += "<h2>Settings</h2>\n<table>";
-  auto row = [&](const std::string& k, const std::string& v) { h += "<tr><td>" + k + "</td><td>" + html_escape(v) + "</td></tr>"; };
+  mustache::list settings;
+  auto row = [&](const std::string& k, const std::string& v) { settings.push_back(mustache::object{{"key", k}, {"value", v}}); };
   row("teacher", base_name(d.settings.teacher) + " (" + std::to_string(d.teacher_frames) + " frames from frame " +
                      std::to_string(d.settings.first_frame) + ")");
   row("student", base_name(d.settings.student) + " (" + std::to_string(d.student_frames) + " frames from frame " +
@@ -441,7 +356,29 @@ void write_report(const LessonData& d, const std::string& path) {
   row("frames", buf);
   std::snprintf(buf, sizeof buf, "p50 %.2f ms, p99 %.2f ms (frame in -> score and ghost published)", pct(0.5), pct(0.99));
   row("latency", buf);
-  h += "</table>\n<p class=\"muted\">Made by <code>kata coach</code>.</p></body></html>\n";
+  page.set("settings", settings);
+
+  // The charts' data, read by the page's script: seconds, the total and each part (null: no score),
+  // the lowest moments' times.
+  nlohmann::json chart = {{"time", time}, {"total", chart_values(total.values)}, {"marks", nlohmann::json::array()}};
+  for (size_t i : lows) chart["marks"].push_back(time[i]);
+  for (const Series& s : parts)
+    chart["parts"].push_back({{"label", s.label}, {"colour", s.colour}, {"values", chart_values(s.values)}});
+  std::string chart_json = chart.dump();
+  // Inside <script>: "</" would end the element; "<\/" is the same JSON string.
+  for (size_t at = chart_json.find("</"); at != std::string::npos; at = chart_json.find("</", at + 3)) chart_json.insert(at + 1, "\\");
+  page.set("chart_json", chart_json);
+  page.set("uplot_js", report_assets::kUplotJs);
+  page.set("uplot_css", report_assets::kUplotCss);
+  page.set("uplot_license", report_assets::kUplotLicense);
+  page.set("uplot_version", report_assets::kUplotVersion);
+
+  mustache::mustache report_template(report_assets::kReportTemplate);
+  if (!report_template.is_valid())
+    throw std::logic_error("report template (a bug of this build): " + report_template.error_message());
+  const std::string h = report_template.render(page);
+  if (!report_template.error_message().empty())
+    throw std::logic_error("report template (a bug of this build): " + report_template.error_message());
 
   std::ofstream out(path, std::ios::binary);
   if (!out) throw Error(ErrorKind::kIo, path + ": cannot open for writing");

@@ -21,8 +21,9 @@ std::string end_json(const LessonData& data);
 // The three lowest-score moments, at least half a second apart (frame indices, lowest first).
 std::vector<size_t> lowest_moments(const LessonData& data, size_t count = 3);
 
-// Writes the self-contained HTML report (inline SVG, no script, no external file). Throws
-// kata::Error(kIo).
+// Writes the self-contained HTML report: coach/report.html.mustache rendered by kainjow Mustache,
+// the figures as inline SVG, the charts drawn by uPlot inlined with their data (no external file,
+// nothing fetched). Throws kata::Error(kIo).
 void write_report(const LessonData& data, const std::string& path);
 
 }  // namespace kata::coach
