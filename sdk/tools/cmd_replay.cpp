@@ -565,7 +565,8 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
     // The sender has exited (its linger flushed the socket): wait until ingest has read every
     // frame (bounded), or stop() would leave the last ones unread in the socket.
     const auto limit = std::chrono::steady_clock::now() + std::chrono::seconds(5);
-    while (runtime.counters().ingest.frames < sent && std::chrono::steady_clock::now() < limit)
+    auto read_all = [&] { const auto in = runtime.counters().ingest; return in.frames + in.dropped_total() >= sent; };
+    while (!read_all() && std::chrono::steady_clock::now() < limit)
       std::this_thread::sleep_for(std::chrono::milliseconds(10));
   }
   if (!o.ingest) paced(o, ticks, [&](int64_t t) {
@@ -590,16 +591,19 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
   const auto counters = runtime.counters();
   j["sent"] = sent + refused_push;
   j["lost"] = static_cast<int64_t>(sent + refused_push) - j["received"].get<int64_t>();
-  j["runtime_drops"] = counters.total.queue_full + counters.total.result_queue_full + counters.total.pipeline_dropped +
-                       counters.total.refused + counters.total.send_failed;
+  // Every drop cause the runtime counts per stream (runtime::kDropCauses: queues, pipeline,
+  // publisher, and the frames of a stream the ingest refused: stale, not its owner's, ...).
+  uint64_t runtime_drops = 0;
+  json by_cause = json::object();
+  for (const kata::runtime::DropCause& cause : kata::runtime::kDropCauses) {
+    runtime_drops += counters.total.*cause.count;
+    by_cause[cause.name] = counters.total.*cause.count;
+  }
+  j["runtime_drops"] = runtime_drops;
   j["publisher_cpu_percent_of_one_core"] = 100.0 * cpu / wall;
   // Every thread of this process (pushing or ingest, workers, the I/O thread, libzmq's) per frame.
   j["cpu_us_per_frame"] = sent ? 1e6 * cpu / static_cast<double>(sent) : 0.0;
-  j["runtime_drops_by_cause"] = {{"queue_full", counters.total.queue_full},
-                                 {"result_queue_full", counters.total.result_queue_full},
-                                 {"pipeline_dropped", counters.total.pipeline_dropped},
-                                 {"refused", counters.total.refused},
-                                 {"send_failed", counters.total.send_failed}};
+  j["runtime_drops_by_cause"] = by_cause;
   if (o.ingest) {
     j["path"] = "ingest: a sender process -> ZeroMQ PUSH/PULL -> Ingest (verifier, checksum) -> runtime";
     j["sender_cpu_seconds"] = sender_report["sender_cpu_seconds"];

@@ -6,6 +6,7 @@ CLI tests (kata serve behind kata send, shards). Per stream:
 and each stage's own balance, so that a missing frame is named by its stream and where it went:
 
   taken:     sent      = frames_in + queue_full + stopped + stale + unauthorised
+             + out_of_sequence + wrong_joints
   computed:  frames_in = results + pipeline_dropped + refused
   handed on: results   = published + send_failed + result_queue_full
   received:  published = received + consumer gaps
@@ -33,7 +34,8 @@ def unaccounted(stream, sent, received, c, gaps=0):
     why = "stream %d: %d frame(s) unaccounted for: sent %d != received %d + %s + consumer gaps %d;" % (
         stream, sent - received - dropped - gaps, sent, received,
         " + ".join("%s %d" % kv for kv in sorted(causes.items())), gaps)
-    taken = c["frames_in"] + sum(c.get(k, 0) for k in ("queue_full", "stopped", "stale", "unauthorised"))
+    taken = c["frames_in"] + sum(c.get(k, 0) for k in ("queue_full", "stopped", "stale", "unauthorised",
+                                                            "out_of_sequence", "wrong_joints"))
     if sent != taken:
         return why + " lost before a worker queue took it (sent %d, taken or refused %d)" % (sent, taken)
     if c["frames_in"] != c["results"] + c["pipeline_dropped"] + c["refused"]:

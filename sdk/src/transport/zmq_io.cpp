@@ -208,6 +208,14 @@ void Ingest::housekeeping(int64_t now_ns) {
     std::memcpy(&value, event + 2, 4);
     const int fd = static_cast<int>(value);
     if (kind == ZMQ_EVENT_ACCEPTED || kind == ZMQ_EVENT_CONNECTED) {
+      // A descriptor reused by a new connection: the old one's streams are orphaned first, so
+      // that the newcomer is never taken for their owner.
+      if (std::find(disconnected_.begin(), disconnected_.end(), fd) != disconnected_.end()) {
+        uint32_t& generation = generation_[fd];
+        table_.sender_gone(connection_sender(fd, generation));
+        ++generation;
+        disconnected_.erase(std::find(disconnected_.begin(), disconnected_.end(), fd));
+      }
       ++counters_.connections;
       ++open_connections_;
       if (kind == ZMQ_EVENT_ACCEPTED && max_connections_ > 0 && open_connections_ > max_connections_) {
@@ -219,11 +227,14 @@ void Ingest::housekeeping(int64_t now_ns) {
     } else if (kind == ZMQ_EVENT_DISCONNECTED) {
       ++counters_.disconnections;
       if (open_connections_ > 0) --open_connections_;
-      uint32_t& generation = generation_[fd];
-      table_.sender_gone(connection_sender(fd, generation));
-      ++generation;
+      // Not orphaned yet: the closed connection's last messages may still wait in the socket
+      // (ZeroMQ reports the close as soon as it sees it, before this thread read them; a sender
+      // that ends right after its last frames, behind a busy reader, had them refused as "not
+      // owner" and lost: issue 28). settle_disconnects() orphans its streams once they are read.
+      disconnected_.push_back(fd);
     }
   }
+  settle_disconnects();
   if (now_ns >= next_expiry_ns_) {
     next_expiry_ns_ = now_ns + 1'000'000'000;  // idleness is judged once a second
     expired_.clear();
@@ -235,10 +246,26 @@ void Ingest::housekeeping(int64_t now_ns) {
   }
 }
 
+void Ingest::settle_disconnects() {
+  if (disconnected_.empty() || !socket_) return;
+  // ZMQ_EVENTS takes in what the I/O threads handed over: a closed connection's messages were
+  // handed over before its close was reported, so no POLLIN now means they were all read.
+  int events = 0;
+  size_t size = sizeof events;
+  if (zmq_getsockopt(socket_, ZMQ_EVENTS, &events, &size) != 0 || (events & ZMQ_POLLIN)) return;
+  for (int fd : disconnected_) {
+    uint32_t& generation = generation_[fd];
+    table_.sender_gone(connection_sender(fd, generation));
+    ++generation;
+  }
+  disconnected_.clear();
+}
+
 void Ingest::reset() {
   table_ = IngestTable(table_.limits());
   counters_ = IngestCounters{};
   generation_.clear();
+  disconnected_.clear();
   open_connections_ = 0;
   next_expiry_ns_ = 0;
 }
@@ -281,6 +308,7 @@ int Ingest::poll(int max_messages) {
     handle(zmq_msg_data(&message), zmq_msg_size(&message), sender, steady_now_ns());
   }
   zmq_msg_close(&message);
+  settle_disconnects();
   return count;
 }
 
@@ -395,7 +423,10 @@ void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t n
       int64_t age_ns = -1;
       const TableVerdict v =
           table_.judge_frame(sender, f.stream_id, f.sequence, f.capture_ns, f.joints, now_ns, &restarted, &gap, &age_ns);
-      if (v != TableVerdict::kAccepted) return refused(sender, v, f.stream_id);
+      if (v != TableVerdict::kAccepted) {
+        if (v != TableVerdict::kUnknownStream && handlers_.on_refused_frame) handlers_.on_refused_frame(f.stream_id, v);
+        return refused(sender, v, f.stream_id);
+      }
       if (restarted) ++counters_.restarts;
       counters_.sequence_gaps += gap;
       if (age_ns >= 0) {

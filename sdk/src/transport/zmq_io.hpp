@@ -171,6 +171,10 @@ class Ingest {
     std::function<bool(const SkeletonDefinition&)> on_revision;
     // The stream ended (its owner closed it, or it was idle past the limit). [ingest's thread]
     std::function<void(uint64_t stream_id)> on_close;
+    // A frame of a known stream refused (stale, not its owner's, out of order or of the window,
+    // the wrong joint count), besides the ingest-wide counter: the receiver counts it on the
+    // stream, so that every frame sent for a stream is accounted for there. [ingest's thread]
+    std::function<void(uint64_t stream_id, TableVerdict cause)> on_refused_frame;
   };
 
   Ingest(Context& context, const IngestOptions& options, Handlers handlers);
@@ -197,6 +201,9 @@ class Ingest {
 
  private:
   void refused(SenderToken sender, TableVerdict cause, uint64_t stream_id);
+  // Orphans the streams of the connections that closed (disconnected_) once the socket holds
+  // nothing more to read: see housekeeping().
+  void settle_disconnects();
   std::string describe(SenderToken sender) const;
   void* socket_ = nullptr;
   void* monitor_ = nullptr;  // PAIR socket reading this socket's connection events
@@ -208,6 +215,7 @@ class Ingest {
   IngestTable table_;
   IngestCounters counters_;
   std::unordered_map<int, uint32_t> generation_;  // per connection descriptor
+  std::vector<int> disconnected_;  // closed connections whose streams are not orphaned yet
   uint32_t open_connections_ = 0;
   int64_t next_expiry_ns_ = 0;
   std::vector<uint64_t> expired_;
