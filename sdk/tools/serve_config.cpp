@@ -211,10 +211,13 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
   c.runtime.ingest.shard_index = static_cast<uint32_t>(shard_index);
 
   const toml::table& rt = section(file, root, "runtime", false);
-  check_keys(file, rt, {"workers", "skeleton_resend_seconds", "max_streams", "idle", "idle_spin_us"}, "runtime");
+  check_keys(file, rt, {"workers", "skeleton_resend_seconds", "max_streams", "idle", "idle_spin_us", "frame_queue_capacity"},
+             "runtime");
   c.runtime.workers = static_cast<int>(read_range(file, rt, "workers", 2, 1, 64));
   c.runtime.skeleton_resend_seconds = read_positive(file, rt, "skeleton_resend_seconds", 1.0);
   c.runtime.max_streams = static_cast<int>(read_range(file, rt, "max_streams", 1024, 1, 1 << 20));
+  // Frames queued per worker before a frame is dropped (queue_full); sized at start.
+  c.runtime.frame_queue_capacity = static_cast<int>(read_range(file, rt, "frame_queue_capacity", 4096, 2, 1 << 20));
   const std::string idle = read<std::string>(file, rt, "idle", "park");
   if (idle != "park" && idle != "backoff") refuse(file, rt.get("idle")->source(), "idle must be \"park\" or \"backoff\"");
   c.runtime.idle.kind = idle == "backoff" ? kata::runtime::IdleStrategy::Kind::kBackoff : kata::runtime::IdleStrategy::Kind::kPark;

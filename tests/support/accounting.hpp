@@ -7,6 +7,7 @@
 // and, so that a missing frame is named by where it went missing, each stage's own balance:
 //
 //   taken:     sent      = frames_in + queue_full + stopped + stale + unauthorised
+//                          + out_of_sequence + wrong_joints (frames of the stream the ingest refused)
 //   computed:  frames_in = results + pipeline_dropped + refused
 //   handed on: results   = delivered + result_queue_full    (delivered: published + send_failed
 //                                                            with a publisher, else what sinks saw)
@@ -57,7 +58,8 @@ inline std::string unaccounted(uint64_t stream_id, const StreamTally& t, const r
   out << "stream " << stream_id << ": " << diff(t.sent, t.received + dropped + t.gaps)
       << " frame(s) unaccounted for: sent " << t.sent << " != received " << t.received << causes.str()
       << " + consumer gaps " << t.gaps << ";";
-  const uint64_t taken = c.frames_in + c.queue_full + c.stopped + c.stale + c.unauthorised;
+  const uint64_t taken =
+      c.frames_in + c.queue_full + c.stopped + c.stale + c.unauthorised + c.out_of_sequence + c.wrong_joints;
   const uint64_t delivered = delivery == Delivery::kPublished ? c.published + c.send_failed : t.received;
   if (t.sent != taken)
     out << " lost before a worker queue took it (sent " << t.sent << ", taken or refused " << taken << ")";

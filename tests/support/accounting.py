@@ -6,6 +6,7 @@ CLI tests (kata serve behind kata send, shards). Per stream:
 and each stage's own balance, so that a missing frame is named by its stream and where it went:
 
   taken:     sent      = frames_in + queue_full + stopped + stale + unauthorised
+             + out_of_sequence + wrong_joints
   computed:  frames_in = results + pipeline_dropped + refused
   handed on: results   = published + send_failed + result_queue_full
   received:  published = received + consumer gaps
@@ -33,7 +34,8 @@ def unaccounted(stream, sent, received, c, gaps=0):
     why = "stream %d: %d frame(s) unaccounted for: sent %d != received %d + %s + consumer gaps %d;" % (
         stream, sent - received - dropped - gaps, sent, received,
         " + ".join("%s %d" % kv for kv in sorted(causes.items())), gaps)
-    taken = c["frames_in"] + sum(c.get(k, 0) for k in ("queue_full", "stopped", "stale", "unauthorised"))
+    taken = c["frames_in"] + sum(c.get(k, 0) for k in ("queue_full", "stopped", "stale", "unauthorised",
+                                                            "out_of_sequence", "wrong_joints"))
     if sent != taken:
         return why + " lost before a worker queue took it (sent %d, taken or refused %d)" % (sent, taken)
     if c["frames_in"] != c["results"] + c["pipeline_dropped"] + c["refused"]:
@@ -59,3 +61,33 @@ def check(sent, received, counters, gaps=None, where=""):
         if why:
             failures.append(why)
     assert not failures, (where + ": " if where else "") + "\n".join(failures)
+
+
+def check_between_proxies(sent, received, counters, where=""):
+    """For a stream whose frames and results crossed a hop that counts nothing per stream (a
+    kata proxy killed and restarted): the runtime's own stages must balance exactly, what it took
+    cannot exceed what was sent, nor what was received what it published. Returns {stream:
+    (frames lost in the hops, frames the runtime dropped with a counted cause)}: hops = (sent -
+    taken) + (published - received); the two add up to the consumer's gaps."""
+    failures, lost = [], {}
+    for stream, n in sorted(sent.items()):
+        c = counters.get(stream)
+        if c is None:
+            failures.append("stream %d: not in the counters (never opened)" % stream)
+            continue
+        taken = c["frames_in"] + sum(c.get(k, 0) for k in ("queue_full", "stopped", "stale", "unauthorised",
+                                                                "out_of_sequence", "wrong_joints"))
+        got = received.get(stream, 0)
+        if taken > n:
+            failures.append("stream %d: took %d frames of %d sent" % (stream, taken, n))
+        if c["frames_in"] != c["results"] + c["pipeline_dropped"] + c["refused"]:
+            failures.append("stream %d: lost in the worker (frames_in %d, results %d)" % (stream, c["frames_in"], c["results"]))
+        if c["results"] != c["published"] + c["send_failed"] + c["result_queue_full"]:
+            failures.append("stream %d: lost between the worker and the I/O thread (results %d, published %d)"
+                            % (stream, c["results"], c["published"]))
+        if got > c["published"]:
+            failures.append("stream %d: received %d > published %d" % (stream, got, c["published"]))
+        dropped = sum(v for k, v in c.items() if k not in NOT_CAUSES)
+        lost[stream] = ((n - taken) + (c["published"] - got), dropped)
+    assert not failures, (where + ": " if where else "") + "\n".join(failures)
+    return lost

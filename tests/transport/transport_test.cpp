@@ -434,6 +434,81 @@ TEST(runtime_ingest, UnknownStreamsGapsAndRestartsAreCounted) {
   EXPECT_EQ(received.sequences, (std::vector<uint64_t>{0, 1, 2, 5, 6, 0, 1}));
 }
 
+// Issue 28: a keyless sender that closes right after its last frames, read by a busy ingest that
+// sees the close first. Its streams are its connection's; they used to be orphaned at the close,
+// and the frames still waiting in the socket were then refused as another sender's ("not owner":
+// the last frame of every stream lost under ASan). They stay the sender's until read; then the
+// stream is orphaned (a new sender's definition claims it), and a refused frame of the stream is
+// reported to the receiver by its cause.
+TEST(runtime_ingest, AClosedSendersQueuedFramesAreStillItsOwn) {
+  Context context;
+  IngestOptions options;
+  options.kind = IngestKind::kPull;
+  options.endpoints = {"bind:tcp://127.0.0.1:*"};
+  Received received;
+  int skeletons = 0;
+  Ingest::Handlers handlers = recording(received, &skeletons);
+  handlers.on_revision = [](const SkeletonDefinition&) { return true; };  // an orphan claimed
+  std::vector<TableVerdict> refused;
+  handlers.on_refused_frame = [&refused](uint64_t id, TableVerdict cause) {
+    EXPECT_EQ(id, 5u);
+    refused.push_back(cause);
+  };
+  Ingest ingest(context, options, handlers);
+  const std::string endpoint = ingest.endpoint();
+  Encoder encoder;
+  const auto xyz = pose(5, 0, 3);
+  // A sender with its own context: terminating it sends everything (linger), then closes.
+  auto connect = [&](void* ctx) {
+    void* push = zmq_socket(ctx, ZMQ_PUSH);
+    const int linger = 10000;
+    zmq_setsockopt(push, ZMQ_LINGER, &linger, sizeof linger);
+    EXPECT_EQ(zmq_connect(push, endpoint.c_str()), 0);
+    return push;
+  };
+  auto send = [](void* push, Bytes m) { EXPECT_EQ(zmq_send(push, m.data, m.size, 0), static_cast<int>(m.size)); };
+
+  void* first_ctx = zmq_ctx_new();
+  void* first = connect(first_ctx);
+  send(first, encoder.skeleton(three_joint_definition(5)));
+  send(first, encoder.frame(5, 0, 0, xyz.data(), 3));
+  ASSERT_TRUE(poll_until(ingest, [&] { return ingest.counters().frames == 1; }));  // the definition is read
+  const uint64_t frames = 100;
+  for (uint64_t s = 1; s < frames; ++s) send(first, encoder.frame(5, s, static_cast<int64_t>(s), xyz.data(), 3));
+  zmq_close(first);
+  zmq_ctx_term(first_ctx);  // every frame is on its way; the connection closes
+  // The close is handled before any of those frames is read.
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (ingest.counters().disconnections == 0 && std::chrono::steady_clock::now() < deadline) {
+    ingest.housekeeping();
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  ASSERT_EQ(ingest.counters().disconnections, 1u);
+  ASSERT_TRUE(poll_until(ingest, [&] { return ingest.counters().received >= frames + 1; }));
+  EXPECT_EQ(ingest.counters().frames, frames);
+  EXPECT_EQ(ingest.counters().not_owner, 0u);
+  EXPECT_TRUE(refused.empty());
+  EXPECT_EQ(received.sequences.size(), frames);
+
+  // Read, the stream is orphaned: a new sender's definition claims it, its frames are taken
+  // (a restart), and a third sender's frame for it is refused and reported.
+  void* second_ctx = zmq_ctx_new();
+  void* second = connect(second_ctx);
+  send(second, encoder.skeleton(three_joint_definition(5)));
+  send(second, encoder.frame(5, 0, 1000, xyz.data(), 3));
+  ASSERT_TRUE(poll_until(ingest, [&] { return ingest.counters().frames == frames + 1; }));
+  void* third_ctx = zmq_ctx_new();
+  void* third = connect(third_ctx);
+  send(third, encoder.frame(5, 1, 1001, xyz.data(), 3));
+  ASSERT_TRUE(poll_until(ingest, [&] { return ingest.counters().not_owner == 1; }));
+  EXPECT_EQ(refused, (std::vector<TableVerdict>{TableVerdict::kNotOwner}));
+  EXPECT_EQ(received.restarts_seen, 1);
+  for (auto [socket, ctx] : {std::pair{second, second_ctx}, std::pair{third, third_ctx}}) {
+    zmq_close(socket);
+    zmq_ctx_term(ctx);
+  }
+}
+
 // The documented hash (kata.h, kata_shard_of); the expected values come from an independent
 // Python implementation of FNV-1a 64 over the id's little-endian bytes (tests/runtime/shard_check.py).
 TEST(runtime_shard, ShardOfIsFnv1a64OfTheIdBytesModCount) {

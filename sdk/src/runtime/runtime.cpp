@@ -46,6 +46,21 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
     // the same skeleton keeps its pipeline, another one is opened anew.
     handlers.on_revision = [this](const transport::SkeletonDefinition& d) { return revise_announced(d); };
     handlers.on_close = [this](uint64_t id) { close_stream(id); };
+    // A frame of an open stream the ingest refused is counted on the stream (kDropCauses).
+    handlers.on_refused_frame = [this](uint64_t id, transport::TableVerdict cause) {
+      StreamState* s = find(id);
+      if (!s) return;
+      std::atomic<uint64_t>* count = nullptr;
+      switch (cause) {
+        case transport::TableVerdict::kStale: count = &s->counters.stale; break;
+        case transport::TableVerdict::kNotOwner: count = &s->counters.unauthorised; break;
+        case transport::TableVerdict::kOutOfOrder:
+        case transport::TableVerdict::kOutOfWindow: count = &s->counters.out_of_sequence; break;
+        case transport::TableVerdict::kWrongJoints: count = &s->counters.wrong_joints; break;
+        default: return;
+      }
+      count->fetch_add(1, std::memory_order_relaxed);
+    };
     handlers.on_frame = [this](const transport::FrameView& f, bool restarted) {
       push(f.stream_id, f.sequence, static_cast<double>(f.capture_ns) * 1e-9, f.xyz, f.joints, restarted, f.confidence);
     };

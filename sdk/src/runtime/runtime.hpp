@@ -122,6 +122,8 @@ struct StreamCounters {
   // Frames of an open stream that ingest dropped before queueing them (issue 22 counts them):
   uint64_t stale = 0;             // too old to score (the stream's source fell behind)
   uint64_t unauthorised = 0;      // from a sender the stream does not belong to
+  uint64_t out_of_sequence = 0;   // out of order, or far outside the sequence window
+  uint64_t wrong_joints = 0;      // a joint count other than the stream's definition's
 };
 
 // Why a frame of a stream, or its result, did not become a published result: every frame pushed
@@ -138,6 +140,8 @@ inline constexpr DropCause kDropCauses[] = {
     {"stopped", &StreamCounters::stopped},
     {"stale", &StreamCounters::stale},
     {"unauthorised", &StreamCounters::unauthorised},
+    {"out_of_sequence", &StreamCounters::out_of_sequence},
+    {"wrong_joints", &StreamCounters::wrong_joints},
     {"refused", &StreamCounters::refused},
     {"pipeline_dropped", &StreamCounters::pipeline_dropped},
     {"result_queue_full", &StreamCounters::result_queue_full},

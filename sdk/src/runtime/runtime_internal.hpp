@@ -98,7 +98,8 @@ struct Runtime::StreamState {
   uint64_t next_result_sequence = 0;             // I/O thread only
   struct alignas(64) Atomics {
     std::atomic<uint64_t> frames_in{0}, queue_full{0}, refused{0}, results{0}, pipeline_dropped{0},
-        result_queue_full{0}, published{0}, send_failed{0}, stopped{0}, stale{0}, unauthorised{0};
+        result_queue_full{0}, published{0}, send_failed{0}, stopped{0}, stale{0}, unauthorised{0},
+        out_of_sequence{0}, wrong_joints{0};
     std::atomic<int> in_push{0};  // pushes between find() and their published cell
   } counters;
 };

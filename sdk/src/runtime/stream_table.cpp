@@ -195,6 +195,11 @@ void Runtime::retire_closed(transport::Encoder& encoder) {
     retired_totals_.result_queue_full += c.result_queue_full;
     retired_totals_.published += c.published;
     retired_totals_.send_failed += c.send_failed;
+    retired_totals_.stopped += c.stopped;
+    retired_totals_.stale += c.stale;
+    retired_totals_.unauthorised += c.unauthorised;
+    retired_totals_.out_of_sequence += c.out_of_sequence;
+    retired_totals_.wrong_joints += c.wrong_joints;
     s->pipeline.reset();
     s->retired = true;
     s->id.store(kEmptyKey, std::memory_order_release);
@@ -228,7 +233,9 @@ void Runtime::add_locked(const transport::SkeletonDefinition& definition, pipeli
   state->next_result_sequence = 0;
   for (auto* c : {&state->counters.frames_in, &state->counters.queue_full, &state->counters.refused,
                   &state->counters.results, &state->counters.pipeline_dropped, &state->counters.result_queue_full,
-                  &state->counters.published, &state->counters.send_failed})
+                  &state->counters.published, &state->counters.send_failed, &state->counters.stopped,
+                  &state->counters.stale, &state->counters.unauthorised, &state->counters.out_of_sequence,
+                  &state->counters.wrong_joints})
     c->store(0, std::memory_order_relaxed);
   state->definition = definition;
   state->ghost_joints = pipeline->ghost_joint_count();
@@ -290,6 +297,8 @@ StreamCounters read(const Atomics& a) {
   c.stopped = a.stopped.load();
   c.stale = a.stale.load();
   c.unauthorised = a.unauthorised.load();
+  c.out_of_sequence = a.out_of_sequence.load();
+  c.wrong_joints = a.wrong_joints.load();
   return c;
 }
 }  // namespace
@@ -331,6 +340,8 @@ RuntimeCounters Runtime::counters() const {
       out.total.stopped += c.stopped;
       out.total.stale += c.stale;
       out.total.unauthorised += c.unauthorised;
+      out.total.out_of_sequence += c.out_of_sequence;
+      out.total.wrong_joints += c.wrong_joints;
     }
   }
   std::lock_guard<std::mutex> lock(io_counters_mutex_);

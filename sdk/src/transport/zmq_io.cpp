@@ -412,7 +412,10 @@ void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t n
       int64_t age_ns = -1;
       const TableVerdict v =
           table_.judge_frame(sender, f.stream_id, f.sequence, f.capture_ns, f.joints, now_ns, &restarted, &gap, &age_ns);
-      if (v != TableVerdict::kAccepted) return refused(sender, v, f.stream_id);
+      if (v != TableVerdict::kAccepted) {
+        if (v != TableVerdict::kUnknownStream && handlers_.on_refused_frame) handlers_.on_refused_frame(f.stream_id, v);
+        return refused(sender, v, f.stream_id);
+      }
       if (restarted) ++counters_.restarts;
       counters_.sequence_gaps += gap;
       if (age_ns >= 0) {

@@ -171,6 +171,10 @@ class Ingest {
     std::function<bool(const SkeletonDefinition&)> on_revision;
     // The stream ended (its owner closed it, or it was idle past the limit). [ingest's thread]
     std::function<void(uint64_t stream_id)> on_close;
+    // A frame of a known stream refused (stale, not its owner's, out of order or of the window,
+    // the wrong joint count), besides the ingest-wide counter: the receiver counts it on the
+    // stream, so that every frame sent for a stream is accounted for there. [ingest's thread]
+    std::function<void(uint64_t stream_id, TableVerdict cause)> on_refused_frame;
   };
 
   Ingest(Context& context, const IngestOptions& options, Handlers handlers);
