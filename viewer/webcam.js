@@ -114,7 +114,7 @@ function onResult(e) {
   const r = JSON.parse(e.data);
   hook.results++;
   hook.lastResult = r;
-  hook.events.push({ seq: r.seq, state: r.state, score: r.score, capture_ms: r.capture_ms, ghost: !!r.ghost });
+  hook.events.push({ seq: r.seq, state: r.state, score: r.score, capture_ms: r.capture_ms, time: r.time, ghost: !!r.ghost });
   if (hook.events.length > 5000) hook.events.shift();
   if (r.score !== undefined) {
     hook.scored++;
@@ -133,6 +133,7 @@ function onResult(e) {
     document.getElementById("parts").innerHTML = r.parts.map((p, i) =>
       `<div class="part" style="background:${scoreColour(p)}"><span>${PARTS[i]}</span><span>${Math.round(p)}</span></div>`).join("");
   }
+  paint();
 }
 
 function connectEvents() {
@@ -167,6 +168,11 @@ function fitProjection(world, image) {
 let dirty = false;
 function draw() {
   requestAnimationFrame(draw);
+  paint();
+}
+// Also called as a result arrives: on a slow machine the next animation frame may wait for the
+// next MediaPipe run (a second without a GPU), and "result -> drawn" would measure that wait.
+function paint() {
   if (!last || !dirty) return;
   dirty = false;
   g.clearRect(0, 0, canvas.width, canvas.height);
@@ -255,10 +261,23 @@ async function main() {
       lastTime = video.currentTime;
       pending = performance.now();  // the frame is grabbed now (capture time on this page's clock)
       await pose.send({ image: video });
+      // pose.send's promise settles through microtasks only, so `await pose.send` in a loop never
+      // returns to the event loop: no fetch answer, server-sent event, drawing or WebDriver call
+      // would run again (the page froze after its first frame where MediaPipe is slow: headless,
+      // no GPU). Let every waiting task run before the next camera frame.
+      await yieldToTasks();
     } else {
       await new Promise((ok) => setTimeout(ok, 5));
     }
   }
+}
+
+// Resolves once the tasks waiting now have run: a background-priority task runs after them
+// (Chromium's scheduler.postTask); elsewhere a timer, which at least lets one task in.
+function yieldToTasks() {
+  if (window.scheduler && typeof scheduler.postTask === "function")
+    return scheduler.postTask(() => {}, { priority: "background" });
+  return new Promise((ok) => setTimeout(ok, 0));
 }
 
 main().catch((e) => {
