@@ -301,6 +301,13 @@ TEST(CliLandmarks, MillisecondTimestampsGiveTheFeaturesOfSeconds) {
   // about 1 Hz; the coach's --record-teacher / --record-student files are in seconds).
   r = run_cli(dir, "features --student " + dir.file("bad.npy") + " --layout gpd --time-units s --out " + dir.file("h.npy"));
   EXPECT_EQ(r.code, 0) << r.output;
+  // 1.2 s a frame (such a page's, measured): auto reads 1.2 ms; stated seconds take it.
+  std::vector<double> slow;
+  for (int f = 0; f < frames; ++f) slow.push_back(1.2 * f);
+  kata::write_npy(dir.file("slow.npy"), four.data(), shape4);
+  kata::write_npy(dir.file("slow.times.npy"), slow.data(), times_shape);
+  r = run_cli(dir, "features --student " + dir.file("slow.npy") + " --layout gpd --time-units s --out " + dir.file("i.npy"));
+  EXPECT_EQ(r.code, 0) << r.output;
 }
 
 // Five channels: presence is read as confidence with visibility (the smaller of the two), so a

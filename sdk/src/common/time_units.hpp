@@ -16,6 +16,8 @@ enum class TimeUnits { kAuto = 0, kSeconds = 1, kMilliseconds = 2 };
 // its unit.
 constexpr double kMinPlausibleStep = 0.001;
 constexpr double kMaxPlausibleStep = 0.5;
+// Stated seconds (--time-units s) also take slower steps, up to 0.2 Hz: a slow webcam page's.
+constexpr double kMaxStatedStep = 5.0;
 
 // "s", "ms" or "auto" -> the units; throws kata::Error(kInvalidArgument) otherwise.
 TimeUnits parse_time_units(const std::string& text);
@@ -25,7 +27,8 @@ double seconds_per_unit(TimeUnits units);
 
 // The units of `count` timestamps (count >= 2, increasing) from the median step between them:
 // `stated` when it is kSeconds or kMilliseconds, unless the step is plausible in the other unit
-// only; the unit the step fits when `stated` is kAuto. Throws kata::Error(kInvalidArgument)
+// only (seconds stated: steps up to kMaxStatedStep count as plausible in seconds); the unit the
+// step fits when `stated` is kAuto. Throws kata::Error(kInvalidArgument)
 // starting with `name` (the file) when kAuto's step is plausible for neither unit, when a stated
 // unit's step fits the other unit only (the message names it), or when the timestamps do not
 // increase. Fewer than two timestamps: `stated`, or seconds.
