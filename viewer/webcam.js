@@ -123,6 +123,7 @@ function onResult(e) {
   }
   // The newest word wins; "not in frame" is also said here at once (below), from MediaPipe.
   if (!newest || r.seq >= newest.seq) newest = r;
+  if (resultWaiter && r.seq >= resultWaiter.seq) resultWaiter.done();
   const s = sent.get(r.seq);
   if (s && r.result_ms !== undefined) undrawn.push({ r, s });
   dirty = true;
@@ -261,6 +262,7 @@ async function main() {
       lastTime = video.currentTime;
       pending = performance.now();  // the frame is grabbed now (capture time on this page's clock)
       await pose.send({ image: video });
+      await resultOf(seq - 1);
       // pose.send's promise settles through microtasks only, so `await pose.send` in a loop never
       // returns to the event loop: no fetch answer, server-sent event, drawing or WebDriver call
       // would run again (the page froze after its first frame where MediaPipe is slow: headless,
@@ -270,6 +272,19 @@ async function main() {
       await new Promise((ok) => setTimeout(ok, 5));
     }
   }
+}
+
+// Waits (at most RESULT_WAIT_MS) for kata's answer to frame `s`, so that it is drawn before the
+// next MediaPipe run takes the main thread (without a GPU that run is a second: "result -> drawn"
+// was that second). The answer takes a few ms on localhost; during calibration none comes.
+const RESULT_WAIT_MS = 100;
+let resultWaiter = null;
+function resultOf(s) {
+  if (s < 0 || (newest && newest.seq >= s)) return Promise.resolve();
+  return new Promise((ok) => {
+    const timer = setTimeout(() => { resultWaiter = null; ok(); }, RESULT_WAIT_MS);
+    resultWaiter = { seq: s, done: () => { clearTimeout(timer); resultWaiter = null; ok(); } };
+  });
 }
 
 // Resolves once the tasks waiting now have run: a background-priority task runs after them

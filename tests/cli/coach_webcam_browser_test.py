@@ -248,8 +248,11 @@ def main():
         subprocess.run([kata, "score", "--model", "models/default.kata", "--teacher", taught, "--student", recorded,
                         "--layout", "mediapipe", "--time-units", "s", "--out", taught_csv],
                        cwd=a.source_dir, check=True, stdout=subprocess.DEVNULL)
-        scored = [float(r["score"]) for r in csv.DictReader(open(taught_csv)) if r["state"] == "scoring"]
-        assert len(scored) >= 10, f"only {len(scored)} frames scored against the recorded teacher"
+        taught_rows = list(csv.DictReader(open(taught_csv)))
+        assert not [r for r in taught_rows if r["state"] == "tracking_lost"], "frames lost against the recorded teacher"
+        scored = [float(r["score"]) for r in taught_rows if r["state"] in ("scoring", "teacher_finished")]
+        # The student's first frames calibrate (about 5 s of them: 3-6 frames at this rate).
+        assert len(scored) >= 5, f"only {len(scored)} of {len(taught_rows)} frames scored against the recorded teacher"
         median = float(np.median(scored))
         assert median > 90, f"the same photograph scores a median {median:.1f} against its own recording"
         print(f"record-teacher: {values.shape[0]} frames x 33 x 4 with times 0..{times[-1]:.2f} s; a lesson loads it; "
