@@ -169,6 +169,12 @@ def main():
         assert stop(coach) == 0, open(log).read()
         summary = open(log).read()
         assert "webcam:" in summary and "report:" in summary, summary
+        # Item 4: the page's latency per stage reached kata and its report.
+        assert "latency per stage (page)" in summary, summary
+        report = open(os.path.join(work, "person.html")).read()
+        for stage in ("capture-&gt;landmarks", "landmarks-&gt;received", "received-&gt;result", "result-&gt;drawn",
+                      "capture-&gt;drawn"):
+            assert f"<td style=\"text-align:left\">{stage}</td>" in report, f"the report has no {stage} row"
 
         # 2. The page adds nothing but transport: the file kata recorded, scored by `kata score`.
         scores_csv = os.path.join(work, "scores.csv")
