@@ -114,7 +114,7 @@ function onResult(e) {
   const r = JSON.parse(e.data);
   hook.results++;
   hook.lastResult = r;
-  hook.events.push({ seq: r.seq, state: r.state, score: r.score, capture_ms: r.capture_ms, ghost: !!r.ghost });
+  hook.events.push({ seq: r.seq, state: r.state, score: r.score, capture_ms: r.capture_ms, time: r.time, ghost: !!r.ghost });
   if (hook.events.length > 5000) hook.events.shift();
   if (r.score !== undefined) {
     hook.scored++;
@@ -123,16 +123,18 @@ function onResult(e) {
   }
   // The newest word wins; "not in frame" is also said here at once (below), from MediaPipe.
   if (!newest || r.seq >= newest.seq) newest = r;
+  if (resultWaiter && r.seq >= resultWaiter.seq) resultWaiter.done();
   const s = sent.get(r.seq);
   if (s && r.result_ms !== undefined) undrawn.push({ r, s });
   dirty = true;
   if (r.state !== "not in frame" || !hook.personFrames) setState(r.state === "tracking" ? "scored" : r.state);
   if (r.score !== undefined) {
     document.getElementById("score").textContent = Math.round(r.score);
-    document.getElementById("fix").textContent = r.fix ? "fix: " + r.fix : "looking good";
+    document.getElementById("fix").textContent = r.fix ? "fix: " + r.fix.replace("_", " ") : "looking good";
     document.getElementById("parts").innerHTML = r.parts.map((p, i) =>
       `<div class="part" style="background:${scoreColour(p)}"><span>${PARTS[i]}</span><span>${Math.round(p)}</span></div>`).join("");
   }
+  paint();
 }
 
 function connectEvents() {
@@ -167,6 +169,11 @@ function fitProjection(world, image) {
 let dirty = false;
 function draw() {
   requestAnimationFrame(draw);
+  paint();
+}
+// Also called as a result arrives: on a slow machine the next animation frame may wait for the
+// next MediaPipe run (a second without a GPU), and "result -> drawn" would measure that wait.
+function paint() {
   if (!last || !dirty) return;
   dirty = false;
   g.clearRect(0, 0, canvas.width, canvas.height);
@@ -255,10 +262,37 @@ async function main() {
       lastTime = video.currentTime;
       pending = performance.now();  // the frame is grabbed now (capture time on this page's clock)
       await pose.send({ image: video });
+      await resultOf(seq - 1);
+      // pose.send's promise settles through microtasks only, so `await pose.send` in a loop never
+      // returns to the event loop: no fetch answer, server-sent event, drawing or WebDriver call
+      // would run again (the page froze after its first frame where MediaPipe is slow: headless,
+      // no GPU). Let every waiting task run before the next camera frame.
+      await yieldToTasks();
     } else {
       await new Promise((ok) => setTimeout(ok, 5));
     }
   }
+}
+
+// Waits (at most RESULT_WAIT_MS) for kata's answer to frame `s`, so that it is drawn before the
+// next MediaPipe run takes the main thread (without a GPU that run is a second: "result -> drawn"
+// was that second). The answer takes a few ms on localhost; during calibration none comes.
+const RESULT_WAIT_MS = 100;
+let resultWaiter = null;
+function resultOf(s) {
+  if (s < 0 || (newest && newest.seq >= s)) return Promise.resolve();
+  return new Promise((ok) => {
+    const timer = setTimeout(() => { resultWaiter = null; ok(); }, RESULT_WAIT_MS);
+    resultWaiter = { seq: s, done: () => { clearTimeout(timer); resultWaiter = null; ok(); } };
+  });
+}
+
+// Resolves once the tasks waiting now have run: a background-priority task runs after them
+// (Chromium's scheduler.postTask); elsewhere a timer, which at least lets one task in.
+function yieldToTasks() {
+  if (window.scheduler && typeof scheduler.postTask === "function")
+    return scheduler.postTask(() => {}, { priority: "background" });
+  return new Promise((ok) => setTimeout(ok, 0));
 }
 
 main().catch((e) => {

@@ -310,7 +310,7 @@ void setup(CLI::App& app) {
   cmd->add_option("--record-student", a->cam.record_student, "a webcam lesson also keeps the received landmarks here (.npy)");
   cmd->add_option("--complexity", a->cam.complexity, "webcam: MediaPipe Pose model, 0 lite (default), 1 full, 2 heavy");
   cmd->add_option("--teacher-layout", a->cam.teacher_layout, "webcam: layout of a landmark teacher (default mediapipe)");
-  cmd->add_option("--time-units", a->cam.time_units, "webcam: units of a landmark teacher's timestamps: s, ms or auto")
+  cmd->add_option("--time-units", a->cam.time_units, "webcam: units of a landmark teacher's timestamps: s (default: what --record-teacher writes), ms or auto")
       ->check(CLI::IsMember({"s", "ms", "auto"}));
   cmd->add_option("--duration", a->duration, "webcam: stop after this many seconds (default: at Ctrl-C)");
   cmd->add_option("--student", a->lesson.student, "student BVH clip (default data/cmu/05_19_on_02.bvh)")->check(CLI::ExistingFile);

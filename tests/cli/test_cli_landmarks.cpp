@@ -218,8 +218,8 @@ TEST(CliLandmarks, LostFramesKeepTheirRowsAsTrackingLost) {
 // with capture jitter, beside the .npy (X.times.npy) or as a CSV's first column, with five channels
 // (x, y, z, visibility, presence). Read with --time-units ms they give the features of the same
 // frames in seconds (to rounding), which differ from a uniform --fps run (the timestamps are used);
-// the units are inferred when left out; steps that fit neither unit are refused naming the file,
-// and a stated unit that does not fit is refused naming the one that does.
+// the units are inferred when left out; steps that fit neither unit are refused naming the file
+// unless a unit is stated, and a stated unit that fits only the other is refused naming it.
 TEST(CliLandmarks, MillisecondTimestampsGiveTheFeaturesOfSeconds) {
   kata::test::TempDir dir;
   const kata::BvhClip clip = kata::load_bvh(std::string(KATA_DATA_DIR) + "/cmu/02_01.bvh");
@@ -297,6 +297,17 @@ TEST(CliLandmarks, MillisecondTimestampsGiveTheFeaturesOfSeconds) {
   r = run_cli(dir, "features --student " + dir.file("ms.npy") + " --layout gpd --time-units s --out " + dir.file("f.npy"));
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.output.find("fits milliseconds (--time-units ms)"), std::string::npos) << r.output;
+  // Steps that fit neither unit, stated by the user: taken (a webcam page without a GPU runs at
+  // about 1 Hz; the coach's --record-teacher / --record-student files are in seconds).
+  r = run_cli(dir, "features --student " + dir.file("bad.npy") + " --layout gpd --time-units s --out " + dir.file("h.npy"));
+  EXPECT_EQ(r.code, 0) << r.output;
+  // 1.2 s a frame (such a page's, measured): auto reads 1.2 ms; stated seconds take it.
+  std::vector<double> slow;
+  for (int f = 0; f < frames; ++f) slow.push_back(1.2 * f);
+  kata::write_npy(dir.file("slow.npy"), four.data(), shape4);
+  kata::write_npy(dir.file("slow.times.npy"), slow.data(), times_shape);
+  r = run_cli(dir, "features --student " + dir.file("slow.npy") + " --layout gpd --time-units s --out " + dir.file("i.npy"));
+  EXPECT_EQ(r.code, 0) << r.output;
 }
 
 // Five channels: presence is read as confidence with visibility (the smaller of the two), so a

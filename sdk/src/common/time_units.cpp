@@ -56,11 +56,17 @@ TimeUnits resolve_time_units(const double* times, size_t count, TimeUnits stated
                 name + ": ambiguous time units: " + figure + ", a plausible frame step (2..1000 Hz) in neither seconds "
                        "(0.001..0.5) nor milliseconds (1..500); give --time-units s|ms after checking the timestamps");
   }
-  if (plausible(step * seconds_per_unit(stated))) return stated;
-  const char* other = stated == TimeUnits::kSeconds ? (as_ms ? "; it fits milliseconds (--time-units ms)" : "")
-                                                    : (as_seconds ? "; it fits seconds (--time-units s)" : "");
+  // A stated unit is taken unless the step fits the other one only (then the statement is the
+  // likely slip). Stated seconds take steps up to kMaxStatedStep: a webcam page running MediaPipe
+  // without a GPU makes about a frame a second (the coach's recordings), which auto would read as
+  // milliseconds.
+  const bool fits_other = stated == TimeUnits::kSeconds ? as_ms && !(step >= kMinPlausibleStep && step <= kMaxStatedStep)
+                                                        : as_seconds && !as_ms;
+  if (!fits_other) return stated;
   throw Error(ErrorKind::kInvalidArgument, name + ": timestamps in " + (stated == TimeUnits::kSeconds ? "seconds" : "milliseconds") +
-                                               ": " + figure + ", not a plausible frame step (2..1000 Hz)" + other);
+                                               ": " + figure + ", not a plausible frame step (2..1000 Hz)" +
+                                               (stated == TimeUnits::kSeconds ? "; it fits milliseconds (--time-units ms)"
+                                                                              : "; it fits seconds (--time-units s)"));
 }
 
 }  // namespace kata

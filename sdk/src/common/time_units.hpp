@@ -16,6 +16,8 @@ enum class TimeUnits { kAuto = 0, kSeconds = 1, kMilliseconds = 2 };
 // its unit.
 constexpr double kMinPlausibleStep = 0.001;
 constexpr double kMaxPlausibleStep = 0.5;
+// Stated seconds (--time-units s) also take slower steps, up to 0.2 Hz: a slow webcam page's.
+constexpr double kMaxStatedStep = 5.0;
 
 // "s", "ms" or "auto" -> the units; throws kata::Error(kInvalidArgument) otherwise.
 TimeUnits parse_time_units(const std::string& text);
@@ -24,11 +26,12 @@ const char* time_units_name(TimeUnits units);
 double seconds_per_unit(TimeUnits units);
 
 // The units of `count` timestamps (count >= 2, increasing) from the median step between them:
-// `stated` when it is kSeconds or kMilliseconds and the step is plausible in it, the unit the step
-// fits when `stated` is kAuto. Throws kata::Error(kInvalidArgument) starting with `name` (the
-// file) when the step is plausible for neither unit (or not for the stated one: the message then
-// names the unit that fits, if any), or when the timestamps do not increase. Fewer than two
-// timestamps: `stated`, or seconds.
+// `stated` when it is kSeconds or kMilliseconds, unless the step is plausible in the other unit
+// only (seconds stated: steps up to kMaxStatedStep count as plausible in seconds); the unit the
+// step fits when `stated` is kAuto. Throws kata::Error(kInvalidArgument)
+// starting with `name` (the file) when kAuto's step is plausible for neither unit, when a stated
+// unit's step fits the other unit only (the message names it), or when the timestamps do not
+// increase. Fewer than two timestamps: `stated`, or seconds.
 TimeUnits resolve_time_units(const double* times, size_t count, TimeUnits stated, const std::string& name);
 
 }  // namespace kata

@@ -272,7 +272,9 @@ struct WebcamCoach::Impl {
                         {"received_ms", r.received_ms},
                         {"result_ms", static_cast<double>(f.computed_ns) / 1e6},
                         {"published_ms", steady_ms()},
-                        {"capture_ms", r.frame.capture_ms}};
+                        {"capture_ms", r.frame.capture_ms},
+                        // seconds from the first pushed frame: the time --record-student writes
+                        {"time", r.frame.capture_ms * 1e-3 - first_time}};
     if (f.scored) {
       e["score"] = f.score;
       e["parts"] = std::vector<float>(std::begin(f.part_scores), std::end(f.part_scores));
@@ -281,8 +283,7 @@ struct WebcamCoach::Impl {
       float ghost[3 * kGpdJoints];
       if (ghost_of(f.matched_teacher_frame, r.frame, ghost)) e["ghost"] = std::vector<float>(ghost, ghost + 3 * kGpdJoints);
     }
-    const double t = r.frame.capture_ms * 1e-3 - first_time;
-    timeline.push_back({seq, t, state, f.scored ? f.score : 0.0f});
+    timeline.push_back({seq, r.frame.capture_ms * 1e-3 - first_time, state, f.scored ? f.score : 0.0f});
     emit(e.dump());
     if (seq + 1 > answered_upto) answered_upto = seq + 1;
   }

@@ -45,7 +45,8 @@ struct WebcamSettings {
   std::string model = "models/default.kata";
   std::string teacher = "data/cmu/05_18.bvh";  // a BVH, or landmarks (.npy/.csv, mediapipe layout)
   std::string teacher_layout;                  // "" : cmu for a BVH, mediapipe for landmarks
-  std::string time_units = "auto";             // of a landmark teacher's timestamps
+  std::string time_units = "s";                // of a landmark teacher's timestamps (the coach records seconds;
+                                               // a slow page's ~1 s steps would read as ms under auto)
   int first_frame = 1;                         // of a BVH teacher (skips CMU's T-pose)
   double window = 0.5;                         // alignment window, teacher seconds
   std::string publish = "tcp://127.0.0.1:*";
