@@ -67,11 +67,14 @@ done
 # (both protocols) and ABLATION (issue 27's protocol); the walking fold (subject 7) also runs
 # WHAT_IT_TAKES. Re-running reuses every eval.csv present; a model is trained only when one of
 # its evaluations is missing.
-# Time (2 cores shared with five other builds, load ~17): from scratch about 1.5 h; idle, about 45 min.
+# Time: adding the shipped recipe's missing evaluations and the shipped model's took 7 min 40 s at
+# load ~17 on 2 shared cores; from scratch about 60 trainings (18-20 s each idle) and 100
+# evaluations (13 s): about 50 min on idle cores, estimated, not timed (docs/model/transition.md).
+# RECIPES' uniform-k10-n1000-b19 is the shipped recipe (regenerate.sh).
 # ABLATION (every fold; issue 27's ablation of what bounds the model, docs/model/transition.md):
 # -b9 W on the kinetics block alone, -n1000 the negatives' scatter dominating the numerator (a
 # discriminative objective), -b19 joint coordinates + kinetics (JCD's own features), -r138 full
-# rank on them (no subspace chosen: a weighted L2), own- the ceiling with the held-out subject's
+# rank on them (no subspace chosen: a weighted L2), -k30 kinetics x 30, own- the ceiling with the held-out subject's
 # own pairs (not held out; folds 5 and 7 only).
 RECIPES=${RECIPES:-"old uniform-k1 uniform-k4 uniform-k10-n1000-b19"}
 ABLATION=${ABLATION:-"uniform-k1-b9 uniform-k1-n1000-b9 uniform-k10-n1000-b19-r138 uniform-k30-n1000-b19 own-uniform-k1-n1000-b9"}
