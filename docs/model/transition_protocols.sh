@@ -68,8 +68,8 @@ done
 # WHAT_IT_TAKES. Re-running reuses every eval.csv present; a model is trained only when one of
 # its evaluations is missing.
 # Time: adding the shipped recipe's missing evaluations and the shipped model's took 7 min 40 s at
-# load ~17 on 2 shared cores; from scratch about 50 trainings (18-20 s each idle) and 85
-# evaluations (13 s) plus the pair files: about 45 min on idle cores, estimated, not timed (docs/model/transition.md).
+# load ~17 on 2 shared cores; from scratch about 50 trainings (18-20 s each at load ~9) and 85
+# evaluations (13 s) plus the pair files: about 45 min at load ~9, estimated, not timed (docs/model/transition.md).
 # RECIPES' uniform-k10-n1000-b19 is the shipped recipe (regenerate.sh).
 # ABLATION (every fold; issue 27's ablation of what bounds the model, docs/model/transition.md):
 # -b9 W on the kinetics block alone, -n1000 the negatives' scatter dominating the numerator (a
