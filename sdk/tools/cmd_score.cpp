@@ -208,8 +208,8 @@ void setup(CLI::App& app) {
                "scores (0-100), the part to fix and the feedback state");
   cmd->add_option("--model", args->model,
                   ".kata model: models/default.kata for coaching (calibrated scores); models/transition.kata only "
-                  "ranks transition candidates between clips of different motion (0.836 vs JCD 0.620, held-out "
-                  "subjects 1+9, issue 27's protocol; below JCD within one subject: docs/model/transition.md)")
+                  "ranks transition candidates (leave one subject out, issue 27's protocol: 0.748 vs JCD 0.764; "
+                  "which distance for which job: docs/model/transition.md)")
       ->required()
       ->check(CLI::ExistingFile);
   cmd->add_option("--teacher", args->teacher, "teacher motion: .bvh, or a landmark .npy/.csv (see kata features)")

@@ -22,7 +22,7 @@ struct TrainArgs {
   std::string data, out, normalisation = "minmax", solver = "newton", stencil = "backward", preset = "cmu";
   std::string split_part = "all";
   std::vector<std::string> clips, pair_files;
-  std::vector<int> subjects;
+  std::vector<int> subjects, blocks;
   int unlabeled = 5000, rank = 50, threads = 2, split_every = 0, pca = 0;
   uint64_t seed = 1;
   double alpha = 1.0, gamma = 0.05, lasso_tol = 1e-9, kinetic_weight = 1.0, negative_weight = 0.0;
@@ -63,6 +63,7 @@ void run_train(const TrainArgs& a) {
                                                           : kata::metric::Normalisation::kMinMaxUnit;
   cfg.kinetic_weight = a.kinetic_weight;
   cfg.rdsr.negative_weight = a.negative_weight;
+  cfg.rdsr.blocks = a.blocks;
   cfg.rdsr.rank = a.rank;
   cfg.rdsr.alpha = a.alpha;
   cfg.rdsr.alpha_relative = !a.alpha_absolute;
@@ -93,6 +94,7 @@ void run_train(const TrainArgs& a) {
   p["kinetic_weight"] = a.kinetic_weight;
   p["negative_weight"] = a.negative_weight;
   p["beta_absolute_value"] = out.rdsr.beta_absolute;
+  if (!a.blocks.empty()) p["blocks"] = a.blocks;
   p["solver"] = a.solver;
   p["pca"] = a.pca;
   p["stencil"] = a.stencil;
@@ -171,6 +173,10 @@ void setup(CLI::App& app) {
   cmd->add_option("--negative-weight", a->negative_weight,
                   "add the negative pairs' scatter to the trace ratio's numerator, relative to Tr(X S_C X^T) "
                   "(0: the paper's RDSR; not in the paper)");
+  cmd->add_option("--blocks", a->blocks,
+                  "GPD blocks W may use, 1..9 (1: joint coordinates, 9: kinetics; default: all): W is zero "
+                  "elsewhere and the trace ratio is solved on those dimensions (not in the paper)")
+      ->delimiter(',');
   cmd->add_option("--solver", a->solver, "trace ratio: newton | bisection | both (both must agree)")
       ->check(CLI::IsMember({"newton", "bisection", "both"}));
   cmd->add_option("--sweep-alpha", a->sweep_alphas, "also write a model per alpha (x --sweep-rank): OUT_a<alpha>_r<rank>.kata")

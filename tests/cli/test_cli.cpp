@@ -4,6 +4,7 @@
 
 #include "support/temp_paths.hpp"
 
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <fstream>
@@ -13,6 +14,7 @@
 #include "io/bvh.hpp"
 #include "io/npy.hpp"
 #include "io/clip_features.hpp"
+#include "io/model_file.hpp"
 
 namespace {
 
@@ -137,5 +139,25 @@ TEST(CliTransition, ProtocolPairsEvalStoresNamedFiguresScoreNotes) {
           "/02_02.bvh --preset cmu --out " + csv);
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("is a transition model"), std::string::npos) << r.output;
+  // kata train --blocks 9: W trained on these pairs is zero outside the kinetics block (dims
+  // 1591..1682 of gpd.hpp) and not inside it, the parameters say so, and a block outside 1..9 is
+  // refused with the reason.
+  const std::string kin = kata::test::temp_path("kata_cli_blocks.kata");
+  r = run("train --data " + data + " 02_01.bvh 07_01.bvh --pairs " + pairs + " --unlabeled 300 --rank 5 --blocks 9 "
+          "--negative-weight 1 --out " + kin);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("W restricted to 92 of 1683 dimensions"), std::string::npos) << r.output;
+  const kata::metric::Model m = kata::metric::load_model(kin);
+  ASSERT_EQ(m.rank, 5);
+  double outside = 0.0, inside = 0.0;
+  for (int c = 0; c < m.rank; ++c)
+    for (int k = 0; k < 1683; ++k) (k >= 1591 ? inside : outside) += std::abs(m.w[static_cast<size_t>(c) * 1683 + k]);
+  EXPECT_EQ(outside, 0.0);
+  EXPECT_GT(inside, 1.0);
+  EXPECT_NE(m.info.parameters.find("\"blocks\":[9]"), std::string::npos) << m.info.parameters;
+  r = run("train --data " + data + " 02_01.bvh --pairs " + pairs + " --unlabeled 100 --rank 5 --blocks 10 --out " + kin);
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find("GPD block 10 is not in 1..9"), std::string::npos) << r.output;
+  std::remove(kin.c_str());
   for (const std::string& f : {pairs, model, csv}) std::remove(f.c_str());
 }

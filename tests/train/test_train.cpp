@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <gtest/gtest.h>
 
+#include "gpd/gpd.hpp"
 #include "support/temp_paths.hpp"
 
 #include "train/linalg.hpp"
@@ -575,6 +576,75 @@ TEST(Rdsr, NegativeWeightKeepsWhatNegativesDifferIn) {
   EXPECT_LT(plain.w.row(0).norm(), r.w.row(0).norm());
   opt.negative_weight = 1.0;
   EXPECT_THROW(train_rdsr(x, pa, pb, opt), kata::Error);
+}
+
+TEST(Rdsr, BlockDimensionsAreTheGpdLayout) {
+  // Block 1 (joint coordinates) is dims 0..45, block 9 (kinetics) 1591..1682 (gpd.hpp offsets).
+  const std::vector<int> d = block_dimensions({9, 1});
+  ASSERT_EQ(d.size(), 46u + 92u);
+  EXPECT_EQ(d[0], 0);
+  EXPECT_EQ(d[45], 45);
+  EXPECT_EQ(d[46], 1591);
+  EXPECT_EQ(d.back(), 1682);
+  EXPECT_EQ(block_dimensions({}).size(), static_cast<size_t>(kata::gpd::kDims));
+  EXPECT_EQ(block_dimensions({2}).size(), 120u);  // 46..165
+  EXPECT_THROW(block_dimensions({0}), kata::Error);
+  EXPECT_THROW(block_dimensions({10}), kata::Error);
+  EXPECT_THROW(block_dimensions({9, 9}), kata::Error);
+}
+
+TEST(Rdsr, BlocksRestrictWToTheirDimensions) {
+  const int d = kata::gpd::kDims, p = 120, r = 3;
+  const Eigen::MatrixXd pa = random_matrix(d, p, 31), pb = pa + 0.2 * random_matrix(d, p, 32);
+  RdsrOptions opt;
+  opt.rank = r;
+  opt.blocks = {9};
+  // Eq. 46 (N' = 0): W = the r smallest eigenvectors of S_W's kinetics sub-block, zero elsewhere;
+  // checked against an eigen-solve of the 92 x 92 block computed here from the differences.
+  const RdsrResult e46 = train_rdsr(Eigen::MatrixXd(), pa, pb, opt);
+  ASSERT_EQ(e46.w.rows(), d);
+  EXPECT_EQ(e46.w.topRows(kata::gpd::kOffsetJk).norm(), 0.0);
+  const Eigen::MatrixXd diff = (pa - pb).bottomRows(d - kata::gpd::kOffsetJk);
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> es(diff * diff.transpose());
+  const Eigen::MatrixXd v = es.eigenvectors().leftCols(r);  // ascending eigenvalues
+  const Eigen::MatrixXd wk = e46.w.bottomRows(d - kata::gpd::kOffsetJk);
+  EXPECT_LE((wk * wk.transpose() - v * v.transpose()).norm(), 1e-8);
+  // With unlabeled poses and negatives, restricted to blocks 1 and 9: W is zero on blocks 2-8,
+  // orthonormal, and the trace ratio of the 138 x 138 corners of A and B cut here by hand (dims
+  // 0..45 and 1591..1682, from the full matrices built step by step: codes, X S_L X^T, X S_C X^T,
+  // beta S_B, alpha S_W) has the same optimum and the same subspace.
+  const Eigen::MatrixXd x = random_matrix(d, 60, 33);
+  Eigen::MatrixXd na = random_matrix(d, p, 34), nb = na;
+  nb.row(100) += 30.0 * random_matrix(1, p, 38);
+  nb.row(1600) += 20.0 * random_matrix(1, p, 39);
+  opt.lasso.gamma = 0.5;
+  opt.negative_weight = 3.0;
+  opt.blocks = {1, 9};
+  const RdsrResult cut = train_rdsr(x, pa, pb, opt, {}, na, nb);
+  EXPECT_EQ(cut.w.middleRows(46, kata::gpd::kOffsetJk - 46).norm(), 0.0);
+  EXPECT_LE((cut.w.transpose() * cut.w - Eigen::MatrixXd::Identity(r, r)).norm(), 1e-10);
+  std::vector<int> dims;
+  for (int k = 0; k < 46; ++k) dims.push_back(k);
+  for (int k = 1591; k < 1683; ++k) dims.push_back(k);
+  SparseCodingStats stats;
+  const CsrMatrix codes = sparse_code(gram_matrix(x, 1), opt.lasso, &stats);
+  const Eigen::MatrixXd sl = laplacian_scatter(x, codes, 1)(dims, dims);
+  const Eigen::MatrixXd sw = within_scatter(pa, pb, 1)(dims, dims), sb = within_scatter(na, nb, 1)(dims, dims);
+  const Eigen::MatrixXd sc = centered_scatter(x, 1)(dims, dims);
+  const double beta = 3.0 * sc.trace() / sb.trace(), alpha = sl.trace() / sw.trace();
+  EXPECT_NEAR(cut.beta_absolute, beta, 1e-9 * beta);
+  const TraceRatioResult hand = trace_ratio_newton(sc + beta * sb, sl + alpha * sw, r);
+  EXPECT_NEAR(cut.eta, hand.eta, 1e-8 * hand.eta);
+  const Eigen::MatrixXd wc = cut.w(dims, Eigen::all);
+  EXPECT_LE((wc * wc.transpose() - hand.w * hand.w.transpose()).norm(), 1e-6);
+  // A rank or PCA size beyond the blocks' dimensions, and blocks on vectors that are not GPD, refuse.
+  opt.rank = 139;
+  EXPECT_THROW(train_rdsr(x, pa, pb, opt, {}, na, nb), kata::Error);
+  opt.rank = r;
+  opt.pca = 139;
+  EXPECT_THROW(train_rdsr(x, pa, pb, opt, {}, na, nb), kata::Error);
+  opt.pca = 0;
+  EXPECT_THROW(train_rdsr(random_matrix(12, 20, 35), random_matrix(12, 5, 36), random_matrix(12, 5, 37), opt), kata::Error);
 }
 
 #include "train/retrieval.hpp"

@@ -153,6 +153,25 @@ Eigen::MatrixXd centered_scatter(const Eigen::MatrixXd& x, int threads) {
   return outer_product(c, threads);
 }
 
+std::vector<int> block_dimensions(const std::vector<int>& blocks) {
+  std::vector<int> dims;
+  if (blocks.empty()) {
+    dims.resize(gpd::kDims);
+    std::iota(dims.begin(), dims.end(), 0);
+    return dims;
+  }
+  std::vector<int> sorted = blocks;
+  std::sort(sorted.begin(), sorted.end());
+  for (size_t i = 0; i < sorted.size(); ++i) {
+    if (sorted[i] < 1 || sorted[i] > 9)
+      throw Error(ErrorKind::kInvalidArgument, "rdsr: GPD block " + std::to_string(sorted[i]) + " is not in 1..9");
+    if (i > 0 && sorted[i] == sorted[i - 1])
+      throw Error(ErrorKind::kInvalidArgument, "rdsr: GPD block " + std::to_string(sorted[i]) + " named twice");
+    for (int k = kBlockStart[sorted[i] - 1]; k < kBlockStart[sorted[i]]; ++k) dims.push_back(k);
+  }
+  return dims;
+}
+
 double projected_distance(const Eigen::MatrixXd& w, const Eigen::VectorXd& x, const Eigen::VectorXd& y) {
   return (w.transpose() * (x - y)).norm();
 }
@@ -162,7 +181,21 @@ RdsrResult train_rdsr(const Eigen::MatrixXd& x, const Eigen::MatrixXd& pa, const
   const Eigen::Index d = pa.rows();
   if (pb.rows() != d || pa.cols() != pb.cols() || (x.cols() > 0 && x.rows() != d))
     throw Error(ErrorKind::kInvalidArgument, "rdsr: inconsistent matrix sizes");
-  if (opt.rank < 1 || opt.rank > d) throw Error(ErrorKind::kInvalidArgument, "rdsr: rank out of range");
+  // W's support (RdsrOptions::blocks): the scatter matrices are cut to these rows and columns
+  // and the solution put back on them, zero elsewhere.
+  const bool restricted = !opt.blocks.empty();
+  if (restricted && d != gpd::kDims)
+    throw Error(ErrorKind::kInvalidArgument, "rdsr: blocks need whole GPD vectors (" + std::to_string(gpd::kDims) + " rows)");
+  const std::vector<int> dims = restricted ? block_dimensions(opt.blocks) : std::vector<int>();
+  const Eigen::Index d_solve = restricted ? static_cast<Eigen::Index>(dims.size()) : d;
+  auto cut = [&](const Eigen::MatrixXd& m) { return restricted ? Eigen::MatrixXd(m(dims, dims)) : m; };
+  auto put_back = [&](const Eigen::MatrixXd& w) {
+    if (!restricted) return w;
+    Eigen::MatrixXd full = Eigen::MatrixXd::Zero(d, w.cols());
+    full(dims, Eigen::all) = w;
+    return full;
+  };
+  if (opt.rank < 1 || opt.rank > d_solve) throw Error(ErrorKind::kInvalidArgument, "rdsr: rank out of range");
   if (pa.cols() == 0 && x.cols() == 0) throw Error(ErrorKind::kInvalidArgument, "rdsr: no data");
   RdsrResult res;
   auto say = [&](const std::string& s) {
@@ -177,12 +210,14 @@ RdsrResult train_rdsr(const Eigen::MatrixXd& x, const Eigen::MatrixXd& pa, const
     stage_start = clock::now();
   };
 
-  const Eigen::MatrixXd sw = within_scatter(pa, pb, opt.threads);
+  const Eigen::MatrixXd sw = cut(within_scatter(pa, pb, opt.threads));
   res.trace_sw = sw.trace();
   stage("S_W (eq. 13)");
   if (x.cols() == 0) {
     // Eq. 46: minimise Tr(W^T S_W W): the r smallest eigenvectors of S_W.
-    bottom_eigen(sw, opt.rank, &res.w);
+    Eigen::MatrixXd w;
+    bottom_eigen(sw, opt.rank, &w);
+    res.w = put_back(w);
     ++res.eigen_solves;
     stage("eq. 46 eigenvectors");
     return res;
@@ -203,16 +238,19 @@ RdsrResult train_rdsr(const Eigen::MatrixXd& x, const Eigen::MatrixXd& pa, const
           res.coding.max_support, res.coding.max_kkt) +
       fmt(", max duality gap %.2e", res.coding.max_gap));
   stage("sparse coding (eq. 16)");
-  const Eigen::MatrixXd sl = laplacian_scatter(x, codes, opt.threads);
+  const Eigen::MatrixXd sl = cut(laplacian_scatter(x, codes, opt.threads));
   res.trace_sl = sl.trace();
   stage("X S_L X^T (eq. 17-18)");
-  Eigen::MatrixXd a = centered_scatter(x, opt.threads);
+  Eigen::MatrixXd a = cut(centered_scatter(x, opt.threads));
   res.trace_sc = a.trace();
   stage("A = X S_C X^T (eq. 23)");
+  if (restricted)
+    say(fmt("  W restricted to %.0f of %.0f dimensions (the chosen GPD blocks)", static_cast<double>(d_solve),
+            static_cast<double>(d)));
   if (opt.negative_weight > 0.0) {
     if (na.cols() == 0 || na.cols() != nb.cols() || na.rows() != d || nb.rows() != d)
       throw Error(ErrorKind::kInvalidArgument, "rdsr: the negative weight needs negative pairs");
-    const Eigen::MatrixXd sb = within_scatter(na, nb, opt.threads);
+    const Eigen::MatrixXd sb = cut(within_scatter(na, nb, opt.threads));
     res.trace_sb = sb.trace();
     res.beta_absolute = opt.negative_weight * res.trace_sc / std::max(res.trace_sb, 1e-300);
     a += res.beta_absolute * sb;
@@ -229,7 +267,8 @@ RdsrResult train_rdsr(const Eigen::MatrixXd& x, const Eigen::MatrixXd& pa, const
   // Optional PCA restriction: solve in the basis P of the top principal directions.
   Eigen::MatrixXd basis;
   if (opt.pca > 0) {
-    if (opt.pca < opt.rank || opt.pca > d) throw Error(ErrorKind::kInvalidArgument, "rdsr: pca must be in [rank, d]");
+    if (opt.pca < opt.rank || opt.pca > d_solve)
+      throw Error(ErrorKind::kInvalidArgument, "rdsr: pca must be in [rank, d] (d: the dimensions of the blocks W may use)");
     top_eigen(a, opt.pca, &basis);
     ++res.eigen_solves;
     say(fmt("  PCA restriction: W in the span of the top %.0f principal directions", opt.pca));
@@ -242,7 +281,7 @@ RdsrResult train_rdsr(const Eigen::MatrixXd& x, const Eigen::MatrixXd& pa, const
   const Eigen::MatrixXd& a_use = use_pca ? a_s : a;
   const Eigen::MatrixXd b_s = use_pca ? Eigen::MatrixXd(sl_s + res.alpha_absolute * sw_s) : Eigen::MatrixXd();
   const Eigen::MatrixXd& b_use = use_pca ? b_s : b;
-  auto lift = [&](const Eigen::MatrixXd& v) { return use_pca ? Eigen::MatrixXd(basis * v) : v; };
+  auto lift = [&](const Eigen::MatrixXd& v) { return put_back(use_pca ? Eigen::MatrixXd(basis * v) : v); };
   if (opt.solver == "newton" || opt.solver == "both") {
     TraceRatioResult tr = trace_ratio_newton(a_use, b_use, opt.rank, 1e-11, 100, progress, opt.solver == "both");
     res.w = lift(tr.w);

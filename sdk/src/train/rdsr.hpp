@@ -67,6 +67,13 @@ struct RdsrOptions {
   // transition metric needs when every candidate pair is already close in pose. The PCA
   // restriction then takes the top directions of this A. 0 = the paper's A.
   double negative_weight = 0.0;
+  // GPD blocks (1..9, in gpd.hpp's order; 1 = joint coordinates, 9 = kinetics) W may use: W's rows
+  // outside them are zero, and the trace ratio (and the PCA restriction) is solved on the
+  // scatter matrices' rows and columns of those dimensions only. The normalisation and the sparse
+  // codes still see the whole vector. Not in the paper: a transition metric between poses already
+  // matched by MJD must put its distance on where the bodies go (block 9), and the whole-vector
+  // objective keeps choosing static directions (docs/model/transition.md). Empty = every block.
+  std::vector<int> blocks;
   // Extra (alpha, rank) combinations solved on the same scatter matrices (sweeps; Newton only).
   std::vector<double> sweep_alphas;
   std::vector<int> sweep_ranks;
@@ -111,6 +118,10 @@ Eigen::MatrixXd within_scatter(const Eigen::MatrixXd& pa, const Eigen::MatrixXd&
 Eigen::MatrixXd laplacian_scatter(const Eigen::MatrixXd& x, const CsrMatrix& codes, int threads);
 // X S_C X^T = (X - mean)(X - mean)^T.
 Eigen::MatrixXd centered_scatter(const Eigen::MatrixXd& x, int threads);
+
+// The dimensions (sorted) of GPD blocks `blocks` (1..9); every dimension when empty. Throws
+// kInvalidArgument for a block outside 1..9 or one named twice.
+std::vector<int> block_dimensions(const std::vector<int>& blocks);
 
 // Distance |W^T (x - y)| for normalised x, y.
 double projected_distance(const Eigen::MatrixXd& w, const Eigen::VectorXd& x, const Eigen::VectorXd& y);
