@@ -317,7 +317,7 @@ class Context(_Handle):
         up_axis: UpAxis (ignored for "mediapipe", which is always camera axes). max_gap: seconds.
         body_height: input units, 0 = estimated. [any thread]"""
         d = _n.StreamDesc()
-        _n.stream_desc_init(ctypes.byref(d))
+        _n.stream_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
         if d.struct_size != ctypes.sizeof(_n.StreamDesc):
             raise ImportError("kata_stream_desc layout differs from this binding's (%d vs %d bytes)"
                               % (d.struct_size, ctypes.sizeof(_n.StreamDesc)))
@@ -347,7 +347,7 @@ class Context(_Handle):
         Runtime.publish_endpoint); ingest: endpoints to read frames from ("bind:" prefix binds).
         Arguments left None keep kata_runtime_desc_init's defaults. [any thread]"""
         d = _n.RuntimeDesc()
-        _n.runtime_desc_init(ctypes.byref(d))
+        _n.runtime_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
         for field, value in (("workers", workers), ("max_streams", max_streams), ("max_joints", max_joints),
                              ("queue_capacity", queue_capacity), ("send_hwm", send_hwm),
                              ("max_message_bytes", max_message_bytes),
@@ -379,7 +379,7 @@ class Context(_Handle):
 
 def _retarget_desc(options):
     d = _n.RetargetDesc()
-    _n.retarget_desc_init(ctypes.byref(d))
+    _n.retarget_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
     for key, value in options.items():
         if key not in ("preset", "gradient_tolerance", "max_iterations", "warm_start", "restore_bone_lengths"):
             raise TypeError("unknown retarget option %r" % key)
@@ -757,7 +757,7 @@ class Stream(_Handle):
         solver's options (preset "cmu"/"gpd", gradient_tolerance, max_iterations, warm_start,
         restore_bone_lengths)."""
         d = _n.TeacherDesc()
-        _n.teacher_desc_init(ctypes.byref(d))
+        _n.teacher_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
         d.model = model.handle
         keep = []
         if clip is not None:

@@ -79,6 +79,30 @@ kata::Layout resolve_map(const kata::Skeleton& skeleton, const kata_stream_desc&
 
 }  // namespace
 
+namespace {
+// The defaults kata.h lists for kata_stream_desc.
+kata_stream_desc stream_desc_defaults() {
+  kata_stream_desc d;
+  std::memset(&d, 0, sizeof d);
+  d.struct_size = sizeof d;
+  d.preset = nullptr;
+  d.name_map_path = nullptr;
+  d.stencil = KATA_STENCIL_BACKWARD;
+  d.up_axis = KATA_UP_Y;
+  d.max_gap = 0.25;
+  d.history_capacity = 16;
+  d.body_height = 0.0;
+  d.calibration_frames = 8;
+  d.result_capacity = 64;
+  d.keep_features = 0;
+  return d;
+}
+// What the unsized init writes, for ever: 1.0's struct (programs built before the sized init
+// call it by that name). When the struct grows, this stays at 72.
+constexpr uint32_t kStreamDescSize10 = 72;
+static_assert(sizeof(kata_stream_desc) >= kStreamDescSize10, "the struct only grows");
+}  // namespace
+
 extern "C" {
 
 KATA_API uint32_t kata_version(void) {
@@ -256,20 +280,13 @@ KATA_API kata_status kata_clip_positions(kata_clip clip, uint32_t frame, float* 
 
 /* ---- streams ---- */
 
-KATA_API void kata_stream_desc_init(kata_stream_desc* desc) {
-  if (!desc) return;
-  std::memset(desc, 0, sizeof *desc);
-  desc->struct_size = sizeof *desc;
-  desc->preset = nullptr;
-  desc->name_map_path = nullptr;
-  desc->stencil = KATA_STENCIL_BACKWARD;
-  desc->up_axis = KATA_UP_Y;
-  desc->max_gap = 0.25;
-  desc->history_capacity = 16;
-  desc->body_height = 0.0;
-  desc->calibration_frames = 8;
-  desc->result_capacity = 64;
-  desc->keep_features = 0;
+KATA_API void kata_stream_desc_init_sized(kata_stream_desc* desc, uint32_t struct_size) {
+  kata::capi::init_sized(desc, struct_size, stream_desc_defaults());
+}
+
+// In parentheses: kata.h's macro of the same name is not expanded here.
+KATA_API void (kata_stream_desc_init)(kata_stream_desc* desc) {
+  kata::capi::init_sized(desc, kStreamDescSize10, stream_desc_defaults());
 }
 
 KATA_API const char* kata_layout_name(uint32_t i) {
