@@ -404,6 +404,39 @@ TEST(Misuse, DescInitWritesOnlyTheCallersStruct) {
   kata_runtime_desc_init_sized(nullptr, 64);  // NULL: nothing
 }
 
+// kata_stream_push_many pushes what kata_stream_push would frame by frame: the same results; a
+// refused frame stops it with its index (the frames before it pushed, the stream still usable).
+TEST(Misuse, PushManyStopsAtTheFirstRefusedFrameWithItsIndex) {
+  Fixture c;
+  const uint32_t n = static_cast<uint32_t>(c.frames.size());
+  std::vector<float> all;
+  std::vector<double> times;
+  for (uint32_t i = 0; i < n; ++i) {
+    all.insert(all.end(), c.frames[i].begin(), c.frames[i].end());
+    times.push_back(i / 120.0);
+  }
+  all[3 * c.joints * 20 + 1] = std::nanf("");  // frame 20 has a NaN
+  kata_stream one = c.open(), many = c.open();
+  uint32_t pushed = 99, lost = 99;
+  const kata_status got = kata_stream_push_many(many, times.data(), all.data(), nullptr, c.joints, n, &pushed, &lost);
+  EXPECT_EQ(pushed, 20u);
+  EXPECT_EQ(lost, 0u);
+  EXPECT_NE(std::string(kata_stream_last_error(many)).find("not finite"), std::string::npos) << kata_stream_last_error(many);
+  for (uint32_t i = 0; i < 20; ++i) ASSERT_EQ(kata_stream_push(one, times[i], c.frames[i].data(), c.joints), KATA_OK);
+  EXPECT_EQ(got, kata_stream_push(one, times[20], all.data() + 3 * c.joints * 20, c.joints));  // the same refusal
+  EXPECT_NE(got, KATA_OK);
+  // The rest after the bad frame, as one more chunk: accepted.
+  EXPECT_EQ(kata_stream_push_many(many, times.data() + 21, all.data() + 3 * c.joints * 21, nullptr, c.joints, n - 21,
+                                  &pushed, &lost),
+            KATA_OK);
+  EXPECT_EQ(pushed, n - 21);
+  for (uint32_t i = 21; i < n; ++i) ASSERT_EQ(kata_stream_push(one, times[i], c.frames[i].data(), c.joints), KATA_OK);
+  EXPECT_EQ(kata_stream_results_pending(one), kata_stream_results_pending(many));
+  EXPECT_EQ(kata_stream_push_many(many, nullptr, nullptr, nullptr, c.joints, 0, &pushed, nullptr), KATA_OK);
+  kata_stream_close(one);
+  kata_stream_close(many);
+}
+
 TEST(Misuse, EnumFieldsOutsideTheirValuesAreRefused) {
   Fixture c;
   kata_stream s = nullptr;

@@ -607,8 +607,8 @@ class Stream(_Handle):
 
     def push_many(self, timestamps: Any, positions: Any, confidences: Any = None, time_units: Any = None) -> int:
         """Pushes frames i = 0..n-1: timestamps (n,) seconds, positions (n, joints, 3) float32 and
-        optionally confidences (n, joints), with one kata_stream_push(_confidence) per frame (no
-        copy of positions when already C-contiguous float32). A refused frame raises KataError
+        optionally confidences (n, joints), in one kata_stream_push_many call (no copy of
+        positions when already C-contiguous float32). A refused frame raises KataError
         naming its index; the frames before it were pushed. Returns the frames reported
         TRACKING_LOST (accepted without features). [stream owner]
         MediaPipe's shapes: positions (n, joints, 4 or 5) (x y z confidence, or x y z visibility
@@ -625,33 +625,21 @@ class Stream(_Handle):
         joints = self._joints
         if a.size != n * 3 * joints:
             raise ValueError("positions must be %d frames x %d joints x 3" % (n, joints))
-        h = self.handle
-        base, stride = a.ctypes.data, 12 * joints
-        lost = 0
-        if confidences is None:
-            push = _n.stream_push
-            for i, t in enumerate(ts.tolist()):
-                status = push(h, t, base + i * stride, joints)
-                if status:
-                    if status == Status.TRACKING_LOST:
-                        lost += 1
-                        continue
-                    raise KataError(status, "frame %d: %s" % (i, _text(_n.stream_last_error(h))), "kata_stream_push")
-            return lost
-        c = np.ascontiguousarray(confidences, dtype=np.float32)
-        if c.size != n * joints:
-            raise ValueError("confidences must be %d frames x %d joints" % (n, joints))
-        push_c = _n.stream_push_confidence
-        cbase, cstride = c.ctypes.data, 4 * joints
-        for i, t in enumerate(ts.tolist()):
-            status = push_c(h, t, base + i * stride, cbase + i * cstride, joints)
-            if status:
-                if status == Status.TRACKING_LOST:
-                    lost += 1
-                    continue
-                raise KataError(status, "frame %d: %s" % (i, _text(_n.stream_last_error(h))),
-                                "kata_stream_push_confidence")
-        return lost
+        cbase = None
+        if confidences is not None:
+            c = np.ascontiguousarray(confidences, dtype=np.float32)
+            if c.size != n * joints:
+                raise ValueError("confidences must be %d frames x %d joints" % (n, joints))
+            cbase = c.ctypes.data
+        # One call for the whole chunk (kata_stream_push_many): the per-call cost of ctypes is paid
+        # once, not per frame.
+        pushed, lost = ctypes.c_uint32(0), ctypes.c_uint32(0)
+        status = _n.stream_push_many(self.handle, ts.ctypes.data, a.ctypes.data, cbase, joints, n,
+                                     ctypes.byref(pushed), ctypes.byref(lost))
+        if status:
+            raise KataError(status, "frame %d: %s" % (pushed.value, _text(_n.stream_last_error(self.handle))),
+                            "kata_stream_push_many")
+        return lost.value
 
     def set_confidence_gate(self, threshold: float = 0.5, max_hold: float = 0.5,
                             max_missing_share: float = 0.25) -> None:

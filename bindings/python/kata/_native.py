@@ -199,6 +199,7 @@ _SIGNATURES = {
     "kata_stream_close": (None, [_p]),
     "kata_stream_last_error": (_s, [_p]),
     "kata_stream_push": (_st, [_p, _d, _p, _u32]),
+    "kata_stream_push_many": (_st, [_p, _p, _p, _p, _u32, _u32, ctypes.POINTER(_u32), ctypes.POINTER(_u32)]),
     "kata_stream_push_landmarks": (_st, [_p, _d, ctypes.c_int, _p, _u32, _u32]),
     "kata_time_units_detect": (_st, [_p, _sz, ctypes.POINTER(ctypes.c_int)]),
     "kata_stream_flush": (_st, [_p]),

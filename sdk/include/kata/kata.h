@@ -350,6 +350,17 @@ KATA_API kata_status kata_stream_push(kata_stream stream, double timestamp, cons
  * [stream owner] */
 KATA_API kata_status kata_stream_push_confidence(kata_stream stream, double timestamp, const float* positions,
                                                  const float* confidences, uint32_t joint_count);
+/* Pushes `frames` frames at once, as kata_stream_push_confidence would one by one: frame i at
+ * timestamps[i] (seconds), its joint_count x 3 floats at positions + i x 3 x joint_count, its
+ * confidences at confidences + i x joint_count (NULL: all confident). A frame reported
+ * KATA_TRACKING_LOST is accepted and counted in *tracking_lost (may be NULL). Stops at the first
+ * frame refused: returns its status with *pushed (may be NULL) = its index (the frames before it
+ * were pushed; kata_stream_last_error says why); else KATA_OK with *pushed = frames. For bindings
+ * whose per-call cost exceeds the push's (Python: one call per chunk). Does not allocate.
+ * [stream owner] */
+KATA_API kata_status kata_stream_push_many(kata_stream stream, const double* timestamps, const float* positions,
+                                           const float* confidences, uint32_t joint_count, uint32_t frames,
+                                           uint32_t* pushed, uint32_t* tracking_lost);
 /* Units of a source's timestamps (kata_stream_push_landmarks). Values are never reused. */
 typedef enum kata_time_units {
   KATA_TIME_SECONDS = 0,      /* kata's own unit (every other push) */

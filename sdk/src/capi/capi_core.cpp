@@ -428,6 +428,36 @@ KATA_API kata_status kata_stream_push_confidence(kata_stream stream, double time
   return kata::capi::to_status(s);
 }
 
+KATA_API kata_status kata_stream_push_many(kata_stream stream, const double* timestamps, const float* positions,
+                                           const float* confidences, uint32_t joint_count, uint32_t frames,
+                                           uint32_t* pushed, uint32_t* tracking_lost) {
+  if (pushed) *pushed = 0;
+  if (tracking_lost) *tracking_lost = 0;
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (frames > 0 && (!timestamps || !positions)) {
+    stream->set_error("kata_stream_push_many: timestamps and positions must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  const int count = joint_count > 1000000u ? -1 : static_cast<int>(joint_count);
+  const size_t stride = 3 * static_cast<size_t>(joint_count);
+  uint32_t lost = 0;
+  for (uint32_t i = 0; i < frames; ++i) {
+    const float* c = confidences ? confidences + static_cast<size_t>(i) * joint_count : nullptr;
+    const kata::Status s = stream->pipeline.push(timestamps[i], positions + static_cast<size_t>(i) * stride, c, count);
+    if (s == kata::Status::kTrackingLost) {
+      ++lost;
+    } else if (s != kata::Status::kOk) {
+      stream->set_error(stream->pipeline.last_error());
+      if (pushed) *pushed = i;
+      if (tracking_lost) *tracking_lost = lost;
+      return kata::capi::to_status(s);
+    }
+  }
+  if (pushed) *pushed = frames;
+  if (tracking_lost) *tracking_lost = lost;
+  return KATA_OK;
+}
+
 KATA_API kata_status kata_stream_push_landmarks(kata_stream stream, double timestamp, kata_time_units units,
                                                 const float* values, uint32_t joint_count, uint32_t channels) {
   if (!stream) return KATA_E_NULL_POINTER;
