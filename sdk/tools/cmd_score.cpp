@@ -42,6 +42,13 @@ struct ScoreArgs {
   double relocate_time = kata::metric::AlignmentOptions{}.relocate_time;
 };
 
+// Seconds for a message: 0.25, 0.0083, 12.5.
+std::string text_seconds(double s) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3g", s);
+  return text;
+}
+
 void run_score(const ScoreArgs& a) {
   using namespace kata;
   const metric::Model loaded = metric::load_model(a.model);
@@ -152,7 +159,7 @@ void run_score(const ScoreArgs& a) {
   std::fprintf(out, ",part_to_fix,state,matched_teacher_time\n");
   // The summary covers the frames with a score to show (state "scoring").
   double score_sum = 0.0, part_score_sum[metric::kParts] = {};
-  int scored = 0, finished = 0;
+  int scored = 0, finished = 0, calibrating = 0, lost = 0;
   static const char* const kStates[] = {"scoring", "calibrating", "tracking_lost", "teacher_finished"};
   size_t row = 0;
   for (int f = 0; f < student_frames; ++f) {
@@ -172,6 +179,8 @@ void run_score(const ScoreArgs& a) {
     std::fprintf(out, ",%s,%s,%.6f\n", r.part_to_fix >= 0 ? metric::part_name(r.part_to_fix) : "",
                  kStates[static_cast<int>(r.state)], matched * teacher.frame_time);
     if (r.state == metric::ScoreState::kTeacherFinished) ++finished;
+    if (r.state == metric::ScoreState::kCalibrating) ++calibrating;
+    if (r.state == metric::ScoreState::kTrackingLost) ++lost;
     if (r.state != metric::ScoreState::kScoring) continue;
     ++scored;
     score_sum += r.score;
@@ -181,15 +190,36 @@ void run_score(const ScoreArgs& a) {
   std::fclose(out);
   if (!ok) throw Error(ErrorKind::kIo, a.out + ": write failed");
 
+  // Nothing scored: no mean and no part to fix to report (a mean of 0 would read as a terrible
+  // performance); say which state every frame was in and why, and fail.
+  if (scored == 0) {
+    const double calibrating_time = metric::FeedbackOptions{}.calibrating_time;
+    const double seconds = ss.times.size() > 1 ? ss.times.back() - ss.times.front()
+                                               : static_cast<double>(std::max(student_frames - 1, 0)) * student.frame_time;
+    std::string why;
+    if (calibrating > 0)
+      why += std::to_string(calibrating) + " calibrating (the first " + text_seconds(calibrating_time) +
+             " s of a clip settle the alignment and the kinetics; " + a.student + " spans " + text_seconds(seconds) +
+             " s)";
+    if (lost > 0)
+      why += std::string(why.empty() ? "" : ", ") + std::to_string(lost) +
+             " tracking lost (fewer than 13 of the 16 GPD joints tracked)";
+    if (finished > 0)
+      why += std::string(why.empty() ? "" : ", ") + std::to_string(finished) + " after the teacher clip ended";
+    throw Error(ErrorKind::kInvalidArgument,
+                a.student + ": nothing scored: of its " + std::to_string(student_frames) + " frame(s), " + why +
+                    "; no mean score or part to fix (each frame's figures are in " + a.out +
+                    "). Give a student clip longer than " + text_seconds(calibrating_time) + " s with the body tracked");
+  }
   // The part to fix over the clip: the lowest mean part score, named only below the good level.
-  const double mean = scored > 0 ? score_sum / scored : 0.0;
+  const double mean = score_sum / scored;
   int worst = 0;
   for (int q = 1; q < metric::kParts; ++q)
     if (part_score_sum[q] < part_score_sum[worst]) worst = q;
   std::string parts;
   for (int q = 0; q < metric::kParts; ++q)
     parts += std::string(q ? ", " : "") + metric::part_name(q) + " " +
-             std::to_string(static_cast<int>(std::lround(scored > 0 ? part_score_sum[q] / scored : 0.0)));
+             std::to_string(static_cast<int>(std::lround(part_score_sum[q] / scored)));
   const bool good = mean >= scorer.calibration().good_score;
   std::printf("%s vs %s: %d frames (%d scored, %d after the teacher clip ended) against %s, mean score %.1f (%s), "
               "most to fix: %s -> %s\n",

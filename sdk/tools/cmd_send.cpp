@@ -4,10 +4,15 @@
 // restarted) `kata serve` still learns it. --streams N plays N streams (ids stream-id ..
 // stream-id+N-1, stream k starting k frames into the clip) from one socket, e.g. into the
 // frontend of a `kata proxy` in front of several shards; --warmup sends only definitions first.
+// Nothing is sent before a peer is there (--connect-timeout): no peer, or one whose socket kind
+// cannot talk to this one, ends the run with the likely cause; the run ends saying how many
+// frames a peer took.
 #include <zmq.h>
 
+#include <atomic>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <thread>
@@ -30,9 +35,107 @@ struct Options {
   double speed = 1.0;
   int first_frame = 1, frames = 0, loops = 1, streams = 1;
   double definition_interval = 1.0, warmup = 0.0;
+  double connect_timeout = 5.0;  // seconds to wait for a peer before the first message
   std::string key, server_key;  // CURVE: this sender's .secret, the server's .pub
   bool close = false;           // end each stream with a closing definition
   bool live_clock = false;      // capture times from this host's clock, not the clip's
+};
+
+// The sender's peers, from its socket's connection events (and, for pub, from the subscriptions
+// its XPUB socket hands up): whether someone takes the frames now, and if nobody ever did, why.
+class PeerWatch {
+ public:
+  PeerWatch(void* context, void* socket, bool pub) : socket_(socket), pub_(pub) {
+    static std::atomic<int> counter{0};
+    const std::string endpoint = "inproc://kata-send-monitor-" + std::to_string(counter++);
+    if (zmq_socket_monitor(socket, endpoint.c_str(),
+                           ZMQ_EVENT_CONNECTED | ZMQ_EVENT_ACCEPTED | ZMQ_EVENT_DISCONNECTED | ZMQ_EVENT_CONNECT_RETRIED |
+                               ZMQ_EVENT_HANDSHAKE_SUCCEEDED | ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL |
+                               ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) != 0)
+      throw Error(ErrorKind::kIo, std::string("send: cannot watch the socket: ") + zmq_strerror(zmq_errno()));
+    monitor_ = zmq_socket(context, ZMQ_PAIR);
+    int linger = 0;
+    zmq_setsockopt(monitor_, ZMQ_LINGER, &linger, sizeof linger);
+    if (zmq_connect(monitor_, endpoint.c_str()) != 0)
+      throw Error(ErrorKind::kIo, std::string("send: cannot watch the socket: ") + zmq_strerror(zmq_errno()));
+  }
+  ~PeerWatch() {
+    zmq_socket_monitor(socket_, nullptr, 0);
+    zmq_close(monitor_);
+  }
+  PeerWatch(const PeerWatch&) = delete;
+  PeerWatch& operator=(const PeerWatch&) = delete;
+
+  // Reads the events and subscriptions so far (never blocks).
+  void poll() {
+    for (;;) {
+      uint8_t event[6];
+      if (zmq_recv(monitor_, event, sizeof event, ZMQ_DONTWAIT) < 0) break;
+      char endpoint[256];
+      zmq_recv(monitor_, endpoint, sizeof endpoint, 0);
+      uint16_t kind;
+      uint32_t value;
+      std::memcpy(&kind, event, 2);
+      std::memcpy(&value, event + 2, 4);
+      if (kind == ZMQ_EVENT_CONNECTED || kind == ZMQ_EVENT_ACCEPTED) {
+        ++connections_;
+        ++handshaking_;
+      } else if (kind == ZMQ_EVENT_HANDSHAKE_SUCCEEDED) {
+        if (handshaking_ > 0) --handshaking_;
+        ++peers_;
+        ++ever_;
+      } else if (kind == ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL) {
+        protocol_error_ = value;
+      } else if (kind == ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) {
+        refused_auth_ = true;
+      } else if (kind == ZMQ_EVENT_CONNECT_RETRIED) {
+        ++retries_;
+      } else if (kind == ZMQ_EVENT_DISCONNECTED) {
+        // Gone during its handshake (refused) or after it (a peer leaving).
+        if (handshaking_ > 0) {
+          --handshaking_;
+          ++refused_;
+        } else if (peers_ > 0) {
+          --peers_;
+        }
+      }
+    }
+    if (!pub_) return;
+    // XPUB: 1 + topic subscribes, 0 + topic unsubscribes (kata serve subscribes to everything).
+    uint8_t message[256];
+    for (int n; (n = zmq_recv(socket_, message, sizeof message, ZMQ_DONTWAIT)) >= 0;)
+      if (n >= 1) subscriptions_ += message[0] == 1 ? 1 : (subscriptions_ > 0 ? -1 : 0);
+  }
+  // Someone takes a frame sent now: a peer past its handshake (for pub: one that subscribed).
+  bool ready() const { return peers_ > 0 && (!pub_ || subscriptions_ > 0); }
+  int connections() const { return connections_; }
+
+  // Why no peer took anything, and what to do.
+  std::string why_nobody(const Options& o, bool bind) const {
+    const std::string peer_kind = o.socket == "pub" ? "SUB ([ingest] kind = \"sub\")" : "PULL ([ingest] kind = \"pull\")";
+    if (refused_auth_)
+      return "the peer refused this sender's CURVE key (is its .pub in the server's [security] clients directory?)";
+    if (protocol_error_ == ZMQ_PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH)
+      return "CURVE is set on one side only (the server's [security] key needs --key and --server-key here)";
+    if (refused_ > 0)
+      return std::to_string(refused_) + " connection(s) closed during the handshake: most likely the peer's socket kind "
+             "cannot talk to --socket " + o.socket + ", which needs a " + peer_kind + (o.socket == "pub" ? "" : 
+             "; a SUB ingest needs --socket pub") + (o.key.empty() ? "" : ", or the server does not use CURVE");
+    if (pub_ && ever_ > 0)
+      return "a peer connected but subscribed to nothing (a kata proxy with no subscriber behind it?)";
+    if (bind) return "no peer connected to this bound endpoint";
+    return "nobody listens there (" + std::to_string(retries_) + " connection attempt(s) failed; is kata serve running, "
+           "with [ingest] endpoints = [\"bind:" + o.endpoint + "\"] and kind = \"" + (o.socket == "pub" ? "sub" : "pull") +
+           "\"?)";
+  }
+
+ private:
+  void* socket_;
+  void* monitor_ = nullptr;
+  bool pub_;
+  int connections_ = 0, handshaking_ = 0, peers_ = 0, ever_ = 0, refused_ = 0, retries_ = 0, subscriptions_ = 0;
+  uint32_t protocol_error_ = 0;
+  bool refused_auth_ = false;
 };
 
 void run_send(const Options& o) {
@@ -52,10 +155,16 @@ void run_send(const Options& o) {
   d.frame_rate = static_cast<float>(1.0 / clip.frame_time);
 
   void* context = zmq_ctx_new();
-  void* socket = zmq_socket(context, o.socket == "pub" ? ZMQ_PUB : ZMQ_PUSH);
-  int linger = 2000, hwm = 1000000;
+  // pub is an XPUB socket (a PUB to its peers) so that the subscriptions tell who listens; a PUSH
+  // queues only on connections whose handshake is done (ZMQ_IMMEDIATE), so a frame it takes went
+  // to a peer.
+  const bool pub = o.socket == "pub";
+  void* socket = zmq_socket(context, pub ? ZMQ_XPUB : ZMQ_PUSH);
+  int linger = 2000, hwm = 1000000, immediate = 1;
   zmq_setsockopt(socket, ZMQ_LINGER, &linger, sizeof linger);
   zmq_setsockopt(socket, ZMQ_SNDHWM, &hwm, sizeof hwm);
+  if (!pub) zmq_setsockopt(socket, ZMQ_IMMEDIATE, &immediate, sizeof immediate);
+  auto watch = std::make_unique<PeerWatch>(context, socket, pub);
   if (!o.key.empty() || !o.server_key.empty()) {
     if (o.key.empty() || o.server_key.empty())
       throw Error(ErrorKind::kInvalidArgument, "send: CURVE needs both --key (this sender's .secret) and --server-key");
@@ -70,18 +179,34 @@ void run_send(const Options& o) {
   if ((bind ? zmq_bind(socket, endpoint.c_str()) : zmq_connect(socket, endpoint.c_str())) != 0)
     throw Error(ErrorKind::kIo, "send: cannot use " + o.endpoint + ": " + zmq_strerror(zmq_errno()));
   kata::transport::Encoder encoder;
-  // A server that refuses this sender (an unknown key) leaves no peer to queue for: a send that
-  // waits 5 s ends the run with an error rather than hanging.
+  auto fail = [&](const std::string& what) {
+    watch.reset();
+    zmq_close(socket);
+    zmq_ctx_term(context);
+    throw Error(ErrorKind::kIo, "send: " + o.endpoint + " took nothing: " + what);
+  };
+  // Nothing goes out before someone takes it: wait for a peer (its handshake done; for pub, its
+  // subscription).
+  {
+    const auto until = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                              std::chrono::duration<double>(o.connect_timeout));
+    for (watch->poll(); !watch->ready() && std::chrono::steady_clock::now() < until; watch->poll())
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    if (!watch->ready()) {
+      char seconds[32];
+      std::snprintf(seconds, sizeof seconds, "%g", o.connect_timeout);
+      fail("no peer in " + std::string(seconds) + " s (--connect-timeout): " + watch->why_nobody(o, bind));
+    }
+  }
+  // A peer that leaves (or a server that refuses this sender) leaves nobody to queue for: a send
+  // that waits 5 s ends the run with an error rather than hanging.
   const int send_timeout_ms = 5000;
   zmq_setsockopt(socket, ZMQ_SNDTIMEO, &send_timeout_ms, sizeof send_timeout_ms);
+  uint64_t taken = 0, not_taken = 0;  // frames (not definitions) a peer took / sent with nobody there
   auto send = [&](kata::transport::Bytes m) {
-    if (zmq_send(socket, m.data, m.size, 0) < 0) {
-      const std::string reason = zmq_strerror(zmq_errno());
-      zmq_close(socket);
-      zmq_ctx_term(context);
-      throw Error(ErrorKind::kIo, "send: " + o.endpoint + " took nothing for 5 s (" + reason +
-                                      "; with CURVE: is this sender's key in the server's client directory?)");
-    }
+    if (zmq_send(socket, m.data, m.size, 0) < 0)
+      fail("the peer took nothing more for 5 s (" + std::string(zmq_strerror(zmq_errno())) + ") after " +
+           std::to_string(taken) + " frame(s); " + watch->why_nobody(o, bind));
   };
   auto send_definitions = [&] {
     for (int k = 0; k < o.streams; ++k) {
@@ -118,20 +243,29 @@ void run_send(const Options& o) {
           o.live_clock ? std::chrono::duration_cast<std::chrono::nanoseconds>(
                              std::chrono::steady_clock::now().time_since_epoch()).count()
                        : static_cast<int64_t>(static_cast<double>(sequence) * clip.frame_time * 1e9);
+      watch->poll();
+      const bool someone = watch->ready();  // pub: a frame sent with no subscriber is dropped by ZeroMQ
       for (int k = 0; k < o.streams; ++k) {
         const int frame = (f + k) % available;
         send(encoder.frame(o.stream_id + static_cast<uint64_t>(k), sequence, capture_ns,
                            positions.data() + static_cast<size_t>(frame) * 3 * static_cast<size_t>(joints), joints));
+        ++(pub && !someone ? not_taken : taken);
       }
     }
   if (o.close) {
     d.closed = true;
     send_definitions();
   }
+  const int connections = watch->connections();
+  watch.reset();
   zmq_close(socket);
   zmq_ctx_term(context);
-  std::fprintf(stderr, "kata send: %llu frames of %d stream(s) from %llu sent\n", static_cast<unsigned long long>(sequence),
-               o.streams, static_cast<unsigned long long>(o.stream_id));
+  // "Taken": queued to a peer past its handshake (push), or sent while a subscriber was there (pub).
+  std::fprintf(stderr, "kata send: %llu of %llu frames (%d stream(s) from %llu) taken by a peer at %s (%d connection(s))%s\n",
+               static_cast<unsigned long long>(taken), static_cast<unsigned long long>(taken + not_taken), o.streams,
+               static_cast<unsigned long long>(o.stream_id), o.endpoint.c_str(), connections,
+               not_taken ? "; the rest were sent while no subscriber was there (dropped by ZeroMQ)" : "");
+  if (taken == 0) throw Error(ErrorKind::kIo, "send: no frame was taken by a peer");
 }
 
 void setup(CLI::App& app) {
@@ -151,6 +285,10 @@ void setup(CLI::App& app) {
   cmd->add_option("--warmup", o->warmup, "seconds of definitions only before the first frame")->capture_default_str();
   cmd->add_option("--key", o->key, "CURVE: this sender's key pair (kata keygen's .secret)");
   cmd->add_option("--server-key", o->server_key, "CURVE: the server's public key (.pub)");
+  cmd->add_option("--connect-timeout", o->connect_timeout,
+                  "seconds to wait for a peer (push: a connection; pub: a subscriber) before sending; none: an error")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   cmd->add_flag("--close", o->close, "close the streams at the end (a closing definition)");
   cmd->add_flag("--live-clock", o->live_clock, "capture times from this host's steady clock (stale frames judged)");
   cmd->callback([o] { run_send(*o); });

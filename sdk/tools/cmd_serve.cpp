@@ -57,6 +57,7 @@
 #include <thread>
 
 #include <toml++/toml.h>
+#include <zmq.h>
 
 #include "command.hpp"
 #include "common/error.hpp"
@@ -106,6 +107,47 @@ void write_counters(const std::string& path, const kata::runtime::Runtime& runti
                static_cast<unsigned long long>(i.out_of_order), static_cast<unsigned long long>(i.sequence_gaps),
                static_cast<unsigned long long>(i.other_shard));
   if (std::fclose(f) != 0) throw Error(ErrorKind::kIo, "serve: cannot write " + path);
+}
+
+// The drops of the status line by cause, only those that happened ("unknown stream 120,
+// definitions refused 2"): a sum alone does not say what to fix.
+std::string drop_causes(const kata::runtime::RuntimeCounters& c) {
+  const auto& in = c.ingest;
+  const std::pair<const char*, uint64_t> causes[] = {
+      {"not owner", in.not_owner},
+      {"limit", in.refused_limit},
+      {"window", in.out_of_window},
+      {"stale", in.stale},
+      {"malformed", in.malformed_total()},
+      {"definitions refused", in.refused_skeletons},
+      {"unknown stream", in.unknown_stream},
+      {"wrong joint count", in.wrong_joint_count},
+      {"out of order", in.out_of_order},
+      {"not ingest's kind", in.other_kind},
+      {"refused by the pipeline", c.total.refused},
+      {"queues", c.total.queue_full + c.total.result_queue_full + c.total.pipeline_dropped + c.total.send_failed}};
+  std::string out;
+  for (const auto& [name, count] : causes)
+    if (count > 0) out += (out.empty() ? "" : ", ") + std::string(name) + " " + std::to_string(count);
+  return out.empty() ? std::string() : " (" + out + ")";
+}
+
+// Why a sender's connection failed its handshake, from ZeroMQ's protocol error, and what to change.
+std::string handshake_advice(uint32_t error, const ServeConfig& config) {
+  const bool sub = config.runtime.ingest.kind == kata::transport::IngestKind::kSub;
+  // ZeroMQ reports socket kinds that cannot talk without detail (libzmq 4.3: the peer's READY is
+  // refused), or as invalid metadata.
+  if (error == 0 || error == ZMQ_PROTOCOL_ERROR_ZMTP_INVALID_METADATA)
+    return std::string("most likely its socket kind cannot talk to this ingest's (") + config.ingest_kind_where + "): " +
+           (sub ? "a SUB ingest takes PUB senders (kata send --socket pub); kata send's default, --socket push, "
+                  "needs kind = \"pull\""
+                : "a PULL ingest takes PUSH senders (kata send's default); a PUB sender (--socket pub) needs "
+                  "kind = \"sub\"");
+  if (error == ZMQ_PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH)
+    return "CURVE is set on one side only ([security] key here; kata send --key and --server-key there)";
+  char code[16];
+  std::snprintf(code, sizeof code, "0x%08x", error);
+  return std::string("ZeroMQ protocol error ") + code;
 }
 
 void run_serve(const std::string& file, const std::string& counters_path) {
@@ -204,12 +246,40 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                runtime.publish_endpoint().c_str());
   auto previous = runtime.counters();
   auto last = std::chrono::steady_clock::now();
+  const auto started = last;
+  uint64_t handshakes_told = 0;
+  bool silence_told = false;
+  // Nothing received this long after the start: say so, with the likely cause.
+  constexpr double kSilenceSeconds = 10.0;
   while (!g_stop.load()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     const auto now = std::chrono::steady_clock::now();
     const double dt = std::chrono::duration<double>(now - last).count();
     if (dt < config.status_seconds) continue;
     const auto c = runtime.counters();
+    if (c.ingest.handshake_failures > handshakes_told) {
+      if (handshakes_told == 0)
+        std::fprintf(stderr, "\nkata serve: a sender's connection to %s was refused at the handshake: %s; counted "
+                             "(handshakes refused), not logged again\n",
+                     runtime.ingest_endpoint().c_str(), handshake_advice(c.ingest.last_handshake_error, config).c_str());
+      handshakes_told = c.ingest.handshake_failures;
+    }
+    if (!silence_told && c.ingest.received == 0 &&
+        std::chrono::duration<double>(now - started).count() >= kSilenceSeconds) {
+      silence_told = true;
+      const auto& in = c.ingest;
+      std::string why;
+      if (in.handshake_failures > 0)
+        why = std::to_string(in.handshake_failures) + " connection(s) refused at the handshake (above)";
+      else if (in.connections == 0)
+        why = "no sender has connected (a bound endpoint waits for senders to connect; a connecting one needs "
+              "the sender to bind)";
+      else
+        why = std::to_string(in.connections - in.disconnections) + " sender(s) connected but sent nothing (" +
+              config.ingest_kind_where + ")";
+      std::fprintf(stderr, "\nkata serve: nothing received on %s in %.0f s: %s\n", runtime.ingest_endpoint().c_str(),
+                   kSilenceSeconds, why.c_str());
+    }
     uint64_t window[kata::runtime::kLatencyBuckets], age[kata::runtime::kLatencyBuckets];
     static_assert(kata::transport::IngestCounters::kAgeBuckets == kata::runtime::kLatencyBuckets, "one bucket scheme");
     for (int i = 0; i < kata::runtime::kLatencyBuckets; ++i) {
@@ -220,23 +290,15 @@ void run_serve(const std::string& file, const std::string& counters_path) {
     // included: frames with bad values or a time that does not increase).
     const uint64_t drops = c.total.queue_full + c.total.refused + c.total.result_queue_full +
                            c.total.pipeline_dropped + c.total.send_failed + c.ingest.dropped_total();
-    const auto& in = c.ingest;
     std::fprintf(stderr,
-                 "\rstreams %llu | in %.0f frames/s | out %.0f results/s | drops %llu (not owner %llu, limit %llu, "
-                 "window %llu, stale %llu, malformed %llu, other ingest %llu, refused %llu, queues %llu) | gaps %llu, "
-                 "restarts %llu | latency in->out p50 %.0f us p99 %.0f us | source age p50 %.0f us p99 %.0f us   ",
+                 "\rstreams %llu | in %.0f frames/s | out %.0f results/s | drops %llu%s | handshakes refused %llu | "
+                 "gaps %llu, restarts %llu | latency in->out p50 %.0f us p99 %.0f us | source age p50 %.0f us p99 %.0f us   ",
                  static_cast<unsigned long long>(c.streams),
                  static_cast<double>(c.total.frames_in - previous.total.frames_in) / dt,
                  static_cast<double>(c.total.published - previous.total.published) / dt,
-                 static_cast<unsigned long long>(drops), static_cast<unsigned long long>(in.not_owner),
-                 static_cast<unsigned long long>(in.refused_limit), static_cast<unsigned long long>(in.out_of_window),
-                 static_cast<unsigned long long>(in.stale), static_cast<unsigned long long>(in.malformed_total()),
-                 static_cast<unsigned long long>(in.dropped_total() - in.not_owner - in.refused_limit -
-                                                 in.out_of_window - in.stale - in.malformed_total()),
-                 static_cast<unsigned long long>(c.total.refused),
-                 static_cast<unsigned long long>(c.total.queue_full + c.total.result_queue_full +
-                                                 c.total.pipeline_dropped + c.total.send_failed),
-                 static_cast<unsigned long long>(in.sequence_gaps), static_cast<unsigned long long>(in.restarts),
+                 static_cast<unsigned long long>(drops), drop_causes(c).c_str(),
+                 static_cast<unsigned long long>(c.ingest.handshake_failures),
+                 static_cast<unsigned long long>(c.ingest.sequence_gaps), static_cast<unsigned long long>(c.ingest.restarts),
                  kata::runtime::latency_percentile(window, 0.5) / 1000.0,
                  kata::runtime::latency_percentile(window, 0.99) / 1000.0,
                  kata::runtime::latency_percentile(age, 0.5) / 1000.0,
@@ -256,7 +318,7 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                "kata serve: ingest %llu messages received = %llu frames + %llu definitions + %llu repeated + %llu closes"
                " + %llu other shard + %llu dropped (not owner %llu, limit %llu, window %llu, stale %llu, malformed %llu,"
                " unknown stream %llu, joints %llu, order %llu, refused definitions %llu, results %llu); frames: %llu "
-               "refused by the pipeline, %llu lost in queues; connections %llu (%llu refused)\n",
+               "refused by the pipeline, %llu lost in queues; connections %llu (%llu refused, %llu handshakes refused)\n",
                static_cast<unsigned long long>(in.received), static_cast<unsigned long long>(in.frames),
                static_cast<unsigned long long>(in.skeletons), static_cast<unsigned long long>(in.repeated_skeletons),
                static_cast<unsigned long long>(in.closes), static_cast<unsigned long long>(in.other_shard),
@@ -267,7 +329,8 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                static_cast<unsigned long long>(in.out_of_order), static_cast<unsigned long long>(in.refused_skeletons),
                static_cast<unsigned long long>(in.other_kind), static_cast<unsigned long long>(c.total.refused),
                static_cast<unsigned long long>(c.total.queue_full + c.total.result_queue_full + c.total.send_failed),
-               static_cast<unsigned long long>(in.connections), static_cast<unsigned long long>(in.connections_refused));
+               static_cast<unsigned long long>(in.connections), static_cast<unsigned long long>(in.connections_refused),
+               static_cast<unsigned long long>(in.handshake_failures));
   if (!counters_path.empty()) write_counters(counters_path, runtime);
 }
 

@@ -183,6 +183,9 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
   const std::string kind = read<std::string>(file, ingest, "kind", "sub");
   if (kind != "sub" && kind != "pull") refuse(file, ingest.get("kind")->source(), "kind must be \"sub\" or \"pull\"");
   c.runtime.ingest.kind = kind == "pull" ? kata::transport::IngestKind::kPull : kata::transport::IngestKind::kSub;
+  c.ingest_kind_where = ingest.get("kind") ? file + ":" + std::to_string(ingest.get("kind")->source().begin.line) +
+                                                 ": kind = \"" + kind + "\""
+                                           : file + ": [ingest] has no kind: \"sub\" by default";
   c.runtime.ingest.max_message_bytes = static_cast<size_t>(read_range(file, ingest, "max_message_bytes", 1 << 20, 64, 1 << 30));
   c.runtime.ingest.require_checksum = read<bool>(file, ingest, "require_checksum", true);
   auto& limits = c.runtime.ingest.limits;

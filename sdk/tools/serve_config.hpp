@@ -42,6 +42,9 @@ struct ServeConfig {
   std::vector<Plugin> plugins;
   bool insecure = false;              // [security] insecure = true
   std::vector<std::string> warnings;  // printed at start (an insecure endpoint beyond this host)
+  // Where the ingest's kind is set ("FILE:LINE: kind = \"pull\""), or that it is the default:
+  // named when senders cannot talk to it.
+  std::string ingest_kind_where;
 };
 
 // Reads and checks a config file; relative paths resolve from the file's directory.

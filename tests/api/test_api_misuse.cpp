@@ -333,6 +333,110 @@ TEST(Misuse, DescriptorStructSizeMustBeThisLibrarys) {
   }
 }
 
+// A caller built against 0.2's kata.h has a smaller kata_runtime_desc (64 bytes) and
+// kata_teacher_desc (88): the sized init writes its struct and not one byte past it (guard bytes
+// after the struct stay as they were), and the library then reads only that much (the runtime
+// comes up with the defaults of the fields the old struct lacks). A size past this library's
+// struct (a newer kata.h) is cut to this one's, which struct_size then reports.
+TEST(Misuse, DescInitWritesOnlyTheCallersStruct) {
+  constexpr uint32_t kRuntime02 = 64, kTeacher02 = 88, kGuard = 64;
+  constexpr unsigned char kPattern = 0xA5;
+  auto guarded = [&](uint32_t size) { return std::vector<unsigned char>(size + kGuard, kPattern); };
+  auto guard_intact = [&](const std::vector<unsigned char>& b, uint32_t size) {
+    for (size_t i = size; i < b.size(); ++i)
+      if (b[i] != kPattern) return false;
+    return true;
+  };
+  std::vector<unsigned char> old_runtime = guarded(kRuntime02);
+  auto* rd = reinterpret_cast<kata_runtime_desc*>(old_runtime.data());
+  kata_runtime_desc_init_sized(rd, kRuntime02);
+  EXPECT_TRUE(guard_intact(old_runtime, kRuntime02)) << "kata_runtime_desc_init_sized wrote past a 0.2 struct";
+  EXPECT_EQ(rd->struct_size, kRuntime02);
+  EXPECT_EQ(rd->workers, 2u);
+  EXPECT_EQ(rd->skeleton_resend_seconds, 1.0);  // 0.2's last field
+  rd->workers = 1;
+  rd->publish_endpoints = "inproc://kata-misuse-old-desc";
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  kata_runtime_destroy(runtime);
+  kata_context_destroy(ctx);
+
+  std::vector<unsigned char> old_teacher = guarded(kTeacher02);
+  auto* td = reinterpret_cast<kata_teacher_desc*>(old_teacher.data());
+  kata_teacher_desc_init_sized(td, kTeacher02);
+  EXPECT_TRUE(guard_intact(old_teacher, kTeacher02)) << "kata_teacher_desc_init_sized wrote past a 0.2 struct";
+  EXPECT_EQ(td->struct_size, kTeacher02);
+  EXPECT_EQ(td->pose_frame, -1);
+  EXPECT_EQ(td->ghost, 1);
+
+  // Every desc: the macro passes the caller's sizeof; a newer caller's bigger struct is cut to ours.
+  kata_runtime_desc full;
+  std::memset(&full, 0xA5, sizeof full);
+  kata_runtime_desc_init(&full);
+  EXPECT_EQ(full.struct_size, sizeof full);
+  EXPECT_EQ(full.idle_stream_seconds, 300.0);
+  auto check_newer = [&](auto init, uint32_t ours, const char* what) {
+    std::vector<unsigned char> newer = guarded(ours + 32);
+    init(newer.data(), ours + 32);
+    uint32_t reported = 0;
+    std::memcpy(&reported, newer.data(), sizeof reported);
+    EXPECT_EQ(reported, ours) << what;
+    EXPECT_TRUE(guard_intact(newer, ours)) << what << " wrote past this library's struct";
+    std::vector<unsigned char> tiny = guarded(0);
+    init(tiny.data(), 3);
+    EXPECT_TRUE(guard_intact(tiny, 0)) << what << ": struct_size 3 writes nothing";
+  };
+  check_newer([](void* p, uint32_t n) { kata_runtime_desc_init_sized(static_cast<kata_runtime_desc*>(p), n); },
+              sizeof(kata_runtime_desc), "runtime");
+  check_newer([](void* p, uint32_t n) { kata_teacher_desc_init_sized(static_cast<kata_teacher_desc*>(p), n); },
+              sizeof(kata_teacher_desc), "teacher");
+  check_newer([](void* p, uint32_t n) { kata_stream_desc_init_sized(static_cast<kata_stream_desc*>(p), n); },
+              sizeof(kata_stream_desc), "stream");
+  check_newer([](void* p, uint32_t n) { kata_retarget_desc_init_sized(static_cast<kata_retarget_desc*>(p), n); },
+              sizeof(kata_retarget_desc), "retarget");
+  // The unsized entry point (the symbol programs built before the sized init call) writes 1.0's
+  // struct: 112 bytes of a runtime desc, never more.
+  std::vector<unsigned char> v10 = guarded(112);
+  (kata_runtime_desc_init)(reinterpret_cast<kata_runtime_desc*>(v10.data()));
+  EXPECT_TRUE(guard_intact(v10, 112));
+  kata_runtime_desc_init_sized(nullptr, 64);  // NULL: nothing
+}
+
+// kata_stream_push_many pushes what kata_stream_push would frame by frame: the same results; a
+// refused frame stops it with its index (the frames before it pushed, the stream still usable).
+TEST(Misuse, PushManyStopsAtTheFirstRefusedFrameWithItsIndex) {
+  Fixture c;
+  const uint32_t n = static_cast<uint32_t>(c.frames.size());
+  std::vector<float> all;
+  std::vector<double> times;
+  for (uint32_t i = 0; i < n; ++i) {
+    all.insert(all.end(), c.frames[i].begin(), c.frames[i].end());
+    times.push_back(i / 120.0);
+  }
+  all[3 * c.joints * 20 + 1] = std::nanf("");  // frame 20 has a NaN
+  kata_stream one = c.open(), many = c.open();
+  uint32_t pushed = 99, lost = 99;
+  const kata_status got = kata_stream_push_many(many, times.data(), all.data(), nullptr, c.joints, n, &pushed, &lost);
+  EXPECT_EQ(pushed, 20u);
+  EXPECT_EQ(lost, 0u);
+  EXPECT_NE(std::string(kata_stream_last_error(many)).find("not finite"), std::string::npos) << kata_stream_last_error(many);
+  for (uint32_t i = 0; i < 20; ++i) ASSERT_EQ(kata_stream_push(one, times[i], c.frames[i].data(), c.joints), KATA_OK);
+  EXPECT_EQ(got, kata_stream_push(one, times[20], all.data() + 3 * c.joints * 20, c.joints));  // the same refusal
+  EXPECT_NE(got, KATA_OK);
+  // The rest after the bad frame, as one more chunk: accepted.
+  EXPECT_EQ(kata_stream_push_many(many, times.data() + 21, all.data() + 3 * c.joints * 21, nullptr, c.joints, n - 21,
+                                  &pushed, &lost),
+            KATA_OK);
+  EXPECT_EQ(pushed, n - 21);
+  for (uint32_t i = 21; i < n; ++i) ASSERT_EQ(kata_stream_push(one, times[i], c.frames[i].data(), c.joints), KATA_OK);
+  EXPECT_EQ(kata_stream_results_pending(one), kata_stream_results_pending(many));
+  EXPECT_EQ(kata_stream_push_many(many, nullptr, nullptr, nullptr, c.joints, 0, &pushed, nullptr), KATA_OK);
+  kata_stream_close(one);
+  kata_stream_close(many);
+}
+
 TEST(Misuse, EnumFieldsOutsideTheirValuesAreRefused) {
   Fixture c;
   kata_stream s = nullptr;

@@ -111,6 +111,97 @@ TEST(CliScore, AJointThePresetNeedsIsMissingNamesTheFileTheCorrectionAndTheJoint
   std::remove(typo.c_str());
 }
 
+// A name map with a typo in a skeleton joint's name: the message names the map's file and the
+// line of the entry to fix (text and JSON maps), the closest joint and the skeleton's joints.
+TEST(CliFeatures, ANameMapTypoNamesTheMapsFileAndLine) {
+  const std::string clip = std::string(KATA_DATA_DIR) + "/cmu/09_01.bvh";
+  const char* gpd[] = {"Hip", "Chest", "Neck", "Head", "LShoulder", "LElbow", "LHand", "RShoulder",
+                       "RElbow", "RHand", "LHip", "LKnee", "LFoot", "RHip", "RKnee", "RFoot"};
+  const auto cmu = kata::preset_joint_names("cmu");
+  std::string text = "# the cmu preset by hand\n\n", json = "{\n";
+  for (int g = 0; g < 16; ++g) {
+    // RElbow (text line 11, JSON line 10) misspelt.
+    const std::string name = g == 8 ? std::string("RightForeArn") : cmu[static_cast<size_t>(g)];
+    text += std::string(gpd[g]) + " = " + name + "\n";
+    json += std::string("  \"") + gpd[g] + "\": \"" + name + "\"" + (g < 15 ? ",\n" : "\n");
+  }
+  json += "}\n";
+  const std::string text_map = kata::test::temp_path("kata_cli_typo.map"), json_map = kata::test::temp_path("kata_cli_typo.json");
+  std::ofstream(text_map) << text;
+  std::ofstream(json_map) << json;
+  for (const auto& [map, line] : {std::pair<std::string, int>{text_map, 11}, {json_map, 10}}) {
+    const CliRun r = run("features --bvh " + clip + " --name-map " + map + " --out " + kata::test::temp_path("x.npy"));
+    EXPECT_NE(r.code, 0);
+    for (const std::string& part : {map + ":" + std::to_string(line) + ": skeleton has no joint 'RightForeArn' (GPD RElbow)",
+                                   std::string("did you mean 'RightForeArm'?"), std::string("its 31 joints are: Hips, ")})
+      EXPECT_NE(r.output.find(part), std::string::npos) << "'" << part << "' not in: " << r.output;
+  }
+  std::remove(text_map.c_str());
+  std::remove(json_map.c_str());
+}
+
+// A landmark array of the wrong shape: the message shows the shape it got, the one expected, and
+// what the shape looks like instead (too few joints for the layout, a feature array).
+TEST(CliFeatures, ALandmarkArrayOfTheWrongShapeShowsTheShapeItGot) {
+  const std::string npy = kata::test::temp_path("kata_cli_shape.npy");
+  const std::vector<float> zeros(10 * 1683, 0.5f);
+  struct Case {
+    std::vector<size_t> shape;
+    std::string says;
+  };
+  for (const Case& c : {Case{{10, 20, 3}, "shape (10, 20, 3) is not a landmark array: expected (frames <= 16777216, 33, "
+                                          "3, 4 or 5) for layout mediapipe; it has 20 joints per frame, layout mediapipe has 33"},
+                        Case{{10, 33, 7}, "shape (10, 33, 7) is not a landmark array"},
+                        Case{{10, 1683}, "shape (10, 1683) is not a landmark array: expected (frames <= 16777216, 33, 3, "
+                                         "4 or 5) for layout mediapipe; (frames, 1683) is a GPD feature array"}}) {
+    kata::write_npy(npy, zeros.data(), c.shape);
+    const CliRun r = run("features --student " + npy + " --layout mediapipe --fps 30 --out " + kata::test::temp_path("x.npy"));
+    EXPECT_NE(r.code, 0);
+    EXPECT_NE(r.output.find(npy + ": " + c.says), std::string::npos) << r.output;
+  }
+  // A first frame past the array's end names the option and the range it takes.
+  kata::write_npy(npy, zeros.data(), {10, 33, 3});
+  const CliRun r = run("features --student " + npy + " --layout mediapipe --fps 30 --first-frame 40 --out " +
+                       kata::test::temp_path("x.npy"));
+  EXPECT_NE(r.code, 0);
+  EXPECT_NE(r.output.find(npy + ": first frame 40 out of range (the array has 10 frames; --first-frame takes 0..10)"),
+            std::string::npos) << r.output;
+  std::remove(npy.c_str());
+}
+
+// A student clip too short to score (2 frames: both within the first 0.25 s, calibrating): no
+// "mean score 0.0 ... most to fix: torso_head", but what happened to every frame, and a failure.
+TEST(CliScore, AClipWithNothingScoredSaysWhyInsteadOfAMeanOfZero) {
+  std::ifstream in(std::string(KATA_DATA_DIR) + "/cmu/09_01.bvh");
+  std::string bvh, line;
+  int frames_line = -1, n = 0;
+  while (std::getline(in, line)) {
+    if (line.rfind("Frames:", 0) == 0) {
+      line = "Frames: 2";
+      frames_line = n;
+    }
+    if (frames_line >= 0 && n > frames_line + 3) break;  // Frames, Frame Time, two frames
+    bvh += line + "\n";
+    ++n;
+  }
+  const std::string student = kata::test::temp_path("kata_cli_two_frames.bvh");
+  const std::string csv = kata::test::temp_path("kata_cli_two_frames.csv");
+  std::ofstream(student) << bvh;
+  const CliRun r = run("score --model " + std::string(KATA_SOURCE_DIR) + "/models/default.kata --teacher " +
+                       std::string(KATA_DATA_DIR) + "/cmu/09_01.bvh --student " + student + " --preset cmu --out " + csv);
+  EXPECT_NE(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find(student + ": nothing scored: of its 2 frame(s), 2 calibrating (the first 0.25 s"),
+            std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("mean score 0"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("most to fix:"), std::string::npos) << r.output;
+  std::ifstream rows(csv);
+  int count = 0;
+  for (std::string row; std::getline(rows, row);) ++count;
+  EXPECT_EQ(count, 3) << "the CSV still has each frame";
+  std::remove(student.c_str());
+  std::remove(csv.c_str());
+}
+
 }  // namespace
 
 // Issue 27's tool path as a user runs it: pairs by the independent protocol, `kata eval` with

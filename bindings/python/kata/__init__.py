@@ -23,7 +23,7 @@ import os
 import time
 import warnings
 import weakref
-from typing import Any, List, Optional, Sequence, Tuple, Union
+from typing import Any, List, NoReturn, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
@@ -201,7 +201,7 @@ def detect_time_units(timestamps):
 
 class _Handle:
     """An owned C handle released exactly once (close(), the with block, or garbage collection)."""
-    _release = None  # the C release function, set per subclass
+    _release: Any = None  # the C release function, set per subclass
 
     def __init__(self, handle, context):
         self._h = handle
@@ -210,17 +210,17 @@ class _Handle:
             context._children.add(self)
 
     @property
-    def handle(self):
+    def handle(self) -> int:
         """The raw C handle (an int), for calls this binding does not wrap."""
         if not self._h:
             raise ValueError("%s is closed" % type(self).__name__)
         return self._h
 
     @property
-    def closed(self):
+    def closed(self) -> bool:
         return not self._h
 
-    def close(self):
+    def close(self) -> None:
         h, self._h = self._h, None
         if h:
             type(self)._release(h)
@@ -230,10 +230,10 @@ class _Handle:
     def __enter__(self):
         return self
 
-    def __exit__(self, *exc):
+    def __exit__(self, *exc: Any) -> None:
         self.close()
 
-    def __del__(self):
+    def __del__(self) -> None:
         try:
             self.close()
         except Exception:  # interpreter shutdown: the module may already be gone
@@ -252,7 +252,7 @@ class Context(_Handle):
             raise KataError(status, "cannot create a context", "kata_context_create")
         super().__init__(h.value, None)
 
-    def close(self):
+    def close(self) -> None:
         for child in list(self._children):  # kata.h: every object must be released first
             child.close()
         super().close()
@@ -291,19 +291,19 @@ class Context(_Handle):
         "xsens" (23 segments, metres: UpAxis.Z). Unknown names raise E_NOT_FOUND. [any thread]"""
         return self._make(Skeleton, "kata_skeleton_create_layout", _n.skeleton_create_layout, _utf8(layout))
 
-    def load_skeleton_bvh(self, path):
+    def load_skeleton_bvh(self, path: str) -> "Skeleton":
         """kata_skeleton_load_bvh: the HIERARCHY of a BVH file."""
         return self._make(Skeleton, "kata_skeleton_load_bvh", _n.skeleton_load_bvh, _utf8(path))
 
-    def load_clip(self, path):
+    def load_clip(self, path: str) -> "Clip":
         """kata_clip_load_bvh: a BVH clip (a malformed file raises E_PARSE naming file and line)."""
         return self._make(Clip, "kata_clip_load_bvh", _n.clip_load_bvh, _utf8(path))
 
-    def load_model(self, path):
+    def load_model(self, path: str) -> "Model":
         """kata_model_load: a verified .kata model (a refused file raises E_MODEL with the reason)."""
         return self._make(Model, "kata_model_load", _n.model_load, _utf8(path))
 
-    def load_model_bytes(self, data):
+    def load_model_bytes(self, data: bytes) -> "Model":
         """kata_model_load_memory: a model from bytes (copied)."""
         data = bytes(data)
         return self._make(Model, "kata_model_load_memory", _n.model_load_memory, data, len(data))
@@ -317,7 +317,7 @@ class Context(_Handle):
         up_axis: UpAxis (ignored for "mediapipe", which is always camera axes). max_gap: seconds.
         body_height: input units, 0 = estimated. [any thread]"""
         d = _n.StreamDesc()
-        _n.stream_desc_init(ctypes.byref(d))
+        _n.stream_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
         if d.struct_size != ctypes.sizeof(_n.StreamDesc):
             raise ImportError("kata_stream_desc layout differs from this binding's (%d vs %d bytes)"
                               % (d.struct_size, ctypes.sizeof(_n.StreamDesc)))
@@ -347,7 +347,7 @@ class Context(_Handle):
         Runtime.publish_endpoint); ingest: endpoints to read frames from ("bind:" prefix binds).
         Arguments left None keep kata_runtime_desc_init's defaults. [any thread]"""
         d = _n.RuntimeDesc()
-        _n.runtime_desc_init(ctypes.byref(d))
+        _n.runtime_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
         for field, value in (("workers", workers), ("max_streams", max_streams), ("max_joints", max_joints),
                              ("queue_capacity", queue_capacity), ("send_hwm", send_hwm),
                              ("max_message_bytes", max_message_bytes),
@@ -379,7 +379,7 @@ class Context(_Handle):
 
 def _retarget_desc(options):
     d = _n.RetargetDesc()
-    _n.retarget_desc_init(ctypes.byref(d))
+    _n.retarget_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
     for key, value in options.items():
         if key not in ("preset", "gradient_tolerance", "max_iterations", "warm_start", "restore_bone_lengths"):
             raise TypeError("unknown retarget option %r" % key)
@@ -392,15 +392,15 @@ class Skeleton(_Handle):
     _release = _n.skeleton_destroy
 
     @property
-    def joint_count(self):
+    def joint_count(self) -> int:
         return _n.skeleton_joint_count(self.handle)
 
     @property
-    def names(self):
+    def names(self) -> List[str]:
         return [_text(_n.skeleton_joint_name(self.handle, i)) for i in range(self.joint_count)]
 
     @property
-    def parents(self):
+    def parents(self) -> np.ndarray:
         return np.array([_n.skeleton_joint_parent(self.handle, i) for i in range(self.joint_count)], dtype=np.int32)
 
     @property
@@ -424,22 +424,22 @@ class Clip(_Handle):
     _joints = None
 
     @property
-    def frame_count(self):
+    def frame_count(self) -> int:
         return _n.clip_frame_count(self.handle)
 
     @property
-    def frame_time(self):
+    def frame_time(self) -> float:
         return _n.clip_frame_time(self.handle)
 
     @property
-    def joint_count(self):
+    def joint_count(self) -> int:
         """Joints of the clip's skeleton."""
         if self._joints is None:
             with self.skeleton() as sk:
                 self._joints = sk.joint_count
         return self._joints
 
-    def skeleton(self):
+    def skeleton(self) -> "Skeleton":
         """kata_clip_skeleton: a new Skeleton handle (closed by its own close())."""
         h = ctypes.c_void_p()
         status = _n.clip_skeleton(self.handle, ctypes.byref(h))
@@ -447,7 +447,7 @@ class Clip(_Handle):
             raise KataError(status, "cannot copy the clip's skeleton", "kata_clip_skeleton")
         return Skeleton(h.value, self._context)
 
-    def positions(self, frame, out=None):
+    def positions(self, frame: int, out: Optional[np.ndarray] = None) -> np.ndarray:
         """kata_clip_positions: world positions (joints x 3 float32) of one frame, into out if given."""
         if out is None:
             out = np.empty((self.joint_count, 3), dtype=np.float32)
@@ -459,7 +459,7 @@ class Clip(_Handle):
                             "kata_clip_positions")
         return out
 
-    def all_positions(self, first=0):
+    def all_positions(self, first: int = 0) -> np.ndarray:
         """Positions of frames first..end as (frames, joints, 3) float32: one kata_clip_positions per frame."""
         joints = self.joint_count
         frames = self.frame_count - first
@@ -478,18 +478,18 @@ class Model(_Handle):
     _release = _n.model_free
 
     @property
-    def rank(self):
+    def rank(self) -> int:
         return _n.model_rank(self.handle)
 
     @property
-    def delta_star(self):
+    def delta_star(self) -> float:
         return _n.model_delta_star(self.handle)
 
     @property
-    def stencil(self):
+    def stencil(self) -> Stencil:
         return Stencil(_n.model_stencil(self.handle))
 
-    def metadata(self, key):
+    def metadata(self, key: str) -> Optional[str]:
         """kata_model_metadata: "layout", "date", "data", "parameters"; None for an unknown key."""
         return _text(_n.model_metadata(self.handle, _utf8(key)))
 
@@ -561,11 +561,11 @@ class Stream(_Handle):
     _release = _n.stream_close
     _joints = 0
 
-    def _raise(self, status, call):
+    def _raise(self, status: int, call: str) -> NoReturn:
         raise KataError(status, _text(_n.stream_last_error(self._h)), call)
 
     @property
-    def joint_count(self):
+    def joint_count(self) -> int:
         return self._joints
 
     def push(self, timestamp: float, positions: Any, confidences: Any = None) -> Status:
@@ -607,8 +607,8 @@ class Stream(_Handle):
 
     def push_many(self, timestamps: Any, positions: Any, confidences: Any = None, time_units: Any = None) -> int:
         """Pushes frames i = 0..n-1: timestamps (n,) seconds, positions (n, joints, 3) float32 and
-        optionally confidences (n, joints), with one kata_stream_push(_confidence) per frame (no
-        copy of positions when already C-contiguous float32). A refused frame raises KataError
+        optionally confidences (n, joints), in one kata_stream_push_many call (no copy of
+        positions when already C-contiguous float32). A refused frame raises KataError
         naming its index; the frames before it were pushed. Returns the frames reported
         TRACKING_LOST (accepted without features). [stream owner]
         MediaPipe's shapes: positions (n, joints, 4 or 5) (x y z confidence, or x y z visibility
@@ -625,33 +625,21 @@ class Stream(_Handle):
         joints = self._joints
         if a.size != n * 3 * joints:
             raise ValueError("positions must be %d frames x %d joints x 3" % (n, joints))
-        h = self.handle
-        base, stride = a.ctypes.data, 12 * joints
-        lost = 0
-        if confidences is None:
-            push = _n.stream_push
-            for i, t in enumerate(ts.tolist()):
-                status = push(h, t, base + i * stride, joints)
-                if status:
-                    if status == Status.TRACKING_LOST:
-                        lost += 1
-                        continue
-                    raise KataError(status, "frame %d: %s" % (i, _text(_n.stream_last_error(h))), "kata_stream_push")
-            return lost
-        c = np.ascontiguousarray(confidences, dtype=np.float32)
-        if c.size != n * joints:
-            raise ValueError("confidences must be %d frames x %d joints" % (n, joints))
-        push_c = _n.stream_push_confidence
-        cbase, cstride = c.ctypes.data, 4 * joints
-        for i, t in enumerate(ts.tolist()):
-            status = push_c(h, t, base + i * stride, cbase + i * cstride, joints)
-            if status:
-                if status == Status.TRACKING_LOST:
-                    lost += 1
-                    continue
-                raise KataError(status, "frame %d: %s" % (i, _text(_n.stream_last_error(h))),
-                                "kata_stream_push_confidence")
-        return lost
+        cbase = None
+        if confidences is not None:
+            c = np.ascontiguousarray(confidences, dtype=np.float32)
+            if c.size != n * joints:
+                raise ValueError("confidences must be %d frames x %d joints" % (n, joints))
+            cbase = c.ctypes.data
+        # One call for the whole chunk (kata_stream_push_many): the per-call cost of ctypes is paid
+        # once, not per frame.
+        pushed, lost = ctypes.c_uint32(0), ctypes.c_uint32(0)
+        status = _n.stream_push_many(self.handle, ts.ctypes.data, a.ctypes.data, cbase, joints, n,
+                                     ctypes.byref(pushed), ctypes.byref(lost))
+        if status:
+            raise KataError(status, "frame %d: %s" % (pushed.value, _text(_n.stream_last_error(self.handle))),
+                            "kata_stream_push_many")
+        return lost.value
 
     def set_confidence_gate(self, threshold: float = 0.5, max_hold: float = 0.5,
                             max_missing_share: float = 0.25) -> None:
@@ -710,13 +698,13 @@ class Stream(_Handle):
                 raise KataError(status, "frame %d: %s" % (i, _text(_n.stream_last_error(h))), "kata_stream_push_landmarks")
         return lost
 
-    def flush(self):
+    def flush(self) -> None:
         """kata_stream_flush: end of a take."""
         status = _n.stream_flush(self.handle)
         if status:
             self._raise(status, "kata_stream_flush")
 
-    def reset(self):
+    def reset(self) -> None:
         """kata_stream_reset: the next frame starts a new segment."""
         status = _n.stream_reset(self.handle)
         if status:
@@ -738,11 +726,11 @@ class Stream(_Handle):
         return out, t.value, frame.value
 
     @property
-    def feature_count(self):
+    def feature_count(self) -> int:
         return _n.stream_feature_count(self.handle)
 
     @property
-    def body_height(self):
+    def body_height(self) -> float:
         return _n.stream_body_height(self.handle)
 
     # -- the teacher: what the stream is compared with --
@@ -757,7 +745,7 @@ class Stream(_Handle):
         solver's options (preset "cmu"/"gpd", gradient_tolerance, max_iterations, warm_start,
         restore_bone_lengths)."""
         d = _n.TeacherDesc()
-        _n.teacher_desc_init(ctypes.byref(d))
+        _n.teacher_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
         d.model = model.handle
         keep = []
         if clip is not None:
@@ -800,13 +788,13 @@ class Stream(_Handle):
         if status:
             self._raise(status, "kata_stream_attach_teacher")
 
-    def detach_teacher(self):
+    def detach_teacher(self) -> None:
         """kata_stream_detach_teacher: later results are not scored and carry no ghost."""
         status = _n.stream_detach_teacher(self.handle)
         if status:
             self._raise(status, "kata_stream_detach_teacher")
 
-    def restart_teacher(self):
+    def restart_teacher(self) -> None:
         """kata_stream_restart_teacher: the next frame is matched from the teacher's first frame."""
         status = _n.stream_restart_teacher(self.handle)
         if status:
@@ -873,22 +861,22 @@ class Stream(_Handle):
 
     # -- results --
     @property
-    def ghost_joint_count(self):
+    def ghost_joint_count(self) -> int:
         return _n.stream_ghost_joint_count(self.handle)
 
     @property
-    def ghost_joint_sources(self):
+    def ghost_joint_sources(self) -> np.ndarray:
         """Student skeleton joint index of each ghost joint (kata_stream_ghost_joint_source)."""
         h = self.handle
         return np.array([_n.stream_ghost_joint_source(h, i) for i in range(_n.stream_ghost_joint_count(h))],
                         dtype=np.int32)
 
     @property
-    def results_pending(self):
+    def results_pending(self) -> int:
         return _n.stream_results_pending(self.handle)
 
     @property
-    def results_dropped(self):
+    def results_dropped(self) -> int:
         return _n.stream_results_dropped(self.handle)
 
     def result_buffer(self, capacity=None, scores=True, ghosts=True, features=False):
@@ -915,15 +903,15 @@ class Retargeter(_Handle):
     _release = _n.retargeter_destroy
     _student_joints = 0
 
-    def _raise(self, status, call):
+    def _raise(self, status: int, call: str) -> NoReturn:
         raise KataError(status, _text(_n.retargeter_last_error(self._h)), call)
 
     @property
-    def joint_count(self):
+    def joint_count(self) -> int:
         return _n.retargeter_joint_count(self.handle)
 
     @property
-    def joint_sources(self):
+    def joint_sources(self) -> np.ndarray:
         h = self.handle
         return np.array([_n.retargeter_joint_source(h, i) for i in range(_n.retargeter_joint_count(h))],
                         dtype=np.int32)
@@ -976,7 +964,7 @@ class Retargeter(_Handle):
             self._raise(status, "kata_retargeter_local_rotations")
         return rotations, root, positions, residual.value
 
-    def reset(self):
+    def reset(self) -> None:
         status = _n.retargeter_reset(self.handle)
         if status:
             self._raise(status, "kata_retargeter_reset")

@@ -153,8 +153,8 @@ class RuntimeDesc(ctypes.Structure):
                 ("publish_endpoints", ctypes.c_char_p), ("send_hwm", ctypes.c_int32),
                 ("ingest_endpoints", ctypes.c_char_p), ("ingest_pull", ctypes.c_int32),
                 ("max_message_bytes", ctypes.c_uint32), ("skeleton_resend_seconds", ctypes.c_double),
-                # since 1.0 (kata.h: who may send what). kata_runtime_desc_init writes the whole
-                # struct of the library's kata.h, so this one must be at least as large.
+                # since 1.0 (kata.h: who may send what). Filled by kata_runtime_desc_init_sized
+                # with this struct's own size: the library writes nothing past it.
                 ("key_file", ctypes.c_char_p), ("client_keys_dir", ctypes.c_char_p),
                 ("ingest_server_key_file", ctypes.c_char_p), ("max_streams_per_sender", ctypes.c_uint32),
                 ("max_connections", ctypes.c_uint32), ("max_frame_age_seconds", ctypes.c_double),
@@ -193,11 +193,13 @@ _SIGNATURES = {
     "kata_clip_skeleton": (_st, [_p, _pp]),
     "kata_clip_positions": (_st, [_p, _u32, _p, _sz]),
     "kata_stream_desc_init": (None, [ctypes.POINTER(StreamDesc)]),
+    "kata_stream_desc_init_sized": (None, [ctypes.POINTER(StreamDesc), _u32]),
     "kata_preset_name": (_s, [_u32]),
     "kata_stream_open": (_st, [_p, _p, ctypes.POINTER(StreamDesc), _pp]),
     "kata_stream_close": (None, [_p]),
     "kata_stream_last_error": (_s, [_p]),
     "kata_stream_push": (_st, [_p, _d, _p, _u32]),
+    "kata_stream_push_many": (_st, [_p, _p, _p, _p, _u32, _u32, ctypes.POINTER(_u32), ctypes.POINTER(_u32)]),
     "kata_stream_push_landmarks": (_st, [_p, _d, ctypes.c_int, _p, _u32, _u32]),
     "kata_time_units_detect": (_st, [_p, _sz, ctypes.POINTER(ctypes.c_int)]),
     "kata_stream_flush": (_st, [_p]),
@@ -220,6 +222,7 @@ _SIGNATURES = {
     "kata_stream_restart_reference": (_st, [_p]),
     "kata_stream_score": (_st, [_p, ctypes.POINTER(ScoreRecord)]),
     "kata_retarget_desc_init": (None, [ctypes.POINTER(RetargetDesc)]),
+    "kata_retarget_desc_init_sized": (None, [ctypes.POINTER(RetargetDesc), _u32]),
     "kata_retargeter_create": (_st, [_p, _p, ctypes.POINTER(RetargetDesc), _pp]),
     "kata_retargeter_create_for_stream": (_st, [_p, _p, ctypes.POINTER(RetargetDesc), _pp]),
     "kata_retargeter_destroy": (None, [_p]),
@@ -230,6 +233,7 @@ _SIGNATURES = {
     "kata_retargeter_place": (_st, [_p, _p, _u32, _p, _sz]),
     "kata_retargeter_reset": (_st, [_p]),
     "kata_teacher_desc_init": (None, [ctypes.POINTER(TeacherDesc)]),
+    "kata_teacher_desc_init_sized": (None, [ctypes.POINTER(TeacherDesc), _u32]),
     "kata_stream_attach_teacher": (_st, [_p, ctypes.POINTER(TeacherDesc)]),
     "kata_stream_detach_teacher": (_st, [_p]),
     "kata_stream_restart_teacher": (_st, [_p]),
@@ -257,6 +261,7 @@ _SIGNATURES = {
     "kata_shard_of": (_u32, [_u64, _u32]),
     # the runtime
     "kata_runtime_desc_init": (None, [ctypes.POINTER(RuntimeDesc)]),
+    "kata_runtime_desc_init_sized": (None, [ctypes.POINTER(RuntimeDesc), _u32]),
     "kata_runtime_create": (_st, [_p, ctypes.POINTER(RuntimeDesc), _pp]),
     "kata_runtime_destroy": (None, [_p]),
     "kata_runtime_add_stream": (_st, [_p, _u64, _pp, _s, _i32]),

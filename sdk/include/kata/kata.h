@@ -288,8 +288,19 @@ typedef struct kata_stream_desc {
   int32_t keep_features;       /* 1: each result also keeps its feature vector. Default 0 */
 } kata_stream_desc;
 
-/* Fills desc with the defaults above (struct_size set). [any thread] */
+/* Fills the first struct_size bytes of desc with the defaults above and sets desc->struct_size
+ * to the smaller of struct_size and sizeof(kata_stream_desc): nothing past the caller's own struct is
+ * written, so a caller built against an older kata.h (a smaller struct) is safe with a
+ * newer library, which then reads only that much (the later fields keep their defaults).
+ * struct_size below 4 writes nothing. Bindings that declare the struct themselves (ctypes,
+ * P/Invoke) pass their own size. [any thread] */
+KATA_API void kata_stream_desc_init_sized(kata_stream_desc* desc, uint32_t struct_size);
+/* Fills 1.0's kata_stream_desc (72 bytes) with the defaults: the entry point of programs built
+ * before kata_stream_desc_init_sized; it never writes more than 1.0's struct, however the struct grows.
+ * In C and C++ the macro of the same name below calls kata_stream_desc_init_sized. [any thread] */
 KATA_API void kata_stream_desc_init(kata_stream_desc* desc);
+/* Fills *desc with the defaults for the caller's own struct: kata_stream_desc_init_sized(desc, sizeof *desc). */
+#define kata_stream_desc_init(desc) kata_stream_desc_init_sized((desc), (uint32_t)sizeof *(desc))
 /* The name of built-in preset i ("cmu", ...), or NULL past the last. [any thread] */
 KATA_API const char* kata_preset_name(uint32_t i);
 
@@ -339,6 +350,17 @@ KATA_API kata_status kata_stream_push(kata_stream stream, double timestamp, cons
  * [stream owner] */
 KATA_API kata_status kata_stream_push_confidence(kata_stream stream, double timestamp, const float* positions,
                                                  const float* confidences, uint32_t joint_count);
+/* Pushes `frames` frames at once, as kata_stream_push_confidence would one by one: frame i at
+ * timestamps[i] (seconds), its joint_count x 3 floats at positions + i x 3 x joint_count, its
+ * confidences at confidences + i x joint_count (NULL: all confident). A frame reported
+ * KATA_TRACKING_LOST is accepted and counted in *tracking_lost (may be NULL). Stops at the first
+ * frame refused: returns its status with *pushed (may be NULL) = its index (the frames before it
+ * were pushed; kata_stream_last_error says why); else KATA_OK with *pushed = frames. For bindings
+ * whose per-call cost exceeds the push's (Python: one call per chunk). Does not allocate.
+ * [stream owner] */
+KATA_API kata_status kata_stream_push_many(kata_stream stream, const double* timestamps, const float* positions,
+                                           const float* confidences, uint32_t joint_count, uint32_t frames,
+                                           uint32_t* pushed, uint32_t* tracking_lost);
 /* Units of a source's timestamps (kata_stream_push_landmarks). Values are never reused. */
 typedef enum kata_time_units {
   KATA_TIME_SECONDS = 0,      /* kata's own unit (every other push) */
@@ -486,8 +508,19 @@ typedef struct kata_retarget_desc {
   int32_t restore_bone_lengths;/* 1 (default): reset every bone to the student's exact length */
 } kata_retarget_desc;
 
-/* Fills desc with the defaults above (struct_size set). [any thread] */
+/* Fills the first struct_size bytes of desc with the defaults above and sets desc->struct_size
+ * to the smaller of struct_size and sizeof(kata_retarget_desc): nothing past the caller's own struct is
+ * written, so a caller built against an older kata.h (a smaller struct) is safe with a
+ * newer library, which then reads only that much (the later fields keep their defaults).
+ * struct_size below 4 writes nothing. Bindings that declare the struct themselves (ctypes,
+ * P/Invoke) pass their own size. [any thread] */
+KATA_API void kata_retarget_desc_init_sized(kata_retarget_desc* desc, uint32_t struct_size);
+/* Fills 1.0's kata_retarget_desc (40 bytes) with the defaults: the entry point of programs built
+ * before kata_retarget_desc_init_sized; it never writes more than 1.0's struct, however the struct grows.
+ * In C and C++ the macro of the same name below calls kata_retarget_desc_init_sized. [any thread] */
 KATA_API void kata_retarget_desc_init(kata_retarget_desc* desc);
+/* Fills *desc with the defaults for the caller's own struct: kata_retarget_desc_init_sized(desc, sizeof *desc). */
+#define kata_retarget_desc_init(desc) kata_retarget_desc_init_sized((desc), (uint32_t)sizeof *(desc))
 
 /* ==== Pipeline: every frame scored, with the teacher's pose on the student's body ========= */
 /* (section: pipeline, since 0.2)
@@ -541,8 +574,19 @@ typedef struct kata_teacher_desc {
   double body_height;        /* the joints' body height, in their units */
 } kata_teacher_desc;
 
-/* Fills desc with the defaults above (struct_size set). [any thread] */
+/* Fills the first struct_size bytes of desc with the defaults above and sets desc->struct_size
+ * to the smaller of struct_size and sizeof(kata_teacher_desc): nothing past the caller's own struct is
+ * written, so a caller built against an older kata.h (a smaller struct, e.g. 0.2's 88 bytes) is safe with a
+ * newer library, which then reads only that much (the later fields keep their defaults).
+ * struct_size below 4 writes nothing. Bindings that declare the struct themselves (ctypes,
+ * P/Invoke) pass their own size. [any thread] */
+KATA_API void kata_teacher_desc_init_sized(kata_teacher_desc* desc, uint32_t struct_size);
+/* Fills 1.0's kata_teacher_desc (112 bytes) with the defaults: the entry point of programs built
+ * before kata_teacher_desc_init_sized; it never writes more than 1.0's struct, however the struct grows.
+ * In C and C++ the macro of the same name below calls kata_teacher_desc_init_sized. [any thread] */
 KATA_API void kata_teacher_desc_init(kata_teacher_desc* desc);
+/* Fills *desc with the defaults for the caller's own struct: kata_teacher_desc_init_sized(desc, sizeof *desc). */
+#define kata_teacher_desc_init(desc) kata_teacher_desc_init_sized((desc), (uint32_t)sizeof *(desc))
 /* Attaches a teacher to a stream in one call: model, teacher motion, and (from the stream's own
  * skeleton) the student's body. Replaces any teacher; a refused call leaves the old one in
  * place. The alignment starts at the teacher's first frame. Errors (stencil mismatch, unknown
@@ -912,8 +956,19 @@ typedef struct kata_runtime_counters {
   uint64_t closed_streams;          /* streams closed (by their owner, idle, a new skeleton) */
 } kata_runtime_counters;
 
-/* Fills desc with the defaults above (struct_size set). [any thread] */
+/* Fills the first struct_size bytes of desc with the defaults above and sets desc->struct_size
+ * to the smaller of struct_size and sizeof(kata_runtime_desc): nothing past the caller's own struct is
+ * written, so a caller built against an older kata.h (a smaller struct, e.g. 0.2's 64 bytes) is safe with a
+ * newer library, which then reads only that much (the later fields keep their defaults).
+ * struct_size below 4 writes nothing. Bindings that declare the struct themselves (ctypes,
+ * P/Invoke) pass their own size. [any thread] */
+KATA_API void kata_runtime_desc_init_sized(kata_runtime_desc* desc, uint32_t struct_size);
+/* Fills 1.0's kata_runtime_desc (112 bytes) with the defaults: the entry point of programs built
+ * before kata_runtime_desc_init_sized; it never writes more than 1.0's struct, however the struct grows.
+ * In C and C++ the macro of the same name below calls kata_runtime_desc_init_sized. [any thread] */
 KATA_API void kata_runtime_desc_init(kata_runtime_desc* desc);
+/* Fills *desc with the defaults for the caller's own struct: kata_runtime_desc_init_sized(desc, sizeof *desc). */
+#define kata_runtime_desc_init(desc) kata_runtime_desc_init_sized((desc), (uint32_t)sizeof *(desc))
 /* Creates a runtime: binds / connects its sockets and starts its threads. Errors (an endpoint
  * that cannot be bound, bad values) are reported on the context. [any thread] */
 KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtime_desc* desc, kata_runtime* out);

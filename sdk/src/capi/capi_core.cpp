@@ -79,6 +79,30 @@ kata::Layout resolve_map(const kata::Skeleton& skeleton, const kata_stream_desc&
 
 }  // namespace
 
+namespace {
+// The defaults kata.h lists for kata_stream_desc.
+kata_stream_desc stream_desc_defaults() {
+  kata_stream_desc d;
+  std::memset(&d, 0, sizeof d);
+  d.struct_size = sizeof d;
+  d.preset = nullptr;
+  d.name_map_path = nullptr;
+  d.stencil = KATA_STENCIL_BACKWARD;
+  d.up_axis = KATA_UP_Y;
+  d.max_gap = 0.25;
+  d.history_capacity = 16;
+  d.body_height = 0.0;
+  d.calibration_frames = 8;
+  d.result_capacity = 64;
+  d.keep_features = 0;
+  return d;
+}
+// What the unsized init writes, for ever: 1.0's struct (programs built before the sized init
+// call it by that name). When the struct grows, this stays at 72.
+constexpr uint32_t kStreamDescSize10 = 72;
+static_assert(sizeof(kata_stream_desc) >= kStreamDescSize10, "the struct only grows");
+}  // namespace
+
 extern "C" {
 
 KATA_API uint32_t kata_version(void) {
@@ -256,20 +280,13 @@ KATA_API kata_status kata_clip_positions(kata_clip clip, uint32_t frame, float* 
 
 /* ---- streams ---- */
 
-KATA_API void kata_stream_desc_init(kata_stream_desc* desc) {
-  if (!desc) return;
-  std::memset(desc, 0, sizeof *desc);
-  desc->struct_size = sizeof *desc;
-  desc->preset = nullptr;
-  desc->name_map_path = nullptr;
-  desc->stencil = KATA_STENCIL_BACKWARD;
-  desc->up_axis = KATA_UP_Y;
-  desc->max_gap = 0.25;
-  desc->history_capacity = 16;
-  desc->body_height = 0.0;
-  desc->calibration_frames = 8;
-  desc->result_capacity = 64;
-  desc->keep_features = 0;
+KATA_API void kata_stream_desc_init_sized(kata_stream_desc* desc, uint32_t struct_size) {
+  kata::capi::init_sized(desc, struct_size, stream_desc_defaults());
+}
+
+// In parentheses: kata.h's macro of the same name is not expanded here.
+KATA_API void (kata_stream_desc_init)(kata_stream_desc* desc) {
+  kata::capi::init_sized(desc, kStreamDescSize10, stream_desc_defaults());
 }
 
 KATA_API const char* kata_layout_name(uint32_t i) {
@@ -409,6 +426,36 @@ KATA_API kata_status kata_stream_push_confidence(kata_stream stream, double time
   const kata::Status s = stream->pipeline.push(timestamp, positions, confidences, count);
   if (s != kata::Status::kOk) stream->set_error(stream->pipeline.last_error());
   return kata::capi::to_status(s);
+}
+
+KATA_API kata_status kata_stream_push_many(kata_stream stream, const double* timestamps, const float* positions,
+                                           const float* confidences, uint32_t joint_count, uint32_t frames,
+                                           uint32_t* pushed, uint32_t* tracking_lost) {
+  if (pushed) *pushed = 0;
+  if (tracking_lost) *tracking_lost = 0;
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (frames > 0 && (!timestamps || !positions)) {
+    stream->set_error("kata_stream_push_many: timestamps and positions must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  const int count = joint_count > 1000000u ? -1 : static_cast<int>(joint_count);
+  const size_t stride = 3 * static_cast<size_t>(joint_count);
+  uint32_t lost = 0;
+  for (uint32_t i = 0; i < frames; ++i) {
+    const float* c = confidences ? confidences + static_cast<size_t>(i) * joint_count : nullptr;
+    const kata::Status s = stream->pipeline.push(timestamps[i], positions + static_cast<size_t>(i) * stride, c, count);
+    if (s == kata::Status::kTrackingLost) {
+      ++lost;
+    } else if (s != kata::Status::kOk) {
+      stream->set_error(stream->pipeline.last_error());
+      if (pushed) *pushed = i;
+      if (tracking_lost) *tracking_lost = lost;
+      return kata::capi::to_status(s);
+    }
+  }
+  if (pushed) *pushed = frames;
+  if (tracking_lost) *tracking_lost = lost;
+  return KATA_OK;
 }
 
 KATA_API kata_status kata_stream_push_landmarks(kata_stream stream, double timestamp, kata_time_units units,

@@ -30,6 +30,17 @@ kata::retarget::RetargetOptions retarget_options(const kata_retarget_desc* desc,
 // the deprecated reference calls); messages name `call`. Defined in capi_pipeline.cpp.
 kata_status attach_teacher(kata_stream stream, const kata_teacher_desc* desc, const char* call);
 
+// The sized desc inits (kata_*_desc_init_sized): the defaults, cut to the caller's struct so
+// that nothing past it is written; struct_size becomes the size written (a caller built against
+// a newer kata.h gets this library's smaller size back). Below 4 bytes nothing is written.
+template <typename Desc>
+void init_sized(Desc* desc, uint32_t struct_size, const Desc& defaults) noexcept {
+  if (!desc || struct_size < sizeof(uint32_t)) return;
+  const uint32_t size = std::min<uint32_t>(struct_size, static_cast<uint32_t>(sizeof(Desc)));
+  std::memcpy(static_cast<void*>(desc), &defaults, size);
+  desc->struct_size = size;
+}
+
 // Sets / reads the calling thread's context error message.
 void set_context_error(const char* message) noexcept;
 const char* context_error() noexcept;

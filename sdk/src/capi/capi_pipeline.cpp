@@ -162,14 +162,31 @@ kata_status attach_teacher(kata_stream stream, const kata_teacher_desc* desc, co
 
 }  // namespace kata::capi
 
+namespace {
+// The defaults kata.h lists for kata_teacher_desc.
+kata_teacher_desc teacher_desc_defaults() {
+  kata_teacher_desc d;
+  std::memset(&d, 0, sizeof d);
+  d.struct_size = sizeof d;
+  d.pose_frame = -1;
+  d.ghost = 1;
+  return d;
+}
+// What the unsized init writes, for ever: 1.0's struct (programs built before the sized init
+// call it by that name). When the struct grows, this stays at 112.
+constexpr uint32_t kTeacherDescSize10 = 112;
+static_assert(sizeof(kata_teacher_desc) >= kTeacherDescSize10, "the struct only grows");
+}  // namespace
+
 extern "C" {
 
-KATA_API void kata_teacher_desc_init(kata_teacher_desc* desc) {
-  if (!desc) return;
-  std::memset(desc, 0, sizeof *desc);
-  desc->struct_size = sizeof *desc;
-  desc->pose_frame = -1;
-  desc->ghost = 1;
+KATA_API void kata_teacher_desc_init_sized(kata_teacher_desc* desc, uint32_t struct_size) {
+  kata::capi::init_sized(desc, struct_size, teacher_desc_defaults());
+}
+
+// In parentheses: kata.h's macro of the same name is not expanded here.
+KATA_API void (kata_teacher_desc_init)(kata_teacher_desc* desc) {
+  kata::capi::init_sized(desc, kTeacherDescSize10, teacher_desc_defaults());
 }
 
 KATA_API kata_status kata_stream_attach_teacher(kata_stream stream, const kata_teacher_desc* desc) {

@@ -177,17 +177,34 @@ kata::retarget::RetargetOptions retarget_options(const kata_retarget_desc* desc,
 
 }  // namespace kata::capi
 
+namespace {
+// The defaults kata.h lists for kata_retarget_desc.
+kata_retarget_desc retarget_desc_defaults() {
+  kata_retarget_desc d;
+  std::memset(&d, 0, sizeof d);
+  d.struct_size = sizeof d;
+  d.preset = "cmu";
+  d.gradient_tolerance = 3e-5;
+  d.max_iterations = 200;
+  d.warm_start = 1;
+  d.restore_bone_lengths = 1;
+  return d;
+}
+// What the unsized init writes, for ever: 1.0's struct (programs built before the sized init
+// call it by that name). When the struct grows, this stays at 40.
+constexpr uint32_t kRetargetDescSize10 = 40;
+static_assert(sizeof(kata_retarget_desc) >= kRetargetDescSize10, "the struct only grows");
+}  // namespace
+
 extern "C" {
 
-KATA_API void kata_retarget_desc_init(kata_retarget_desc* desc) {
-  if (!desc) return;
-  std::memset(desc, 0, sizeof *desc);
-  desc->struct_size = sizeof *desc;
-  desc->preset = "cmu";
-  desc->gradient_tolerance = 3e-5;
-  desc->max_iterations = 200;
-  desc->warm_start = 1;
-  desc->restore_bone_lengths = 1;
+KATA_API void kata_retarget_desc_init_sized(kata_retarget_desc* desc, uint32_t struct_size) {
+  kata::capi::init_sized(desc, struct_size, retarget_desc_defaults());
+}
+
+// In parentheses: kata.h's macro of the same name is not expanded here.
+KATA_API void (kata_retarget_desc_init)(kata_retarget_desc* desc) {
+  kata::capi::init_sized(desc, kRetargetDescSize10, retarget_desc_defaults());
 }
 
 KATA_API kata_status kata_retargeter_create(kata_context context, kata_skeleton student,

@@ -31,23 +31,40 @@ kata_runtime_desc effective(const kata_runtime_desc* desc) {
 
 }  // namespace
 
+namespace {
+// The defaults kata.h lists for kata_runtime_desc.
+kata_runtime_desc runtime_desc_defaults() {
+  kata_runtime_desc d;
+  std::memset(&d, 0, sizeof d);
+  d.struct_size = sizeof d;
+  d.workers = 2;
+  d.max_streams = 1024;
+  d.max_joints = 128;
+  d.queue_capacity = 4096;
+  d.send_hwm = 10000;
+  d.max_message_bytes = 1u << 20;
+  d.skeleton_resend_seconds = 1.0;
+  d.max_streams_per_sender = 64;
+  d.max_connections = 256;
+  d.max_frame_age_seconds = 0.25;
+  d.idle_stream_seconds = 300.0;
+  return d;
+}
+// What the unsized init writes, for ever: 1.0's struct (programs built before the sized init
+// call it by that name). When the struct grows, this stays at 112.
+constexpr uint32_t kRuntimeDescSize10 = 112;
+static_assert(sizeof(kata_runtime_desc) >= kRuntimeDescSize10, "the struct only grows");
+}  // namespace
+
 extern "C" {
 
-KATA_API void kata_runtime_desc_init(kata_runtime_desc* desc) {
-  if (!desc) return;
-  std::memset(desc, 0, sizeof *desc);
-  desc->struct_size = sizeof *desc;
-  desc->workers = 2;
-  desc->max_streams = 1024;
-  desc->max_joints = 128;
-  desc->queue_capacity = 4096;
-  desc->send_hwm = 10000;
-  desc->max_message_bytes = 1u << 20;
-  desc->skeleton_resend_seconds = 1.0;
-  desc->max_streams_per_sender = 64;
-  desc->max_connections = 256;
-  desc->max_frame_age_seconds = 0.25;
-  desc->idle_stream_seconds = 300.0;
+KATA_API void kata_runtime_desc_init_sized(kata_runtime_desc* desc, uint32_t struct_size) {
+  kata::capi::init_sized(desc, struct_size, runtime_desc_defaults());
+}
+
+// In parentheses: kata.h's macro of the same name is not expanded here.
+KATA_API void (kata_runtime_desc_init)(kata_runtime_desc* desc) {
+  kata::capi::init_sized(desc, kRuntimeDescSize10, runtime_desc_defaults());
 }
 
 KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtime_desc* desc, kata_runtime* out) {

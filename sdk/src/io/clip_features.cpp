@@ -50,11 +50,19 @@ GpdMap resolve_gpd_map(const Skeleton& skeleton, const std::string& preset, cons
     }
   }
   if (!name_map_path.empty()) {
-    const auto names = load_name_map(name_map_path);
+    std::array<int, kGpdJoints> lines{};
+    const auto names = load_name_map(name_map_path, &lines);
     try {
       return make_gpd_map(skeleton, names);
     } catch (const Error& e) {
-      throw Error(e.kind(), "name map " + bounded(name_map_path) + ": " + e.what());
+      // The map's line of the first name the skeleton lacks: where the typo is to be fixed.
+      int line = 1;
+      for (int g = 0; g < kGpdJoints; ++g)
+        if (skeleton.find(names[static_cast<size_t>(g)]) < 0) {
+          line = lines[static_cast<size_t>(g)];
+          break;
+        }
+      throw Error(e.kind(), bounded(name_map_path) + ":" + std::to_string(line) + ": " + e.what());
     }
   }
   throw Error(ErrorKind::kInvalidArgument, "give a preset (--preset cmu) or a name-map file (--name-map FILE)");

@@ -87,9 +87,22 @@ MotionSource array_of_values(const std::vector<double>& values, const std::vecto
   MotionSource m = empty_landmarks(name, layout_name, up);
   const size_t joints = static_cast<size_t>(m.skeleton.joint_count());
   if (shape.size() != 3 || shape[1] != joints || shape[2] < 3 || shape[2] > 5 ||
-      shape[0] > static_cast<size_t>(kMaxLandmarkFrames))
-    throw Error(ErrorKind::kParse, name + ": expected shape (frames <= " + std::to_string(kMaxLandmarkFrames) + ", " +
-                                       std::to_string(joints) + ", 3, 4 or 5) for layout " + bounded(layout_name));
+      shape[0] > static_cast<size_t>(kMaxLandmarkFrames)) {
+    std::string got;
+    for (size_t d : shape) got += (got.empty() ? "" : ", ") + std::to_string(d);
+    if (shape.size() == 1) got += ",";
+    std::string hint;
+    if (shape.size() == 3 && shape[1] != joints)
+      hint = "; it has " + std::to_string(shape[1]) + " joints per frame, layout " + bounded(layout_name) + " has " +
+             std::to_string(joints) + " (another --layout?)";
+    else if (shape.size() == 2 && shape[1] == static_cast<size_t>(gpd::kDims))
+      hint = "; (frames, 1683) is a GPD feature array, not landmarks";
+    else if (shape.size() == 3 && (shape[2] < 3 || shape[2] > 5))
+      hint = "; the last axis is x y z [confidence | visibility presence]";
+    throw Error(ErrorKind::kParse, name + ": shape (" + got + ") is not a landmark array: expected (frames <= " +
+                                       std::to_string(kMaxLandmarkFrames) + ", " + std::to_string(joints) +
+                                       ", 3, 4 or 5) for layout " + bounded(layout_name) + hint);
+  }
   fill_array(m, values, static_cast<int>(shape[0]), static_cast<int>(shape[2]));
   return m;
 }
@@ -133,7 +146,9 @@ MotionSource load_motion(const std::string& path, const std::string& layout_name
     if (!m.layout.fixed_axes) m.layout.axes = up;
     m.frame_time = clip.frame_time;
     if (first < 0 || first > clip.frame_count())
-      throw Error(ErrorKind::kInvalidArgument, path + ": first frame out of range");
+      throw Error(ErrorKind::kInvalidArgument, path + ": first frame " + std::to_string(first) + " out of range (the clip has " +
+                                                   std::to_string(clip.frame_count()) + " frames; --first-frame takes 0.." +
+                                                   std::to_string(clip.frame_count()) + ")");
     m.xyz = clip_positions(clip, first);
     m.frames = clip.frame_count() - first;
     return m;
@@ -165,7 +180,10 @@ MotionSource load_motion(const std::string& path, const std::string& layout_name
   } else {
     m = parse_landmarks(bytes, format, path, layout_name, fps, up, units);
   }
-  if (first < 0 || first > m.frames) throw Error(ErrorKind::kInvalidArgument, path + ": first frame out of range");
+  if (first < 0 || first > m.frames)
+    throw Error(ErrorKind::kInvalidArgument, path + ": first frame " + std::to_string(first) + " out of range (the array has " +
+                                                 std::to_string(m.frames) + " frames; --first-frame takes 0.." +
+                                                 std::to_string(m.frames) + ")");
   const size_t joints = static_cast<size_t>(m.skeleton.joint_count());
   m.xyz.erase(m.xyz.begin(), m.xyz.begin() + static_cast<std::ptrdiff_t>(static_cast<size_t>(first) * joints * 3));
   if (!m.confidence.empty())

@@ -50,6 +50,8 @@ class MapBuilder {
   }
 
   // `end_line` is the line the map ended on, for the "missing joint" message.
+  const std::array<int, kGpdJoints>& lines() const { return line_; }
+
   Names finish(int end_line) const {
     std::string missing;
     for (int g = 0; g < kGpdJoints; ++g) {
@@ -73,7 +75,7 @@ std::string trim(const std::string& s) {
 }
 
 // "Gpd = source" lines.
-Names parse_text_map(const std::string& text, const std::string& origin) {
+Names parse_text_map(const std::string& text, const std::string& origin, std::array<int, kGpdJoints>* lines) {
   MapBuilder map(origin);
   int line_no = 0;
   size_t pos = 0;
@@ -94,7 +96,9 @@ Names parse_text_map(const std::string& text, const std::string& origin) {
     if (source.find('=') != std::string::npos) parse_error(origin, line_no, "more than one '=' on the line");
     map.add(gpd, source, line_no);
   }
-  return map.finish(std::max(line_no, 1));
+  Names names = map.finish(std::max(line_no, 1));
+  if (lines) *lines = map.lines();
+  return names;
 }
 
 // An input iterator over the text that records how far the JSON lexer has read, so every SAX
@@ -131,6 +135,7 @@ class JsonMapHandler : public nlohmann::json_sax<nlohmann::json> {
       : begin_(text.data()), furthest_(furthest), origin_(origin), map_(origin) {}
 
   Names finish() const { return map_.finish(end_line_); }
+  const std::array<int, kGpdJoints>& lines() const { return map_.lines(); }
 
   bool null() override { return value("null"); }
   bool boolean(bool) override { return value("a boolean"); }
@@ -187,27 +192,29 @@ class JsonMapHandler : public nlohmann::json_sax<nlohmann::json> {
   bool have_key_ = false;
 };
 
-Names parse_json_map(const std::string& text, const std::string& origin) {
+Names parse_json_map(const std::string& text, const std::string& origin, std::array<int, kGpdJoints>* lines) {
   const char* furthest = text.data();
   JsonMapHandler handler(text, &furthest, origin);
   TrackingIterator first{text.data(), &furthest}, last{text.data() + text.size(), &furthest};
   nlohmann::json::sax_parse(first, last, &handler);
-  return handler.finish();
+  Names names = handler.finish();
+  if (lines) *lines = handler.lines();
+  return names;
 }
 
 }  // namespace
 
-Names parse_name_map(std::string text, const std::string& origin) {
+Names parse_name_map(std::string text, const std::string& origin, std::array<int, kGpdJoints>* lines) {
   // Editors on Windows often prepend a UTF-8 byte-order mark; it is not part of the map.
   if (text.compare(0, 3, "\xEF\xBB\xBF") == 0) text.erase(0, 3);
   const size_t first = text.find_first_not_of(" \t\r\n\f\v");
-  if (first != std::string::npos && text[first] == '{') return parse_json_map(text, origin);
-  return parse_text_map(text, origin);
+  if (first != std::string::npos && text[first] == '{') return parse_json_map(text, origin, lines);
+  return parse_text_map(text, origin, lines);
 }
 
-Names load_name_map(const std::string& path) {
+Names load_name_map(const std::string& path, std::array<int, kGpdJoints>* lines) {
   // Directories, FIFOs, devices and files over kMaxNameMapBytes are refused before reading.
-  return parse_name_map(read_file_bounded(path, kMaxNameMapBytes, "name map"), path);
+  return parse_name_map(read_file_bounded(path, kMaxNameMapBytes, "name map"), path, lines);
 }
 
 }  // namespace kata

@@ -15,8 +15,11 @@
 namespace kata {
 
 // Parses a name map held in memory; `origin` names it in error messages (e.g. "<name map>").
-std::array<std::string, kGpdJoints> parse_name_map(std::string text, const std::string& origin);
+// `lines`, when given, receives the line of each GPD joint's entry (for later errors about a name
+// the skeleton lacks).
+std::array<std::string, kGpdJoints> parse_name_map(std::string text, const std::string& origin,
+                                                   std::array<int, kGpdJoints>* lines = nullptr);
 // Reads a name-map file. Throws kata::Error(kIo) naming the path when it cannot be read.
-std::array<std::string, kGpdJoints> load_name_map(const std::string& path);
+std::array<std::string, kGpdJoints> load_name_map(const std::string& path, std::array<int, kGpdJoints>* lines = nullptr);
 
 }  // namespace kata

@@ -15,6 +15,7 @@
 #include <cstring>
 
 #include "common/error.hpp"
+#include "common/text.hpp"
 
 namespace kata::transport {
 
@@ -162,7 +163,9 @@ Ingest::Ingest(Context& context, const IngestOptions& options, Handlers handlers
     // Connection events: the limit on connections, and a closed connection's streams orphaned.
     const std::string monitor_endpoint = "inproc://kata-ingest-monitor-" + std::to_string(g_monitor_counter++);
     if (zmq_socket_monitor(socket_, monitor_endpoint.c_str(),
-                           ZMQ_EVENT_ACCEPTED | ZMQ_EVENT_CONNECTED | ZMQ_EVENT_DISCONNECTED) != 0)
+                           ZMQ_EVENT_ACCEPTED | ZMQ_EVENT_CONNECTED | ZMQ_EVENT_DISCONNECTED |
+                               ZMQ_EVENT_HANDSHAKE_SUCCEEDED | ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL |
+                               ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) != 0)
       throw Error(ErrorKind::kIo, "ingest: cannot monitor the socket: " + zmq_reason());
     monitor_ = zmq_socket(context.get(), ZMQ_PAIR);
     if (!monitor_) throw Error(ErrorKind::kIo, "ingest: cannot read the socket's events: " + zmq_reason());
@@ -210,13 +213,31 @@ void Ingest::read_connection_events() {
       ++counters_.connections;
       ++open_connections_;
       connections_[fd].open = true;
+      handshaking_.push_back(fd);
       if (kind == ZMQ_EVENT_ACCEPTED && max_connections_ > 0 && open_connections_ > max_connections_) {
         // Closing the descriptor is ZeroMQ's; shutting it down makes ZeroMQ see the end and
         // close it (a DISCONNECTED event follows).
         ++counters_.connections_refused;
+        handshaking_.pop_back();  // counted as refused, not as a failed handshake
         ::shutdown(fd, SHUT_RDWR);
       }
+    } else if (kind == ZMQ_EVENT_HANDSHAKE_SUCCEEDED) {
+      // The event carries no descriptor: handshakes finish about in the order they began, so the
+      // oldest connection still in its handshake is taken to be the one that finished.
+      if (!handshaking_.empty()) handshaking_.erase(handshaking_.begin());
+    } else if (kind == ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL || kind == ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) {
+      // The value is the protocol error (or ZAP status), not a descriptor; the DISCONNECTED that
+      // follows counts the failure.
+      counters_.last_handshake_error = value;
     } else if (kind == ZMQ_EVENT_DISCONNECTED) {
+      // Closed before its handshake finished: refused by ZeroMQ (socket kinds that cannot talk,
+      // e.g. a PUSH sender on a SUB ingest, which libzmq 4.3 reports with no failure event; CURVE
+      // on one side only), refused by max_connections, or a peer that never spoke ZeroMQ.
+      const auto pending = std::find(handshaking_.begin(), handshaking_.end(), fd);
+      if (pending != handshaking_.end()) {
+        handshaking_.erase(pending);
+        ++counters_.handshake_failures;
+      }
       ++counters_.disconnections;
       if (open_connections_ > 0) --open_connections_;
       Connection& c = connections_[fd];
@@ -260,6 +281,8 @@ void Ingest::reset() {
   connections_.clear();
   open_connections_ = 0;
   next_expiry_ns_ = 0;
+  logged_definition_refusals_.clear();
+  handshaking_.clear();
 }
 
 int Ingest::poll(int max_messages) {
@@ -393,8 +416,19 @@ void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t n
       try {
         if (is_new) accepted = handlers_.on_skeleton ? handlers_.on_skeleton(definition) : true;
         else accepted = handlers_.on_revision ? handlers_.on_revision(definition) : false;
-      } catch (const Error&) {
+      } catch (const Error& e) {
         accepted = false;
+        // Why, once per stream (the first 64 streams): a skeleton that does not fit its preset
+        // would otherwise show only as dropped frames.
+        if (log_refusals_ && logged_definition_refusals_.size() < 64 &&
+            std::find(logged_definition_refusals_.begin(), logged_definition_refusals_.end(), id) ==
+                logged_definition_refusals_.end()) {
+          logged_definition_refusals_.push_back(id);
+          std::fprintf(stderr,
+                       "\nkata ingest: stream %llu's skeleton definition (preset '%s') refused: %s; its frames are "
+                       "dropped (counted as unknown stream) until a definition is accepted; not logged again\n",
+                       static_cast<unsigned long long>(id), bounded(definition.preset).c_str(), e.what());
+        }
       }
       if (!accepted) {
         ++counters_.refused_skeletons;

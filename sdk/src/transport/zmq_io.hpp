@@ -146,6 +146,12 @@ struct IngestCounters {
   uint64_t connections = 0;         // connections accepted or made (not messages)
   uint64_t disconnections = 0;      // connections closed (by the peer, ZeroMQ's limits or ours)
   uint64_t connections_refused = 0; // connections closed at once: max_connections reached
+  // Connections closed before their ZeroMQ handshake finished: socket kinds that cannot talk (a
+  // PUSH sender on a SUB ingest), CURVE on one side only, peers that never
+  // spoke ZeroMQ (not those closed for max_connections: connections_refused). last_handshake_error: the ZMQ_PROTOCOL_ERROR_* (or ZAP status) of the
+  // last failure ZeroMQ reported with a reason (0: none; socket kinds that cannot talk have none).
+  uint64_t handshake_failures = 0;
+  uint32_t last_handshake_error = 0;
   // The source's age of every frame handed on: arrival - capture beyond the stream's quickest
   // delivery (ingest_table.hpp), in the runtime's latency buckets (2^(i/8) ns, kAgeBuckets).
   static constexpr int kAgeBuckets = 8 * 36;
@@ -225,6 +231,8 @@ class Ingest {
   uint32_t open_connections_ = 0;
   int64_t next_expiry_ns_ = 0;
   std::vector<uint64_t> expired_;
+  std::vector<uint64_t> logged_definition_refusals_;  // streams whose refused definition was logged (bounded)
+  std::vector<int> handshaking_;  // descriptors of connections whose handshake has not finished
 };
 
 }  // namespace kata::transport
