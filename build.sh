@@ -93,14 +93,19 @@ demo() {
   local kata=build/bin/kata linger=()
   # On a terminal the viewer stays up until Ctrl-C; otherwise (scripts, CI) the demo ends.
   [ -t 0 ] || linger=(--linger "${DEMO_LINGER:-0}")
-  echo "== kata coach: the viewer is at http://127.0.0.1:${DEMO_PORT:-8765}/ (open it in a browser)"
+  local page=""
+  case " ${DEMO_ARGS:-} " in *" --webcam "*) page=webcam.html ;; esac
+  echo "== kata coach: the viewer is at http://127.0.0.1:${DEMO_PORT:-8765}/$page (open it in a browser)"
+  rm -f build/lesson.npz build/lesson-report.html
   trap ':' INT  # Ctrl-C ends the coach (it finishes cleanly), not this script
   # shellcheck disable=SC2086
   "$kata" coach --port "${DEMO_PORT:-8765}" --report build/lesson-report.html --record build/lesson.npz \
     "${linger[@]}" ${DEMO_ARGS:-}
   trap - INT
-  echo "== the report: file://$PWD/build/lesson-report.html"
-  echo "== watch the lesson again: $kata coach --replay build/lesson.npz"
+  [ -f build/lesson-report.html ] && echo "== the report: file://$PWD/build/lesson-report.html"
+  # (a webcam lesson records what --record-student asks for, not a replay)
+  [ -f build/lesson.npz ] && echo "== watch the lesson again: $kata coach --replay build/lesson.npz"
+  return 0
 }
 
 # Builds the fuzz targets (tests/fuzz/README.md) and runs each for FUZZ_SECONDS over its seed

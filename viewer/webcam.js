@@ -76,7 +76,9 @@ setInterval(() => {
 }, 2000);
 
 // ---- frames to kata
-let seq = 0, chain = Promise.resolve();
+// A page reloaded into a running lesson continues kata's stream (setup: next_seq and
+// last_capture_ms): numbered after kata's frames, its capture times shifted past the last one.
+let seq = 0, clockShift = 0, chain = Promise.resolve();
 function sendFrame(world, captureMs, landmarksMs) {
   const n = world ? LANDMARKS : 0;
   const buf = new ArrayBuffer(48 + 16 * n);
@@ -85,8 +87,8 @@ function sendFrame(world, captureMs, landmarksMs) {
   v.setUint32(4, n, true);
   const s = seq++;
   v.setFloat64(8, s, true);
-  v.setFloat64(16, captureMs, true);
-  v.setFloat64(24, landmarksMs, true);
+  v.setFloat64(16, captureMs + clockShift, true);
+  v.setFloat64(24, landmarksMs + clockShift, true);
   for (let j = 0; j < n; ++j) {
     const p = world[j];
     v.setFloat32(48 + 16 * j, p.x, true);
@@ -223,6 +225,8 @@ function paint() {
 async function main() {
   setup = await (await fetch("webcam/setup")).json();
   hook.mode = setup.mode;
+  seq = setup.next_seq || 0;
+  if (setup.last_capture_ms >= 0) clockShift = Math.max(0, setup.last_capture_ms + 1 - performance.now());
   const complexity = Number(params.get("complexity") ?? setup.complexity ?? 0);
   hook.complexity = complexity;
   select.value = String(complexity);

@@ -10,7 +10,8 @@ photograph, the wall and the door with nobody in it, is the camera with no perso
 
   1. With the person: MediaPipe Pose (lite, WebAssembly on the CPU: --disable-gpu, so WebGL is
      SwiftShader's) finds the 33 landmarks, the page sends them, kata's results arrive, the state
-     goes from calibrating to scored, the ghost comes with the scores, no console error.
+     goes from calibrating to scored, the ghost comes with the scores, no console error; the
+     page reloaded mid-lesson continues it (its frames are taken, none refused).
   2. The page adds nothing but transport: the landmarks kata received (--record-student, .npy +
      .times.npy) read back by `kata score` from the file give, frame by frame, the scores the page
      received.
@@ -164,6 +165,17 @@ def main():
         per_frame = (time.monotonic() - t_first) / max(1, h["personFrames"])
         print(f"person: states {states}, {h['personFrames']} frames with landmarks, {h['results']} results, "
               f"{h['scored']} scored; {per_frame:.2f} s per camera frame; latency {json.dumps(h['latency'])}")
+        # A reload continues the lesson: the page numbers and times its frames after the ones kata
+        # has (a reloaded page's clock starts at 0 again; kata refused every frame as not increasing).
+        before = status(port)
+        driver.refresh()
+        wait_for("scored results after a reload", lambda: (hook() or {}).get("scored", 0) >= 3, 240)
+        s = status(port)
+        assert s["refused"] == 0 and s["malformed"] == 0, s
+        assert s["pushed"] > before["pushed"], (before, s)
+        assert not hook()["errors"], f"page errors after the reload: {hook()['errors']}"
+        print(f"reload: {s['pushed'] - before['pushed']} more frames pushed, none refused "
+              f"[{time.monotonic() - started:.0f} s]")
         driver.quit()
         driver = None
         assert stop(coach) == 0, open(log).read()

@@ -356,8 +356,13 @@ WebcamCoach::WebcamCoach(const WebcamSettings& settings, const std::string& stat
   m.server.set_file_extension_and_mimetype_mapping("data", "application/octet-stream");
   m.server.Get("/", [](const httplib::Request&, httplib::Response& res) { res.set_redirect("/webcam.html"); });
   m.server.Get("/webcam/setup", [this](const httplib::Request&, httplib::Response& res) {
+    std::lock_guard<std::mutex> lock(impl_->mutex);
     const Impl& i = *impl_;
-    nlohmann::json j = {{"mode", i.recording_teacher ? "record-teacher" : "lesson"},
+    // A page (re)loaded into a running lesson continues it: its numbering after the frames kata
+    // has, its capture times after the last one (a reloaded page's clock starts again at 0).
+    nlohmann::json j = {{"next_seq", i.frames.size()},
+                        {"last_capture_ms", i.last_time >= 0 ? i.last_time * 1e3 : -1.0},
+                        {"mode", i.recording_teacher ? "record-teacher" : "lesson"},
                         {"teacher", i.recording_teacher ? "" : i.settings.teacher},
                         {"teacher_frames", i.teacher_frames},
                         {"teacher_frame_time", i.teacher_frame_time},
