@@ -117,7 +117,14 @@ void set_timestamps(MotionSource& m, const double* raw, size_t count, TimeUnits 
   if (count != static_cast<size_t>(m.frames))
     throw Error(ErrorKind::kParse, m.path + ": " + std::to_string(count) + " timestamps for " + std::to_string(m.frames) +
                                        " frames");
-  const TimeUnits resolved = resolve_time_units(raw, count, units, m.path);
+  // A file's timestamps are its content: what is wrong with them is a parse error of the file
+  // (resolve_time_units says kInvalidArgument, as the C ABI's detection reports it).
+  TimeUnits resolved;
+  try {
+    resolved = resolve_time_units(raw, count, units, m.path);
+  } catch (const Error& e) {
+    throw Error(ErrorKind::kParse, e.what());
+  }
   const double scale = seconds_per_unit(resolved);
   m.times.resize(count);
   for (size_t i = 0; i < count; ++i) m.times[i] = (raw[i] - raw[0]) * scale;
