@@ -23,6 +23,7 @@
 #include "io/clip_features.hpp"
 #include "transport/curve.hpp"
 #include "transport/wire.hpp"
+#include "transport/zmq_io.hpp"
 
 namespace {
 
@@ -68,15 +69,9 @@ class PeerWatch {
 
   // Reads the events and subscriptions so far (never blocks).
   void poll() {
-    for (;;) {
-      uint8_t event[6];
-      if (zmq_recv(monitor_, event, sizeof event, ZMQ_DONTWAIT) < 0) break;
-      char endpoint[256];
-      zmq_recv(monitor_, endpoint, sizeof endpoint, 0);
-      uint16_t kind;
-      uint32_t value;
-      std::memcpy(&kind, event, 2);
-      std::memcpy(&value, event + 2, 4);
+    uint16_t kind;
+    uint32_t value;
+    while (kata::transport::read_socket_event(monitor_, &kind, &value)) {
       if (kind == ZMQ_EVENT_CONNECTED || kind == ZMQ_EVENT_ACCEPTED) {
         ++connections_;
         ++handshaking_;

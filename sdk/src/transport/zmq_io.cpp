@@ -137,6 +137,17 @@ std::atomic<uint64_t> g_monitor_counter{0};
 
 }  // namespace
 
+bool read_socket_event(void* monitor, uint16_t* kind, uint32_t* value) {
+  // Two parts: (uint16 event, uint32 value) and the endpoint.
+  uint8_t event[6];
+  if (zmq_recv(monitor, event, sizeof event, ZMQ_DONTWAIT) < 0) return false;
+  char endpoint[256];
+  zmq_recv(monitor, endpoint, sizeof endpoint, 0);
+  std::memcpy(kind, event, 2);
+  std::memcpy(value, event + 2, 4);
+  return true;
+}
+
 Ingest::Ingest(Context& context, const IngestOptions& options, Handlers handlers)
     : decoder_(options.max_message_bytes, options.require_checksum), handlers_(std::move(handlers)),
       table_(options.limits) {
@@ -198,16 +209,10 @@ Ingest::~Ingest() {
 }
 
 void Ingest::read_connection_events() {
-  // Connection events: two parts, (uint16 event, uint32 value = the descriptor) and the endpoint.
-  for (int guard = 0; monitor_ && guard < 4096; ++guard) {
-    uint8_t event[6];
-    if (zmq_recv(monitor_, event, sizeof event, ZMQ_DONTWAIT) < 0) break;
-    char endpoint[256];
-    zmq_recv(monitor_, endpoint, sizeof endpoint, 0);
-    uint16_t kind;
-    uint32_t value;
-    std::memcpy(&kind, event, 2);
-    std::memcpy(&value, event + 2, 4);
+  // Connection events (the value is the descriptor for these kinds).
+  uint16_t kind;
+  uint32_t value;
+  for (int guard = 0; monitor_ && guard < 4096 && read_socket_event(monitor_, &kind, &value); ++guard) {
     const int fd = static_cast<int>(value);
     if (kind == ZMQ_EVENT_ACCEPTED || kind == ZMQ_EVENT_CONNECTED) {
       ++counters_.connections;

@@ -90,6 +90,10 @@ class Publisher {
 
 enum class IngestKind { kSub, kPull };
 
+// Reads one event of a zmq_socket_monitor PAIR socket without blocking: its kind (ZMQ_EVENT_*)
+// and value (a descriptor, an error or a status, by kind). False when none is waiting.
+bool read_socket_event(void* monitor, uint16_t* kind, uint32_t* value);
+
 struct IngestOptions {
   // Endpoints; "bind:" before an endpoint binds it, otherwise it is connected (a SUB connects
   // to a mocap stage's PUB; a PULL usually binds so several senders can push to it).
