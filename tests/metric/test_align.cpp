@@ -3,14 +3,18 @@
 // the true ones.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <utility>
+#include <vector>
 
 #include "common/error.hpp"
 #include "fixtures.hpp"
 #include "metric/align.hpp"
+#include "metric/align_pass.hpp"
 #include "stream/stream.hpp"
 
 namespace kata {
@@ -134,6 +138,72 @@ TEST(Aligner, PoseReferenceAlwaysMatchesFrameZero) {
 
 INSTANTIATE_TEST_SUITE_P(Clips, Align,
                          ::testing::Values("02_01.bvh", "02_02.bvh", "05_02.bvh", "05_03.bvh", "07_01.bvh", "09_01.bvh"));
+
+
+// The alignment's pass over the section (align_pass.hpp): every dispatched kernel gives, for each
+// teacher row, exactly the baseline's float distance, and that distance is the plain formula in
+// double to float rounding. Rows of random and extreme-but-finite values, row counts around the
+// kernel's blocks of eight (tails of 0-7 rows), strides of 8 to 64.
+TEST(Kernels, AlignmentDistancesMatchThePlainFormula) {
+  std::srand(7);
+  auto value = [] { return (static_cast<float>(std::rand()) / RAND_MAX - 0.5f) * 4.0f; };
+  for (int stride : {8, 16, 56, 64})
+    for (int m : {1, 7, 8, 9, 15, 16, 61, 1829}) {
+      std::vector<float> s(static_cast<size_t>(stride)), rows(static_cast<size_t>(m) * stride);
+      for (float& v : s) v = value();
+      for (float& v : rows) v = value();
+      rows[0] = 1e18f;  // a huge but finite coordinate: its square still fits a float
+      std::vector<float> fast(static_cast<size_t>(m)), base(static_cast<size_t>(m));
+      metric::detail::alignment_distances(s.data(), rows.data(), m, stride, fast.data());
+      metric::detail::base::alignment_distances(s.data(), rows.data(), m, stride, base.data());
+      for (int j = 0; j < m; ++j) {
+        ASSERT_EQ(fast[j], base[j]) << "stride " << stride << " rows " << m << " row " << j;
+        double d2 = 0.0;
+        for (int c = 0; c < stride; ++c) {
+          const double e = static_cast<double>(s[c]) - rows[static_cast<size_t>(j) * stride + c];
+          d2 += e * e;
+        }
+        ASSERT_NEAR(base[j], std::sqrt(d2), 1e-5 * std::sqrt(d2) + 1e-6) << "stride " << stride << " row " << j;
+      }
+    }
+}
+
+
+// The alignment's dynamic programme (align_pass.hpp): the dispatched step equals, bit for bit, the
+// recurrence written out plainly here (every k, the wrap of a loop, the re-basing on the first
+// least cost), on sections anywhere in the clip, with and without a loop, for steps up to 9.
+TEST(Kernels, AlignmentStepMatchesThePlainRecurrence) {
+  std::srand(11);
+  auto value = [] { return static_cast<double>(std::rand()) / RAND_MAX * 3.0; };
+  const int frames = 300;
+  for (bool loop : {false, true})
+    for (int k_max : {1, 2, 5, 9})
+      for (auto [a, b] : {std::pair{0, frames - 1}, std::pair{17, 40}, std::pair{100, 110}}) {
+        std::vector<double> prev(frames), pk(static_cast<size_t>(k_max) + 1), fast(frames, -1.0), plain(frames, -1.0);
+        std::vector<float> c(frames);
+        for (double& v : prev) v = value();
+        for (float& v : c) v = static_cast<float>(value());
+        for (double& v : pk) v = value() * 0.1;
+        const double jump = 2.0;
+        const int best = metric::detail::alignment_step(prev.data(), fast.data(), c.data(), a, b, pk.data(), k_max, jump, loop);
+        const int n = b - a + 1;
+        for (int j = a; j <= b; ++j) {
+          double m = jump;
+          for (int k = 0; k <= k_max; ++k) {
+            if (j - k >= a) m = std::min(m, prev[j - k] + pk[k]);
+            else if (loop) m = std::min(m, prev[j - k + n] + pk[k]);
+          }
+          plain[j] = m + c[j];
+        }
+        int plain_best = a;
+        for (int j = a; j <= b; ++j)
+          if (plain[j] < plain[plain_best]) plain_best = j;
+        const double base = plain[plain_best];
+        for (int j = a; j <= b; ++j) plain[j] -= base;
+        ASSERT_EQ(best, plain_best) << "loop " << loop << " k_max " << k_max << " section " << a << ".." << b;
+        for (int j = 0; j < frames; ++j) ASSERT_EQ(fast[j], plain[j]) << "frame " << j << " section " << a << ".." << b;
+      }
+}
 
 }  // namespace
 }  // namespace kata
