@@ -5,7 +5,10 @@
 // whole-clip pass's distance part on its own.
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
+#include <chrono>
 #include <memory>
+#include <thread>
 #include <string>
 #include <vector>
 
@@ -73,6 +76,44 @@ void Align_Relocating(benchmark::State& state) { run_aligner(state, 0.2); }
 BENCHMARK(Align_Relocating);
 void Align_NoRelocation(benchmark::State& state) { run_aligner(state, 0.0); }
 BENCHMARK(Align_NoRelocation);
+
+// The same aligner when a live frame finds the caches cold: between two frames, an 8.3 ms sleep
+// (a 120 Hz stream: what the machine leaves in the caches meanwhile) or a 64 MiB write (every
+// data line cold). Counter p50_us: the median wall time of one align() of 240.
+void run_aligner_paced(benchmark::State& state) {
+  const AlignFixture& f = align_fixture();
+  metric::Aligner aligner(f.ref, metric::AlignmentOptions{});
+  const bool evict = state.range(0) == 1;
+  std::vector<char> buffer(evict ? (64u << 20) : 0, 1);
+  std::vector<double> took;
+  took.reserve(static_cast<size_t>(state.max_iterations));
+  int i = 0;
+  char sink = 0;
+  for (auto _ : state) {
+    if (evict) {
+      for (size_t k = 0; k < buffer.size(); k += 64) buffer[k] = static_cast<char>(buffer[k] + 1);
+      sink = static_cast<char>(sink + buffer[buffer.size() / 2]);
+    } else {
+      std::this_thread::sleep_for(std::chrono::microseconds(8333));
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    benchmark::DoNotOptimize(aligner.align(f.student.data() + static_cast<size_t>(i) * f.stride, i / 120.0));
+    const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    state.SetIterationTime(dt);
+    took.push_back(dt);
+    if (++i == f.n) i = 0;
+  }
+  benchmark::DoNotOptimize(sink);
+  std::nth_element(took.begin(), took.begin() + static_cast<long>(took.size() / 2), took.end());
+  state.counters["p50_us"] = took.empty() ? 0.0 : 1e6 * took[took.size() / 2];
+}
+BENCHMARK(run_aligner_paced)
+    ->Name("Align_RelocatingPaced")
+    ->ArgName("sleep0_evictall1")
+    ->DenseRange(0, 1)
+    ->UseManualTime()
+    ->Iterations(240)
+    ->Unit(benchmark::kMicrosecond);
 
 // The distances alone: one dist2f of stride floats per teacher frame.
 void Align_DistancePass(benchmark::State& state) {

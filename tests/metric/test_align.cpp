@@ -3,14 +3,19 @@
 // the true ones.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <cstdlib>
 #include <functional>
+#include <utility>
+#include <vector>
 
 #include "common/error.hpp"
 #include "fixtures.hpp"
 #include "metric/align.hpp"
+#include "metric/align_pass.hpp"
 #include "stream/stream.hpp"
 
 namespace kata {
@@ -134,6 +139,139 @@ TEST(Aligner, PoseReferenceAlwaysMatchesFrameZero) {
 
 INSTANTIATE_TEST_SUITE_P(Clips, Align,
                          ::testing::Values("02_01.bvh", "02_02.bvh", "05_02.bvh", "05_03.bvh", "07_01.bvh", "09_01.bvh"));
+
+
+// The alignment's pass over the section (align_pass.hpp): every dispatched kernel gives, for each
+// teacher row, exactly the baseline's float distance, and that distance is the plain formula in
+// double to float rounding. Rows of random and extreme-but-finite values, row counts around the
+// kernel's blocks of eight (tails of 0-7 rows), strides of 8 to 64.
+TEST(Kernels, AlignmentDistancesMatchThePlainFormula) {
+  std::srand(7);
+  auto value = [] { return (static_cast<float>(std::rand()) / RAND_MAX - 0.5f) * 4.0f; };
+  for (int stride : {8, 16, 56, 64})
+    for (int m : {1, 7, 8, 9, 15, 16, 61, 1829}) {
+      std::vector<float> s(static_cast<size_t>(stride)), rows(static_cast<size_t>(m) * stride);
+      for (float& v : s) v = value();
+      for (float& v : rows) v = value();
+      rows[0] = 1e18f;  // a huge but finite coordinate: its square still fits a float
+      std::vector<float> fast(static_cast<size_t>(m)), base(static_cast<size_t>(m));
+      metric::detail::alignment_distances(s.data(), rows.data(), m, stride, fast.data());
+      metric::detail::base::alignment_distances(s.data(), rows.data(), m, stride, base.data());
+      for (int j = 0; j < m; ++j) {
+        ASSERT_EQ(fast[j], base[j]) << "stride " << stride << " rows " << m << " row " << j;
+        double d2 = 0.0;
+        for (int c = 0; c < stride; ++c) {
+          const double e = static_cast<double>(s[c]) - rows[static_cast<size_t>(j) * stride + c];
+          d2 += e * e;
+        }
+        ASSERT_NEAR(base[j], std::sqrt(d2), 1e-5 * std::sqrt(d2) + 1e-6) << "stride " << stride << " row " << j;
+      }
+    }
+}
+
+
+// The alignment's dynamic programme (align_pass.hpp): the dispatched step equals, bit for bit, the
+// recurrence written out plainly here (every k, the wrap of a loop, the re-basing on the first
+// least cost), on sections anywhere in the clip, with and without a loop, for steps up to 9.
+TEST(Kernels, AlignmentStepMatchesThePlainRecurrence) {
+  std::srand(11);
+  auto value = [] { return static_cast<double>(std::rand()) / RAND_MAX * 3.0; };
+  const int frames = 300;
+  for (bool loop : {false, true})
+    for (int k_max : {1, 2, 5, 9})
+      for (auto [a, b] : {std::pair{0, frames - 1}, std::pair{17, 40}, std::pair{100, 110}}) {
+        std::vector<double> prev(frames), pk(static_cast<size_t>(k_max) + 1), fast(frames, -1.0), plain(frames, -1.0);
+        std::vector<float> c(frames);
+        for (double& v : prev) v = value();
+        for (float& v : c) v = static_cast<float>(value());
+        for (double& v : pk) v = value() * 0.1;
+        const double jump = 2.0;
+        const int best = metric::detail::alignment_step(prev.data(), fast.data(), c.data(), a, b, pk.data(), k_max, jump, loop);
+        const int n = b - a + 1;
+        for (int j = a; j <= b; ++j) {
+          double m = jump;
+          for (int k = 0; k <= k_max; ++k) {
+            if (j - k >= a) m = std::min(m, prev[j - k] + pk[k]);
+            else if (loop) m = std::min(m, prev[j - k + n] + pk[k]);
+          }
+          plain[j] = m + c[j];
+        }
+        int plain_best = a;
+        for (int j = a; j <= b; ++j)
+          if (plain[j] < plain[plain_best]) plain_best = j;
+        const double base = plain[plain_best];
+        for (int j = a; j <= b; ++j) plain[j] -= base;
+        ASSERT_EQ(best, plain_best) << "loop " << loop << " k_max " << k_max << " section " << a << ".." << b;
+        for (int j = 0; j < frames; ++j) ASSERT_EQ(fast[j], plain[j]) << "frame " << j << " section " << a << ".." << b;
+      }
+}
+
+
+// IEEE half precision for the alignment's rows: every one of the 65,536 halves converts exactly
+// (checked against sign x mantissa x 2^exponent in double), and a float becomes the nearest half
+// (ties to even) for normals, subnormals and the overflow to infinity.
+TEST(Kernels, HalfPrecisionConversionsAreIeee) {
+  for (uint32_t h = 0; h < 65536; ++h) {
+    const uint32_t e = (h >> 10) & 31, m = h & 1023;
+    const float f = metric::detail::half_to_float(static_cast<uint16_t>(h));
+    if (e == 31) {
+      ASSERT_TRUE(m ? std::isnan(f) : std::isinf(f)) << h;
+      continue;
+    }
+    const double want = (h & 0x8000 ? -1.0 : 1.0) * (e == 0 ? std::ldexp(m, -24) : std::ldexp(1024 + m, static_cast<int>(e) - 25));
+    ASSERT_EQ(static_cast<double>(f), want) << h;
+    ASSERT_EQ(std::signbit(f), (h & 0x8000) != 0) << h;
+    ASSERT_EQ(metric::detail::float_to_half(f), h) << "round trip of " << h;
+  }
+  std::srand(5);
+  for (int i = 0; i < 100000; ++i) {
+    const float f = std::ldexp(static_cast<float>(std::rand()) / RAND_MAX - 0.5f, std::rand() % 44 - 28);
+    const uint16_t h = metric::detail::float_to_half(f);
+    const double got = metric::detail::half_to_float(h);
+    // No other half is nearer; on a tie the chosen one is even.
+    for (int d : {-1, 1}) {
+      const double other = metric::detail::half_to_float(static_cast<uint16_t>(h + d));
+      if (std::isinf(other) || ((h & 0x7fff) == 0 && d == -1)) continue;
+      ASSERT_LE(std::fabs(got - f), std::fabs(other - f)) << f;
+      if (std::fabs(got - f) == std::fabs(other - f)) {
+        ASSERT_EQ(h & 1, 0) << f;
+      }
+    }
+  }
+  EXPECT_EQ(metric::detail::float_to_half(65504.0f), 0x7bff);
+  EXPECT_EQ(metric::detail::float_to_half(65519.0f), 0x7bff);
+  EXPECT_EQ(metric::detail::float_to_half(65520.0f), 0x7c00);
+  EXPECT_EQ(metric::detail::float_to_half(-1e30f), 0xfc00);
+  EXPECT_EQ(metric::detail::float_to_half(std::ldexp(1.0f, -25)), 0);  // a tie to even, 0
+  EXPECT_EQ(metric::detail::float_to_half(std::ldexp(3.0f, -25)), 2);  // a tie to even, 2^-23
+}
+
+// The live aligner's pass over half-precision rows: every dispatched kernel equals the baseline
+// bit for bit, and both equal the plain formula in double on the rows' half values, scaled.
+TEST(Kernels, HalfRowAlignmentDistancesMatchThePlainFormula) {
+  std::srand(9);
+  auto value = [] { return (static_cast<float>(std::rand()) / RAND_MAX - 0.5f) * 40.0f; };
+  for (float scale : {1.0f, 4.0f})
+    for (int stride : {8, 56, 64})
+      for (int m : {1, 7, 8, 9, 61, 1829}) {
+        std::vector<float> s(static_cast<size_t>(stride));
+        std::vector<uint16_t> rows(static_cast<size_t>(m) * stride);
+        for (float& v : s) v = value();
+        for (uint16_t& v : rows) v = metric::detail::float_to_half(value());
+        std::vector<float> fast(static_cast<size_t>(m)), base(static_cast<size_t>(m));
+        metric::detail::alignment_distances_half(s.data(), rows.data(), m, stride, scale, fast.data());
+        metric::detail::base::alignment_distances_half(s.data(), rows.data(), m, stride, scale, base.data());
+        for (int j = 0; j < m; ++j) {
+          ASSERT_EQ(fast[j], base[j]) << "stride " << stride << " rows " << m << " row " << j;
+          double d2 = 0.0;
+          for (int c = 0; c < stride; ++c) {
+            const double e = static_cast<double>(s[c]) - metric::detail::half_to_float(rows[static_cast<size_t>(j) * stride + c]);
+            d2 += e * e;
+          }
+          ASSERT_NEAR(base[j], scale * std::sqrt(d2), 1e-5 * scale * std::sqrt(d2) + 1e-6) << "row " << j;
+        }
+      }
+}
 
 }  // namespace
 }  // namespace kata

@@ -6,6 +6,7 @@
 #include <string>
 
 #include "common/error.hpp"
+#include "metric/align_pass.hpp"
 
 namespace kata::metric {
 
@@ -30,6 +31,8 @@ Aligner::Aligner(std::shared_ptr<const Reference> reference, AlignmentOptions op
   cost_prev_.assign(static_cast<size_t>(frames), 0.0);
   cost_cur_.assign(static_cast<size_t>(frames), 0.0);
   local_.assign(static_cast<size_t>(frames), 0.0f);
+  step_costs_.assign(static_cast<size_t>(span_) + 1, 0.0);
+  scaled_.assign(static_cast<size_t>(reference_->metric().stride()), 0.0f);
   match_ = first_;
 }
 
@@ -59,8 +62,13 @@ int Aligner::align(const float* s, double t) {
   const int stride = ref.metric().stride();
   const double ft = ref.frame_time();
   float* c = local_.data();
-  for (int j = a; j <= b; ++j) c[j] = std::sqrt(detail::dist2f(s, ref.alignment_projection(j), stride));
+  // The pass over the section reads the half-precision rows (half the bytes from a cold cache).
+  const float inv = 1.0f / ref.alignment_half_scale();  // a power of two: exact
+  float* scaled = scaled_.data();
+  for (int i = 0; i < stride; ++i) scaled[i] = s[i] * inv;
+  detail::alignment_distances_half(scaled, ref.alignment_rows_half(a), n, stride, ref.alignment_half_scale(), c + a);
   double* cur = cost_cur_.data();
+  int best = a;
   if (!started_) {
     // Open begin: a path starts anywhere, those outside the band at the section's start for a
     // tenth of a jump: enough that a student who starts with the teacher is not placed in a
@@ -69,6 +77,8 @@ int Aligner::align(const float* s, double t) {
     student_dt_ = ft;
     const double prior = 0.1 * jump_cost();
     for (int j = a; j <= b; ++j) cur[j] = c[j] + (j - a <= span_ ? 0.0 : prior);
+    // Re-based on the section's cheapest frame, the best place anywhere.
+    best = detail::alignment_rebase(cur, a, b);
   } else {
     const double dt = std::max(0.0, t - last_time_);
     // The jump cost is set in seconds, so it follows the student's frame rate, smoothed over
@@ -82,23 +92,14 @@ int Aligner::align(const float* s, double t) {
     std::swap(cost_prev_, cost_cur_);
     cur = cost_cur_.data();
     const double* prev = cost_prev_.data();
-    // One pass per step k over the section (the inner loops vectorise): a jump from the best
-    // place (0 after the re-basing below), or a step of k from j - k.
-    for (int j = a; j <= b; ++j) cur[j] = jump;
-    for (int k = 0; k <= k_max; ++k) {
-      const double pk = penalty * std::max(0.0, k - advance) + hold * std::max(0.0, advance - k);
-      for (int j = a + k; j <= b; ++j) cur[j] = std::min(cur[j], prev[j - k] + pk);
-      if (options_.loop)  // the section's end is followed by its start
-        for (int j = a; j < a + k; ++j) cur[j] = std::min(cur[j], prev[j - k + n] + pk);
-    }
-    for (int j = a; j <= b; ++j) cur[j] += c[j];
+    // One pass per step k over the section (align_pass_kernel.inl; the inner loops vectorise): a
+    // jump from the best place (0 after the re-basing), or a step of k from j - k; then re-based
+    // on the section's cheapest frame, the best place anywhere.
+    double* pk = step_costs_.data();
+    for (int k = 0; k <= k_max; ++k)
+      pk[k] = penalty * std::max(0.0, k - advance) + hold * std::max(0.0, advance - k);
+    best = detail::alignment_step(prev, cur, c, a, b, pk, k_max, jump, options_.loop);
   }
-  // Re-base on the section's cheapest frame, the best place anywhere.
-  int best = a;
-  for (int j = a + 1; j <= b; ++j)
-    if (cur[j] < cur[best]) best = j;
-  const double base = cur[best];
-  for (int j = a; j <= b; ++j) cur[j] -= base;
   if (!started_) {
     match_ = best;
     started_ = true;

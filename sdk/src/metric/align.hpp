@@ -101,6 +101,8 @@ class Aligner {
   int first_ = 0, last_ = 0, span_ = 1;
   std::vector<double> cost_prev_, cost_cur_;  // accumulated cost D over teacher frames
   std::vector<float> local_;                  // c(n, j) of this frame
+  std::vector<double> step_costs_;            // the cost of a step of k frames, k <= span_
+  std::vector<float> scaled_;                 // the student's row / the reference's half scale
   bool started_ = false;
   int match_ = 0;
   int64_t relocations_ = 0;

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "common/error.hpp"
+#include "metric/align_pass.hpp"
 
 namespace kata::metric {
 
@@ -43,6 +44,13 @@ void Reference::build(const float* features) {
     std::copy(part_projection(j) + static_cast<size_t>(kParts) * stride_,
               part_projection(j) + static_cast<size_t>(kParts + 1) * stride_,
               align_rows_.data() + static_cast<size_t>(j) * stride_);
+  float largest = 0.0f;
+  for (size_t i = 0; i < static_cast<size_t>(frames_) * stride_; ++i) largest = std::max(largest, std::fabs(align_rows_.data()[i]));
+  align_half_scale_ = 1.0f;
+  while (largest / align_half_scale_ > 16384.0f) align_half_scale_ *= 2.0f;
+  align_half_.resize(static_cast<size_t>(frames_) * stride_);
+  for (size_t i = 0; i < align_half_.size(); ++i)
+    align_half_[i] = detail::float_to_half(align_rows_.data()[i] / align_half_scale_);
   if (frames_ > 1) {
     std::vector<double> steps(static_cast<size_t>(frames_ - 1));
     for (int j = 0; j + 1 < frames_; ++j)

@@ -8,7 +8,9 @@
 // threads and streams.
 #pragma once
 
+#include <cstdint>
 #include <memory>
+#include <vector>
 
 #include "metric/metric.hpp"
 
@@ -47,6 +49,11 @@ class Reference {
   // The static-blocks projection of frame j (stride floats): what the alignment compares. A
   // contiguous copy (frames x stride), so the alignment's pass over the whole clip streams it.
   const float* alignment_projection(int j) const { return align_rows_.data() + static_cast<size_t>(j) * stride_; }
+  // The same rows in IEEE half precision, each value divided by alignment_half_scale() (a power
+  // of two keeping every value within +-16384, so none overflows): what the live aligner streams
+  // every frame (align_pass.hpp), half the bytes of the float rows. Relative rounding 2^-11.
+  const uint16_t* alignment_rows_half(int j) const { return align_half_.data() + static_cast<size_t>(j) * stride_; }
+  float alignment_half_scale() const { return align_half_scale_; }
 
  private:
   void build(const float* features);
@@ -59,6 +66,8 @@ class Reference {
   double spread_ = 0.0;
   AlignedFloats rows_;
   AlignedFloats align_rows_;
+  std::vector<uint16_t> align_half_;
+  float align_half_scale_ = 1.0f;
 };
 
 }  // namespace kata::metric

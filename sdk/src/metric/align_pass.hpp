@@ -1,0 +1,53 @@
+// The re-localising alignment's pass over the whole practice section (issue 21): each student
+// frame is compared with every teacher frame of the section, the largest per-frame cost of a
+// clip lesson after the ghost (1,829 teacher frames in the default lesson). Kept apart from the
+// scoring kernels: the pass is plain distances over contiguous rows, and its AVX2 form needs
+// none of the projection's machinery.
+#pragma once
+
+#include <cstdint>
+
+namespace kata::metric::detail {
+
+// out[j] = sqrt(sum over c < stride of (s[c] - rows[j * stride + c])^2) for j < m, each equal
+// bit for bit to std::sqrt(dist2f(s, rows + j * stride, stride)) on every CPU (the same eight
+// partial sums, added in the same order; no fused multiply-adds). stride is a multiple of 8.
+// Dispatches at run time (common/cpu.hpp), as do the two below.
+void alignment_distances(const float* s, const float* rows, int m, int stride, float* out);
+
+// The live aligner's form: the rows held in IEEE half precision, each divided by a power of two
+// `scale` first (Reference::alignment_rows_half), which halves the bytes the pass reads from
+// memory when a paced frame finds the caches cold (410 KB -> 205 KB for the default lesson).
+// out[j] = scale * sqrt(sum over c of (s_scaled[c] - half_to_float(rows[j * stride + c]))^2), with
+// s_scaled = s / scale (the caller's), eight partial sums in dist2f's order: equal bit for bit on
+// every CPU.
+void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out);
+
+// IEEE binary16 conversions (round to nearest even; exact the other way), for machines without F16C.
+uint16_t float_to_half(float f);
+float half_to_float(uint16_t h);
+
+// One frame of the alignment's dynamic programme over the section [a, b] (align.cpp says what
+// the costs mean): cur[j] = c[j] + the least of `jump` and, for k <= k_max, prev[j - k] + pk[k]
+// (j - k counted from the section's end when `loop`); then alignment_rebase. Dispatches.
+int alignment_step(const double* prev, double* cur, const float* c, int a, int b, const double* pk, int k_max,
+                   double jump, bool loop);
+// Subtracts the least cur[j], j in [a, b], from all of them; returns its index (the first).
+int alignment_rebase(double* cur, int a, int b);
+
+namespace base {
+void alignment_distances(const float* s, const float* rows, int m, int stride, float* out);
+void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out);
+int alignment_step(const double* prev, double* cur, const float* c, int a, int b, const double* pk, int k_max,
+                   double jump, bool loop);
+int alignment_rebase(double* cur, int a, int b);
+}
+namespace avx2 {
+void alignment_distances(const float* s, const float* rows, int m, int stride, float* out);
+void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out);
+int alignment_step(const double* prev, double* cur, const float* c, int a, int b, const double* pk, int k_max,
+                   double jump, bool loop);
+int alignment_rebase(double* cur, int a, int b);
+}
+
+}  // namespace kata::metric::detail

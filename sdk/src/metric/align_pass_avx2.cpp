@@ -1,0 +1,88 @@
+// The alignment pass for AVX2 (compiled with -march=x86-64-v3 by kata_avx2_sources; called only
+// after kata::cpu_has_avx2()). Eight teacher rows at a time: one 8-lane accumulator per row
+// (lane l sums the elements c + l, as dist2f does), then the eight accumulators reduced together
+// by two rounds of horizontal adds, which add lanes in dist2f's order ((0+1)+(2+3))+((4+5)+(6+7)),
+// and one vector square root for the eight rows. Separate multiply and add, never fused, so the
+// distances equal the baseline's bit for bit and the alignment places a student identically on
+// every CPU. The dynamic programme's loops (align_pass_kernel.inl) are compiled here too.
+#include "metric/align_pass.hpp"
+
+#include <algorithm>
+#include <cstddef>
+
+#if defined(__AVX2__)
+#include <immintrin.h>
+
+namespace kata::metric::detail::avx2 {
+
+namespace {
+// Rows 0-7's eight-lane accumulators -> their eight sums, lanes added as dist2f adds them.
+inline __m256 row_sums(const __m256* acc) {
+  // Round 1: [r0: 0+1, 2+3 | r1: 0+1, 2+3 || r0: 4+5, 6+7 | r1: 4+5, 6+7] for row pairs.
+  const __m256 h01 = _mm256_hadd_ps(acc[0], acc[1]), h23 = _mm256_hadd_ps(acc[2], acc[3]);
+  const __m256 h45 = _mm256_hadd_ps(acc[4], acc[5]), h67 = _mm256_hadd_ps(acc[6], acc[7]);
+  // Round 2: lanes 0-3 hold rows 0-3's (0+1)+(2+3), lanes 4-7 their (4+5)+(6+7); likewise 4-7.
+  const __m256 q0 = _mm256_hadd_ps(h01, h23), q1 = _mm256_hadd_ps(h45, h67);
+  return _mm256_add_ps(_mm256_permute2f128_ps(q0, q1, 0x20), _mm256_permute2f128_ps(q0, q1, 0x31));
+}
+}  // namespace
+
+void alignment_distances(const float* s, const float* rows, int m, int stride, float* out) {
+  int j = 0;
+  for (; j + 8 <= m; j += 8) {
+    const float* r = rows + static_cast<size_t>(j) * stride;
+    __m256 acc[8];
+    for (int i = 0; i < 8; ++i) acc[i] = _mm256_setzero_ps();
+    for (int c = 0; c < stride; c += 8) {
+      const __m256 x = _mm256_loadu_ps(s + c);
+      for (int i = 0; i < 8; ++i) {
+        const __m256 e = _mm256_sub_ps(x, _mm256_loadu_ps(r + static_cast<size_t>(i) * stride + c));
+        acc[i] = _mm256_add_ps(acc[i], _mm256_mul_ps(e, e));
+      }
+    }
+    _mm256_storeu_ps(out + j, _mm256_sqrt_ps(row_sums(acc)));
+  }
+  if (j < m) base::alignment_distances(s, rows + static_cast<size_t>(j) * stride, m - j, stride, out + j);
+}
+
+void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out) {
+  const __m256 k = _mm256_set1_ps(scale);
+  int j = 0;
+  for (; j + 8 <= m; j += 8) {
+    const uint16_t* r = rows + static_cast<size_t>(j) * stride;
+    __m256 acc[8];
+    for (int i = 0; i < 8; ++i) acc[i] = _mm256_setzero_ps();
+    for (int c = 0; c < stride; c += 8) {
+      const __m256 x = _mm256_loadu_ps(s_scaled + c);
+      for (int i = 0; i < 8; ++i) {
+        const __m128i h = _mm_loadu_si128(reinterpret_cast<const __m128i*>(r + static_cast<size_t>(i) * stride + c));
+        const __m256 e = _mm256_sub_ps(x, _mm256_cvtph_ps(h));
+        acc[i] = _mm256_add_ps(acc[i], _mm256_mul_ps(e, e));
+      }
+    }
+    _mm256_storeu_ps(out + j, _mm256_mul_ps(k, _mm256_sqrt_ps(row_sums(acc))));
+  }
+  if (j < m) base::alignment_distances_half(s_scaled, rows + static_cast<size_t>(j) * stride, m - j, stride, scale, out + j);
+}
+
+#include "metric/align_pass_kernel.inl"
+
+}  // namespace kata::metric::detail::avx2
+
+#else  // not an x86 build: the dispatcher never calls this.
+
+namespace kata::metric::detail::avx2 {
+void alignment_distances(const float* s, const float* rows, int m, int stride, float* out) {
+  base::alignment_distances(s, rows, m, stride, out);
+}
+void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out) {
+  base::alignment_distances_half(s_scaled, rows, m, stride, scale, out);
+}
+int alignment_step(const double* prev, double* cur, const float* c, int a, int b, const double* pk, int k_max,
+                   double jump, bool loop) {
+  return base::alignment_step(prev, cur, c, a, b, pk, k_max, jump, loop);
+}
+int alignment_rebase(double* cur, int a, int b) { return base::alignment_rebase(cur, a, b); }
+}  // namespace kata::metric::detail::avx2
+
+#endif

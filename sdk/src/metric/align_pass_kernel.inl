@@ -1,0 +1,28 @@
+// The alignment's per-frame loops (align_pass.hpp), written once as plain loops and compiled in
+// each instruction set's translation unit (align_pass.cpp, align_pass_avx2.cpp), where they
+// vectorise over teacher frames. Only exact operations (min) and additions in a fixed order, no
+// fused multiply-adds (align_pass_avx2.cpp is built with -ffp-contract=off): every CPU gives the
+// same costs bit for bit. Included inside the implementation's namespace.
+
+int alignment_rebase(double* cur, int a, int b) {
+  int best = a;
+  for (int j = a + 1; j <= b; ++j)
+    if (cur[j] < cur[best]) best = j;
+  const double base = cur[best];
+  for (int j = a; j <= b; ++j) cur[j] -= base;
+  return best;
+}
+
+int alignment_step(const double* prev, double* cur, const float* c, int a, int b, const double* pk, int k_max,
+                   double jump, bool loop) {
+  const int n = b - a + 1;
+  for (int j = a; j <= b; ++j) cur[j] = jump;
+  for (int k = 0; k <= k_max; ++k) {
+    const double p = pk[k];
+    for (int j = a + k; j <= b; ++j) cur[j] = std::min(cur[j], prev[j - k] + p);
+    if (loop)  // the section's end is followed by its start
+      for (int j = a; j < a + k; ++j) cur[j] = std::min(cur[j], prev[j - k + n] + p);
+  }
+  for (int j = a; j <= b; ++j) cur[j] += c[j];
+  return alignment_rebase(cur, a, b);
+}
