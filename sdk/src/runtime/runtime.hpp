@@ -58,6 +58,13 @@ struct StreamSetup {
 // Throws kata::Error (unknown preset, a joint the map names is missing).
 StreamSetup setup_from_definition(const transport::SkeletonDefinition& definition);
 
+// A practice setting's section in the rows of a teacher clip of `frames` frames `frame_time`
+// seconds apart (schemas/practice.fbs: each time rounded to the nearest frame, which must be in
+// the clip): kAccepted with *first and *last (-1: the clip's end; a loop when practice.loop), or
+// kPracticeValues / kPracticeOutsideClip with the reason in why (size bytes). Allocation-free.
+transport::TableVerdict practice_rows(const transport::PracticeSetting& practice, int frames, double frame_time,
+                                      int32_t* first, int32_t* last, char* why, size_t size);
+
 // A consumer of every result inside the process (a sink plugin, a file writer): called on the
 // I/O thread, after the result was sent; must neither block nor allocate.
 struct Sink {

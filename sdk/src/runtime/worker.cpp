@@ -84,6 +84,28 @@ Status Runtime::push(uint64_t stream_id, uint64_t sequence, double capture_time,
   return Status::kOk;
 }
 
+transport::TableVerdict practice_rows(const transport::PracticeSetting& p, int frames, double ft, int32_t* first,
+                                      int32_t* last, char* why, size_t size) {
+  using transport::TableVerdict;
+  if (transport::practice_values_problem(p, why, size)) return TableVerdict::kPracticeValues;
+  // Teacher seconds -> the nearest teacher frame, which must be in the clip (the values are finite
+  // and >= 0 here; compared as doubles before rounding, so no time overflows a row).
+  const double start = p.loop ? p.loop_start : p.teacher_start;
+  for (double t : {start, p.loop ? p.loop_end : 0.0})
+    if (t / ft > (frames - 1) + 0.5) {
+      std::snprintf(why, size, "%g s is outside the teacher clip (0..%g s: %d frames of %g s)", t, (frames - 1) * ft,
+                    frames, ft);
+      return TableVerdict::kPracticeOutsideClip;
+    }
+  *first = static_cast<int32_t>(std::lround(start / ft));
+  *last = p.loop ? static_cast<int32_t>(std::lround(p.loop_end / ft)) : -1;
+  if (p.loop && *last <= *first) {
+    std::snprintf(why, size, "the loop %g..%g s is within one teacher frame (%g s)", p.loop_start, p.loop_end, ft);
+    return TableVerdict::kPracticeOutsideClip;
+  }
+  return TableVerdict::kAccepted;
+}
+
 transport::TableVerdict Runtime::set_practice(const transport::PracticeSetting& p, std::string* why) {
   using transport::TableVerdict;
   char text[256];
@@ -96,30 +118,15 @@ transport::TableVerdict Runtime::set_practice(const transport::PracticeSetting& 
   const InPush in_push(stream->counters.in_push);
   if (stream->closed.load(std::memory_order_seq_cst) || stream->id.load(std::memory_order_acquire) != p.stream_id)
     return TableVerdict::kUnknownStream;
-  if (transport::practice_values_problem(p, text, sizeof text)) return refuse(TableVerdict::kPracticeValues);
-  const int frames = stream->teacher_frames;
-  if (frames < 1) {
+  if (stream->teacher_frames < 1) {
     std::snprintf(text, sizeof text, "stream %llu has no clip teacher to practise on",
                   static_cast<unsigned long long>(p.stream_id));
     return refuse(TableVerdict::kPracticeNoClip);
   }
-  // Teacher seconds -> the nearest teacher frame, which must be in the clip (the values are
-  // finite and >= 0 here; compared as doubles before rounding, so no time overflows a row).
-  const double ft = stream->teacher_frame_time;
-  const double last_time = (frames - 1) * ft;
-  const double start = p.loop ? p.loop_start : p.teacher_start;
-  for (double t : {start, p.loop ? p.loop_end : 0.0})
-    if (t / ft > (frames - 1) + 0.5) {
-      std::snprintf(text, sizeof text, "%g s is outside the teacher clip (0..%g s: %d frames of %g s)", t, last_time,
-                    frames, ft);
-      return refuse(TableVerdict::kPracticeOutsideClip);
-    }
-  const int32_t first = static_cast<int32_t>(std::lround(start / ft));
-  const int32_t last = p.loop ? static_cast<int32_t>(std::lround(p.loop_end / ft)) : -1;
-  if (p.loop && last <= first) {
-    std::snprintf(text, sizeof text, "the loop %g..%g s is within one teacher frame (%g s)", p.loop_start, p.loop_end, ft);
-    return refuse(TableVerdict::kPracticeOutsideClip);
-  }
+  int32_t first = 0, last = -1;
+  const TableVerdict rows =
+      practice_rows(p, stream->teacher_frames, stream->teacher_frame_time, &first, &last, text, sizeof text);
+  if (rows != TableVerdict::kAccepted) return refuse(rows);
   size_t pos = 0;
   bool stopped = false;
   FrameCell* cell = claim_cell(*stream, &pos, &stopped);
