@@ -990,7 +990,7 @@ KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stre
  * Never blocks, never allocates. [any thread] */
 KATA_API kata_status kata_runtime_push(kata_runtime runtime, uint64_t stream_id, uint64_t sequence,
                                        double capture_time, const float* positions, uint32_t joint_count);
-/* Practice (since 1.1; as a practice message from an ingest stream's source does,
+/* Practice (since 1.0; as a practice message from an ingest stream's source does,
  * schemas/practice.fbs): from the frames pushed after this call on, the stream follows its clip
  * teacher from teacher_start seconds (0: the teacher's first frame), or with loop != 0 only the
  * section loop_start..loop_end seconds, looped (teacher_start then 0). Times are teacher seconds

@@ -147,7 +147,7 @@ struct IngestCounters {
   uint64_t closes = 0;              // streams closed by their owner (messages; not refused)
   uint64_t expired = 0;             // streams closed for idleness (not messages)
   uint64_t revisions = 0;           // new revisions from the owner that restarted a stream (in skeletons)
-  // Practice settings (schemas/practice.fbs; since 1.1): applied, re-sent (not handed on, not a
+  // Practice settings (schemas/practice.fbs; since 1.0): applied, re-sent (not handed on, not a
   // drop), and refused by cause (drops; those of another sender are in not_owner, before their
   // stream's definition in unknown_stream, malformed ones in malformed).
   uint64_t practices = 0;
