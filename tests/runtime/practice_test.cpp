@@ -291,6 +291,26 @@ TEST(runtime_practice, BadSettingsAreRefusedByCauseAndNoOtherStreamIsTouched) {
     }
     results.until({{7, static_cast<size_t>(kFrames)}, {8, static_cast<size_t>(kFrames)}, {kNoTeacher, 20}});
     wait_received(runtime, a.sent + b.sent + forger.sent);
+    // The same causes in the published stats message (every second), part of its dropped.
+    bool stats_seen = false;
+    const auto stats_end = Clock::now() + std::chrono::seconds(10);
+    while (!stats_seen && Clock::now() < stats_end) {
+      if (results.sub.next(results.decoder, 100) != transport::MessageKind::kStats) continue;
+      const transport::StatsFields st = results.decoder.stats();
+      if (st.received != a.sent + b.sent + forger.sent) continue;
+      stats_seen = true;
+      EXPECT_EQ(st.practices, 1u);
+      EXPECT_EQ(st.repeated_practices, 1u);
+      EXPECT_EQ(st.practice_bad_values, 2u);
+      EXPECT_EQ(st.practice_outside_clip, 2u);
+      EXPECT_EQ(st.practice_no_clip, 1u);
+      EXPECT_EQ(st.practice_queue_full, 0u);
+      EXPECT_EQ(st.malformed + st.not_owner + st.refused_limit + st.refused_definitions + st.unknown_stream +
+                    st.wrong_joint_count + st.out_of_order + st.out_of_window + st.stale + st.other_kind +
+                    st.practice_bad_values + st.practice_outside_clip + st.practice_no_clip + st.practice_queue_full,
+                st.dropped);
+    }
+    EXPECT_TRUE(stats_seen) << "a stats message with every message counted";
     runtime.stop();
     ASSERT_EQ(results.of[7].size(), static_cast<size_t>(kFrames));
     ASSERT_EQ(results.of[8].size(), static_cast<size_t>(kFrames));

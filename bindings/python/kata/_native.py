@@ -170,7 +170,12 @@ class RuntimeCounters(ctypes.Structure):
     _fields_ = [("struct_size", ctypes.c_uint32), ("streams", ctypes.c_uint32)] + [
         (name, ctypes.c_uint64) for name in ("frames_in", "queue_full", "refused", "results", "results_dropped",
                                              "published", "ingest_received", "ingest_dropped",
-                                             "ingest_sequence_gaps", "ingest_restarts")]
+                                             "ingest_sequence_gaps", "ingest_restarts",
+                                             # since 1.0: who may send what, then practice messages
+                                             "ingest_not_owner", "ingest_refused_limit", "ingest_out_of_window",
+                                             "ingest_stale", "closed_streams", "ingest_practices",
+                                             "ingest_practice_bad_values", "ingest_practice_outside_clip",
+                                             "ingest_practice_no_clip", "ingest_practice_queue_full")]
 
 
 # ---- functions -------------------------------------------------------------------------------------

@@ -954,6 +954,13 @@ typedef struct kata_runtime_counters {
   uint64_t ingest_out_of_window;    /* sequence numbers far beyond the last one */
   uint64_t ingest_stale;            /* frames older than max_frame_age_seconds */
   uint64_t closed_streams;          /* streams closed (by their owner, idle, a new skeleton) */
+  /* since 1.0, with practice messages (schemas/practice.fbs, docs/runtime.md): applied, and the
+   * causes of those refused (inside ingest_dropped; another sender's are in ingest_not_owner) */
+  uint64_t ingest_practices;              /* practice settings applied */
+  uint64_t ingest_practice_bad_values;    /* a time not finite or negative, an empty loop, both */
+  uint64_t ingest_practice_outside_clip;  /* outside the stream's teacher clip */
+  uint64_t ingest_practice_no_clip;       /* for a stream without a clip teacher */
+  uint64_t ingest_practice_queue_full;    /* the stream's worker queue was full */
 } kata_runtime_counters;
 
 /* Fills the first struct_size bytes of desc with the defaults above and sets desc->struct_size

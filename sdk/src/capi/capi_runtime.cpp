@@ -209,6 +209,11 @@ KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtim
   k.ingest_out_of_window = c.ingest.out_of_window;
   k.ingest_stale = c.ingest.stale;
   k.closed_streams = c.closed_streams;
+  k.ingest_practices = c.ingest.practices;
+  k.ingest_practice_bad_values = c.ingest.practice_bad_values;
+  k.ingest_practice_outside_clip = c.ingest.practice_outside_clip;
+  k.ingest_practice_no_clip = c.ingest.practice_no_clip;
+  k.ingest_practice_queue_full = c.ingest.practice_queue_full;
   const uint32_t caller = out->struct_size;
   std::memcpy(out, &k, std::min<size_t>(caller, sizeof k));
   out->struct_size = caller;
