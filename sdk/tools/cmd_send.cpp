@@ -6,7 +6,9 @@
 // frontend of a `kata proxy` in front of several shards; --warmup sends only definitions first.
 // Nothing is sent before a peer is there (--connect-timeout): no peer, or one whose socket kind
 // cannot talk to this one, ends the run with the likely cause; the run ends saying how many
-// frames a peer took.
+// frames a peer took. --teacher-start SECONDS or --loop A B sends each stream's practice setting
+// (schemas/practice.fbs, revision 1) after its definition, and again with every re-sent definition
+// (a re-send of the revision in force changes nothing; a restarted kata serve learns it).
 #include <zmq.h>
 
 #include <atomic>
@@ -16,6 +18,7 @@
 #include <memory>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "command.hpp"
 #include "common/error.hpp"
@@ -40,6 +43,11 @@ struct Options {
   std::string key, server_key;  // CURVE: this sender's .secret, the server's .pub
   bool close = false;           // end each stream with a closing definition
   bool live_clock = false;      // capture times from this host's clock, not the clip's
+  // Practice (kata score's --teacher-start / --loop, but in teacher seconds from the teacher's
+  // first frame, the axis of a result's matched_teacher_time: the sender does not know the
+  // server's teacher clip or its frame rate).
+  double teacher_start = -1.0;   // < 0: not given
+  std::vector<double> loop;      // A B, or empty
 };
 
 // The sender's peers, from its socket's connection events (and, for pub, from the subscriptions
@@ -143,6 +151,21 @@ void run_send(const Options& o) {
     throw Error(ErrorKind::kInvalidArgument, "send: no frames to send (--first-frame, --frames, --speed > 0, --loops >= 1)");
   if (o.streams < 1 || !(o.definition_interval > 0) || !(o.warmup >= 0))
     throw Error(ErrorKind::kInvalidArgument, "send: --streams >= 1, --definition-interval > 0, --warmup >= 0");
+  // The practice setting, checked here as the server's verifier would (the clip's bounds are the server's).
+  const bool practice = o.teacher_start >= 0.0 || !o.loop.empty();
+  kata::transport::PracticeSetting setting;
+  setting.revision = 1;
+  if (o.teacher_start >= 0.0) setting.teacher_start = o.teacher_start;
+  if (!o.loop.empty()) {
+    setting.loop = true;
+    setting.loop_start = o.loop[0];
+    setting.loop_end = o.loop[1];
+  }
+  if (practice) {
+    char why[192];
+    if (kata::transport::practice_values_problem(setting, why, sizeof why))
+      throw Error(ErrorKind::kInvalidArgument, std::string("send: --teacher-start / --loop: ") + why);
+  }
   kata::transport::SkeletonDefinition d;
   d.revision = 1;
   d.skeleton = clip.skeleton;
@@ -207,6 +230,10 @@ void run_send(const Options& o) {
     for (int k = 0; k < o.streams; ++k) {
       d.stream_id = o.stream_id + static_cast<uint64_t>(k);
       send(encoder.skeleton(d));
+      if (practice && !d.closed) {
+        setting.stream_id = d.stream_id;
+        send(encoder.practice(setting));
+      }
     }
   };
   const auto interval = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
@@ -284,6 +311,13 @@ void setup(CLI::App& app) {
                   "seconds to wait for a peer (push: a connection; pub: a subscriber) before sending; none: an error")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);
+  cmd->add_option("--teacher-start", o->teacher_start,
+                  "practice: the lesson starts at this teacher time, seconds from the teacher's first frame (as a "
+                  "result's matched_teacher_time; the server rounds it to a teacher frame)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--loop", o->loop, "practice: loop the teacher section A..B, seconds from its first frame (two numbers: A B)")
+      ->expected(2)
+      ->excludes("--teacher-start");
   cmd->add_flag("--close", o->close, "close the streams at the end (a closing definition)");
   cmd->add_flag("--live-clock", o->live_clock, "capture times from this host's steady clock (stale frames judged)");
   cmd->callback([o] { run_send(*o); });

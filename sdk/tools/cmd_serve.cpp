@@ -124,6 +124,10 @@ std::string drop_causes(const kata::runtime::RuntimeCounters& c) {
       {"wrong joint count", in.wrong_joint_count},
       {"out of order", in.out_of_order},
       {"not ingest's kind", in.other_kind},
+      {"practice values", in.practice_bad_values},
+      {"practice outside the clip", in.practice_outside_clip},
+      {"practice without a clip teacher", in.practice_no_clip},
+      {"practice queue full", in.practice_queue_full},
       {"refused by the pipeline", c.total.refused},
       {"queues", c.total.queue_full + c.total.result_queue_full + c.total.pipeline_dropped + c.total.send_failed}};
   std::string out;
@@ -316,18 +320,22 @@ void run_serve(const std::string& file, const std::string& counters_path) {
   const auto& in = c.ingest;
   std::fprintf(stderr,
                "kata serve: ingest %llu messages received = %llu frames + %llu definitions + %llu repeated + %llu closes"
-               " + %llu other shard + %llu dropped (not owner %llu, limit %llu, window %llu, stale %llu, malformed %llu,"
-               " unknown stream %llu, joints %llu, order %llu, refused definitions %llu, results %llu); frames: %llu "
+               " + %llu practice settings + %llu repeated + %llu other shard + %llu dropped (not owner %llu, limit %llu, window %llu,"
+               " stale %llu, malformed %llu, unknown stream %llu, joints %llu, order %llu, refused definitions %llu, results %llu,"
+               " practice values %llu, practice outside the clip %llu, practice without a clip %llu, practice queue full %llu); frames: %llu "
                "refused by the pipeline, %llu lost in queues; connections %llu (%llu refused, %llu handshakes refused)\n",
                static_cast<unsigned long long>(in.received), static_cast<unsigned long long>(in.frames),
                static_cast<unsigned long long>(in.skeletons), static_cast<unsigned long long>(in.repeated_skeletons),
-               static_cast<unsigned long long>(in.closes), static_cast<unsigned long long>(in.other_shard),
+               static_cast<unsigned long long>(in.closes), static_cast<unsigned long long>(in.practices),
+               static_cast<unsigned long long>(in.repeated_practices), static_cast<unsigned long long>(in.other_shard),
                static_cast<unsigned long long>(in.dropped_total()), static_cast<unsigned long long>(in.not_owner),
                static_cast<unsigned long long>(in.refused_limit), static_cast<unsigned long long>(in.out_of_window),
                static_cast<unsigned long long>(in.stale), static_cast<unsigned long long>(in.malformed_total()),
                static_cast<unsigned long long>(in.unknown_stream), static_cast<unsigned long long>(in.wrong_joint_count),
                static_cast<unsigned long long>(in.out_of_order), static_cast<unsigned long long>(in.refused_skeletons),
-               static_cast<unsigned long long>(in.other_kind), static_cast<unsigned long long>(c.total.refused),
+               static_cast<unsigned long long>(in.other_kind), static_cast<unsigned long long>(in.practice_bad_values),
+               static_cast<unsigned long long>(in.practice_outside_clip), static_cast<unsigned long long>(in.practice_no_clip),
+               static_cast<unsigned long long>(in.practice_queue_full), static_cast<unsigned long long>(c.total.refused),
                static_cast<unsigned long long>(c.total.queue_full + c.total.result_queue_full + c.total.send_failed),
                static_cast<unsigned long long>(in.connections), static_cast<unsigned long long>(in.connections_refused),
                static_cast<unsigned long long>(in.handshake_failures));

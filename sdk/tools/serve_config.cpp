@@ -13,6 +13,7 @@
 #include "common/error.hpp"
 #include "common/text.hpp"
 #include "data_files.hpp"
+#include "serve_config_read.hpp"
 #include "transport/curve.hpp"
 
 namespace kata::serve {
@@ -37,15 +38,23 @@ T read(const std::string& file, const toml::table& table, const char* key, T fal
   refuse(file, n->source(), std::string("'") + key + "' has the wrong type");
 }
 
-// An integer in [lo, hi], refused with file:line otherwise.
-int64_t read_range(const std::string& file, const toml::table& table, const char* key, int64_t fallback, int64_t lo,
-                   int64_t hi) {
+}  // namespace
+
+// An integer in [lo, hi] (serve_config_read.hpp). Only a value the file holds is judged: a
+// missing key's fallback is the program's own default.
+int64_t detail::read_range(const std::string& file, const toml::table& table, const char* key, int64_t fallback,
+                           int64_t lo, int64_t hi) {
+  const toml::node* n = table.get(key);
+  if (!n) return fallback;
   const int64_t v = read<int64_t>(file, table, key, fallback);
   if (v < lo || v > hi)
-    refuse(file, table.get(key)->source(),
-           std::string("'") + key + "' must be " + std::to_string(lo) + ".." + std::to_string(hi));
+    refuse(file, n->source(), std::string("'") + key + "' must be " + std::to_string(lo) + ".." + std::to_string(hi));
   return v;
 }
+
+namespace {
+
+using detail::read_range;
 
 // A number (integer or float) > 0 and finite.
 double read_positive(const std::string& file, const toml::table& table, const char* key, double fallback) {

@@ -70,6 +70,16 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
   }
   ASSERT_TRUE(joined);
 
+  // Practice: the section 0.1..0.4 s of the teacher, looped, for every frame pushed from here on;
+  // refusals name why and change nothing.
+  EXPECT_EQ(kata_runtime_set_practice(runtime, 42, 4, 0.0, 1, 0.4, 0.1), KATA_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(kata_context_last_error(ctx)).find("loop_end 0.1 s is not after loop_start 0.4 s"),
+            std::string::npos) << kata_context_last_error(ctx);
+  EXPECT_EQ(kata_runtime_set_practice(runtime, 42, 4, 5000.0, 0, 0.0, 0.0), KATA_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(kata_context_last_error(ctx)).find("outside the teacher clip"), std::string::npos);
+  EXPECT_EQ(kata_runtime_set_practice(runtime, 7, 4, 0.0, 1, 0.1, 0.4), KATA_E_NOT_FOUND);
+  ASSERT_EQ(kata_runtime_set_practice(runtime, 42, 3, 0.0, 1, 0.1, 0.4), KATA_OK) << kata_context_last_error(ctx);
+
   const uint32_t joints = kata_skeleton_joint_count(skel);
   std::vector<float> p(3 * joints);
   const int frames = 60;
@@ -102,6 +112,17 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
       }
       for (float part : r.part_scores) EXPECT_TRUE(part >= 0.0f && part <= 100.0f);
       EXPECT_TRUE(r.part_to_fix >= -1 && r.part_to_fix < KATA_PART_COUNT);
+      // The practice it was computed under, and the matched time inside it (within 1/120 s: the
+      // section's ends are rounded to teacher frames).
+      EXPECT_EQ(r.has_practice, 1);
+      EXPECT_EQ(r.practice_revision, 3u);
+      EXPECT_EQ(r.practice_loop, 1);
+      EXPECT_NEAR(r.practice_start_time, 0.1, 1.0 / 120);
+      EXPECT_NEAR(r.practice_end_time, 0.4, 1.0 / 120);
+      if (r.scored && r.state != KATA_SCORE_CALIBRATING) {
+        EXPECT_GE(r.matched_teacher_time, r.practice_start_time - 1e-9);
+        EXPECT_LE(r.matched_teacher_time, r.practice_end_time + 1e-9);
+      }
       if (results == 40) {  // a caller built before the calibrated fields receives only its prefix
         kata_result_message old_layout;
         old_layout.struct_size = static_cast<uint32_t>(offsetof(kata_result_message, part_scores));

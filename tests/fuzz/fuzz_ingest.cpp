@@ -4,8 +4,8 @@
 // from another sender), the sequence window, stale frames, limits; then what the runtime does with
 // an accepted message: a skeleton definition becomes a stream set up by setup_from_definition and
 // scored against a teacher (as `kata serve` does); an owner's revision restarts it (a new skeleton
-// reopens it); a close ends it; a frame is pushed through its pipeline. Every result is encoded
-// and decoded again.
+// reopens it); a close ends it; a practice setting moves its scorer's section; a frame is pushed
+// through its pipeline. Every result is encoded and decoded again.
 //
 // Input: messages, each a 2-byte little-endian header and that many bytes: the low 14 bits are the
 // length, the high 2 bits the sender (0..3). The arrival clock advances 8.3 ms per message.
@@ -121,6 +121,26 @@ struct Shared {
     h.on_close = [this](uint64_t id) {
       if (!input->streams.erase(id)) std::abort();  // a close only of an accepted stream
     };
+    // A practice setting of an accepted stream from its owner, values already judged: its rows in
+    // the teacher clip as the runtime judges them (runtime::practice_rows), then the scorer's section.
+    h.on_practice = [this](const transport::PracticeSetting& practice, std::string* why) {
+      InputState& in = *input;
+      auto it = in.streams.find(practice.stream_id);
+      if (it == in.streams.end()) std::abort();  // only an accepted stream's owner gets here
+      metric::Scorer* scorer = it->second->scorer();
+      char text[256];
+      if (transport::practice_values_problem(practice, text, sizeof text)) std::abort();  // judged before
+      int32_t first = 0, last = -1;
+      const transport::TableVerdict v = runtime::practice_rows(practice, scorer->reference().frames(),
+                                                               scorer->reference().frame_time(), &first, &last, text,
+                                                               sizeof text);
+      if (v != transport::TableVerdict::kAccepted) {
+        *why = text;
+        return v;
+      }
+      scorer->set_section(first, last, practice.loop);  // throws kata::Error only for a section outside the clip
+      return v;
+    };
     h.on_frame = [this](const transport::FrameView& f, bool restarted) {
       InputState& in = *input;
       auto it = in.streams.find(f.stream_id);
@@ -196,7 +216,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     at += 2 + length;
   }
   const transport::IngestCounters& c = ingest.counters();
-  if (c.frames + c.skeletons + c.repeated_skeletons + c.closes + c.other_shard + c.dropped_total() != messages)
+  if (c.frames + c.skeletons + c.repeated_skeletons + c.closes + c.practices + c.repeated_practices + c.other_shard +
+          c.dropped_total() !=
+      messages)
     std::abort();
   for (auto& [id, p] : input.streams) {
     p->flush();

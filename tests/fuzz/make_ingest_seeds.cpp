@@ -105,5 +105,32 @@ int main(int argc, char** argv) {
     for (int f = 0; f < 4; ++f) add(s, frame(7, static_cast<uint64_t>(f), f), 0);
     write(out + "/definition-flood", s);
   }
+  {  // practice settings (schemas/practice.fbs) of stream 7 between its frames: a loop, its re-send,
+     // values no clip holds, a start beyond the clip, another sender's, a start, the whole clip
+    std::vector<uint8_t> s;
+    add(s, encoder.skeleton(d));
+    auto practice = [&](uint32_t revision, double start, bool loop, double a, double b) {
+      kata::transport::PracticeSetting p;
+      p.stream_id = 7;
+      p.revision = revision;
+      p.teacher_start = start;
+      p.loop = loop;
+      p.loop_start = a;
+      p.loop_end = b;
+      return encoder.practice(p);
+    };
+    add(s, practice(1, 0.0, true, 0.05, 0.2));
+    for (int f = 0; f < 4; ++f) add(s, frame(7, static_cast<uint64_t>(f), f));
+    add(s, practice(1, 0.0, true, 0.05, 0.2));
+    add(s, practice(2, 0.0, true, 0.2, 0.1));
+    add(s, practice(3, 5.0, false, 0.0, 0.0));
+    add(s, practice(4, 0.1, false, 0.0, 0.0), 1);
+    for (int f = 4; f < 8; ++f) add(s, frame(7, static_cast<uint64_t>(f), f));
+    add(s, practice(5, 0.1, false, 0.0, 0.0));
+    for (int f = 8; f < 12; ++f) add(s, frame(7, static_cast<uint64_t>(f), f));
+    add(s, practice(6, 0.0, false, 0.0, 0.0));
+    add(s, frame(7, 12, 12));
+    write(out + "/practice-settings", s);
+  }
   return 0;
 }

@@ -205,6 +205,82 @@ TEST(runtime_wire, UnscoredResultHasNoPartScoresAndNoPartToFix) {
   EXPECT_EQ(decoder.result().state, 0);
 }
 
+// A practice setting (schemas/practice.fbs) round trip, and what no clip can hold, with its reason.
+TEST(runtime_wire, PracticeRoundTripAndTheValuesNoClipCanHold) {
+  Encoder encoder;
+  Decoder decoder;
+  PracticeSetting p;
+  p.stream_id = 7;
+  p.revision = 3;
+  p.loop = true;
+  p.loop_start = 2.5;
+  p.loop_end = 4.0;
+  Bytes m = encoder.practice(p);
+  std::vector<uint8_t> copy(m.data, m.data + m.size);
+  ASSERT_EQ(decoder.decode(copy.data(), copy.size()), MessageKind::kPractice);
+  const PracticeSetting o = decoder.practice();
+  EXPECT_EQ(o.stream_id, 7u);
+  EXPECT_EQ(o.revision, 3u);
+  EXPECT_TRUE(o.loop);
+  EXPECT_EQ(o.loop_start, 2.5);
+  EXPECT_EQ(o.loop_end, 4.0);
+  EXPECT_EQ(o.teacher_start, 0.0);
+  std::vector<uint8_t> truncated(copy.begin(), copy.end() - 8);
+  EXPECT_EQ(decoder.decode(truncated.data(), truncated.size()), MessageKind::kNone);
+  EXPECT_EQ(decoder.error(), DecodeError::kVerifier);
+
+  char why[192];
+  EXPECT_EQ(practice_values_problem(p, why, sizeof why), nullptr);
+  PracticeSetting start;
+  start.teacher_start = 12.0;
+  EXPECT_EQ(practice_values_problem(start, why, sizeof why), nullptr);
+  EXPECT_EQ(practice_values_problem(PracticeSetting{}, why, sizeof why), nullptr) << "the whole clip";
+  struct Bad {
+    PracticeSetting p;
+    const char* reason;
+  };
+  const double nan = std::nan(""), inf = INFINITY;
+  const Bad bad[] = {
+      {{7, 1, nan, false, 0.0, 0.0}, "a time is not finite (teacher_start nan"},
+      {{7, 1, 0.0, true, 1.0, inf}, "a time is not finite (teacher_start 0, loop_start 1, loop_end inf)"},
+      {{7, 1, -0.5, false, 0.0, 0.0}, "teacher_start -0.5 s is before the teacher's first frame"},
+      {{7, 1, 0.0, true, 4.0, 2.0}, "loop_end 2 s is not after loop_start 4 s"},
+      {{7, 1, 0.0, true, 3.0, 3.0}, "loop_end 3 s is not after loop_start 3 s"},
+      {{7, 1, 0.0, true, -1.0, 3.0}, "loop_start -1 s is before the teacher's first frame"},
+      {{7, 1, 5.0, true, 1.0, 3.0}, "teacher_start 5 s and a loop from 1 s: give one or the other"},
+  };
+  for (const Bad& b : bad) {
+    const char* problem = practice_values_problem(b.p, why, sizeof why);
+    ASSERT_NE(problem, nullptr) << b.reason;
+    EXPECT_EQ(std::string(problem).rfind(b.reason, 0), 0u) << problem;
+  }
+}
+
+// Every result of a stream with a clip teacher says the practice setting it was computed under;
+// one without (or from an older runtime) carries none.
+TEST(runtime_wire, ResultCarriesItsPracticeSection) {
+  Encoder encoder;
+  Decoder decoder;
+  ResultFields r;
+  r.stream_id = 5;
+  r.has_practice = true;
+  r.practice = PracticeSection{1.25, 3.5, true, 4};
+  Bytes m = encoder.result(r);
+  std::vector<uint8_t> copy(m.data, m.data + m.size);
+  ASSERT_EQ(decoder.decode(copy.data(), copy.size()), MessageKind::kResult);
+  EXPECT_TRUE(decoder.result().has_practice);
+  EXPECT_EQ(decoder.result().practice.start_time, 1.25);
+  EXPECT_EQ(decoder.result().practice.end_time, 3.5);
+  EXPECT_TRUE(decoder.result().practice.loop);
+  EXPECT_EQ(decoder.result().practice.revision, 4u);
+  r.has_practice = false;
+  m = encoder.result(r);
+  copy.assign(m.data, m.data + m.size);
+  ASSERT_EQ(decoder.decode(copy.data(), copy.size()), MessageKind::kResult);
+  EXPECT_FALSE(decoder.result().has_practice);
+  EXPECT_EQ(decoder.result().practice.revision, 0u);
+}
+
 TEST(runtime_wire, RefusalsNameTheirReason) {
   Encoder encoder;
   Decoder decoder(4096);
@@ -584,6 +660,67 @@ TEST(runtime_publisher, SeesEachJoinWithItsTopicAndNeverBlocks) {
 // A message read after its connection's close was seen (it waited in the socket's queue) is
 // from kClosedConnection: the stream it defines is an orphan, so the source's next connection
 // claims it with its next definition, and no dead sender keeps it locked.
+// Practice settings through the ingest (handed in with their senders): only the owner's reach the
+// receiver, in order; a re-send of the revision in force is not handed on; every other one is
+// counted by its cause, and the messages still add up.
+TEST(runtime_ingest, PracticeSettingsAreTheOwnersAndCountedByCause) {
+  Context context;
+  IngestOptions options;
+  options.kind = IngestKind::kPull;
+  options.endpoints = {"bind:tcp://127.0.0.1:*"};
+  options.log_refusals = false;
+  Received received;
+  int skeletons = 0;
+  Ingest::Handlers handlers = recording(received, &skeletons);
+  handlers.on_revision = [](const SkeletonDefinition&) { return true; };
+  std::vector<PracticeSetting> handed;
+  handlers.on_practice = [&handed](const PracticeSetting& p, std::string* why) {
+    if (p.teacher_start > 100.0) {  // this receiver's clip is 100 s long
+      *why = "outside";
+      return TableVerdict::kPracticeOutsideClip;
+    }
+    handed.push_back(p);
+    return TableVerdict::kAccepted;
+  };
+  Ingest ingest(context, options, handlers);
+  const SenderToken owner = connection_sender(3, 0), other = connection_sender(4, 0);
+  Encoder encoder;
+  auto send = [&](Bytes m, SenderToken from) { ingest.handle(m.data, m.size, from, 1'000); };
+  auto practice = [](uint64_t id, uint32_t revision, double start) {
+    PracticeSetting p;
+    p.stream_id = id;
+    p.revision = revision;
+    p.teacher_start = start;
+    return p;
+  };
+  send(encoder.practice(practice(5, 1, 2.0)), owner);  // before its definition
+  send(encoder.skeleton(three_joint_definition(5)), owner);
+  send(encoder.practice(practice(5, 1, 2.0)), owner);
+  send(encoder.practice(practice(5, 1, 2.0)), owner);   // re-sent: not handed on
+  send(encoder.practice(practice(5, 2, 9.0)), other);   // another sender's
+  send(encoder.practice(practice(5, 2, -1.0)), owner);  // no clip holds it
+  send(encoder.practice(practice(5, 2, 500.0)), owner); // outside this clip
+  send(encoder.practice(practice(5, 2, 6.0)), owner);
+  // A new definition forgets the setting: the same revision is taken again (a reopened stream).
+  send(encoder.skeleton(three_joint_definition(5, 2)), owner);
+  send(encoder.practice(practice(5, 2, 6.0)), owner);
+  ASSERT_EQ(handed.size(), 3u);
+  EXPECT_EQ(handed[0].teacher_start, 2.0);
+  EXPECT_EQ(handed[1].teacher_start, 6.0);
+  EXPECT_EQ(handed[2].revision, 2u);
+  const IngestCounters& c = ingest.counters();
+  EXPECT_EQ(c.practices, 3u);
+  EXPECT_EQ(c.repeated_practices, 1u);
+  EXPECT_EQ(c.unknown_stream, 1u);
+  EXPECT_EQ(c.not_owner, 1u);
+  EXPECT_EQ(c.practice_bad_values, 1u);
+  EXPECT_EQ(c.practice_outside_clip, 1u);
+  EXPECT_EQ(c.skeletons, 2u);
+  EXPECT_EQ(c.frames + c.skeletons + c.repeated_skeletons + c.closes + c.practices + c.repeated_practices +
+                c.other_shard + c.dropped_total(),
+            10u);
+}
+
 TEST(runtime_ingest_table, LateMessagesOfAClosedConnectionOwnNothing) {
   IngestTable table;
   const SenderToken reconnected = connection_sender(7, 1), other = connection_sender(8, 0);

@@ -23,13 +23,13 @@ import os
 import time
 import warnings
 import weakref
-from typing import Any, List, NoReturn, Optional, Sequence, Tuple, Union
+from typing import Any, List, NamedTuple, NoReturn, Optional, Sequence, Tuple, Union
 
 import numpy as np
 
 from . import _native as _n
 
-__all__ = ["Runtime", "shard_of", "Subscriber", "ResultMessage", "read_message", "ScoreState", "default_model_path", "Context", "Skeleton", "Clip", "Model", "Stream", "Retargeter", "ResultBuffer", "Results",
+__all__ = ["Runtime", "shard_of", "Subscriber", "ResultMessage", "PracticeSection", "read_message", "ScoreState", "default_model_path", "Context", "Skeleton", "Clip", "Model", "Stream", "Retargeter", "ResultBuffer", "Results",
            "ScoreRecord", "KataError", "Status", "Stencil", "UpAxis", "BodyPart", "version", "library_path",
            "GPD_DIMS", "GPD_JOINTS", "RESULT_SCORED", "RESULT_GHOST", "RESULT_DTYPE", "SCORE_DTYPE", "presets"]
 
@@ -972,15 +972,28 @@ class Retargeter(_Handle):
 
 # ---- messages: a subscriber of a runtime's (or `kata serve`'s) results ------------------------------
 
+class PracticeSection(NamedTuple):
+    """The practice setting a result was computed under (schemas/result.fbs PracticeSection): the
+    teacher section followed, in teacher seconds from the teacher's first frame (the axis of
+    matched_teacher_time), its ends rounded to teacher frames; loop: looped; revision: the practice
+    message's (Runtime.set_practice's) revision, 0 for the stream's configured setting."""
+    start_time: float
+    end_time: float
+    loop: bool
+    revision: int
+
+
 class ResultMessage:
     """One result message (kata_result_message) as Python values: stream_id, result_sequence,
     frame_sequence, frame_index, capture_ns (source clock), arrival_ns / computed_ns /
     published_ns (CLOCK_MONOTONIC ns on the runtime's host), scored, matched_teacher_frame,
-    distance (dimensionless), score (0..100), parts (split of d^2), part_scores, part_to_fix
-    (BodyPart or -1), state (ScoreState), ghost ((G, 3) float32 copy, or None)."""
+    matched_teacher_time (seconds from the teacher's first frame, -1 unless scored), distance
+    (dimensionless), score (0..100), parts (split of d^2), part_scores, part_to_fix (BodyPart or
+    -1), state (ScoreState), ghost ((G, 3) float32 copy, or None), practice (the PracticeSection it
+    was computed under; None without a clip teacher or from an older runtime)."""
     __slots__ = ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_ns", "arrival_ns",
-                 "computed_ns", "published_ns", "scored", "matched_teacher_frame", "distance", "score", "parts",
-                 "part_scores", "part_to_fix", "state", "ghost")
+                 "computed_ns", "published_ns", "scored", "matched_teacher_frame", "matched_teacher_time",
+                 "distance", "score", "parts", "part_scores", "part_to_fix", "state", "ghost", "practice")
     stream_id: int
     result_sequence: int
     frame_sequence: int
@@ -990,6 +1003,8 @@ class ResultMessage:
     computed_ns: int
     published_ns: int
     matched_teacher_frame: int
+    matched_teacher_time: float
+    practice: Optional[PracticeSection]
     distance: float
     score: float
     part_to_fix: int
@@ -997,9 +1012,11 @@ class ResultMessage:
 
     def __init__(self, m: "_n.ResultMessage") -> None:
         for name in ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_ns", "arrival_ns",
-                     "computed_ns", "published_ns", "matched_teacher_frame", "distance", "score", "part_to_fix",
-                     "state"):
+                     "computed_ns", "published_ns", "matched_teacher_frame", "matched_teacher_time", "distance",
+                     "score", "part_to_fix", "state"):
             setattr(self, name, getattr(m, name))
+        self.practice = (PracticeSection(m.practice_start_time, m.practice_end_time, bool(m.practice_loop),
+                                         m.practice_revision) if m.has_practice else None)
         self.scored = bool(m.scored)
         self.parts = tuple(m.parts)
         self.part_scores = tuple(m.part_scores)
@@ -1111,6 +1128,20 @@ class Runtime(_Handle):
         status = _n.runtime_push(self.handle, stream_id, sequence, capture_time, _address(a), a.size // 3)
         if status:
             raise KataError(status, "stream %d frame %d" % (stream_id, sequence), "kata_runtime_push")
+
+    def set_practice(self, stream_id: int, revision: int, teacher_start: float = 0.0,
+                     loop: Optional[Tuple[float, float]] = None) -> None:
+        """kata_runtime_set_practice: from the frames pushed after it, the stream follows its clip
+        teacher from teacher_start seconds, or loops the section loop = (start, end) seconds
+        (teacher seconds from its first frame, as ResultMessage.matched_teacher_time); every result
+        then carries practice.revision == revision. KataError E_NOT_FOUND (no such stream),
+        E_INVALID_ARGUMENT (not finite, negative, outside the clip, an empty loop), E_STATE (no clip
+        teacher; the worker queue full). Never blocks. [any thread]"""
+        a, b = loop if loop is not None else (0.0, 0.0)
+        status = _n.runtime_set_practice(self.handle, stream_id, revision, teacher_start, 1 if loop is not None else 0,
+                                         a, b)
+        if status:
+            raise KataError(status, _text(_n.context_last_error(self._context.handle)), "kata_runtime_set_practice")
 
     def stop(self) -> None:
         """kata_runtime_stop: finishes every queued frame, publishes every result, stops the threads."""

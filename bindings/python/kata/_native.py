@@ -137,7 +137,12 @@ class ResultMessage(ctypes.Structure):
                 ("score", ctypes.c_float), ("parts", ctypes.c_float * PART_COUNT),
                 ("ghost", ctypes.POINTER(ctypes.c_float)),
                 ("part_scores", ctypes.c_float * PART_COUNT), ("part_to_fix", ctypes.c_int32),
-                ("state", ctypes.c_int32)]
+                ("state", ctypes.c_int32),
+                # with the re-localising alignment, then with practice messages
+                ("matched_teacher_time", ctypes.c_double), ("has_practice", ctypes.c_int32),
+                ("practice_revision", ctypes.c_uint32), ("practice_start_time", ctypes.c_double),
+                ("practice_end_time", ctypes.c_double), ("practice_loop", ctypes.c_int32),
+                ("reserved", ctypes.c_uint32)]
 
 
 class Result(ctypes.Structure):
@@ -165,7 +170,12 @@ class RuntimeCounters(ctypes.Structure):
     _fields_ = [("struct_size", ctypes.c_uint32), ("streams", ctypes.c_uint32)] + [
         (name, ctypes.c_uint64) for name in ("frames_in", "queue_full", "refused", "results", "results_dropped",
                                              "published", "ingest_received", "ingest_dropped",
-                                             "ingest_sequence_gaps", "ingest_restarts")]
+                                             "ingest_sequence_gaps", "ingest_restarts",
+                                             # since 1.0: who may send what, then practice messages
+                                             "ingest_not_owner", "ingest_refused_limit", "ingest_out_of_window",
+                                             "ingest_stale", "closed_streams", "ingest_practices",
+                                             "ingest_practice_bad_values", "ingest_practice_outside_clip",
+                                             "ingest_practice_no_clip", "ingest_practice_queue_full")]
 
 
 # ---- functions -------------------------------------------------------------------------------------
@@ -267,6 +277,7 @@ _SIGNATURES = {
     "kata_runtime_add_stream": (_st, [_p, _u64, _pp, _s, _i32]),
     "kata_runtime_push": (_st, [_p, _u64, _u64, _d, _p, _u32]),
     "kata_runtime_stop": (_st, [_p]),
+    "kata_runtime_set_practice": (_st, [_p, _u64, _u32, _d, _i32, _d, _d]),
     "kata_runtime_get_counters": (_st, [_p, ctypes.POINTER(RuntimeCounters)]),
     "kata_runtime_publish_endpoint": (_s, [_p]),
     "kata_runtime_ingest_endpoint": (_s, [_p]),

@@ -165,6 +165,52 @@ def test_a_runtime_publishes_results_a_subscriber_reads(data, model_path):
     assert all(m.stream_id == 7 and m.scored for m in got)
     np.testing.assert_allclose([m.score for m in got], expected, atol=1e-4)
     assert sub.refused == 0
+    # Every message says the practice it was computed under (none set: the whole clip, revision 0)
+    # and the matched teacher time inside it.
+    assert all(m.practice is not None and m.practice.revision == 0 and not m.practice.loop and
+               m.practice.start_time == 0.0 and 0.0 <= m.matched_teacher_time <= m.practice.end_time for m in got)
     with pytest.raises(kata.KataError) as e:
         kata.read_message(b"0" * 16 + b"garbage!")
     assert e.value.status == kata.Status.E_PARSE
+
+
+def test_a_runtime_streams_practice_is_in_every_message(data):
+    """Runtime.set_practice: a loop of teacher seconds 0.2..0.5, then "again from 0.8 s" mid-stream;
+    every message says which it was computed under, its matched time inside it; bad settings refused."""
+    with kata.Context() as ctx, ctx.load_model(kata.default_model_path()) as m, cmu(ctx, data) as clip, \
+            clip.skeleton() as sk:
+        p = clip.all_positions(first=1)[:200]
+        ft = clip.frame_time
+        with ctx.create_runtime(workers=1, publish="tcp://127.0.0.1:*") as rt:
+            with kata.Subscriber(rt.publish_endpoint, stream=3) as sub:
+                s = ctx.open_stream(sk, stencil=m.stencil)
+                s.attach_teacher(m, clip=clip, first_frame=1, ghost=False)
+                time.sleep(0.3)  # the subscription reaches the publisher (ZeroMQ slow joiner)
+                rt.add_stream(3, s)
+                with pytest.raises(kata.KataError) as e:
+                    rt.set_practice(3, 1, loop=(0.5, 0.2))
+                assert e.value.status == kata.Status.E_INVALID_ARGUMENT and "not after" in str(e.value)
+                with pytest.raises(kata.KataError) as e:
+                    rt.set_practice(4, 1, teacher_start=1.0)
+                assert e.value.status == kata.Status.E_NOT_FOUND
+                rt.set_practice(3, 1, loop=(0.2, 0.5))
+                for i, frame in enumerate(p):
+                    if i == 100:
+                        rt.set_practice(3, 2, teacher_start=0.8)
+                    rt.push(3, i, i * ft, frame)
+                rt.stop()
+                got = []
+                while True:
+                    msg = sub.receive(timeout=2.0)
+                    if msg is None:
+                        break
+                    got.append(msg)
+    assert len(got) == len(p)
+    for msg in got:
+        want = 1 if msg.frame_sequence < 99 else 2 if msg.frame_sequence >= 100 else msg.practice.revision
+        assert msg.practice.revision == want, msg.frame_sequence
+        assert msg.practice.loop == (want == 1)
+        start = 0.2 if want == 1 else 0.8
+        assert abs(msg.practice.start_time - start) <= ft / 2
+        if msg.scored:
+            assert msg.practice.start_time - 1e-9 <= msg.matched_teacher_time <= msg.practice.end_time + 1e-9

@@ -954,6 +954,13 @@ typedef struct kata_runtime_counters {
   uint64_t ingest_out_of_window;    /* sequence numbers far beyond the last one */
   uint64_t ingest_stale;            /* frames older than max_frame_age_seconds */
   uint64_t closed_streams;          /* streams closed (by their owner, idle, a new skeleton) */
+  /* since 1.0, with practice messages (schemas/practice.fbs, docs/runtime.md): applied, and the
+   * causes of those refused (inside ingest_dropped; another sender's are in ingest_not_owner) */
+  uint64_t ingest_practices;              /* practice settings applied */
+  uint64_t ingest_practice_bad_values;    /* a time not finite or negative, an empty loop, both */
+  uint64_t ingest_practice_outside_clip;  /* outside the stream's teacher clip */
+  uint64_t ingest_practice_no_clip;       /* for a stream without a clip teacher */
+  uint64_t ingest_practice_queue_full;    /* the stream's worker queue was full */
 } kata_runtime_counters;
 
 /* Fills the first struct_size bytes of desc with the defaults above and sets desc->struct_size
@@ -990,6 +997,21 @@ KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stre
  * Never blocks, never allocates. [any thread] */
 KATA_API kata_status kata_runtime_push(kata_runtime runtime, uint64_t stream_id, uint64_t sequence,
                                        double capture_time, const float* positions, uint32_t joint_count);
+/* Practice (since 1.0; as a practice message from an ingest stream's source does,
+ * schemas/practice.fbs): from the frames pushed after this call on, the stream follows its clip
+ * teacher from teacher_start seconds (0: the teacher's first frame), or with loop != 0 only the
+ * section loop_start..loop_end seconds, looped (teacher_start then 0). Times are teacher seconds
+ * from the teacher's first frame, as kata_result_message.matched_teacher_time; each is rounded to
+ * the nearest teacher frame. Queued in order with the frames pushed before it from the same
+ * thread; every result from then on says it (kata_result_message.practice_*, practice_revision =
+ * revision: give each change its own). KATA_E_NOT_FOUND (no such stream), KATA_E_INVALID_ARGUMENT
+ * (a time not finite, negative or outside the clip, an empty loop, a start and a loop),
+ * KATA_E_STATE (the stream has no clip teacher; or its worker queue is full, or stop has begun: send
+ * it again); the reason in kata_context_last_error. Nothing changes on a refusal. Never blocks.
+ * [any thread] */
+KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t stream_id, uint32_t revision,
+                                               double teacher_start, int32_t loop, double loop_start,
+                                               double loop_end);
 /* Finishes every queued frame, flushes every stream, publishes every result, stops the threads
  * and closes the sockets. Idempotent. [any thread but the runtime's own]
  * A kata_runtime_push racing stop on another thread is either taken (it returns KATA_OK and its
@@ -1055,6 +1077,18 @@ typedef struct kata_result_message {
    * frame's time, seconds from the teacher's first frame; -1 unless scored or from an older
    * runtime. */
   double matched_teacher_time;
+  /* Added with practice messages (schemas/result.fbs field 20; a stream's source sets its practice
+   * with a schemas/practice.fbs message, e.g. `kata send --teacher-start` / `--loop`): the teacher
+   * section this result was computed under, in teacher seconds from the teacher's first frame (the
+   * axis of matched_teacher_time: a scored result's matched time lies in it). has_practice 0: the
+   * stream has no clip teacher, or the runtime is older (then the fields below are 0). */
+  int32_t has_practice;
+  uint32_t practice_revision;    /* the practice message's revision; 0: the stream's configured
+                                    setting (kata serve's [scoring] teacher_start / loop, or none) */
+  double practice_start_time;    /* the section's first teacher frame (where the lesson starts) */
+  double practice_end_time;      /* its last teacher frame */
+  int32_t practice_loop;         /* 1: the section is looped (its end is followed by its start) */
+  uint32_t reserved;             /* 0 */
 } kata_result_message;
 
 /* Reads one ZeroMQ message of a kata runtime (16-byte topic + FlatBuffer, schemas/result.fbs):

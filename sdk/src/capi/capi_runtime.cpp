@@ -151,6 +151,34 @@ KATA_API kata_status kata_runtime_push(kata_runtime runtime, uint64_t stream_id,
                                                       static_cast<int>(joint_count)));
 }
 
+KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t stream_id, uint32_t revision,
+                                               double teacher_start, int32_t loop, double loop_start,
+                                               double loop_end) {
+  if (!runtime) return KATA_E_NULL_POINTER;
+  kata::transport::PracticeSetting p;
+  p.stream_id = stream_id;
+  p.revision = revision;
+  p.teacher_start = teacher_start;
+  p.loop = loop != 0;
+  p.loop_start = loop_start;
+  p.loop_end = loop_end;
+  return kata::capi::guarded_context([&] {
+    std::string why;
+    using kata::transport::TableVerdict;
+    const TableVerdict v = runtime->runtime->set_practice(p, &why);
+    if (v == TableVerdict::kAccepted) return KATA_OK;
+    kata::capi::set_context_error(("kata_runtime_set_practice: stream " + std::to_string(stream_id) + ": " +
+                                   (v == TableVerdict::kUnknownStream ? std::string("no such stream") : why))
+                                      .c_str());
+    switch (v) {
+      case TableVerdict::kUnknownStream: return KATA_E_NOT_FOUND;
+      case TableVerdict::kPracticeValues:
+      case TableVerdict::kPracticeOutsideClip: return KATA_E_INVALID_ARGUMENT;
+      default: return KATA_E_STATE;
+    }
+  });
+}
+
 KATA_API kata_status kata_runtime_stop(kata_runtime runtime) {
   if (!runtime) return KATA_E_NULL_POINTER;
   return kata::capi::guarded_context([&] {
@@ -181,6 +209,11 @@ KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtim
   k.ingest_out_of_window = c.ingest.out_of_window;
   k.ingest_stale = c.ingest.stale;
   k.closed_streams = c.closed_streams;
+  k.ingest_practices = c.ingest.practices;
+  k.ingest_practice_bad_values = c.ingest.practice_bad_values;
+  k.ingest_practice_outside_clip = c.ingest.practice_outside_clip;
+  k.ingest_practice_no_clip = c.ingest.practice_no_clip;
+  k.ingest_practice_queue_full = c.ingest.practice_queue_full;
   const uint32_t caller = out->struct_size;
   std::memcpy(out, &k, std::min<size_t>(caller, sizeof k));
   out->struct_size = caller;
@@ -226,6 +259,13 @@ KATA_API kata_status kata_message_read_result(const void* message, size_t size, 
     for (int i = 0; i < KATA_PART_COUNT; ++i) k.part_scores[i] = r.part_scores[i];
     k.part_to_fix = r.part_to_fix;
     k.state = r.state;
+    k.has_practice = r.has_practice ? 1 : 0;
+    if (r.has_practice) {
+      k.practice_revision = r.practice.revision;
+      k.practice_start_time = r.practice.start_time;
+      k.practice_end_time = r.practice.end_time;
+      k.practice_loop = r.practice.loop ? 1 : 0;
+    }
     const uint32_t caller = out->struct_size;
     std::memcpy(out, &k, std::min<size_t>(caller, sizeof k));
     out->struct_size = caller;

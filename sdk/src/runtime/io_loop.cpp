@@ -68,6 +68,12 @@ void Runtime::send_stats(transport::Encoder& encoder) {
   f.results_dropped = c.total.pipeline_dropped + c.total.result_queue_full;
   f.published = c.total.published;
   f.send_failed = c.total.send_failed;
+  f.practices = in.practices;
+  f.repeated_practices = in.repeated_practices;
+  f.practice_bad_values = in.practice_bad_values;
+  f.practice_outside_clip = in.practice_outside_clip;
+  f.practice_no_clip = in.practice_no_clip;
+  f.practice_queue_full = in.practice_queue_full;
   {
     std::lock_guard<std::mutex> lock(open_mutex_);
     for (const auto& s : streams_) {
@@ -123,6 +129,8 @@ bool Runtime::drain_results(transport::Encoder& encoder) {
       }
       f.matched_teacher_frame = r.matched_frame;
       f.matched_teacher_time = r.scored ? r.score.matched_time : -1.0;
+      f.has_practice = cell.has_practice;
+      f.practice = cell.practice;
       if (r.has_ghost) {
         f.ghost = w.ghosts.data() + k * kMaxGhostJoints * 3;
         f.ghost_joints = s.ghost_joints;

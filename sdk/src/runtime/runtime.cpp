@@ -61,6 +61,8 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
       }
       count->fetch_add(1, std::memory_order_relaxed);
     };
+    // A practice setting from the stream's owner: queued in order with its frames.
+    handlers.on_practice = [this](const transport::PracticeSetting& p, std::string* why) { return set_practice(p, why); };
     handlers.on_frame = [this](const transport::FrameView& f, bool restarted) {
       push(f.stream_id, f.sequence, static_cast<double>(f.capture_ns) * 1e-9, f.xyz, f.joints, restarted, f.confidence);
     };

@@ -58,6 +58,13 @@ struct StreamSetup {
 // Throws kata::Error (unknown preset, a joint the map names is missing).
 StreamSetup setup_from_definition(const transport::SkeletonDefinition& definition);
 
+// A practice setting's section in the rows of a teacher clip of `frames` frames `frame_time`
+// seconds apart (schemas/practice.fbs: each time rounded to the nearest frame, which must be in
+// the clip): kAccepted with *first and *last (-1: the clip's end; a loop when practice.loop), or
+// kPracticeValues / kPracticeOutsideClip with the reason in why (size bytes). Allocation-free.
+transport::TableVerdict practice_rows(const transport::PracticeSetting& practice, int frames, double frame_time,
+                                      int32_t* first, int32_t* last, char* why, size_t size);
+
 // A consumer of every result inside the process (a sink plugin, a file writer): called on the
 // I/O thread, after the result was sent; must neither block nor allocate.
 struct Sink {
@@ -201,6 +208,21 @@ class Runtime {
   Status push(uint64_t stream_id, uint64_t sequence, double capture_time, const float* xyz, int joints,
               bool restart = false, const float* confidence = nullptr);
 
+  // Sets where a stream follows its teacher clip (a Practice message, schemas/practice.fbs:
+  // teacher seconds from the teacher's first frame, each rounded to the nearest teacher frame):
+  // queued to the stream's worker like a frame, so the frames pushed before it from this thread
+  // are followed under the old setting and those after it under the new one (the alignment
+  // restarts in the new section; the score calibration is kept). Every result then says the
+  // setting it was computed under (ResultFields::practice, revision = practice.revision).
+  // kAccepted, or the refusal with *why (when not null): kUnknownStream (no such stream),
+  // kPracticeValues (a time not finite or negative, an empty loop, a start and a loop),
+  // kPracticeNoClip (no clip teacher), kPracticeOutsideClip (a time outside the clip, or a loop
+  // within one teacher frame), kPracticeQueueFull (the worker's queue is full, or stop() has
+  // begun). A refused setting changes nothing. [any thread] Never blocks; allocates only a
+  // refusal's text. The worker applies it between two frames (Scorer::set_section allocates the
+  // alignment's rows there: a change of setting, not a per-frame cost).
+  transport::TableVerdict set_practice(const transport::PracticeSetting& practice, std::string* why = nullptr);
+
   // Lets workers finish every queued frame, flushes every pipeline, sends every result, then
   // stops the threads and closes the sockets (idempotent). [any thread but a runtime thread]
   // A push racing it is either taken (kOk; its result is sent before stop returns) or refused
@@ -223,6 +245,10 @@ class Runtime {
   struct Worker;
   struct FrameCell;
   StreamState* find(uint64_t stream_id) const;
+  // Claims the next cell of the stream's worker queue for a frame or a practice setting
+  // (null: the queue is full, or closed by stop() when *stopped). [any thread, inside in_push]
+  FrameCell* claim_cell(StreamState& stream, size_t* pos, bool* stopped);
+  void publish_cell(StreamState& stream, FrameCell& cell, size_t pos);
   // The stream table (ingest-driven lifetimes): refusals before any allocation, revisions, retiring.
   void check_open(const transport::SkeletonDefinition& definition) const;
   bool revise_announced(const transport::SkeletonDefinition& definition);

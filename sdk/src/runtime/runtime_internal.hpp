@@ -86,6 +86,14 @@ struct Runtime::StreamState {
   bool publish_features = false;
   int worker = 0;
   int ghost_joints = 0;
+  // The clip teacher's frames (0: no clip teacher) and frame time, for judging practice settings
+  // on the caller's thread; fixed at open.
+  int teacher_frames = 0;
+  double teacher_frame_time = 0.0;
+  // The practice setting results are computed under (worker only after open; has_practice: the
+  // stream has a clip teacher).
+  bool has_practice = false;
+  transport::PracticeSection practice;
   // Source sequence of each accepted frame, by frame index (results may trail their frame).
   std::vector<uint64_t> sequence_ring;
   std::vector<double> capture_ring;              // the source's capture time, by frame index
@@ -115,6 +123,11 @@ struct Runtime::FrameCell {
   float* xyz = nullptr;         // points into Worker::frame_data
   float* confidence = nullptr;  // points into Worker::confidence_data
   bool has_confidence = false;
+  // Not a frame but a practice setting (set_practice): the section in teacher rows, checked.
+  bool practice = false;
+  int32_t practice_first = 0, practice_last = -1;
+  bool practice_loop = false;
+  uint32_t practice_revision = 0;
 };
 
 // A result on its way to the I/O thread.
@@ -123,7 +136,19 @@ struct ResultCell {
   pipeline::Result result;
   uint64_t frame_sequence = 0;
   int64_t computed_ns = 0;
+  bool has_practice = false;  // the setting it was computed under (StreamState::practice)
+  transport::PracticeSection practice;
 };
+
+// The section a stream's scorer follows, in teacher seconds (has = false: no clip teacher).
+inline void practice_section_of(pipeline::Pipeline& p, uint32_t revision, bool* has, transport::PracticeSection* out) {
+  const metric::Scorer* scorer = p.scorer();
+  *has = scorer && scorer->reference().kind() == metric::ReferenceKind::kClip;
+  if (!*has) return;
+  const double ft = scorer->reference().frame_time();
+  *out = transport::PracticeSection{scorer->aligner().first() * ft, scorer->aligner().last() * ft,
+                                    scorer->aligner().options().loop, revision};
+}
 
 struct Runtime::Worker {
   int index = 0;

@@ -239,6 +239,10 @@ void Runtime::add_locked(const transport::SkeletonDefinition& definition, pipeli
     c->store(0, std::memory_order_relaxed);
   state->definition = definition;
   state->ghost_joints = pipeline->ghost_joint_count();
+  // Practice: what the stream's own setup chose (kata serve's [scoring] teacher_start / loop), revision 0.
+  practice_section_of(*pipeline, 0, &state->has_practice, &state->practice);
+  state->teacher_frames = state->has_practice ? pipeline->scorer()->reference().frames() : 0;
+  state->teacher_frame_time = state->has_practice ? pipeline->scorer()->reference().frame_time() : 0.0;
   state->publish_features = publish_features;
   // The worker with the fewest streams (open_mutex_ is held): a burst of every stream's frame
   // splits evenly over the workers whatever the ids (by id % workers, even ids would all land on

@@ -5,9 +5,52 @@
 // backs off first, by the idle strategy) when it has no frame.
 #include "runtime/runtime_internal.hpp"
 
+#include <cstdio>
+
 namespace kata::runtime {
 
 using namespace internal;
+
+Runtime::FrameCell* Runtime::claim_cell(StreamState& stream, size_t* claimed, bool* stopped) {
+  *stopped = false;
+  Worker& w = *workers_[static_cast<size_t>(stream.worker)];
+  size_t pos = w.enqueue_pos.load(std::memory_order_relaxed);
+  for (;;) {
+    if (pos & kQueueClosed) {  // stop() began: refused, and the caller sees it
+      *stopped = true;
+      return nullptr;
+    }
+    FrameCell* cell = &w.cells[pos & w.mask];
+    const size_t turn = cell->turn.load(std::memory_order_acquire);
+    const intptr_t diff = static_cast<intptr_t>(turn) - static_cast<intptr_t>(pos);
+    if (diff == 0) {
+      if (w.enqueue_pos.compare_exchange_weak(pos, pos + 1, std::memory_order_relaxed)) {
+        *claimed = pos;
+        return cell;
+      }
+    } else if (diff < 0) {
+      return nullptr;
+    } else {
+      pos = w.enqueue_pos.load(std::memory_order_relaxed);
+    }
+  }
+}
+
+void Runtime::publish_cell(StreamState& stream, FrameCell& cell, size_t pos) {
+  Worker& w = *workers_[static_cast<size_t>(stream.worker)];
+  cell.turn.store(pos + 1, std::memory_order_release);
+  sem_post(&w.wake);
+}
+
+namespace {
+// Against a close on another thread: either close_stream sees this call in flight and waits for
+// its cell, or this call sees the close (seq_cst on both sides).
+struct InPush {
+  std::atomic<int>& n;
+  explicit InPush(std::atomic<int>& count) : n(count) { n.fetch_add(1, std::memory_order_seq_cst); }
+  ~InPush() { n.fetch_sub(1, std::memory_order_release); }
+};
+}  // namespace
 
 Status Runtime::push(uint64_t stream_id, uint64_t sequence, double capture_time, const float* xyz, int joints,
                      bool restart, const float* confidence) {
@@ -15,37 +58,19 @@ Status Runtime::push(uint64_t stream_id, uint64_t sequence, double capture_time,
   StreamState* stream = find(stream_id);
   if (!stream) return Status::kNotFound;
   if (joints < 0 || joints > config_.max_joints) return Status::kWrongJointCount;
-  // Against a close on another thread: either close_stream sees this push in flight and waits
-  // for its cell, or this push sees the close (seq_cst on both sides); a state reused for
-  // another stream since find() shows another id.
-  stream->counters.in_push.fetch_add(1, std::memory_order_seq_cst);
-  struct Leave {
-    std::atomic<int>& n;
-    ~Leave() { n.fetch_sub(1, std::memory_order_release); }
-  } leave{stream->counters.in_push};
+  // A state reused for another stream since find() shows another id.
+  const InPush in_push(stream->counters.in_push);
   if (stream->closed.load(std::memory_order_seq_cst) || stream->id.load(std::memory_order_acquire) != stream_id)
     return Status::kNotFound;
-  Worker& w = *workers_[static_cast<size_t>(stream->worker)];
-  size_t pos = w.enqueue_pos.load(std::memory_order_relaxed);
-  FrameCell* cell;
-  for (;;) {
-    if (pos & kQueueClosed) {  // stop() began: refused, and the caller sees it
-      stream->counters.stopped.fetch_add(1, std::memory_order_relaxed);
-      return Status::kStopped;
-    }
-    cell = &w.cells[pos & w.mask];
-    const size_t turn = cell->turn.load(std::memory_order_acquire);
-    const intptr_t diff = static_cast<intptr_t>(turn) - static_cast<intptr_t>(pos);
-    if (diff == 0) {
-      if (w.enqueue_pos.compare_exchange_weak(pos, pos + 1, std::memory_order_relaxed)) break;
-    } else if (diff < 0) {
-      stream->counters.queue_full.fetch_add(1, std::memory_order_relaxed);
-      return Status::kState;
-    } else {
-      pos = w.enqueue_pos.load(std::memory_order_relaxed);
-    }
+  size_t pos = 0;
+  bool stopped = false;
+  FrameCell* cell = claim_cell(*stream, &pos, &stopped);
+  if (!cell) {
+    (stopped ? stream->counters.stopped : stream->counters.queue_full).fetch_add(1, std::memory_order_relaxed);
+    return stopped ? Status::kStopped : Status::kState;
   }
   cell->stream = stream;
+  cell->practice = false;
   cell->sequence = sequence;
   cell->capture_time = capture_time;
   cell->arrival_ns = pipeline::now_ns();
@@ -55,9 +80,71 @@ Status Runtime::push(uint64_t stream_id, uint64_t sequence, double capture_time,
   cell->has_confidence = confidence != nullptr;
   if (confidence) std::memcpy(cell->confidence, confidence, sizeof(float) * static_cast<size_t>(joints));
   stream->counters.frames_in.fetch_add(1, std::memory_order_relaxed);  // before the worker can see it
-  cell->turn.store(pos + 1, std::memory_order_release);
-  sem_post(&w.wake);
+  publish_cell(*stream, *cell, pos);
   return Status::kOk;
+}
+
+transport::TableVerdict practice_rows(const transport::PracticeSetting& p, int frames, double ft, int32_t* first,
+                                      int32_t* last, char* why, size_t size) {
+  using transport::TableVerdict;
+  if (transport::practice_values_problem(p, why, size)) return TableVerdict::kPracticeValues;
+  // Teacher seconds -> the nearest teacher frame, which must be in the clip (the values are finite
+  // and >= 0 here; compared as doubles before rounding, so no time overflows a row).
+  const double start = p.loop ? p.loop_start : p.teacher_start;
+  for (double t : {start, p.loop ? p.loop_end : 0.0})
+    if (t / ft > (frames - 1) + 0.5) {
+      std::snprintf(why, size, "%g s is outside the teacher clip (0..%g s: %d frames of %g s)", t, (frames - 1) * ft,
+                    frames, ft);
+      return TableVerdict::kPracticeOutsideClip;
+    }
+  *first = static_cast<int32_t>(std::lround(start / ft));
+  *last = p.loop ? static_cast<int32_t>(std::lround(p.loop_end / ft)) : -1;
+  if (p.loop && *last <= *first) {
+    std::snprintf(why, size, "the loop %g..%g s is within one teacher frame (%g s)", p.loop_start, p.loop_end, ft);
+    return TableVerdict::kPracticeOutsideClip;
+  }
+  return TableVerdict::kAccepted;
+}
+
+transport::TableVerdict Runtime::set_practice(const transport::PracticeSetting& p, std::string* why) {
+  using transport::TableVerdict;
+  char text[256];
+  auto refuse = [&](TableVerdict v) {
+    if (why) *why = text;
+    return v;
+  };
+  StreamState* stream = find(p.stream_id);
+  if (!stream) return TableVerdict::kUnknownStream;
+  const InPush in_push(stream->counters.in_push);
+  if (stream->closed.load(std::memory_order_seq_cst) || stream->id.load(std::memory_order_acquire) != p.stream_id)
+    return TableVerdict::kUnknownStream;
+  if (stream->teacher_frames < 1) {
+    std::snprintf(text, sizeof text, "stream %llu has no clip teacher to practise on",
+                  static_cast<unsigned long long>(p.stream_id));
+    return refuse(TableVerdict::kPracticeNoClip);
+  }
+  int32_t first = 0, last = -1;
+  const TableVerdict rows =
+      practice_rows(p, stream->teacher_frames, stream->teacher_frame_time, &first, &last, text, sizeof text);
+  if (rows != TableVerdict::kAccepted) return refuse(rows);
+  size_t pos = 0;
+  bool stopped = false;
+  FrameCell* cell = claim_cell(*stream, &pos, &stopped);
+  if (!cell) {
+    std::snprintf(text, sizeof text, "%s", stopped ? "the runtime is stopping" : "the stream's worker queue is full");
+    return refuse(TableVerdict::kPracticeQueueFull);
+  }
+  cell->stream = stream;
+  cell->practice = true;
+  cell->practice_first = first;
+  cell->practice_last = last;
+  cell->practice_loop = p.loop;
+  cell->practice_revision = p.revision;
+  cell->joints = 0;
+  cell->restart = false;
+  cell->has_confidence = false;
+  publish_cell(*stream, *cell, pos);
+  return TableVerdict::kAccepted;
 }
 
 void Runtime::worker_loop(Worker& w) {
@@ -82,6 +169,8 @@ void Runtime::worker_loop(Worker& w) {
         cell.stream = &s;
         cell.result = r;
         cell.computed_ns = r.computed_ns ? r.computed_ns : computed;  // the pipeline's stamp
+        cell.has_practice = s.has_practice;
+        cell.practice = s.practice;
         const size_t ring = static_cast<size_t>(r.frame_index) % s.sequence_ring.size();
         cell.frame_sequence = s.sequence_ring[ring];
         cell.result.capture_time = s.capture_ring[ring];
@@ -158,6 +247,22 @@ void Runtime::worker_loop(Worker& w) {
     while (cell.turn.load(std::memory_order_acquire) != w.dequeue_pos + 1) std::this_thread::yield();
     StreamState& s = *cell.stream;
     pipeline::Pipeline& p = *s.pipeline;
+    if (cell.practice) {
+      // A practice setting, between two frames (the results so far were moved out after the
+      // last push, so each result carries the setting it was computed under). Judged against
+      // the clip by set_practice; a scorer that refuses all the same keeps its section.
+      if (metric::Scorer* scorer = p.scorer()) {
+        try {
+          scorer->set_section(cell.practice_first, cell.practice_last, cell.practice_loop);
+          practice_section_of(p, cell.practice_revision, &s.has_practice, &s.practice);
+        } catch (const Error&) {
+        }
+      }
+      cell.turn.store(w.dequeue_pos + w.mask + 1, std::memory_order_release);
+      ++w.dequeue_pos;
+      w.done_pos.store(w.dequeue_pos, std::memory_order_release);
+      continue;
+    }
     if (cell.restart && s.accepted > 0) {
       p.reset();
       p.restart_teacher();

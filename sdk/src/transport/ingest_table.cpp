@@ -47,6 +47,24 @@ void IngestTable::commit_definition(SenderToken sender, uint64_t id, uint32_t re
   s.candidate_run = 0;
   s.has_offset = false;
   s.last_activity_ns = now_ns;
+  s.has_practice = false;  // a reopened stream's pipeline takes the setting again
+}
+
+TableVerdict IngestTable::judge_practice(SenderToken sender, uint64_t id, uint32_t revision) const {
+  const auto it = streams_.find(id);
+  if (it == streams_.end()) return TableVerdict::kUnknownStream;
+  const Stream& s = it->second;
+  if (s.owner != sender) return TableVerdict::kNotOwner;
+  if (s.has_practice && s.practice_revision == revision) return TableVerdict::kRepeated;
+  return TableVerdict::kAccepted;
+}
+
+void IngestTable::commit_practice(uint64_t id, uint32_t revision, int64_t now_ns) {
+  const auto it = streams_.find(id);
+  if (it == streams_.end()) return;
+  it->second.has_practice = true;
+  it->second.practice_revision = revision;
+  it->second.last_activity_ns = now_ns;
 }
 
 TableVerdict IngestTable::judge_close(SenderToken sender, uint64_t id) const {

@@ -18,7 +18,11 @@
 // - A frame older than max_frame_age by its capture time, against the stream's clock, is stale
 //   (dropped, counted). The stream's clock: the smallest arrival - capture offset seen so far (the
 //   quickest delivery), reset by a restart or revision; a frame's age is its offset beyond that.
-// - Idle streams expire after idle_seconds without a frame or definition from their owner.
+// - A practice setting (schemas/practice.fbs) is the owner's too; the revision in force again is
+//   a re-send (kRepeated). Every accepted definition forgets it, so that a reopened stream takes
+//   the setting again.
+// - Idle streams expire after idle_seconds without a frame, definition or practice setting from
+//   their owner.
 #pragma once
 
 #include <cstdint>
@@ -62,6 +66,11 @@ enum class TableVerdict {
   kOutOfOrder,    // not after the last sequence
   kOutOfWindow,   // too far after the last sequence
   kStale,         // older than max_frame_age
+  // A practice setting refused (schemas/practice.fbs), judged by the ingest and its receiver:
+  kPracticeValues,       // a time not finite or negative, an empty loop, a start and a loop
+  kPracticeOutsideClip,  // a time outside the stream's teacher clip (or a loop within one frame)
+  kPracticeNoClip,       // the stream has no clip teacher to practise on
+  kPracticeQueueFull,    // the stream's worker queue was full (the setting is lost: send it again)
 };
 
 class IngestTable {
@@ -77,6 +86,12 @@ class IngestTable {
   // A close of stream `id` from `sender`: kAccepted (then forget(id)), kNotOwner or kUnknownStream.
   TableVerdict judge_close(SenderToken sender, uint64_t id) const;
   void forget(uint64_t id);
+
+  // A practice setting of stream `id` from `sender`: kAccepted (hand it on, then
+  // commit_practice), kRepeated (the revision in force), kNotOwner or kUnknownStream.
+  TableVerdict judge_practice(SenderToken sender, uint64_t id, uint32_t revision) const;
+  // Stores the revision the receiver applied (the owner's activity, as a frame is).
+  void commit_practice(uint64_t id, uint32_t revision, int64_t now_ns);
 
   // A frame: kAccepted with *restarted (the receiver restarts the stream's kinetics), *gap
   // (frames missing before it, at most the window) and *age_ns (its age by the stream's clock,
@@ -114,6 +129,8 @@ class IngestTable {
     bool has_offset = false;
     int64_t min_offset_ns = 0;       // smallest arrival - capture
     int64_t last_activity_ns = 0;
+    bool has_practice = false;       // a practice setting was applied since the last definition
+    uint32_t practice_revision = 0;  // its revision
   };
   struct Sender {
     uint32_t streams = 0;

@@ -2,10 +2,12 @@
 #include "transport/wire.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 
 #include "common/error.hpp"
 #include "kata_schemas/frame_generated.h"
+#include "kata_schemas/practice_generated.h"
 #include "kata_schemas/result_generated.h"
 #include "kata_schemas/skeleton_generated.h"
 #include "kata_schemas/stats_generated.h"
@@ -15,7 +17,7 @@ namespace kata::transport {
 namespace {
 
 constexpr char kHex[] = "0123456789abcdef";
-constexpr uint16_t kFrameVersion = 1, kSkeletonVersion = 1, kResultVersion = 1;
+constexpr uint16_t kFrameVersion = 1, kSkeletonVersion = 1, kResultVersion = 1, kPracticeVersion = 1;
 
 uint32_t fnv1a(uint32_t hash, const void* data, size_t size) {
   const auto* p = static_cast<const uint8_t*>(data);
@@ -160,6 +162,42 @@ Bytes Encoder::skeleton(const SkeletonDefinition& d) {
   return finish(d.stream_id, fb::SkeletonDefinitionIdentifier());
 }
 
+Bytes Encoder::practice(const PracticeSetting& p) {
+  auto& b = impl_->builder;
+  b.Clear();
+  fb::PracticeBuilder k(b);
+  k.add_schema_version(kPracticeVersion);
+  k.add_stream_id(p.stream_id);
+  k.add_revision(p.revision);
+  k.add_teacher_start(p.teacher_start);
+  k.add_loop(p.loop);
+  k.add_loop_start(p.loop_start);
+  k.add_loop_end(p.loop_end);
+  b.Finish(k.Finish(), fb::PracticeIdentifier());
+  return finish(p.stream_id, fb::PracticeIdentifier());
+}
+
+const char* practice_values_problem(const PracticeSetting& p, char* why, size_t size) {
+  if (!std::isfinite(p.teacher_start) || !std::isfinite(p.loop_start) || !std::isfinite(p.loop_end)) {
+    std::snprintf(why, size, "a time is not finite (teacher_start %g, loop_start %g, loop_end %g)", p.teacher_start,
+                  p.loop_start, p.loop_end);
+  } else if (p.teacher_start < 0.0) {
+    std::snprintf(why, size, "teacher_start %g s is before the teacher's first frame", p.teacher_start);
+  } else if (!p.loop) {
+    return nullptr;
+  } else if (p.teacher_start != 0.0) {
+    std::snprintf(why, size, "teacher_start %g s and a loop from %g s: give one or the other", p.teacher_start,
+                  p.loop_start);
+  } else if (p.loop_start < 0.0) {
+    std::snprintf(why, size, "loop_start %g s is before the teacher's first frame", p.loop_start);
+  } else if (!(p.loop_end > p.loop_start)) {
+    std::snprintf(why, size, "loop_end %g s is not after loop_start %g s", p.loop_end, p.loop_start);
+  } else {
+    return nullptr;
+  }
+  return why;
+}
+
 Bytes Encoder::result(const ResultFields& r) {
   auto& b = impl_->builder;
   b.Clear();
@@ -192,6 +230,8 @@ Bytes Encoder::result(const ResultFields& r) {
   if (r.scored) o.add_part_scores(&part_scores);
   o.add_part_to_fix(static_cast<int8_t>(r.part_to_fix));
   o.add_feedback_state(static_cast<fb::FeedbackState>(r.state));
+  const fb::PracticeSection practice(r.practice.start_time, r.practice.end_time, r.practice.loop, r.practice.revision);
+  if (r.has_practice) o.add_practice(&practice);
   if (r.ghost) o.add_ghost(ghost);
   if (r.features) o.add_features(features);
   b.Finish(o.Finish(), fb::ResultIdentifier());
@@ -242,6 +282,12 @@ Bytes Encoder::stats(const StatsFields& f) {
   k.add_published(f.published);
   k.add_send_failed(f.send_failed);
   k.add_per_stream(per_v);
+  k.add_practices(f.practices);
+  k.add_repeated_practices(f.repeated_practices);
+  k.add_practice_bad_values(f.practice_bad_values);
+  k.add_practice_outside_clip(f.practice_outside_clip);
+  k.add_practice_no_clip(f.practice_no_clip);
+  k.add_practice_queue_full(f.practice_queue_full);
   b.Finish(k.Finish(), fb::StatsIdentifier());
   return finish(kStatsStreamId, fb::StatsIdentifier());
 }
@@ -280,6 +326,12 @@ StatsFields Decoder::stats() const {
   f.results_dropped = k->results_dropped();
   f.published = k->published();
   f.send_failed = k->send_failed();
+  f.practices = k->practices();
+  f.repeated_practices = k->repeated_practices();
+  f.practice_bad_values = k->practice_bad_values();
+  f.practice_outside_clip = k->practice_outside_clip();
+  f.practice_no_clip = k->practice_no_clip();
+  f.practice_queue_full = k->practice_queue_full();
   if (const auto* per = k->per_stream())
     for (const fb::StreamStats* p : *per)
       f.per_stream.push_back({p->stream_id(), p->frames_in(), p->queue_full(), p->refused(), p->results(),
@@ -425,9 +477,20 @@ MessageKind Decoder::decode(const void* data, size_t size) {
     o.state = static_cast<int32_t>(r->feedback_state());
     o.ghost = r->ghost() ? reinterpret_cast<const float*>(r->ghost()->Data()) : nullptr;
     o.ghost_joints = r->ghost() ? static_cast<int>(r->ghost()->size()) : 0;
+    o.has_practice = r->practice() != nullptr;
+    o.practice = PracticeSection{};
+    if (const auto* practice = r->practice())
+      o.practice = PracticeSection{practice->start_time(), practice->end_time(), practice->loop(), practice->revision()};
     o.features = r->features() ? r->features()->data() : nullptr;
     o.feature_count = r->features() ? static_cast<int>(r->features()->size()) : 0;
     return MessageKind::kResult;
+  }
+  if (flatbuffers::BufferHasIdentifier(payload_, fb::PracticeIdentifier())) {
+    if (!fb::VerifyPracticeBuffer(verifier)) return fail(DecodeError::kVerifier);
+    const fb::Practice* k = fb::GetPractice(payload_);
+    if (k->schema_version() != kPracticeVersion) return fail(DecodeError::kVersion);
+    if (k->stream_id() != stream_id_) return fail(DecodeError::kTopicMismatch);
+    return MessageKind::kPractice;
   }
   if (flatbuffers::BufferHasIdentifier(payload_, fb::StatsIdentifier())) {
     if (!fb::VerifyStatsBuffer(verifier)) return fail(DecodeError::kVerifier);
@@ -472,6 +535,18 @@ SkeletonDefinition Decoder::skeleton() const {
   d.frame_rate = k->frame_rate();
   d.closed = k->closed();
   return d;
+}
+
+PracticeSetting Decoder::practice() const {
+  const fb::Practice* k = fb::GetPractice(payload_);
+  PracticeSetting p;
+  p.stream_id = k->stream_id();
+  p.revision = k->revision();
+  p.teacher_start = k->teacher_start();
+  p.loop = k->loop();
+  p.loop_start = k->loop_start();
+  p.loop_end = k->loop_end();
+  return p;
 }
 
 uint32_t Decoder::skeleton_revision() const { return fb::GetSkeletonDefinition(payload_)->revision(); }

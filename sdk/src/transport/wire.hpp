@@ -51,6 +51,28 @@ struct SkeletonDefinition {
   bool closed = false;           // the source ends the stream (schemas/skeleton.fbs)
 };
 
+// A stream's practice setting as carried by a Practice message (schemas/practice.fbs documents
+// each field): teacher seconds from the teacher's first frame, the axis of matched_teacher_time.
+struct PracticeSetting {
+  uint64_t stream_id = 0;
+  uint32_t revision = 0;
+  double teacher_start = 0.0;  // the lesson starts here (0: the clip's first frame)
+  bool loop = false;           // loop loop_start..loop_end (teacher_start is then 0)
+  double loop_start = 0.0, loop_end = 0.0;
+};
+
+// What a practice setting may not hold, whatever the clip (the rest is judged against the
+// stream's teacher by the runtime): null when the values are usable, else why not ("loop_end 2
+// is not after loop_start 4"), written into `why` (at least 128 bytes). Allocation-free.
+const char* practice_values_problem(const PracticeSetting& practice, char* why, size_t size);
+
+// The section a result was computed under (schemas/result.fbs PracticeSection), in teacher seconds.
+struct PracticeSection {
+  double start_time = 0.0, end_time = 0.0;
+  bool loop = false;
+  uint32_t revision = 0;
+};
+
 // The published fields of one result (schemas/result.fbs documents each).
 struct ResultFields {
   uint64_t stream_id = 0;
@@ -72,6 +94,9 @@ struct ResultFields {
   float part_scores[5] = {};
   int32_t part_to_fix = -1;
   int32_t state = 0;
+  // The practice setting it was computed under; has_practice when the stream has a clip teacher.
+  bool has_practice = false;
+  PracticeSection practice;
 };
 
 // The counters a runtime publishes (schemas/stats.fbs documents each), on the topic of stream id
@@ -89,6 +114,8 @@ struct StatsFields {
   uint64_t sequence_gaps = 0, restarts = 0, connections = 0, connections_refused = 0;
   uint64_t frames_in = 0, queue_full = 0, refused = 0, results = 0, results_dropped = 0, published = 0, send_failed = 0;
   std::vector<StreamStatsFields> per_stream;
+  uint64_t practices = 0, repeated_practices = 0, practice_bad_values = 0, practice_outside_clip = 0, practice_no_clip = 0,
+           practice_queue_full = 0;
 };
 
 // A view of one message's bytes (topic included); valid until the encoder's next call.
@@ -110,6 +137,8 @@ class Encoder {
               const float* confidence = nullptr, const float* presence = nullptr);
   // A SkeletonDefinition message.
   Bytes skeleton(const SkeletonDefinition& definition);
+  // A Practice message.
+  Bytes practice(const PracticeSetting& practice);
   // A Result message.
   Bytes result(const ResultFields& fields);
   // A Stats message (topic: kStatsStreamId).
@@ -137,7 +166,7 @@ enum class DecodeError {
 };
 const char* decode_error_name(DecodeError error);
 
-enum class MessageKind { kNone, kFrame, kSkeleton, kResult, kStats };
+enum class MessageKind { kNone, kFrame, kSkeleton, kResult, kStats, kPractice };
 
 // A verified frame; pointers are valid until the decoder's next call.
 struct FrameView {
@@ -179,6 +208,9 @@ class Decoder {
   int skeleton_joints() const;
   bool skeleton_closed() const;
   const ResultFields& result() const { return result_; }
+  // The last decoded Practice message (verified structure; its values are judged by
+  // practice_values_problem). Allocation-free.
+  PracticeSetting practice() const;
   // Copies a verified Stats message out (allocates: a monitor's path, once a second).
   StatsFields stats() const;
 

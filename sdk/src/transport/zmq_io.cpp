@@ -123,7 +123,8 @@ uint64_t IngestCounters::malformed_total() const {
 
 uint64_t IngestCounters::dropped_total() const {
   return malformed_total() + refused_skeletons + unknown_stream + wrong_joint_count + out_of_order + other_kind +
-         not_owner + refused_limit + out_of_window + stale;
+         not_owner + refused_limit + out_of_window + stale + practice_bad_values + practice_outside_clip +
+         practice_no_clip + practice_queue_full;
 }
 
 namespace {
@@ -357,9 +358,13 @@ std::string Ingest::describe(SenderToken sender) const {
   return text;
 }
 
-void Ingest::refused(SenderToken sender, TableVerdict cause, uint64_t stream_id) {
+void Ingest::refused(SenderToken sender, TableVerdict cause, uint64_t stream_id, const std::string& reason) {
   const char* why = "";
   switch (cause) {
+    case TableVerdict::kPracticeValues: ++counters_.practice_bad_values; why = "sends a practice setting that cannot be"; break;
+    case TableVerdict::kPracticeOutsideClip: ++counters_.practice_outside_clip; why = "sends a practice setting outside the teacher clip"; break;
+    case TableVerdict::kPracticeNoClip: ++counters_.practice_no_clip; why = "sends a practice setting for a stream without a clip teacher"; break;
+    case TableVerdict::kPracticeQueueFull: ++counters_.practice_queue_full; why = "sends a practice setting its stream's queue had no room for"; break;
     case TableVerdict::kNotOwner: ++counters_.not_owner; why = "sends for a stream another sender owns"; break;
     case TableVerdict::kLimit: ++counters_.refused_limit; why = "defines streams beyond a limit"; break;
     case TableVerdict::kUnknownStream: ++counters_.unknown_stream; return;
@@ -371,8 +376,28 @@ void Ingest::refused(SenderToken sender, TableVerdict cause, uint64_t stream_id)
     case TableVerdict::kRepeated: return;
   }
   if (log_refusals_ && table_.first_refusal(sender, cause))
-    std::fprintf(stderr, "\nkata ingest: sender %s %s (stream %llu); counted, not logged again\n",
-                 describe(sender).c_str(), why, static_cast<unsigned long long>(stream_id));
+    std::fprintf(stderr, "\nkata ingest: sender %s %s (stream %llu%s%s); counted, not logged again\n",
+                 describe(sender).c_str(), why, static_cast<unsigned long long>(stream_id), reason.empty() ? "" : ": ",
+                 bounded(reason).c_str());
+}
+
+void Ingest::handle_practice(SenderToken sender, int64_t now_ns) {
+  const PracticeSetting p = decoder_.practice();
+  const TableVerdict v = table_.judge_practice(sender, p.stream_id, p.revision);
+  if (v != TableVerdict::kAccepted && v != TableVerdict::kRepeated) return refused(sender, v, p.stream_id);
+  // Values no clip can hold are the verifier's to refuse, with the reason; the clip's bounds are
+  // the receiver's (it knows the stream's teacher).
+  char why[192];
+  if (practice_values_problem(p, why, sizeof why)) return refused(sender, TableVerdict::kPracticeValues, p.stream_id, why);
+  if (v == TableVerdict::kRepeated) {
+    ++counters_.repeated_practices;
+    return;
+  }
+  std::string reason;
+  const TableVerdict taken = handlers_.on_practice ? handlers_.on_practice(p, &reason) : TableVerdict::kPracticeNoClip;
+  if (taken != TableVerdict::kAccepted) return refused(sender, taken, p.stream_id, reason);
+  table_.commit_practice(p.stream_id, p.revision, now_ns);
+  ++counters_.practices;
 }
 
 void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t now_ns) {
@@ -392,6 +417,8 @@ void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t n
     case MessageKind::kStats:
       ++counters_.other_kind;
       return;
+    case MessageKind::kPractice:
+      return handle_practice(sender, now_ns);
     case MessageKind::kSkeleton: {
       const uint64_t id = decoder_.stream_id();
       // Ownership and limits first: a refused definition allocates nothing.

@@ -124,7 +124,7 @@ struct IngestOptions {
 };
 
 // What the ingest counted. Every received message lands in exactly one of frames, skeletons,
-// repeated_skeletons, other_shard or a drop counter.
+// repeated_skeletons, closes, practices, repeated_practices, other_shard or a drop counter.
 struct IngestCounters {
   uint64_t received = 0;       // messages read from the socket
   uint64_t frames = 0;         // frames handed on
@@ -147,6 +147,15 @@ struct IngestCounters {
   uint64_t closes = 0;              // streams closed by their owner (messages; not refused)
   uint64_t expired = 0;             // streams closed for idleness (not messages)
   uint64_t revisions = 0;           // new revisions from the owner that restarted a stream (in skeletons)
+  // Practice settings (schemas/practice.fbs; since 1.0): applied, re-sent (not handed on, not a
+  // drop), and refused by cause (drops; those of another sender are in not_owner, before their
+  // stream's definition in unknown_stream, malformed ones in malformed).
+  uint64_t practices = 0;
+  uint64_t repeated_practices = 0;
+  uint64_t practice_bad_values = 0;    // not finite, negative, an empty loop, a start and a loop
+  uint64_t practice_outside_clip = 0;  // outside the stream's teacher clip
+  uint64_t practice_no_clip = 0;       // the stream has no clip teacher
+  uint64_t practice_queue_full = 0;    // the stream's worker queue was full
   uint64_t connections = 0;         // connections accepted or made (not messages)
   uint64_t disconnections = 0;      // connections closed (by the peer, ZeroMQ's limits or ours)
   uint64_t connections_refused = 0; // connections closed at once: max_connections reached
@@ -185,6 +194,12 @@ class Ingest {
     // the wrong joint count), besides the ingest-wide counter: the receiver counts it on the
     // stream, so that every frame sent for a stream is accounted for there. [ingest's thread]
     std::function<void(uint64_t stream_id, TableVerdict cause)> on_refused_frame;
+    // A practice setting of a known stream from its owner, its values usable (not finite,
+    // negative, an empty loop and a start beside a loop were refused before): the receiver
+    // applies it in order with the stream's frames and returns kAccepted, or refuses it with
+    // kPracticeOutsideClip / kPracticeNoClip / kPracticeQueueFull / kUnknownStream and says why
+    // in *why (logged once per sender and cause). [ingest's thread]
+    std::function<TableVerdict(const PracticeSetting&, std::string* why)> on_practice;
   };
 
   Ingest(Context& context, const IngestOptions& options, Handlers handlers);
@@ -210,7 +225,8 @@ class Ingest {
   const IngestCounters& counters() const { return counters_; }
 
  private:
-  void refused(SenderToken sender, TableVerdict cause, uint64_t stream_id);
+  void refused(SenderToken sender, TableVerdict cause, uint64_t stream_id, const std::string& why = {});
+  void handle_practice(SenderToken sender, int64_t now_ns);
   std::string describe(SenderToken sender) const;
   void* socket_ = nullptr;
   void* monitor_ = nullptr;  // PAIR socket reading this socket's connection events

@@ -1,0 +1,57 @@
+// The `kata serve` config's integer reader (sdk/tools/serve_config_read.hpp): a value the file
+// holds is judged against its range and refused with file, line and key; a missing key gives the
+// program's default without judging it (it used to read the missing key's node for a line: a null
+// dereference whenever a default lay outside the range it was checked against).
+#include <gtest/gtest.h>
+
+#include <functional>
+#include <string>
+#include <string_view>
+
+#include "common/error.hpp"
+#include "serve_config.hpp"
+#include "serve_config_read.hpp"
+
+namespace kata::serve {
+namespace {
+
+std::string refusal(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.kind(), ErrorKind::kParse);
+    return e.what();
+  }
+  return "";
+}
+
+TEST(serve_config, AMissingKeyGivesItsDefaultWithoutALine) {
+  const toml::table table = toml::parse(std::string_view("other = 5\n"), std::string_view("stage.toml"));
+  // A default outside the range (a default derived from another setting can be): returned as it is.
+  EXPECT_EQ(detail::read_range("stage.toml", table, "workers", 0, 1, 64), 0);
+  EXPECT_EQ(detail::read_range("stage.toml", table, "workers", 2, 1, 64), 2);
+}
+
+TEST(serve_config, AValueOutOfRangeIsRefusedWithItsFileLineAndKey) {
+  const toml::table table = toml::parse(std::string_view("other = 5\nworkers = 99\nname = \"x\"\n"), std::string_view("stage.toml"));
+  EXPECT_EQ(refusal([&] { detail::read_range("stage.toml", table, "workers", 2, 1, 64); }),
+            "stage.toml:2: 'workers' must be 1..64");
+  EXPECT_EQ(refusal([&] { detail::read_range("stage.toml", table, "name", 2, 1, 64); }),
+            "stage.toml:3: 'name' must be an integer");
+  EXPECT_EQ(detail::read_range("stage.toml", table, "other", 2, 1, 64), 5);
+}
+
+TEST(serve_config, AWholeConfigNamesTheLineOfABadValue) {
+  const std::string config =
+      "[ingest]\nendpoints = [\"bind:tcp://127.0.0.1:5555\"]\nkind = \"pull\"\n"
+      "[publish]\nendpoints = [\"tcp://127.0.0.1:5556\"]\n"
+      "[runtime]\nworkers = 0\n";
+  EXPECT_EQ(refusal([&] { parse_config_text(config, "stage.toml"); }), "stage.toml:7: 'workers' must be 1..64");
+  // Without the key, every default holds (none of them is judged against a line it does not have).
+  const ServeConfig c = parse_config_text(config.substr(0, config.find("[runtime]")), "stage.toml");
+  EXPECT_EQ(c.runtime.workers, 2);
+  EXPECT_EQ(c.runtime.ingest.limits.max_streams_per_sender, 64u);
+}
+
+}  // namespace
+}  // namespace kata::serve
