@@ -125,7 +125,8 @@ class Metric {
   std::vector<uint8_t> group_static_;  // 1 when the group's dimensions are in blocks 1..8
   std::vector<uint8_t> group_joint_;   // 1 when the group's dimensions are joint coordinates (Jc)
   detail::BlockedW blocked_;
-  // Output row r (part r, or the static row) = sum of share-weighted group products.
+  // Output row r (part r, the static row, or joint-position row r - kJointRows) = sum of
+  // share-weighted group products.
   std::vector<int> combine_begin_, combine_group_;
   std::vector<float> combine_weight_;
   detail::Combine combine_;
