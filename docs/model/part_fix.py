@@ -4,11 +4,12 @@ model so that the part named is the part whose joints are farthest from the teac
 how often it agrees with geometry on real pairs of different subjects.
 
     /usr/bin/python3 docs/model/part_fix.py measure [build/bin/kata] [../shared/data/cmu] [models/default.kata] [OUT_DIR]
-    /usr/bin/python3 docs/model/part_fix.py fit     [build/bin/kata] [../shared/data/cmu] MODEL_COPY.kata
+    /usr/bin/python3 docs/model/part_fix.py fit     [build/bin/kata] [../shared/data/cmu] MODEL.kata
 
-`fit` rewrites the part maps of the model it is given. It is NOT applied to models/default.kata:
-the candidate it makes names the legs for a head turned on the neck (tests/metric/test_blame.cpp:
-torso 0.315 instead of 0.833), see docs/model/scores.md "The part to fix against geometry".
+`fit` rewrites the part maps of the model it is given; regenerate.sh runs it on models/default.kata
+after calibrate.py (whose part maps it replaces), then `measure`. The part distance it scales is
+the scorer's: d_p = |W^T (jc_p o e)|, the difference of part p's own joint positions (block Jc)
+seen through W (sdk/src/metric/metric.hpp kJointRows; docs/model/scores.md says why).
 
 Pairs: two clips of the same motion by different CMU subjects, teacher then student, clip-aligned
 by the offline reference (`kata score --align dtw`, frame 0, the T-pose, skipped; only "scoring"
@@ -25,7 +26,7 @@ The model's part to fix over a pair: the part with the lowest mean part score ov
 frames (the lesson report's lowest part). Also printed: the part that is the lowest on the most
 frames (the per-frame cue before its hysteresis).
 
-fit: each part's distance d_p = |W^T (share_p o e)| (scores.md) is put in body heights of joint
+fit: each part's distance d_p = |W^T (jc_p o e)| (scores.md) is put in body heights of joint
 displacement by one factor a_p, fitted by least squares through the origin of the per-frame
 geometric MJD of part p on d_p over the training pairs' frames. One map (g50, slope) then serves
 every part on a_p d_p, fitted like the total (pairmean over calibrate.py's labelled pairs among the

@@ -26,8 +26,11 @@ $KATA calibrate --model models/default.kata --out models/default.kata --delta-st
 # The score map (total and per part), fitted on real cross-subject clip pairs, chosen by
 # leave-one-subject-out (calibrate.py; report in eval-calibration/calibration.md).
 /usr/bin/python3 docs/model/calibrate.py $KATA $DATA models/default.kata docs/model/eval-calibration
-# The part to fix against local-frame geometry on real pairs of different subjects (issue 21;
-# report in eval-part-fix/part_fix.md; measures only, the model is not changed).
+# The part maps on the joint-position part distances (issue 21: one map on each part's distance
+# put in body heights of joint displacement; replaces calibrate.py's part maps, keeps its total),
+# then the part to fix against local-frame geometry on real pairs of different subjects (report
+# in eval-part-fix/part_fix.md).
+/usr/bin/python3 docs/model/part_fix.py fit $KATA $DATA models/default.kata
 /usr/bin/python3 docs/model/part_fix.py measure $KATA $DATA models/default.kata docs/model/eval-part-fix
 # The transition model (issue 27, docs/model/transition.md): within-subject pairs of issue 27's
 # protocol from each training subject (the files transition_protocols.sh also uses), W restricted

@@ -2,6 +2,17 @@
 // 9, clip 09_01, shipped in data/cmu): one joint of one part is rotated by 30 degrees, and that
 // part must get the lowest part score. Prints the 5 x 5 confusion matrix (rows: the part moved,
 // columns: the part with the lowest score).
+//
+// The bent spine (everything above the chest turned about the chest) is judged by geometry, as
+// the part to fix is everywhere else (issue 21, docs/model/part_fix.py): the part named must be
+// one of the two parts whose joints moved farthest in the local frame. Why not "the torso": the
+// turn carries the shoulders, elbows and hands, farther from the chest than the neck and head,
+// so in the local frame (hip-relative, yaw from the shoulder and hip lines) the arms' joints are
+// displaced 2-3 times as far as the torso's (whose hip and chest do not move at all); a twist
+// about the vertical also turns the local frame and with it the legs. The part to fix names
+// where the student's joints are farthest from the teacher's; naming the joint that turned
+// instead would take an attribution by joint rotations, which no split of W^T e (positions seen
+// through W) can give. So a student who bends the spine is told about the arms it carried.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -41,6 +52,26 @@ const Rotation kRotations[] = {
     {4, 14, {15}},                    // right knee
 };
 
+// Per part, the mean over its GPD joints of the local-frame displacement between two feature
+// vectors (block Jc: joints 1..15 relative to the hip, body heights; the hip by its height).
+void local_mjd(const float* a, const float* b, double* mjd) {
+  static const std::vector<int> joints[kParts] = {{0, 1, 2, 3}, {4, 5, 6}, {7, 8, 9}, {10, 11, 12}, {13, 14, 15}};
+  for (int p = 0; p < kParts; ++p) {
+    double s = 0.0;
+    for (int j : joints[p]) {
+      if (j == 0) {
+        s += std::abs(a[45] - b[45]);
+        continue;
+      }
+      const float* x = a + 3 * (j - 1);
+      const float* y = b + 3 * (j - 1);
+      s += std::sqrt(double(x[0] - y[0]) * (x[0] - y[0]) + double(x[1] - y[1]) * (x[1] - y[1]) +
+                     double(x[2] - y[2]) * (x[2] - y[2]));
+    }
+    mjd[p] = s / static_cast<double>(joints[p].size());
+  }
+}
+
 std::vector<float> features_of(const float* joints, double height) {
   std::vector<float> x(gpd::kDims), local(3 * gpd::kJoints);
   gpd::GeometryState state;
@@ -61,10 +92,11 @@ TEST(Blame, RotatingOneJointBlamesItsPart) {
   Eigen::MatrixX3d world(n, 3);
   std::vector<float> xyz(3 * static_cast<size_t>(n));
   int confusion[kParts][kParts] = {};
-  int old_confusion[kParts][kParts] = {};  // the pre-calibration blame: the largest share of d^2
+  int old_confusion[kParts][kParts] = {};  // the pre-calibration blame: the largest share of d^2 (all trials)
   int torso_miss[2] = {};                  // neck, spine
   int spine_miss_axis[3] = {};
-  int spine_trials_about_vertical = 0, spine_right_about_vertical = 0;
+  int spine_trials = 0, spine_in_top2 = 0, spine_below_median = 0, spine_torso = 0;
+  int spine_named[kParts] = {};
   int trials = 0;
   for (int f = 1; f < clip.frame_count(); ++f) {
     world_positions(clip, f, world);
@@ -92,16 +124,24 @@ TEST(Blame, RotatingOneJointBlamesItsPart) {
         int low = 0;
         for (int q = 1; q < kParts; ++q)
           if (rec.part_scores[q] < rec.part_scores[low]) low = q;
-        ++confusion[rot.part][low];
         int big = 0;
         for (int q = 1; q < kParts; ++q)
           if (rec.parts[q] > rec.parts[big]) big = q;
         ++old_confusion[rot.part][big];
         if (rot.part == 0 && low != 0) ++torso_miss[rot.pivot == 2 ? 0 : 1];
-        if (rot.part == 0 && rot.pivot == 1 && low != 0) ++spine_miss_axis[axis];
-        if (rot.part == 0 && rot.pivot == 1 && axis == 1) {
-          ++spine_trials_about_vertical;
-          if (low == 0) ++spine_right_about_vertical;
+        if (rot.part == 0 && rot.pivot == 1) {  // the bent spine: judged by geometry (above)
+          if (low != 0) ++spine_miss_axis[axis];
+          double mjd[kParts];
+          local_mjd(student.data(), teacher.data(), mjd);
+          int above = 0;  // parts farther than the one named
+          for (int q = 0; q < kParts; ++q) above += mjd[q] > mjd[low];
+          ++spine_trials;
+          ++spine_named[low];
+          spine_in_top2 += above < 2;
+          spine_below_median += above > 2;
+          spine_torso += low == 0;
+        } else {
+          ++confusion[rot.part][low];
         }
         ++trials;
       }
@@ -114,22 +154,28 @@ TEST(Blame, RotatingOneJointBlamesItsPart) {
     std::printf("%-11s", metric::part_name(p));
     for (int q = 0; q < kParts; ++q) std::printf(" %5d", confusion[p][q]);
     std::printf("   %.3f   old:", double(confusion[p][p]) / total);
-    for (int q = 0; q < kParts; ++q) std::printf(" %5d", old_confusion[p][q]);
-    std::printf("   %.3f\n", double(old_confusion[p][p]) / total);
+    int old_total = 0;
+    for (int q = 0; q < kParts; ++q) std::printf(" %5d", old_confusion[p][q]), old_total += old_confusion[p][q];
+    std::printf("   %.3f\n", double(old_confusion[p][p]) / old_total);
   }
-  std::printf("torso misses: neck %d, spine %d (about x / y (vertical) / z: %d / %d / %d)\n", torso_miss[0],
-              torso_miss[1], spine_miss_axis[0], spine_miss_axis[1], spine_miss_axis[2]);
-  // The target: the moved part has the lowest score in >= 90% of its trials. A twist of the spine
-  // about the vertical is left out of the torso's count: the GPD local frame takes its yaw from
-  // the shoulder and hip lines together (spec section 2), so that twist turns the hips and legs
-  // by half the angle in the local frame, and they really differ there too.
+  std::printf("(torso row: the neck only; old: neck and spine) torso misses: neck %d, spine %d (about x / y "
+              "(vertical) / z: %d / %d / %d)\n", torso_miss[0], torso_miss[1], spine_miss_axis[0], spine_miss_axis[1],
+              spine_miss_axis[2]);
+  std::printf("bent spine, %d trials: named in geometry's top 2 %d, below its median %d, the torso named %d "
+              "(named %d / %d / %d / %d / %d)\n", spine_trials, spine_in_top2, spine_below_median, spine_torso,
+              spine_named[0], spine_named[1], spine_named[2], spine_named[3], spine_named[4]);
+  // The target: the moved part has the lowest score in >= 90% of its trials; the bent spine's
+  // part is one of geometry's two farthest in >= 90% of its trials and never below its median.
   for (int p = 0; p < kParts; ++p) {
     int total = 0;
     for (int q = 0; q < kParts; ++q) total += confusion[p][q];
-    int right = confusion[p][p];
-    if (p == 0) total -= spine_trials_about_vertical, right -= spine_right_about_vertical;
-    EXPECT_GE(double(right) / total, 0.9) << metric::part_name(p);
+    EXPECT_GE(double(confusion[p][p]) / total, 0.9) << metric::part_name(p);
   }
+  // Measured (shipped model): 49 of 54 in the top 2; the 5 others are all twists about the
+  // vertical, which turn the local frame and so move the legs about as far as the arms (one of
+  // them, 1 of 54, names the least moved of the four: legs 0.4 points apart in score).
+  EXPECT_GE(double(spine_in_top2) / spine_trials, 0.9);
+  EXPECT_LE(spine_below_median, spine_trials / 20);
 }
 
 }  // namespace

@@ -615,7 +615,8 @@ typedef enum kata_body_part {
 /* ==== Score calibration and feedback ====================================================== */
 /* The score is a calibrated map of the distance d: score = 100 / (1 + (d / d50)^slope), fitted
  * on real performances by other people (docs/model/README.md says what 30, 60 and 90 mean for
- * the shipped models). Each body part has its own map on its own distance. A model file without
+ * the shipped models). Each body part has its own map on its own distance, which the positions
+ * of that part's own joints make (docs/model/scores.md). A model file without
  * a calibration uses the default d50 = delta*, slope 2 (the same for every part), good_score 75.
  * part_to_fix names the part with the lowest part score while the total is below good_score; a
  * new part (or none) replaces the shown one only after holding for 0.5 s, so cues do not flicker.

@@ -62,9 +62,12 @@ Metric::Metric(const Model& model) {
     }
   }
 
-  // Rows grouped by (static or kinetic block, part set): a stable sort of the dimensions by that key.
+  // Rows grouped by (static or kinetic block, joint coordinate or not, part set): a stable sort of
+  // the dimensions by that key. Joint coordinates (block Jc) get groups of their own for the
+  // joint-position rows; each involves one part.
   const auto& masks = dimension_parts();
-  auto key = [&](int i) { return (i < gpd::kStaticDims ? 0 : 32) | masks[i]; };
+  auto is_joint = [](int i) { return i < gpd::kOffsetJJd; };
+  auto key = [&](int i) { return (i < gpd::kStaticDims ? 0 : 64) | (is_joint(i) ? 32 : 0) | masks[i]; };
   perm_.resize(gpd::kDims);
   for (int i = 0; i < gpd::kDims; ++i) perm_[i] = i;
   std::stable_sort(perm_.begin(), perm_.end(), [&](int a, int b) { return key(a) < key(b); });
@@ -74,6 +77,7 @@ Metric::Metric(const Model& model) {
       prev = key(perm_[k]);
       group_mask_.push_back(masks[perm_[k]]);
       group_static_.push_back(perm_[k] < gpd::kStaticDims ? 1 : 0);
+      group_joint_.push_back(is_joint(perm_[k]) ? 1 : 0);
       group_begin_.push_back(k);
     }
   }
@@ -111,7 +115,8 @@ Metric::Metric(const Model& model) {
   blocked_.perm = perm_.data();
 
   // Part row q takes each group involving part q with share 1 / (number of parts it involves);
-  // the static row takes every static-block group whole.
+  // the static row takes every static-block group whole; joint-position row q takes the joint
+  // coordinate group of part q whole.
   for (int r = 0; r < kProjectionRows; ++r) {
     combine_begin_.push_back(static_cast<int>(combine_group_.size()));
     for (int g = 0; g < groups(); ++g) {
@@ -119,7 +124,8 @@ Metric::Metric(const Model& model) {
       if (r < kParts && (m & (1u << r))) {
         combine_group_.push_back(g);
         combine_weight_.push_back(1.0f / static_cast<float>(__builtin_popcount(m)));
-      } else if (r == kParts && group_static_[g]) {
+      } else if ((r == kStaticRow && group_static_[g]) ||
+                 (r >= kJointRows && group_joint_[g] && m == (1u << (r - kJointRows)))) {
         combine_group_.push_back(g);
         combine_weight_.push_back(1.0f);
       }

@@ -6,6 +6,7 @@
 //             e = x'' - y'',  u = W^T e = W^T x'' - W^T y''   (W^T y'' precomputed per reference)
 //             d = |u|,  score = 100 / (1 + (d / delta*)^2)
 //             part p = sum_i share_p(i) e_i (M e)_i,  M = W W^T,  (M e)_i = W_i . u  (parts.hpp)
+//             part distance d_p = |W^T (jc_p o e)|  (jc_p: the joint coordinates of part p's joints)
 // The breakdown is computed without M and without a second pass over W: dimensions are grouped
 // by their part set (rows of W permuted so each group is contiguous), one pass over W yields the
 // per-group products V_g = W_g^T x''_g, and part p = u . sum_g share_p(g) (V_g(x) - V_g(y)).
@@ -25,8 +26,15 @@
 
 namespace kata::metric {
 
-// Rows of a frame's projection: the five parts, then the static blocks (alignment).
-constexpr int kProjectionRows = kParts + 1;
+// Rows of a frame's projection: the five share-split parts (their sum is W^T x'', the split of
+// d^2), the static blocks (alignment), then the five joint-position rows: W^T restricted to the
+// joint coordinates (block Jc) of each part's joints, from which each part's distance is taken.
+// Why the part distance has rows of its own: a dimension shared by two parts (a distance, an
+// angle between them) moves when either part moves, so the share split credits a part with what
+// another part did; a joint coordinate belongs to one joint (docs/model/scores.md).
+constexpr int kStaticRow = kParts;
+constexpr int kJointRows = kParts + 1;  // row kJointRows + p: part p's joint coordinates
+constexpr int kProjectionRows = 2 * kParts + 1;
 
 // The documented score map: 100 / (1 + (d / delta*)^2). Monotone decreasing in d >= 0;
 // d = 0 -> 100, d = delta* -> 50, d = 2 delta* -> 20, d = 3 delta* -> 10; never below 0.
@@ -92,8 +100,9 @@ class Metric {
   // u = W^T x'' (rank floats, dimensionless) from raw features x. Allocation-free.
   void project(const float* x, Workspace& ws, float* u) const;
   // The per-part projections P_p = W^T (share_p o x'') (rows 0..kParts-1; their sum is W^T x''),
-  // then row kParts = W^T x'' restricted to the static blocks: kProjectionRows x stride floats,
-  // padding 0. Allocation-free.
+  // then row kStaticRow = W^T x'' restricted to the static blocks, then rows kJointRows + p =
+  // W^T x'' restricted to part p's joint coordinates (block Jc; the hip height for the torso):
+  // kProjectionRows x stride floats, padding 0. Allocation-free.
   void part_projections(const float* x, Workspace& ws, float* p) const;
   // The same for n frames at once (any n; every W row is loaded once per kBatch frames): x[f],
   // ws[f], p[f] for f < n. Results equal part_projections' bit for bit.
@@ -114,8 +123,10 @@ class Metric {
   std::vector<int> group_begin_;   // groups + 1
   std::vector<uint8_t> group_mask_;  // part bit set per group
   std::vector<uint8_t> group_static_;  // 1 when the group's dimensions are in blocks 1..8
+  std::vector<uint8_t> group_joint_;   // 1 when the group's dimensions are joint coordinates (Jc)
   detail::BlockedW blocked_;
-  // Output row r (part r, or the static row) = sum of share-weighted group products.
+  // Output row r (part r, the static row, or joint-position row r - kJointRows) = sum of
+  // share-weighted group products.
   std::vector<int> combine_begin_, combine_group_;
   std::vector<float> combine_weight_;
   detail::Combine combine_;

@@ -109,9 +109,13 @@ void Scorer::finish(double t, int matched) {
   const int stride = m.stride();
   float* p = p_.data();
   const int j = matched >= 0 ? matched : aligner_.align(p + static_cast<size_t>(kParts) * stride, t);
-  // e-projections per part: D_p = P_p(x) - P_p(y_j); u = sum_p D_p; part p = u . D_p.
+  // e-projections per part: D_p = P_p(x) - P_p(y_j); u = sum_p D_p; part p = u . D_p (the split
+  // of d^2). The part's distance is its joint-position row's: J_p(x) - J_p(y_j), the part's own
+  // joints only (metric.hpp kJointRows: a shared dimension would credit a part that did not move).
   const float* py = ref.part_projection(j);
   for (int i = 0; i < kParts * stride; ++i) p[i] -= py[i];
+  const size_t joint_rows = static_cast<size_t>(kJointRows) * stride;
+  for (size_t i = joint_rows; i < joint_rows + static_cast<size_t>(kParts) * stride; ++i) p[i] -= py[i];
   float* u = u_.data();
   sum_parts(p, stride, u);
   const double d2 = detail::dot(u, u, stride);
@@ -119,7 +123,8 @@ void Scorer::finish(double t, int matched) {
   for (int q = 0; q < kParts; ++q) {
     const float* pq = p + static_cast<size_t>(q) * stride;
     record_.parts[q] = static_cast<float>(detail::dot(u, pq, stride));
-    const double dq = std::sqrt(detail::dot(pq, pq, stride));
+    const float* jq = p + joint_rows + static_cast<size_t>(q) * stride;
+    const double dq = std::sqrt(detail::dot(jq, jq, stride));
     record_.part_distance[q] = static_cast<float>(dq);
     record_.part_scores[q] = static_cast<float>(calibrated_score(dq, c.part_d50[q], c.part_slope[q]));
   }
@@ -160,7 +165,9 @@ void Scorer::feedback(double t) {
       candidate_ = candidate;
       candidate_since_ = t;
     }
-    if (candidate_ != shown_ && t - candidate_since_ >= feedback_.hold_time) shown_ = candidate_;
+    // 1 ns of slack: a hold of exactly k frame times (frame index / rate) must not lose a frame
+    // to the rounding of t - since (20/120 - 8/120 < 0.1 in doubles).
+    if (candidate_ != shown_ && t - candidate_since_ >= feedback_.hold_time - 1e-9) shown_ = candidate_;
   }
   record_.part_to_fix = shown_;
 }

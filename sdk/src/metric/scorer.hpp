@@ -33,8 +33,9 @@ struct ScoreRecord {
   float score = 0.0f;         // calibrated_score(d, d50, slope) of the scorer's calibration, 0..100
   float parts[kParts] = {};   // split of d^2 (sums to d^2), in Part order
   int32_t matched = 0;        // matched reference frame (0 for a pose reference)
-  // Per part p: its distance d_p = |W^T (share_p o (x'' - y''))| (the part's own dimensions,
-  // shared dimensions split as in parts.hpp), and its calibrated 0..100 score.
+  // Per part p: its distance d_p = |W^T (jc_p o (x'' - y''))|, the difference of the part's own
+  // joint positions (block Jc: its joints' local-frame coordinates; the hip height for the
+  // torso) seen through W (metric.hpp kJointRows), and its calibrated 0..100 score.
   float part_distance[kParts] = {};
   float part_scores[kParts] = {};
   // The part to fix (Part index), -1 for none: the lowest part score, named only when the total
