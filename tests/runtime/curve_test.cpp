@@ -87,6 +87,20 @@ int count_results(void* sub, uint64_t id, int want, int milliseconds) {
   return results;
 }
 
+// Waits until `sub` receives any message (the runtime publishes the skeleton definitions when a
+// subscriber joins, and definitions and stats every second): then its CURVE handshake is done and
+// its subscription reached the publisher. A fixed sleep is not enough on a loaded machine (a
+// 500 ms one lost the first 9 results at load 12).
+bool joined(void* sub, int milliseconds) {
+  std::vector<uint8_t> buffer(1 << 20);
+  const auto end = Clock::now() + std::chrono::milliseconds(milliseconds);
+  while (Clock::now() < end) {
+    zmq_pollitem_t item{sub, 0, ZMQ_POLLIN, 0};
+    if (zmq_poll(&item, 1, 50) > 0 && zmq_recv(sub, buffer.data(), buffer.size(), 0) > 0) return true;
+  }
+  return false;
+}
+
 TEST(runtime_curve, KeysRoundTripThroughTheirFiles) {
   Keys keys;
   const KeyPair back = transport::read_key_file((keys.dir.path() / "server.secret").string());
@@ -151,7 +165,7 @@ TEST(runtime_curve, OnlyKnownKeysGetInAndOut) {
     send(stranger, encoder.skeleton(clip.definition(8)));
     send(plain, encoder.skeleton(clip.definition(9)));
     send(known, encoder.skeleton(clip.definition(7)));
-    std::this_thread::sleep_for(std::chrono::milliseconds(500));  // the known subscriber joins
+    ASSERT_TRUE(joined(known_sub, 20000)) << "the known subscriber never got a message";
     const int frames = 60;
     for (int i = 0; i < frames; ++i) {
       for (auto [s, id] : {std::pair{known, 7}, std::pair{stranger, 8}, std::pair{plain, 9}})
