@@ -29,20 +29,20 @@ $KATA calibrate --model models/default.kata --out models/default.kata --delta-st
 # The part to fix against local-frame geometry on real pairs of different subjects (issue 21;
 # report in eval-part-fix/part_fix.md; measures only, the model is not changed).
 /usr/bin/python3 docs/model/part_fix.py measure $KATA $DATA models/default.kata docs/model/eval-part-fix
-# The transition model (issue 27, docs/model/transition.md): within-subject pairs of issue 27's
-# protocol from each training subject (the files transition_protocols.sh also uses), W restricted
-# to the joint coordinates and kinetics (GPD blocks 1 and 9), kinetics x 10 in the normalisation,
-# the negative pairs' scatter dominating the numerator (the ablation's best leave-one-subject-out
-# mean). No calibration stored: the default map. Then run transition_protocols.sh for its figures.
+# The transition model (issue 27, docs/model/transition.md): the joint form (kata train --method
+# joint-form: one quadratic form per axis on each joint's position, velocity and acceleration
+# differences, fitted to the labels by logistic regression), on within-subject pairs of issue 27's
+# protocol from each training subject (the files transition_protocols.sh also uses): the best
+# leave-one-subject-out mean under both protocols. No calibration stored: the default map. Then
+# run transition_protocols.sh for its held-out figures.
 TP=docs/model/eval-transition-protocols/pairs
 mkdir -p $TP
 for s in 2 5 7; do
   [ -f $TP/train-transition-uniform-$s.csv ] || $KATA pairs --data $DATA --subjects $s --protocol transition-uniform \
     --per-class 1000 --seed 1 --max-draws 5000000 --out $TP/train-transition-uniform-$s.csv > $TP/train-transition-uniform-$s.csv.log
 done
-$KATA train --data $DATA --subjects 2,5,7 --pairs $TP/train-transition-uniform-2.csv --pairs $TP/train-transition-uniform-5.csv \
-  --pairs $TP/train-transition-uniform-7.csv --unlabeled 5000 --seed 1 --rank 50 --alpha 10000 --gamma 0.05 \
-  --normalisation minmax --blocks 1,9 --kinetic-weight 10 --negative-weight 1000 --out models/transition.kata \
+$KATA train --data $DATA --subjects 2,5,7 --method joint-form --form-terms p,v,a --pairs $TP/train-transition-uniform-2.csv \
+  --pairs $TP/train-transition-uniform-5.csv --pairs $TP/train-transition-uniform-7.csv --out models/transition.kata \
   | tee docs/model/train-transition.log
 mkdir -p docs/model/eval-transition-model
 $KATA eval --data $DATA --pairs $P/test-transition.csv --train-pairs $P/train-transition.csv \
