@@ -1,5 +1,5 @@
 #!/bin/sh
-# Regenerates models/default.kata (coaching), models/transition.kata and their evaluation reports (docs/model/).
+# Regenerates models/default.kata (coaching), models/transition.kata, models/transition-static.kata and their evaluation reports (docs/model/).
 # Run from the repository root after building (build/bin/kata); DATA is the 59-clip CMU folder.
 #   docs/model/regenerate.sh [build/bin/kata] [../shared/data/cmu]
 set -e
@@ -44,6 +44,12 @@ done
 $KATA train --data $DATA --subjects 2,5,7 --method joint-form --form-terms p,v,a --pairs $TP/train-transition-uniform-2.csv \
   --pairs $TP/train-transition-uniform-5.csv --pairs $TP/train-transition-uniform-7.csv --out models/transition.kata \
   | tee docs/model/train-transition.log
+# The static transition model (docs/model/transition.md, recipe `old`: RDSR with the coaching
+# model's options on the project's transition pairs of subjects 2, 5, 7): for candidates between
+# clips of different motions, where static pose features tell the motions apart.
+$KATA train --data $DATA --subjects 2,5,7 --pairs $P/train-transition.csv --unlabeled 5000 --seed 1 --rank 50 \
+  --alpha 10000 --pca 400 --gamma 0.05 --normalisation minmax --out models/transition-static.kata \
+  | tee docs/model/train-transition-static.log
 mkdir -p docs/model/eval-transition-model
 $KATA eval --data $DATA --pairs $P/test-transition.csv --train-pairs $P/train-transition.csv \
   --model models/transition.kata --label transition --title "transition (future agreement), test subjects 1 and 9" \

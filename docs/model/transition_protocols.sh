@@ -128,28 +128,34 @@ for s in ${FOLDS:-$SUBJECTS}; do
   done
 done
 
-# The shipped model (docs/model/regenerate.sh: recipe form-pva on subjects 2, 5, 7, the best
-# leave-one-subject-out mean under both protocols), on its held-out subjects 1 and 9 pooled
-# and each alone, both protocols; the pooled figures are written into models/transition.kata's
-# metadata, named by protocol. shipped/ is redone whenever the model was retrained (its date).
-S=$OUT/shipped
-SHIPPED=${SHIPPED:-models/transition.kata}
-trained=$($KATA model-info $SHIPPED | sed -n 's/^trained: *//p')
-[ -f $S/trained ] && [ "$(cat $S/trained)" = "$trained" ] || rm -rf $S
-mkdir -p $S
-echo "$trained" > $S/trained
+# The shipped models (docs/model/regenerate.sh), trained on subjects 2, 5, 7, on their held-out
+# subjects 1 and 9 pooled and each alone, both protocols; the pooled figures are written into the
+# model's metadata, named by protocol. A model's folder is redone whenever it was retrained (its date).
+#   shipped/         models/transition.kata: recipe form-pva, the best leave-one-subject-out mean
+#                    under both protocols
+#   shipped-static/  models/transition-static.kata: recipe old (last session's static W), for
+#                    candidates between clips of different motions
 pairs $P/test-transition-19.csv --subjects 1,9 --protocol transition --per-class 500 --seed 2
 pairs $P/test-transition-uniform-19.csv --subjects 1,9 --protocol transition-uniform --per-class 500 --seed 2 --max-draws 5000000
-cat $P/train-transition-uniform-2.csv $P/train-transition-uniform-5.csv $P/train-transition-uniform-7.csv | grep -v '^#' \
-  | awk 'NR == 1 || $0 !~ /^clip_a/' > $S/train-uniform-pooled.csv
-for proto in transition transition-uniform; do
-  for t in 19 1 9; do
-    evaluate $S/$proto-$t $SHIPPED $P/test-$proto-$t.csv $S/train-uniform-pooled.csv \
-      "shipped transition model, $proto protocol, held-out subject(s) $t"
+shipped_figures() {  # shipped_figures MODEL DIR
+  model=$1; S=$2
+  trained=$($KATA model-info $model | sed -n 's/^trained: *//p')
+  [ -f $S/trained ] && [ "$(cat $S/trained)" = "$trained" ] || rm -rf $S
+  mkdir -p $S
+  echo "$trained" > $S/trained
+  cat $P/train-transition-uniform-2.csv $P/train-transition-uniform-5.csv $P/train-transition-uniform-7.csv | grep -v '^#' \
+    | awk 'NR == 1 || $0 !~ /^clip_a/' > $S/train-uniform-pooled.csv
+  for proto in transition transition-uniform; do
+    for t in 19 1 9; do
+      evaluate $S/$proto-$t $model $P/test-$proto-$t.csv $S/train-uniform-pooled.csv \
+        "shipped $model, $proto protocol, held-out subject(s) $t"
+    done
+    [ -f $S/store-$proto.log ] || $NICE $KATA eval --data $DATA --model $model --label model --pairs $P/test-$proto-19.csv \
+      --train-pairs $S/train-uniform-pooled.csv --no-plot --store-in $model \
+      --figure-prefix "held-out subjects 1+9, protocol $proto (docs/model/transition.md)" > $S/store-$proto.log
   done
-  [ -f $S/store-$proto.log ] || $NICE $KATA eval --data $DATA --model $SHIPPED --label model --pairs $P/test-$proto-19.csv \
-    --train-pairs $S/train-uniform-pooled.csv --no-plot --store-in $SHIPPED \
-    --figure-prefix "held-out subjects 1+9, protocol $proto (docs/model/transition.md)" > $S/store-$proto.log
-done
+}
+shipped_figures ${SHIPPED:-models/transition.kata} $OUT/shipped
+shipped_figures ${SHIPPED_STATIC:-models/transition-static.kata} $OUT/shipped-static
 /usr/bin/python3 docs/model/transition_tables.py $OUT > $OUT/tables.md
 echo "wrote $OUT/tables.md"
