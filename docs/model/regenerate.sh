@@ -1,5 +1,5 @@
 #!/bin/sh
-# Regenerates models/default.kata (coaching), models/transition.kata and their evaluation reports (docs/model/).
+# Regenerates models/default.kata (coaching), models/transition.kata, models/transition-static.kata and their evaluation reports (docs/model/).
 # Run from the repository root after building (build/bin/kata); DATA is the 59-clip CMU folder.
 #   docs/model/regenerate.sh [build/bin/kata] [../shared/data/cmu]
 set -e
@@ -32,21 +32,27 @@ $KATA calibrate --model models/default.kata --out models/default.kata --delta-st
 # in eval-part-fix/part_fix.md).
 /usr/bin/python3 docs/model/part_fix.py fit $KATA $DATA models/default.kata
 /usr/bin/python3 docs/model/part_fix.py measure $KATA $DATA models/default.kata docs/model/eval-part-fix
-# The transition model (issue 27, docs/model/transition.md): within-subject pairs of issue 27's
-# protocol from each training subject (the files transition_protocols.sh also uses), W restricted
-# to the joint coordinates and kinetics (GPD blocks 1 and 9), kinetics x 10 in the normalisation,
-# the negative pairs' scatter dominating the numerator (the ablation's best leave-one-subject-out
-# mean). No calibration stored: the default map. Then run transition_protocols.sh for its figures.
+# The transition model (issue 27, docs/model/transition.md): the joint form (kata train --method
+# joint-form: one quadratic form per axis on each joint's position, velocity and acceleration
+# differences, fitted to the labels by logistic regression), on within-subject pairs of issue 27's
+# protocol from each training subject (the files transition_protocols.sh also uses): the best
+# leave-one-subject-out mean under both protocols. No calibration stored: the default map. Then
+# run transition_protocols.sh for its held-out figures.
 TP=docs/model/eval-transition-protocols/pairs
 mkdir -p $TP
 for s in 2 5 7; do
   [ -f $TP/train-transition-uniform-$s.csv ] || $KATA pairs --data $DATA --subjects $s --protocol transition-uniform \
     --per-class 1000 --seed 1 --max-draws 5000000 --out $TP/train-transition-uniform-$s.csv > $TP/train-transition-uniform-$s.csv.log
 done
-$KATA train --data $DATA --subjects 2,5,7 --pairs $TP/train-transition-uniform-2.csv --pairs $TP/train-transition-uniform-5.csv \
-  --pairs $TP/train-transition-uniform-7.csv --unlabeled 5000 --seed 1 --rank 50 --alpha 10000 --gamma 0.05 \
-  --normalisation minmax --blocks 1,9 --kinetic-weight 10 --negative-weight 1000 --out models/transition.kata \
+$KATA train --data $DATA --subjects 2,5,7 --method joint-form --form-terms p,v,a --pairs $TP/train-transition-uniform-2.csv \
+  --pairs $TP/train-transition-uniform-5.csv --pairs $TP/train-transition-uniform-7.csv --out models/transition.kata \
   | tee docs/model/train-transition.log
+# The static transition model (docs/model/transition.md, recipe `old`: RDSR with the coaching
+# model's options on the project's transition pairs of subjects 2, 5, 7): for candidates between
+# clips of different motions, where static pose features tell the motions apart.
+$KATA train --data $DATA --subjects 2,5,7 --pairs $P/train-transition.csv --unlabeled 5000 --seed 1 --rank 50 \
+  --alpha 10000 --pca 400 --gamma 0.05 --normalisation minmax --out models/transition-static.kata \
+  | tee docs/model/train-transition-static.log
 mkdir -p docs/model/eval-transition-model
 $KATA eval --data $DATA --pairs $P/test-transition.csv --train-pairs $P/train-transition.csv \
   --model models/transition.kata --label transition --title "transition (future agreement), test subjects 1 and 9" \

@@ -39,6 +39,11 @@ train() {  # train OUT.kata SUBJECTS KINETIC_WEIGHT NEGATIVE_WEIGHT BLOCKS RANK 
   [ -f $out ] || $NICE $KATA train --data $DATA --subjects $subj $pf $BASE --rank $rank $restrict --kinetic-weight $kw \
     --negative-weight $nw --out $out > $out.log
 }
+train_form() {  # train_form OUT.kata SUBJECTS TERMS PAIRFILES...: kata train --method joint-form
+  out=$1; subj=$2; terms=$3; shift 3
+  pf=""; for f in "$@"; do pf="$pf --pairs $f"; done
+  [ -f $out ] || $NICE $KATA train --data $DATA --subjects $subj $pf --method joint-form --form-terms $terms --out $out > $out.log
+}
 # Recipe name -> options: uniform-k<G>[-n<B>][-b<blocks, one digit each>][-r<rank>], own- prefix:
 # trained on the held-out subject's own training pairs (seed 1; the test pairs are seed 2).
 recipe_option() {  # recipe_option RECIPE LETTER DEFAULT
@@ -70,13 +75,15 @@ done
 # Time: adding the shipped recipe's missing evaluations and the shipped model's took 7 min 40 s at
 # load ~17 on 2 shared cores; from scratch about 50 trainings (18-20 s each at load ~9) and 85
 # evaluations (13 s) plus the pair files: about 45 min at load ~9, estimated, not timed (docs/model/transition.md).
-# RECIPES' uniform-k10-n1000-b19 is the shipped recipe (regenerate.sh).
+# RECIPES' form-pva is the shipped recipe (regenerate.sh); uniform-k10-n1000-b19 was, before it.
 # ABLATION (every fold; issue 27's ablation of what bounds the model, docs/model/transition.md):
 # -b9 W on the kinetics block alone, -n1000 the negatives' scatter dominating the numerator (a
 # discriminative objective), -b19 joint coordinates + kinetics (JCD's own features), -r138 full
 # rank on them (no subspace chosen: a weighted L2), -k30 kinetics x 30, own- the ceiling with the held-out subject's
 # own pairs (not held out; folds 5 and 7 only).
-RECIPES=${RECIPES:-"old uniform-k1 uniform-k4 uniform-k10-n1000-b19"}
+# form-pva (shipped since issue 27's third session) / form-pv: the joint form (kata train --method
+# joint-form --form-terms p,v,a | p,v) on the same within-subject uniform pairs; no RDSR.
+RECIPES=${RECIPES:-"old uniform-k1 uniform-k4 uniform-k10-n1000-b19 form-pva form-pv"}
 ABLATION=${ABLATION:-"uniform-k1-b9 uniform-k1-n1000-b9 uniform-k10-n1000-b19-r138 uniform-k30-n1000-b19 own-uniform-k1-n1000-b9"}
 WHAT_IT_TAKES=${WHAT_IT_TAKES:-"uniform-k10 uniform-k30 uniform-k100 uniform-k1-n1 uniform-k10-n1 uniform-k10-n10 uniform-k10-n1000 uniform-k1-n1000-b9-r10 uniform-k1-n1000-b9-r80"}
 # The ablation is evaluated under issue 27's protocol only (its target's); the other recipes
@@ -106,6 +113,10 @@ for s in ${FOLDS:-$SUBJECTS}; do
         tp=$F/train-uniform-pooled.csv
         done_evals $F $r || train $F/$r.kata $training $(recipe_option $r k 1) $(recipe_option $r n 0) \
           "$(recipe_option $r b "" | sed 's/./&,/g; s/,$//')" $(recipe_option $r r 50) $upairs ;;
+      form-pva|form-pv)
+        tp=$F/train-uniform-pooled.csv
+        terms=$(echo ${r#form-} | sed 's/./&,/g; s/,$//')
+        done_evals $F $r || train_form $F/$r.kata $training $terms $upairs ;;
       own-uniform-k*)
         tp=$P/train-transition-uniform-$s.csv
         done_evals $F $r || train $F/$r.kata $s $(recipe_option $r k 1) $(recipe_option $r n 0) \
@@ -117,28 +128,34 @@ for s in ${FOLDS:-$SUBJECTS}; do
   done
 done
 
-# The shipped model (docs/model/regenerate.sh: recipe uniform-k10-n1000-b19 on subjects 2, 5, 7,
-# the best leave-one-subject-out mean of the ablation), on its held-out subjects 1 and 9 pooled
-# and each alone, both protocols; the pooled figures are written into models/transition.kata's
-# metadata, named by protocol. shipped/ is redone whenever the model was retrained (its date).
-S=$OUT/shipped
-SHIPPED=${SHIPPED:-models/transition.kata}
-trained=$($KATA model-info $SHIPPED | sed -n 's/^trained: *//p')
-[ -f $S/trained ] && [ "$(cat $S/trained)" = "$trained" ] || rm -rf $S
-mkdir -p $S
-echo "$trained" > $S/trained
+# The shipped models (docs/model/regenerate.sh), trained on subjects 2, 5, 7, on their held-out
+# subjects 1 and 9 pooled and each alone, both protocols; the pooled figures are written into the
+# model's metadata, named by protocol. A model's folder is redone whenever it was retrained (its date).
+#   shipped/         models/transition.kata: recipe form-pva, the best leave-one-subject-out mean
+#                    under both protocols
+#   shipped-static/  models/transition-static.kata: recipe old (last session's static W), for
+#                    candidates between clips of different motions
 pairs $P/test-transition-19.csv --subjects 1,9 --protocol transition --per-class 500 --seed 2
 pairs $P/test-transition-uniform-19.csv --subjects 1,9 --protocol transition-uniform --per-class 500 --seed 2 --max-draws 5000000
-cat $P/train-transition-uniform-2.csv $P/train-transition-uniform-5.csv $P/train-transition-uniform-7.csv | grep -v '^#' \
-  | awk 'NR == 1 || $0 !~ /^clip_a/' > $S/train-uniform-pooled.csv
-for proto in transition transition-uniform; do
-  for t in 19 1 9; do
-    evaluate $S/$proto-$t $SHIPPED $P/test-$proto-$t.csv $S/train-uniform-pooled.csv \
-      "shipped transition model, $proto protocol, held-out subject(s) $t"
+shipped_figures() {  # shipped_figures MODEL DIR
+  model=$1; S=$2
+  trained=$($KATA model-info $model | sed -n 's/^trained: *//p')
+  [ -f $S/trained ] && [ "$(cat $S/trained)" = "$trained" ] || rm -rf $S
+  mkdir -p $S
+  echo "$trained" > $S/trained
+  cat $P/train-transition-uniform-2.csv $P/train-transition-uniform-5.csv $P/train-transition-uniform-7.csv | grep -v '^#' \
+    | awk 'NR == 1 || $0 !~ /^clip_a/' > $S/train-uniform-pooled.csv
+  for proto in transition transition-uniform; do
+    for t in 19 1 9; do
+      evaluate $S/$proto-$t $model $P/test-$proto-$t.csv $S/train-uniform-pooled.csv \
+        "shipped $model, $proto protocol, held-out subject(s) $t"
+    done
+    [ -f $S/store-$proto.log ] || $NICE $KATA eval --data $DATA --model $model --label model --pairs $P/test-$proto-19.csv \
+      --train-pairs $S/train-uniform-pooled.csv --no-plot --store-in $model \
+      --figure-prefix "held-out subjects 1+9, protocol $proto (docs/model/transition.md)" > $S/store-$proto.log
   done
-  [ -f $S/store-$proto.log ] || $NICE $KATA eval --data $DATA --model $SHIPPED --label model --pairs $P/test-$proto-19.csv \
-    --train-pairs $S/train-uniform-pooled.csv --no-plot --store-in $SHIPPED \
-    --figure-prefix "held-out subjects 1+9, protocol $proto (docs/model/transition.md)" > $S/store-$proto.log
-done
+}
+shipped_figures ${SHIPPED:-models/transition.kata} $OUT/shipped
+shipped_figures ${SHIPPED_STATIC:-models/transition-static.kata} $OUT/shipped-static
 /usr/bin/python3 docs/model/transition_tables.py $OUT > $OUT/tables.md
 echo "wrote $OUT/tables.md"

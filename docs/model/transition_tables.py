@@ -105,11 +105,14 @@ def main():
             print("| %s | %s | %s | %s |" % (method, label, " | ".join(fmt(v) for v in vals), fmt(mean)))
         print()
 
-    shipped = os.path.join(out, "shipped")
-    if os.path.isdir(shipped):
-        print("## The shipped models/transition.kata (trained on subjects 2, 5, 7), held out 1 and 9\n")
+    for folder, model, recipe in (("shipped", "models/transition.kata", "form-pva"),
+                                  ("shipped-static", "models/transition-static.kata", "old")):
+        shipped = os.path.join(out, folder)
+        if not os.path.isdir(shipped):
+            continue
+        print("## The shipped %s (recipe %s, trained on subjects 2, 5, 7), held out 1 and 9\n" % (model, recipe))
         print("Test pairs from subjects 1 and 9 pooled (a pair may join a clip of 1 with one of 9, as the "
-              "README figures did), and from each alone.\n")
+              "README figures did), and from each alone. GPD+RDSR is kata eval's row for the model's own W.\n")
         cols = [(p, t) for p, _ in PROTOCOLS for t in ("19", "1", "9")]
         print("| method | " + " | ".join("%s, %s" % (p, "1+9" if t == "19" else t) for p, t in cols) + " |")
         print("|---|" + "---|" * len(cols))

@@ -237,9 +237,11 @@ void setup(CLI::App& app) {
                "(0-100), the five parts of distance^2, matched teacher frame, the five part distances and part "
                "scores (0-100), the part to fix and the feedback state");
   cmd->add_option("--model", args->model,
-                  ".kata model: models/default.kata for coaching (calibrated scores); models/transition.kata only "
-                  "ranks transition candidates (leave one subject out, issue 27's protocol: 0.748 vs JCD 0.764; "
-                  "which distance for which job: docs/model/transition.md)")
+                  ".kata model: models/default.kata for coaching (calibrated scores); the transition models only "
+                  "rank transition candidates: models/transition.kata within one subject's takes or one kind of "
+                  "motion (leave one subject out, issue 27's protocol: 0.815 vs JCD 0.764), "
+                  "models/transition-static.kata between clips of different motions (0.836 vs JCD 0.620); "
+                  "docs/model/transition.md")
       ->required()
       ->check(CLI::ExistingFile);
   cmd->add_option("--teacher", args->teacher, "teacher motion: .bvh, or a landmark .npy/.csv (see kata features)")

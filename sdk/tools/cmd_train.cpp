@@ -1,5 +1,7 @@
 // kata train: learn W by RDSR (paper section 4) from BVH clips and labeled pairs; writes a .kata model.
 #include <chrono>
+#include <ctime>
+#include <functional>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -14,6 +16,7 @@
 #include "io/model_file.hpp"
 #include "metric/model.hpp"
 #include "io/clip_features.hpp"
+#include "train/joint_form.hpp"
 #include "train/pipeline.hpp"
 
 namespace {
@@ -21,6 +24,7 @@ namespace {
 struct TrainArgs {
   std::string data, out, normalisation = "minmax", solver = "newton", stencil = "backward", preset = "cmu";
   std::string split_part = "all";
+  std::string method = "rdsr", form_terms = "p,v,a";
   std::vector<std::string> clips, pair_files;
   std::vector<int> subjects, blocks;
   int unlabeled = 5000, rank = 50, threads = 2, split_every = 0, pca = 0;
@@ -37,6 +41,72 @@ std::string join(const std::vector<T>& v, const char* sep) {
   std::ostringstream s;
   for (size_t i = 0; i < v.size(); ++i) s << (i ? sep : "") << v[i];
   return s.str();
+}
+
+std::string dataset_description(const TrainArgs& a, const std::vector<std::string>& clips) {
+  std::ostringstream data;
+  // The dataset by name (the folder's last component), never by a path of this machine: shipped
+  // models carry no absolute paths.
+  std::filesystem::path folder = std::filesystem::path(a.data).lexically_normal();
+  if (folder.filename().empty()) folder = folder.parent_path();  // "cmu/" -> "cmu"
+  data << "dataset=" << folder.filename().string() << "; clips=" << join(clips, " ") << "; pairs=" << join(a.pair_files, " ");
+  if (a.split_every > 1) data << "; split-every=" << a.split_every << " part=" << a.split_part;
+  return data.str();
+}
+
+// --method joint-form: the transition distance fitted to the label (train/joint_form.hpp); no
+// RDSR, no unlabeled sample. The clips give the model's min/max ranges (always stored).
+void run_joint_form(const TrainArgs& a, const std::vector<std::string>& clips, const std::vector<kata::train::PairRecord>& pairs,
+                    const std::function<void(const std::string&)>& log) {
+  using namespace kata::train;
+  if (pairs.empty()) throw kata::Error(kata::ErrorKind::kInvalidArgument, "train: no labeled pairs");
+  ClipStore store(a.data, a.preset, kata::parse_stencil(a.stencil));
+  std::vector<std::string> specs = clips;
+  for (const auto& s : pair_clips(pairs)) specs.push_back(s);
+  store.load(specs, a.threads);
+  std::vector<const float*> rows;
+  for (const auto& c : clips) {
+    const ClipData& d = store.get(c);
+    for (int f = 1; f < d.frames; ++f) rows.push_back(d.row(f));
+  }
+  const PairRows pr = pair_rows(store, pairs);
+  rows.insert(rows.end(), pr.a.begin(), pr.a.end());
+  rows.insert(rows.end(), pr.b.begin(), pr.b.end());
+  const Normaliser ranges = fit_normaliser(rows, kata::metric::Normalisation::kMinMaxUnit);
+  JointFormOptions o;
+  o.acceleration = a.form_terms == "p,v,a";
+  log("joint form on " + std::to_string(pairs.size()) + " labelled pairs, terms " + a.form_terms);
+  const JointForm form = fit_joint_form(pr, o);
+  kata::metric::Model m = joint_form_model(form, ranges, store.stencil());
+  // delta* (eq. 37) on the training pairs, through the model's own normalisation.
+  const Normaliser mn = model_normaliser(m);
+  const Eigen::MatrixXd w = model_w(m);
+  const Eigen::MatrixXd p = w.transpose() * (normalised_columns(mn, pr.a) - normalised_columns(mn, pr.b));
+  std::vector<double> dist(pr.label.size());
+  for (size_t i = 0; i < dist.size(); ++i) dist[i] = p.col(static_cast<Eigen::Index>(i)).norm();
+  const Precision tp = best_threshold(dist, pr.label);
+  m.delta_star = tp.threshold;
+  char date[32];
+  const std::time_t t = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&t, &tm);
+  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%SZ", &tm);
+  m.info.date = date;
+  m.info.evaluation.push_back({"train_pair_precision", tp.precision});
+  nlohmann::json par;
+  par["method"] = "joint-form";
+  par["form_terms"] = a.form_terms;
+  par["normalisation"] = "shift/scale: raw local-frame coordinates, velocities, accelerations of joints 1..15, "
+                         "anchor dimension 46 shifted by -1e5 (unit length divides by a constant)";
+  par["form"] = nlohmann::json::parse(joint_form_json(form));
+  par["stencil"] = a.stencil;
+  par["preset"] = a.preset;
+  m.info.parameters = par.dump();
+  m.info.data = dataset_description(a, clips);
+  kata::metric::save_model(a.out, m);
+  log("  logistic loss " + std::to_string(form.loss) + " after " + std::to_string(form.iterations) + " BFGS iterations");
+  std::printf("form: %s\n", joint_form_json(form).c_str());
+  std::printf("delta* = %.6g, training-pair precision %.4f -> %s\n", m.delta_star, tp.precision, a.out.c_str());
 }
 
 void run_train(const TrainArgs& a) {
@@ -56,6 +126,7 @@ void run_train(const TrainArgs& a) {
     const PairFile pf = read_pairs(f);
     pairs.insert(pairs.end(), pf.pairs.begin(), pf.pairs.end());
   }
+  if (a.method == "joint-form") return run_joint_form(a, clips, pairs, log);
   TrainConfig cfg;
   cfg.unlabeled = a.unlabeled;
   cfg.seed = a.seed;
@@ -107,14 +178,8 @@ void run_train(const TrainArgs& a) {
                         {"max_kkt", out.rdsr.coding.max_kkt},
                         {"max_gap", out.rdsr.coding.max_gap}};
   out.model.info.parameters = p.dump();
-  std::ostringstream data;
-  // The dataset by name (the folder's last component), never by a path of this machine: shipped
-  // models carry no absolute paths.
-  std::filesystem::path folder = std::filesystem::path(a.data).lexically_normal();
-  if (folder.filename().empty()) folder = folder.parent_path();  // "cmu/" -> "cmu"
-  data << "dataset=" << folder.filename().string() << "; clips=" << join(clips, " ") << "; pairs=" << join(a.pair_files, " ");
-  if (a.split_every > 1) data << "; split-every=" << a.split_every << " part=" << a.split_part;
-  out.model.info.data = data.str();
+  const std::string data = dataset_description(a, clips);
+  out.model.info.data = data;
   kata::metric::save_model(a.out, out.model);
   for (size_t i = 0; i < out.variants.size(); ++i) {
     const auto& v = out.variants[i];
@@ -126,7 +191,7 @@ void run_train(const TrainArgs& a) {
     vp["eta_star"] = v.eta;
     vp.erase("eta_bounds");
     vm.info.parameters = vp.dump();
-    vm.info.data = data.str();
+    vm.info.data = data;
     std::string base = a.out;
     if (base.size() > 5 && base.substr(base.size() - 5) == ".kata") base.resize(base.size() - 5);
     char suffix[64];
@@ -177,6 +242,13 @@ void setup(CLI::App& app) {
                   "GPD blocks W may use, 1..9 (1: joint coordinates, 9: kinetics; default: all): W is zero "
                   "elsewhere and the trace ratio is solved on those dimensions (not in the paper)")
       ->delimiter(',');
+  cmd->add_option("--method", a->method,
+                  "rdsr (the paper's semi-supervised W) | joint-form (a transition distance fitted to the pairs' "
+                  "labels: one quadratic form per axis on each joint's position, velocity and acceleration "
+                  "differences, shared by the joints, by logistic regression; docs/model/transition.md)")
+      ->check(CLI::IsMember({"rdsr", "joint-form"}));
+  cmd->add_option("--form-terms", a->form_terms, "joint-form: the terms of each joint's difference vector, p,v,a or p,v")
+      ->check(CLI::IsMember({"p,v,a", "p,v"}));
   cmd->add_option("--solver", a->solver, "trace ratio: newton | bisection | both (both must agree)")
       ->check(CLI::IsMember({"newton", "bisection", "both"}));
   cmd->add_option("--sweep-alpha", a->sweep_alphas, "also write a model per alpha (x --sweep-rank): OUT_a<alpha>_r<rank>.kata")

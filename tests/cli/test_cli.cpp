@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -250,5 +251,26 @@ TEST(CliTransition, ProtocolPairsEvalStoresNamedFiguresScoreNotes) {
   EXPECT_NE(r.code, 0);
   EXPECT_NE(r.output.find("GPD block 10 is not in 1..9"), std::string::npos) << r.output;
   std::remove(kin.c_str());
+  // kata train --method joint-form: the model file says what it is, W reads only the joints'
+  // coordinates and kinetics (45 + 90 dimensions, 3 columns per joint and axis), and kata eval
+  // scores it on the same pairs.
+  const std::string form = kata::test::temp_path("kata_cli_joint_form.kata");
+  r = run("train --data " + data + " 02_01.bvh 07_01.bvh --pairs " + pairs + " --method joint-form --out " + form);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("training-pair precision"), std::string::npos) << r.output;
+  const kata::metric::Model fm = kata::metric::load_model(form);
+  ASSERT_EQ(fm.rank, 135);
+  EXPECT_NE(fm.info.parameters.find("\"method\":\"joint-form\""), std::string::npos) << fm.info.parameters;
+  double static_w = 0.0;
+  for (int c = 0; c < fm.rank; ++c)
+    for (int k = 45; k < 1591; ++k) static_w += std::abs(fm.w[static_cast<size_t>(c) * 1683 + k]);
+  EXPECT_EQ(static_w, 0.0);
+  const std::string form_eval = kata::test::temp_path("kata_cli_joint_form_eval");
+  r = run("eval --data " + data + " --pairs " + pairs + " --model " + form + " --label form --no-plot --out-dir " +
+          form_eval);
+  ASSERT_EQ(r.code, 0) << r.output;
+  EXPECT_NE(r.output.find("GPD+RDSR"), std::string::npos) << r.output;
+  std::remove(form.c_str());
+  std::filesystem::remove_all(form_eval);
   for (const std::string& f : {pairs, model, csv}) std::remove(f.c_str());
 }

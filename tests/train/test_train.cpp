@@ -10,6 +10,10 @@
 #include "gpd/gpd.hpp"
 #include "support/temp_paths.hpp"
 
+#include "common/error.hpp"
+#include "metric/metric.hpp"
+#include "metric/model.hpp"
+#include "train/joint_form.hpp"
 #include "train/linalg.hpp"
 #include "train/sparse_coding.hpp"
 #include "train/trace_ratio.hpp"
@@ -681,4 +685,124 @@ TEST(Retrieval, HandComputedPrecisionAtScope) {
   EXPECT_EQ(types.at("02_05.bvh"), "boxing/strike");
   EXPECT_EQ(types.at("09_01.bvh"), "run");
   EXPECT_EQ(clip_subject("09_12.bvh"), 9);
+}
+
+namespace {
+
+// Random raw GPD vectors at the magnitudes a body produces: static dims in [0, 1], local
+// positions within +-0.5 body heights, velocities +-2 /s, accelerations +-40 /s^2.
+std::vector<float> random_pose(std::mt19937& rng) {
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<float> x(kata::gpd::kDims);
+  for (int i = 0; i < kata::gpd::kDims; ++i) x[static_cast<size_t>(i)] = 0.5f + 0.5f * u(rng);
+  for (int i = 0; i < 45; ++i) x[static_cast<size_t>(i)] = 0.5f * u(rng);
+  for (int j = 0; j < 15; ++j)
+    for (int k = 0; k < 6; ++k) x[static_cast<size_t>(kata::gpd::kOffsetJk + 6 * j + k)] = (k < 3 ? 2.0f : 40.0f) * u(rng);
+  return x;
+}
+
+}  // namespace
+
+// The joint form's d^2 computed by hand from its matrices, and the kata model made of it scored by
+// the SDK's own Metric (min/max ranges, shift/scale, unit length, W): the same distance.
+TEST(JointForm, ModelScoresTheFormsDistance) {
+  std::mt19937 rng(7);
+  JointForm form;
+  form.terms = 3;
+  for (int a = 0; a < 3; ++a) {
+    Eigen::Matrix3d l = Eigen::Matrix3d::Zero();
+    l << 1.0 - 0.2 * a, 0, 0, 0.1, 0.05 + 0.01 * a, 0, -0.001, 0.0005, 0.0002;
+    form.lower[static_cast<size_t>(a)] = l;
+  }
+  std::vector<std::vector<float>> poses;
+  for (int i = 0; i < 40; ++i) poses.push_back(random_pose(rng));
+  Normaliser ranges;
+  ranges.min.assign(kata::gpd::kDims, -50.0f);
+  ranges.max.assign(kata::gpd::kDims, 50.0f);
+  kata::metric::Model made = joint_form_model(form, ranges, kata::gpd::Stencil::kBackward);
+  made.delta_star = 1.0;
+  const std::vector<uint8_t> buffer = kata::metric::serialize_model(made);  // validated, as a file would be
+  const kata::metric::Model model = kata::metric::parse_model(buffer.data(), buffer.size());
+  ASSERT_EQ(model.rank, 135);
+  kata::metric::Metric metric(model);
+  auto ws = metric.make_workspace();
+  std::vector<float> ua(static_cast<size_t>(model.rank)), ub(ua.size());
+  for (int i = 0; i + 1 < static_cast<int>(poses.size()); i += 2) {
+    const float* a = poses[static_cast<size_t>(i)].data();
+    const float* b = poses[static_cast<size_t>(i) + 1].data();
+    double by_hand = 0.0;  // sum over joints and axes of u^T L L^T u, u = (dp, dv, da)
+    for (int j = 0; j < 15; ++j)
+      for (int ax = 0; ax < 3; ++ax) {
+        auto diff = [&](int dim) { return static_cast<double>(a[dim]) - b[dim]; };
+        const Eigen::Vector3d u(diff(3 * j + ax), diff(kata::gpd::kOffsetJk + 6 * j + ax),
+                                diff(kata::gpd::kOffsetJk + 6 * j + 3 + ax));
+        by_hand += u.dot(form.form(ax) * u);
+      }
+    EXPECT_NEAR(joint_form_distance2(form, a, b), by_hand, 1e-9 * by_hand);
+    metric.project(a, ws, ua.data());
+    metric.project(b, ws, ub.data());
+    double d2 = 0.0;
+    for (size_t c = 0; c < ua.size(); ++c) d2 += (static_cast<double>(ua[c]) - ub[c]) * (static_cast<double>(ua[c]) - ub[c]);
+    EXPECT_NEAR(std::sqrt(d2), std::sqrt(by_hand), 1e-3 * std::sqrt(by_hand)) << "pair " << i;
+  }
+}
+
+// Labels planted by a form with a position-velocity cross term: the fit recovers a form that
+// separates them (JCD-like |dp|^2 + |dv|^2 does not), and its matrices are positive semidefinite.
+TEST(JointForm, FitRecoversAPlantedCrossTerm) {
+  std::mt19937 rng(11);
+  JointForm planted;
+  planted.terms = 2;
+  for (auto& l : planted.lower) {
+    l.setZero();
+    l(0, 0) = 1.0;
+    l(1, 0) = 0.25;  // M = [[1, .25], [.25, .0625 + .0001]]: future position dp + 0.25 dv
+    l(1, 1) = 0.01;
+  }
+  std::vector<std::vector<float>> store;
+  for (int i = 0; i < 1200; ++i) store.push_back(random_pose(rng));
+  PairRows rows;
+  std::vector<double> planted_d;
+  for (int i = 0; i < 600; ++i) {
+    rows.a.push_back(store[static_cast<size_t>(2 * i)].data());
+    rows.b.push_back(store[static_cast<size_t>(2 * i + 1)].data());
+    planted_d.push_back(joint_form_distance2(planted, rows.a.back(), rows.b.back()));
+  }
+  std::vector<double> sorted = planted_d;
+  std::sort(sorted.begin(), sorted.end());
+  const double median = sorted[sorted.size() / 2];
+  for (double d : planted_d) rows.label.push_back(d < median ? 1 : 0);
+  JointFormOptions o;
+  o.acceleration = false;
+  const JointForm fit = fit_joint_form(rows, o);
+  std::vector<double> fitted, jcd_like;
+  for (size_t i = 0; i < rows.label.size(); ++i) {
+    fitted.push_back(joint_form_distance2(fit, rows.a[i], rows.b[i]));
+    double s = 0.0;
+    for (int j = 0; j < 15; ++j)
+      for (int ax = 0; ax < 3; ++ax) {
+        const double dp = static_cast<double>(rows.a[i][3 * j + ax]) - rows.b[i][3 * j + ax];
+        const double dv = static_cast<double>(rows.a[i][kata::gpd::kOffsetJk + 6 * j + ax]) -
+                          rows.b[i][kata::gpd::kOffsetJk + 6 * j + ax];
+        s += dp * dp + dv * dv;
+      }
+    jcd_like.push_back(s);
+  }
+  EXPECT_GE(best_threshold(fitted, rows.label).precision, 0.95);
+  EXPECT_LT(best_threshold(jcd_like, rows.label).precision, 0.9);
+  for (int ax = 0; ax < 3; ++ax) {
+    const Eigen::Matrix2d m = fit.form(ax).topLeftCorner<2, 2>();
+    EXPECT_GE(Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d>(m).eigenvalues().minCoeff(), -1e-12);
+    EXPECT_NEAR(m(0, 1) / m(0, 0), 0.25, 0.05) << "axis " << ax;  // the planted cross term
+  }
+}
+
+TEST(JointForm, RefusesPairsWithOneLabel) {
+  std::mt19937 rng(3);
+  const std::vector<float> a = random_pose(rng), b = random_pose(rng);
+  PairRows rows;
+  rows.a = {a.data()};
+  rows.b = {b.data()};
+  rows.label = {1};
+  EXPECT_THROW(fit_joint_form(rows, JointFormOptions{}), kata::Error);
 }

@@ -459,13 +459,16 @@ KATA_API double kata_stream_body_height(kata_stream stream);
 /* Which shipped model for which job (figures: docs/model/scores.md, docs/model/transition.md):
  *   models/default.kata     coaching, a student against a teacher: cross-body precision 1.000 on
  *                           held-out subjects 1 and 9; it carries the calibrated score map.
- *   models/transition.kata  ranking candidate cut points between two takes of one subject (leave
- *                           one subject out, issue 27's protocol: mean 0.748 vs JCD 0.764; above
- *                           JCD on mixed-motion subjects, below on dance and walking: 0.917 vs
- *                           0.975). Within one kind of motion use JCD on the features' joint
- *                           coordinates and velocities; between clips of different motions the
- *                           static recipe of docs/model/transition.md (0.836 vs JCD 0.620). No
- *                           calibration: not a coaching score.
+ *   models/transition.kata  ranking candidate cut points between takes of one subject, or
+ *                           within one kind of motion (a walk into another walk): the joint form,
+ *                           a quadratic form on each joint's position, velocity and acceleration
+ *                           differences. Leave one subject out, issue 27's protocol: mean 0.815
+ *                           vs JCD 0.764, above JCD on every subject (walking 0.987 vs 0.975);
+ *                           the project's protocol: 0.805 vs 0.769.
+ *   models/transition-static.kata  candidates between clips of different motions (a run into a
+ *                           climb): a static W, 0.836 vs JCD 0.620 on held-out subjects 1+9
+ *                           pooled (transition.kata: 0.804). Near chance within one motion.
+ *                           Neither transition model has a calibration: not a coaching score.
  * kata_model_metadata(m, "data") names the training data; the evaluation figures and the
  * protocol they used are listed by `kata model-info`. */
 
