@@ -19,11 +19,17 @@
 // in between, the reference the other two are read against.
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <cstring>
 #include <ctime>
 #include <thread>
 #include <memory>
 #include <string>
 #include <vector>
+
+#if defined(__x86_64__)
+#include <immintrin.h>
+#endif
 
 #include <benchmark/benchmark.h>
 
@@ -142,18 +148,62 @@ void BM_PipelinePush(benchmark::State& state) {
 }
 BENCHMARK(BM_PipelinePush);
 
-enum class Pacing : int { kHot = 0, kSleep = 1, kEvict = 2, kEvictAll = 3, kSpin = 4 };
+enum class Pacing : int { kHot = 0, kSleep = 1, kEvict = 2, kEvictAll = 3, kSpin = 4, kFlushData = 5, kFlushCode = 6 };
+
+// The process's mappings that hold its code (executable) or its data (writable), from
+// /proc/self/maps, for the flush pacings: read once, when first needed (the data set is the
+// benchmark's heap, its clips included, so it is taken after the setup allocated them).
+struct Range {
+  const char* begin;
+  const char* end;
+};
+std::vector<Range> mappings(bool code) {
+  std::vector<Range> out;
+  FILE* f = std::fopen("/proc/self/maps", "r");
+  if (!f) return out;
+  char line[512];
+  while (std::fgets(line, sizeof line, f)) {
+    unsigned long long a = 0, b = 0;
+    char perms[8] = {0};
+    if (std::sscanf(line, "%llx-%llx %7s", &a, &b, perms) != 3) continue;
+    if (perms[0] != 'r' || std::strstr(line, "[vvar]") || std::strstr(line, "[vsyscall]")) continue;
+    const bool exec = perms[2] == 'x', write = perms[1] == 'w';
+    if (code ? exec : (write && !exec))
+      out.push_back({reinterpret_cast<const char*>(a), reinterpret_cast<const char*>(b)});
+  }
+  std::fclose(f);
+  return out;
+}
+
+// Every line of the ranges out of every cache level (clflush: the data stays where it is, only
+// its cached copies go; translations stay in the TLB).
+void flush(const std::vector<Range>& ranges) {
+#if defined(__x86_64__)
+  for (const Range& r : ranges)
+    for (const char* p = r.begin; p < r.end; p += 64) _mm_clflush(p);
+  _mm_mfence();
+#else
+  (void)ranges;
+#endif
+}
 
 // Between two pushes: what the pacing leaves of the caches. evict: a buffer of twice the L2
-// written; evict_all: one of twice the L3 (every data line cold; code stays in L1i); spin: 8.3 ms
-// of busy waiting that touches nothing (the core stays awake: against sleep, what the sleep
-// itself costs).
+// written; evict_all: one of twice the L3 (every data line cold; on AMD's inclusive L2 the code's
+// lines go with it); spin: 8.3 ms of busy waiting that touches nothing (the core stays awake:
+// against sleep, what the sleep itself costs); flush_data / flush_code: every line of the
+// process's writable / executable mappings flushed (clflush), to tell what a cold frame pays for
+// its data from what it pays for its code.
 char between_pushes(Pacing pacing, std::vector<char>& l2, std::vector<char>& l3) {
   if (pacing == Pacing::kSleep) std::this_thread::sleep_for(std::chrono::microseconds(8333));
   if (pacing == Pacing::kSpin) {
     const auto until = std::chrono::steady_clock::now() + std::chrono::microseconds(8333);
     while (std::chrono::steady_clock::now() < until) {
     }
+  }
+  if (pacing == Pacing::kFlushData || pacing == Pacing::kFlushCode) {
+    static const std::vector<Range> data = mappings(false), code = mappings(true);
+    flush(pacing == Pacing::kFlushData ? data : code);
+    return 0;
   }
   std::vector<char>* buffer = pacing == Pacing::kEvict ? &l2 : pacing == Pacing::kEvictAll ? &l3 : nullptr;
   if (!buffer) return 0;
@@ -225,8 +275,8 @@ void BM_StagesPaced(benchmark::State& state) {
   state.counters["p50_us"] = median_us(total_s);
 }
 BENCHMARK(BM_StagesPaced)
-    ->ArgName("hot0_sleep1_evict2_evictall3_spin4")
-    ->DenseRange(0, 4)
+    ->ArgName("hot0_sleep1_evict2_evictall3_spin4_flushdata5_flushcode6")
+    ->DenseRange(0, 6)
     ->UseManualTime()
     ->Iterations(240)
     ->Unit(benchmark::kMicrosecond);

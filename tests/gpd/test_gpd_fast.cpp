@@ -231,7 +231,7 @@ TEST(GpdChecks, LargestMagnitudeBitsMatchesPlainFormula) {
     seed = seed * 1664525u + 1013904223u;
     return seed;
   };
-  for (int n : {0, 1, 7, 8, 15, 16, 17, 31, 48, 93, 1683}) {
+  for (int n : {0, 1, 7, 8, 15, 16, 17, 31, 48, 63, 64, 65, 79, 80, 93, 127, 128, 129, 1683}) {
     for (int trial = 0; trial < 40; ++trial) {
       std::vector<float> v(static_cast<size_t>(n));
       for (float& x : v) x = (static_cast<float>(next() % 20001) - 10000.0f) * 1e-2f;
