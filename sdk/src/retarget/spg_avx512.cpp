@@ -4,6 +4,7 @@
 // the divider no longer bounds the kernel). Results equal the portable kernel's to a few units
 // in the last place, not bit for bit. Off x86 this TU forwards to the portable kernel.
 #include "retarget/stress_kernel.hpp"
+#include "retarget/spg_solver.inl"
 
 #if defined(__AVX512F__)
 #include <immintrin.h>
@@ -85,6 +86,10 @@ double detail::stress_avx512(const StressInstance& in, const double* x, double* 
 #else
   return stress_kernel(in, x, grad);
 #endif
+}
+
+SpgResult detail::minimize_avx512(SpgWork& work, const StressInstance& in, double* x, const SpgOptions& opt) {
+  return spg_minimize<detail::stress_avx512>(work, in, x, opt);
 }
 
 }  // namespace kata::retarget
