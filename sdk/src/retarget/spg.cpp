@@ -32,14 +32,16 @@ double stress_scale(const StressInstance& in) {
 
 detail::SpgWork::SpgWork(int joints)
     : size(3 * joints),
-      g(size),
-      xn(size),
-      gn(size),
-      best(size),
-      d(size),
+      padded((3 * joints + 7) / 8 * 8),
+      x(padded),
+      g(padded),
+      xn(padded),
+      gn(padded),
+      best(padded),
+      d(padded),
       history(64),
-      s(static_cast<size_t>(kMaxCurvaturePairs) * size),
-      y(static_cast<size_t>(kMaxCurvaturePairs) * size) {
+      s(static_cast<size_t>(kRing) * padded),
+      y(static_cast<size_t>(kRing) * padded) {
   if (joints < 1) throw Error(ErrorKind::kInvalidArgument, "SpgSolver: joints must be positive");
 }
 
@@ -61,8 +63,8 @@ SpgResult SpgSolver::minimize(const StressInstance& in, double* x, const SpgOpti
 }
 
 void SpgSolver::rotate_curvature(const double* r) {
-  constexpr int kRing = kMaxCurvaturePairs;
-  const int n = work_.size, joints = n / 3;
+  constexpr int kRing = detail::SpgWork::kRing;
+  const int n = work_.padded, joints = work_.size / 3;
   for (int k = 0, at = work_.newest; k < work_.pairs; ++k, at = (at + kRing - 1) % kRing) {
     for (double* v : {&work_.s[static_cast<size_t>(at) * n], &work_.y[static_cast<size_t>(at) * n]}) {
       for (int j = 0; j < joints; ++j) {
@@ -73,6 +75,7 @@ void SpgSolver::rotate_curvature(const double* r) {
       }
     }
   }
+  // The products s_i.y_j and y_i.y_j are invariant under an orthogonal map.
 }
 
 }  // namespace kata::retarget

@@ -75,13 +75,16 @@ namespace detail {
 // The solver's state and work buffers (SpgSolver below), sized once for one joint count.
 struct SpgWork {
   static constexpr int kMaxCurvaturePairs = 8;
+  static constexpr int kRing = kMaxCurvaturePairs + 1;  // + the slot the next pair is written to
   explicit SpgWork(int joints);
   int size;                            // 3 x joints
-  std::vector<double> g, xn, gn, best; // gradient, trial point, trial gradient, best point
+  int padded;                          // size rounded up to a multiple of 8 (the buffers' length; zeros after size)
+  std::vector<double> x, g, xn, gn, best;  // iterate, gradient, trial point, trial gradient, best point
   std::vector<double> d;               // search direction
   std::vector<double> history;         // the last M stresses (ring)
-  std::vector<double> s, y;            // curvature pairs, kMaxCurvaturePairs x size (ring)
-  double rho[kMaxCurvaturePairs] = {}; // 1 / s.y per pair
+  std::vector<double> s, y;            // curvature pairs, kRing x padded (ring)
+  double sy[kRing][kRing] = {};        // s_i.y_j by ring slot (i older or equal)
+  double yy[kRing][kRing] = {};        // y_i.y_j by ring slot
   double gamma = 1.0;                  // s.y / y.y of the newest pair
   int pairs = 0, newest = -1;          // pairs held; ring index of the newest
 };

@@ -16,84 +16,108 @@ namespace {  // NOLINT: one copy per including translation unit (different -marc
 // passed or returned by value (that would change the ABI between the units).
 typedef double Lanes4 __attribute__((vector_size(32)));
 
-// Sixteen partial sums in four independent chains: one serial chain of 3 x joints dependent
-// additions (4 cycles each) was a large part of an SPG iteration, and the quasi-Newton
-// recursion is a chain of dot products.
+// a.b over n doubles, n a multiple of 8 (the solver's buffers are padded with zeros to one:
+// SpgWork::padded), in eight partial sums: one serial chain of 3 x joints dependent additions
+// (4 cycles each) was a large part of an SPG iteration.
 inline double dot(const double* a, const double* b, int n) {
-  Lanes4 s0 = {}, s1 = {}, s2 = {}, s3 = {};
-  int i = 0;
-  for (; i + 16 <= n; i += 16) {
-    Lanes4 a0, a1, a2, a3, b0, b1, b2, b3;
+  Lanes4 s0 = {}, s1 = {};
+  for (int i = 0; i < n; i += 8) {
+    Lanes4 a0, a1, b0, b1;
     std::memcpy(&a0, a + i, sizeof a0);
     std::memcpy(&a1, a + i + 4, sizeof a1);
-    std::memcpy(&a2, a + i + 8, sizeof a2);
-    std::memcpy(&a3, a + i + 12, sizeof a3);
     std::memcpy(&b0, b + i, sizeof b0);
     std::memcpy(&b1, b + i + 4, sizeof b1);
-    std::memcpy(&b2, b + i + 8, sizeof b2);
-    std::memcpy(&b3, b + i + 12, sizeof b3);
     s0 += a0 * b0;
     s1 += a1 * b1;
-    s2 += a2 * b2;
-    s3 += a3 * b3;
   }
-  for (; i + 4 <= n; i += 4) {
-    Lanes4 a0, b0;
-    std::memcpy(&a0, a + i, sizeof a0);
-    std::memcpy(&b0, b + i, sizeof b0);
-    s0 += a0 * b0;
-  }
-  double t = 0.0;
-  for (; i < n; ++i) t += a[i] * b[i];
-  const Lanes4 s = (s0 + s1) + (s2 + s3);
-  return ((s[0] + s[2]) + (s[1] + s[3])) + t;
+  const Lanes4 t = s0 + s1;
+  return (t[0] + t[2]) + (t[1] + t[3]);
 }
 
-// d = -H g, H the inverse-Hessian estimate of the held curvature pairs: the L-BFGS two-loop
-// recursion (Nocedal & Wright, algorithm 7.4) over the ring, newest pair first, with the initial
-// inverse Hessian gamma I, gamma = s.y / y.y of the newest pair.
+// d = -H g, H the inverse-Hessian estimate of the held curvature pairs in the compact form of
+// Byrd, Nocedal and Schnabel (1994, theorem 2.2) with H0 = gamma I, gamma = s.y / y.y of the
+// newest pair: H g = gamma g + S p + gamma Y q, q = -R^-1 S^T g,
+// p = R^-T ((D + gamma Y^T Y) R^-1 S^T g - gamma Y^T g), R the upper triangle of S^T Y (pairs
+// oldest first), D its diagonal. The same direction as the two-loop recursion, but its 2m dot
+// products with g are independent of each other (the recursion chains them: each waits for the
+// previous update of the direction), and S^T Y, Y^T Y are kept as pairs arrive.
 inline void quasi_newton_direction(detail::SpgWork& w, const double* g, double* d) {
-  constexpr int kRing = detail::SpgWork::kMaxCurvaturePairs;
-  const int n = w.size;
-  double alpha[kRing];
-  for (int i = 0; i < n; ++i) d[i] = g[i];
-  for (int k = 0, at = w.newest; k < w.pairs; ++k, at = (at + kRing - 1) % kRing) {
-    const double* s = &w.s[static_cast<size_t>(at) * n];
-    const double* y = &w.y[static_cast<size_t>(at) * n];
-    const double a = w.rho[at] * dot(s, d, n);
-    alpha[at] = a;
-    for (int i = 0; i < n; ++i) d[i] -= a * y[i];
+  constexpr int kRing = detail::SpgWork::kRing;
+  const int n = w.padded, m = w.pairs;
+  int slot[kRing];  // chronological: slot[0] the oldest pair
+  for (int i = 0; i < m; ++i) slot[i] = (w.newest + kRing - (m - 1 - i)) % kRing;
+  double a[kRing], b[kRing], q[kRing], p[kRing];
+  for (int i = 0; i < m; ++i) {
+    a[i] = dot(&w.s[static_cast<size_t>(slot[i]) * n], g, n);
+    b[i] = dot(&w.y[static_cast<size_t>(slot[i]) * n], g, n);
   }
   const double gamma = w.gamma;
-  for (int i = 0; i < n; ++i) d[i] *= gamma;
-  for (int k = 0, at = (w.newest + kRing - w.pairs + 1) % kRing; k < w.pairs; ++k, at = (at + 1) % kRing) {
-    const double* s = &w.s[static_cast<size_t>(at) * n];
-    const double* y = &w.y[static_cast<size_t>(at) * n];
-    const double c = alpha[at] - w.rho[at] * dot(y, d, n);
-    for (int i = 0; i < n; ++i) d[i] += c * s[i];
+  for (int i = m - 1; i >= 0; --i) {  // R q = -a
+    double t = -a[i];
+    for (int j = i + 1; j < m; ++j) t -= w.sy[slot[i]][slot[j]] * q[j];
+    q[i] = t / w.sy[slot[i]][slot[i]];
   }
-  for (int i = 0; i < n; ++i) d[i] = -d[i];
+  for (int i = 0; i < m; ++i) {  // R^T p = -(D + gamma Y^T Y) q - gamma b
+    double t = -w.sy[slot[i]][slot[i]] * q[i] - gamma * b[i];
+    for (int j = 0; j < m; ++j) t -= gamma * w.yy[slot[i]][slot[j]] * q[j];
+    for (int j = 0; j < i; ++j) t -= w.sy[slot[j]][slot[i]] * p[j];
+    p[i] = t / w.sy[slot[i]][slot[i]];
+  }
+  for (int k = 0; k < n; ++k) d[k] = -gamma * g[k];
+  for (int i = 0; i < m; ++i) {
+    const double* s = &w.s[static_cast<size_t>(slot[i]) * n];
+    const double* y = &w.y[static_cast<size_t>(slot[i]) * n];
+    const double ps = p[i], qy = gamma * q[i];
+    for (int k = 0; k < n; ++k) d[k] -= ps * s[k] + qy * y[k];
+  }
 }
 
-// Minimises sigma from x with the kernel `Stress` (spg.hpp, SpgSolver::minimize).
+// Makes the pair in the ring slot after the newest (written there by the caller; never a held
+// slot: the ring has one more slot than pairs are held) the newest, dropping the oldest when
+// `limit` are held, with its products with the other held pairs: s_i.y (older s_i) and y_i.y.
+inline void add_curvature_pair(detail::SpgWork& w, double sty, double yty, int limit) {
+  constexpr int kRing = detail::SpgWork::kRing;
+  const int n = w.padded;
+  const int held = std::min(w.pairs, limit - 1);  // the older pairs that stay
+  const int slot = (w.newest + 1) % kRing;
+  const double* y = &w.y[static_cast<size_t>(slot) * n];
+  for (int i = 0; i < held; ++i) {
+    const int other = (w.newest + kRing - i) % kRing;
+    w.sy[other][slot] = dot(&w.s[static_cast<size_t>(other) * n], y, n);
+    const double yy = dot(&w.y[static_cast<size_t>(other) * n], y, n);
+    w.yy[other][slot] = yy;
+    w.yy[slot][other] = yy;
+  }
+  w.sy[slot][slot] = sty;
+  w.yy[slot][slot] = yty;
+  w.gamma = sty / yty;
+  w.newest = slot;
+  w.pairs = held + 1;
+}
+
+// Minimises sigma from x with the kernel `Stress` (spg.hpp, SpgSolver::minimize). The iterate
+// and gradient live in the padded work buffers and change places with the trial point by pointer
+// swaps; the best point is copied only when a non-monotone step leaves it.
 template <double (*Stress)(const StressInstance&, const double*, double*)>
-SpgResult spg_minimize(detail::SpgWork& w, const StressInstance& in, double* x, const SpgOptions& opt) {
-  constexpr int kRing = detail::SpgWork::kMaxCurvaturePairs;
-  const int n = w.size;
+SpgResult spg_minimize(detail::SpgWork& w, const StressInstance& in, double* x_out, const SpgOptions& opt) {
+  constexpr int kRing = detail::SpgWork::kRing;
+  const int n = w.padded;
   const int memory = std::clamp(opt.memory, 1, static_cast<int>(w.history.size()));
+  double* x = w.x.data();
   double* g = w.g.data();
   double* xn = w.xn.data();
   double* gn = w.gn.data();
   double* best = w.best.data();
   double* d = w.d.data();
   double* history = w.history.data();
+  std::memcpy(x, x_out, sizeof(double) * w.size);  // the padding stays 0 in every buffer
 
   SpgResult r;
   double f = Stress(in, x, g);
   r.evaluations = 1;
   r.stress_start = f;
   double best_f = f;
-  std::memcpy(best, x, sizeof(double) * n);
+  bool best_is_x = true;  // else the best point is in `best`
   double scale = 0.0;
   for (int p = 0; p < in.pairs; ++p) scale += in.weight[p] * in.delta[p] * in.delta[p];
   const double tolerance = opt.gradient_tolerance * std::sqrt(scale);
@@ -109,7 +133,7 @@ SpgResult spg_minimize(detail::SpgWork& w, const StressInstance& in, double* x, 
   }
   lambda = std::clamp(lambda, opt.step_min, opt.step_max);
   double best_gnorm = gnorm;
-  const int curvature = std::clamp(opt.curvature_pairs, 0, kRing);
+  const int curvature = std::clamp(opt.curvature_pairs, 0, static_cast<int>(detail::SpgWork::kMaxCurvaturePairs));
   if (!opt.keep_curvature || curvature == 0) w.pairs = 0;
   w.pairs = std::min(w.pairs, curvature);
 
@@ -152,26 +176,26 @@ SpgResult spg_minimize(detail::SpgWork& w, const StressInstance& in, double* x, 
       alpha = (a_tmp >= 0.1 && a_tmp <= 0.9 * alpha) ? a_tmp : 0.5 * alpha;
     }
     if (!accepted) break;  // no decrease possible at this precision: x is as good as it gets
-    // Spectral (Barzilai-Borwein) step from s = xn - x, y = gn - g. x and g are overwritten
-    // below, so s and y go through them (x <- s, g <- y) and the sums reuse dot().
+    // s = xn - x and y = gn - g, written straight into the ring's next slot (committed as a
+    // curvature pair below, or overwritten next time), with the Barzilai-Borwein sums.
+    const int slot = (w.newest + 1) % kRing;
+    double* s = &w.s[static_cast<size_t>(slot) * n];
+    double* y = &w.y[static_cast<size_t>(slot) * n];
     for (int i = 0; i < n; ++i) {
-      x[i] = xn[i] - x[i];
-      g[i] = gn[i] - g[i];
+      s[i] = xn[i] - x[i];
+      y[i] = gn[i] - g[i];
     }
-    const double sts = dot(x, x, n), sty = dot(x, g, n);
+    const double sts = dot(s, s, n), sty = dot(s, y, n);
     lambda = sty <= 0.0 ? opt.step_max : std::clamp(sts / sty, opt.step_min, opt.step_max);
     // A pair enters the curvature memory only with positive curvature (s.y > 0; the stress is
     // not convex), so the inverse-Hessian estimate stays positive definite.
-    if (curvature > 0 && sty > 1e-12 * sts) {
-      w.newest = (w.newest + 1) % kRing;
-      std::memcpy(&w.s[static_cast<size_t>(w.newest) * n], x, sizeof(double) * n);
-      std::memcpy(&w.y[static_cast<size_t>(w.newest) * n], g, sizeof(double) * n);
-      w.rho[w.newest] = 1.0 / sty;
-      w.gamma = sty / dot(g, g, n);
-      w.pairs = std::min(w.pairs + 1, curvature);
+    if (curvature > 0 && sty > 1e-12 * sts) add_curvature_pair(w, sty, dot(y, y, n), curvature);
+    if (!(fn < best_f) && best_is_x) {
+      std::memcpy(best, x, sizeof(double) * n);  // a non-monotone step leaves the best point
+      best_is_x = false;
     }
-    std::memcpy(x, xn, sizeof(double) * n);
-    std::memcpy(g, gn, sizeof(double) * n);
+    std::swap(x, xn);
+    std::swap(g, gn);
     f = fn;
     gnorm = std::sqrt(dot(g, g, n));
     ++r.iterations;
@@ -180,12 +204,12 @@ SpgResult spg_minimize(detail::SpgWork& w, const StressInstance& in, double* x, 
     if (f < best_f) {
       best_f = f;
       best_gnorm = gnorm;
-      std::memcpy(best, x, sizeof(double) * n);
+      best_is_x = true;
     }
   }
   // The non-monotone search may end above the best point seen: return the best.
-  if (best_f < f) {
-    std::memcpy(x, best, sizeof(double) * n);
+  std::memcpy(x_out, best_is_x ? x : best, sizeof(double) * w.size);
+  if (!best_is_x) {
     f = best_f;
     gnorm = best_gnorm;
   }
