@@ -115,6 +115,32 @@ void Retargeter::align_on_teacher(const double* t, double* x, double* map) {
     const Eigen::Vector3d b(t[3 * j] - t[0], t[3 * j + 1] - t[1], t[3 * j + 2] - t[2]);
     h.noalias() += a * b.transpose();
   }
+  const Eigen::Vector3d root(x[0], x[1], x[2]);
+  // A proper best fit (det H > 0, the rule on a warm stream): R = V U^T is the orthogonal polar
+  // factor of H^T, reached by the scaled Newton iteration X <- (g X + X^-T / g) / 2 (Higham) in
+  // a few 3 x 3 inverses instead of a Jacobi SVD. A reflection, or an iteration that does not
+  // settle (H near singular), goes through the SVD below.
+  if (h.determinant() > 0.0) {
+    Eigen::Matrix3d q = h.transpose();
+    bool settled = false;
+    for (int it = 0; it < 30 && !settled; ++it) {
+      const Eigen::Matrix3d inv_t = q.inverse().transpose();
+      const double g = it < 8 ? std::sqrt(inv_t.norm() / q.norm()) : 1.0;  // the scaling speeds the first steps
+      const Eigen::Matrix3d next = 0.5 * (g * q + inv_t / g);
+      settled = (next - q).norm() <= 1e-14 * next.norm();
+      q = next;
+    }
+    if (settled && std::isfinite(q.sum())) {
+      for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) map[3 * i + k] = q(i, k);
+      for (int j = 0; j < n; ++j) {
+        const Eigen::Vector3d a(x[3 * j] - root[0], x[3 * j + 1] - root[1], x[3 * j + 2] - root[2]);
+        const Eigen::Vector3d b = q * a;
+        for (int k = 0; k < 3; ++k) x[3 * j + k] = t[k] + b[k];
+      }
+      return;
+    }
+  }
   Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::Matrix3d u = svd.matrixU(), v = svd.matrixV();
   const Eigen::Vector3d s = svd.singularValues();
@@ -130,7 +156,6 @@ void Retargeter::align_on_teacher(const double* t, double* x, double* map) {
     // Relative to the root, the flip negates and r rotates: the map is -r.
     for (int i = 0; i < 3; ++i)
       for (int k = 0; k < 3; ++k) map[3 * i + k] = -r(i, k);
-    const Eigen::Vector3d root(x[0], x[1], x[2]);
     for (int j = 0; j < n; ++j) {
       const Eigen::Vector3d a(x[3 * j] - root[0], x[3 * j + 1] - root[1], x[3 * j + 2] - root[2]);
       const Eigen::Vector3d b = r * a;
@@ -143,7 +168,6 @@ void Retargeter::align_on_teacher(const double* t, double* x, double* map) {
   const Eigen::Matrix3d r = v * d * u.transpose();
   for (int i = 0; i < 3; ++i)
     for (int k = 0; k < 3; ++k) map[3 * i + k] = r(i, k);
-  const Eigen::Vector3d root(x[0], x[1], x[2]);
   for (int j = 0; j < n; ++j) {
     const Eigen::Vector3d a(x[3 * j] - root[0], x[3 * j + 1] - root[1], x[3 * j + 2] - root[2]);
     const Eigen::Vector3d b = r * a;
