@@ -230,29 +230,7 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
   bone_lengths(table_, teacher, teacher_lengths_.data());
   path_weights(table_, teacher_lengths_.data(), cumulative_.data(), tau_teacher_.data());
   to_soa(n, teacher, soa_.data());
-  {
-    const double* tx = soa_.data();
-    const double* ty = tx + n;
-    const double* tz = ty + n;
-    const double* tau_t = tau_teacher_.data();
-    const double* tau_s = tau_student_.data();
-    double* delta = delta_.data();
-    int row = 0;
-    for (int u = 0; u + 1 < n; ++u) {
-      const double xu = tx[u], yu = ty[u], zu = tz[u];
-      const int len = n - 1 - u;
-#pragma omp simd
-      for (int i = 0; i < len; ++i) {
-        const int v = u + 1 + i;
-        const double dx = xu - tx[v], dy = yu - ty[v], dz = zu - tz[v];
-        const double dist = std::sqrt(dx * dx + dy * dy + dz * dz);
-        const double tt = tau_t[row + i];
-        // A teacher path of zero length (degenerate bones) carries no shape: keep the student's.
-        delta[row + i] = tt > 0.0 ? tau_s[row + i] * dist / tt : tau_s[row + i];
-      }
-      row += len;
-    }
-  }
+  detail::targets(n, soa_.data(), tau_student_.data(), tau_teacher_.data(), delta_.data());
   const StressInstance solve{n, m, table_.u.data(), table_.v.data(), weight_.data(), delta_.data()};
   const bool paper_weights = options_.bone_weight == 1.0;
 

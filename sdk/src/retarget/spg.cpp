@@ -24,6 +24,17 @@ double stress(const StressInstance& in, const double* x, double* grad) {
   return kernel(in, x, grad);
 }
 
+void detail::targets_portable(int n, const double* t, const double* tau_s, const double* tau_t, double* delta) {
+  targets_kernel(n, t, tau_s, tau_t, delta);
+}
+
+void detail::targets(int n, const double* t, const double* tau_s, const double* tau_t, double* delta) {
+  static const auto kernel = cpu_has_avx512() ? detail::targets_avx512
+                             : cpu_has_avx2() ? detail::targets_avx2
+                                              : detail::targets_portable;
+  kernel(n, t, tau_s, tau_t, delta);
+}
+
 double stress_scale(const StressInstance& in) {
   double s = 0.0;
   for (int p = 0; p < in.pairs; ++p) s += in.weight[p] * in.delta[p] * in.delta[p];

@@ -39,6 +39,17 @@ namespace detail {
 double stress_portable(const StressInstance& instance, const double* x, double* grad);
 double stress_avx2(const StressInstance& instance, const double* x, double* grad);
 double stress_avx512(const StressInstance& instance, const double* x, double* grad);
+// The retargeter's per-frame target distances (retargeter.cpp, step 1) per instruction set:
+// delta_p = tau_student_p |t_u - t_v| / tau_teacher_p (tau_student_p where tau_teacher_p = 0),
+// teacher positions in SoA. targets() picks one at run time.
+void targets_portable(int joints, const double* teacher_soa, const double* tau_student, const double* tau_teacher,
+                      double* delta);
+void targets_avx2(int joints, const double* teacher_soa, const double* tau_student, const double* tau_teacher,
+                  double* delta);
+void targets_avx512(int joints, const double* teacher_soa, const double* tau_student, const double* tau_teacher,
+                    double* delta);
+void targets(int joints, const double* teacher_soa, const double* tau_student, const double* tau_teacher,
+             double* delta);
 }  // namespace detail
 
 // Parameters of the SPG method. Defaults are those of Birgin-Martinez-Raydan / MDjeep.

@@ -88,6 +88,10 @@ double detail::stress_avx512(const StressInstance& in, const double* x, double* 
 #endif
 }
 
+void detail::targets_avx512(int n, const double* t, const double* tau_s, const double* tau_t, double* delta) {
+  targets_kernel(n, t, tau_s, tau_t, delta);
+}
+
 SpgResult detail::minimize_avx512(SpgWork& work, const StressInstance& in, double* x, const SpgOptions& opt) {
   return spg_minimize<detail::stress_avx512>(work, in, x, opt);
 }
