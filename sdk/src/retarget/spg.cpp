@@ -73,20 +73,13 @@ SpgResult SpgSolver::minimize(const StressInstance& in, double* x, const SpgOpti
   return solve(work_, in, x, opt);
 }
 
+void detail::rotate_pairs_portable(SpgWork& work, const double* r) { rotate_pairs(work, r); }
+
 void SpgSolver::rotate_curvature(const double* r) {
-  constexpr int kRing = detail::SpgWork::kRing;
-  const int n = work_.padded, joints = work_.size / 3;
-  for (int k = 0, at = work_.newest; k < work_.pairs; ++k, at = (at + kRing - 1) % kRing) {
-    for (double* v : {&work_.s[static_cast<size_t>(at) * n], &work_.y[static_cast<size_t>(at) * n]}) {
-      for (int j = 0; j < joints; ++j) {
-        const double a = v[j], b = v[joints + j], c = v[2 * joints + j];
-        v[j] = r[0] * a + r[1] * b + r[2] * c;
-        v[joints + j] = r[3] * a + r[4] * b + r[5] * c;
-        v[2 * joints + j] = r[6] * a + r[7] * b + r[8] * c;
-      }
-    }
-  }
-  // The products s_i.y_j and y_i.y_j are invariant under an orthogonal map.
+  static const auto rotate = cpu_has_avx512() ? detail::rotate_pairs_avx512
+                             : cpu_has_avx2() ? detail::rotate_pairs_avx2
+                                              : detail::rotate_pairs_portable;
+  rotate(work_, r);
 }
 
 }  // namespace kata::retarget

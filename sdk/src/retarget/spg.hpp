@@ -96,6 +96,7 @@ struct SpgWork {
   std::vector<double> s, y;            // curvature pairs, kRing x padded (ring)
   double sy[kRing][kRing] = {};        // s_i.y_j by ring slot (i older or equal)
   double yy[kRing][kRing] = {};        // y_i.y_j by ring slot
+  double rho[kRing] = {};              // 1 / s_i.y_i by ring slot
   double gamma = 1.0;                  // s.y / y.y of the newest pair
   int pairs = 0, newest = -1;          // pairs held; ring index of the newest
 };
@@ -104,6 +105,10 @@ struct SpgWork {
 SpgResult minimize_portable(SpgWork& work, const StressInstance& instance, double* x, const SpgOptions& options);
 SpgResult minimize_avx2(SpgWork& work, const StressInstance& instance, double* x, const SpgOptions& options);
 SpgResult minimize_avx512(SpgWork& work, const StressInstance& instance, double* x, const SpgOptions& options);
+// SpgSolver::rotate_curvature per instruction set.
+void rotate_pairs_portable(SpgWork& work, const double* r);
+void rotate_pairs_avx2(SpgWork& work, const double* r);
+void rotate_pairs_avx512(SpgWork& work, const double* r);
 }  // namespace detail
 
 // SPG minimiser with its work buffers sized for one joint count at construction.

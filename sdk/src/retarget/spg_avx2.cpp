@@ -14,6 +14,8 @@ void detail::targets_avx2(int n, const double* t, const double* tau_s, const dou
   targets_kernel(n, t, tau_s, tau_t, delta);
 }
 
+void detail::rotate_pairs_avx2(SpgWork& work, const double* r) { rotate_pairs(work, r); }
+
 SpgResult detail::minimize_avx2(SpgWork& work, const StressInstance& in, double* x, const SpgOptions& opt) {
   return spg_minimize<detail::stress_avx2>(work, in, x, opt);
 }

@@ -92,6 +92,8 @@ void detail::targets_avx512(int n, const double* t, const double* tau_s, const d
   targets_kernel(n, t, tau_s, tau_t, delta);
 }
 
+void detail::rotate_pairs_avx512(SpgWork& work, const double* r) { rotate_pairs(work, r); }
+
 SpgResult detail::minimize_avx512(SpgWork& work, const StressInstance& in, double* x, const SpgOptions& opt) {
   return spg_minimize<detail::stress_avx512>(work, in, x, opt);
 }

@@ -55,13 +55,13 @@ inline void quasi_newton_direction(detail::SpgWork& w, const double* g, double* 
   for (int i = m - 1; i >= 0; --i) {  // R q = -a
     double t = -a[i];
     for (int j = i + 1; j < m; ++j) t -= w.sy[slot[i]][slot[j]] * q[j];
-    q[i] = t / w.sy[slot[i]][slot[i]];
+    q[i] = t * w.rho[slot[i]];
   }
   for (int i = 0; i < m; ++i) {  // R^T p = -(D + gamma Y^T Y) q - gamma b
     double t = -w.sy[slot[i]][slot[i]] * q[i] - gamma * b[i];
     for (int j = 0; j < m; ++j) t -= gamma * w.yy[slot[i]][slot[j]] * q[j];
     for (int j = 0; j < i; ++j) t -= w.sy[slot[j]][slot[i]] * p[j];
-    p[i] = t / w.sy[slot[i]][slot[i]];
+    p[i] = t * w.rho[slot[i]];
   }
   for (int k = 0; k < n; ++k) d[k] = -gamma * g[k];
   for (int i = 0; i < m; ++i) {
@@ -89,10 +89,32 @@ inline void add_curvature_pair(detail::SpgWork& w, double sty, double yty, int l
     w.yy[slot][other] = yy;
   }
   w.sy[slot][slot] = sty;
+  w.rho[slot] = 1.0 / sty;  // the triangular solves multiply (a division is a long latency in their chain)
   w.yy[slot][slot] = yty;
   w.gamma = sty / yty;
   w.newest = slot;
   w.pairs = held + 1;
+}
+
+// Applies the orthogonal 3 x 3 map r (row-major) to every joint's (x, y, z) of every held
+// curvature pair (SpgSolver::rotate_curvature). The products s_i.y_j and y_i.y_j do not change.
+inline void rotate_pairs(detail::SpgWork& w, const double* r) {
+  constexpr int kRing = detail::SpgWork::kRing;
+  const int n = w.padded, joints = w.size / 3;
+  for (int k = 0, at = w.newest; k < w.pairs; ++k, at = (at + kRing - 1) % kRing) {
+    for (double* v : {&w.s[static_cast<size_t>(at) * n], &w.y[static_cast<size_t>(at) * n]}) {
+      double* vx = v;
+      double* vy = v + joints;
+      double* vz = v + 2 * joints;
+#pragma omp simd
+      for (int j = 0; j < joints; ++j) {
+        const double a = vx[j], b = vy[j], c = vz[j];
+        vx[j] = r[0] * a + r[1] * b + r[2] * c;
+        vy[j] = r[3] * a + r[4] * b + r[5] * c;
+        vz[j] = r[6] * a + r[7] * b + r[8] * c;
+      }
+    }
+  }
 }
 
 // Minimises sigma from x with the kernel `Stress` (spg.hpp, SpgSolver::minimize). The iterate
