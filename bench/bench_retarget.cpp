@@ -64,7 +64,7 @@ void BM_Retarget(benchmark::State& state, const std::string& preset, bool warm, 
   Retargeter rt(s.selection.parents, s.student_lengths, options, s.student_dirs);
   std::vector<double> ghost(3 * static_cast<size_t>(s.joints));
   size_t f = 0;
-  long iterations = 0, frames = 0;
+  long iterations = 0, frames = 0, evaluations = 0;
   double worst_bone = 0.0, stress_sum = 0.0;
   long switched = 0;
   for (auto _ : state) {
@@ -72,6 +72,7 @@ void BM_Retarget(benchmark::State& state, const std::string& preset, bool warm, 
     const auto& r = rt.retarget(s.frames[f].data(), ghost.data());
     benchmark::DoNotOptimize(ghost.data());
     iterations += r.iterations;
+    evaluations += r.evaluations;
     stress_sum += r.stress;
     switched += r.switched ? 1 : 0;
     worst_bone = std::max(worst_bone, r.max_bone_error);
@@ -85,6 +86,7 @@ void BM_Retarget(benchmark::State& state, const std::string& preset, bool warm, 
   state.counters["pairs"] = rt.table().pairs;
   state.counters["spg_iter"] = static_cast<double>(iterations) / static_cast<double>(frames);
   state.counters["max_bone_err"] = worst_bone;
+  state.counters["evaluations"] = static_cast<double>(evaluations) / static_cast<double>(frames);
   // The quality side of the cost: the mean stress of the optima the stream followed (the
   // paper's objective; lower is better) and the share of frames whose basin check switched.
   state.counters["stress_mean"] = stress_sum / static_cast<double>(frames);

@@ -394,6 +394,79 @@ TEST(RetargetStress, CoincidentJointsStayFinite) {
   EXPECT_LT(r.stress, r.stress_start);
 }
 
+// Curvature pairs kept from one solve to the next follow a rigid rotation of the point: solving
+// a rotated problem with rotated pairs takes the same steps, rotated (the stress is invariant), so
+// the result is the rotated result and the iteration count is the same; without rotating the
+// pairs the steps differ.
+TEST(RetargetSpg, KeptCurvaturePairsFollowARotation) {
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> uni(-1.0, 1.0);
+  const int n = 12;
+  const PairTable t = kata::retarget::build_pair_table(random_case(rng, n, 0.0).parents);
+  std::vector<double> w(t.pairs), delta(t.pairs);
+  for (int p = 0; p < t.pairs; ++p) {
+    w[p] = 0.2 + std::fabs(uni(rng));
+    delta[p] = 1.0 + uni(rng);
+  }
+  const StressInstance in{n, t.pairs, t.u.data(), t.v.data(), w.data(), delta.data()};
+  Pose x(3 * n);  // SoA
+  for (double& xi : x) xi = 2.0 * uni(rng);
+  // An orthogonal r (row-major): rotation by 0.7 rad about a tilted axis.
+  const double ax[3] = {0.48, 0.6, 0.64}, th = 0.7, c = std::cos(th), s = std::sin(th);
+  double r[9];
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) r[3 * i + k] = (i == k ? c : 0.0) + (1 - c) * ax[i] * ax[k];
+  r[1] -= s * ax[2], r[2] += s * ax[1], r[3] += s * ax[2], r[5] -= s * ax[0], r[6] -= s * ax[1], r[7] += s * ax[0];
+  const auto rotate = [&](const Pose& a) {
+    Pose b(a.size());
+    for (int j = 0; j < n; ++j)
+      for (int i = 0; i < 3; ++i) b[i * n + j] = r[3 * i] * a[j] + r[3 * i + 1] * a[n + j] + r[3 * i + 2] * a[2 * n + j];
+    return b;
+  };
+  kata::retarget::SpgOptions opt;
+  opt.curvature_pairs = 5;
+  opt.gradient_tolerance = 1e-9;
+  kata::retarget::SpgSolver plain(n), turned(n), unturned(n);
+  Pose a = x, b = x, e = x;
+  plain.minimize(in, a.data(), opt);
+  turned.minimize(in, b.data(), opt);
+  unturned.minimize(in, e.data(), opt);
+  ASSERT_EQ(turned.curvature_count(), 5);
+  turned.rotate_curvature(r);
+  // The next problem: a nearby start point (the optimum, disturbed), and the same rotated.
+  for (int i = 0; i < 3 * n; ++i) a[i] += 0.05 * uni(rng);
+  Pose a_turned = rotate(a), a_unturned = a_turned;
+  opt.keep_curvature = true;
+  {
+    // One step each, from copies of the solvers' state: the rotated pairs give the rotated step.
+    kata::retarget::SpgSolver p1 = plain, t1 = turned, u1 = unturned;
+    kata::retarget::SpgOptions one = opt;
+    one.max_iterations = 1;
+    Pose pa = a, ta = a_turned, ua = a_unturned;
+    p1.minimize(in, pa.data(), one);
+    t1.minimize(in, ta.data(), one);
+    u1.minimize(in, ua.data(), one);
+    const Pose step_expect = rotate(pa);
+    double worst_turned = 0.0, worst_unturned = 0.0;
+    for (int i = 0; i < 3 * n; ++i) {
+      worst_turned = std::max(worst_turned, std::fabs(ta[i] - step_expect[i]));
+      worst_unturned = std::max(worst_unturned, std::fabs(ua[i] - step_expect[i]));
+    }
+    EXPECT_LT(worst_turned, 1e-12);
+    EXPECT_GT(worst_unturned, 1e-6);
+  }
+  const auto first = plain.minimize(in, a.data(), opt);
+  const auto second = turned.minimize(in, a_turned.data(), opt);
+  const auto third = unturned.minimize(in, a_unturned.data(), opt);
+  EXPECT_EQ(second.iterations, first.iterations);
+  const Pose expect = rotate(a);
+  // Equal to rounding, which the steps carry to ~1e-9 here (the stop is at a 1e-9 relative gradient).
+  for (int i = 0; i < 3 * n; ++i) EXPECT_NEAR(a_turned[i], expect[i], 1e-7) << i;
+  EXPECT_NEAR(second.stress, first.stress, 1e-12 * (1.0 + first.stress));
+  // Pairs left unrotated describe another point's curvature: the first step goes elsewhere.
+  EXPECT_NEAR(third.stress, first.stress, 1e-6 * (1.0 + first.stress));
+}
+
 // ---- SPG against an independent gradient descent ----
 
 void expect_same_optimum(const std::vector<int>& parents, const Pose& teacher, const std::vector<double>& student_len,

@@ -26,7 +26,8 @@ Retargeter::Retargeter(const std::vector<int>& parents, const std::vector<double
     : table_(build_pair_table(parents)),
       options_(options),
       student_lengths_(student_lengths),
-      solver_(static_cast<int>(parents.size())) {
+      solver_(static_cast<int>(parents.size())),
+      cold_solver_(static_cast<int>(parents.size())) {
   init(rest_directions);
 }
 
@@ -34,7 +35,8 @@ Retargeter::Retargeter(const Skeleton& student, const RetargetOptions& options)
     : table_(build_pair_table(student.parents)),
       options_(options),
       student_lengths_(rest_bone_lengths(student)),
-      solver_(student.joint_count()) {
+      solver_(student.joint_count()),
+      cold_solver_(student.joint_count()) {
   init(rest_directions_of(student));
 }
 
@@ -104,7 +106,7 @@ void Retargeter::forward_kinematics_baseline(const double* t, double* out) const
   }
 }
 
-void Retargeter::align_on_teacher(const double* t, double* x) {
+void Retargeter::align_on_teacher(const double* t, double* x, double* map) {
   // Kabsch about the root: the rotation R maximising trace(R H), H = sum (x_j - x_0)(t_j - t_0)^T.
   const int n = table_.joints;
   Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
@@ -112,6 +114,32 @@ void Retargeter::align_on_teacher(const double* t, double* x) {
     const Eigen::Vector3d a(x[3 * j] - x[0], x[3 * j + 1] - x[1], x[3 * j + 2] - x[2]);
     const Eigen::Vector3d b(t[3 * j] - t[0], t[3 * j + 1] - t[1], t[3 * j + 2] - t[2]);
     h.noalias() += a * b.transpose();
+  }
+  const Eigen::Vector3d root(x[0], x[1], x[2]);
+  // A proper best fit (det H > 0, the rule on a warm stream): R = V U^T is the orthogonal polar
+  // factor of H^T, reached by the scaled Newton iteration X <- (g X + X^-T / g) / 2 (Higham) in
+  // a few 3 x 3 inverses instead of a Jacobi SVD. A reflection, or an iteration that does not
+  // settle (H near singular), goes through the SVD below.
+  if (h.determinant() > 0.0) {
+    Eigen::Matrix3d q = h.transpose();
+    bool settled = false;
+    for (int it = 0; it < 30 && !settled; ++it) {
+      const Eigen::Matrix3d inv_t = q.inverse().transpose();
+      const double g = it < 8 ? std::sqrt(inv_t.norm() / q.norm()) : 1.0;  // the scaling speeds the first steps
+      const Eigen::Matrix3d next = 0.5 * (g * q + inv_t / g);
+      settled = (next - q).norm() <= 1e-14 * next.norm();
+      q = next;
+    }
+    if (settled && std::isfinite(q.sum())) {
+      for (int i = 0; i < 3; ++i)
+        for (int k = 0; k < 3; ++k) map[3 * i + k] = q(i, k);
+      for (int j = 0; j < n; ++j) {
+        const Eigen::Vector3d a(x[3 * j] - root[0], x[3 * j + 1] - root[1], x[3 * j + 2] - root[2]);
+        const Eigen::Vector3d b = q * a;
+        for (int k = 0; k < 3; ++k) x[3 * j + k] = t[k] + b[k];
+      }
+      return;
+    }
   }
   Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
   const Eigen::Matrix3d u = svd.matrixU(), v = svd.matrixV();
@@ -125,7 +153,9 @@ void Retargeter::align_on_teacher(const double* t, double* x) {
     // The flipped H is -H: same singular vectors with U negated, so R = V U'^T = -V U^T (proper).
     sign = 1.0;
     const Eigen::Matrix3d r = -(v * u.transpose());
-    const Eigen::Vector3d root(x[0], x[1], x[2]);
+    // Relative to the root, the flip negates and r rotates: the map is -r.
+    for (int i = 0; i < 3; ++i)
+      for (int k = 0; k < 3; ++k) map[3 * i + k] = -r(i, k);
     for (int j = 0; j < n; ++j) {
       const Eigen::Vector3d a(x[3 * j] - root[0], x[3 * j + 1] - root[1], x[3 * j + 2] - root[2]);
       const Eigen::Vector3d b = r * a;
@@ -136,7 +166,8 @@ void Retargeter::align_on_teacher(const double* t, double* x) {
   Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
   d(2, 2) = sign;
   const Eigen::Matrix3d r = v * d * u.transpose();
-  const Eigen::Vector3d root(x[0], x[1], x[2]);
+  for (int i = 0; i < 3; ++i)
+    for (int k = 0; k < 3; ++k) map[3 * i + k] = r(i, k);
   for (int j = 0; j < n; ++j) {
     const Eigen::Vector3d a(x[3 * j] - root[0], x[3 * j + 1] - root[1], x[3 * j + 2] - root[2]);
     const Eigen::Vector3d b = r * a;
@@ -199,29 +230,7 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
   bone_lengths(table_, teacher, teacher_lengths_.data());
   path_weights(table_, teacher_lengths_.data(), cumulative_.data(), tau_teacher_.data());
   to_soa(n, teacher, soa_.data());
-  {
-    const double* tx = soa_.data();
-    const double* ty = tx + n;
-    const double* tz = ty + n;
-    const double* tau_t = tau_teacher_.data();
-    const double* tau_s = tau_student_.data();
-    double* delta = delta_.data();
-    int row = 0;
-    for (int u = 0; u + 1 < n; ++u) {
-      const double xu = tx[u], yu = ty[u], zu = tz[u];
-      const int len = n - 1 - u;
-#pragma omp simd
-      for (int i = 0; i < len; ++i) {
-        const int v = u + 1 + i;
-        const double dx = xu - tx[v], dy = yu - ty[v], dz = zu - tz[v];
-        const double dist = std::sqrt(dx * dx + dy * dy + dz * dz);
-        const double tt = tau_t[row + i];
-        // A teacher path of zero length (degenerate bones) carries no shape: keep the student's.
-        delta[row + i] = tt > 0.0 ? tau_s[row + i] * dist / tt : tau_s[row + i];
-      }
-      row += len;
-    }
-  }
+  detail::targets(n, soa_.data(), tau_student_.data(), tau_teacher_.data(), delta_.data());
   const StressInstance solve{n, m, table_.u.data(), table_.v.data(), weight_.data(), delta_.data()};
   const bool paper_weights = options_.bone_weight == 1.0;
 
@@ -240,6 +249,8 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
   }
   SpgOptions spg = options_.solver;
   if (report_.warm && spg.initial_step <= 0.0) spg.initial_step = last_step_;
+  spg.keep_curvature = report_.warm && options_.warm_curvature;
+  if (report_.warm) spg.gradient_tolerance *= options_.warm_tolerance_factor;
   if (!paper_weights) report_.stress_start = stress(paper_instance(), x_.data(), nullptr);
   SpgResult r = solver_.minimize(solve, x_.data(), spg);
   report_.iterations = r.iterations;
@@ -253,7 +264,7 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
     to_soa(n, baseline_.data(), x_cold_.data());
     SpgOptions cold = options_.solver;
     if (options_.cold_check_probe > 0) cold.max_iterations = std::min(cold.max_iterations, options_.cold_check_probe);
-    SpgResult rc = solver_.minimize(solve, x_cold_.data(), cold);
+    SpgResult rc = cold_solver_.minimize(solve, x_cold_.data(), cold);
     report_.iterations += rc.iterations;
     report_.evaluations += rc.evaluations;
     if (!rc.converged && rc.iterations < options_.solver.max_iterations && rc.stress < r.stress) {
@@ -261,7 +272,8 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
       SpgOptions rest = options_.solver;
       rest.max_iterations = options_.solver.max_iterations - rc.iterations;
       rest.initial_step = rc.last_step;
-      const SpgResult more = solver_.minimize(solve, x_cold_.data(), rest);
+      rest.keep_curvature = true;  // the probe's own pairs
+      const SpgResult more = cold_solver_.minimize(solve, x_cold_.data(), rest);
       report_.iterations += more.iterations;
       report_.evaluations += more.evaluations;
       rc.stress = more.stress;
@@ -275,6 +287,7 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
       r.converged = rc.converged;
       r.last_step = rc.last_step;
       report_.switched = true;
+      solver_.forget_curvature();  // the warm solve's pairs describe the basin it left
     }
   }
   last_step_ = r.last_step;
@@ -291,7 +304,10 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
     for (int i = 0; i < 3 * n; ++i) predicted_[i] = solved_[i] + baseline_[i] - previous_baseline_[i];
   }
   from_soa(n, x_.data(), solved_.data());
-  align_on_teacher(teacher, solved_.data());
+  double map[9];
+  align_on_teacher(teacher, solved_.data(), map);
+  // The curvature pairs are differences of points and of gradients: they move with the optimum.
+  solver_.rotate_curvature(map);
   to_soa(n, solved_.data(), x_.data());
   has_previous_ = true;
   report_.max_bone_error_solved = max_bone_error(solved_.data());

@@ -39,6 +39,17 @@ namespace detail {
 double stress_portable(const StressInstance& instance, const double* x, double* grad);
 double stress_avx2(const StressInstance& instance, const double* x, double* grad);
 double stress_avx512(const StressInstance& instance, const double* x, double* grad);
+// The retargeter's per-frame target distances (retargeter.cpp, step 1) per instruction set:
+// delta_p = tau_student_p |t_u - t_v| / tau_teacher_p (tau_student_p where tau_teacher_p = 0),
+// teacher positions in SoA. targets() picks one at run time.
+void targets_portable(int joints, const double* teacher_soa, const double* tau_student, const double* tau_teacher,
+                      double* delta);
+void targets_avx2(int joints, const double* teacher_soa, const double* tau_student, const double* tau_teacher,
+                  double* delta);
+void targets_avx512(int joints, const double* teacher_soa, const double* tau_student, const double* tau_teacher,
+                    double* delta);
+void targets(int joints, const double* teacher_soa, const double* tau_student, const double* tau_teacher,
+             double* delta);
 }  // namespace detail
 
 // Parameters of the SPG method. Defaults are those of Birgin-Martinez-Raydan / MDjeep.
@@ -51,6 +62,13 @@ struct SpgOptions {
   double step_max = 1e12;
   double initial_step = 0.0;         // first spectral step; <= 0 means 1 / |grad|_inf
   int max_backtracks = 60;           // line-search trials per iteration before giving up
+  // Curvature pairs (s, y) of the last accepted steps that turn the gradient into a quasi-Newton
+  // direction (the L-BFGS two-loop recursion; the GLL line search is unchanged). 0: the plain
+  // spectral step -lambda g. At most SpgSolver::kMaxCurvaturePairs.
+  int curvature_pairs = 0;
+  // Start from the curvature pairs the previous minimize() of this solver left (a warm start of
+  // the step memory for a nearby instance), instead of none.
+  bool keep_curvature = false;
 };
 
 // What one minimisation did.
@@ -64,19 +82,54 @@ struct SpgResult {
   double last_step = 0.0;    // last spectral step, a good initial_step for a warm start
 };
 
+namespace detail {
+// The solver's state and work buffers (SpgSolver below), sized once for one joint count.
+struct SpgWork {
+  static constexpr int kMaxCurvaturePairs = 8;
+  static constexpr int kRing = kMaxCurvaturePairs + 1;  // + the slot the next pair is written to
+  explicit SpgWork(int joints);
+  int size;                            // 3 x joints
+  int padded;                          // size rounded up to a multiple of 8 (the buffers' length; zeros after size)
+  std::vector<double> x, g, xn, gn, best;  // iterate, gradient, trial point, trial gradient, best point
+  std::vector<double> d;               // search direction
+  std::vector<double> history;         // the last M stresses (ring)
+  std::vector<double> s, y;            // curvature pairs, kRing x padded (ring)
+  double sy[kRing][kRing] = {};        // s_i.y_j by ring slot (i older or equal)
+  double yy[kRing][kRing] = {};        // y_i.y_j by ring slot
+  double rho[kRing] = {};              // 1 / s_i.y_i by ring slot
+  double gamma = 1.0;                  // s.y / y.y of the newest pair
+  int pairs = 0, newest = -1;          // pairs held; ring index of the newest
+};
+// SpgSolver::minimize per instruction set, each around its own stress kernel; minimize() picks
+// one at run time like stress().
+SpgResult minimize_portable(SpgWork& work, const StressInstance& instance, double* x, const SpgOptions& options);
+SpgResult minimize_avx2(SpgWork& work, const StressInstance& instance, double* x, const SpgOptions& options);
+SpgResult minimize_avx512(SpgWork& work, const StressInstance& instance, double* x, const SpgOptions& options);
+// SpgSolver::rotate_curvature per instruction set.
+void rotate_pairs_portable(SpgWork& work, const double* r);
+void rotate_pairs_avx2(SpgWork& work, const double* r);
+void rotate_pairs_avx512(SpgWork& work, const double* r);
+}  // namespace detail
+
 // SPG minimiser with its work buffers sized for one joint count at construction.
 class SpgSolver {
  public:
+  static constexpr int kMaxCurvaturePairs = detail::SpgWork::kMaxCurvaturePairs;
   // Allocates the work buffers for `joints` joints (3 x joints unknowns).
   explicit SpgSolver(int joints);
   // Minimises sigma from x (in: start point, out: the best point seen). No allocation.
   // instance.joints must equal the constructor's joint count.
   SpgResult minimize(const StressInstance& instance, double* x, const SpgOptions& options);
+  // The kept curvature pairs (options.keep_curvature) are differences of SoA positions and of
+  // gradients: when the caller moves its point rigidly (the stress is invariant under rigid
+  // motions and reflections), it applies the same linear map to them. r: a 3 x 3 orthogonal
+  // matrix, row-major, applied to each joint's (x, y, z).
+  void rotate_curvature(const double* r);
+  void forget_curvature() { work_.pairs = 0; }
+  int curvature_count() const { return work_.pairs; }
 
  private:
-  int size_;                        // 3 x joints
-  std::vector<double> g_, xn_, gn_, best_;  // gradient, trial point, trial gradient, best point
-  std::vector<double> history_;     // the last M stresses (ring)
+  detail::SpgWork work_;
 };
 
 }  // namespace kata::retarget

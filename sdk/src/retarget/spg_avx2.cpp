@@ -3,10 +3,21 @@
 // square-root estimate and Newton steps instead of the square root and division was slower here:
 // docs/performance.md.)
 #include "retarget/stress_kernel.hpp"
+#include "retarget/spg_solver.inl"
 
 namespace kata::retarget {
 
 // Same contract as stress() (spg.hpp).
 double detail::stress_avx2(const StressInstance& in, const double* x, double* grad) { return stress_kernel(in, x, grad); }
+
+void detail::targets_avx2(int n, const double* t, const double* tau_s, const double* tau_t, double* delta) {
+  targets_kernel(n, t, tau_s, tau_t, delta);
+}
+
+void detail::rotate_pairs_avx2(SpgWork& work, const double* r) { rotate_pairs(work, r); }
+
+SpgResult detail::minimize_avx2(SpgWork& work, const StressInstance& in, double* x, const SpgOptions& opt) {
+  return spg_minimize<detail::stress_avx2>(work, in, x, opt);
+}
 
 }  // namespace kata::retarget

@@ -4,6 +4,7 @@
 // the divider no longer bounds the kernel). Results equal the portable kernel's to a few units
 // in the last place, not bit for bit. Off x86 this TU forwards to the portable kernel.
 #include "retarget/stress_kernel.hpp"
+#include "retarget/spg_solver.inl"
 
 #if defined(__AVX512F__)
 #include <immintrin.h>
@@ -85,6 +86,16 @@ double detail::stress_avx512(const StressInstance& in, const double* x, double* 
 #else
   return stress_kernel(in, x, grad);
 #endif
+}
+
+void detail::targets_avx512(int n, const double* t, const double* tau_s, const double* tau_t, double* delta) {
+  targets_kernel(n, t, tau_s, tau_t, delta);
+}
+
+void detail::rotate_pairs_avx512(SpgWork& work, const double* r) { rotate_pairs(work, r); }
+
+SpgResult detail::minimize_avx512(SpgWork& work, const StressInstance& in, double* x, const SpgOptions& opt) {
+  return spg_minimize<detail::stress_avx512>(work, in, x, opt);
 }
 
 }  // namespace kata::retarget

@@ -65,5 +65,29 @@ inline double stress_kernel(const StressInstance& in, const double* x, double* g
   return 0.5 * f;
 }
 
+// delta_p = tau_student_p |t_u - t_v| / tau_teacher_p for every pair, row by row over SoA teacher
+// positions (contiguous reads; the rows vectorise). A teacher path of zero length (degenerate
+// bones) carries no shape: the pair keeps the student's tau.
+inline void targets_kernel(int n, const double* teacher_soa, const double* tau_student, const double* tau_teacher,
+                           double* delta) {
+  const double* tx = teacher_soa;
+  const double* ty = tx + n;
+  const double* tz = ty + n;
+  int row = 0;
+  for (int u = 0; u + 1 < n; ++u) {
+    const double xu = tx[u], yu = ty[u], zu = tz[u];
+    const int len = n - 1 - u;
+#pragma omp simd
+    for (int i = 0; i < len; ++i) {
+      const int v = u + 1 + i;
+      const double dx = xu - tx[v], dy = yu - ty[v], dz = zu - tz[v];
+      const double dist = std::sqrt(dx * dx + dy * dy + dz * dz);
+      const double tt = tau_teacher[row + i];
+      delta[row + i] = tt > 0.0 ? tau_student[row + i] * dist / tt : tau_student[row + i];
+    }
+    row += len;
+  }
+}
+
 }  // namespace
 }  // namespace kata::retarget
