@@ -505,7 +505,9 @@ KATA_API const char* kata_model_metadata(kata_model model, const char* key);
 typedef struct kata_retarget_desc {
   uint32_t struct_size;        /* sizeof(kata_retarget_desc) */
   const char* preset;          /* joint set: "cmu" (default) or "gpd" */
-  double gradient_tolerance;   /* stop when |grad| <= this x sqrt(sum pi delta^2). Default 3e-5 */
+  double gradient_tolerance;   /* stop when |grad| <= this x sqrt(sum pi delta^2). Default 3e-5;
+                                  warm frames stop at 3x this (their quasi-Newton steps start from
+                                  the previous frame's; docs/retarget/README.md) */
   uint32_t max_iterations;     /* SPG iteration cap per frame. Default 200 */
   int32_t warm_start;          /* 1 (default): start from the previous frame's solution */
   int32_t restore_bone_lengths;/* 1 (default): reset every bone to the student's exact length */
