@@ -147,7 +147,7 @@ INSTANTIATE_TEST_SUITE_P(Clips, Align,
 // kernel's blocks of eight (tails of 0-7 rows), strides of 8 to 64.
 TEST(Kernels, AlignmentDistancesMatchThePlainFormula) {
   std::srand(7);
-  auto value = [] { return (static_cast<float>(std::rand()) / RAND_MAX - 0.5f) * 4.0f; };
+  auto value = [] { return (static_cast<float>(std::rand()) / static_cast<float>(RAND_MAX) - 0.5f) * 4.0f; };
   for (int stride : {8, 16, 56, 64})
     for (int m : {1, 7, 8, 9, 15, 16, 61, 1829}) {
       std::vector<float> s(static_cast<size_t>(stride)), rows(static_cast<size_t>(m) * stride);
@@ -225,7 +225,7 @@ TEST(Kernels, HalfPrecisionConversionsAreIeee) {
   }
   std::srand(5);
   for (int i = 0; i < 100000; ++i) {
-    const float f = std::ldexp(static_cast<float>(std::rand()) / RAND_MAX - 0.5f, std::rand() % 44 - 28);
+    const float f = std::ldexp(static_cast<float>(std::rand()) / static_cast<float>(RAND_MAX) - 0.5f, std::rand() % 44 - 28);
     const uint16_t h = metric::detail::float_to_half(f);
     const double got = metric::detail::half_to_float(h);
     // No other half is nearer; on a tie the chosen one is even.
@@ -250,7 +250,7 @@ TEST(Kernels, HalfPrecisionConversionsAreIeee) {
 // bit for bit, and both equal the plain formula in double on the rows' half values, scaled.
 TEST(Kernels, HalfRowAlignmentDistancesMatchThePlainFormula) {
   std::srand(9);
-  auto value = [] { return (static_cast<float>(std::rand()) / RAND_MAX - 0.5f) * 40.0f; };
+  auto value = [] { return (static_cast<float>(std::rand()) / static_cast<float>(RAND_MAX) - 0.5f) * 40.0f; };
   for (float scale : {1.0f, 4.0f})
     for (int stride : {8, 56, 64})
       for (int m : {1, 7, 8, 9, 61, 1829}) {
