@@ -141,35 +141,6 @@ INSTANTIATE_TEST_SUITE_P(Clips, Align,
                          ::testing::Values("02_01.bvh", "02_02.bvh", "05_02.bvh", "05_03.bvh", "07_01.bvh", "09_01.bvh"));
 
 
-// The alignment's pass over the section (align_pass.hpp): every dispatched kernel gives, for each
-// teacher row, exactly the baseline's float distance, and that distance is the plain formula in
-// double to float rounding. Rows of random and extreme-but-finite values, row counts around the
-// kernel's blocks of eight (tails of 0-7 rows), strides of 8 to 64.
-TEST(Kernels, AlignmentDistancesMatchThePlainFormula) {
-  std::srand(7);
-  auto value = [] { return (static_cast<float>(std::rand()) / static_cast<float>(RAND_MAX) - 0.5f) * 4.0f; };
-  for (int stride : {8, 16, 56, 64})
-    for (int m : {1, 7, 8, 9, 15, 16, 61, 1829}) {
-      std::vector<float> s(static_cast<size_t>(stride)), rows(static_cast<size_t>(m) * stride);
-      for (float& v : s) v = value();
-      for (float& v : rows) v = value();
-      rows[0] = 1e18f;  // a huge but finite coordinate: its square still fits a float
-      std::vector<float> fast(static_cast<size_t>(m)), base(static_cast<size_t>(m));
-      metric::detail::alignment_distances(s.data(), rows.data(), m, stride, fast.data());
-      metric::detail::base::alignment_distances(s.data(), rows.data(), m, stride, base.data());
-      for (int j = 0; j < m; ++j) {
-        ASSERT_EQ(fast[j], base[j]) << "stride " << stride << " rows " << m << " row " << j;
-        double d2 = 0.0;
-        for (int c = 0; c < stride; ++c) {
-          const double e = static_cast<double>(s[c]) - rows[static_cast<size_t>(j) * stride + c];
-          d2 += e * e;
-        }
-        ASSERT_NEAR(base[j], std::sqrt(d2), 1e-5 * std::sqrt(d2) + 1e-6) << "stride " << stride << " row " << j;
-      }
-    }
-}
-
-
 // The alignment's dynamic programme (align_pass.hpp): the dispatched step equals, bit for bit, the
 // recurrence written out plainly here (every k, the wrap of a loop, the re-basing on the first
 // least cost), on sections anywhere in the clip, with and without a loop, for steps up to 9.

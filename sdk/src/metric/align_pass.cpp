@@ -5,7 +5,6 @@
 #include <cstring>
 
 #include "common/cpu.hpp"
-#include "metric/metric.hpp"
 
 namespace kata::metric::detail {
 
@@ -53,16 +52,8 @@ void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m
   }
 }
 
-void alignment_distances(const float* s, const float* rows, int m, int stride, float* out) {
-  for (int j = 0; j < m; ++j) out[j] = std::sqrt(dist2f(s, rows + static_cast<size_t>(j) * stride, stride));
-}
 #include "metric/align_pass_kernel.inl"
 }  // namespace base
-
-void alignment_distances(const float* s, const float* rows, int m, int stride, float* out) {
-  if (cpu_has_avx2()) return avx2::alignment_distances(s, rows, m, stride, out);
-  base::alignment_distances(s, rows, m, stride, out);
-}
 
 void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out) {
   if (cpu_has_avx2()) return avx2::alignment_distances_half(s_scaled, rows, m, stride, scale, out);

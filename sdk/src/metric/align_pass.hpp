@@ -9,18 +9,13 @@
 
 namespace kata::metric::detail {
 
-// out[j] = sqrt(sum over c < stride of (s[c] - rows[j * stride + c])^2) for j < m, each equal
-// bit for bit to std::sqrt(dist2f(s, rows + j * stride, stride)) on every CPU (the same eight
-// partial sums, added in the same order; no fused multiply-adds). stride is a multiple of 8.
-// Dispatches at run time (common/cpu.hpp), as do the two below.
-void alignment_distances(const float* s, const float* rows, int m, int stride, float* out);
-
-// The live aligner's form: the rows held in IEEE half precision, each divided by a power of two
+// The live aligner's pass: the rows held in IEEE half precision, each divided by a power of two
 // `scale` first (Reference::alignment_rows_half), which halves the bytes the pass reads from
 // memory when a paced frame finds the caches cold (410 KB -> 205 KB for the default lesson).
 // out[j] = scale * sqrt(sum over c of (s_scaled[c] - half_to_float(rows[j * stride + c]))^2), with
-// s_scaled = s / scale (the caller's), eight partial sums in dist2f's order: equal bit for bit on
-// every CPU.
+// s_scaled = s / scale (the caller's), for j < m; eight partial sums added in dist2f's order, no
+// fused multiply-adds: equal bit for bit on every CPU. stride is a multiple of 8. Dispatches at
+// run time (common/cpu.hpp), as do the two functions of the dynamic programme below.
 void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out);
 
 // IEEE binary16 conversions (round to nearest even; exact the other way), for machines without F16C.
@@ -36,14 +31,12 @@ int alignment_step(const double* prev, double* cur, const float* c, int a, int b
 int alignment_rebase(double* cur, int a, int b);
 
 namespace base {
-void alignment_distances(const float* s, const float* rows, int m, int stride, float* out);
 void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out);
 int alignment_step(const double* prev, double* cur, const float* c, int a, int b, const double* pk, int k_max,
                    double jump, bool loop);
 int alignment_rebase(double* cur, int a, int b);
 }
 namespace avx2 {
-void alignment_distances(const float* s, const float* rows, int m, int stride, float* out);
 void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out);
 int alignment_step(const double* prev, double* cur, const float* c, int a, int b, const double* pk, int k_max,
                    double jump, bool loop);

@@ -27,24 +27,6 @@ inline __m256 row_sums(const __m256* acc) {
 }
 }  // namespace
 
-void alignment_distances(const float* s, const float* rows, int m, int stride, float* out) {
-  int j = 0;
-  for (; j + 8 <= m; j += 8) {
-    const float* r = rows + static_cast<size_t>(j) * stride;
-    __m256 acc[8];
-    for (int i = 0; i < 8; ++i) acc[i] = _mm256_setzero_ps();
-    for (int c = 0; c < stride; c += 8) {
-      const __m256 x = _mm256_loadu_ps(s + c);
-      for (int i = 0; i < 8; ++i) {
-        const __m256 e = _mm256_sub_ps(x, _mm256_loadu_ps(r + static_cast<size_t>(i) * stride + c));
-        acc[i] = _mm256_add_ps(acc[i], _mm256_mul_ps(e, e));
-      }
-    }
-    _mm256_storeu_ps(out + j, _mm256_sqrt_ps(row_sums(acc)));
-  }
-  if (j < m) base::alignment_distances(s, rows + static_cast<size_t>(j) * stride, m - j, stride, out + j);
-}
-
 void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out) {
   const __m256 k = _mm256_set1_ps(scale);
   int j = 0;
@@ -72,9 +54,6 @@ void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m
 #else  // not an x86 build: the dispatcher never calls this.
 
 namespace kata::metric::detail::avx2 {
-void alignment_distances(const float* s, const float* rows, int m, int stride, float* out) {
-  base::alignment_distances(s, rows, m, stride, out);
-}
 void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out) {
   base::alignment_distances_half(s_scaled, rows, m, stride, scale, out);
 }
