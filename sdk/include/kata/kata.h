@@ -623,7 +623,8 @@ typedef enum kata_body_part {
  * the shipped models). Each body part has its own map on its own distance, which the positions
  * of that part's own joints make (docs/model/scores.md). A model file without
  * a calibration uses the default d50 = delta*, slope 2 (the same for every part), good_score 75.
- * part_to_fix names the part with the lowest part score while the total is below good_score; a
+ * part_to_fix names the part whose score, averaged over the last 0.5 s, is the lowest, while that
+ * average or the total's average is below good_score (a good total does not hide a poor part); a
  * new part (or none) replaces the shown one only after holding for 0.5 s, so cues do not flicker.
  * The record's state says when there is no score to show: */
 typedef enum kata_score_state {
@@ -642,7 +643,7 @@ typedef struct kata_score_calibration {
   double slope;                      /* > 0 */
   double part_d50[KATA_PART_COUNT];  /* per kata_body_part, > 0 */
   double part_slope[KATA_PART_COUNT];/* per kata_body_part, > 0 */
-  double good_score;                 /* 0..100: at or above it no part is named */
+  double good_score;                 /* 0..100: at or above it (total and part) no part is named */
 } kata_score_calibration;
 
 /* The model's calibration (or the default above) into *out. KATA_E_INVALID_ARGUMENT when

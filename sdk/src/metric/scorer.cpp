@@ -30,8 +30,10 @@ bool tracking_lost(const float* joints, int min_tracked) {
 
 Scorer::Scorer(std::shared_ptr<const Reference> reference, AlignmentOptions options, FeedbackOptions feedback)
     : reference_(std::move(reference)), aligner_(reference_, options), feedback_(feedback) {
-  if (!(feedback_.hold_time >= 0.0) || !(feedback_.calibrating_time >= 0.0) || !(feedback_.finished_time >= 0.0))
-    throw Error(ErrorKind::kInvalidArgument, "scorer: feedback hold, calibrating and finished times must be >= 0");
+  if (!(feedback_.hold_time >= 0.0) || !(feedback_.calibrating_time >= 0.0) || !(feedback_.finished_time >= 0.0) ||
+      !(feedback_.smoothing_time >= 0.0) || !std::isfinite(feedback_.smoothing_time))
+    throw Error(ErrorKind::kInvalidArgument,
+                "scorer: feedback hold, calibrating, finished and smoothing times must be >= 0 (smoothing finite)");
   const Metric& m = reference_->metric();
   calibration_ = m.calibration();
   ws_ = m.make_workspace();
@@ -44,6 +46,7 @@ void Scorer::reset() {
   count_ = 0;
   at_end_since_ = -1.0;
   candidate_ = shown_ = -1;
+  smoothed_time_ = -1.0;
   record_ = ScoreRecord{};
 }
 
@@ -73,6 +76,7 @@ const ScoreRecord& Scorer::score_lost(double t) {
   record_.state = ScoreState::kTrackingLost;
   // The cue is withdrawn at once: nothing about the pose is known.
   record_.part_to_fix = shown_ = candidate_ = -1;
+  smoothed_time_ = -1.0;
   return record_;
 }
 
@@ -150,17 +154,30 @@ void Scorer::feedback(double t) {
   }
   if (t - start_time_ < feedback_.calibrating_time) state = ScoreState::kCalibrating;
   record_.state = state;
-  // Hysteresis: the candidate (lowest part score, or none when the total is good) must hold for
-  // hold_time before it replaces the part shown.
-  int32_t candidate = -1;
-  if (state == ScoreState::kScoring && record_.score < calibration_.good_score) {
-    candidate = 0;
-    for (int q = 1; q < kParts; ++q)
-      if (record_.part_scores[q] < record_.part_scores[candidate]) candidate = q;
-  }
   if (state != ScoreState::kScoring) {
     shown_ = candidate_ = -1;  // no cue outside scoring; the next one starts fresh
+    smoothed_time_ = -1.0;
   } else {
+    // The part scores averaged over smoothing_time (an exponential average over the frames'
+    // own time steps, so a lower frame rate weighs each frame more), started from this frame.
+    const double keep = smoothed_time_ < 0.0 || feedback_.smoothing_time <= 0.0
+                            ? 0.0
+                            : std::exp(-(t - smoothed_time_) / feedback_.smoothing_time);
+    for (int q = 0; q < kParts; ++q)
+      smoothed_parts_[q] = record_.part_scores[q] + keep * (smoothed_parts_[q] - record_.part_scores[q]);
+    smoothed_total_ = record_.score + keep * (smoothed_total_ - record_.score);
+    smoothed_time_ = t;
+    // The candidate: the lowest averaged part, while it or the averaged total is below good
+    // (none otherwise). Either alone misses what a coach sees: each part's map is fitted on how
+    // much that part varies between people, so an elbow bent 45 degrees keeps the arm's own score
+    // at 81 while the total falls to 24, and a knee bent 45 degrees takes the leg to 50 while the
+    // total stays at 93 (tests/metric/test_part_fix.cpp).
+    int32_t candidate = 0;
+    for (int q = 1; q < kParts; ++q)
+      if (smoothed_parts_[q] < smoothed_parts_[candidate]) candidate = q;
+    if (!(smoothed_parts_[candidate] < calibration_.good_score || smoothed_total_ < calibration_.good_score))
+      candidate = -1;
+    // Hysteresis: the candidate must hold for hold_time before it replaces the part shown.
     if (candidate != candidate_) {
       candidate_ = candidate;
       candidate_since_ = t;

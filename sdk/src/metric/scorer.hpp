@@ -38,9 +38,11 @@ struct ScoreRecord {
   // torso) seen through W (metric.hpp kJointRows), and its calibrated 0..100 score.
   float part_distance[kParts] = {};
   float part_scores[kParts] = {};
-  // The part to fix (Part index), -1 for none: the lowest part score, named only when the total
-  // is below the calibration's good_score and the state is kScoring, and changed only after the
-  // new candidate has held for FeedbackOptions::hold_time seconds (hysteresis).
+  // The part to fix (Part index), -1 for none: the part whose score, averaged over the last
+  // FeedbackOptions::smoothing_time seconds, is the lowest, named while that average or the total
+  // averaged the same way is below the calibration's good_score and the state is kScoring, and
+  // changed only after the new candidate has held for FeedbackOptions::hold_time seconds
+  // (hysteresis). A good total does not hide a part below good (the legs carry little of it).
   int32_t part_to_fix = -1;
   ScoreState state = ScoreState::kScoring;
   // Where the student is in the routine: matched * the clip's frame time, seconds from the
@@ -53,6 +55,10 @@ struct FeedbackOptions {
   // A new part to fix (or "none") replaces the shown one only after it has been the candidate
   // for this long, seconds: a person needs about half a second to read a cue and react.
   double hold_time = 0.5;
+  // The part scores the cue compares are averaged exponentially with this time constant,
+  // seconds (0: this frame's alone). A single frame's lowest part changes every few frames
+  // (joints cross the reference's path); a coach names what has been wrong for a while.
+  double smoothing_time = 0.5;
   // Records are kCalibrating for this long after the first frame (and after reset), seconds:
   // the alignment's open begin and the kinetics' first differences settle in that time.
   double calibrating_time = 0.25;
@@ -120,6 +126,9 @@ class Scorer {
   double start_time_ = 0.0;         // time of the first frame since construction or reset
   double at_end_since_ = -1.0;      // when the match reached the clip's last frame; -1: not there
   int32_t candidate_ = -1;          // part to fix proposed by the newest frames
+  double smoothed_parts_[kParts] = {};  // part scores averaged over smoothing_time (the cue's)
+  double smoothed_total_ = 0.0;     // the total averaged the same way
+  double smoothed_time_ = -1.0;     // time of the newest frame in smoothed_parts_; -1: none yet
   double candidate_since_ = 0.0;
   int32_t shown_ = -1;              // part to fix reported
   ScoreRecord record_;
