@@ -987,7 +987,9 @@ KATA_API void kata_runtime_desc_init(kata_runtime_desc* desc);
  * that cannot be bound, bad values) are reported on the context. [any thread] */
 KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtime_desc* desc, kata_runtime* out);
 /* Stops (kata_runtime_stop) and frees the runtime and every stream it owns. NULL is ignored.
- * [any thread but the runtime's own] */
+ * Results published but not yet delivered to connected subscribers still go out: this waits for
+ * them at most 2 s (a stalled subscriber loses what it had not taken). [any thread but the
+ * runtime's own] */
 KATA_API void kata_runtime_destroy(kata_runtime runtime);
 /* Hands an open stream (kata_stream_open, teacher attached or not) to the runtime under
  * stream_id; on success the runtime owns it and *stream is set to NULL (do not close it).

@@ -68,7 +68,7 @@ Publisher::Publisher(Context& context, const PublisherOptions& options) {
   if (!socket_) throw Error(ErrorKind::kIo, "ZeroMQ: cannot create an XPUB socket: " + zmq_reason());
   try {
     set_int(socket_, ZMQ_SNDHWM, options.send_hwm, "ZMQ_SNDHWM");
-    set_int(socket_, ZMQ_LINGER, 0, "ZMQ_LINGER");
+    set_int(socket_, ZMQ_LINGER, options.linger_ms, "ZMQ_LINGER");
     set_int(socket_, ZMQ_XPUB_VERBOSE, 1, "ZMQ_XPUB_VERBOSE");
     apply_security(socket_, options.security);
     for (const std::string& e : options.endpoints) {

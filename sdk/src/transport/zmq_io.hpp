@@ -55,6 +55,11 @@ struct PublisherOptions {
   // ZMQ_SNDHWM: messages queued per subscriber before ZeroMQ drops that subscriber's newest
   // (ZeroMQ's per-subscriber drops; they show as result_sequence gaps at the subscriber).
   int send_hwm = 10000;
+  // ZMQ_LINGER, milliseconds: how long results already handed to ZeroMQ when the publisher
+  // closes (Runtime::stop sends every result before it returns) may still go out to connected
+  // subscribers; the runtime's destruction waits for them at most this long. 0 drops them at
+  // close; -1 waits without a limit.
+  int linger_ms = 2000;
   // CURVE and limits (subscribers send only subscriptions: a small ZMQ_MAXMSGSIZE).
   SocketSecurity security{CurveOptions{}, 4096, 2000};
 };
