@@ -26,13 +26,11 @@ inline std::vector<Path> fast_paths() {
 
 inline const char* path_name(Path p) { return p == Path::kAvx2 ? "avx2" : "baseline"; }
 
-// Static blocks through one given kernel.
-inline void run_fast(Path p, const float* local, float hip, GeometryState& state, float* out) {
-  if (p == Path::kAvx2) {
-    detail::avx2::static_features(local, hip, state, out);
-  } else {
-    detail::sse4::static_features(local, hip, state, out);
-  }
+// Static blocks through one given kernel; returns the kernel's report of the largest magnitude
+// it wrote.
+inline uint32_t run_fast(Path p, const float* local, float hip, GeometryState& state, float* out) {
+  if (p == Path::kAvx2) return detail::avx2::static_features(local, hip, state, out);
+  return detail::sse4::static_features(local, hip, state, out);
 }
 
 // Block offsets in spec order (blocks 1..9 -> index 0..8).

@@ -189,6 +189,105 @@ TEST(GpdFast, DispatchFollowsCpuCheck) {
   std::printf("  dispatch uses the %s kernel\n", path_name(expected));
 }
 
+// The plain formula for what the kernels report: the largest |v| as its IEEE pattern with the
+// sign cleared (those order as the magnitudes; Inf above every finite value, NaN above Inf).
+uint32_t plain_largest_bits(const float* v, int n) {
+  uint32_t m = 0;
+  for (int i = 0; i < n; ++i) {
+    uint32_t b;
+    std::memcpy(&b, v + i, sizeof b);
+    m = std::max(m, b & 0x7fffffffu);
+  }
+  return m;
+}
+
+// Each kernel folds what it stores into a running maximum instead of a second pass over the
+// vector (the stream's finiteness check reads that report). It must equal the plain formula over
+// the 1591 values left in `out`, bit for bit: the lanes a kernel writes and later overwrites
+// (batch spills) must not count, and a NaN or Inf anywhere must show. Poses: random ones with
+// the spec's degeneracies, at several scales, at the origin and off it; and the same with NaN, +-Inf or a huge value planted
+// in each of the 48 coordinates (the dispatcher sends Inf and huge frames to the double
+// reference, the kernels take them as they are).
+TEST(GpdChecks, KernelsReportTheLargestMagnitudeTheyWrite) {
+  using Fn = uint32_t (*)(const float*, float, GeometryState&, float*);
+  std::vector<std::pair<const char*, Fn>> impls = {
+      {"dispatch", [](const float* l, float h, GeometryState& s, float* o) { return static_features(l, h, s, o); }},
+      {"baseline", [](const float* l, float h, GeometryState& s, float* o) {
+         return run_fast(Path::kBaseline, l, h, s, o);
+       }}};
+  if (fast_paths().back() == Path::kAvx2)
+    impls.push_back({"avx2", [](const float* l, float h, GeometryState& s, float* o) {
+                       return run_fast(Path::kAvx2, l, h, s, o);
+                     }});
+  const float planted[] = {std::numeric_limits<float>::quiet_NaN(), -std::numeric_limits<float>::quiet_NaN(),
+                           std::numeric_limits<float>::infinity(), -std::numeric_limits<float>::infinity(), 3e18f,
+                           -1e25f};
+  std::mt19937 rng(23);
+  std::vector<float> out(kStaticDims);
+  int non_finite = 0, finite = 0;
+  for (int i = 0; i < 400; ++i) {
+    Pose p = random_pose(rng);
+    const float scale = i % 4 == 0 ? 1e-3f : i % 4 == 1 ? 1e3f : 1.0f;
+    for (float& x : p) x *= scale;
+    // Off the origin too (the kernels take any local coordinates), so that a spilled lane
+    // (a joint against the zero padding) can exceed every feature.
+    if (i % 3 == 2)
+      for (size_t c = 0; c < p.size(); ++c) p[c] += scale * (c % 3 == 1 ? 4.0f : -3.0f);
+    if (i >= 100) p[static_cast<size_t>(i % 48)] = planted[i % 6];
+    const float hip = i % 7 == 0 ? -2.5f : 0.9f;
+    for (const auto& [name, fn] : impls) {
+      GeometryState state;
+      std::fill(out.begin(), out.end(), 0.0f);
+      const uint32_t report = fn(p.data(), hip, state, out.data());
+      const uint32_t plain = plain_largest_bits(out.data(), kStaticDims);
+      ASSERT_EQ(report, plain) << name << " pose " << i << " (scale " << scale << ")";
+      ++(plain >= 0x7f800000u ? non_finite : finite);
+    }
+  }
+  EXPECT_GT(non_finite, 100) << "the planted values must reach the features";
+  EXPECT_GT(finite, 300);
+  // A non-finite hip height reaches Jc alone.
+  for (const auto& [name, fn] : impls) {
+    GeometryState state;
+    const Pose p = random_pose(rng);
+    uint32_t report = fn(p.data(), std::numeric_limits<float>::quiet_NaN(), state, out.data());
+    EXPECT_EQ(report, 0x7fc00000u) << name;
+    EXPECT_EQ(report, plain_largest_bits(out.data(), kStaticDims)) << name;
+    report = fn(p.data(), -std::numeric_limits<float>::infinity(), state, out.data());
+    EXPECT_EQ(report, 0x7f800000u) << name;
+    EXPECT_EQ(report, plain_largest_bits(out.data(), kStaticDims)) << name;
+  }
+}
+
+// The kinetics kernels report the largest magnitude of the 92 values they write, NaN and Inf
+// included (from a sample that holds one).
+TEST(GpdChecks, KineticsReportTheLargestMagnitudeTheyWrite) {
+  std::mt19937 rng(29);
+  std::uniform_real_distribution<float> unit(-2.0f, 2.0f);
+  const float planted[] = {std::numeric_limits<float>::quiet_NaN(), std::numeric_limits<float>::infinity(),
+                           -std::numeric_limits<float>::infinity(), 1e30f};
+  std::vector<float> f0(kJcDims), f1(kJcDims), f2(kJcDims), out(kKineticDims);
+  for (int i = 0; i < 300; ++i) {
+    for (int k = 0; k < kJcDims; ++k) {
+      f0[k] = unit(rng);
+      f1[k] = f0[k] + 0.01f * unit(rng);
+      f2[k] = f1[k] + 0.01f * unit(rng);
+    }
+    if (i >= 60) (i % 3 == 0 ? f0 : i % 3 == 1 ? f1 : f2)[static_cast<size_t>(i % kJcDims)] = planted[i % 4];
+    const double h1 = 0.004 + 0.001 * (i % 5), h2 = 0.008;
+    uint32_t report = kinetics(f0.data(), f1.data(), f2.data(), backward_weights(h1, h2), out.data());
+    EXPECT_EQ(report, plain_largest_bits(out.data(), kKineticDims)) << "backward " << i;
+    report = kinetics(f0.data(), f1.data(), f2.data(), central_weights(h1, h2), out.data());
+    EXPECT_EQ(report, plain_largest_bits(out.data(), kKineticDims)) << "central " << i;
+    report = kinetics_two_point(f0.data(), f1.data(), h1, out.data());
+    EXPECT_EQ(report, plain_largest_bits(out.data(), kKineticDims)) << "two-point " << i;
+  }
+  std::fill(out.begin(), out.end(), std::numeric_limits<float>::quiet_NaN());
+  const uint32_t report = kinetics_zero(out.data());
+  EXPECT_EQ(report, 0u);
+  EXPECT_EQ(plain_largest_bits(out.data(), kKineticDims), 0u);
+}
+
 TEST(GpdFast, PerFrameKernelsDoNotAllocate) {
   if (!kata::test::kAllocCounting) GTEST_SKIP() << "allocation counting is off under the sanitizers";
   std::mt19937 rng(3);

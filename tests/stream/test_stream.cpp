@@ -201,6 +201,78 @@ TEST(StreamRefusal, BadFramesReturnAStatusAndChangeNothing) {
   }
 }
 
+// The plausibility checks read the mapped joints: with the 16 GPD joints plus one the map does
+// not read, that extra joint may lie anywhere finite (the frame is accepted, its features those
+// of the 16 joints alone), while a mapped joint beyond kMaxCoordinate, or beyond kMaxReach body
+// heights from the hip, refuses the frame naming that joint; just inside both limits is accepted.
+TEST(StreamRefusal, PlausibilityChecksReadTheMappedJointsOnly) {
+  StreamConfig wide = gpd_config(gpd::Stencil::kBackward);
+  wide.input_joints = 17;
+  Stream plain(gpd_config(gpd::Stencil::kBackward)), extra(wide);
+  for (int i = 0; i < 6; ++i) {
+    const auto p = pose_at(kTimes[i]);
+    auto p17 = p;
+    p17.insert(p17.end(), {5e9f, -3e38f, 1.0f});
+    ASSERT_EQ(plain.push(kTimes[i], p.data(), 16), Status::kOk);
+    ASSERT_EQ(extra.push(kTimes[i], p17.data(), 17), Status::kOk) << extra.last_error();
+    for (int d = 0; d < gpd::kDims; ++d) ASSERT_EQ(plain.features()[d], extra.features()[d]) << "dim " << d;
+  }
+  const double t = kTimes[6];
+  auto bad = pose_at(t);
+  bad.insert(bad.end(), {0.0f, 0.0f, 0.0f});
+  bad[3 * 9 + 2] = 2e9f;  // joint 9 (RHand) beyond the coordinate range
+  EXPECT_EQ(extra.push(t, bad.data(), 17), Status::kInvalidArgument);
+  EXPECT_NE(std::string(extra.last_error()).find("RHand"), std::string::npos) << extra.last_error();
+  EXPECT_NE(std::string(extra.last_error()).find("beyond the plausible"), std::string::npos) << extra.last_error();
+  bad = pose_at(t);
+  bad.insert(bad.end(), {0.0f, 0.0f, 0.0f});
+  // H = 1 and the hip at (0, y0, 0): joint 12 (LFoot) at 100.5 body heights below it, then 99.5.
+  bad[3 * 12 + 1] = bad[1] - 100.5f;
+  EXPECT_EQ(extra.push(t, bad.data(), 17), Status::kInvalidArgument);
+  EXPECT_NE(std::string(extra.last_error()).find("LFoot"), std::string::npos) << extra.last_error();
+  EXPECT_NE(std::string(extra.last_error()).find("from the hip"), std::string::npos) << extra.last_error();
+  EXPECT_EQ(extra.emitted_count(), 6) << "refused frames change nothing";
+  bad[3 * 12 + 1] = bad[1] - 99.5f;
+  EXPECT_EQ(extra.push(t, bad.data(), 17), Status::kOk) << extra.last_error();
+  bad = pose_at(kTimes[7]);
+  bad.insert(bad.end(), {0.0f, 0.0f, 0.0f});
+  bad[3 * 5] = 0.999e9f;  // within the range, far beyond the reach
+  EXPECT_EQ(extra.push(kTimes[7], bad.data(), 17), Status::kInvalidArgument);
+  EXPECT_NE(std::string(extra.last_error()).find("from the hip"), std::string::npos) << extra.last_error();
+}
+
+// What a Stream does before publishing a vector: the kernels' report of the largest magnitude
+// they wrote decides whether it is read again, and a non-finite feature is found by index (the
+// vector is then withheld with kInternal). From real kernel output: a finite frame, and frames
+// with a NaN or Inf local coordinate (the kernels, called directly, pass them through).
+TEST(StreamOutputCheck, TheKernelsReportDecidesAndFindsTheFirstNonFiniteFeature) {
+  std::vector<float> v(gpd::kDims);
+  const auto p = pose_at(0.3);
+  float local[48], hip = 0.0f;
+  for (int k = -1; k < 48; ++k) {
+    gpd::GeometryState state;
+    gpd::to_local_frame(p.data(), 1.0, state, local, &hip);
+    if (k >= 0) local[k] = k % 2 ? std::numeric_limits<float>::quiet_NaN() : -std::numeric_limits<float>::infinity();
+    const uint32_t static_bits = gpd::static_features(local, hip, state, v.data());
+    const uint32_t kinetic_bits = gpd::kinetics(v.data(), v.data(), v.data(), gpd::backward_weights(0.01, 0.01),
+                                                v.data() + gpd::kOffsetJk);
+    int first = -1;
+    for (int d = 0; d < gpd::kDims && first < 0; ++d)
+      if (!std::isfinite(v[d])) first = d;
+    if (k < 0) {
+      ASSERT_EQ(first, -1);
+    } else if (k >= 3) {
+      ASSERT_GE(first, 0) << "coordinate " << k << " is a Jc feature";
+    }
+    EXPECT_EQ(kata::first_non_finite_feature(v.data(), std::max(static_bits, kinetic_bits)), first) << "coordinate " << k;
+  }
+  // A report of Inf over a finite vector (a kernel bug) does not withhold it.
+  std::fill(v.begin(), v.end(), 1.0f);
+  EXPECT_EQ(kata::first_non_finite_feature(v.data(), 0x7f800000u), -1);
+  v[1234] = std::numeric_limits<float>::infinity();
+  EXPECT_EQ(kata::first_non_finite_feature(v.data(), 0x7f800000u), 1234);
+}
+
 TEST(StreamCalibration, MedianHeightWithoutRestPose) {
   StreamConfig c = gpd_config(gpd::Stencil::kBackward);
   c.body_height = 0.0;

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 
 #include "common/cpu.hpp"
 #include "gpd/gpd_detail.hpp"
@@ -68,29 +69,43 @@ void to_local_frame(const float* world, double height, GeometryState& state, flo
 namespace {
 // Static blocks of a frame too large for float32 squares, via the double reference. Out of
 // line so that its 12 KB of stack stays off the fast path's frame.
-[[gnu::noinline]] void static_features_wide(const float* local, float hip_height, GeometryState& state, float* out) {
+[[gnu::noinline]] uint32_t static_features_wide(const float* local, float hip_height, GeometryState& state,
+                                                float* out) {
   double ref[kStaticDims];
   detail::static_features_reference(local, hip_height, state, ref);
   for (int d = 0; d < kStaticDims; ++d) out[d] = static_cast<float>(ref[d]);
+  return largest_magnitude_bits(out, kStaticDims);
+}
+
+uint32_t float_bits(float v) {
+  uint32_t b;
+  std::memcpy(&b, &v, sizeof b);
+  return b;
+}
+
+// Whether a frame goes to the double reference: its largest |local coordinate| (NaNs aside) is
+// at least kFastPathExtent. From the sign-cleared bit patterns' maximum, which orders as the
+// magnitudes with NaN above everything: only a frame holding a NaN needs the values themselves.
+[[gnu::noinline]] bool beyond_fast_path_with_nan(const float* local) {
+  float extent = 0.0f;
+  for (int i = 0; i < 3 * kJoints; ++i) extent = std::max(extent, std::abs(local[i]));  // NaN is skipped
+  return !(extent < detail::kFastPathExtent);
 }
 }  // namespace
 
-void static_features(const float* local, float hip_height, GeometryState& state, float* out) {
+uint32_t static_features(const float* local, float hip_height, GeometryState& state, float* out) {
   // The float32 kernels square coordinates, which overflows beyond ~1e19 body heights; such a
   // frame (a wild value, never a real pose) goes through the double reference, which cannot
   // overflow on float input, so every finite input still gives finite features.
-  float extent = 0.0f;
-  for (int i = 0; i < 3 * kJoints; ++i) extent = std::max(extent, std::abs(local[i]));
-  if (!(extent < detail::kFastPathExtent)) {
-    static_features_wide(local, hip_height, state, out);
-    return;
-  }
   // cpu_has_avx2() is cached, so this is one predictable branch per frame.
-  if (detail::avx2::compiled() && cpu_has_avx2()) {
-    detail::avx2::static_features(local, hip_height, state, out);
-  } else {
-    detail::sse4::static_features(local, hip_height, state, out);
-  }
+  const bool avx2 = detail::avx2::compiled() && cpu_has_avx2();
+  const uint32_t extent = avx2 ? detail::avx2::largest_magnitude_bits(local, 3 * kJoints)
+                               : detail::sse4::largest_magnitude_bits(local, 3 * kJoints);
+  static const uint32_t fast_path_bits = float_bits(detail::kFastPathExtent);
+  if (extent >= fast_path_bits && (extent <= 0x7f800000u || beyond_fast_path_with_nan(local)))
+    return static_features_wide(local, hip_height, state, out);
+  return avx2 ? detail::avx2::static_features(local, hip_height, state, out)
+              : detail::sse4::static_features(local, hip_height, state, out);
 }
 
 uint32_t largest_magnitude_bits(const float* v, int n) {
@@ -126,6 +141,21 @@ namespace {
 // Zeros standing in for a null sample (its weight is zero).
 constexpr float kZeroSample[kJcDims] = {};
 
+// The largest sign-cleared bit pattern among v[0..kJcDims) and a[0..kJcDims) (the 92 values
+// scatter_kinetics writes).
+inline uint32_t largest_kinetic_bits(const float* v, const float* a) {
+  uint32_t m = 0;
+  for (int i = 0; i < kJcDims; ++i) {
+    uint32_t bv, ba;
+    std::memcpy(&bv, v + i, sizeof bv);
+    std::memcpy(&ba, a + i, sizeof ba);
+    bv &= 0x7fffffffu;
+    ba &= 0x7fffffffu;
+    m = std::max(m, std::max(bv, ba));
+  }
+  return m;
+}
+
 // Scatters per-value (v, a) into the block-9 layout: joint coordinates as (vx, vy, vz, ax, ay,
 // az) per joint, the hip height (value 45) last.
 inline void scatter_kinetics(const float* v, const float* a, float* out) {
@@ -140,7 +170,7 @@ inline void scatter_kinetics(const float* v, const float* a, float* out) {
 }
 }  // namespace
 
-void kinetics(const float* f0, const float* f1, const float* f2, const DifferenceWeights& w, float* out) {
+uint32_t kinetics(const float* f0, const float* f1, const float* f2, const DifferenceWeights& w, float* out) {
   // The weights are ~1/h^2 (~3e4 at 120 fps) and cancel: a float sum w0 f0 + w1 f1 + w2 f2
   // would lose ~3 digits. Rewritten exactly as w0 (f0 - f1) + w2 (f2 - f1) + (w0 + w1 + w2) f1,
   // the differences of close samples are exact in float and the last term vanishes for every
@@ -158,13 +188,15 @@ void kinetics(const float* f0, const float* f1, const float* f2, const Differenc
     a[i] = a0 * d0 + a2 * d2 + as * f1[i];
   }
   scatter_kinetics(v, a, out);
+  return largest_kinetic_bits(v, a);
 }
 
-void kinetics_zero(float* out) {
+uint32_t kinetics_zero(float* out) {
   for (int i = 0; i < kKineticDims; ++i) out[i] = 0.0f;
+  return 0;
 }
 
-void kinetics_two_point(const float* f0, const float* f1, double h1, float* out) {
+uint32_t kinetics_two_point(const float* f0, const float* f1, double h1, float* out) {
   const float inv = static_cast<float>(1.0 / h1);
   float v[kJcDims], a[kJcDims];
   for (int i = 0; i < kJcDims; ++i) {
@@ -172,6 +204,7 @@ void kinetics_two_point(const float* f0, const float* f1, double h1, float* out)
     a[i] = 0.0f;
   }
   scatter_kinetics(v, a, out);
+  return largest_kinetic_bits(v, a);
 }
 
 }  // namespace kata::gpd

@@ -50,8 +50,10 @@ void to_local_frame(const float* world, double height, GeometryState& state, flo
 
 // Blocks 1..8 (dims 0..1590) from local positions and hip height. Updates the plane-normal
 // memory in `state`. Never produces NaN/Inf for finite input. Picks the AVX2 kernel when the
-// CPU has it.
-void static_features(const float* local, float hip_height, GeometryState& state, float* out);
+// CPU has it. Returns largest_magnitude_bits(out, kStaticDims) (below), which the kernels track
+// in registers as they write, so a caller's finiteness check of the features costs no second
+// pass over them.
+uint32_t static_features(const float* local, float hip_height, GeometryState& state, float* out);
 
 // The largest magnitude among n floats, as its IEEE bit pattern with the sign cleared. These
 // patterns order as the magnitudes do, with Inf (0x7f800000) above every finite value and NaN
@@ -73,10 +75,11 @@ DifferenceWeights central_weights(double h1, double h2);
 // Block 9 (92 dims) from three samples of block 1 (46 values each: 45 coordinates + hip
 // height). f0 / f1 may be null when the weights for them are zero (segment starts). Output
 // order: joints 1..15 as (vx, vy, vz, ax, ay, az), then (v, a) of the hip height.
-void kinetics(const float* f0, const float* f1, const float* f2, const DifferenceWeights& w, float* out);
+// Each returns largest_magnitude_bits(out, kKineticDims), tracked as it computes.
+uint32_t kinetics(const float* f0, const float* f1, const float* f2, const DifferenceWeights& w, float* out);
 // Block 9 at the start of a segment: v = a = 0.
-void kinetics_zero(float* out);
+uint32_t kinetics_zero(float* out);
 // Block 9 on a segment's second frame with the backward stencil: v = (f1 - f0) / h1, a = 0.
-void kinetics_two_point(const float* f0, const float* f1, double h1, float* out);
+uint32_t kinetics_two_point(const float* f0, const float* f1, double h1, float* out);
 
 }  // namespace kata::gpd

@@ -26,8 +26,8 @@ namespace kata::gpd::detail::avx2 {
 
 bool compiled() noexcept { return false; }
 
-void static_features(const float* local, float hip_height, GeometryState& state, float* out) noexcept {
-  sse4::static_features(local, hip_height, state, out);
+uint32_t static_features(const float* local, float hip_height, GeometryState& state, float* out) noexcept {
+  return sse4::static_features(local, hip_height, state, out);
 }
 
 uint32_t largest_magnitude_bits(const float* v, int n) noexcept { return sse4::largest_magnitude_bits(v, n); }

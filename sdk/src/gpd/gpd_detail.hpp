@@ -151,6 +151,26 @@ inline constexpr PermuteTable<kLines, 2> kJLPermute = make_permute_table<kLines,
 inline constexpr PermuteTable<kPlanes, 2> kJPPermute = make_permute_table<kPlanes, 2>(kLayout.jp_src, 16, kJoints - 3);
 inline constexpr PermuteTable<kPlanes, 4> kLPPermute = make_permute_table<kPlanes, 4>(kLayout.lp_src, 32, kLines - 3);
 
+// Which lanes of a full skip-block row are features (0x7fffffff: the sign-clearing mask of the
+// kernels' largest-magnitude tracking) and which compaction drops (0): per line the joints that
+// are not its endpoints (JLd), per plane the joints that are not its vertices (JPd).
+template <int Rows>
+struct FeatureLanes {
+  alignas(64) uint32_t mask[Rows][16];
+};
+constexpr FeatureLanes<kLines> make_jl_feature_lanes() {
+  FeatureLanes<kLines> t{};
+  for (int n = 0; n < kJLCount; ++n) t.mask[kLayout.jl_src[n] / 16][kLayout.jl_src[n] % 16] = 0x7fffffffu;
+  return t;
+}
+constexpr FeatureLanes<kPlanes> make_jp_feature_lanes() {
+  FeatureLanes<kPlanes> t{};
+  for (int n = 0; n < kJPCount; ++n) t.mask[kLayout.jp_src[n] / 16][kLayout.jp_src[n] % 16] = 0x7fffffffu;
+  return t;
+}
+inline constexpr FeatureLanes<kLines> kJLFeatureLanes = make_jl_feature_lanes();
+inline constexpr FeatureLanes<kPlanes> kJPFeatureLanes = make_jp_feature_lanes();
+
 static_assert(kLayout.pair_base[kJoints - 1] == kPairCount, "JJ pair count");
 static_assert(kLayout.line_pair_base[kLines - 1] == kLLCount, "LLa pair count");
 static_assert(kOffsetJJd == kJcDims && kOffsetJJo == kOffsetJJd + kPairCount &&
@@ -175,14 +195,15 @@ constexpr float kFastPathExtent = 1e15f;
 // translation unit) so that no inline function is shared between the two instruction sets.
 namespace sse4 {
 // Baseline kernel (x86-64-v2: SSE4.2). Runs on every supported CPU.
-void static_features(const float* local, float hip_height, GeometryState& state, float* out) noexcept;
+// Returns largest_magnitude_bits(out, kStaticDims), tracked as the kernel writes (gpd.hpp).
+uint32_t static_features(const float* local, float hip_height, GeometryState& state, float* out) noexcept;
 uint32_t largest_magnitude_bits(const float* v, int n) noexcept;
 }  // namespace sse4
 namespace avx2 {
 // True when this build contains the AVX2+FMA kernel (x86 builds).
 bool compiled() noexcept;
 // AVX2+FMA kernel (x86-64-v3). Call only when kata::cpu_has_avx2() and compiled().
-void static_features(const float* local, float hip_height, GeometryState& state, float* out) noexcept;
+uint32_t static_features(const float* local, float hip_height, GeometryState& state, float* out) noexcept;
 uint32_t largest_magnitude_bits(const float* v, int n) noexcept;
 }  // namespace avx2
 

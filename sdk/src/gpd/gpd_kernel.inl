@@ -31,6 +31,32 @@ constexpr int padded(int n) { return (n + W - 1) / W * W; }
 inline B load(const float* p) { return B::load_unaligned(p); }
 inline void store(float* p, const B& v) { v.store_unaligned(p); }
 
+// The largest-magnitude tracker: the kernel folds each batch it writes to `out` into a running
+// maximum of the IEEE bit patterns with the sign cleared (the order of the magnitudes, Inf above
+// every finite value and NaN above Inf; see gpd::largest_magnitude_bits), so the stream's "is
+// the vector finite" check needs no second pass over 1591 values still in flight to memory.
+// `lanes` clears the lanes of a batch that the next store overwrites (they are not features).
+using U = xsimd::batch<uint32_t, Arch>;
+inline U magnitude_bits(const B& v) { return xsimd::bitwise_cast<U>(v) & U(0x7fffffffu); }
+inline void track(U& largest, const B& v) { largest = xsimd::max(largest, magnitude_bits(v)); }
+inline void track(U& largest, const B& v, const U& lanes) {
+  largest = xsimd::max(largest, xsimd::bitwise_cast<U>(v) & lanes);
+}
+// The sign-clearing mask of the first `valid` (0..W) lanes of a batch, 0 in the others: a
+// window into W masks followed by W zeros.
+constexpr uint32_t kLaneWindow[16] = {0x7fffffffu, 0x7fffffffu, 0x7fffffffu, 0x7fffffffu, 0x7fffffffu, 0x7fffffffu,
+                                      0x7fffffffu, 0x7fffffffu, 0,           0,           0,           0,
+                                      0,           0,           0,           0};
+static_assert(W <= 8, "kLaneWindow holds batches of up to 8 lanes");
+inline U valid_lanes(int valid) { return U::load_unaligned(kLaneWindow + 8 - valid); }
+inline uint32_t reduce_max(const U& v) {
+  alignas(64) uint32_t m[W];
+  v.store_aligned(m);
+  uint32_t r = 0;
+  for (int l = 0; l < W; ++l) r = r > m[l] ? r : m[l];
+  return r;
+}
+
 // 1/sqrt(x) to ~3e-7 relative: the hardware estimate (12 bits) and one Newton step, instead of
 // sqrt + divide (long-latency, low-throughput units). x is floored at 1e-37 so that x = 0 gives a
 // large finite value: then x * rsqrt(x) = 0 and v * rsqrt(|v|^2) = 0, the spec's zero-vector
@@ -80,23 +106,42 @@ inline B acos_batch(const B& x) {
 
 // dst[0..n) = acos(src[0..n)), n >= W. The tail is one batch ending at n (overlapping the
 // previous one), which is only correct because src and dst are different buffers.
-inline void acos_block(const float* src, int n, float* dst) {
+// The tail batch's values are features too (recomputed), so all of it is tracked.
+inline void acos_block(const float* src, int n, float* dst, U& largest) {
   int i = 0;
-  for (; i + W <= n; i += W) store(dst + i, acos_batch(load(src + i)));
-  if (i < n) store(dst + n - W, acos_batch(load(src + n - W)));
+  for (; i + W <= n; i += W) {
+    const B a = acos_batch(load(src + i));
+    track(largest, a);
+    store(dst + i, a);
+  }
+  if (i < n) {
+    const B a = acos_batch(load(src + n - W));
+    track(largest, a);
+    store(dst + n - W, a);
+  }
 }
 
 #if KATA_GPD_PERMUTE
 // Writes one compacted skip-block row (see PermuteTable in gpd_detail.hpp): Out batches of 8
-// to dst, the lanes past the row's length included.
-template <int In, int Out>
-inline void compact_row(const B (&in)[In], const int32_t (*idx)[8], const int32_t (*next)[8], float* dst) {
+// to dst, the lanes past the row's length (`Length` features) included; tracks the features
+// alone when `largest` is given.
+template <int In, int Out, int Length>
+inline void compact_row(const B (&in)[In], const int32_t (*idx)[8], const int32_t (*next)[8], float* dst,
+                        U* largest) {
+  static_assert(Length > 8 * (Out - 1) && Length <= 8 * Out, "Out batches hold the row");
   for (int k = 0; k < Out; ++k) {
     const __m256i ix = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(idx[k]));
     __m256 v = _mm256_permutevar8x32_ps(in[k], ix);
     if (k + 1 < In) {
       const __m256 w = _mm256_permutevar8x32_ps(in[k + 1], ix);
       v = _mm256_blendv_ps(v, w, _mm256_loadu_ps(reinterpret_cast<const float*>(next[k])));
+    }
+    if (largest) {
+      if (8 * (k + 1) <= Length) {
+        track(*largest, B(v));
+      } else {
+        track(*largest, B(v), valid_lanes(Length - 8 * k));
+      }
     }
     _mm256_storeu_ps(dst + 8 * k, v);
   }
@@ -165,8 +210,11 @@ inline void compact(const float* full, const int16_t* src, int n, float* out) {
   for (int i = 0; i < n; ++i) out[i] = full[src[i]];
 }
 
-inline void kernel(const float* local, float hip_height, GeometryState& state, float* out) {
+// Returns the largest magnitude among out[0..kStaticDims) as its sign-cleared bit pattern
+// (what largest_magnitude_bits(out, kStaticDims) returns), tracked as the batches are written.
+inline uint32_t kernel(const float* local, float hip_height, GeometryState& state, float* out) {
   Scratch s;
+  U largest(0u);
   for (int j = 0; j < kJoints; ++j) {
     s.px[j] = local[3 * j];
     s.py[j] = local[3 * j + 1];
@@ -174,9 +222,15 @@ inline void kernel(const float* local, float hip_height, GeometryState& state, f
   }
   for (int j = kJoints; j < 32; ++j) s.px[j] = s.py[j] = s.pz[j] = 0.0f;
 
-  // 1. Jc.
+  // 1. Jc: local[3..48) (batches from the input, the last one overlapping) and the hip height.
   for (int i = 0; i < 45; ++i) out[kOffsetJc + i] = local[3 + i];
   out[kOffsetJc + 45] = hip_height;
+  static_assert(45 >= W, "Jc is at least one batch");
+  for (int i = 0; i + W <= 45; i += W) track(largest, load(local + 3 + i));
+  if (45 % W != 0) track(largest, load(local + 3 + 45 - W));
+  uint32_t hip_bits;
+  __builtin_memcpy(&hip_bits, &hip_height, sizeof hip_bits);
+  hip_bits &= 0x7fffffffu;
 
   // 2-3. JJd, JJo.
 #if KATA_GPD_PERMUTE
@@ -192,14 +246,19 @@ inline void kernel(const float* local, float hip_height, GeometryState& state, f
       const B x = load(s.px + i + 1 + c) - bx, y = load(s.py + i + 1 + c) - by, z = load(s.pz + i + 1 + c) - bz;
       const B sq = xsimd::fma(x, x, xsimd::fma(y, y, z * z));
       const B inv = rsqrt_nr(sq);
+      const B d = sq * inv, ux = x * inv, uy = y * inv, uz = z * inv;
+      // Lanes past this joint's n pairs are overwritten later: not tracked.
+      const U pair_bits = xsimd::max(xsimd::max(magnitude_bits(d), magnitude_bits(ux)),
+                                     xsimd::max(magnitude_bits(uy), magnitude_bits(uz)));
+      largest = xsimd::max(largest, c + W <= n ? pair_bits : pair_bits & valid_lanes(n - c));
       if (base + c + W <= kPairCount) {
-        store(out + kOffsetJJd + base + c, sq * inv);
+        store(out + kOffsetJJd + base + c, d);
       } else {
         const __m256i lanes = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
         const __m256i keep = _mm256_cmpgt_epi32(_mm256_set1_epi32(kPairCount - base - c), lanes);
-        _mm256_maskstore_ps(out + kOffsetJJd + base + c, keep, sq * inv);
+        _mm256_maskstore_ps(out + kOffsetJJd + base + c, keep, d);
       }
-      interleave3(x * inv, y * inv, z * inv, out + kOffsetJJo + 3 * (base + c));
+      interleave3(ux, uy, uz, out + kOffsetJJo + 3 * (base + c));
     }
   }
 #else
@@ -219,10 +278,15 @@ inline void kernel(const float* local, float hip_height, GeometryState& state, f
     const B x = load(s.dx + b), y = load(s.dy + b), z = load(s.dz + b);
     const B sq = xsimd::fma(x, x, xsimd::fma(y, y, z * z));
     const B inv = rsqrt_nr(sq);
-    store(out + kOffsetJJd + b, sq * inv);
-    store(s.ux + b, x * inv);
-    store(s.uy + b, y * inv);
-    store(s.uz + b, z * inv);
+    const B d = sq * inv, ux = x * inv, uy = y * inv, uz = z * inv;
+    track(largest, d);
+    track(largest, ux);
+    track(largest, uy);
+    track(largest, uz);
+    store(out + kOffsetJJd + b, d);
+    store(s.ux + b, ux);
+    store(s.uy + b, uy);
+    store(s.uz + b, uz);
   }
   for (int p = 0; p < kPairCount; ++p) {
     out[kOffsetJJo + 3 * p] = s.ux[p];
@@ -285,10 +349,18 @@ inline void kernel(const float* local, float hip_height, GeometryState& state, f
   for (int l = 0; l < kLines; ++l) {
     const B row[2] = {sqrt_fast(load(s.jl + 16 * l)), sqrt_fast(load(s.jl + 16 * l + 8))};
     // 2 floats past the row are written too; the next line (or, after line 29, LLa) overwrites them.
-    compact_row<2, 2>(row, kJLPermute.idx[l], kJLPermute.next[l], out + kOffsetJLd + (kJoints - 2) * l);
+    compact_row<2, 2, kJoints - 2>(row, kJLPermute.idx[l], kJLPermute.next[l], out + kOffsetJLd + (kJoints - 2) * l,
+                                   &largest);
   }
 #else
-  for (int b = 0; b < kLines * 16; b += W) store(s.jl + b, sqrt_fast(load(s.jl + b)));
+  // Tracked over every joint but the line's two endpoints (the ones compaction drops).
+  for (int l = 0; l < kLines; ++l) {
+    for (int b = 0; b < 16; b += W) {
+      const B r = sqrt_fast(load(s.jl + 16 * l + b));
+      track(largest, r, U::load_aligned(kJLFeatureLanes.mask[l] + b));
+      store(s.jl + 16 * l + b, r);
+    }
+  }
   compact(s.jl, kLayout.jl_src, kJLCount, out + kOffsetJLd);
 #endif
 
@@ -302,7 +374,7 @@ inline void kernel(const float* local, float hip_height, GeometryState& state, f
       store(s.ll + base + c, d);
     }
   }
-  acos_block(s.ll, kLLCount, out + kOffsetLLa);
+  acos_block(s.ll, kLLCount, out + kOffsetLLa, largest);
 
   // Plane normals (degenerate rule and memory as the reference).
   for (int p = 0; p < kPlanes; ++p) {
@@ -329,10 +401,15 @@ inline void kernel(const float* local, float hip_height, GeometryState& state, f
 #if KATA_GPD_PERMUTE
     // Spills past a row are overwritten by the next row; JPd's last one by LPa's acos pass
     // below, LPa's last one (into s.lp[135..140)) by the PPa cosines.
-    compact_row<2, 2>(jrow, kJPPermute.idx[p], kJPPermute.next[p], out + kOffsetJPd + (kJoints - 3) * p);
-    compact_row<4, 4>(lrow, kLPPermute.idx[p], kLPPermute.next[p], s.lp + (kLines - 3) * p);
+    compact_row<2, 2, kJoints - 3>(jrow, kJPPermute.idx[p], kJPPermute.next[p], out + kOffsetJPd + (kJoints - 3) * p,
+                                   &largest);
+    // LPa's cosines go to scratch: their arccos is what is tracked.
+    compact_row<4, 4, kLines - 3>(lrow, kLPPermute.idx[p], kLPPermute.next[p], s.lp + (kLines - 3) * p, nullptr);
 #else
-    for (int b = 0; b < 16; b += W) store(s.jp + 16 * p + b, jrow[b / W]);
+    for (int b = 0; b < 16; b += W) {
+      track(largest, jrow[b / W], U::load_aligned(kJPFeatureLanes.mask[p] + b));
+      store(s.jp + 16 * p + b, jrow[b / W]);
+    }
     for (int b = 0; b < 32; b += W) store(s.lpfull + 32 * p + b, lrow[b / W]);
 #endif
   }
@@ -346,13 +423,15 @@ inline void kernel(const float* local, float hip_height, GeometryState& state, f
     const int p = kLayout.pp[i][0], q = kLayout.pp[i][1];
     s.lp[kLPCount + i] = s.nx[p] * s.nx[q] + s.ny[p] * s.ny[q] + s.nz[p] * s.nz[q];
   }
-  acos_block(s.lp, kLPCount + kPPCount, out + kOffsetLPa);
+  acos_block(s.lp, kLPCount + kPPCount, out + kOffsetLPa, largest);
+  const uint32_t r = reduce_max(largest);
+  return r > hip_bits ? r : hip_bits;
 }
 
 }  // namespace
 
-void static_features(const float* local, float hip_height, GeometryState& state, float* out) noexcept {
-  kernel(local, hip_height, state, out);
+uint32_t static_features(const float* local, float hip_height, GeometryState& state, float* out) noexcept {
+  return kernel(local, hip_height, state, out);
 }
 
 uint32_t largest_magnitude_bits(const float* v, int n) noexcept {

@@ -107,6 +107,8 @@ Stream::Stream(const StreamConfig& config) : config_(config) {
   starts_segment_.assign(h, 0);
   joints_.assign(h * 3 * gpd::kJoints, 0.0f);
   vectors_.assign(h * gpd::kDims, 0.0f);
+  static_bits_.assign(h, 0u);
+  direct_map_ = std::all_of(config_.map.source.begin(), config_.map.source.end(), [](int s) { return s >= 0; });
   if (height_ <= 0.0) calibration_.assign(7 * static_cast<size_t>(config_.calibration_frames), 0.0);
   if (!(config_.max_hold >= 0.0) || !(config_.max_missing_share >= 0.0) || !std::isfinite(config_.confidence_threshold))
     throw Error(ErrorKind::kInvalidArgument, "stream: max_hold, max_missing_share must be >= 0 and the threshold finite");
@@ -147,20 +149,27 @@ Status Stream::push(double t, const float* xyz, const float* confidence, int joi
     return refuse(Status::kTimestampNotIncreasing,
                   "push: timestamp %.17g s is %.3g s after the previous one, below the minimum step %g s", t,
                   t - last_time_, kMinTimeStep);
-  if (!confidence && largest_magnitude_bits(xyz, 3 * joint_count) >= kInfBits) {
-    // Only the mapped joints matter, but a NaN anywhere means a broken frame: refuse it whole.
-    for (int i = 0; i < 3 * joint_count; ++i) {
-      if (!std::isfinite(xyz[i]))
-        return refuse(Status::kNonFinite, "push: joint %d coordinate %d is not finite", i / 3, i % 3);
+  uint32_t input_bits = kInfBits;  // the largest |input coordinate|, when every one is read
+  if (!confidence) {
+    input_bits = largest_magnitude_bits(xyz, 3 * joint_count);
+    if (input_bits >= kInfBits) {
+      // Only the mapped joints matter, but a NaN anywhere means a broken frame: refuse it whole.
+      for (int i = 0; i < 3 * joint_count; ++i) {
+        if (!std::isfinite(xyz[i]))
+          return refuse(Status::kNonFinite, "push: joint %d coordinate %d is not finite", i / 3, i % 3);
+      }
     }
   }
 
   // The mapped joints (missing ones held), checked against the plausibility range before
-  // anything changes.
+  // anything changes. A direct map copies coordinates (signs aside), so when the input scan
+  // found them all within the range the mapped ones are too; otherwise they are scanned.
   float mapped[3 * gpd::kJoints];
   bool good[gpd::kJoints];
   const int missing = gate(t, xyz, confidence, mapped, good);
-  if (largest_magnitude_bits(mapped, 3 * gpd::kJoints) > kMaxCoordinateBits) {
+  uint32_t mapped_bits = input_bits;  // at least the largest |mapped coordinate|
+  if (!direct_map_ || input_bits > kMaxCoordinateBits) mapped_bits = largest_magnitude_bits(mapped, 3 * gpd::kJoints);
+  if (mapped_bits > kMaxCoordinateBits) {
     for (int j = 0; j < gpd::kJoints; ++j) {
       for (int k = 0; k < 3; ++k) {
         if (!(std::fabs(mapped[3 * j + k]) <= kMaxCoordinate))
@@ -171,7 +180,13 @@ Status Stream::push(double t, const float* xyz, const float* confidence, int joi
       }
     }
   }
-  if (height_ > 0.0) {
+  float coordinate_bound;  // every |mapped coordinate| is at most this (checked above: <= kMaxCoordinate)
+  std::memcpy(&coordinate_bound, &mapped_bits, sizeof coordinate_bound);
+  const double bound = coordinate_bound;
+  // Two joints within +-bound on each axis are at most sqrt(12) bound apart, so when 12 bound^2
+  // is within the squared reach (with a margin far above the rounding of the distances' double
+  // evaluation) no joint can be refused and the 15 distances are not computed.
+  if (height_ > 0.0 && !(12.0 * bound * bound * (1.0 + 1e-6) <= (kMaxReach * height_) * (kMaxReach * height_))) {
     // Squared distances against the squared reach: no square root unless a joint is refused.
     const double reach = kMaxReach * height_;
     const double reach2 = reach * reach;
@@ -197,14 +212,21 @@ Status Stream::push(double t, const float* xyz, const float* confidence, int joi
                   double(floor), kMaxCoordinate);
 
   // Accepted: the gate's state moves on, the floor is applied.
-  for (int g = 0; g < gpd::kJoints; ++g) {
-    if (!good[g]) continue;
-    std::memcpy(last_good_ + 3 * g, mapped + 3 * g, 3 * sizeof(float));
-    last_good_time_[g] = t;
+  if (!confidence) {  // every joint good
+    std::memcpy(last_good_, mapped, sizeof mapped);
+    std::fill(std::begin(last_good_time_), std::end(last_good_time_), t);
+  } else {
+    for (int g = 0; g < gpd::kJoints; ++g) {
+      if (!good[g]) continue;
+      std::memcpy(last_good_ + 3 * g, mapped + 3 * g, 3 * sizeof(float));
+      last_good_time_[g] = t;
+    }
   }
   missing_joints_ = missing < 0 ? gpd::kJoints : missing;
   floor_ = floor;
-  for (int g = 0; g < gpd::kJoints; ++g) mapped[3 * g + 1] -= floor_;
+  // Without floor joints floor_ stays 0 (find_floor leaves it), and y - 0 is y.
+  if (config_.map.floor_count > 0)
+    for (int g = 0; g < gpd::kJoints; ++g) mapped[3 * g + 1] -= floor_;
   const bool gap = seen_time_ && t - last_time_ > config_.max_gap;
   seen_time_ = true;
   last_time_ = t;
@@ -217,10 +239,10 @@ Status Stream::push(double t, const float* xyz, const float* confidence, int joi
                                    config_.max_hold);
     return refuse(Status::kTrackingLost, "push: tracking lost (%d of 16 GPD joints missing)", missing);
   }
-  if (missing == 0) collect_bones(mapped);
+  if (missing == 0 && bone_count_ < config_.bone_window) collect_bones(mapped);
 
   const int64_t frame = accepted_;
-  const int slot = slot_at(frame);
+  const int slot = next_slot_;
   const bool starts = new_segment_ || gap;
   smooth(t, starts, mapped);
   float* joints = joints_.data() + static_cast<size_t>(slot) * 3 * gpd::kJoints;
@@ -229,6 +251,7 @@ Status Stream::push(double t, const float* xyz, const float* confidence, int joi
   starts_segment_[slot] = starts ? 1 : 0;
   new_segment_ = false;
   accepted_ = frame + 1;
+  next_slot_ = slot_after(slot);
 
   if (height_ <= 0.0) {
     double* row = calibration_.data() + 7 * static_cast<size_t>(frame);
@@ -238,7 +261,7 @@ Status Stream::push(double t, const float* xyz, const float* confidence, int joi
     finish_calibration();
     return emitted_status();
   }
-  process(frame);
+  process(frame, slot);
   return emitted_status();
 }
 
@@ -253,7 +276,12 @@ Status Stream::emitted_status() {
 
 int Stream::gate(double t, const float* xyz, const float* confidence, float* mapped, bool* good) const {
   if (!confidence) {
-    map_to_gpd(config_.map, config_.up_axis, xyz, mapped);
+    if (direct_map_) {  // map_gpd_joint's copy of input joint `source`, without a call per joint
+      for (int g = 0; g < gpd::kJoints; ++g)
+        to_y_up(config_.up_axis, xyz + 3 * config_.map.source[static_cast<size_t>(g)], mapped + 3 * g);
+    } else {
+      map_to_gpd(config_.map, config_.up_axis, xyz, mapped);
+    }
     for (int g = 0; g < gpd::kJoints; ++g) good[g] = true;
     return 0;
   }
@@ -426,7 +454,7 @@ void Stream::set_smoothing(bool enabled, double min_cutoff, double beta, double 
 }
 
 void Stream::end_segment() {
-  if (pending_) emit(processed_ - 1, false);
+  if (pending_) emit(processed_ - 1, slot_at(processed_ - 1), false);
   pending_ = false;
   new_segment_ = true;
 }
@@ -455,62 +483,71 @@ void Stream::finish_calibration() {
   // A collapsed body (every joint at one point) has no scale; keep features finite with
   // H = 1 input unit (the plausibility range then applies in input units).
   if (!(height_ >= kMinBodyHeight)) height_ = 1.0;
-  for (int64_t f = processed_; f < accepted_; ++f) process(f);
+  for (int64_t f = processed_; f < accepted_; ++f) process(f, slot_at(f));
 }
 
-void Stream::process(int64_t frame) {
-  const int slot = slot_at(frame);
+void Stream::process(int64_t frame, int slot) {
   const bool starts = starts_segment_[slot] != 0;
-  segment_pos_[slot] = starts ? 0 : std::min(segment_pos_[slot_at(frame - 1)] + 1, 2);
+  segment_pos_[slot] = starts ? 0 : std::min(segment_pos_[slot_before(slot)] + 1, 2);
   float local[3 * gpd::kJoints];
   float hip_height = 0.0f;
   gpd::to_local_frame(joints_.data() + static_cast<size_t>(slot) * 3 * gpd::kJoints, height_, geometry_, local,
                       &hip_height);
-  gpd::static_features(local, hip_height, geometry_, vectors_.data() + static_cast<size_t>(slot) * gpd::kDims);
+  static_bits_[static_cast<size_t>(slot)] =
+      gpd::static_features(local, hip_height, geometry_, vectors_.data() + static_cast<size_t>(slot) * gpd::kDims);
   processed_ = frame + 1;
 
   if (config_.stencil == gpd::Stencil::kBackward) {
-    emit(frame, false);
+    emit(frame, slot, false);
     return;
   }
   // Central: this frame completes its predecessor's stencil, or closes the previous segment.
-  if (pending_) emit(frame - 1, /*central=*/!starts);
+  if (pending_) emit(frame - 1, slot_before(slot), /*central=*/!starts);
   pending_ = true;
 }
 
-void Stream::emit(int64_t frame, bool central) {
-  const int slot = slot_at(frame);
+void Stream::emit(int64_t frame, int slot, bool central) {
   float* kin = vectors_.data() + static_cast<size_t>(slot) * gpd::kDims + gpd::kOffsetJk;
   const int pos = segment_pos_[slot];
-  auto jc = [&](int64_t f) { return vectors_.data() + static_cast<size_t>(slot_at(f)) * gpd::kDims; };
+  const int prev = slot_before(slot);
+  auto jc = [&](int s) { return vectors_.data() + static_cast<size_t>(s) * gpd::kDims; };
+  uint32_t kinetic_bits;
   if (pos == 0) {
-    gpd::kinetics_zero(kin);
+    kinetic_bits = gpd::kinetics_zero(kin);
   } else if (central) {
-    const double h1 = time_[slot] - time_[slot_at(frame - 1)];
-    const double h2 = time_[slot_at(frame + 1)] - time_[slot];
-    gpd::kinetics(jc(frame - 1), jc(frame), jc(frame + 1), gpd::central_weights(h1, h2), kin);
+    const int next = slot_after(slot);
+    const double h1 = time_[slot] - time_[prev];
+    const double h2 = time_[next] - time_[slot];
+    kinetic_bits = gpd::kinetics(jc(prev), jc(slot), jc(next), gpd::central_weights(h1, h2), kin);
   } else if (pos == 1) {
-    gpd::kinetics_two_point(jc(frame - 1), jc(frame), time_[slot] - time_[slot_at(frame - 1)], kin);
+    kinetic_bits = gpd::kinetics_two_point(jc(prev), jc(slot), time_[slot] - time_[prev], kin);
   } else {
-    const double h1 = time_[slot_at(frame - 1)] - time_[slot_at(frame - 2)];
-    const double h2 = time_[slot] - time_[slot_at(frame - 1)];
-    gpd::kinetics(jc(frame - 2), jc(frame - 1), jc(frame), gpd::backward_weights(h1, h2), kin);
+    const int prev2 = slot_before(prev);
+    const double h1 = time_[prev] - time_[prev2];
+    const double h2 = time_[slot] - time_[prev];
+    kinetic_bits = gpd::kinetics(jc(prev2), jc(prev), jc(slot), gpd::backward_weights(h1, h2), kin);
   }
   // Finite by construction inside the plausibility range; checked so a bug can never hand out a
-  // NaN: a non-finite vector is withheld (the previous one stays the newest) and reported.
-  const float* vector = vectors_.data() + static_cast<size_t>(slot) * gpd::kDims;
-  if (largest_magnitude_bits(vector, gpd::kDims) >= kInfBits) {
-    for (int i = 0; i < gpd::kDims; ++i) {
-      if (!std::isfinite(vector[i])) {
-        withheld_dim_ = i;
-        withheld_frame_ = frame;
-        return;
-      }
-    }
+  // NaN: a non-finite vector is withheld (the previous one stays the newest) and reported. The
+  // kernels report the largest magnitude they wrote, so a finite vector is not read again.
+  const int bad = first_non_finite_feature(vectors_.data() + static_cast<size_t>(slot) * gpd::kDims,
+                                           std::max(static_bits_[static_cast<size_t>(slot)], kinetic_bits));
+  if (bad >= 0) {
+    withheld_dim_ = bad;
+    withheld_frame_ = frame;
+    return;
   }
   out_time_ = time_[slot];
   out_frame_ = frame;
+  out_slot_ = slot;
   ++emitted_;
+}
+
+int first_non_finite_feature(const float* vector, uint32_t largest_bits) {
+  if (largest_bits < kInfBits) return -1;
+  for (int i = 0; i < gpd::kDims; ++i)
+    if (!std::isfinite(vector[i])) return i;
+  return -1;  // the report was wrong, the vector is finite: publish it
 }
 
 Status Stream::flush() {

@@ -79,6 +79,12 @@ double stream_body_height(double given, const Skeleton& skeleton, const GpdMap& 
 std::vector<float> features_of_frames(const StreamConfig& config, const float* positions, int frames,
                                       double frame_time);
 
+// The check a Stream applies to each vector before it publishes it: the index of the vector's
+// first non-finite feature, or -1 when every feature is finite. `largest_bits` is the GPD
+// kernels' report of the largest magnitude they wrote (the maximum of what gpd::static_features
+// and gpd::kinetics* return): below Inf (0x7f800000) the vector is finite and is not read again.
+int first_non_finite_feature(const float* vector, uint32_t largest_bits);
+
 class Stream {
  public:
   // Allocates every buffer. Throws kata::Error(kInvalidArgument) on a bad config (a value out
@@ -109,7 +115,7 @@ class Stream {
   // The newest emitted feature vector (gpd::kDims floats), its timestamp and its frame index
   // (0-based count of accepted frames). Valid until the next push/flush. Null before the first.
   const float* features() const {
-    return emitted_ ? vectors_.data() + static_cast<size_t>(slot_at(out_frame_)) * gpd::kDims : nullptr;
+    return emitted_ ? vectors_.data() + static_cast<size_t>(out_slot_) * gpd::kDims : nullptr;
   }
   double feature_time() const { return out_time_; }
   int64_t feature_frame() const { return out_frame_; }
@@ -148,10 +154,12 @@ class Stream {
   const char* last_error() const { return error_; }
 
  private:
-  void process(int64_t frame);
-  // Completes frame `frame`'s vector with block 9: kinetics by the backward rules (central == false)
-  // or the central stencil (needs frame + 1).
-  void emit(int64_t frame, bool central);
+  // Frame `frame` lives in ring slot `slot` (slot_at(frame), passed on so the per-frame path
+  // divides nothing).
+  void process(int64_t frame, int slot);
+  // Completes frame `frame`'s vector (in `slot`) with block 9: kinetics by the backward rules
+  // (central == false) or the central stencil (needs frame + 1).
+  void emit(int64_t frame, int slot, bool central);
   void finish_calibration();
   // kOk, or kInternal with the message when emit() withheld a non-finite vector.
   Status emitted_status();
@@ -167,6 +175,8 @@ class Stream {
   void end_segment();
   Status refuse(Status status, const char* fmt, ...);
   int slot_at(int64_t frame) const { return static_cast<int>(frame % config_.history); }
+  int slot_before(int slot) const { return slot == 0 ? config_.history - 1 : slot - 1; }
+  int slot_after(int slot) const { return slot + 1 == config_.history ? 0 : slot + 1; }
 
   StreamConfig config_;
   double height_ = 0.0;
@@ -180,6 +190,14 @@ class Stream {
   std::vector<double> calibration_;   // 7 x calibration_frames bone lengths, for the median H
   std::vector<float> joints_;      // history x 48
   std::vector<float> vectors_;     // history x kDims (block 1 = first kJcDims)
+  // Per slot, what gpd::static_features reported of the static blocks (their largest magnitude as
+  // bits): emit() checks the vector finite from it and the kinetics' report.
+  std::vector<uint32_t> static_bits_;
+  // The map reads each GPD joint from one input joint (no blends): mapping is a gather with the
+  // axes turned, and a frame whose input coordinates are all within kMaxCoordinate has its mapped
+  // joints within it too.
+  bool direct_map_ = false;
+  int next_slot_ = 0;              // slot_at(accepted_)
   int64_t accepted_ = 0;           // frames accepted so far
   int64_t processed_ = 0;          // frames turned into static features (< accepted_ while calibrating)
   bool pending_ = false;           // central: the newest processed frame awaits its successor
@@ -188,6 +206,7 @@ class Stream {
   int64_t emitted_ = 0;
   double out_time_ = 0.0;
   int64_t out_frame_ = -1;
+  int out_slot_ = 0;               // slot_at(out_frame_)
   int withheld_dim_ = -1;          // set by emit() when a vector had a non-finite value (a bug)
   int64_t withheld_frame_ = -1;
   char error_[256] = {0};
