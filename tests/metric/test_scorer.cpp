@@ -154,7 +154,7 @@ TEST(Scorer, MovingOnlyTheLeftArmBlamesTheLeftArm) {
 TEST(Scorer, BatchEqualsSingleBitForBit) {
   const auto metric = test::test_metric();
   const auto ref = std::make_shared<const metric::Reference>(metric, test::clip_row("02_01.bvh", 20));
-  constexpr int n = 7;  // more than one kBatch group, with a remainder
+  constexpr int n = 2 * metric::detail::kBatch + 3;  // two kBatch groups and a remainder
   std::vector<std::unique_ptr<metric::Scorer>> batch, single;
   std::vector<metric::Scorer*> ptrs;
   std::vector<const float*> xs;

@@ -11,8 +11,9 @@ namespace kata::metric::detail {
 
 // Columns per chunk of the blocked W (a chunk's accumulators must fit 8 vector registers on AVX2).
 constexpr int kChunk = 64;
-// Frames projected together by the batched kernel (each W row is loaded once for all of them).
-constexpr int kBatch = 4;
+// Frames projected together by the batched kernel (each W row is loaded once for all of them on
+// AVX-512; the 16-register ISAs pass over W once per 4 of them).
+constexpr int kBatch = 8;
 
 // W in the scorer's layout. Rows (feature dimensions) are permuted so that the dimensions of
 // one part group (see parts.hpp) are contiguous: group g owns rows [group_begin[g],

@@ -25,9 +25,17 @@ constexpr int W = static_cast<int>(B::size);
 // Accumulator vectors per pass of the single-frame kernel (16 registers on SSE/AVX2/NEON-32
 // would spill beyond 8 with the row loads; AVX-512 has 32 but a 64-column chunk needs only 4).
 constexpr int kMaxNV = 8;
+// Frames per pass of the batched kernel: every W vector is converted once per pass, so more frames
+// per pass leave the multiply-adds alone (4 x 16-column vectors per row and frame). AVX-512 has
+// 32 registers and takes 8 (the conversion, 2 of the 6 vector operations per row and frame at
+// 4 frames, is 1 of 5 at 8); the 16-register ISAs take 4 (more would spill the accumulators).
+constexpr int kPassFrames = W >= 16 ? 8 : 4;
 // Column vectors per slab of the batched kernel: F x NV accumulators + NV row vectors + one
-// broadcast must fit the register file (16 on AVX2, 32 on AVX-512).
-constexpr int kSlabNV = W >= 16 ? 4 : 2;
+// broadcast must fit the register file (16 on AVX2, 32 on AVX-512: 8 x 3 + 3 + 1 = 28).
+template <int F>
+constexpr int slab_nv() {
+  return W >= 16 ? (F <= 4 ? 4 : 3) : 2;
+}
 // Rows per tile of the batched kernel: a tile of W (64 x 50 floats, 12.8 KB) stays in L1 while
 // every column slab of every frame passes over it, so W streams from L2 once per batch.
 constexpr int kTile = 64;
@@ -102,7 +110,7 @@ inline void prefetch_start(const int16_t* rows) {
 }
 
 // The sums are multiplied by the column scales (scale: the chunk's first column) as they are
-// stored: the same single rounding as project_many's scale_columns.
+// stored: the same single rounding as the batched kernel's last tile (slab, kLast).
 template <int NV>
 void group_pass(const int16_t* rows, int stride, const float* xp, const int* perm, int begin, int end, const int* off,
                 const float* scale, float* out) {
@@ -144,12 +152,6 @@ void group_narrow(const int16_t* rows, int width, const float* xp, const int* pe
   for (int c = 0; c < width; ++c) out[c] = acc[c] * scale[c];
 }
 
-// out[c] *= scale[c] for c < width, each column once (the overlapped vectors of a row must not
-// be scaled twice): the batched kernel's last step, the same rounding as group_pass's store.
-inline void scale_columns(float* out, const float* scale, int width) {
-  for (int c = 0; c < width; ++c) out[c] *= scale[c];
-}
-
 // Zeroes the padding columns [width, round8(width)) of one output row.
 inline void zero_padding(float* out, int width) {
   const int padded = (width + 7) / 8 * 8;
@@ -159,9 +161,12 @@ inline void zero_padding(float* out, int width) {
 // F frames x NV vectors at columns off[] over rows [begin, end), accumulated into out[f] (which
 // holds the running sums of the previous tiles; the first tile starts from 0 instead, so the
 // outputs need no zeroing pass: a fused multiply-add onto 0 rounds exactly as onto a loaded 0).
-template <int F, int NV, bool kFirst>
+// The group's last tile (kLast) multiplies the sums by the column scales as it stores them, the
+// single rounding of group_pass's store (scale: the chunk's first column); no separate pass over
+// the outputs. The overlapped vectors of a row hold identical sums, so both scaled stores agree.
+template <int F, int NV, bool kFirst, bool kLast>
 void slab(const int16_t* rows, int stride, const float* const* xp, const int* perm, int begin, int end, const int* off,
-          float* const* out) {
+          const float* scale, float* const* out) {
   B acc[F][NV];
   for (int f = 0; f < F; ++f)
     for (int v = 0; v < NV; ++v) acc[f][v] = kFirst ? B(0.0f) : load(out[f] + off[v]);
@@ -175,31 +180,37 @@ void slab(const int16_t* rows, int stride, const float* const* xp, const int* pe
       for (int v = 0; v < NV; ++v) acc[f][v] = madd(w[v], xi, acc[f][v]);
     }
   }
-  for (int f = 0; f < F; ++f)
-    for (int v = 0; v < NV; ++v) store(out[f] + off[v], acc[f][v]);
-}
-
-template <int F>
-using SlabFn = void (*)(const int16_t*, int, const float* const*, const int*, int, int, const int*, float* const*);
-
-template <int F, bool kFirst>
-SlabFn<F> pick_slab_of(int nv) {
-  static_assert(kSlabNV == 2 || kSlabNV == 4, "pick_slab covers 1..kSlabNV vectors");
-  if constexpr (kSlabNV == 4) {
-    switch (nv) {
-      case 1: return &slab<F, 1, kFirst>;
-      case 2: return &slab<F, 2, kFirst>;
-      case 3: return &slab<F, 3, kFirst>;
-      default: return &slab<F, 4, kFirst>;
-    }
+  if constexpr (kLast) {
+    B s[NV];
+    for (int v = 0; v < NV; ++v) s[v] = load(scale + off[v]);
+    for (int f = 0; f < F; ++f)
+      for (int v = 0; v < NV; ++v) store(out[f] + off[v], acc[f][v] * s[v]);
   } else {
-    return nv == 1 ? &slab<F, 1, kFirst> : &slab<F, 2, kFirst>;
+    for (int f = 0; f < F; ++f)
+      for (int v = 0; v < NV; ++v) store(out[f] + off[v], acc[f][v]);
   }
 }
 
 template <int F>
-SlabFn<F> pick_slab(int nv, bool first) {
-  return first ? pick_slab_of<F, true>(nv) : pick_slab_of<F, false>(nv);
+using SlabFn = void (*)(const int16_t*, int, const float* const*, const int*, int, int, const int*, const float*,
+                        float* const*);
+
+template <int F, bool kFirst, bool kLast>
+SlabFn<F> pick_slab_of(int nv) {
+  constexpr int kSlabMax = slab_nv<F>();
+  static_assert(kSlabMax >= 2 && kSlabMax <= 4, "pick_slab covers 1..4 vectors");
+  switch (nv) {
+    case 1: return &slab<F, 1, kFirst, kLast>;
+    case 2: return &slab<F, 2, kFirst, kLast>;
+    case 3: if constexpr (kSlabMax >= 3) return &slab<F, 3, kFirst, kLast>; [[fallthrough]];
+    default: return &slab<F, kSlabMax, kFirst, kLast>;
+  }
+}
+
+template <int F>
+SlabFn<F> pick_slab(int nv, bool first, bool last) {
+  if (first) return last ? pick_slab_of<F, true, true>(nv) : pick_slab_of<F, true, false>(nv);
+  return last ? pick_slab_of<F, false, true>(nv) : pick_slab_of<F, false, false>(nv);
 }
 
 void project_one(const BlockedW& w, const float* xp, float* v) {
@@ -245,7 +256,8 @@ void project_many(const BlockedW& w, const float* const* xp, float* const* v) {
       const int nv = (width + W - 1) / W;
       int off[kChunk / W + 1];
       vector_offsets(0, width, nv, off);
-      const int lead = nv % kSlabNV != 0 ? nv % kSlabNV : kSlabNV;  // vectors of the first slab
+      constexpr int kNV = slab_nv<F>();
+      const int lead = nv % kNV != 0 ? nv % kNV : kNV;  // vectors of the first slab
       if (w.group_begin[g] == w.group_begin[g + 1])  // an empty group: no tile writes its sums
         for (int f = 0; f < F; ++f)
           for (int c = 0; c < width; ++c) out[f][c] = 0.0f;
@@ -254,13 +266,11 @@ void project_many(const BlockedW& w, const float* const* xp, float* const* v) {
         // Slabs are cut from the END of the vector list: the last vector overlaps the one before
         // it, and both must be in one slab (a later slab would reload sums the earlier slab had
         // already advanced through this tile, and add the tile twice).
-        for (int v0 = 0, n = lead; v0 < nv; v0 += n, n = kSlabNV)
-          pick_slab<F>(n, t0 == w.group_begin[g])(rows, width, xp, w.perm, t0, t1, off + v0, out);
+        for (int v0 = 0, n = lead; v0 < nv; v0 += n, n = kNV)
+          pick_slab<F>(n, t0 == w.group_begin[g], t1 == w.group_begin[g + 1])(rows, width, xp, w.perm, t0, t1,
+                                                                              off + v0, scale, out);
       }
-      for (int f = 0; f < F; ++f) {
-        scale_columns(out[f], scale, width);
-        zero_padding(out[f], width);
-      }
+      for (int f = 0; f < F; ++f) zero_padding(out[f], width);
     }
   }
 }
@@ -270,12 +280,26 @@ void project_many(const BlockedW& w, const float* const* xp, float* const* v) {
 void project_groups(const BlockedW& w, const float* xp, float* v) { project_one(w, xp, v); }
 
 void project_groups_batch(const BlockedW& w, const float* const* xp, float* const* v, int n) {
+  // More frames than one pass takes: passes of kPassFrames (each frame's sums are the same
+  // operations whatever pass it is in).
+  for (; n > kPassFrames; n -= kPassFrames, xp += kPassFrames, v += kPassFrames)
+    project_many<kPassFrames>(w, xp, v);
   switch (n) {
     case 1: project_one(w, xp[0], v[0]); break;
     case 2: project_many<2>(w, xp, v); break;
     case 3: project_many<3>(w, xp, v); break;
     case 4: project_many<4>(w, xp, v); break;
-    default: break;
+    default:
+      if constexpr (kPassFrames == 8) {
+        switch (n) {
+          case 5: project_many<5>(w, xp, v); break;
+          case 6: project_many<6>(w, xp, v); break;
+          case 7: project_many<7>(w, xp, v); break;
+          case 8: project_many<8>(w, xp, v); break;
+          default: break;
+        }
+      }
+      break;
   }
 }
 

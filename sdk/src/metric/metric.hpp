@@ -104,8 +104,9 @@ class Metric {
   // W^T x'' restricted to part p's joint coordinates (block Jc; the hip height for the torso):
   // kProjectionRows x stride floats, padding 0. Allocation-free.
   void part_projections(const float* x, Workspace& ws, float* p) const;
-  // The same for n frames at once (any n; every W row is loaded once per kBatch frames): x[f],
-  // ws[f], p[f] for f < n. Results equal part_projections' bit for bit.
+  // The same for n frames at once (any n; every W row is loaded and converted once per pass of
+  // up to 8 frames on AVX-512, 4 on the other ISAs): x[f], ws[f], p[f] for f < n. Results equal
+  // part_projections' bit for bit.
   void part_projections_batch(const float* const* x, Workspace* const* ws, float* const* p, int n) const;
 
  private:
