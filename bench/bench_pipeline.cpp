@@ -137,10 +137,18 @@ struct Stages {
 
 constexpr int kBlock = 120;
 
-void run_push(benchmark::State& state, bool lesson) {
+// whole_section: the aligner's whole-section pass every frame (AlignmentOptions::windowed = false,
+// the aligner before cold4), to compare with the window on the same binary.
+kata::pipeline::TeacherOptions teacher_options(bool whole_section) {
+  kata::pipeline::TeacherOptions o;
+  o.alignment.windowed = !whole_section;
+  return o;
+}
+
+void run_push(benchmark::State& state, bool lesson, bool whole_section = false) {
   const Setup& s = Setup::get(lesson);
   kata::pipeline::Pipeline p(s.config);
-  p.set_teacher(s.teacher);
+  p.set_teacher(s.teacher, teacher_options(whole_section));
   std::vector<kata::pipeline::Result> out(256);
   int64_t i = 0;
   for (auto _ : state) {
@@ -152,8 +160,8 @@ void run_push(benchmark::State& state, bool lesson) {
 }
 void BM_PipelinePush(benchmark::State& state) { run_push(state, false); }
 BENCHMARK(BM_PipelinePush);
-void BM_PipelinePushLesson(benchmark::State& state) { run_push(state, true); }
-BENCHMARK(BM_PipelinePushLesson);
+void BM_PipelinePushLesson(benchmark::State& state) { run_push(state, true, state.range(0) == 1); }
+BENCHMARK(BM_PipelinePushLesson)->ArgName("whole_section")->DenseRange(0, 1);
 
 enum class Pacing : int { kHot = 0, kSleep = 1, kEvict = 2, kEvictAll = 3, kSpin = 4, kFlushData = 5, kFlushCode = 6 };
 
@@ -219,11 +227,11 @@ char between_pushes(Pacing pacing, std::vector<char>& l2, std::vector<char>& l3)
   return (*buffer)[buffer->size() / 2];
 }
 
-void run_push_paced(benchmark::State& state, bool lesson) {
+void run_push_paced(benchmark::State& state, bool lesson, bool whole_section = false) {
   const Setup& s = Setup::get(lesson);
   const auto pacing = static_cast<Pacing>(state.range(0));
   kata::pipeline::Pipeline p(s.config);
-  p.set_teacher(s.teacher);
+  p.set_teacher(s.teacher, teacher_options(whole_section));
   std::vector<kata::pipeline::Result> out(256);
   std::vector<char> l2, l3;
   int64_t i = 0;
@@ -247,7 +255,7 @@ void run_push_paced(benchmark::State& state, bool lesson) {
   state.SetItemsProcessed(state.iterations());
 }
 void BM_PipelinePushPaced(benchmark::State& state) { run_push_paced(state, false); }
-void BM_PipelinePushPacedLesson(benchmark::State& state) { run_push_paced(state, true); }
+void BM_PipelinePushPacedLesson(benchmark::State& state) { run_push_paced(state, true, state.range(1) == 1); }
 // The three stages of BM_PipelinePushPaced timed apart (counters stream_us, score_us, ghost_us:
 // medians per frame, wall clock), to see which working set a cold frame pays for.
 void BM_StagesPaced(benchmark::State& state) {
@@ -298,8 +306,8 @@ BENCHMARK(BM_PipelinePushPaced)
     ->Iterations(240)
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PipelinePushPacedLesson)
-    ->ArgName("hot0_sleep1_evict2_evictall3_spin4")
-    ->DenseRange(0, 4)
+    ->ArgNames({"hot0_sleep1_evict2_evictall3_spin4", "whole_section"})
+    ->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}})
     ->UseManualTime()
     ->Iterations(240)
     ->Unit(benchmark::kMicrosecond);
