@@ -33,7 +33,7 @@
 // advanced by the teacher frames since the search's student frame. So a frame reads the window's
 // rows and 1/R of the section's (410 of the default lesson's 1,829 rows) instead of all of them;
 // a skip is found up to 2R frames later than by the whole-section pass. Shorter sections take the
-// whole-section programme every frame, as before (docs/model/alignment.md has the figures).
+// whole-section programme every frame, as before (docs/performance.md, issue 23, "cold4", has the figures).
 // Threads: an Aligner belongs to one stream, used by one thread at a time.
 #pragma once
 
