@@ -42,6 +42,7 @@ Aligner::Aligner(std::shared_ptr<const Reference> reference, AlignmentOptions op
   if (windowed_) {
     decimation_ = std::clamp((n + 255) / 256, 4, 30);
     search_row_.assign(stride, 0.0f);
+    search_pk_.assign(static_cast<size_t>(span_) + 1, 0.0);
     window_.prev.assign(static_cast<size_t>(window_size_), 0.0);
     window_.cur.assign(static_cast<size_t>(window_size_), 0.0);
     window_c_.assign(static_cast<size_t>(window_size_), 0.0f);
@@ -105,26 +106,39 @@ int Aligner::follow(Track& tr, const float* c, int a, int b, bool loop, int star
     tr.last_time = t;
     return tr.match;
   }
+  const StepCosts step = begin_step(tr, n, t, decimation, step_costs_.data());
+  // One pass per step k (align_pass_kernel.inl; the inner loops vectorise): a jump from the best
+  // place (0 after the re-basing), or a step of k from j - k; then re-based on the cheapest
+  // frame, the best place anywhere.
+  best = detail::alignment_step(tr.prev.data(), tr.cur.data(), c, a, b, step_costs_.data(), step.k_max, step.jump, loop);
+  decide(tr, best, a, b, loop, step.jump);
+  return tr.match;
+}
+
+Aligner::StepCosts Aligner::begin_step(Track& tr, int n, double t, int decimation, double* pk) {
+  const Reference& ref = *reference_;
   const double dt = std::max(0.0, t - tr.last_time);
   // The jump cost is set in seconds, so it follows the student's frame rate, smoothed over
   // about 10 frames (a gap after lost tracking counts as at most 0.1 s per frame the track sees).
   if (dt > 0.0) tr.student_dt += 0.1 * (std::min(dt, 0.1 * decimation) - tr.student_dt);
-  const double advance = dt / ft;  // expected teacher frames
+  const double advance = dt / ref.frame_time();  // expected teacher frames
+  StepCosts step;
   // Steps beyond the band are never needed: further moves are jumps.
-  const int k_max = std::min({std::max(1, static_cast<int>(std::ceil(options_.max_rate * advance))), span_, n - 1});
+  step.k_max = std::min({std::max(1, static_cast<int>(std::ceil(options_.max_rate * advance))), span_, n - 1});
   const double penalty = options_.step_penalty * ref.step_cost(), hold = options_.hold_penalty * ref.step_cost();
-  const double jump = jump_cost(tr);
+  for (int k = 0; k <= step.k_max; ++k)
+    pk[k] = penalty * std::max(0.0, k - advance) + hold * std::max(0.0, advance - k);
+  step.jump = jump_cost(tr);
   std::swap(tr.prev, tr.cur);
-  cur = tr.cur.data();
-  const double* prev = tr.prev.data();
-  // One pass per step k (align_pass_kernel.inl; the inner loops vectorise): a jump from the best
-  // place (0 after the re-basing), or a step of k from j - k; then re-based on the cheapest
-  // frame, the best place anywhere.
-  double* pk = step_costs_.data();
-  for (int k = 0; k <= k_max; ++k) pk[k] = penalty * std::max(0.0, k - advance) + hold * std::max(0.0, advance - k);
-  best = detail::alignment_step(prev, cur, c, a, b, pk, k_max, jump, loop);
+  tr.last_time = t;
+  return step;
+}
+
+void Aligner::decide(Track& tr, int best, int a, int b, bool loop, double jump) {
   // The local band just ahead of the last match, then the move if the best place elsewhere is
   // cheaper by the margin.
+  const double* cur = tr.cur.data();
+  const int n = b - a + 1;
   int local = tr.match;
   for (int k = 1; k <= std::min(span_, n - 1); ++k) {
     const int j = loop ? wrap(tr.match + k) : tr.match + k;
@@ -137,8 +151,6 @@ int Aligner::follow(Track& tr, const float* c, int a, int b, bool loop, int star
   } else {
     tr.match = local;
   }
-  tr.last_time = t;
-  return tr.match;
 }
 
 int Aligner::teacher_frame(int window_index) const {
@@ -265,21 +277,29 @@ int Aligner::align(const float* s, double t) {
     seed_window(search_.match, t, scaled);
     return match_;
   }
-  // The search: this frame's slice of its pass, over the student row of its frame.
+  // The search: this frame's slice of its pass and of its programme's step (each frame's costs
+  // depend only on the last step's, all kept), over the student row of its frame; the re-basing
+  // and the decision once the R slices are done.
   if (phase_ == 0) {
     std::copy(scaled, scaled + stride, search_row_.data());
     search_time_ = t;
+    search_step_ = begin_step(search_, n, t, decimation_, search_pk_.data());
   }
   const int slice = (n + decimation_ - 1) / decimation_;
   const int lo = a + phase_ * slice, hi = std::min(b, lo + slice - 1);
-  if (lo <= hi) distances(search_row_.data(), lo, hi, c + lo);
+  if (lo <= hi) {
+    distances(search_row_.data(), lo, hi, c + lo);
+    detail::alignment_step_range(search_.prev.data(), search_.cur.data(), c, a, b, lo, hi, search_pk_.data(),
+                                 search_step_.k_max, search_step_.jump, options_.loop);
+  }
   if (phase_ == 0) search_anchor_pending_ = true;
   if (++phase_ == decimation_) {
     phase_ = 0;
+    const int best = detail::alignment_rebase(search_.cur.data(), a, b);
     // The search judges the window's match of its frame: the band after it, against the best
     // place of the whole section by the margin.
     search_.match = search_anchor_;
-    follow(search_, c, a, b, options_.loop, a, search_time_, decimation_);
+    decide(search_, best, a, b, options_.loop, search_step_.jump);
     if (search_.relocations != search_moves_) {
       search_moves_ = search_.relocations;
       int away = std::abs(search_.match - match_);

@@ -127,6 +127,15 @@ class Aligner {
   // `start`), then the match (the band after the last one, or the best place by the margin).
   // decimation: the track sees every decimation-th student frame (its first interval guess).
   int follow(Track& track, const float* c, int a, int b, bool loop, int start, double t, int decimation);
+  // The costs of one step of a track (and its clock moved on to t, its costs swapped): the
+  // largest step, and the jump; pk[0..k_max] = the cost of a step of k.
+  struct StepCosts {
+    int k_max = 1;
+    double jump = 0.0;
+  };
+  StepCosts begin_step(Track& track, int n, double t, int decimation, double* pk);
+  // The match after a step whose best place is `best`: the band after the last match, or the move.
+  void decide(Track& track, int best, int a, int b, bool loop, double jump);
   // c[j - a] = the distance of the student's scaled row to section frames j = a..b (in order).
   void distances(const float* scaled, int a, int b, float* c) const;
   int teacher_frame(int window_index) const;  // the section frame at a window index
@@ -148,6 +157,8 @@ class Aligner {
   int phase_ = 0;                   // this frame's slice of the search's pass (0..R-1)
   std::vector<float> search_row_;   // the search's student row (scaled), kept for its R slices
   double search_time_ = 0.0;        // its time
+  StepCosts search_step_;           // its step's costs
+  std::vector<double> search_pk_;
   int64_t search_moves_ = 0;        // the search's relocations already followed
   int search_anchor_ = 0;           // the match of the search's frame: the place it judges
   bool search_anchor_pending_ = false;
