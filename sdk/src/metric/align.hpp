@@ -27,13 +27,15 @@
 // behind the match, two ahead) is not compared whole every frame. The match is followed by the
 // same dynamic programme over the window only (frames entering it start from a jump), and the
 // relocation search, the same programme over the whole section, runs on every R-th student frame
-// (R = ceil(frames / 256) within 4..30: the search's student rate is 120 / R Hz at 120 Hz),
-// its distance pass spread over the R frames (one slice of the section per frame); when the search
-// moves to a place outside the window (a re-localisation at its rate), the window follows there,
-// advanced by the teacher frames since the search's student frame. So a frame reads the window's
-// rows and 1/R of the section's (410 of the default lesson's 1,829 rows) instead of all of them;
-// a skip is found up to 2R frames later than by the whole-section pass. Shorter sections take the
-// whole-section programme every frame, as before (docs/performance.md, issue 23, "cold4", has the figures).
+// (R = ceil(frames / 256) within 4..30: the search's student rate is 120 / R Hz at 120 Hz), its
+// distance pass and its step spread over the R frames (one slice of the section per frame), its
+// costs, jump and open-begin prior 1/R of the frame rate's (one distance per R frames); when the
+// search moves to a place outside the window (a re-localisation at its rate, judged at the
+// window's match), the window is placed there with the search's costs (x R). So a frame reads the
+// window's rows and 1/R of the section's (410 of the default lesson's 1,829 rows) instead of all
+// of them; a skip is found up to 2R frames later than by the whole-section pass. Shorter sections
+// take the whole-section programme every frame, as before (docs/performance.md, issue 23,
+// "cold4", has the figures).
 // Threads: an Aligner belongs to one stream, used by one thread at a time.
 #pragma once
 
