@@ -77,6 +77,45 @@ BENCHMARK(Align_Relocating);
 void Align_NoRelocation(benchmark::State& state) { run_aligner(state, 0.0); }
 BENCHMARK(Align_NoRelocation);
 
+// The hot aligner timed frame by frame (wall clock): p50_us, and max_us the median over blocks of
+// 32 frames of the block's slowest frame, to show the frame that runs the windowed search's
+// programme step (one frame in R) beside the others.
+void Align_RelocatingPerFrame(benchmark::State& state) {
+  const AlignFixture& f = align_fixture();
+  metric::AlignmentOptions o;
+  o.windowed = state.range(0) == 0;
+  metric::Aligner aligner(f.ref, o);
+  std::vector<double> took, block_max;
+  took.reserve(static_cast<size_t>(state.max_iterations));
+  block_max.reserve(static_cast<size_t>(state.max_iterations) / 32 + 1);
+  int i = 0;
+  double slowest = 0.0;
+  for (auto _ : state) {
+    const auto t0 = std::chrono::steady_clock::now();
+    benchmark::DoNotOptimize(aligner.align(f.student.data() + static_cast<size_t>(i) * f.stride, i / 120.0));
+    const double dt = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+    state.SetIterationTime(dt);
+    took.push_back(dt);
+    slowest = std::max(slowest, dt);
+    if (took.size() % 32 == 0) block_max.push_back(slowest), slowest = 0.0;
+    if (++i == f.n) i = 0;
+  }
+  auto median = [](std::vector<double> v) {
+    if (v.empty()) return 0.0;
+    std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+    return 1e6 * v[v.size() / 2];
+  };
+  state.counters["p50_us"] = median(took);
+  state.counters["max_us"] = median(block_max);
+  state.counters["decimation"] = aligner.decimation();
+}
+BENCHMARK(Align_RelocatingPerFrame)
+    ->ArgName("whole_section")
+    ->DenseRange(0, 1)
+    ->UseManualTime()
+    ->Iterations(3200)
+    ->Unit(benchmark::kMicrosecond);
+
 // The same aligner when a live frame finds the caches cold: between two frames, an 8.3 ms sleep
 // (a 120 Hz stream: what the machine leaves in the caches meanwhile) or a 64 MiB write (every
 // data line cold). Counter p50_us: the median wall time of one align() of 240.

@@ -7,7 +7,9 @@
 //   (b) a Stream, a Scorer and a Retargeter + place_over_student driven by hand, in the same order,
 // alternating which goes first; counters report the per-frame thread CPU time of each and their
 // ratio.
-// BM_Pipeline* alone gives the plain per-frame figure.
+// BM_Pipeline* alone gives the plain per-frame figure. The *Lesson variants run the same push on
+// the default lesson's pair (kata coach: teacher 05_18, 1,829 frames; student 05_19 on subject 2's
+// body), where the alignment's section is five times longer (issue 23, cold4).
 //
 // BM_PipelinePushPaced: the same push when the caches are cold, as they are in a live stream at
 // 120 Hz whose thread sleeps between frames while other work runs (issue 23). Each push is timed
@@ -65,29 +67,31 @@ struct Setup {
   int frame_count = 0, joints = 0;
   double frame_time = 0.0;
 
-  static const Setup& get() {
-    static const Setup instance = [] {
-      Setup s;
-      const kata::BvhClip& t = kata::test::clip("02_01");
-      const kata::BvhClip& st = kata::test::clip("07_01");
-      auto metric = std::make_shared<const kata::metric::Metric>(
-          kata::metric::load_model(std::string(KATA_SOURCE_DIR) + "/models/default.kata"));
-      const auto tmap = kata::make_gpd_map(t.skeleton, kata::preset_joint_names("cmu"));
-      const std::vector<float>& tp = kata::test::clip_positions("02_01", 1);
-      s.teacher = kata::pipeline::Teacher::from_positions(
-          metric, t.skeleton, kata::stream_config_for(t.skeleton, tmap, metric->stencil()), tp.data(),
-          t.frame_count() - 1, t.frame_time);
-      const auto smap = kata::make_gpd_map(st.skeleton, kata::preset_joint_names("cmu"));
-      s.config.stream = kata::stream_config_for(st.skeleton, smap, metric->stencil());
-      s.config.student = st.skeleton;
-      s.config.result_capacity = 256;
-      s.frames = kata::test::clip_positions("07_01", 1);
-      s.frame_count = st.frame_count() - 1;
-      s.joints = st.skeleton.joint_count();
-      s.frame_time = st.frame_time;
-      return s;
-    }();
-    return instance;
+  // lesson: the default lesson's pair instead of 02_01 <- 07_01.
+  static const Setup& get(bool lesson = false) {
+    static const Setup walk = make("02_01", "07_01"), dance = make("05_18", "05_19_on_02");
+    return lesson ? dance : walk;
+  }
+  static Setup make(const char* teacher_name, const char* student_name) {
+    Setup s;
+    const kata::BvhClip& t = kata::test::clip(teacher_name);
+    const kata::BvhClip& st = kata::test::clip(student_name);
+    auto metric = std::make_shared<const kata::metric::Metric>(
+        kata::metric::load_model(std::string(KATA_SOURCE_DIR) + "/models/default.kata"));
+    const auto tmap = kata::make_gpd_map(t.skeleton, kata::preset_joint_names("cmu"));
+    const std::vector<float>& tp = kata::test::clip_positions(teacher_name, 1);
+    s.teacher = kata::pipeline::Teacher::from_positions(
+        metric, t.skeleton, kata::stream_config_for(t.skeleton, tmap, metric->stencil()), tp.data(),
+        t.frame_count() - 1, t.frame_time);
+    const auto smap = kata::make_gpd_map(st.skeleton, kata::preset_joint_names("cmu"));
+    s.config.stream = kata::stream_config_for(st.skeleton, smap, metric->stencil());
+    s.config.student = st.skeleton;
+    s.config.result_capacity = 256;
+    s.frames = kata::test::clip_positions(student_name, 1);
+    s.frame_count = st.frame_count() - 1;
+    s.joints = st.skeleton.joint_count();
+    s.frame_time = st.frame_time;
+    return s;
   }
   const float* frame(int i) const { return frames.data() + static_cast<size_t>(i % frame_count) * 3 * joints; }
 };
@@ -133,10 +137,18 @@ struct Stages {
 
 constexpr int kBlock = 120;
 
-void BM_PipelinePush(benchmark::State& state) {
-  const Setup& s = Setup::get();
+// whole_section: the aligner's whole-section pass every frame (AlignmentOptions::windowed = false,
+// the aligner before cold4), to compare with the window on the same binary.
+kata::pipeline::TeacherOptions teacher_options(bool whole_section) {
+  kata::pipeline::TeacherOptions o;
+  o.alignment.windowed = !whole_section;
+  return o;
+}
+
+void run_push(benchmark::State& state, bool lesson, bool whole_section = false) {
+  const Setup& s = Setup::get(lesson);
   kata::pipeline::Pipeline p(s.config);
-  p.set_teacher(s.teacher);
+  p.set_teacher(s.teacher, teacher_options(whole_section));
   std::vector<kata::pipeline::Result> out(256);
   int64_t i = 0;
   for (auto _ : state) {
@@ -146,7 +158,10 @@ void BM_PipelinePush(benchmark::State& state) {
   }
   state.SetItemsProcessed(state.iterations());
 }
+void BM_PipelinePush(benchmark::State& state) { run_push(state, false); }
 BENCHMARK(BM_PipelinePush);
+void BM_PipelinePushLesson(benchmark::State& state) { run_push(state, true, state.range(0) == 1); }
+BENCHMARK(BM_PipelinePushLesson)->ArgName("whole_section")->DenseRange(0, 1);
 
 enum class Pacing : int { kHot = 0, kSleep = 1, kEvict = 2, kEvictAll = 3, kSpin = 4, kFlushData = 5, kFlushCode = 6 };
 
@@ -212,11 +227,11 @@ char between_pushes(Pacing pacing, std::vector<char>& l2, std::vector<char>& l3)
   return (*buffer)[buffer->size() / 2];
 }
 
-void BM_PipelinePushPaced(benchmark::State& state) {
-  const Setup& s = Setup::get();
+void run_push_paced(benchmark::State& state, bool lesson, bool whole_section = false) {
+  const Setup& s = Setup::get(lesson);
   const auto pacing = static_cast<Pacing>(state.range(0));
   kata::pipeline::Pipeline p(s.config);
-  p.set_teacher(s.teacher);
+  p.set_teacher(s.teacher, teacher_options(whole_section));
   std::vector<kata::pipeline::Result> out(256);
   std::vector<char> l2, l3;
   int64_t i = 0;
@@ -239,6 +254,8 @@ void BM_PipelinePushPaced(benchmark::State& state) {
   state.counters["p50_us"] = median_us(took);
   state.SetItemsProcessed(state.iterations());
 }
+void BM_PipelinePushPaced(benchmark::State& state) { run_push_paced(state, false); }
+void BM_PipelinePushPacedLesson(benchmark::State& state) { run_push_paced(state, true, state.range(1) == 1); }
 // The three stages of BM_PipelinePushPaced timed apart (counters stream_us, score_us, ghost_us:
 // medians per frame, wall clock), to see which working set a cold frame pays for.
 void BM_StagesPaced(benchmark::State& state) {
@@ -285,6 +302,12 @@ BENCHMARK(BM_StagesPaced)
 BENCHMARK(BM_PipelinePushPaced)
     ->ArgName("hot0_sleep1_evict2_evictall3_spin4")
     ->DenseRange(0, 4)
+    ->UseManualTime()
+    ->Iterations(240)
+    ->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_PipelinePushPacedLesson)
+    ->ArgNames({"hot0_sleep1_evict2_evictall3_spin4", "whole_section"})
+    ->ArgsProduct({{0, 1, 2, 3, 4}, {0, 1}})
     ->UseManualTime()
     ->Iterations(240)
     ->Unit(benchmark::kMicrosecond);

@@ -177,6 +177,51 @@ TEST(Kernels, AlignmentStepMatchesThePlainRecurrence) {
       }
 }
 
+// The windowed search's step (cold4) taken slice by slice: alignment_step_range over slices of
+// 1, 7 and 64 frames, then re-based, equals the plain recurrence (and so alignment_step) frame for
+// frame, and writes nothing outside its slice.
+TEST(Kernels, AlignmentStepBySlicesMatchesThePlainRecurrence) {
+  std::srand(12);
+  auto value = [] { return static_cast<double>(std::rand()) / static_cast<double>(RAND_MAX) * 3.0; };
+  const int frames = 300;
+  for (bool loop : {false, true})
+    for (int k_max : {1, 5, 17})
+      for (auto [a, b] : {std::pair{0, frames - 1}, std::pair{17, 140}})
+        for (int slice : {1, 7, 64}) {
+          std::vector<double> prev(frames), pk(static_cast<size_t>(k_max) + 1), sliced(frames, -1.0), plain(frames, -1.0);
+          std::vector<float> c(frames);
+          for (double& v : prev) v = value();
+          for (float& v : c) v = static_cast<float>(value());
+          for (double& v : pk) v = value() * 0.1;
+          const double jump = 2.0;
+          for (int lo = a; lo <= b; lo += slice) {
+            const int hi = std::min(b, lo + slice - 1);
+            metric::detail::alignment_step_range(prev.data(), sliced.data(), c.data(), a, b, lo, hi, pk.data(), k_max,
+                                                 jump, loop);
+            if (hi < b) {
+              ASSERT_EQ(sliced[hi + 1], -1.0) << "wrote past its slice " << lo << ".." << hi;
+            }
+          }
+          const int best = metric::detail::alignment_rebase(sliced.data(), a, b);
+          const int n = b - a + 1;
+          for (int j = a; j <= b; ++j) {
+            double m = jump;
+            for (int k = 0; k <= k_max; ++k) {
+              if (j - k >= a) m = std::min(m, prev[j - k] + pk[k]);
+              else if (loop) m = std::min(m, prev[j - k + n] + pk[k]);
+            }
+            plain[j] = m + c[j];
+          }
+          int plain_best = a;
+          for (int j = a; j <= b; ++j)
+            if (plain[j] < plain[plain_best]) plain_best = j;
+          const double base = plain[plain_best];
+          for (int j = a; j <= b; ++j) plain[j] -= base;
+          ASSERT_EQ(best, plain_best) << "loop " << loop << " k_max " << k_max << " slice " << slice;
+          for (int j = 0; j < frames; ++j) ASSERT_EQ(sliced[j], plain[j]) << "frame " << j << " slice " << slice;
+        }
+}
+
 
 // IEEE half precision for the alignment's rows: every one of the 65,536 halves converts exactly
 // (checked against sign x mantissa x 2^exponent in double), and a float becomes the nearest half

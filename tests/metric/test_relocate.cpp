@@ -18,6 +18,7 @@
 #include "metric/align_dtw.hpp"
 #include "io/model_file.hpp"
 #include "stream/stream.hpp"
+#include "support/alloc_counter.hpp"
 
 namespace kata {
 namespace {
@@ -130,6 +131,62 @@ void expect_found(const char* what, const Followed& r, const std::function<doubl
   EXPECT_GE(share, 0.90) << what;
   EXPECT_GE(mean, 85.0) << what;
   ::testing::Test::RecordProperty(std::string(what) + "_within", static_cast<int>(std::lround(1000 * share)));
+}
+
+// The windowed aligner (cold4) against the whole-section pass it replaces on long sections: on
+// the default lesson's real pair and on the known-truth students (skip, join, loop), the matched
+// frames of the two agree within 0.25 s on >= 97% of the frames, and the windowed one finds
+// each skip within 2R frames of the whole-section one. The walks' short clips (343 frames) are
+// not windowed and stay the whole-section pass exactly.
+struct Compared {
+  int frames = 0, equal = 0, close = 0;
+  int64_t moves_window = 0, moves_whole = 0;
+};
+Compared compare_windowed(const std::shared_ptr<const metric::Reference>& ref, const std::vector<float>& rows, int n,
+                          metric::AlignmentOptions o = {}) {
+  const int stride = ref->metric().stride();
+  o.windowed = true;
+  metric::Aligner windowed(ref, o);
+  o.windowed = false;
+  metric::Aligner whole(ref, o);
+  EXPECT_TRUE(windowed.windowed());
+  EXPECT_FALSE(whole.windowed());
+  Compared c;
+  for (int i = 0; i < n; ++i) {
+    const float* s = rows.data() + static_cast<size_t>(i) * stride;
+    const int a = windowed.align(s, i / kFps), b = whole.align(s, i / kFps);
+    ++c.frames;
+    if (a == b) ++c.equal;
+    if (std::getenv("KATA_ALIGN_DEBUG") && (a != b || i % 60 == 0))
+      std::printf("  %4d windowed %5d whole %5d (moves %lld / %lld)\n", i, a, b,
+                  static_cast<long long>(windowed.relocations()), static_cast<long long>(whole.relocations()));
+    int d = std::abs(a - b);
+    if (o.loop) d = std::min(d, windowed.last() - windowed.first() + 1 - d);
+    if (d <= 0.25 * kFps) ++c.close;
+  }
+  c.moves_window = windowed.relocations();
+  c.moves_whole = whole.relocations();
+  return c;
+}
+
+std::vector<float> projections(const metric::Metric& metric, const std::vector<float>& features) {
+  const int stride = metric.stride(), n = static_cast<int>(features.size() / gpd::kDims);
+  std::vector<float> rows(static_cast<size_t>(n) * stride);
+  metric::AlignedFloats proj(static_cast<size_t>(metric::kProjectionRows) * stride);
+  metric::Metric::Workspace ws = metric.make_workspace();
+  for (int i = 0; i < n; ++i) {
+    metric.part_projections(features.data() + static_cast<size_t>(i) * gpd::kDims, ws, proj.data());
+    std::copy(proj.data() + static_cast<size_t>(metric::kParts) * stride,
+              proj.data() + static_cast<size_t>(metric::kParts + 1) * stride, rows.data() + static_cast<size_t>(i) * stride);
+  }
+  return rows;
+}
+
+void expect_agrees(const char* what, const Compared& c) {
+  std::printf("%-22s windowed = whole-section on %.1f%%, within 0.25 s on %.1f%% of %d frames; moves %lld / %lld\n",
+              what, 100.0 * c.equal / c.frames, 100.0 * c.close / c.frames, c.frames,
+              static_cast<long long>(c.moves_window), static_cast<long long>(c.moves_whole));
+  EXPECT_GE(c.close, 0.97 * c.frames) << what;
 }
 
 class Relocate : public ::testing::Test {
@@ -266,6 +323,31 @@ TEST_F(Relocate, LoopedSectionFollowsEveryRepetition) {
   EXPECT_EQ(r.relocations, 0);
 }
 
+TEST_F(Relocate, WindowedAgreesWithTheWholeSectionPass) {
+  const auto ref = std::make_shared<const metric::Reference>(shipped_metric(), teacher_->data(), frames(), 1.0 / kFps);
+  const double turn = 40.0 * M_PI / 180.0;
+  const int n = frames();
+  auto check = [&](const char* what, int student_frames, const std::function<double(int)>& truth,
+                   metric::AlignmentOptions o = {}) {
+    const std::vector<float> rows = projections(*shipped_metric(), features(*motion_, student_frames, truth, 1.3, turn));
+    const Compared c = compare_windowed(ref, rows, student_frames, o);
+    expect_agrees(what, c);
+    EXPECT_EQ(c.moves_window, c.moves_whole) << what;
+  };
+  const int start = static_cast<int>(0.4 * n);
+  check("join at 40%", n - start, [=](int f) { return double(start + f); });
+  const int skip = static_cast<int>(2.0 * kFps), ahead = static_cast<int>(0.2 * n);
+  check("skip ahead 20%", n - ahead, [=](int f) { return f < skip ? double(f) : double(f + ahead); });
+  const int back = static_cast<int>(0.1 * n), at = static_cast<int>(0.6 * n);
+  check("skip back 10%", n, [=](int f) { return f < at ? double(f) : double(f - back); });
+  metric::AlignmentOptions looped;
+  looped.first_frame = static_cast<int>(0.3 * n);
+  looped.last_frame = static_cast<int>(0.8 * n);
+  looped.loop = true;
+  const int a = looped.first_frame, len = looped.last_frame - a + 1;
+  check("looped 30-80%", 3 * len, [=](int f) { return double(a + f % len); }, looped);
+}
+
 }  // namespace
 }  // namespace kata
 
@@ -308,6 +390,44 @@ TEST(RelocateVsDtw, OnlineAgreesWithTheOfflineReferenceOnRealPairs) {
   }
   std::printf("all pairs: %.1f%%\n", 100.0 * all_close / all);
 }
+
+TEST(RelocateWindowed, AgreesWithTheWholeSectionPassOnTheLesson) {
+  const auto& metric = shipped_metric();
+  const auto& teacher = test::clip_rows("05_18.bvh");
+  const auto ref = std::make_shared<const metric::Reference>(metric, teacher.data(), test::clip_frames("05_18.bvh"), 1.0 / kFps);
+  const std::vector<float> rows = projections(*metric, test::clip_rows("05_19_on_02.bvh"));
+  expect_agrees("05_18 <- 05_19_on_02", compare_windowed(ref, rows, test::clip_frames("05_19_on_02.bvh")));
+  // A short clip is not windowed: the whole-section pass, equal frame for frame.
+  const auto& walk = test::clip_rows("02_01.bvh");
+  const auto walk_ref = std::make_shared<const metric::Reference>(metric, walk.data(), test::clip_frames("02_01.bvh"), 1.0 / kFps);
+  EXPECT_FALSE(metric::Aligner(walk_ref).windowed());
+}
+
+// The live path: the windowed aligner's frames (window moves, the search's slices, a re-localisation
+// and a restart) allocate nothing.
+TEST(RelocateWindowed, AllocatesNothingPerFrame) {
+  if (!test::kAllocCounting) GTEST_SKIP() << "allocation counting is off under the sanitizers";
+  const auto& metric = shipped_metric();
+  const auto& teacher = test::clip_rows("05_18.bvh");
+  const auto ref = std::make_shared<const metric::Reference>(metric, teacher.data(), test::clip_frames("05_18.bvh"), 1.0 / kFps);
+  const std::vector<float> rows = projections(*metric, test::clip_rows("05_19_on_02.bvh"));
+  const int n = test::clip_frames("05_19_on_02.bvh"), stride = metric->stride();
+  metric::Aligner aligner(ref);
+  ASSERT_TRUE(aligner.windowed());
+  test::arm_alloc_counter();
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int i = 0; i < n; ++i) aligner.align(rows.data() + static_cast<size_t>(i) * stride, (pass * n + i) / kFps);
+    aligner.reset();
+  }
+  EXPECT_EQ(test::disarm_alloc_counter(), 0);
+  EXPECT_GE(aligner.decimation(), 4);
+}
+
+}  // namespace
+}  // namespace kata
+
+namespace kata {
+namespace {
 
 // The DTW path itself on a known truth: the teacher's own frames at 0.8x from 40% on.
 TEST(RelocateVsDtw, DtwFindsAKnownSubsequence) {

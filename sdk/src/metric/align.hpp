@@ -23,8 +23,19 @@
 // anywhere), those away from its start for 0.1 P (ties go to the start). A section (first_frame..last_frame) restricts the match to a part of the clip;
 // with loop, its last frame is followed by its first (practice a section over and over).
 //
-// Cost per frame: one distance of stride floats per section frame and K + 1 comparisons per
-// section frame (docs/model/alignment.md has the figure for the default teacher).
+// Cost per frame (cold4): a section longer than twice the tracking window (3 x the band: one band
+// behind the match, two ahead) is not compared whole every frame. The match is followed by the
+// same dynamic programme over the window only (frames entering it start from a jump), and the
+// relocation search, the same programme over the whole section, runs on every R-th student frame
+// (R = ceil(frames / 256) within 4..30: the search's student rate is 120 / R Hz at 120 Hz), its
+// distance pass and its step spread over the R frames (one slice of the section per frame), its
+// costs, jump and open-begin prior 1/R of the frame rate's (one distance per R frames); when the
+// search moves to a place outside the window (a re-localisation at its rate, judged at the
+// window's match), the window is placed there with the search's costs (x R). So a frame reads the
+// window's rows and 1/R of the section's (410 of the default lesson's 1,829 rows) instead of all
+// of them; a skip is found up to 2R frames later than by the whole-section pass. Shorter sections
+// take the whole-section programme every frame, as before (docs/performance.md, issue 23,
+// "cold4", has the figures).
 // Threads: an Aligner belongs to one stream, used by one thread at a time.
 #pragma once
 
@@ -69,6 +80,10 @@ struct AlignmentOptions {
   int32_t last_frame = -1;
   // Loop the section: its last frame is followed by its first.
   bool loop = false;
+  // Follow a long section in a window with the relocation search on every R-th frame (above:
+  // "Cost per frame"); false: the whole section every frame, as before cold4 (the reference the
+  // windowed aligner is tested against).
+  bool windowed = true;
 };
 
 // Follows one student stream along a clip reference. Allocates at construction only.
@@ -89,25 +104,72 @@ class Aligner {
   // The section's frames (first..last of the clip; 0..0 for a pose).
   int first() const { return first_; }
   int last() const { return last_; }
+  // Whether the section is followed in a window (AlignmentOptions::windowed and a section longer
+  // than twice the window), and the search's decimation R (1 when not windowed).
+  bool windowed() const { return windowed_; }
+  int decimation() const { return windowed_ ? decimation_ : 1; }
   // The next frame is matched anywhere in the section again.
   void reset();
 
  private:
-  int wrap(int j) const;      // j folded into the section when looping
-  double jump_cost() const;  // P, for the current student frame interval
+  // One dynamic programme over frames 0..size-1 of its own index (the whole section, or the
+  // window): its accumulated costs, match and student clock.
+  struct Track {
+    std::vector<double> prev, cur;  // accumulated cost D
+    bool started = false;
+    int match = 0;
+    int64_t relocations = 0;
+    double last_time = 0.0;
+    double student_dt = 0.0;  // smoothed student frame interval, seconds
+  };
+  int wrap(int j) const;                   // j folded into the section when looping
+  double jump_cost(const Track& track) const;  // P, for the track's student frame interval
+  // One student frame of a track over its indices [a, b] (loop: b is followed by a) with c the
+  // distances of this frame: the programme's step (or open begin, free within the band after
+  // `start`), then the match (the band after the last one, or the best place by the margin).
+  // decimation: the track sees every decimation-th student frame (its first interval guess).
+  int follow(Track& track, const float* c, int a, int b, bool loop, int start, double t, int decimation);
+  // The costs of one step of a track (and its clock moved on to t, its costs swapped): the
+  // largest step, and the jump; pk[0..k_max] = the cost of a step of k.
+  struct StepCosts {
+    int k_max = 1;
+    double jump = 0.0;
+  };
+  StepCosts begin_step(Track& track, int n, double t, int decimation, double* pk);
+  // The match after a step whose best place is `best`: the band after the last match, or the move.
+  void decide(Track& track, int best, int a, int b, bool loop, double jump);
+  // c[j - a] = the distance of the student's scaled row to section frames j = a..b (in order).
+  void distances(const float* scaled, int a, int b, float* c) const;
+  int teacher_frame(int window_index) const;  // the section frame at a window index
+  void seed_window(int target, double t, const float* scaled);
+  void move_window(int target);
+  // One frame of the window (seed_index >= 0: its open begin, free after that window index).
+  void follow_window(const float* scaled, double t, int seed_index);
 
   std::shared_ptr<const Reference> reference_;
   AlignmentOptions options_;
   int first_ = 0, last_ = 0, span_ = 1;
-  std::vector<double> cost_prev_, cost_cur_;  // accumulated cost D over teacher frames
-  std::vector<float> local_;                  // c(n, j) of this frame
-  std::vector<double> step_costs_;            // the cost of a step of k frames, k <= span_
-  std::vector<float> scaled_;                 // the student's row / the reference's half scale
-  bool started_ = false;
+  std::vector<double> step_costs_;  // the cost of a step of k frames, k <= span_
+  std::vector<float> scaled_;       // the student's row / the reference's half scale
+  Track search_;                    // the whole section (every frame, or every R-th when windowed)
+  std::vector<float> search_c_;     // its distances (section frames), filled slice by slice
+  // Windowed sections only:
+  bool windowed_ = false;
+  int decimation_ = 1;              // R: the search's student frames are every R-th
+  int phase_ = 0;                   // this frame's slice of the search's pass (0..R-1)
+  std::vector<float> search_row_;   // the search's student row (scaled), kept for its R slices
+  double search_time_ = 0.0;        // its time
+  StepCosts search_step_;           // its step's costs
+  std::vector<double> search_pk_;
+  int64_t search_moves_ = 0;        // the search's relocations already followed
+  int search_anchor_ = 0;           // the match of the search's frame: the place it judges
+  bool search_anchor_pending_ = false;
+  Track window_;                    // the window's programme
+  int window_start_ = 0;            // section frame at window index 0
+  int window_size_ = 0, window_back_ = 0;
+  std::vector<float> window_c_;
   int match_ = 0;
   int64_t relocations_ = 0;
-  double last_time_ = 0.0;
-  double student_dt_ = 0.0;  // smoothed student frame interval, seconds
 };
 
 }  // namespace kata::metric

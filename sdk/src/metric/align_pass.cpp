@@ -66,6 +66,12 @@ int alignment_step(const double* prev, double* cur, const float* c, int a, int b
   return base::alignment_step(prev, cur, c, a, b, pk, k_max, jump, loop);
 }
 
+void alignment_step_range(const double* prev, double* cur, const float* c, int a, int b, int lo, int hi,
+                          const double* pk, int k_max, double jump, bool loop) {
+  if (cpu_has_avx2()) return avx2::alignment_step_range(prev, cur, c, a, b, lo, hi, pk, k_max, jump, loop);
+  base::alignment_step_range(prev, cur, c, a, b, lo, hi, pk, k_max, jump, loop);
+}
+
 int alignment_rebase(double* cur, int a, int b) {
   if (cpu_has_avx2()) return avx2::alignment_rebase(cur, a, b);
   return base::alignment_rebase(cur, a, b);

@@ -29,18 +29,27 @@ int alignment_step(const double* prev, double* cur, const float* c, int a, int b
                    double jump, bool loop);
 // Subtracts the least cur[j], j in [a, b], from all of them; returns its index (the first).
 int alignment_rebase(double* cur, int a, int b);
+// alignment_step's costs for the frames lo..hi of the section [a, b] only, not re-based (prev
+// whole): equal bit for bit to alignment_step's there, so a step can be taken slice by slice
+// and re-based once at the end. Dispatches.
+void alignment_step_range(const double* prev, double* cur, const float* c, int a, int b, int lo, int hi,
+                          const double* pk, int k_max, double jump, bool loop);
 
 namespace base {
 void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out);
 int alignment_step(const double* prev, double* cur, const float* c, int a, int b, const double* pk, int k_max,
                    double jump, bool loop);
 int alignment_rebase(double* cur, int a, int b);
+void alignment_step_range(const double* prev, double* cur, const float* c, int a, int b, int lo, int hi,
+                          const double* pk, int k_max, double jump, bool loop);
 }
 namespace avx2 {
 void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out);
 int alignment_step(const double* prev, double* cur, const float* c, int a, int b, const double* pk, int k_max,
                    double jump, bool loop);
 int alignment_rebase(double* cur, int a, int b);
+void alignment_step_range(const double* prev, double* cur, const float* c, int a, int b, int lo, int hi,
+                          const double* pk, int k_max, double jump, bool loop);
 }
 
 }  // namespace kata::metric::detail

@@ -62,6 +62,10 @@ int alignment_step(const double* prev, double* cur, const float* c, int a, int b
   return base::alignment_step(prev, cur, c, a, b, pk, k_max, jump, loop);
 }
 int alignment_rebase(double* cur, int a, int b) { return base::alignment_rebase(cur, a, b); }
+void alignment_step_range(const double* prev, double* cur, const float* c, int a, int b, int lo, int hi,
+                          const double* pk, int k_max, double jump, bool loop) {
+  base::alignment_step_range(prev, cur, c, a, b, lo, hi, pk, k_max, jump, loop);
+}
 }  // namespace kata::metric::detail::avx2
 
 #endif

@@ -26,3 +26,16 @@ int alignment_step(const double* prev, double* cur, const float* c, int a, int b
   for (int j = a; j <= b; ++j) cur[j] += c[j];
   return alignment_rebase(cur, a, b);
 }
+
+void alignment_step_range(const double* prev, double* cur, const float* c, int a, int b, int lo, int hi,
+                          const double* pk, int k_max, double jump, bool loop) {
+  const int n = b - a + 1;
+  for (int j = lo; j <= hi; ++j) cur[j] = jump;
+  for (int k = 0; k <= k_max; ++k) {
+    const double p = pk[k];
+    for (int j = std::max(lo, a + k); j <= hi; ++j) cur[j] = std::min(cur[j], prev[j - k] + p);
+    if (loop)  // the section's end is followed by its start
+      for (int j = lo; j <= std::min(hi, a + k - 1); ++j) cur[j] = std::min(cur[j], prev[j - k + n] + p);
+  }
+  for (int j = lo; j <= hi; ++j) cur[j] += c[j];
+}
