@@ -51,6 +51,8 @@ void Retargeter::init(const std::vector<double>& rest_directions) {
     }
   }
   student_lengths_[0] = 0.0;
+  inverse_lengths_.assign(n, 0.0);
+  for (int j = 1; j < n; ++j) inverse_lengths_[j] = 1.0 / student_lengths_[j];
   if (rest_directions.empty()) {
     rest_dirs_.assign(3 * static_cast<size_t>(n), 0.0);
     for (int j = 0; j < n; ++j) rest_dirs_[3 * j + 1] = 1.0;
@@ -125,9 +127,11 @@ void Retargeter::align_on_teacher(const double* t, double* x, double* map) {
     bool settled = false;
     for (int it = 0; it < 30 && !settled; ++it) {
       const Eigen::Matrix3d inv_t = q.inverse().transpose();
-      const double g = it < 8 ? std::sqrt(inv_t.norm() / q.norm()) : 1.0;  // the scaling speeds the first steps
-      const Eigen::Matrix3d next = 0.5 * (g * q + inv_t / g);
-      settled = (next - q).norm() <= 1e-14 * next.norm();
+      // The scaling (|X^-T| / |X|)^(1/2) speeds the first steps; from the squared norms (one
+      // square root fewer in the iteration's chain of dependent square roots and divisions).
+      const double g = it < 8 ? std::sqrt(std::sqrt(inv_t.squaredNorm() / q.squaredNorm())) : 1.0;
+      const Eigen::Matrix3d next = 0.5 * (g * q + inv_t * (1.0 / g));
+      settled = (next - q).squaredNorm() <= 1e-28 * next.squaredNorm();  // |next - q| <= 1e-14 |next|
       q = next;
     }
     if (settled && std::isfinite(q.sum())) {
@@ -201,7 +205,7 @@ double Retargeter::max_bone_error(const double* x) const {
     const int p = table_.parents[j];
     const double dx = x[3 * j] - x[3 * p], dy = x[3 * j + 1] - x[3 * p + 1], dz = x[3 * j + 2] - x[3 * p + 2];
     const double len = std::sqrt(dx * dx + dy * dy + dz * dz);
-    worst = std::max(worst, std::fabs(len - student_lengths_[j]) / student_lengths_[j]);
+    worst = std::max(worst, std::fabs(len - student_lengths_[j]) * inverse_lengths_[j]);
   }
   return worst;
 }

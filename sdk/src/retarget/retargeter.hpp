@@ -146,6 +146,7 @@ class Retargeter {
   PairTable table_;
   RetargetOptions options_;
   std::vector<double> student_lengths_;   // per joint
+  std::vector<double> inverse_lengths_;   // 1 / student_lengths_ (0 for the root): max_bone_error multiplies
   std::vector<double> rest_dirs_;         // joints x 3 unit fallback directions
   std::vector<double> tau_student_;       // per pair
   std::vector<double> weight_;            // per pair: priority (x bone_weight on bones)
