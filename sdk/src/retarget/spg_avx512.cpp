@@ -115,10 +115,10 @@ double detail::stress_blocked_avx512(BlockedPairs& blocked, const double* x, dou
   const __m512d half = _mm512_set1_pd(0.5), three_halves = _mm512_set1_pd(1.5);
   const double* wv = blocked.weight();
   const double* dv = blocked.delta();
-  __m512d fsum0 = _mm512_setzero_pd(), fsum1 = _mm512_setzero_pd();
+  __m512d fsum = _mm512_setzero_pd();
   // One step: the 8 pairs of lanes (a_l, b_l), b's positions given; adds to ga, subtracts from gb.
   const auto step = [&](__m512d ax, __m512d ay, __m512d az, __m512d bx, __m512d by, __m512d bz, __m512d& gax,
-                        __m512d& gay, __m512d& gaz, __m512d& gbx, __m512d& gby, __m512d& gbz, __m512d& fsum) {
+                        __m512d& gay, __m512d& gaz, __m512d& gbx, __m512d& gby, __m512d& gbz) {
     const __m512d dx = _mm512_sub_pd(ax, bx), dy = _mm512_sub_pd(ay, by), dz = _mm512_sub_pd(az, bz);
     const __m512d w = _mm512_load_pd(wv), delta = _mm512_load_pd(dv);
     wv += 8;
@@ -153,7 +153,7 @@ double detail::stress_blocked_avx512(BlockedPairs& blocked, const double* x, dou
       __m512d gbx = _mm512_setzero_pd(), gby = _mm512_setzero_pd(), gbz = _mm512_setzero_pd();
       for (int k = 1; k <= 4; ++k) {
         step(ax, ay, az, _mm512_loadu_pd(a + k), _mm512_loadu_pd(a + 16 + k), _mm512_loadu_pd(a + 32 + k), gax, gay, gaz,
-             gbx, gby, gbz, (k & 1) ? fsum1 : fsum0);
+             gbx, gby, gbz);
         gbx = rotate(gbx);
         gby = rotate(gby);
         gbz = rotate(gbz);
@@ -170,7 +170,7 @@ double detail::stress_blocked_avx512(BlockedPairs& blocked, const double* x, dou
       __m512d gbx = _mm512_load_pd(gb), gby = _mm512_load_pd(gb + 8), gbz = _mm512_load_pd(gb + 16);
       for (int k = 0; k < 8; ++k) {
         step(ax, ay, az, _mm512_loadu_pd(b + k), _mm512_loadu_pd(b + 16 + k), _mm512_loadu_pd(b + 32 + k), gax, gay, gaz,
-             gbx, gby, gbz, (k & 1) ? fsum1 : fsum0);
+             gbx, gby, gbz);
         gbx = rotate(gbx);
         gby = rotate(gby);
         gbz = rotate(gbz);
@@ -186,7 +186,7 @@ double detail::stress_blocked_avx512(BlockedPairs& blocked, const double* x, dou
     _mm512_mask_storeu_pd(grad + n + 8 * bi, mask, gay);
     _mm512_mask_storeu_pd(grad + 2 * n + 8 * bi, mask, gaz);
   }
-  return 0.5 * horizontal_sum(_mm512_add_pd(fsum0, fsum1));
+  return 0.5 * horizontal_sum(fsum);
 #else
   // Off x86 (never dispatched there): the same lanes, one at a time.
   const int n = blocked.joints;
