@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include <Eigen/Dense>
 #include <gtest/gtest.h>
 
 #include "support/temp_paths.hpp"
@@ -695,6 +696,57 @@ TEST(Retarget, NoAllocationPerFrame) {
   std::string probe(1000, 'x');
   probe += std::to_string(before);
   EXPECT_GT(kata::test::allocations() - before, 0) << probe.size();
+}
+
+// The placement's rotation from Horn's quaternion against the SVD's V U^T (Kabsch), which
+// maximises trace(R H) independently: random point sets in 3-D, rotated and disturbed, of
+// every spread from round to flat; and the cases it must refuse: a reflection (det H < 0) and
+// nearly collinear points (the answer ill-defined), for which the SVD is taken instead.
+TEST(Retarget, QuaternionPlacementMatchesTheSvd) {
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> uni(-1.0, 1.0);
+  int accepted = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const int n = 5 + trial % 17;
+    const double flat = trial % 4 == 3 ? 0.05 : 1.0, noise = 0.02 * (trial % 5);
+    Eigen::Matrix3d rot = Eigen::Quaterniond(uni(rng), uni(rng), uni(rng), uni(rng)).normalized().toRotationMatrix();
+    Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+    double bound = 0.0;
+    for (int j = 0; j < n; ++j) {
+      const Eigen::Vector3d a(30.0 * uni(rng), 30.0 * uni(rng), 30.0 * flat * uni(rng));
+      const Eigen::Vector3d b = 1.1 * (rot * a) + Eigen::Vector3d(uni(rng), uni(rng), uni(rng)) * 30.0 * noise;
+      h += a * b.transpose();
+      bound += 0.5 * (a.squaredNorm() + b.squaredNorm());
+    }
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const Eigen::Matrix3d kabsch = svd.matrixV() * svd.matrixU().transpose();
+    double hr[9], r[9];
+    for (int i = 0; i < 9; ++i) hr[i] = h(i / 3, i % 3);
+    if (!(h.determinant() > 0.0)) {  // a flat, noisy set whose best fit is a reflection
+      EXPECT_FALSE(kata::retarget::detail::proper_best_rotation(hr, bound, r)) << trial;
+      continue;
+    }
+    if (!kata::retarget::detail::proper_best_rotation(hr, bound, r)) {
+      // Refused only when the second singular value is small against the first.
+      EXPECT_LT(svd.singularValues()[1] + svd.singularValues()[2], 2e-2 * svd.singularValues()[0]) << trial;
+      continue;
+    }
+    ++accepted;
+    Eigen::Matrix3d q;
+    for (int i = 0; i < 9; ++i) q(i / 3, i % 3) = r[i];
+    EXPECT_LT((q - kabsch).cwiseAbs().maxCoeff(), 1e-12) << "trial " << trial;
+    EXPECT_LT((q.transpose() * q - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 4e-15) << trial;  // a few units in the last place
+    EXPECT_NEAR(q.determinant(), 1.0, 4e-15) << trial;
+  }
+  std::printf("  quaternion placement: %d of 400 random sets answered (the rest refused: reflections, near rank 1)\n", accepted);
+  EXPECT_GT(accepted, 380);
+  // A reflection fits best: refused (det H < 0).
+  double mirror[9] = {-2, 0, 0, 0, 1.5, 0, 0, 0, 1}, r[9] = {7, 7, 7, 7, 7, 7, 7, 7, 7};
+  EXPECT_FALSE(kata::retarget::detail::proper_best_rotation(mirror, 10.0, r));
+  EXPECT_EQ(r[0], 7.0);
+  // Nearly collinear points (singular values 1, 1e-5, 1e-6): refused.
+  double line[9] = {1, 0, 0, 0, 1e-5, 0, 0, 0, 1e-6};
+  EXPECT_FALSE(kata::retarget::detail::proper_best_rotation(line, 1.0, r));
 }
 
 TEST(Retarget, PlaceOverStudentUndoesAYawAndATranslation) {
