@@ -12,11 +12,12 @@
 namespace kata::retarget {
 namespace {  // NOLINT: one copy per including translation unit (different -march)
 
-// Eight double lanes (GCC/Clang vector extensions), lowered to the unit's instruction set (one
-// 512-bit, two 256-bit or four 128-bit registers). Never passed or returned by value (that would
-// change the ABI between the units).
+// Eight double lanes (GCC/Clang vector extensions), never passed or returned by value across
+// units (that would change the ABI between them). With AVX-512 one native 512-bit vector; else
+// two 4-lane vectors (lowered to two 256-bit or four 128-bit registers): a 64-byte vector type
+// in a unit without AVX-512 went through the stack at every load (the AVX2 solve 2.5x slower).
+#if defined(__AVX512F__)
 typedef double Lanes8 __attribute__((vector_size(64)));
-
 inline void load(Lanes8& v, const double* p) { std::memcpy(&v, p, sizeof v); }
 inline void store(double* p, const Lanes8& v) { std::memcpy(p, &v, sizeof v); }
 // The sum of a dot product's eight partial sums, in a fixed order.
@@ -24,6 +25,38 @@ inline double reduce(const Lanes8& s) {
   const double t0 = s[0] + s[4], t1 = s[1] + s[5], t2 = s[2] + s[6], t3 = s[3] + s[7];
   return (t0 + t2) + (t1 + t3);
 }
+#else
+typedef double Lanes4 __attribute__((vector_size(32)));
+struct Lanes8 {
+  Lanes4 lo, hi;
+};
+inline Lanes8 operator*(const Lanes8& a, const Lanes8& b) { return {a.lo * b.lo, a.hi * b.hi}; }
+inline Lanes8 operator*(double a, const Lanes8& b) { return {a * b.lo, a * b.hi}; }
+inline Lanes8 operator+(const Lanes8& a, const Lanes8& b) { return {a.lo + b.lo, a.hi + b.hi}; }
+inline Lanes8 operator-(const Lanes8& a, const Lanes8& b) { return {a.lo - b.lo, a.hi - b.hi}; }
+inline Lanes8& operator+=(Lanes8& a, const Lanes8& b) {
+  a.lo += b.lo;
+  a.hi += b.hi;
+  return a;
+}
+inline Lanes8& operator-=(Lanes8& a, const Lanes8& b) {
+  a.lo -= b.lo;
+  a.hi -= b.hi;
+  return a;
+}
+inline void load(Lanes8& v, const double* p) {
+  std::memcpy(&v.lo, p, sizeof v.lo);
+  std::memcpy(&v.hi, p + 4, sizeof v.hi);
+}
+inline void store(double* p, const Lanes8& v) {
+  std::memcpy(p, &v.lo, sizeof v.lo);
+  std::memcpy(p + 4, &v.hi, sizeof v.hi);
+}
+inline double reduce(const Lanes8& s) {
+  const Lanes4 t = s.lo + s.hi;
+  return (t[0] + t[2]) + (t[1] + t[3]);
+}
+#endif
 
 // a.b over n doubles, n a multiple of 8 (the solver's buffers are padded with zeros to one:
 // SpgWork::padded), in eight partial sums: one serial chain of 3 x joints dependent additions
@@ -140,6 +173,48 @@ inline void step_products(const double* x, const double* xn, const double* g, co
 
 // The fused passes for a run-time count 0 .. kMaxCurvaturePairs (unrolled per count, so the
 // partial sums stay in registers).
+// The same three computations one product per pass (the arithmetic of each value is the same),
+// for units without AVX-512: their 16 vector registers cannot hold the fused passes' 2 x pairs
+// accumulators of 8 doubles, and on AVX2 the fused passes measured the same as these (5.11-5.21
+// against 5.25-5.30 us per warm CMU-21 frame), so the portable and NEON builds keep these.
+inline void dots_with_unfused(int m, const double* const* a, const double* const* b, const double* g, int n, double* out) {
+  for (int i = 0; i < m; ++i) {
+    out[i] = dot(a[i], g, n);
+    out[m + i] = dot(b[i], g, n);
+  }
+}
+inline double combine_unfused(int m, const double* const* s, const double* const* y, const double* p, const double* gq,
+                              double gamma, const double* g, double* d, int n) {
+  for (int k = 0; k < n; ++k) d[k] = -gamma * g[k];
+  for (int i = 0; i < m; ++i) {
+    const double* si = s[i];
+    const double* yi = y[i];
+    const double pi = p[i], gqi = gq[i];
+    for (int k = 0; k < n; ++k) d[k] -= pi * si[k] + gqi * yi[k];
+  }
+  return dot(g, d, n);
+}
+inline void step_products_unfused(int h, const double* x, const double* xn, const double* g, const double* gn, double* s,
+                                  double* y, const double* const* so, const double* const* yo, int n, double* out) {
+  for (int k = 0; k < n; ++k) {
+    s[k] = xn[k] - x[k];
+    y[k] = gn[k] - g[k];
+  }
+  out[0] = dot(s, s, n);
+  out[1] = dot(s, y, n);
+  out[2] = dot(y, y, n);
+  out[3] = dot(gn, gn, n);
+  for (int i = 0; i < h; ++i) {
+    out[4 + i] = dot(so[i], y, n);
+    out[4 + h + i] = dot(yo[i], y, n);
+  }
+}
+#if defined(__AVX512F__)
+constexpr bool kFusedPasses = true;
+#else
+constexpr bool kFusedPasses = false;
+#endif
+
 static_assert(detail::SpgWork::kMaxCurvaturePairs == 8, "with_count covers 0 .. 8 pairs");
 template <template <int> class F, class... Args>
 auto with_count(int m, Args... args) {
@@ -197,7 +272,11 @@ inline double quasi_newton_direction(detail::SpgWork& w, const double* g, double
     yv[i] = &w.y[static_cast<size_t>(slot[i]) * n];
   }
   double ab[2 * kRing];  // a_i = s_i.g, then b_i = y_i.g
-  with_count<DotsWith>(m, sv, yv, g, n, ab);
+  if (kFusedPasses) {
+    with_count<DotsWith>(m, sv, yv, g, n, ab);
+  } else {
+    dots_with_unfused(m, sv, yv, g, n, ab);
+  }
   const double* a = ab;
   const double* b = ab + m;
   double q[kRing], p[kRing], gq[kRing];
@@ -215,6 +294,7 @@ inline double quasi_newton_direction(detail::SpgWork& w, const double* g, double
   }
   for (int i = 0; i < m; ++i) gq[i] = gamma * q[i];
   // d = -gamma g - S p - gamma Y q, and g.d
+  if (!kFusedPasses) return combine_unfused(m, sv, yv, p, gq, gamma, g, d, n);
   return with_count<Combine>(m, sv, yv, p, gq, gamma, g, d, n);
 }
 
@@ -358,7 +438,11 @@ SpgResult spg_minimize(detail::SpgWork& w, const StressInstance& in, double* x_o
       yo[i] = &w.y[static_cast<size_t>(other) * n];
     }
     double products[4 + 2 * kRing];
-    with_count<StepProducts>(held, x, xn, g, gn, s, y, so, yo, n, products);
+    if (kFusedPasses) {
+      with_count<StepProducts>(held, x, xn, g, gn, s, y, so, yo, n, products);
+    } else {
+      step_products_unfused(held, x, xn, g, gn, s, y, so, yo, n, products);
+    }
     const double sts = products[0], sty = products[1];
     lambda = sty <= 0.0 ? opt.step_max : std::clamp(sts / sty, opt.step_min, opt.step_max);
     // A pair enters the curvature memory only with positive curvature (s.y > 0; the stress is
