@@ -161,6 +161,8 @@ std::vector<double> to_soa(int n, const double* rows) {
 
 // One stress + gradient evaluation (the SPG's unit of work; about 20 per warm CMU-21 frame) per
 // instruction set, side by side: the instances and points of the warm CMU-21 stream.
+// isa 3: the blocked AVX-512 kernel the solver runs (its instance gathered once per solve, as
+// the solver does; the gather is outside the timing here).
 void BM_StressKernel(benchmark::State& state, const std::string& preset, int isa) {
   if ((isa >= 1 && !kata::cpu_has_avx2()) || (isa >= 2 && !kata::cpu_has_avx512())) {
     state.SkipWithError("instruction set not available on this CPU");
@@ -183,6 +185,21 @@ void BM_StressKernel(benchmark::State& state, const std::string& preset, int isa
   kata::retarget::StressInstance in{n, t.pairs, t.u.data(), t.v.data(), rt.weights(), nullptr};
   std::vector<double> grad(3 * static_cast<size_t>(n));
   size_t k = 0;
+  if (isa == 3) {
+    std::vector<kata::retarget::detail::BlockedPairs> blocked;
+    for (const auto& d : deltas) {
+      in.delta = d.data();
+      blocked.emplace_back(n);
+      blocked.back().gather(in);
+    }
+    for (auto _ : state) {
+      benchmark::DoNotOptimize(kata::retarget::detail::stress_blocked_avx512(blocked[k], points[k].data(), grad.data()));
+      benchmark::ClobberMemory();
+      if (++k == deltas.size()) k = 0;
+    }
+    state.counters["pairs"] = t.pairs;
+    return;
+  }
   for (auto _ : state) {
     in.delta = deltas[k].data();
     benchmark::DoNotOptimize(kernel(in, points[k].data(), grad.data()));
@@ -194,6 +211,7 @@ void BM_StressKernel(benchmark::State& state, const std::string& preset, int isa
 BENCHMARK_CAPTURE(BM_StressKernel, cmu21_portable, std::string("cmu"), 0)->Unit(benchmark::kNanosecond);
 BENCHMARK_CAPTURE(BM_StressKernel, cmu21_avx2, std::string("cmu"), 1)->Unit(benchmark::kNanosecond);
 BENCHMARK_CAPTURE(BM_StressKernel, cmu21_avx512, std::string("cmu"), 2)->Unit(benchmark::kNanosecond);
+BENCHMARK_CAPTURE(BM_StressKernel, cmu21_avx512_blocked, std::string("cmu"), 3)->Unit(benchmark::kNanosecond);
 
 // SPG vs SMACOF on the same instances and start points: every 10th frame of the stream, cold
 // (from the FK baseline) or warm (from the previous frame's SPG optimum). SPG runs with the

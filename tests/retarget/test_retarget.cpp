@@ -7,11 +7,13 @@
 #include <cstdio>
 #include <cstdlib>
 #include <deque>
+#include <functional>
 #include <new>
 #include <random>
 #include <string>
 #include <vector>
 
+#include <Eigen/Dense>
 #include <gtest/gtest.h>
 
 #include "support/temp_paths.hpp"
@@ -326,14 +328,32 @@ TEST(RetargetStress, GradientMatchesCentralDifferences) {
 // Every instruction set's kernel against the plain formula in long double: value and gradient,
 // for joint counts whose rows end on every tail length of 4- and 8-pair vectors, with coincident
 // joints (r = 0: no gradient from that pair) and zero-weight pairs among spread ones.
+// The blocked AVX-512 kernel (the one the solver runs on AVX-512 machines; its own pair order,
+// BlockedPairs) the same way, for joint counts that fill and leave partial blocks of 8.
 TEST(RetargetStress, EveryKernelMatchesThePlainFormula) {
-  using Kernel = double (*)(const StressInstance&, const double*, double*);
+  using Kernel = std::function<double(const StressInstance&, const double*, double*)>;
   std::vector<std::pair<const char*, Kernel>> kernels = {{"portable", kata::retarget::detail::stress_portable}};
   if (kata::cpu_has_avx2()) kernels.emplace_back("avx2", kata::retarget::detail::stress_avx2);
-  if (kata::cpu_has_avx512()) kernels.emplace_back("avx512", kata::retarget::detail::stress_avx512);
+  if (kata::cpu_has_avx512()) {
+    kernels.emplace_back("avx512", kata::retarget::detail::stress_avx512);
+    kernels.emplace_back("avx512 blocked", [](const StressInstance& in, const double* x, double* grad) {
+      kata::retarget::detail::BlockedPairs blocked(in.joints), plain(in.joints);
+      kata::retarget::detail::gather_blocked_avx512(blocked, in);  // the solver's gather
+      plain.gather(in);
+      for (int i = 0; i < 8 * blocked.steps; ++i) {
+        EXPECT_EQ(blocked.weight()[i], plain.weight()[i]) << i;
+        EXPECT_EQ(blocked.delta()[i], plain.delta()[i]) << i;
+        const int p = plain.pair[i];
+        EXPECT_EQ(plain.weight()[i], p >= 0 ? in.weight[p] : 0.0) << i;
+      }
+      if (grad) return kata::retarget::detail::stress_blocked_avx512(blocked, x, grad);
+      Pose unused(3 * static_cast<size_t>(in.joints));
+      return kata::retarget::detail::stress_blocked_avx512(blocked, x, unused.data());
+    });
+  }
   std::mt19937 rng(5);
   std::uniform_real_distribution<double> uni(-1.0, 1.0);
-  for (int n : {2, 3, 5, 9, 12, 16, 21, 26}) {
+  for (int n : {2, 3, 5, 8, 9, 12, 15, 16, 17, 21, 24, 26, 33}) {
     const PairTable t = kata::retarget::build_pair_table(random_case(rng, n, 0.0).parents);
     std::vector<double> w(t.pairs), delta(t.pairs);
     for (int p = 0; p < t.pairs; ++p) {
@@ -373,6 +393,50 @@ TEST(RetargetStress, EveryKernelMatchesThePlainFormula) {
       EXPECT_NEAR(kernel(in, x.data(), nullptr), static_cast<double>(f), 1e-13 * static_cast<double>(f)) << name;
       for (int i = 0; i < 3 * n; ++i)
         ASSERT_NEAR(grad[i], static_cast<double>(g[i]), 1e-12 * static_cast<double>(gscale)) << name << " n " << n << " i " << i;
+    }
+  }
+}
+
+// The per-frame target distances of every instruction set against the plain formula
+// tau_s |t_u - t_v| / tau_t (long double), with teacher paths of zero length (the student's tau
+// is kept), tiny and subnormal positive ones (no overflow to inf or NaN), coincident joints, and
+// joint counts whose rows end on every tail length.
+TEST(RetargetStress, EveryTargetsKernelMatchesThePlainFormula) {
+  using Targets = void (*)(int, const double*, const double*, const double*, double*);
+  std::vector<std::pair<const char*, Targets>> kernels = {{"portable", kata::retarget::detail::targets_portable}};
+  if (kata::cpu_has_avx2()) kernels.emplace_back("avx2", kata::retarget::detail::targets_avx2);
+  if (kata::cpu_has_avx512()) kernels.emplace_back("avx512", kata::retarget::detail::targets_avx512);
+  std::mt19937 rng(9);
+  std::uniform_real_distribution<double> uni(-1.0, 1.0);
+  for (int n : {2, 3, 9, 16, 17, 21, 26}) {
+    const int pairs = n * (n - 1) / 2;
+    Pose t(3 * n), tau_s(pairs), tau_t(pairs);
+    for (double& ti : t) ti = 40.0 * uni(rng);
+    if (n >= 3) {
+      for (int k = 0; k < 3; ++k) t[k * n + n - 1] = t[k * n + 1];  // the last joint on joint 1
+    }
+    for (int p = 0; p < pairs; ++p) {
+      tau_s[p] = 20.0 + 10.0 * uni(rng);
+      tau_t[p] = p % 11 == 4 ? 0.0 : p % 13 == 6 ? 1e-300 : p % 17 == 8 ? 4e-320 : 25.0 + 10.0 * uni(rng);
+    }
+    for (const auto& [name, kernel] : kernels) {
+      Pose delta(pairs, -1.0);
+      kernel(n, t.data(), tau_s.data(), tau_t.data(), delta.data());
+      int p = 0;
+      for (int u = 0; u < n; ++u) {
+        for (int v = u + 1; v < n; ++v, ++p) {
+          long double r2 = 0.0L;
+          for (int k = 0; k < 3; ++k) r2 += std::pow(static_cast<long double>(t[k * n + u]) - t[k * n + v], 2);
+          const long double expect = tau_t[p] > 0.0 ? tau_s[p] * std::sqrt(r2) / tau_t[p] : tau_s[p];
+          ASSERT_FALSE(std::isnan(delta[p])) << name << " n " << n << " pair " << p;
+          if (std::isinf(static_cast<double>(expect))) {
+            EXPECT_TRUE(std::isinf(delta[p])) << name << " n " << n << " pair " << p;
+          } else {
+            ASSERT_NEAR(delta[p], static_cast<double>(expect), 4e-15 * static_cast<double>(std::fabs(expect)))
+                << name << " n " << n << " pair " << p << " tau_t " << tau_t[p];
+          }
+        }
+      }
     }
   }
 }
@@ -632,6 +696,57 @@ TEST(Retarget, NoAllocationPerFrame) {
   std::string probe(1000, 'x');
   probe += std::to_string(before);
   EXPECT_GT(kata::test::allocations() - before, 0) << probe.size();
+}
+
+// The placement's rotation from Horn's quaternion against the SVD's V U^T (Kabsch), which
+// maximises trace(R H) independently: random point sets in 3-D, rotated and disturbed, of
+// every spread from round to flat; and the cases it must refuse: a reflection (det H < 0) and
+// nearly collinear points (the answer ill-defined), for which the SVD is taken instead.
+TEST(Retarget, QuaternionPlacementMatchesTheSvd) {
+  std::mt19937 rng(23);
+  std::uniform_real_distribution<double> uni(-1.0, 1.0);
+  int accepted = 0;
+  for (int trial = 0; trial < 400; ++trial) {
+    const int n = 5 + trial % 17;
+    const double flat = trial % 4 == 3 ? 0.05 : 1.0, noise = 0.02 * (trial % 5);
+    Eigen::Matrix3d rot = Eigen::Quaterniond(uni(rng), uni(rng), uni(rng), uni(rng)).normalized().toRotationMatrix();
+    Eigen::Matrix3d h = Eigen::Matrix3d::Zero();
+    double bound = 0.0;
+    for (int j = 0; j < n; ++j) {
+      const Eigen::Vector3d a(30.0 * uni(rng), 30.0 * uni(rng), 30.0 * flat * uni(rng));
+      const Eigen::Vector3d b = 1.1 * (rot * a) + Eigen::Vector3d(uni(rng), uni(rng), uni(rng)) * 30.0 * noise;
+      h += a * b.transpose();
+      bound += 0.5 * (a.squaredNorm() + b.squaredNorm());
+    }
+    Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
+    const Eigen::Matrix3d kabsch = svd.matrixV() * svd.matrixU().transpose();
+    double hr[9], r[9];
+    for (int i = 0; i < 9; ++i) hr[i] = h(i / 3, i % 3);
+    if (!(h.determinant() > 0.0)) {  // a flat, noisy set whose best fit is a reflection
+      EXPECT_FALSE(kata::retarget::detail::proper_best_rotation(hr, bound, r)) << trial;
+      continue;
+    }
+    if (!kata::retarget::detail::proper_best_rotation(hr, bound, r)) {
+      // Refused only when the second singular value is small against the first.
+      EXPECT_LT(svd.singularValues()[1] + svd.singularValues()[2], 2e-2 * svd.singularValues()[0]) << trial;
+      continue;
+    }
+    ++accepted;
+    Eigen::Matrix3d q;
+    for (int i = 0; i < 9; ++i) q(i / 3, i % 3) = r[i];
+    EXPECT_LT((q - kabsch).cwiseAbs().maxCoeff(), 1e-12) << "trial " << trial;
+    EXPECT_LT((q.transpose() * q - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 4e-15) << trial;  // a few units in the last place
+    EXPECT_NEAR(q.determinant(), 1.0, 4e-15) << trial;
+  }
+  std::printf("  quaternion placement: %d of 400 random sets answered (the rest refused: reflections, near rank 1)\n", accepted);
+  EXPECT_GT(accepted, 380);
+  // A reflection fits best: refused (det H < 0).
+  double mirror[9] = {-2, 0, 0, 0, 1.5, 0, 0, 0, 1}, r[9] = {7, 7, 7, 7, 7, 7, 7, 7, 7};
+  EXPECT_FALSE(kata::retarget::detail::proper_best_rotation(mirror, 10.0, r));
+  EXPECT_EQ(r[0], 7.0);
+  // Nearly collinear points (singular values 1, 1e-5, 1e-6): refused.
+  double line[9] = {1, 0, 0, 0, 1e-5, 0, 0, 0, 1e-6};
+  EXPECT_FALSE(kata::retarget::detail::proper_best_rotation(line, 1.0, r));
 }
 
 TEST(Retarget, PlaceOverStudentUndoesAYawAndATranslation) {

@@ -51,6 +51,8 @@ void Retargeter::init(const std::vector<double>& rest_directions) {
     }
   }
   student_lengths_[0] = 0.0;
+  inverse_lengths_.assign(n, 0.0);
+  for (int j = 1; j < n; ++j) inverse_lengths_[j] = 1.0 / student_lengths_[j];
   if (rest_directions.empty()) {
     rest_dirs_.assign(3 * static_cast<size_t>(n), 0.0);
     for (int j = 0; j < n; ++j) rest_dirs_[3 * j + 1] = 1.0;
@@ -106,6 +108,88 @@ void Retargeter::forward_kinematics_baseline(const double* t, double* out) const
   }
 }
 
+bool detail::proper_best_rotation(const double* h, double bound, double* r) {
+  const double sxx = h[0], sxy = h[1], sxz = h[2], syx = h[3], syy = h[4], syz = h[5], szx = h[6], szy = h[7],
+               szz = h[8];
+  const double det_h = sxx * (syy * szz - syz * szy) - sxy * (syx * szz - syz * szx) + sxz * (syx * szy - syy * szx);
+  if (!(det_h > 0.0)) return false;
+  // Horn's key matrix K: q^T K q = sum_j b_j . R(q) a_j for unit quaternions q (w, x, y, z).
+  const double k[4][4] = {{sxx + syy + szz, syz - szy, szx - sxz, sxy - syx},
+                          {syz - szy, sxx - syy - szz, sxy + syx, szx + sxz},
+                          {szx - sxz, sxy + syx, -sxx + syy - szz, syz + szy},
+                          {sxy - syx, szx + sxz, syz + szy, -sxx - syy + szz}};
+  // det(K - l I) = l^4 + c2 l^2 + c1 l + c0 (trace K = 0): c2 = -2 |H|^2, c1 = -8 det H, c0 = det K.
+  double h2 = 0.0;
+  for (int i = 0; i < 9; ++i) h2 += h[i] * h[i];
+  const double c2 = -2.0 * h2, c1 = -8.0 * det_h;
+  const auto det3 = [](double a, double b, double c, double d, double e, double f, double g, double hh, double i) {
+    return a * (e * i - f * hh) - b * (d * i - f * g) + c * (d * hh - e * g);
+  };
+  double c0 = 0.0;
+  for (int j = 0, sign = 1; j < 4; ++j, sign = -sign) {  // expansion along row 0
+    int c[3], m = 0;
+    for (int q = 0; q < 4; ++q)
+      if (q != j) c[m++] = q;
+    c0 += sign * k[0][j] * det3(k[1][c[0]], k[1][c[1]], k[1][c[2]], k[2][c[0]], k[2][c[1]], k[2][c[2]], k[3][c[0]], k[3][c[1]], k[3][c[2]]);
+  }
+  // Newton from above the largest root (sigma_1 + sigma_2 + sigma_3 of H, at most sqrt(3) |H|
+  // and at most `bound`): the polynomial and its derivatives are positive there, so the iterates
+  // decrease monotonically onto it.
+  double lambda = std::min(bound, std::sqrt(3.0 * h2));
+  bool settled = false;
+  for (int it = 0; it < 50 && !settled; ++it) {
+    const double l2 = lambda * lambda;
+    const double p = (l2 + c2) * l2 + c1 * lambda + c0;
+    const double dp = 4.0 * l2 * lambda + 2.0 * c2 * lambda + c1;
+    if (!(dp > 0.0)) return false;
+    const double next = lambda - p / dp;
+    settled = std::fabs(next - lambda) <= 1e-14 * std::fabs(next);
+    lambda = next;
+  }
+  if (!settled || !(lambda > 0.0)) return false;
+  // The adjugate of A = K - lambda I is (prod of the other eigenvalues' gaps) v v^T: its
+  // largest column is the eigenvector, scaled.
+  double a[4][4];
+  for (int i = 0; i < 4; ++i)
+    for (int j = 0; j < 4; ++j) a[i][j] = k[i][j] - (i == j ? lambda : 0.0);
+  double best[4] = {0, 0, 0, 0}, best_norm = 0.0;
+  for (int col = 0; col < 4; ++col) {
+    double v[4], norm = 0.0;
+    for (int row = 0; row < 4; ++row) {  // cofactor (col, row) of the symmetric A: adj(A)[row][col]
+      int ri[3], ci[3], mr = 0, mc = 0;
+      for (int q = 0; q < 4; ++q) {
+        if (q != col) ri[mr++] = q;
+        if (q != row) ci[mc++] = q;
+      }
+      const double minor = det3(a[ri[0]][ci[0]], a[ri[0]][ci[1]], a[ri[0]][ci[2]], a[ri[1]][ci[0]], a[ri[1]][ci[1]],
+                                a[ri[1]][ci[2]], a[ri[2]][ci[0]], a[ri[2]][ci[1]], a[ri[2]][ci[2]]);
+      v[row] = ((row + col) % 2 ? -minor : minor);
+      norm += v[row] * v[row];
+    }
+    if (norm > best_norm) {
+      best_norm = norm;
+      for (int q = 0; q < 4; ++q) best[q] = v[q];
+    }
+  }
+  // The largest |adj column| is prod_i |lambda - lambda_i| |v_col| >= prod / 2, and the product
+  // about 4 lambda^2 (lambda - lambda_2): below 1e-2 lambda^3 (a gap to the next eigenvalue
+  // under about 0.25% of lambda, H near rank 1) the rounding of lambda would show in v.
+  const double floor = 1e-2 * lambda * lambda * lambda;
+  if (!(best_norm > floor * floor) || !std::isfinite(best_norm)) return false;
+  const double inv = 1.0 / std::sqrt(best_norm);
+  const double w = best[0] * inv, qx = best[1] * inv, qy = best[2] * inv, qz = best[3] * inv;
+  r[0] = 1.0 - 2.0 * (qy * qy + qz * qz);
+  r[1] = 2.0 * (qx * qy - w * qz);
+  r[2] = 2.0 * (qx * qz + w * qy);
+  r[3] = 2.0 * (qx * qy + w * qz);
+  r[4] = 1.0 - 2.0 * (qx * qx + qz * qz);
+  r[5] = 2.0 * (qy * qz - w * qx);
+  r[6] = 2.0 * (qx * qz - w * qy);
+  r[7] = 2.0 * (qy * qz + w * qx);
+  r[8] = 1.0 - 2.0 * (qx * qx + qy * qy);
+  return true;
+}
+
 void Retargeter::align_on_teacher(const double* t, double* x, double* map) {
   // Kabsch about the root: the rotation R maximising trace(R H), H = sum (x_j - x_0)(t_j - t_0)^T.
   const int n = table_.joints;
@@ -116,6 +200,28 @@ void Retargeter::align_on_teacher(const double* t, double* x, double* map) {
     h.noalias() += a * b.transpose();
   }
   const Eigen::Vector3d root(x[0], x[1], x[2]);
+  {
+    // The rule on a warm stream: a proper best fit, from Horn's quaternion (a few scalar Newton
+    // steps instead of the polar iteration's chain of 3 x 3 inverses and square roots).
+    double bound = 0.0;
+    for (int j = 1; j < n; ++j) {
+      for (int k = 0; k < 3; ++k) {
+        const double a = x[3 * j + k] - x[k], b = t[3 * j + k] - t[k];
+        bound += 0.5 * (a * a + b * b);
+      }
+    }
+    double hr[9], r[9];
+    for (int i = 0; i < 3; ++i)
+      for (int k = 0; k < 3; ++k) hr[3 * i + k] = h(i, k);
+    if (detail::proper_best_rotation(hr, bound, r)) {
+      for (int i = 0; i < 9; ++i) map[i] = r[i];
+      for (int j = 0; j < n; ++j) {
+        const double a[3] = {x[3 * j] - root[0], x[3 * j + 1] - root[1], x[3 * j + 2] - root[2]};
+        for (int k = 0; k < 3; ++k) x[3 * j + k] = t[k] + r[3 * k] * a[0] + r[3 * k + 1] * a[1] + r[3 * k + 2] * a[2];
+      }
+      return;
+    }
+  }
   // A proper best fit (det H > 0, the rule on a warm stream): R = V U^T is the orthogonal polar
   // factor of H^T, reached by the scaled Newton iteration X <- (g X + X^-T / g) / 2 (Higham) in
   // a few 3 x 3 inverses instead of a Jacobi SVD. A reflection, or an iteration that does not
@@ -125,9 +231,11 @@ void Retargeter::align_on_teacher(const double* t, double* x, double* map) {
     bool settled = false;
     for (int it = 0; it < 30 && !settled; ++it) {
       const Eigen::Matrix3d inv_t = q.inverse().transpose();
-      const double g = it < 8 ? std::sqrt(inv_t.norm() / q.norm()) : 1.0;  // the scaling speeds the first steps
-      const Eigen::Matrix3d next = 0.5 * (g * q + inv_t / g);
-      settled = (next - q).norm() <= 1e-14 * next.norm();
+      // The scaling (|X^-T| / |X|)^(1/2) speeds the first steps; from the squared norms (one
+      // square root fewer in the iteration's chain of dependent square roots and divisions).
+      const double g = it < 8 ? std::sqrt(std::sqrt(inv_t.squaredNorm() / q.squaredNorm())) : 1.0;
+      const Eigen::Matrix3d next = 0.5 * (g * q + inv_t * (1.0 / g));
+      settled = (next - q).squaredNorm() <= 1e-28 * next.squaredNorm();  // |next - q| <= 1e-14 |next|
       q = next;
     }
     if (settled && std::isfinite(q.sum())) {
@@ -201,7 +309,7 @@ double Retargeter::max_bone_error(const double* x) const {
     const int p = table_.parents[j];
     const double dx = x[3 * j] - x[3 * p], dy = x[3 * j + 1] - x[3 * p + 1], dz = x[3 * j + 2] - x[3 * p + 2];
     const double len = std::sqrt(dx * dx + dy * dy + dz * dz);
-    worst = std::max(worst, std::fabs(len - student_lengths_[j]) / student_lengths_[j]);
+    worst = std::max(worst, std::fabs(len - student_lengths_[j]) * inverse_lengths_[j]);
   }
   return worst;
 }

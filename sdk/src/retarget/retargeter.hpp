@@ -146,6 +146,7 @@ class Retargeter {
   PairTable table_;
   RetargetOptions options_;
   std::vector<double> student_lengths_;   // per joint
+  std::vector<double> inverse_lengths_;   // 1 / student_lengths_ (0 for the root): max_bone_error multiplies
   std::vector<double> rest_dirs_;         // joints x 3 unit fallback directions
   std::vector<double> tau_student_;       // per pair
   std::vector<double> weight_;            // per pair: priority (x bone_weight on bones)
@@ -166,6 +167,18 @@ class Retargeter {
   double last_step_ = 0.0;                 // previous frame's spectral step, to warm the next
   RetargetReport report_;
 };
+
+namespace detail {
+// The rotation R (row-major) maximising trace(R H) for H = sum_j a_j b_j^T (row-major), i.e. the
+// one that best turns the a_j onto the b_j, from Horn's quaternion: the eigenvector of the
+// largest eigenvalue of his 4 x 4 key matrix, that eigenvalue found by Newton's method on the
+// characteristic polynomial from the bound (|a|^2 + |b|^2) / 2 above it (Theobald's QCP), the
+// eigenvector a column of the adjugate of (K - lambda I). `bound` is sum_j (|a_j|^2 + |b_j|^2) / 2.
+// Returns false (r unchanged) when the answer is not well defined to rounding: det H <= 0 (a
+// reflection fits at least as well), or the largest eigenvalue within 1e-6 of the next (H of
+// nearly rank 1), or no convergence; the caller then takes an SVD.
+bool proper_best_rotation(const double* h, double bound, double* r);
+}  // namespace detail
 
 // Places a ghost (joints x 3, in place) over a student's current posture: the ghost's root on the
 // student's root, then the rotation about +Y (the vertical; a proper rotation, never a

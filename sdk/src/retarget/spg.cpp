@@ -3,10 +3,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 
 #include "common/cpu.hpp"
 #include "common/error.hpp"
+#include "retarget/distance.hpp"
 #include "retarget/stress_kernel.hpp"
 #include "retarget/spg_solver.inl"
 
@@ -52,14 +54,48 @@ detail::SpgWork::SpgWork(int joints)
       d(padded),
       history(64),
       s(static_cast<size_t>(kRing) * padded),
-      y(static_cast<size_t>(kRing) * padded) {
+      y(static_cast<size_t>(kRing) * padded),
+      blocked(joints) {
   if (joints < 1) throw Error(ErrorKind::kInvalidArgument, "SpgSolver: joints must be positive");
+}
+
+detail::BlockedPairs::BlockedPairs(int n)
+    : joints(n), blocks((n + kLanes - 1) / kLanes), steps(4 * blocks + 4 * blocks * (blocks - 1)) {
+  pair.assign(static_cast<size_t>(steps) * kLanes, -1);
+  int step = 0;
+  const auto lane_pair = [&](int a, int b) { return a < n && b < n ? pair_index(n, a, b) : -1; };
+  for (int bi = 0; bi < blocks; ++bi) {
+    for (int k = 1; k <= 4; ++k, ++step)
+      for (int l = 0; l < (k == 4 ? 4 : kLanes); ++l)
+        pair[static_cast<size_t>(step) * kLanes + l] = lane_pair(bi * kLanes + l, bi * kLanes + (l + k) % kLanes);
+    for (int bj = bi + 1; bj < blocks; ++bj)
+      for (int k = 0; k < kLanes; ++k, ++step)
+        for (int l = 0; l < kLanes; ++l)
+          pair[static_cast<size_t>(step) * kLanes + l] = lane_pair(bi * kLanes + l, bj * kLanes + (l + k) % kLanes);
+  }
+  // + 8: room to align the start on 64 bytes.
+  storage_.assign(2 * lanes() + (48 + 24) * static_cast<size_t>(blocks) + 8, 0.0);
+}
+
+double* detail::BlockedPairs::aligned() {
+  const auto base = reinterpret_cast<std::uintptr_t>(storage_.data());
+  return storage_.data() + (64 - base % 64) % 64 / sizeof(double);
+}
+
+void detail::BlockedPairs::gather(const StressInstance& in) {
+  double* w = weight();
+  double* d = delta();
+  for (size_t i = 0; i < lanes(); ++i) {
+    const int p = pair[i];
+    w[i] = p >= 0 ? in.weight[p] : 0.0;
+    d[i] = p >= 0 ? in.delta[p] : 0.0;
+  }
 }
 
 SpgSolver::SpgSolver(int joints) : work_(joints) {}
 
 SpgResult detail::minimize_portable(SpgWork& work, const StressInstance& in, double* x, const SpgOptions& opt) {
-  return spg_minimize<detail::stress_portable>(work, in, x, opt);
+  return spg_minimize(work, in, x, opt, detail::stress_portable);
 }
 
 SpgResult SpgSolver::minimize(const StressInstance& in, double* x, const SpgOptions& opt) {

@@ -5,6 +5,7 @@
 // is the identity. Allocation-free once the solver is constructed.
 #pragma once
 
+#include <cstddef>
 #include <vector>
 
 namespace kata::retarget {
@@ -83,6 +84,40 @@ struct SpgResult {
 };
 
 namespace detail {
+// Every pair of `joints` joints laid out for stress_blocked_avx512: the joints in blocks of 8
+// (the last one padded), and each pair of blocks (I <= J) as steps of 8 lanes in which lane l
+// pairs joint 8I + l with joint 8J + (l + k) mod 8: k = 0 .. 7 for I < J (64 pairs), k = 1 .. 4
+// for I = J (28 pairs; at k = 4 only lanes 0 .. 3, the others repeat them). The kernel then keeps
+// the 8 joints of each side in lanes: no horizontal sums and no scatter of the gradient, the
+// second side's positions read rotated from a doubled copy and its gradient rotated along.
+// Steps in the kernel's order: for each I, its diagonal steps, then J = I + 1 .. in turn.
+struct BlockedPairs {
+  static constexpr int kLanes = 8;
+  explicit BlockedPairs(int joints);
+  int joints, blocks, steps;
+  std::vector<int> pair;  // steps x 8: the lane's pair in lexicographic order, -1 for none
+  // steps x 8 weights and targets (0 where pair is -1), filled by gather(); per block, x, y and z
+  // as 16 doubles each (the block's 8 joints twice, 0 past the last joint) and the gradient's
+  // x, y and z as 8 each: the kernel's scratch. All 64-byte aligned (computed from the storage,
+  // so copies of a solver stay valid).
+  double* weight() { return aligned() + 0; }
+  double* delta() { return aligned() + lanes(); }
+  double* doubled() { return aligned() + 2 * lanes(); }
+  double* gradient() { return aligned() + 2 * lanes() + 48 * static_cast<std::size_t>(blocks); }
+  // Copies the instance's weights and targets into the blocked order.
+  void gather(const StressInstance& instance);
+
+ private:
+  std::size_t lanes() const { return static_cast<std::size_t>(steps) * kLanes; }
+  double* aligned();
+  std::vector<double> storage_;
+};
+// stress() over a blocked instance (after gather()); x and grad as in stress() (SoA, stride
+// joints; grad required). Call only after cpu_has_avx512(). Equal to the other kernels to rounding.
+double stress_blocked_avx512(BlockedPairs& blocked, const double* x, double* grad);
+// BlockedPairs::gather with AVX-512 gathers (the solver's); call only after cpu_has_avx512().
+void gather_blocked_avx512(BlockedPairs& blocked, const StressInstance& instance);
+
 // The solver's state and work buffers (SpgSolver below), sized once for one joint count.
 struct SpgWork {
   static constexpr int kMaxCurvaturePairs = 8;
@@ -99,6 +134,7 @@ struct SpgWork {
   double rho[kRing] = {};              // 1 / s_i.y_i by ring slot
   double gamma = 1.0;                  // s.y / y.y of the newest pair
   int pairs = 0, newest = -1;          // pairs held; ring index of the newest
+  BlockedPairs blocked;                // the instance in the AVX-512 kernel's order (minimize_avx512)
 };
 // SpgSolver::minimize per instruction set, each around its own stress kernel; minimize() picks
 // one at run time like stress().

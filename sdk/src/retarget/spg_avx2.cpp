@@ -17,7 +17,7 @@ void detail::targets_avx2(int n, const double* t, const double* tau_s, const dou
 void detail::rotate_pairs_avx2(SpgWork& work, const double* r) { rotate_pairs(work, r); }
 
 SpgResult detail::minimize_avx2(SpgWork& work, const StressInstance& in, double* x, const SpgOptions& opt) {
-  return spg_minimize<detail::stress_avx2>(work, in, x, opt);
+  return spg_minimize(work, in, x, opt, detail::stress_avx2);
 }
 
 }  // namespace kata::retarget
