@@ -158,18 +158,20 @@ int Aligner::teacher_frame(int window_index) const {
   return options_.loop ? wrap(j) : j;
 }
 
+// The window's first section frame for a match at `target`: one band behind it (wrapped when
+// looping, else kept inside the section).
+int Aligner::window_start_for(int target) const {
+  const int start = target - window_back_;
+  if (options_.loop) return start < first_ ? start + (last_ - first_ + 1) : start;
+  return std::clamp(start, first_, last_ - window_size_ + 1);
+}
+
 // Places the window one band behind section frame `target` (inside the section when not looping)
 // and starts its programme there: the band after the target free, elsewhere in the window a tenth
 // of a jump.
 void Aligner::seed_window(int target, double t, const float* scaled) {
   const int n = last_ - first_ + 1;
-  int start = target - window_back_;
-  if (options_.loop) {
-    if (start < first_) start += n;
-  } else {
-    start = std::clamp(start, first_, last_ - window_size_ + 1);
-  }
-  window_start_ = start;
+  window_start_ = window_start_for(target);
   window_.started = false;
   int target_index = target - window_start_;
   if (target_index < 0) target_index += n;  // looping: the window runs over the section's end
@@ -182,13 +184,7 @@ void Aligner::seed_window(int target, double t, const float* scaled) {
 // history the search saw; the match restarts at the target, and this frame's step follows it.
 void Aligner::move_window(int target) {
   const int n = last_ - first_ + 1;
-  int start = target - window_back_;
-  if (options_.loop) {
-    if (start < first_) start += n;
-  } else {
-    start = std::clamp(start, first_, last_ - window_size_ + 1);
-  }
-  window_start_ = start;
+  window_start_ = window_start_for(target);
   const double jump = jump_cost(window_);
   const double cap = std::isfinite(jump) ? jump : 1e300;
   double* cur = window_.cur.data();
@@ -206,12 +202,7 @@ void Aligner::follow_window(const float* scaled, double t, int seed_index) {
   if (seed_index < 0) {
     // The window keeps one band behind the match; the frames it moves onto start from a jump
     // (their path is not known), those it leaves are dropped.
-    int start = match_ - window_back_;
-    if (options_.loop) {
-      if (start < first_) start += n;
-    } else {
-      start = std::clamp(start, first_, last_ - window_size_ + 1);
-    }
+    const int start = window_start_for(match_);
     int delta = start - window_start_;
     if (options_.loop) {  // the shorter way round the section
       if (delta > n / 2) delta -= n;

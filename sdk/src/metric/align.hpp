@@ -141,6 +141,7 @@ class Aligner {
   // c[j - a] = the distance of the student's scaled row to section frames j = a..b (in order).
   void distances(const float* scaled, int a, int b, float* c) const;
   int teacher_frame(int window_index) const;  // the section frame at a window index
+  int window_start_for(int target) const;  // the window placed one band behind a match at target
   void seed_window(int target, double t, const float* scaled);
   void move_window(int target);
   // One frame of the window (seed_index >= 0: its open begin, free after that window index).

@@ -18,6 +18,17 @@ namespace {
 // _mm512_undefined_pd() and trip -Wmaybe-uninitialized (GCC bug 105593).
 constexpr __mmask8 kAll = 0xFF;
 
+// 1 / sqrt(max(s, 1e-300)) from the 14-bit estimate and two Newton steps (relative error
+// < 2^-52). s = 0 (coincident joints, padding lanes) gives a finite 1e150, so s * inv = 0.
+inline __m512d inverse_sqrt(__m512d s) {
+  const __m512d sc = _mm512_maskz_max_pd(kAll, s, _mm512_set1_pd(1e-300));
+  const __m512d half_s = _mm512_mul_pd(_mm512_set1_pd(0.5), sc);
+  const __m512d three_halves = _mm512_set1_pd(1.5);
+  __m512d inv = _mm512_maskz_rsqrt14_pd(kAll, sc);
+  inv = _mm512_mul_pd(inv, _mm512_fnmadd_pd(half_s, _mm512_mul_pd(inv, inv), three_halves));
+  return _mm512_mul_pd(inv, _mm512_fnmadd_pd(half_s, _mm512_mul_pd(inv, inv), three_halves));
+}
+
 inline double horizontal_sum(__m512d v) {
   const __m256d quad = _mm256_add_pd(_mm512_maskz_extractf64x4_pd(kAll, v, 0), _mm512_maskz_extractf64x4_pd(kAll, v, 1));
   const __m128d pair = _mm_add_pd(_mm256_castpd256_pd128(quad), _mm256_extractf128_pd(quad, 1));
@@ -38,8 +49,6 @@ double detail::stress_avx512(const StressInstance& in, const double* x, double* 
   double* gy = grad + n;
   double* gz = grad + 2 * n;
   std::memset(grad, 0, sizeof(double) * 3 * static_cast<size_t>(n));
-  const __m512d tiny = _mm512_set1_pd(1e-300);
-  const __m512d half = _mm512_set1_pd(0.5), three_halves = _mm512_set1_pd(1.5);
   __m512d fsum = _mm512_setzero_pd();
   int row = 0;
   for (int u = 0; u + 1 < n; ++u) {
@@ -60,12 +69,7 @@ double detail::stress_avx512(const StressInstance& in, const double* x, double* 
       const __m512d wv = _mm512_maskz_loadu_pd(mask, w + i);
       const __m512d dv = _mm512_maskz_loadu_pd(mask, dl + i);
       const __m512d s = _mm512_fmadd_pd(dx, dx, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dz, dz)));
-      // s = 0 (coincident joints): inv is finite (1e150), r = 0 and c dx = 0, a valid subgradient.
-      const __m512d sc = _mm512_maskz_max_pd(kAll, s, tiny);
-      const __m512d half_s = _mm512_mul_pd(half, sc);
-      __m512d inv = _mm512_maskz_rsqrt14_pd(kAll, sc);  // relative error < 2^-14; two Newton steps: < 2^-52
-      inv = _mm512_mul_pd(inv, _mm512_fnmadd_pd(half_s, _mm512_mul_pd(inv, inv), three_halves));
-      inv = _mm512_mul_pd(inv, _mm512_fnmadd_pd(half_s, _mm512_mul_pd(inv, inv), three_halves));
+      const __m512d inv = inverse_sqrt(s);
       const __m512d e = _mm512_fmsub_pd(s, inv, dv);  // r - delta, r = s / sqrt(s)
       const __m512d we = _mm512_mul_pd(wv, e);
       fsum = _mm512_fmadd_pd(we, e, fsum);
@@ -111,8 +115,6 @@ double detail::stress_blocked_avx512(BlockedPairs& blocked, const double* x, dou
       _mm512_store_pd(acc + 24 * b + 8 * k, _mm512_setzero_pd());
     }
   }
-  const __m512d tiny = _mm512_set1_pd(1e-300);
-  const __m512d half = _mm512_set1_pd(0.5), three_halves = _mm512_set1_pd(1.5);
   const double* wv = blocked.weight();
   const double* dv = blocked.delta();
   __m512d fsum = _mm512_setzero_pd();
@@ -124,12 +126,7 @@ double detail::stress_blocked_avx512(BlockedPairs& blocked, const double* x, dou
     wv += 8;
     dv += 8;
     const __m512d s = _mm512_fmadd_pd(dx, dx, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dz, dz)));
-    // s = 0 (coincident joints, or two padding lanes): inv is finite (1e150), r = 0 and c dx = 0.
-    const __m512d sc = _mm512_maskz_max_pd(kAll, s, tiny);
-    const __m512d half_s = _mm512_mul_pd(half, sc);
-    __m512d inv = _mm512_maskz_rsqrt14_pd(kAll, sc);  // relative error < 2^-14; two Newton steps: < 2^-52
-    inv = _mm512_mul_pd(inv, _mm512_fnmadd_pd(half_s, _mm512_mul_pd(inv, inv), three_halves));
-    inv = _mm512_mul_pd(inv, _mm512_fnmadd_pd(half_s, _mm512_mul_pd(inv, inv), three_halves));
+    const __m512d inv = inverse_sqrt(s);
     const __m512d e = _mm512_fmsub_pd(s, inv, delta);  // r - delta, r = s / sqrt(s)
     const __m512d we = _mm512_mul_pd(w, e);
     fsum = _mm512_fmadd_pd(we, e, fsum);
@@ -232,8 +229,8 @@ void detail::targets_avx512(int n, const double* t, const double* tau_s, const d
   const double* tx = t;
   const double* ty = tx + n;
   const double* tz = ty + n;
-  const __m512d tiny = _mm512_set1_pd(1e-300), smallest = _mm512_set1_pd(1e-290), zero = _mm512_setzero_pd();
-  const __m512d half = _mm512_set1_pd(0.5), three_halves = _mm512_set1_pd(1.5), two = _mm512_set1_pd(2.0);
+  const __m512d smallest = _mm512_set1_pd(1e-290), zero = _mm512_setzero_pd();
+  const __m512d two = _mm512_set1_pd(2.0);
   int row = 0;
   for (int u = 0; u + 1 < n; ++u) {
     const int len = n - 1 - u, v0 = u + 1;
@@ -245,11 +242,7 @@ void detail::targets_avx512(int n, const double* t, const double* tau_s, const d
       const __m512d dy = _mm512_sub_pd(yu, _mm512_maskz_loadu_pd(mask, ty + v0 + i));
       const __m512d dz = _mm512_sub_pd(zu, _mm512_maskz_loadu_pd(mask, tz + v0 + i));
       const __m512d s = _mm512_fmadd_pd(dx, dx, _mm512_fmadd_pd(dy, dy, _mm512_mul_pd(dz, dz)));
-      const __m512d sc = _mm512_maskz_max_pd(kAll, s, tiny);
-      const __m512d half_s = _mm512_mul_pd(half, sc);
-      __m512d inv = _mm512_maskz_rsqrt14_pd(kAll, sc);
-      inv = _mm512_mul_pd(inv, _mm512_fnmadd_pd(half_s, _mm512_mul_pd(inv, inv), three_halves));
-      inv = _mm512_mul_pd(inv, _mm512_fnmadd_pd(half_s, _mm512_mul_pd(inv, inv), three_halves));
+      const __m512d inv = inverse_sqrt(s);
       const __m512d dist = _mm512_mul_pd(s, inv);
       const __m512d ts = _mm512_maskz_loadu_pd(mask, tau_s + row + i);
       const __m512d tt = _mm512_maskz_loadu_pd(mask, tau_t + row + i);
