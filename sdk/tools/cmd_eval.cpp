@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "command.hpp"
 #include "common/error.hpp"
 #include "io/model_file.hpp"
@@ -56,6 +58,20 @@ struct RetrRow {
   int queries = 0;
   std::vector<double> p;  // at kScopes
 };
+
+// The method a model's W came from, as the rows name it: its training parameters say
+// ("method": "joint-form" from `kata train --method joint-form`); models without the key (the
+// shipped ones, every `kata train` before the key existed) are RDSR's.
+std::string model_method(const kata::metric::Model& model) {
+  if (model.info.parameters.empty()) return "GPD+RDSR";
+  const nlohmann::json p = nlohmann::json::parse(model.info.parameters, nullptr, /*allow_exceptions=*/false);
+  if (p.is_object() && p.contains("method") && p["method"].is_string()) {
+    const std::string m = p["method"].get<std::string>();
+    if (m == "joint-form") return "joint form";
+    if (m != "rdsr") return "GPD+" + m;
+  }
+  return "GPD+RDSR";
+}
 
 struct Row {
   std::string method, model, normalisation;
@@ -180,6 +196,7 @@ void run_eval(const EvalArgs& a) {
     const std::string label = m < a.labels.size() ? a.labels[m] : std::filesystem::path(a.models[m]).stem().string();
     const Normaliser norm = model_normaliser(model);
     const Eigen::MatrixXd w = model_w(model);
+    const std::string method = model_method(model), method_at_delta = method + " @delta*";
     const Eigen::MatrixXd xa = normalised_columns(norm, tr.a), xb = normalised_columns(norm, tr.b);
     const Eigen::MatrixXd diff = xa - xb;
     std::vector<double> l2(n), rd(n);
@@ -203,7 +220,7 @@ void run_eval(const EvalArgs& a) {
         rk[i] = pk.col(c).squaredNorm();
       }
       weigh.push_back(weigh_row("GPD+L2", label, ls, lk));
-      weigh.push_back(weigh_row("GPD+RDSR", label, rs, rk));
+      weigh.push_back(weigh_row(method, label, rs, rk));
     }
     const Eigen::MatrixXd rx = a.retrieval ? normalised_columns(norm, rrows) : Eigen::MatrixXd();
     if (a.retrieval) radd("GPD+L2", label, nn, pairwise_sq_l2(rx));
@@ -228,14 +245,14 @@ void run_eval(const EvalArgs& a) {
       add("RDSR N'=0 (eq. 46)", label, nn, s);
       if (a.retrieval) radd("RDSR N'=0 (eq. 46)", label, nn, pairwise_sq_l2(w0.transpose() * rx));
     }
-    add("GPD+RDSR", label, nn, rd);
-    if (a.retrieval) radd("GPD+RDSR", label, nn, pairwise_sq_l2(w.transpose() * rx));
+    add(method, label, nn, rd);
+    if (a.retrieval) radd(method, label, nn, pairwise_sq_l2(w.transpose() * rx));
     // The model's own threshold delta* (fixed, not re-searched) on the test pairs.
     int correct = 0;
     for (size_t i = 0; i < n; ++i) correct += ((rd[i] < model.delta_star) == (tr.label[i] == 1));
-    std::printf("  %-22s %-28s %-15s precision %.4f (delta* = %.6g from training)\n", "GPD+RDSR @delta*",
+    std::printf("  %-22s %-28s %-15s precision %.4f (delta* = %.6g from training)\n", method_at_delta.c_str(),
                 label.c_str(), nn.c_str(), static_cast<double>(correct) / static_cast<double>(n), model.delta_star);
-    Row fixed{"GPD+RDSR @delta*", label, nn, {}};
+    Row fixed{method_at_delta, label, nn, {}};
     fixed.p.precision = static_cast<double>(correct) / static_cast<double>(n);
     fixed.p.threshold = model.delta_star;
     fixed.p.correct = correct;

@@ -9,6 +9,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 
@@ -269,7 +270,14 @@ TEST(CliTransition, ProtocolPairsEvalStoresNamedFiguresScoreNotes) {
   r = run("eval --data " + data + " --pairs " + pairs + " --model " + form + " --label form --no-plot --out-dir " +
           form_eval);
   ASSERT_EQ(r.code, 0) << r.output;
-  EXPECT_NE(r.output.find("GPD+RDSR"), std::string::npos) << r.output;
+  // Its rows are named by its own method, not as an RDSR model's.
+  EXPECT_NE(r.output.find("joint form             form"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("joint form @delta*     form"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("GPD+RDSR               form"), std::string::npos) << r.output;
+  std::ifstream form_csv(form_eval + "/eval.csv");
+  const std::string form_rows((std::istreambuf_iterator<char>(form_csv)), std::istreambuf_iterator<char>());
+  EXPECT_NE(form_rows.find("\njoint form,form,"), std::string::npos) << form_rows;
+  EXPECT_EQ(form_rows.find("GPD+RDSR,form,"), std::string::npos) << form_rows;
   std::remove(form.c_str());
   std::filesystem::remove_all(form_eval);
   for (const std::string& f : {pairs, model, csv}) std::remove(f.c_str());
