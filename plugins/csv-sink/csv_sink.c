@@ -1,4 +1,6 @@
-/* csv-sink: every result as one CSV row (scores, parts, matched teacher frame, timestamps).
+/* csv-sink: every result as one CSV row (score, distance and its split over the parts, each part's score, the part
+ * to fix, the state, the matched teacher frame and time, the practice section, timestamps); the
+ * columns after right_leg need a host of plugin ABI minor 1 (empty cells from an older host).
  * Config: "path=FILE" (required). Public headers only (kata_plugin.h). */
 #include <stdio.h>
 #include <stdlib.h>
@@ -50,7 +52,9 @@ static void* activate(const kata_plugin_host* host, const char* config, char* er
   if (s->buffer) setvbuf(s->file, s->buffer, _IOFBF, 1 << 16);
   fprintf(s->file,
           "stream_id,result_sequence,frame_sequence,frame_index,capture_ns,arrival_ns,computed_ns,scored,score,"
-          "distance,matched_teacher_frame,torso_head,left_arm,right_arm,left_leg,right_leg\n");
+          "distance,matched_teacher_frame,torso_head,left_arm,right_arm,left_leg,right_leg,"
+          "torso_head_score,left_arm_score,right_arm_score,left_leg_score,right_leg_score,part_to_fix,state,"
+          "matched_teacher_time,practice_start_time,practice_end_time,practice_loop,practice_revision\n");
   return s;
 }
 
@@ -61,13 +65,29 @@ static void deactivate(void* instance) {
   free(s);
 }
 
+/* The names kata score's CSV uses (kata_body_part and kata_score_state order). */
+static const char* const kPartNames[5] = {"torso_head", "left_arm", "right_arm", "left_leg", "right_leg"};
+static const char* const kStateNames[4] = {"scoring", "calibrating", "tracking_lost", "teacher_finished"};
+
 static void on_result(void* instance, const kata_plugin_result* r) {
   csv_sink* s = (csv_sink*)instance;
-  fprintf(s->file, "%llu,%llu,%llu,%lld,%lld,%lld,%lld,%d,%.9g,%.9g,%d,%.9g,%.9g,%.9g,%.9g,%.9g\n",
+  fprintf(s->file, "%llu,%llu,%llu,%lld,%lld,%lld,%lld,%d,%.9g,%.9g,%d,%.9g,%.9g,%.9g,%.9g,%.9g",
           (unsigned long long)r->stream_id, (unsigned long long)r->result_sequence,
           (unsigned long long)r->frame_sequence, (long long)r->frame_index, (long long)r->capture_ns,
           (long long)r->arrival_ns, (long long)r->computed_ns, (int)r->scored, r->score, r->distance,
           (int)r->matched_teacher_frame, r->parts[0], r->parts[1], r->parts[2], r->parts[3], r->parts[4]);
+  if (!KATA_PLUGIN_RESULT_HAS(r, practice_revision)) { /* a host of plugin ABI minor 0: empty cells */
+    fputs(",,,,,,,,,,,,\n", s->file);
+    return;
+  }
+  fprintf(s->file, ",%.9g,%.9g,%.9g,%.9g,%.9g,%s,%s,%.9g", r->part_scores[0], r->part_scores[1], r->part_scores[2],
+          r->part_scores[3], r->part_scores[4], r->part_to_fix >= 0 && r->part_to_fix < 5 ? kPartNames[r->part_to_fix] : "",
+          r->state >= 0 && r->state < 4 ? kStateNames[r->state] : "unknown", r->matched_teacher_time);
+  if (r->has_practice)
+    fprintf(s->file, ",%.9g,%.9g,%d,%u\n", r->practice_start_time, r->practice_end_time, (int)r->practice_loop,
+            (unsigned)r->practice_revision);
+  else
+    fputs(",,,,\n", s->file);
 }
 
 static void flush(void* instance) { fflush(((csv_sink*)instance)->file); }

@@ -3,13 +3,20 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cmath>
 #include <fstream>
+#include <map>
+#include <mutex>
 #include <sstream>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "common/error.hpp"
 #include "io/bvh.hpp"
+#include "io/clip_features.hpp"
+#include "io/model_file.hpp"
+#include "pipeline/pipeline.hpp"
 #include "runtime/plugin.hpp"
 #include "runtime/plugin_host.hpp"
 #include "runtime/runtime.hpp"
@@ -118,6 +125,115 @@ TEST(runtime_plugin, BvhReplaySourceIntoCsvSinkThroughTheRuntime) {
   EXPECT_EQ(kata::test::unaccounted(5, {static_cast<uint64_t>(frames), static_cast<uint64_t>(rows)}, counted,
                                     kata::test::Delivery::kSinks),
             "");
+}
+
+
+std::vector<std::string> split_csv(const std::string& line) {
+  std::vector<std::string> cells;
+  std::stringstream row(line);
+  std::string cell;
+  while (std::getline(row, cell, ',')) cells.push_back(cell);
+  if (!line.empty() && line.back() == ',') cells.emplace_back();
+  return cells;
+}
+
+// What a coaching app shows, through a sink plugin: each part's score, the part to fix, the
+// scorer's state, where the student is in the routine and the practice section (plugin ABI minor
+// 1). The student is the teacher's own clip (05_18 from frame 1, teacher row i = frame i); every
+// CSV cell is checked against the result the runtime handed its in-process sinks.
+TEST(runtime_plugin, CsvSinkRowsCarryThePartScoresTheCueAndTheState) {
+  kata::test::TempDir tmp;
+  const std::string csv_path = (tmp.path() / "coach.csv").string();
+  const std::string clip_path = std::string(KATA_DATA_DIR) + "/cmu/05_18.bvh";
+  const BvhClip clip = load_bvh(clip_path);
+  const int frames = clip.frame_count() - 1;
+  const std::vector<float> positions = clip_positions(clip, 1);
+  const auto metric =
+      std::make_shared<const metric::Metric>(metric::load_model(std::string(KATA_SOURCE_DIR) + "/models/default.kata"));
+  const GpdMap map = make_gpd_map(clip.skeleton, preset_joint_names("cmu"));
+  const std::shared_ptr<const pipeline::Teacher> teacher = pipeline::Teacher::from_positions(
+      metric, clip.skeleton, stream_config_for(clip.skeleton, map, metric->stencil()), positions.data(), frames,
+      clip.frame_time);
+
+  std::mutex mutex;
+  std::map<uint64_t, transport::ResultFields> published;  // by result_sequence (the I/O thread's copy)
+  auto target = std::make_shared<PluginHostTarget>();
+  std::shared_ptr<LoadedPlugin> sink_plugin = LoadedPlugin::load(std::string(KATA_PLUGIN_DIR) + "/csv-sink.so");
+  std::shared_ptr<LoadedPlugin> source_plugin = LoadedPlugin::load(std::string(KATA_PLUGIN_DIR) + "/bvh-replay.so");
+  {
+    PluginInstance sink(sink_plugin, "path=" + csv_path, target);
+    RuntimeConfig config;
+    config.sinks.push_back(sink.sink());
+    config.sinks.push_back({[&](const transport::ResultFields& f) {
+                              transport::ResultFields copy = f;
+                              copy.ghost = nullptr, copy.features = nullptr;
+                              std::lock_guard<std::mutex> lock(mutex);
+                              published[f.result_sequence] = copy;
+                            },
+                            nullptr});
+    config.configure_stream = [&](const transport::SkeletonDefinition& d) {
+      StreamSetup s = setup_from_definition(d);
+      s.pipeline.stream.stencil = metric->stencil();
+      s.teacher = teacher;
+      s.teacher_options.ghost = false;
+      return s;
+    };
+    Runtime runtime(config);
+    target->runtime = &runtime;
+    PluginInstance source(source_plugin, "path=" + clip_path + ";stream=3;speed=20", target);
+    source.start();
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (runtime.counters().total.results < static_cast<uint64_t>(frames) && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    source.stop();
+    runtime.stop();
+    target->runtime = nullptr;
+  }
+  std::ifstream in(csv_path);
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  const std::vector<std::string> header = split_csv(line);
+  std::map<std::string, size_t> column;
+  for (size_t i = 0; i < header.size(); ++i) column[header[i]] = i;
+  for (const char* name : {"torso_head_score", "left_arm_score", "right_arm_score", "left_leg_score", "right_leg_score",
+                           "part_to_fix", "state", "matched_teacher_time", "practice_start_time", "practice_end_time",
+                           "practice_loop", "practice_revision"})
+    ASSERT_TRUE(column.count(name)) << name << " missing from " << line;
+  static const char* const kParts[] = {"torso_head", "left_arm", "right_arm", "left_leg", "right_leg"};
+  static const char* const kStates[] = {"scoring", "calibrating", "tracking_lost", "teacher_finished"};
+  int rows = 0, scoring = 0, calibrating = 0;
+  double score_sum = 0.0;
+  while (std::getline(in, line)) {
+    const std::vector<std::string> cell = split_csv(line);
+    ASSERT_EQ(cell.size(), header.size()) << line;
+    const uint64_t sequence = std::stoull(cell[1]);
+    ASSERT_TRUE(published.count(sequence)) << line;
+    const transport::ResultFields& f = published.at(sequence);
+    for (int q = 0; q < 5; ++q)
+      EXPECT_FLOAT_EQ(std::stof(cell[column[std::string(kParts[q]) + "_score"]]), f.part_scores[q]) << line;
+    EXPECT_EQ(cell[column["part_to_fix"]], f.part_to_fix >= 0 ? kParts[f.part_to_fix] : "") << line;
+    EXPECT_EQ(cell[column["state"]], kStates[f.state]) << line;
+    EXPECT_DOUBLE_EQ(std::stod(cell[column["matched_teacher_time"]]), f.matched_teacher_time) << line;
+    // The whole clip is the section, from the stream's configuration (revision 0).
+    ASSERT_TRUE(f.has_practice) << line;
+    EXPECT_DOUBLE_EQ(std::stod(cell[column["practice_start_time"]]), 0.0) << line;
+    EXPECT_NEAR(std::stod(cell[column["practice_end_time"]]), (frames - 1) * clip.frame_time, 1e-6) << line;
+    EXPECT_EQ(cell[column["practice_loop"]], "0") << line;
+    EXPECT_EQ(cell[column["practice_revision"]], "0") << line;
+    if (f.state == 0) {
+      ++scoring;
+      score_sum += std::stod(cell[column["torso_head_score"]]);
+      // The student is the teacher: matched at its own time, within a few frames.
+      EXPECT_NEAR(f.matched_teacher_time, static_cast<double>(f.frame_index) * clip.frame_time, 5 * clip.frame_time)
+          << line;
+    }
+    calibrating += f.state == 1;
+    ++rows;
+  }
+  EXPECT_EQ(rows, frames);
+  EXPECT_GT(calibrating, 0);           // the first 0.25 s
+  EXPECT_GT(scoring, frames * 8 / 10);
+  EXPECT_GT(score_sum / scoring, 95.0);  // its own pose scores near 100 in every part
 }
 
 }  // namespace

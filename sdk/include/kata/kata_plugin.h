@@ -28,7 +28,8 @@ extern "C" {
 #endif
 
 #define KATA_PLUGIN_ABI_MAJOR 1u /* a host refuses a plugin of another major */
-#define KATA_PLUGIN_ABI_MINOR 0u /* + 1 when fields are added at the end of a table */
+#define KATA_PLUGIN_ABI_MINOR 1u /* + 1 when fields are added at the end of a table (1: the result's
+                                    part scores, cue, state and teacher position) */
 #define KATA_PLUGIN_ABI_VERSION ((KATA_PLUGIN_ABI_MAJOR << 16) | KATA_PLUGIN_ABI_MINOR) /* kata_plugin.abi_version */
 #define KATA_PLUGIN_ENTRY "kata_plugin_entry" /* the one exported symbol's name */
 
@@ -59,7 +60,25 @@ typedef struct kata_plugin_result {
   float score;                   /* 0..100 */
   float parts[5];                /* split of d^2: torso/head, left arm, right arm, left leg, right leg */
   const float* ghost;            /* ghost_joint_count x 3 floats (student units), or NULL */
+  /* Added in minor 1 (what a coaching app shows; kata.h's kata_score_record says how each is
+   * made). A host of minor 0 passes a smaller struct_size: read these only when
+   * KATA_PLUGIN_RESULT_HAS(r, field). */
+  float part_scores[5];          /* each part's calibrated 0..100 score, parts' order; zeros unless scored */
+  int32_t part_to_fix;           /* the part to fix, 0..4 in parts' order; -1: none */
+  int32_t state;                 /* a kata_score_state value: 0 scoring, 1 calibrating, 2 tracking lost,
+                                    3 teacher finished */
+  int32_t has_practice;          /* 1: the stream follows a teacher clip and practice_* say which section */
+  double matched_teacher_time;   /* the matched teacher frame's time, s from the teacher's first frame;
+                                    -1 unless scored */
+  double practice_start_time;    /* the followed section's first and last teacher frame, s */
+  double practice_end_time;
+  int32_t practice_loop;         /* 1: the section is looped */
+  uint32_t practice_revision;    /* the practice message that set it; 0: the stream's configured setting */
 } kata_plugin_result;
+
+/* 1 when a result from this host carries FIELD (a field added after minor 0). */
+#define KATA_PLUGIN_RESULT_HAS(r, field) \
+  ((r)->struct_size >= offsetof(kata_plugin_result, field) + sizeof((r)->field))
 
 /* What the host offers a plugin (valid from activate to deactivate). */
 typedef struct kata_plugin_host {

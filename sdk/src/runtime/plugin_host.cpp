@@ -94,6 +94,17 @@ Sink PluginInstance::sink() {
     r.score = f.score;
     for (int i = 0; i < 5; ++i) r.parts[i] = f.parts[i];
     r.ghost = f.ghost;
+    for (int i = 0; i < 5; ++i) r.part_scores[i] = f.part_scores[i];
+    r.part_to_fix = f.part_to_fix;
+    r.state = f.state;
+    r.has_practice = f.has_practice ? 1 : 0;
+    r.matched_teacher_time = f.matched_teacher_time;
+    if (f.has_practice) {
+      r.practice_start_time = f.practice.start_time;
+      r.practice_end_time = f.practice.end_time;
+      r.practice_loop = f.practice.loop ? 1 : 0;
+      r.practice_revision = f.practice.revision;
+    }
     table->on_result(instance, &r);
   };
   if (table->flush) s.flush = [table, instance] { table->flush(instance); };
