@@ -151,6 +151,17 @@ void run_send(const Options& o) {
     throw Error(ErrorKind::kInvalidArgument, "send: no frames to send (--first-frame, --frames, --speed > 0, --loops >= 1)");
   if (o.streams < 1 || !(o.definition_interval > 0) || !(o.warmup >= 0))
     throw Error(ErrorKind::kInvalidArgument, "send: --streams >= 1, --definition-interval > 0, --warmup >= 0");
+  // Slower than recorded, the clip's capture times run ahead of the frames: to the receiver each
+  // frame is later behind its capture time than the last, like a source falling behind, and an
+  // ingest that judges age drops them all once they are max_frame_age behind (kata serve's PULL
+  // default, 250 ms: after 0.5 s at --speed 0.5). Say so before the run, not after it.
+  if (o.speed < 1.0 && !o.live_clock)
+    std::fprintf(stderr,
+                 "kata send: --speed %g with the clip's capture times: the frames fall %.2f s further behind their "
+                 "capture times every second, so a receiver that drops stale frames (kata serve's PULL ingest: "
+                 "max_frame_age_ms = 250) drops every frame after %.2f s; --live-clock stamps this host's time "
+                 "(the motion slowed down), or set max_frame_age_ms = 0 in the receiver's [ingest]\n",
+                 o.speed, 1.0 - o.speed, 0.25 / (1.0 - o.speed));
   // The practice setting, checked here as the server's verifier would (the clip's bounds are the server's).
   const bool practice = o.teacher_start >= 0.0 || !o.loop.empty();
   kata::transport::PracticeSetting setting;

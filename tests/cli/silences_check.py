@@ -5,7 +5,9 @@
   socket kinds cannot talk, naming the config's kind and what to write;
 - a skeleton that does not fit its preset: serve says why the definition was refused and counts
   the drops by cause; kata send says how many frames a peer took;
-- a serve nobody sends to says so after 10 s.
+- a serve nobody sends to says so after 10 s;
+- kata send slower than recorded (--speed 0.5) with the clip's capture times says, before it
+  sends, that an ingest judging age will drop the frames as stale (it does), and what to pass.
 Unique ipc paths per run; every wait bounded; no timing asserted."""
 import os, signal, subprocess, sys, tempfile, time
 
@@ -72,6 +74,23 @@ with tempfile.TemporaryDirectory(prefix="kata_silences_") as tmp:
            "'nose'" in err, err
     status = [l for l in err.splitlines() if l.startswith("streams ")]
     assert any("| drops 61 (definitions refused 1, unknown stream 60) |" in l for l in status), status[-3:]
+
+    # 5. Slower than recorded: the frames fall behind their capture times; said before the run, and
+    # the serve's PULL ingest (default max_frame_age_ms 250) drops them as stale from 0.5 s on.
+    slow, _, slow_in = serve(tmp, "slow", "pull")
+    r = subprocess.run([kata, "send", "--bvh", clip, "--endpoint", slow_in, "--frames", "120", "--speed", "0.5"],
+                       capture_output=True, text=True, timeout=60)
+    assert r.returncode == 0, r.stderr
+    assert "kata send: --speed 0.5 with the clip's capture times: the frames fall 0.50 s further behind their " \
+           "capture times every second" in r.stderr, r.stderr
+    assert "drops every frame after 0.50 s; --live-clock stamps this host's time" in r.stderr, r.stderr
+    err = stop(slow)
+    stale = [l for l in err.splitlines() if "ingest messages dropped" in l or " dropped (" in l]
+    assert any(" stale " in l and " stale 0," not in l for l in stale), stale
+    r = subprocess.run([kata, "send", "--bvh", clip, "--endpoint", "ipc://%s/nobody" % tmp, "--frames", "10",
+                        "--speed", "0.5", "--live-clock", "--connect-timeout", "0.5"],
+                       capture_output=True, text=True, timeout=60)
+    assert "further behind" not in r.stderr, r.stderr
 
     # 4. A serve nobody sends to says so (after 10 s).
     time.sleep(max(0.0, 11.5 - (time.time() - started)))
