@@ -13,6 +13,9 @@
 
 #include "kata/kata.h"
 
+/* kata_body_part order (kata.h). */
+static const char* const kParts[KATA_PART_COUNT] = {"torso_head", "left_arm", "right_arm", "left_leg", "right_leg"};
+
 int main(int argc, char** argv) {
   void* context;
   void* sub;
@@ -60,10 +63,11 @@ int main(int argc, char** argv) {
     clock_gettime(CLOCK_MONOTONIC, &now);
     r.struct_size = sizeof r;
     if (kata_message_read_result(buffer, (size_t)n, &r) != KATA_OK) continue; /* definitions, refusals */
-    printf("stream %" PRIu64 " frame %" PRIu64 ": score %.1f (teacher frame %d, ghost %u joints) age %.0f us\n",
+    printf("stream %" PRIu64 " frame %" PRIu64 ": score %.1f (teacher frame %d, ghost %u joints) age %.0f us, fix %s\n",
            r.stream_id, r.frame_sequence, r.scored ? r.score : 0.0f, (int)r.matched_teacher_frame,
            (unsigned)r.ghost_joint_count,
-           ((double)now.tv_sec * 1e9 + (double)now.tv_nsec - (double)r.arrival_ns) / 1000.0);
+           ((double)now.tv_sec * 1e9 + (double)now.tv_nsec - (double)r.arrival_ns) / 1000.0,
+           r.part_to_fix >= 0 && r.part_to_fix < KATA_PART_COUNT ? kParts[r.part_to_fix] : "-");
     fflush(stdout);
     ++seen;
   }

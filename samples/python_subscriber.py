@@ -24,6 +24,9 @@ import time
 import zmq
 
 TOPIC = 16
+# Result.part_to_fix and Result.feedback_state (schemas/result.fbs) by name.
+PARTS = ("torso_head", "left_arm", "right_arm", "left_leg", "right_leg")
+STATES = {1: "calibrating", 2: "tracking lost", 3: "teacher finished"}
 
 
 def read_key_file(path):
@@ -80,12 +83,16 @@ def main():
             r = Result.GetRootAs(body, 0)
             age_us = (received_ns - r.ArrivalTime().Nanoseconds()) / 1000.0
             if r.Scored():
-                print("stream %d result %d frame %d: score %.1f (distance %.4f, teacher frame %d, ghost %d joints) "
-                      "age %.0f us" % (r.StreamId(), r.ResultSequence(), r.FrameSequence(), r.Score(), r.Distance(),
-                                       r.MatchedTeacherFrame(), r.GhostLength(), age_us), flush=True)
+                fix = r.PartToFix()
+                print("stream %d result %d frame %d: score %.1f (distance %.4f, teacher frame %d at %.2f s, ghost %d "
+                      "joints) age %.0f us, fix %s" % (r.StreamId(), r.ResultSequence(), r.FrameSequence(), r.Score(),
+                                                     r.Distance(), r.MatchedTeacherFrame(), r.MatchedTeacherTime(),
+                                                     r.GhostLength(), age_us, PARTS[fix] if 0 <= fix < 5 else "-"),
+                      flush=True)
             else:
-                print("stream %d result %d frame %d: not scored, age %.0f us" % (r.StreamId(), r.ResultSequence(),
-                      r.FrameSequence(), age_us), flush=True)
+                why = STATES.get(r.FeedbackState())
+                print("stream %d result %d frame %d: not scored%s, age %.0f us" % (r.StreamId(), r.ResultSequence(),
+                      r.FrameSequence(), " (%s)" % why if why else "", age_us), flush=True)
             seen += 1
     return 0
 

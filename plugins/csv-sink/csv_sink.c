@@ -76,7 +76,7 @@ static void on_result(void* instance, const kata_plugin_result* r) {
           (unsigned long long)r->frame_sequence, (long long)r->frame_index, (long long)r->capture_ns,
           (long long)r->arrival_ns, (long long)r->computed_ns, (int)r->scored, r->score, r->distance,
           (int)r->matched_teacher_frame, r->parts[0], r->parts[1], r->parts[2], r->parts[3], r->parts[4]);
-  if (!KATA_PLUGIN_RESULT_HAS(r, practice_revision)) { /* a host of plugin ABI minor 0: empty cells */
+  if (!KATA_PLUGIN_RESULT_HAS(r, practice_loop)) { /* a host of plugin ABI minor 0: empty cells */
     fputs(",,,,,,,,,,,,\n", s->file);
     return;
   }

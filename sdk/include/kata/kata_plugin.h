@@ -60,20 +60,23 @@ typedef struct kata_plugin_result {
   float score;                   /* 0..100 */
   float parts[5];                /* split of d^2: torso/head, left arm, right arm, left leg, right leg */
   const float* ghost;            /* ghost_joint_count x 3 floats (student units), or NULL */
-  /* Added in minor 1 (what a coaching app shows; kata.h's kata_score_record says how each is
-   * made). A host of minor 0 passes a smaller struct_size: read these only when
-   * KATA_PLUGIN_RESULT_HAS(r, field). */
-  float part_scores[5];          /* each part's calibrated 0..100 score, parts' order; zeros unless scored */
-  int32_t part_to_fix;           /* the part to fix, 0..4 in parts' order; -1: none */
+  /* Added in minor 1: what a coaching app shows, as kata.h's kata_result_message carries it (the
+   * same names, order and meaning). A host of minor 0 passes a smaller struct_size: read these only
+   * when KATA_PLUGIN_RESULT_HAS(r, field). */
+  float part_scores[5];          /* each part's calibrated score, 0..100, parts' order (0 unless scored) */
+  int32_t part_to_fix;           /* the part to correct, 0..4 in parts' order; -1: none */
   int32_t state;                 /* a kata_score_state value: 0 scoring, 1 calibrating, 2 tracking lost,
                                     3 teacher finished */
-  int32_t has_practice;          /* 1: the stream follows a teacher clip and practice_* say which section */
+  uint32_t reserved0;            /* 0 */
   double matched_teacher_time;   /* the matched teacher frame's time, s from the teacher's first frame;
                                     -1 unless scored */
-  double practice_start_time;    /* the followed section's first and last teacher frame, s */
-  double practice_end_time;
-  int32_t practice_loop;         /* 1: the section is looped */
+  int32_t has_practice;          /* 1: the stream follows a teacher clip; the practice_* fields say which
+                                    section (0: no clip teacher, the fields are 0) */
   uint32_t practice_revision;    /* the practice message that set it; 0: the stream's configured setting */
+  double practice_start_time;    /* the section's first teacher frame, s */
+  double practice_end_time;      /* its last teacher frame, s */
+  int32_t practice_loop;         /* 1: the section is looped */
+  uint32_t reserved1;            /* 0 */
 } kata_plugin_result;
 
 /* 1 when a result from this host carries FIELD (a field added after minor 0). */
