@@ -780,5 +780,64 @@ TEST(runtime_attack, NewConnectionOwnsItsStreamBeforeTheOldCloseIsSeen) {
   EXPECT_EQ(c.frames + c.skeletons + c.repeated_skeletons + c.dropped_total(), c.received);
 }
 
+// Many short connections one after the other, each on the descriptor the previous one just left,
+// while another sender keeps the runtime's ingest busy (so its reads of messages and of connection
+// events interleave in every order): each source opens its own stream, sends its frames and
+// closes the stream, and nothing of it is refused as another sender's.
+TEST(runtime_attack, QuickReconnectsKeepTheirOwnStreams) {
+  RuntimeConfig config = config_for_tests();
+  config.ingest.limits.max_frame_age_ns = 0;  // a loaded machine delays frames; not judged here
+  Runtime runtime(config);
+  const std::string endpoint = runtime.ingest_endpoint();
+  const int port = std::stoi(endpoint.substr(endpoint.rfind(':') + 1));
+  // The busy sender: frames of a stream nobody defined (each read and counted, nothing scored).
+  std::atomic<bool> stop{false};
+  std::atomic<uint64_t> flood_sent{0};
+  std::thread flood([&] {
+    RawPusher busy(port);
+    transport::Encoder own;
+    for (uint64_t i = 0; busy.ready() && !stop.load(); ++i) {
+      busy.send(own.frame(999, i, now_ns(), clip().frame(1), clip().joints()));
+      if (i % 64 == 63) std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    flood_sent.store(busy.sent);
+  });
+  transport::Encoder encoder;
+  constexpr int kSources = 150, kFrames = 100;
+  uint64_t sent = 0;
+  int reused = 0;
+  std::set<int> descriptors;
+  for (int k = 0; k < kSources; ++k) {
+    const uint64_t id = 100 + static_cast<uint64_t>(k);
+    RawPusher source(port);
+    ASSERT_TRUE(source.ready());
+    const int descriptor = server_descriptor(port, source.local_port());
+    if (!descriptors.insert(descriptor).second) ++reused;
+    source.send(encoder.skeleton(clip().definition(id)));
+    for (int i = 0; i < kFrames; ++i)
+      source.send(encoder.frame(id, static_cast<uint64_t>(i), now_ns(), clip().frame(1 + i), clip().joints()));
+    SkeletonDefinition close = clip().definition(id);
+    close.closed = true;
+    source.send(encoder.skeleton(close));
+    sent += source.sent;
+    source.close();  // the next source connects at once (and mostly takes a descriptor just freed)
+  }
+  stop.store(true);
+  flood.join();
+  wait_received(runtime, sent + flood_sent.load());
+  std::printf("%d of %d sources on an earlier source's descriptor (%zu descriptors), %llu busy frames\n", reused,
+              kSources, descriptors.size(),
+              static_cast<unsigned long long>(flood_sent.load()));
+  EXPECT_GT(reused, kSources / 2) << "descriptors were reused (the test's premise)";
+  const RuntimeCounters c = runtime.counters();
+  EXPECT_EQ(c.ingest.not_owner, 0u) << "no source's definition, frame or close was taken for another's";
+  EXPECT_EQ(c.ingest.closes, static_cast<uint64_t>(kSources)) << "every source closed its own stream";
+  EXPECT_EQ(c.ingest.skeletons, static_cast<uint64_t>(kSources));
+  EXPECT_EQ(c.ingest.frames, static_cast<uint64_t>(kSources * kFrames));
+  EXPECT_EQ(c.ingest.unknown_stream, flood_sent.load()) << "the busy sender's frames only";
+  EXPECT_EQ(c.streams, 0u);
+  expect_adds_up(c.ingest, sent + flood_sent.load());
+}
+
 }  // namespace
 }  // namespace kata::runtime
