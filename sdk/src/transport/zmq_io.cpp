@@ -273,9 +273,9 @@ void Ingest::read_connection_events() {
       ++counters_.disconnections;
       if (open_connections_ > 0) --open_connections_;
       Connection& c = connections_[fd];
-      // A close ends the descriptor's newest connection: its holder's, when the holder's first
-      // message was read after this connection opened (numbered_connection read the events up
-      // to then); or an unnumbered one's, whose holder left before it (holder_gone then too).
+      // The descriptor's connection closed. A holder taken to be open was named after this
+      // connection's open was read (numbered_connection reads the events first), so it is this
+      // connection or an earlier one: either way it is gone.
       holder_gone(c);
       if (c.by_descriptor) table_.sender_gone(connection_sender(fd, c.generation));
       ++c.generation;
