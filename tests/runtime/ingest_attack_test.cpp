@@ -14,10 +14,15 @@
 #include <unistd.h>
 #include <zmq.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <atomic>
 #include <set>
 #include <string>
 #include <thread>
@@ -28,6 +33,7 @@
 #include "pipeline/pipeline.hpp"
 #include "runtime/runtime.hpp"
 #include "transport/wire.hpp"
+#include "transport/zmq_io.hpp"
 
 namespace kata::runtime {
 namespace {
@@ -497,6 +503,340 @@ TEST(runtime_attack, IdleConnectionsCannotLockTheSenderOut) {
     EXPECT_EQ(c.ingest.frames, 120u);
   }
   zmq_ctx_term(context);
+}
+
+
+// ---------------------------------------------------------------------------------------------
+// Descriptors reused between connections (the kernel gives a new connection the lowest free
+// descriptor, often the one just closed). The ingest reads connection events (a monitor socket)
+// and messages (the data socket) on two queues that ZeroMQ fills independently, so a message may
+// be read before or after the close of its descriptor's previous connection is seen. Each
+// message must still count as the sender of the connection that carried it.
+//
+// The senders here speak ZMTP 3.0 (NULL mechanism, a PUSH socket) over a plain TCP socket, so the
+// test knows every descriptor it opens: closing one frees exactly one number on each side, and
+// the next connection takes the same numbers (checked, not assumed).
+
+int port_of(const sockaddr_storage& a) {
+  return a.ss_family == AF_INET ? ntohs(reinterpret_cast<const sockaddr_in*>(&a)->sin_port) : -1;
+}
+
+// The descriptor of this process's side of the connection from `client_port` to the ingest's
+// `server_port`, -1 when none (the ingest closed it).
+int server_descriptor(int server_port, int client_port) {
+  for (int fd = 0; fd < 4096; ++fd) {
+    sockaddr_storage local{}, peer{};
+    socklen_t local_size = sizeof local, peer_size = sizeof peer;
+    if (getsockname(fd, reinterpret_cast<sockaddr*>(&local), &local_size) != 0) continue;
+    if (getpeername(fd, reinterpret_cast<sockaddr*>(&peer), &peer_size) != 0) continue;
+    if (port_of(local) == server_port && port_of(peer) == client_port) return fd;
+  }
+  return -1;
+}
+
+class RawPusher {
+ public:
+  explicit RawPusher(int port) : fd_(socket(AF_INET, SOCK_STREAM, 0)) {
+    timeval timeout{5, 0};
+    setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+    sockaddr_in address{};
+    address.sin_family = AF_INET;
+    address.sin_port = htons(static_cast<uint16_t>(port));
+    address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    if (connect(fd_, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) return;
+    // Greeting: signature, version 3.0, mechanism NULL, not a server, filler.
+    uint8_t greeting[64] = {0xff, 0, 0, 0, 0, 0, 0, 0, 1, 0x7f, 3, 0, 'N', 'U', 'L', 'L'};
+    uint8_t peer_greeting[64];
+    if (!write_all(greeting, sizeof greeting) || !read_all(peer_greeting, sizeof peer_greeting)) return;
+    // READY with Socket-Type = PUSH; then the ingest's READY (sent once its handshake is through).
+    static const char kReady[] = "\x05READY\x0bSocket-Type\x00\x00\x00\x04PUSH";
+    const uint8_t header[2] = {0x04, static_cast<uint8_t>(sizeof kReady - 1)};
+    if (!write_all(header, 2) || !write_all(kReady, sizeof kReady - 1)) return;
+    uint8_t command[2];
+    if (!read_all(command, 2) || command[0] != 0x04) return;
+    std::vector<uint8_t> body(command[1]);
+    if (!read_all(body.data(), body.size()) || body.size() < 6 || std::memcmp(body.data(), "\x05READY", 6) != 0) return;
+    ready_ = true;
+  }
+  ~RawPusher() { close(); }
+  RawPusher(const RawPusher&) = delete;
+  RawPusher& operator=(const RawPusher&) = delete;
+  bool ready() const { return ready_; }
+  int local_port() const {
+    sockaddr_storage a{};
+    socklen_t size = sizeof a;
+    return getsockname(fd_, reinterpret_cast<sockaddr*>(&a), &size) == 0 ? port_of(a) : -1;
+  }
+  // One single-part message (a short or long ZMTP frame).
+  bool send(transport::Bytes m) {
+    uint8_t header[9];
+    size_t header_size = 2;
+    if (m.size <= 255) {
+      header[0] = 0x00;
+      header[1] = static_cast<uint8_t>(m.size);
+    } else {
+      header[0] = 0x02;
+      for (int i = 0; i < 8; ++i) header[1 + i] = static_cast<uint8_t>(static_cast<uint64_t>(m.size) >> (56 - 8 * i));
+      header_size = 9;
+    }
+    if (!write_all(header, header_size) || !write_all(m.data, m.size)) return false;
+    ++sent;
+    return true;
+  }
+  void close() {
+    if (fd_ >= 0) ::close(fd_);
+    fd_ = -1;
+  }
+  uint64_t sent = 0;
+
+ private:
+  bool write_all(const void* data, size_t size) {
+    const auto* p = static_cast<const uint8_t*>(data);
+    while (size > 0) {
+      const ssize_t n = ::send(fd_, p, size, MSG_NOSIGNAL);
+      if (n <= 0) return false;
+      p += n;
+      size -= static_cast<size_t>(n);
+    }
+    return true;
+  }
+  bool read_all(void* data, size_t size) {
+    auto* p = static_cast<uint8_t*>(data);
+    while (size > 0) {
+      const ssize_t n = ::recv(fd_, p, size, 0);
+      if (n <= 0) return false;
+      p += n;
+      size -= static_cast<size_t>(n);
+    }
+    return true;
+  }
+  int fd_;
+  bool ready_ = false;
+};
+
+// An ingest driven by the test's thread (poll), recording the frames it hands on per stream.
+struct DrivenIngest {
+  transport::Context context;
+  std::mutex mutex;
+  std::map<uint64_t, std::vector<uint64_t>> frames;  // stream -> sequences handed on
+  std::vector<uint64_t> order;                        // the stream of every frame handed on
+  std::atomic<uint64_t> frames_of_slow_stream{0};
+  uint64_t slow_stream = 0;  // its frames take 1 ms each in the receiver (a busy runtime)
+  std::unique_ptr<transport::Ingest> ingest;
+  int port = 0;
+  DrivenIngest() {
+    transport::IngestOptions options;
+    options.kind = transport::IngestKind::kPull;
+    options.endpoints = {"bind:tcp://127.0.0.1:*"};
+    options.log_refusals = false;
+    options.limits.max_frame_age_ns = 0;  // bursts here are queued on purpose
+    transport::Ingest::Handlers handlers;
+    handlers.on_skeleton = [](const SkeletonDefinition&) { return true; };
+    handlers.on_revision = [](const SkeletonDefinition&) { return true; };
+    handlers.on_frame = [this](const transport::FrameView& f, bool) {
+      {
+        std::lock_guard<std::mutex> lock(mutex);
+        frames[f.stream_id].push_back(f.sequence);
+        order.push_back(f.stream_id);
+      }
+      if (f.stream_id == slow_stream) {
+        frames_of_slow_stream.fetch_add(1);
+        std::this_thread::sleep_for(std::chrono::milliseconds(1));
+      }
+    };
+    ingest = std::make_unique<transport::Ingest>(context, options, std::move(handlers));
+    const std::string e = ingest->endpoint();
+    port = std::stoi(e.substr(e.rfind(':') + 1));
+  }
+  // Polls until `received` messages were read (bounded).
+  void poll_until_received(uint64_t received) {
+    const auto end = Clock::now() + std::chrono::seconds(10);
+    while (ingest->counters().received < received && Clock::now() < end) {
+      if (ingest->poll(1 << 20) == 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    ingest->housekeeping();
+  }
+  // Was a frame of `later` handed on after one of `earlier`?
+  bool interleaved(uint64_t earlier, uint64_t later) {
+    std::lock_guard<std::mutex> lock(mutex);
+    const auto first = std::find(order.begin(), order.end(), earlier);
+    return first != order.end() && std::find(first, order.end(), later) != order.end();
+  }
+  std::vector<uint64_t> frames_of(uint64_t id) {
+    std::lock_guard<std::mutex> lock(mutex);
+    return frames[id];
+  }
+};
+
+// Waits until the ingest closed its side of the connection from `client_port` (bounded).
+bool wait_server_closed(int server_port, int client_port) {
+  const auto end = Clock::now() + std::chrono::seconds(5);
+  while (server_descriptor(server_port, client_port) >= 0)
+    if (Clock::now() > end) return false;
+    else std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  return true;
+}
+
+std::vector<uint64_t> numbered(uint64_t first, uint64_t last) {
+  std::vector<uint64_t> v;
+  for (uint64_t i = first; i <= last; ++i) v.push_back(i);
+  return v;
+}
+
+// The old connection's frames wait in the socket while its close and the next connection (on the
+// same descriptor) are seen: they stay the old sender's (they reach its orphaned stream, in
+// order) and are never counted as the new connection's.
+TEST(runtime_attack, QueuedMessagesOfAClosedConnectionAreNotTheNextConnections) {
+  DrivenIngest in;
+  transport::Encoder encoder;
+  RawPusher old_source(in.port);
+  ASSERT_TRUE(old_source.ready());
+  old_source.send(encoder.skeleton(clip().definition(1)));
+  in.poll_until_received(1);
+  const int descriptor = server_descriptor(in.port, old_source.local_port());
+  ASSERT_GE(descriptor, 0);
+  for (uint64_t i = 0; i < 10; ++i) old_source.send(encoder.frame(1, i, now_ns(), clip().frame(1 + static_cast<int>(i)), clip().joints()));
+  const int old_port = old_source.local_port();
+  old_source.close();
+  ASSERT_TRUE(wait_server_closed(in.port, old_port));
+  RawPusher next(in.port);
+  ASSERT_TRUE(next.ready());
+  ASSERT_EQ(server_descriptor(in.port, next.local_port()), descriptor) << "the descriptor is reused (the test's premise)";
+  next.send(encoder.skeleton(clip().definition(2)));
+  for (uint64_t i = 0; i < 10; ++i) next.send(encoder.frame(2, i, now_ns(), clip().frame(1 + static_cast<int>(i)), clip().joints()));
+  in.poll_until_received(old_source.sent + next.sent);
+  const transport::IngestCounters& c = in.ingest->counters();
+  EXPECT_EQ(c.not_owner, 0u) << "every frame came from its stream's own source";
+  EXPECT_EQ(in.frames_of(1), numbered(0, 9)) << "the closed source's queued frames reach its stream";
+  EXPECT_EQ(in.frames_of(2), numbered(0, 9));
+  // The new connection owns its stream (an impostor's revision is refused), and not the closed
+  // source's: that one is an orphan, which its source's next connection claims.
+  RawPusher impostor(in.port), returning(in.port);
+  ASSERT_TRUE(impostor.ready() && returning.ready());
+  impostor.send(encoder.skeleton(clip().definition(2, 5)));
+  returning.send(encoder.skeleton(clip().definition(1, 2)));
+  next.send(encoder.frame(2, 10, now_ns(), clip().frame(11), clip().joints()));
+  returning.send(encoder.frame(1, 0, now_ns(), clip().frame(1), clip().joints()));
+  in.poll_until_received(old_source.sent + next.sent + impostor.sent + returning.sent);
+  EXPECT_EQ(c.not_owner, 1u) << "the impostor's revision only";
+  EXPECT_EQ(c.revisions, 1u) << "the returning source reclaimed its stream";
+  EXPECT_EQ(in.frames_of(2), numbered(0, 10));
+  EXPECT_EQ(in.frames_of(1).size(), 11u);
+  EXPECT_EQ(c.frames + c.skeletons + c.repeated_skeletons + c.dropped_total(), c.received);
+}
+
+// The other order: a busy ingest reads the new connection's first messages (on the reused
+// descriptor) before it sees the old connection's close. The new sender's definition is its own:
+// seeing the old close later neither orphans its stream (its frames are then never refused as
+// not_owner) nor lets another sender take it.
+TEST(runtime_attack, NewConnectionOwnsItsStreamBeforeTheOldCloseIsSeen) {
+  DrivenIngest in;
+  in.slow_stream = 1;
+  transport::Encoder encoder;
+  RawPusher old_source(in.port);
+  ASSERT_TRUE(old_source.ready());
+  old_source.send(encoder.skeleton(clip().definition(1)));
+  in.poll_until_received(1);
+  const int descriptor = server_descriptor(in.port, old_source.local_port());
+  ASSERT_GE(descriptor, 0);
+  constexpr uint64_t kBacklog = 300;  // 1 ms each in the receiver: the batch lasts 300 ms
+  for (uint64_t i = 0; i < kBacklog; ++i)
+    old_source.send(encoder.frame(1, i, now_ns(), clip().frame(1 + static_cast<int>(i)), clip().joints()));
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));  // the backlog is in the socket's queue
+  // While the ingest works through the backlog (one poll), the old source leaves and a new one
+  // takes its descriptor and sends.
+  std::unique_ptr<RawPusher> next;
+  bool reused = false;
+  std::thread churn([&] {
+    const auto end = Clock::now() + std::chrono::seconds(10);
+    while (in.frames_of_slow_stream.load() < 20 && Clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    const int old_port = old_source.local_port();
+    old_source.close();
+    if (!wait_server_closed(in.port, old_port)) return;
+    next = std::make_unique<RawPusher>(in.port);
+    if (!next->ready()) return;
+    reused = server_descriptor(in.port, next->local_port()) == descriptor;
+    transport::Encoder own;
+    next->send(own.skeleton(clip().definition(2)));
+    for (uint64_t i = 0; i < 10; ++i) next->send(own.frame(2, i, now_ns(), clip().frame(1 + static_cast<int>(i)), clip().joints()));
+  });
+  in.ingest->poll(1 << 20);  // one batch: no connection event is read unless the ingest asks
+  churn.join();
+  ASSERT_TRUE(next && next->ready());
+  ASSERT_TRUE(reused) << "the descriptor is reused (the test's premise)";
+  ASSERT_TRUE(in.interleaved(2, 1)) << "the new connection's messages were read within the old one's backlog (the premise)";
+  in.poll_until_received(old_source.sent + next->sent);
+  // The old close is seen now; the new source goes on.
+  for (uint64_t i = 10; i < 20; ++i) next->send(encoder.frame(2, i, now_ns(), clip().frame(1 + static_cast<int>(i)), clip().joints()));
+  RawPusher impostor(in.port);
+  ASSERT_TRUE(impostor.ready());
+  impostor.send(encoder.skeleton(clip().definition(2, 5)));
+  in.poll_until_received(old_source.sent + next->sent + impostor.sent);
+  const transport::IngestCounters& c = in.ingest->counters();
+  EXPECT_EQ(in.frames_of(2), numbered(0, 19)) << "every frame of the new source's stream is taken";
+  EXPECT_EQ(in.frames_of(1), numbered(0, kBacklog - 1)) << "and every queued frame of the old one";
+  EXPECT_EQ(c.not_owner, 1u) << "the impostor's revision only";
+  EXPECT_EQ(c.revisions, 0u) << "nobody took the new source's stream";
+  EXPECT_EQ(c.frames + c.skeletons + c.repeated_skeletons + c.dropped_total(), c.received);
+}
+
+// Many short connections one after the other, each on the descriptor the previous one just left,
+// while another sender keeps the runtime's ingest busy (so its reads of messages and of connection
+// events interleave in every order): each source opens its own stream, sends its frames and
+// closes the stream, and nothing of it is refused as another sender's.
+TEST(runtime_attack, QuickReconnectsKeepTheirOwnStreams) {
+  RuntimeConfig config = config_for_tests();
+  config.ingest.limits.max_frame_age_ns = 0;  // a loaded machine delays frames; not judged here
+  Runtime runtime(config);
+  const std::string endpoint = runtime.ingest_endpoint();
+  const int port = std::stoi(endpoint.substr(endpoint.rfind(':') + 1));
+  // The busy sender: frames of a stream nobody defined (each read and counted, nothing scored).
+  std::atomic<bool> stop{false};
+  std::atomic<uint64_t> flood_sent{0};
+  std::thread flood([&] {
+    RawPusher busy(port);
+    transport::Encoder own;
+    for (uint64_t i = 0; busy.ready() && !stop.load(); ++i) {
+      busy.send(own.frame(999, i, now_ns(), clip().frame(1), clip().joints()));
+      if (i % 64 == 63) std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    flood_sent.store(busy.sent);
+  });
+  transport::Encoder encoder;
+  constexpr int kSources = 150, kFrames = 100;
+  uint64_t sent = 0;
+  int reused = 0;
+  std::set<int> descriptors;
+  for (int k = 0; k < kSources; ++k) {
+    const uint64_t id = 100 + static_cast<uint64_t>(k);
+    RawPusher source(port);
+    ASSERT_TRUE(source.ready());
+    const int descriptor = server_descriptor(port, source.local_port());
+    if (!descriptors.insert(descriptor).second) ++reused;
+    source.send(encoder.skeleton(clip().definition(id)));
+    for (int i = 0; i < kFrames; ++i)
+      source.send(encoder.frame(id, static_cast<uint64_t>(i), now_ns(), clip().frame(1 + i), clip().joints()));
+    SkeletonDefinition close = clip().definition(id);
+    close.closed = true;
+    source.send(encoder.skeleton(close));
+    sent += source.sent;
+    source.close();  // the next source connects at once (and mostly takes a descriptor just freed)
+  }
+  stop.store(true);
+  flood.join();
+  wait_received(runtime, sent + flood_sent.load());
+  std::printf("%d of %d sources on an earlier source's descriptor (%zu descriptors), %llu busy frames\n", reused,
+              kSources, descriptors.size(),
+              static_cast<unsigned long long>(flood_sent.load()));
+  EXPECT_GT(reused, kSources / 2) << "descriptors were reused (the test's premise)";
+  const RuntimeCounters c = runtime.counters();
+  EXPECT_EQ(c.ingest.not_owner, 0u) << "no source's definition, frame or close was taken for another's";
+  EXPECT_EQ(c.ingest.closes, static_cast<uint64_t>(kSources)) << "every source closed its own stream";
+  EXPECT_EQ(c.ingest.skeletons, static_cast<uint64_t>(kSources));
+  EXPECT_EQ(c.ingest.frames, static_cast<uint64_t>(kSources * kFrames));
+  EXPECT_EQ(c.ingest.unknown_stream, flood_sent.load()) << "the busy sender's frames only";
+  EXPECT_EQ(c.streams, 0u);
+  expect_adds_up(c.ingest, sent + flood_sent.load());
 }
 
 }  // namespace

@@ -752,5 +752,77 @@ TEST(runtime_ingest_table, LateMessagesOfAClosedConnectionOwnNothing) {
   EXPECT_EQ(small.streams(), 3u);
 }
 
+// The premise of a keyless ingest's senders (zmq_io.cpp): with a ZAP domain set, libzmq asks the
+// context's ZAP handler about every NULL-mechanism connection too, and the number the handler
+// answers arrives on each message of that connection as its User-Id. Two connections, two numbers,
+// the later one larger; a NULL request of another domain is refused (no message gets through).
+TEST(runtime_ingest, KeylessConnectionsCarryTheNumberTheZapHandlerGaveThem) {
+  Context context;
+  context.number_connections();
+  auto bound = [&](const char* domain) {
+    void* pull = zmq_socket(context.get(), ZMQ_PULL);
+    int linger = 0;
+    zmq_setsockopt(pull, ZMQ_LINGER, &linger, sizeof linger);
+    zmq_setsockopt(pull, ZMQ_ZAP_DOMAIN, domain, std::strlen(domain));
+    zmq_bind(pull, "tcp://127.0.0.1:*");
+    return pull;
+  };
+  auto endpoint_of = [](void* socket) {
+    char text[256];
+    size_t size = sizeof text;
+    zmq_getsockopt(socket, ZMQ_LAST_ENDPOINT, text, &size);
+    return std::string(text);
+  };
+  void* pull = bound(kConnectionDomain);
+  void* senders = zmq_ctx_new();
+  auto pusher = [&](const std::string& endpoint) {
+    void* push = zmq_socket(senders, ZMQ_PUSH);
+    int linger = 0;
+    zmq_setsockopt(push, ZMQ_LINGER, &linger, sizeof linger);
+    zmq_connect(push, endpoint.c_str());
+    return push;
+  };
+  // Each message's User-Id (empty when none came within 2 s).
+  auto user_of_next = [](void* socket, int timeout_ms) {
+    zmq_pollitem_t item{socket, 0, ZMQ_POLLIN, 0};
+    if (zmq_poll(&item, 1, timeout_ms) <= 0) return std::string();
+    zmq_msg_t message;
+    zmq_msg_init(&message);
+    std::string user = "(no message)";
+    if (zmq_msg_recv(&message, socket, 0) >= 0) {
+      const char* u = zmq_msg_gets(&message, "User-Id");
+      user = u ? u : "(none)";
+    }
+    zmq_msg_close(&message);
+    return user;
+  };
+  void* first = pusher(endpoint_of(pull));
+  zmq_send(first, "a", 1, 0);
+  const std::string first_user = user_of_next(pull, 2000);
+  void* second = pusher(endpoint_of(pull));
+  zmq_send(second, "b", 1, 0);
+  const std::string second_user = user_of_next(pull, 2000);
+  zmq_send(first, "c", 1, 0);
+  const std::string first_again = user_of_next(pull, 2000);
+  ASSERT_FALSE(first_user.empty());
+  ASSERT_FALSE(second_user.empty());
+  EXPECT_EQ(first_user.find_first_not_of("0123456789"), std::string::npos) << first_user;
+  EXPECT_EQ(second_user.find_first_not_of("0123456789"), std::string::npos) << second_user;
+  EXPECT_LT(std::stoull(first_user), std::stoull(second_user));
+  EXPECT_EQ(first_again, first_user) << "every message of a connection carries its number";
+  EXPECT_EQ(context.zap()->numbered(), 2u);
+  // Another domain's NULL request is refused: its connection never delivers.
+  void* other = bound("some-other-domain");
+  void* refused = pusher(endpoint_of(other));
+  zmq_send(refused, "d", 1, ZMQ_DONTWAIT);
+  EXPECT_EQ(user_of_next(other, 500), "");
+  EXPECT_EQ(context.zap()->numbered(), 2u);
+  EXPECT_GE(context.zap()->denied(), 1u);
+  for (void* s : {first, second, refused}) zmq_close(s);
+  zmq_ctx_term(senders);
+  zmq_close(pull);
+  zmq_close(other);
+}
+
 }  // namespace
 }  // namespace kata::transport

@@ -5,6 +5,7 @@
 #include <zmq.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -147,6 +148,11 @@ ZapHandler::ZapHandler(void* context, std::vector<std::string> allowed_z85) : al
   thread_ = std::thread([this, socket] { run(socket); });
 }
 
+void ZapHandler::allow(std::vector<std::string> allowed_z85) {
+  std::lock_guard<std::mutex> lock(allowed_mutex_);
+  allowed_ = std::move(allowed_z85);
+}
+
 ZapHandler::~ZapHandler() {
   stop_.store(true);
   thread_.join();
@@ -175,22 +181,32 @@ void ZapHandler::run(void* socket) {
     }
     if (!ok) continue;
     bool allow = false;
-    std::string user;
-    if (parts == 7 && sizes[5] == 5 && std::memcmp(frames[5], "CURVE", 5) == 0 && sizes[6] == 32) {
-      char z85[41];
-      if (zmq_z85_encode(z85, reinterpret_cast<const uint8_t*>(frames[6]), 32)) {
-        user = z85;
-        allow = std::find(allowed_.begin(), allowed_.end(), user) != allowed_.end();
-      }
+    char user[41] = "";
+    const bool curve = parts == 7 && sizes[5] == 5 && std::memcmp(frames[5], "CURVE", 5) == 0 && sizes[6] == 32;
+    const bool numbered = parts == 6 && sizes[5] == 4 && std::memcmp(frames[5], "NULL", 4) == 0 &&
+                          sizes[2] == std::strlen(kConnectionDomain) &&
+                          std::memcmp(frames[2], kConnectionDomain, sizes[2]) == 0;
+    if (curve && zmq_z85_encode(user, reinterpret_cast<const uint8_t*>(frames[6]), 32)) {
+      std::lock_guard<std::mutex> lock(allowed_mutex_);
+      allow = std::find(allowed_.begin(), allowed_.end(), user) != allowed_.end();
+      (allow ? allowed_count_ : denied_count_).fetch_add(1);
+    } else if (numbered) {
+      // This thread alone numbers connections, in the order it answers. A number that reaches
+      // messages was answered before its connection's handshake ended, so before that connection
+      // closed and its descriptor could carry the next one: on one descriptor, a later connection
+      // always has the larger number (zmq_io.cpp relies on it).
+      std::snprintf(user, sizeof user, "%llu", static_cast<unsigned long long>(numbered_count_.fetch_add(1) + 1));
+      allow = true;
+    } else {
+      denied_count_.fetch_add(1);
     }
-    (allow ? allowed_count_ : denied_count_).fetch_add(1);
     const char* status = allow ? "200" : "400";
     const char* text = allow ? "OK" : "key not allowed";
     zmq_send(socket, "1.0", 3, ZMQ_SNDMORE);
     zmq_send(socket, frames[1], parts > 1 ? sizes[1] : 0, ZMQ_SNDMORE);
     zmq_send(socket, status, 3, ZMQ_SNDMORE);
     zmq_send(socket, text, std::strlen(text), ZMQ_SNDMORE);
-    zmq_send(socket, user.data(), allow ? user.size() : 0, ZMQ_SNDMORE);
+    zmq_send(socket, user, allow ? std::strlen(user) : 0, ZMQ_SNDMORE);
     zmq_send(socket, "", 0, 0);
   }
   zmq_close(socket);

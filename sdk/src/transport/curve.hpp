@@ -16,6 +16,7 @@
 
 #include <atomic>
 #include <cstdint>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <vector>
@@ -55,22 +56,34 @@ bool reachable_beyond_host(const std::string& endpoint);
 // Throws kata::Error(kIo) with ZeroMQ's reason.
 void apply_curve(void* socket, const CurveOptions& options);
 
-// The ZAP handler of one ZeroMQ context: a thread answering inproc://zeromq.zap.01 from an
-// allow-list of client public keys. Start it before any CURVE server socket binds.
+// The ZAP domain of a keyless ingest (zmq_io.hpp): ZeroMQ asks ZAP about each of its connections
+// too (the NULL mechanism does when a domain is set), and the handler answers with a number of its
+// own for the connection, which ZeroMQ then attaches to every message the connection carries
+// ("User-Id"): the ingest tells its senders apart by it, not by a descriptor the kernel reuses.
+inline constexpr const char* kConnectionDomain = "kata-connection";
+
+// The ZAP handler of one ZeroMQ context: a thread answering inproc://zeromq.zap.01. CURVE clients
+// are let in when their public key is on the allow-list (its User-Id: the key); NULL connections
+// of kConnectionDomain always, each with the next connection number (decimal, from 1; unique in
+// the context). Everything else is refused. Start it before any socket that asks binds.
 class ZapHandler {
  public:
   ZapHandler(void* context, std::vector<std::string> allowed_z85);
   ~ZapHandler();  // stops the thread (its socket closes before the context terminates)
   ZapHandler(const ZapHandler&) = delete;
   ZapHandler& operator=(const ZapHandler&) = delete;
+  // Replaces the allow-list (a handler started for keyless ingests, then given keys).
+  void allow(std::vector<std::string> allowed_z85);
   uint64_t allowed() const { return allowed_count_.load(); }
   uint64_t denied() const { return denied_count_.load(); }
+  uint64_t numbered() const { return numbered_count_.load(); }  // keyless connections numbered
 
  private:
   void run(void* socket);
+  std::mutex allowed_mutex_;  // the handler thread reads the list once per CURVE handshake
   std::vector<std::string> allowed_;
   std::atomic<bool> stop_{false};
-  std::atomic<uint64_t> allowed_count_{0}, denied_count_{0};
+  std::atomic<uint64_t> allowed_count_{0}, denied_count_{0}, numbered_count_{0};
   std::thread thread_;
 };
 

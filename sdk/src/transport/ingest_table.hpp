@@ -32,18 +32,21 @@
 
 namespace kata::transport {
 
-// Who sent a message: the CURVE key's hash (bit 63 set) or a connection (file descriptor and
-// its generation, bumped when the connection closes, so a reused descriptor is a new sender).
-// 0: a message without a connection (handed in directly, inproc). kClosedConnection: a message
-// read after its connection's close was seen (it waited in the socket's queue): it cannot own a
-// stream (a stream it defines is an orphan at once, claimed by the next definition), since its
-// descriptor's next user is another sender.
+// Who sent a message: the CURVE key's hash (bit 63 set), or a connection: on a keyless ingest its
+// number (bit 62 set; the context's ZAP handler numbers every connection, curve.hpp), on a CURVE
+// client ingest (no User-Id) its descriptor and that descriptor's generation, bumped when the
+// connection closes. 0: a message without a connection (handed in directly, inproc).
+// kClosedConnection: a message read after its connection's close was seen (it waited in the
+// socket's queue): it cannot own a stream (a stream it defines is an orphan at once, claimed by
+// the next definition), since its connection will never send again.
 using SenderToken = uint64_t;
 inline constexpr SenderToken kLocalSender = 0;
 inline constexpr SenderToken kClosedConnection = ~0ULL;
 inline SenderToken connection_sender(int fd, uint32_t generation) {
   return (static_cast<uint64_t>(generation) << 32) | static_cast<uint32_t>(fd + 1);
 }
+inline constexpr SenderToken kNumberedConnection = 1ULL << 62;
+inline SenderToken numbered_sender(uint64_t number) { return kNumberedConnection | (number & (kNumberedConnection - 1)); }
 SenderToken key_sender(const char* user_id);  // FNV-1a 64 of the key text, bit 63 set
 inline bool is_key_sender(SenderToken t) { return (t >> 63) != 0 && t != kClosedConnection; }
 

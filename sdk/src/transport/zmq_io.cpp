@@ -48,8 +48,12 @@ Context::~Context() {
 }
 
 void Context::authenticate(std::vector<std::string> allowed_client_keys) {
-  if (zap_) throw Error(ErrorKind::kInvalidArgument, "ZeroMQ: the context's ZAP handler is already running");
+  if (zap_) return zap_->allow(std::move(allowed_client_keys));
   zap_ = std::make_unique<ZapHandler>(context_, std::move(allowed_client_keys));
+}
+
+void Context::number_connections() {
+  if (!zap_) zap_ = std::make_unique<ZapHandler>(context_, std::vector<std::string>{});
 }
 
 void apply_security(void* socket, const SocketSecurity& security) {
@@ -136,6 +140,16 @@ int64_t steady_now_ns() {
 
 std::atomic<uint64_t> g_monitor_counter{0};
 
+// The ZAP handler's connection number (decimal); 0 for anything else (no handler sends it).
+uint64_t parse_number(const char* text) {
+  uint64_t n = 0;
+  for (int i = 0; text[i]; ++i) {
+    if (text[i] < '0' || text[i] > '9' || i >= 19) return 0;
+    n = n * 10 + static_cast<uint64_t>(text[i] - '0');
+  }
+  return n;
+}
+
 }  // namespace
 
 bool read_socket_event(void* monitor, uint16_t* kind, uint32_t* value) {
@@ -170,6 +184,16 @@ Ingest::Ingest(Context& context, const IngestOptions& options, Handlers handlers
     SocketSecurity security = options.security;
     security.max_message_bytes = std::max<int64_t>(4 * static_cast<int64_t>(options.max_message_bytes), 1 << 16);
     apply_security(socket_, security);
+    // Keyless: ZeroMQ asks the context's ZAP handler about each connection, which numbers it;
+    // the number comes with every message of the connection (poll). A descriptor cannot tell
+    // senders apart: the kernel gives a closed connection's descriptor to the next one, and the
+    // close is seen on the monitor socket, maybe after that next connection's first messages.
+    numbered_ = !security.curve.enabled();
+    if (numbered_) {
+      context.number_connections();
+      if (zmq_setsockopt(socket_, ZMQ_ZAP_DOMAIN, kConnectionDomain, std::strlen(kConnectionDomain)) != 0)
+        throw Error(ErrorKind::kIo, "ingest: cannot set ZMQ_ZAP_DOMAIN: " + zmq_reason());
+    }
     if (options.kind == IngestKind::kSub && zmq_setsockopt(socket_, ZMQ_SUBSCRIBE, "", 0) != 0)
       throw Error(ErrorKind::kIo, "ingest: cannot subscribe: " + zmq_reason());
     // Connection events: the limit on connections, and a closed connection's streams orphaned.
@@ -218,7 +242,9 @@ void Ingest::read_connection_events() {
     if (kind == ZMQ_EVENT_ACCEPTED || kind == ZMQ_EVENT_CONNECTED) {
       ++counters_.connections;
       ++open_connections_;
-      connections_[fd].open = true;
+      Connection& c = connections_[fd];
+      c.open = true;
+      holder_gone(c);  // the descriptor's previous connection closed (its event came before)
       handshaking_.push_back(fd);
       if (kind == ZMQ_EVENT_ACCEPTED && max_connections_ > 0 && open_connections_ > max_connections_) {
         // Closing the descriptor is ZeroMQ's; shutting it down makes ZeroMQ see the end and
@@ -247,11 +273,44 @@ void Ingest::read_connection_events() {
       ++counters_.disconnections;
       if (open_connections_ > 0) --open_connections_;
       Connection& c = connections_[fd];
-      table_.sender_gone(connection_sender(fd, c.generation));
+      // The descriptor's connection closed. A holder taken to be open was named after this
+      // connection's open was read (numbered_connection reads the events first), so it is this
+      // connection or an earlier one: either way it is gone.
+      holder_gone(c);
+      if (c.by_descriptor) table_.sender_gone(connection_sender(fd, c.generation));
       ++c.generation;
       c.open = false;
     }
   }
+}
+
+void Ingest::holder_gone(Connection& c) {
+  if (!c.holder_open) return;
+  c.holder_open = false;
+  table_.sender_gone(numbered_sender(c.holder));
+}
+
+SenderToken Ingest::numbered_connection(int fd, uint64_t number) {
+  auto it = connections_.find(fd);
+  if (it != connections_.end()) {
+    const Connection& c = it->second;
+    if (number == c.holder) return c.holder_open ? numbered_sender(number) : kClosedConnection;
+    // An earlier connection of the descriptor (its messages waited in the socket's queue): the
+    // holder's connection came after it closed.
+    if (number < c.holder) return kClosedConnection;
+  }
+  // A connection's first message read. ZeroMQ reported the connection (and the close of the
+  // descriptor's previous one) before it read anything from it: the events up to there are
+  // waiting, so after reading them the descriptor's state is at least this connection's.
+  read_connection_events();
+  Connection& c = connections_[fd];
+  holder_gone(c);  // the previous holder closed: the descriptor carried this connection since
+  c.holder = number;
+  // Open: this connection is taken to hold the descriptor still. If it closed already and the
+  // descriptor carries a later connection (whose messages are not read yet), that one's first
+  // message or close ends this one (holder_gone); closed: so did every connection it had.
+  c.holder_open = c.open;
+  return c.holder_open ? numbered_sender(number) : kClosedConnection;
 }
 
 SenderToken Ingest::connection_of(int fd) {
@@ -264,6 +323,7 @@ SenderToken Ingest::connection_of(int fd) {
     it = connections_.find(fd);
     if (it == connections_.end() || !it->second.open) return kClosedConnection;
   }
+  it->second.by_descriptor = true;
   return connection_sender(fd, it->second.generation);
 }
 
@@ -301,10 +361,11 @@ int Ingest::poll(int max_messages) {
     if (zmq_msg_recv(&message, socket_, ZMQ_DONTWAIT) < 0) break;
     ++count;
     ++counters_.received;
-    // Who sent it: the CURVE key the ZAP handler vouched for, else the connection.
+    // Who sent it: the CURVE key the ZAP handler vouched for, or the connection the ZAP handler
+    // numbered (a keyless ingest), else (a CURVE client) the connection's descriptor.
     SenderToken sender = kLocalSender;
     if (const char* user = zmq_msg_gets(&message, "User-Id"); user && *user) {
-      sender = key_sender(user);
+      sender = numbered_ ? numbered_connection(zmq_msg_get(&message, ZMQ_SRCFD), parse_number(user)) : key_sender(user);
     } else {
       const int fd = zmq_msg_get(&message, ZMQ_SRCFD);
       if (fd >= 0) sender = connection_of(fd);
@@ -337,7 +398,13 @@ std::string Ingest::describe(SenderToken sender) const {
     std::snprintf(text, sizeof text, "key %016llx", static_cast<unsigned long long>(sender));
     return text;
   }
-  const int fd = static_cast<int>(sender & 0xffffffffu) - 1;
+  int fd = static_cast<int>(sender & 0xffffffffu) - 1;
+  if (sender & kNumberedConnection) {
+    // The descriptor the connection holds (a scan: only a first refusal is described).
+    fd = -1;
+    for (const auto& [descriptor, c] : connections_)
+      if (c.holder_open && numbered_sender(c.holder) == sender) fd = descriptor;
+  }
   sockaddr_storage address{};
   socklen_t size = sizeof address;
   char text[INET6_ADDRSTRLEN + 16] = "connection";

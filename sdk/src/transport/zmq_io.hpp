@@ -26,8 +26,12 @@ class Context {
   Context& operator=(const Context&) = delete;
   void* get() const { return context_; }
   // Starts the context's ZAP handler (curve.hpp) with this allow-list of client public keys,
-  // before any CURVE server socket binds. Once per context; throws kata::Error(kIo).
+  // before any CURVE server socket binds (a handler already running, started by number_connections,
+  // takes the list). Throws kata::Error(kIo).
   void authenticate(std::vector<std::string> allowed_client_keys);
+  // Starts the ZAP handler, with an empty allow-list, unless it runs: a keyless ingest's
+  // connections are numbered by it (curve.hpp, kConnectionDomain). Throws kata::Error(kIo).
+  void number_connections();
   const ZapHandler* zap() const { return zap_.get(); }
 
  private:
@@ -244,15 +248,26 @@ class Ingest {
   IngestCounters counters_;
   // Reads the connection events waiting (the limit on connections, orphaned streams).
   void read_connection_events();
-  // Who sent a message that arrived on descriptor `fd`.
+  // Who sent a message that arrived on descriptor `fd` with the connection number `number` (a
+  // keyless ingest: the ZAP handler numbers its connections, curve.hpp).
+  SenderToken numbered_connection(int fd, uint64_t number);
+  // Who sent a message that arrived on descriptor `fd` without a User-Id (a CURVE client ingest,
+  // whose single upstream is the server it trusts): the descriptor and its generation.
   SenderToken connection_of(int fd);
-  // Per connection descriptor: its generation (bumped when its connection closes, so a reused
-  // descriptor is a new sender) and whether a connection holds it now.
+  // Per connection descriptor, from the connection events: whether a connection holds it now and
+  // its generation (bumped when its connection closes). From the messages: the newest connection
+  // number seen on it (a smaller one is an earlier connection, closed) and whether that
+  // connection is taken to hold the descriptor still.
   struct Connection {
     uint32_t generation = 0;
     bool open = false;
+    bool by_descriptor = false;  // messages were attributed by generation (connection_of)
+    bool holder_open = false;
+    uint64_t holder = 0;
   };
   std::unordered_map<int, Connection> connections_;
+  void holder_gone(Connection& c);
+  bool numbered_ = false;  // a keyless ingest: messages carry their connection's number
   uint32_t open_connections_ = 0;
   int64_t next_expiry_ns_ = 0;
   std::vector<uint64_t> expired_;
