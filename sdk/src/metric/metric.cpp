@@ -6,6 +6,7 @@
 #include <limits>
 #include <new>
 
+#include "common/cpu.hpp"
 #include "common/error.hpp"
 
 namespace kata::metric {
@@ -92,18 +93,26 @@ Metric::Metric(const Model& model) {
       largest = std::max(largest, std::abs(model.w[static_cast<size_t>(c) * gpd::kDims + i]));
     column_scale_.data()[c] = largest / 32767.0f;
   }
-  w_.assign(static_cast<size_t>(gpd::kDims) * rank_, 0);
-  int16_t* dst = w_.data();
+  // Both formats are rounded from W in steps, in the blocked layout (pairs: kernels.hpp).
+  std::vector<double> steps(static_cast<size_t>(gpd::kDims) * rank_, 0.0);
   for (int c0 = 0; c0 < rank_; c0 += detail::kChunk) {
     const int width = std::min(detail::kChunk, rank_ - c0);
-    int16_t* chunk = dst + static_cast<size_t>(gpd::kDims) * c0;
+    double* chunk = steps.data() + static_cast<size_t>(gpd::kDims) * c0;
     for (int k = 0; k < gpd::kDims; ++k)
       for (int c = 0; c < width; ++c) {
         const float step = column_scale_.data()[c0 + c];
         const float value = model.w[static_cast<size_t>(c0 + c) * gpd::kDims + perm_[k]];
-        const double q = step > 0.0f ? std::nearbyint(static_cast<double>(value) / step) : 0.0;
-        chunk[static_cast<size_t>(k) * width + c] = static_cast<int16_t>(std::clamp(q, -32767.0, 32767.0));
+        chunk[static_cast<size_t>(k) * width + c] =
+            step > 0.0f ? std::clamp(static_cast<double>(value) / step, -32767.0, 32767.0) : 0.0;
       }
+  }
+  w_.resize(steps.size());
+  for (size_t i = 0; i < steps.size(); ++i) w_[i] = static_cast<int16_t>(std::nearbyint(steps[i]));
+  // The AVX-512 kernels' copy, only where they run: a frame reads one of the two copies, never both.
+  if (cpu_has_avx512()) {
+    pairs_.resize(detail::pair_words_total(gpd::kDims, rank_));
+    detail::pack_pairs(steps.data(), gpd::kDims, rank_, pairs_.data());
+    blocked_.pairs = pairs_.data();
   }
   blocked_.data = w_.data();
   blocked_.column_scale = column_scale_.data();
@@ -144,9 +153,11 @@ std::vector<float> Metric::weights() const {
     const int width = std::min(detail::kChunk, rank_ - c0);
     const int16_t* chunk = w_.data() + static_cast<size_t>(gpd::kDims) * c0;
     for (int k = 0; k < gpd::kDims; ++k)
-      for (int c = 0; c < width; ++c)
-        w[static_cast<size_t>(c0 + c) * gpd::kDims + perm_[k]] =
-            static_cast<float>(chunk[static_cast<size_t>(k) * width + c]) * column_scale_.data()[c0 + c];
+      for (int c = 0; c < width; ++c) {
+        const float q = blocked_.pairs ? detail::paired_weight(blocked_.pairs, gpd::kDims, rank_, k, c0 + c)
+                                       : static_cast<float>(chunk[static_cast<size_t>(k) * width + c]);
+        w[static_cast<size_t>(c0 + c) * gpd::kDims + perm_[k]] = q * column_scale_.data()[c0 + c];
+      }
   }
   return w;
 }
