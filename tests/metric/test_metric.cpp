@@ -161,17 +161,19 @@ TEST(Kernels, WideKernelsAgreeWithBaseline) {
     Batch batch;
     Normalise normalise;
     bool pairs;
+    double (*dot)(const float*, const float*, int);
   };
   std::vector<Impl> impls = {
       {"base", metric::detail::base::project_groups, metric::detail::base::project_groups_batch,
-       metric::detail::base::normalise, false},
+       metric::detail::base::normalise, false, metric::detail::base::dot},
       {"avx2", metric::detail::avx2::project_groups, metric::detail::avx2::project_groups_batch,
-       metric::detail::avx2::normalise, false}};
+       metric::detail::avx2::normalise, false, metric::detail::avx2::dot}};
   if (cpu_has_avx512()) {
     impls.push_back({"avx512", metric::detail::avx512::project_groups, metric::detail::avx512::project_groups_batch,
-                     metric::detail::avx512::normalise, false});
+                     metric::detail::avx512::normalise, false, metric::detail::avx512::dot});
     impls.push_back({"avx512 pairs", metric::detail::avx512::project_groups,
-                     metric::detail::avx512::project_groups_batch, metric::detail::avx512::normalise, true});
+                     metric::detail::avx512::project_groups_batch, metric::detail::avx512::normalise, true,
+                     metric::detail::avx512::dot});
   }
   constexpr int kFrames = 2 * metric::detail::kBatch + 1;
   for (int rank : {50, 8, 3, 1, 12, 20, 31, 33, 64, 70, 97, 130}) {
@@ -234,6 +236,16 @@ TEST(Kernels, WideKernelsAgreeWithBaseline) {
       const double s = impl.normalise(xs[0].data(), a.data(), b.data(), gpd::kDims, xp2.data());
       EXPECT_EQ(sums[0], s) << impl.name;  // exact products, the same summation order
       ASSERT_EQ(xps[0], xp2) << impl.name;
+      // The dot product of two projection rows (padded to a multiple of 8), exact to the last bit
+      // on every ISA, and to double rounding against the plain sum.
+      {
+        const int n = bw.out_stride;
+        double plain = 0.0;
+        for (int i = 0; i < n; ++i) plain += double(xps[0][i]) * double(xps[1][i + 5]);
+        const double d = impl.dot(xps[0].data(), xps[1].data() + 5, n);
+        EXPECT_EQ(d, metric::detail::base::dot(xps[0].data(), xps[1].data() + 5, n)) << impl.name;
+        EXPECT_NEAR(d, plain, 1e-12 * (1.0 + std::abs(plain))) << impl.name;
+      }
       std::vector<std::vector<float>> singles(kFrames, std::vector<float>(out_size + 8, -1.0f));
       for (int f = 0; f < kFrames; ++f) impl.project(bw, xps[f].data(), singles[f].data());
       for (size_t i = 0; i < out_size; ++i)

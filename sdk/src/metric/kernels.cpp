@@ -26,6 +26,13 @@ void combine(const Combine& c, const float* v, int stride, float scale, float* o
   base::combine(c, v, stride, scale, out);
 }
 
+// (metric.hpp) The projection rows' dot products, on the widest ISA: bit-identical on every one.
+double dot(const float* a, const float* b, int n) {
+  if (cpu_has_avx512()) return avx512::dot(a, b, n);
+  if (cpu_has_avx2()) return avx2::dot(a, b, n);
+  return base::dot(a, b, n);
+}
+
 double normalise(const float* x, const float* a, const float* b, int n, float* xn) {
   if (cpu_has_avx512()) return avx512::normalise(x, a, b, n, xn);
   if (cpu_has_avx2()) return avx2::normalise(x, a, b, n, xn);

@@ -94,6 +94,10 @@ struct Combine {
 // stride is a multiple of 8.
 void combine(const Combine& c, const float* v, int stride, float scale, float* out);
 
+// a . b over n floats (n a multiple of 8), in double: eight lanes summed pairwise, the same
+// rounding on every ISA (also declared in metric.hpp, where the scorer finds it).
+double dot(const float* a, const float* b, int n);
+
 // xn[i] = (x[i] - a[i]) * b[i] for i < n; returns the sum of xn[i]^2 (accumulated in double).
 double normalise(const float* x, const float* a, const float* b, int n, float* xn);
 
@@ -102,18 +106,21 @@ double normalise(const float* x, const float* a, const float* b, int n, float* x
 // Within one implementation project_groups_batch equals project_groups bit for bit; across
 // implementations results differ by float summation order and fused multiply-adds only.
 namespace base {
+double dot(const float* a, const float* b, int n);
 void project_groups(const BlockedW& w, const float* xp, float* v);
 void project_groups_batch(const BlockedW& w, const float* const* xp, float* const* v, int n);
 double normalise(const float* x, const float* a, const float* b, int n, float* xn);
 void combine(const Combine& c, const float* v, int stride, float scale, float* out);
 }  // namespace base
 namespace avx2 {
+double dot(const float* a, const float* b, int n);
 void project_groups(const BlockedW& w, const float* xp, float* v);
 void project_groups_batch(const BlockedW& w, const float* const* xp, float* const* v, int n);
 double normalise(const float* x, const float* a, const float* b, int n, float* xn);
 void combine(const Combine& c, const float* v, int stride, float scale, float* out);
 }  // namespace avx2
 namespace avx512 {
+double dot(const float* a, const float* b, int n);
 void project_groups(const BlockedW& w, const float* xp, float* v);
 void project_groups_batch(const BlockedW& w, const float* const* xp, float* const* v, int n);
 double normalise(const float* x, const float* a, const float* b, int n, float* xn);

@@ -584,6 +584,31 @@ int sum_squares8(const float* xn, int n, double* acc) {
   return i;
 }
 
+double dot(const float* a, const float* b, int n) {
+  // Eight double lanes over n (a multiple of 8) floats, summed pairwise: a float times a float
+  // is exact in double, so fused or not every ISA rounds the same sums in the same order.
+  double acc[8] = {};
+  int i = 0;
+#if defined(__AVX512F__)
+  __m512d s = _mm512_setzero_pd();
+  for (; i + 8 <= n; i += 8)
+    s = _mm512_fmadd_pd(_mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(a + i)),
+                        _mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(b + i)), s);
+  _mm512_storeu_pd(acc, s);
+#elif defined(__AVX2__) && defined(__FMA__)
+  __m256d s0 = _mm256_setzero_pd(), s1 = _mm256_setzero_pd();
+  for (; i + 8 <= n; i += 8) {
+    s0 = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(a + i)), _mm256_cvtps_pd(_mm_loadu_ps(b + i)), s0);
+    s1 = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(a + i + 4)), _mm256_cvtps_pd(_mm_loadu_ps(b + i + 4)), s1);
+  }
+  _mm256_storeu_pd(acc, s0);
+  _mm256_storeu_pd(acc + 4, s1);
+#endif
+  for (; i + 8 <= n; i += 8)
+    for (int l = 0; l < 8; ++l) acc[l] += static_cast<double>(a[i + l]) * b[i + l];
+  return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
+}
+
 double normalise(const float* x, const float* a, const float* b, int n, float* xn) {
   // x' in float batches; the sum of squares in double over eight independent partial sums (one
   // serial double chain would cost n x add latency), the same order on every ISA.

@@ -220,12 +220,7 @@ void Metric::project(const float* x, Workspace& ws, float* u) const {
 }
 
 namespace detail {
-double dot(const float* a, const float* b, int n) {
-  double acc[8] = {};
-  for (int c = 0; c < n; c += 8)
-    for (int l = 0; l < 8; ++l) acc[l] += static_cast<double>(a[c + l]) * b[c + l];
-  return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
-}
+// dot: kernels.cpp (dispatched to the widest ISA, bit-identical on every one).
 
 double dist2(const float* a, const float* b, int n) {
   double acc[8] = {};
