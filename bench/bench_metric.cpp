@@ -5,6 +5,7 @@
 // ns/frame is the "per_frame" counter (seconds per frame, shown with its unit).
 #include <benchmark/benchmark.h>
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -206,10 +207,12 @@ void Metric_Kernel(benchmark::State& state) {
   std::vector<int> perm(gpd::kDims);
   for (int k = 0; k < gpd::kDims; ++k) perm[static_cast<size_t>(k)] = (k * 7) % gpd::kDims;
   bw.perm = perm.data();
-  std::vector<uint32_t> pairs(metric::detail::pair_words_total(gpd::kDims, kRank));
+  // 64-byte aligned, as Metric holds it.
+  std::vector<uint32_t> pairs(metric::detail::pair_words_total(gpd::kDims, kRank) + 15);
+  uint32_t* aligned = pairs.data() + ((64 - reinterpret_cast<uintptr_t>(pairs.data()) % 64) % 64) / sizeof(uint32_t);
   const std::vector<double> steps(w.begin(), w.end());
-  metric::detail::pack_pairs(steps.data(), gpd::kDims, kRank, pairs.data());
-  if (kIsa == Isa::kAvx512) bw.pairs = pairs.data();
+  metric::detail::pack_pairs(steps.data(), gpd::kDims, kRank, aligned);
+  if (kIsa == Isa::kAvx512) bw.pairs = aligned;
   std::vector<float> v(static_cast<size_t>(bw.groups) * bw.out_stride);
   for (auto _ : state) {
     if constexpr (kIsa == Isa::kAvx512 || kIsa == Isa::kAvx512Int16)

@@ -205,9 +205,11 @@ TEST(Kernels, WideKernelsAgreeWithBaseline) {
       const int c0 = c / metric::detail::kChunk * metric::detail::kChunk;
       const int width = std::min(metric::detail::kChunk, rank - c0);
       if (!paired) return double(w[static_cast<size_t>(gpd::kDims) * c0 + static_cast<size_t>(k) * width + (c - c0)]);
-      const int h = (width + 1) / 2, j = c - c0;
-      const uint32_t word =
-          pairs[static_cast<size_t>(gpd::kDims) * (c0 / 2) + static_cast<size_t>(k) * h + (j < h ? j : j - h)];
+      // Word m of row k: the chunk's first block holds words 0..15 of every row, the second the rest.
+      const int h = (width + 1) / 2, j = c - c0, m = j < h ? j : j - h;
+      const size_t in_chunk = m < 16 ? static_cast<size_t>(k) * std::min(h, 16) + m
+                                     : static_cast<size_t>(gpd::kDims) * 16 + static_cast<size_t>(k) * (h - 16) + (m - 16);
+      const uint32_t word = pairs[static_cast<size_t>(gpd::kDims) * (c0 / 2) + in_chunk];
       const double q = j < h ? decode_low(word) : decode_high(word);
       EXPECT_LE(std::abs(q - w[static_cast<size_t>(gpd::kDims) * c0 + static_cast<size_t>(k) * width + j]), 0.5 + 1.0 / 512);
       EXPECT_EQ(metric::detail::paired_weight(pairs.data(), gpd::kDims, rank, k, c), static_cast<float>(q));

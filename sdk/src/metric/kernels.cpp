@@ -76,7 +76,7 @@ void pack_pairs(const double* steps, int rows, int rank, uint32_t* pairs) {
     for (int k = 0; k < rows; ++k)
       for (int j = 0; j < h; ++j) {
         const double* row = src + static_cast<size_t>(k) * width;
-        dst[static_cast<size_t>(k) * h + j] = pack_pair(row[j], j + h < width ? row[j + h] : 0.0);
+        dst[pair_index(rows, h, k, j)] = pack_pair(row[j], j + h < width ? row[j + h] : 0.0);
       }
   }
 }
@@ -85,7 +85,7 @@ float paired_weight(const uint32_t* pairs, int rows, int rank, int k, int c) {
   const int c0 = c / kChunk * kChunk;
   const int h = pair_words(std::min(kChunk, rank - c0));
   const int j = c - c0;
-  const uint32_t word = pairs[static_cast<size_t>(rows) * (c0 / 2) + static_cast<size_t>(k) * h + (j < h ? j : j - h)];
+  const uint32_t word = pairs[static_cast<size_t>(rows) * (c0 / 2) + pair_index(rows, h, k, j < h ? j : j - h)];
   return j < h ? pair_low(word) : pair_high(word);
 }
 

@@ -34,8 +34,11 @@ constexpr int kBatch = 8;
 // The AVX-512 kernels read the same W packed two columns to a 32-bit word (`pairs`, built by
 // Metric at load when the CPU runs them; null otherwise, and those kernels then read `data`). Per
 // chunk of width w, h = pair_words(w) words per row (chunk c starts at pairs + rows * c * kChunk
-// / 2, row stride h): word k holds column k in its low half and column k + h in its high half (0
-// when k + h = w). Decoding: the low column's integer is the low half; the high column's weight in
+// / 2; pair_index places a word): word k holds column k in its low half and column k + h in its
+// high half (0 when k + h = w). A chunk is two blocks: words 0..15 of every row (16 a row), then
+// words 16..h-1 (h - 16 a row), so that with `pairs` 64-byte aligned the first 16 words of a row
+// are one aligned cache line: rows of 25 words (rank 50) would make nearly every 64-byte load
+// span two lines (12-15% of the kernel in a harness). Decoding: the low column's integer is the low half; the high column's weight in
 // steps is float(int32(word)) / 2^16, i.e. the high half plus the low half's bits / 2^16, and
 // pack_pair chose the high integer against those bits, so both are within half a step (plus the
 // float rounding of a 32-bit conversion, 2^-9 step at most) of the model's float. Why: on a core
@@ -64,6 +67,12 @@ constexpr size_t pair_words_total(int rows, int rank) {
   return static_cast<size_t>(rows) *
              (static_cast<size_t>(rank / kChunk) * (kChunk / 2) + static_cast<size_t>(pair_words(rank % kChunk))) +
          kPairPadding;
+}
+// Index, from its chunk's start, of word j of row k in a chunk of h words per row (kernels.hpp BlockedW).
+constexpr size_t pair_index(int rows, int h, int k, int j) {
+  return j < 16 ? static_cast<size_t>(k) * static_cast<size_t>(h < 16 ? h : 16) + static_cast<size_t>(j)
+                : static_cast<size_t>(rows) * 16 + static_cast<size_t>(k) * static_cast<size_t>(h - 16) +
+                      static_cast<size_t>(j - 16);
 }
 // One word from two weights in steps of their columns (|.| <= 32767): the low column rounded to
 // its integer, the high one's integer chosen against the low half's bits (the closest decoded value).

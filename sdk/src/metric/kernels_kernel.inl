@@ -281,9 +281,9 @@ void project_many(const BlockedW& w, const float* const* xp, float* const* v) {
 // its high half (the low column's integer x 2^16, exact), two conversions (the raw word is the
 // high column's integer x 2^16 plus the low half's bits, compensated by pack_pair) and two
 // multiply-adds. The sums are multiplied by scale / 2^16 (exact) as they are stored. A chunk's
-// h words per row are covered by vectors at word 0 and 16, whole: the lanes past the row's h
-// words read the next row (or the padding after W, kernels.hpp) and are never stored (masked
-// stores). No overlap, so the batched kernel's one-vector slabs never add a tile twice; single
+// h words per row are covered by vectors at word 0 and 16, each from its own block, whole: the
+// lanes past the row's words read the next row (or the padding after W, kernels.hpp) and are
+// never stored (masked stores). No overlap, so the batched kernel's one-vector slabs never add a tile twice; single
 // and batched run the same lane operations in the same row order, so they agree bit for bit.
 // (Masked loads in the loops would be cleaner, but GCC 12 then keeps every accumulator in memory.)
 // (xsimd's batch as the accumulator type: GCC 12 keeps arrays of raw __m512 in memory here.)
@@ -300,25 +300,30 @@ inline __mmask16 lanes(int n) {
 inline __m512 cvt(PI q) { return _mm512_maskz_cvtepi32_ps(0xFFFF, q); }
 
 // The column layout of one chunk's word vectors: vector v covers words [16 v, 16 v + 16) of the
-// h words; load[v] its words, low[v] / high[v] the columns its low / high halves write.
+// h words of a row, read from block v of the chunk (kernels.hpp: block[v] words from the chunk's
+// start, stride[v] words per row); load[v] its words, high[v] the columns its high halves write.
 struct PairVectors {
   int nv = 0, h = 0;
+  int stride[2] = {0, 0};
+  ptrdiff_t block[2] = {0, 0};
   __mmask16 load[2] = {0, 0}, high[2] = {0, 0};
 };
-inline PairVectors pair_vectors(int width) {
+inline PairVectors pair_vectors(int width, int rows) {
   PairVectors p;
   p.h = pair_words(width);
   p.nv = (p.h + 15) / 16;
   for (int v = 0; v < p.nv; ++v) {
     p.load[v] = lanes(p.h - 16 * v);
     p.high[v] = lanes(width - p.h - 16 * v);  // high halves of words k < width - h are columns
+    p.stride[v] = p.h - 16 * v < 16 ? p.h - 16 * v : 16;
+    p.block[v] = static_cast<ptrdiff_t>(rows) * 16 * v;
   }
   return p;
 }
-inline void prefetch_pair_row(const uint32_t* row, int h) {
-  const char* p = reinterpret_cast<const char*>(row) + kPrefetchAhead;
-  __builtin_prefetch(p);
-  if (h > 16) __builtin_prefetch(p + 64);
+inline void prefetch_pair_row(const uint32_t* row) { __builtin_prefetch(reinterpret_cast<const char*>(row) + kPrefetchAhead); }
+// The first page of each block of a chunk, which no earlier row prefetched.
+inline void prefetch_pair_start(const uint32_t* rows, const PairVectors& pv) {
+  for (int v = 0; v < pv.nv; ++v) prefetch_start(reinterpret_cast<const int16_t*>(rows + pv.block[v]));
 }
 
 // The words at p, in a register: without the empty asm GCC folds the load into the conversion
@@ -347,14 +352,20 @@ template <int NV>
 void pair_pass(const uint32_t* rows, const PairVectors& pv, const float* xp, const int* perm, int begin, int end,
                const float* scale, float* out) {
   const PI up = low_half_up();
-  const int h = pv.h;
+  const int s0 = pv.stride[0], s1 = pv.stride[1];
+  const uint32_t* rows0 = rows + pv.block[0];
+  const uint32_t* rows1 = rows + pv.block[1];
   PB lo0(0.0f), hi0(0.0f), lo1(0.0f), hi1(0.0f);
   for (int i = begin; i < end; ++i) {
     const PB xi(xp[perm[i]]);
-    const uint32_t* row = rows + static_cast<ptrdiff_t>(i) * h;
-    prefetch_pair_row(row, h);
-    pair_madd(load_words(row), up, xi, lo0, hi0);
-    if constexpr (NV == 2) pair_madd(load_words(row + 16), up, xi, lo1, hi1);
+    const uint32_t* row0 = rows0 + static_cast<ptrdiff_t>(i) * s0;
+    prefetch_pair_row(row0);
+    pair_madd(load_words(row0), up, xi, lo0, hi0);
+    if constexpr (NV == 2) {
+      const uint32_t* row1 = rows1 + static_cast<ptrdiff_t>(i) * s1;
+      prefetch_pair_row(row1);
+      pair_madd(load_words(row1), up, xi, lo1, hi1);
+    }
   }
   pair_store(pv, 0, scale, lo0, hi0, out);
   if constexpr (NV == 2) pair_store(pv, 1, scale, lo1, hi1, out);
@@ -363,10 +374,10 @@ void pair_pass(const uint32_t* rows, const PairVectors& pv, const float* xp, con
 void project_one_pairs(const BlockedW& w, const float* xp, float* v) {
   for (int c0 = 0; c0 < w.rank; c0 += kChunk) {
     const int width = w.rank - c0 < kChunk ? w.rank - c0 : kChunk;
-    const PairVectors pv = pair_vectors(width);
+    const PairVectors pv = pair_vectors(width, w.rows);
     const uint32_t* rows = w.pairs + static_cast<ptrdiff_t>(w.rows) * (c0 / 2);
     const float* scale = w.column_scale + c0;
-    prefetch_start(reinterpret_cast<const int16_t*>(rows));
+    prefetch_pair_start(rows, pv);
     for (int g = 0; g < w.groups; ++g) {
       float* out = v + static_cast<ptrdiff_t>(g) * w.out_stride + c0;
       (pv.nv == 1 ? &pair_pass<1> : &pair_pass<2>)(rows, pv, xp, w.perm, w.group_begin[g], w.group_begin[g + 1], scale,
@@ -384,12 +395,13 @@ void pair_slab(const uint32_t* rows, const PairVectors& pv, int v, const float* 
   const PI up = low_half_up();
   const __mmask16 m[2] = {pv.load[v], pv.high[v]};
   const int off[2] = {16 * v, pv.h + 16 * v};
-  const int h = pv.h;
+  const int stride = pv.stride[v];
+  const uint32_t* block = rows + pv.block[v];
   B acc[F][2];  // [f][0]: the low columns, [f][1]: the high ones
   for (int f = 0; f < F; ++f)
     for (int k = 0; k < 2; ++k) acc[f][k] = kFirst ? B(0.0f) : B(_mm512_maskz_loadu_ps(m[k], out[f] + off[k]));
   for (int i = begin; i < end; ++i) {
-    const PI q = load_words(rows + static_cast<ptrdiff_t>(i) * h + off[0]);
+    const PI q = load_words(block + static_cast<ptrdiff_t>(i) * stride);
     B wv[2];
     wv[0] = B(cvt(_mm512_shuffle_epi8(q, up)));
     wv[1] = B(cvt(q));
@@ -415,7 +427,7 @@ void project_many_pairs(const BlockedW& w, const float* const* xp, float* const*
   float* out[F];
   for (int c0 = 0; c0 < w.rank; c0 += kChunk) {
     const int width = w.rank - c0 < kChunk ? w.rank - c0 : kChunk;
-    const PairVectors pv = pair_vectors(width);
+    const PairVectors pv = pair_vectors(width, w.rows);
     const uint32_t* rows = w.pairs + static_cast<ptrdiff_t>(w.rows) * (c0 / 2);
     const float* scale = w.column_scale + c0;
     for (int g = 0; g < w.groups; ++g) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <limits>
 #include <new>
@@ -110,9 +111,12 @@ Metric::Metric(const Model& model) {
   for (size_t i = 0; i < steps.size(); ++i) w_[i] = static_cast<int16_t>(std::nearbyint(steps[i]));
   // The AVX-512 kernels' copy, only where they run: a frame reads one of the two copies, never both.
   if (cpu_has_avx512()) {
-    pairs_.resize(detail::pair_words_total(gpd::kDims, rank_));
-    detail::pack_pairs(steps.data(), gpd::kDims, rank_, pairs_.data());
-    blocked_.pairs = pairs_.data();
+    // 64-byte aligned (kernels.hpp: a row's first 16 words are then one cache line).
+    pairs_.resize(detail::pair_words_total(gpd::kDims, rank_) + 15);
+    const uintptr_t at = reinterpret_cast<uintptr_t>(pairs_.data());
+    uint32_t* aligned = pairs_.data() + ((64 - at % 64) % 64) / sizeof(uint32_t);
+    detail::pack_pairs(steps.data(), gpd::kDims, rank_, aligned);
+    blocked_.pairs = aligned;
   }
   blocked_.data = w_.data();
   blocked_.column_scale = column_scale_.data();
