@@ -37,11 +37,12 @@ constexpr int kBatch = 8;
 // / 2; pair_index places a word): word k holds column k in its low half and column k + h in its
 // high half (0 when k + h = w). A chunk is two blocks: words 0..15 of every row (16 a row), then
 // words 16..h-1 (h - 16 a row), so that with `pairs` 64-byte aligned the first 16 words of a row
-// are one aligned cache line: rows of 25 words (rank 50) would make nearly every 64-byte load
-// span two lines (12-15% of the kernel in a harness). Decoding: the low column's integer is the low half; the high column's weight in
-// steps is float(int32(word)) / 2^16, i.e. the high half plus the low half's bits / 2^16, and
-// pack_pair chose the high integer against those bits, so both are within half a step (plus the
-// float rounding of a 32-bit conversion, 2^-9 step at most) of the model's float. Why: on a core
+// are one aligned cache line (rows of 25 words, rank 50, make nearly every 64-byte load span two
+// lines; the blocks made the 8-frame batch 3% faster). Decoding: the low column's integer is the
+// low half; the high column's weight in steps is float(int32(word)) / 2^16, i.e. the high half
+// plus the low half's bits / 2^16, and pack_pair chose the high integer against those bits, so
+// both are within half a step (plus the float rounding of a 32-bit conversion, 2^-9 step at
+// most) of the model's float. The 16 words after W (kPairPadding) are read, never used. Why: on a core
 // whose 512-bit conversions share the multiply-add ports, one byte shuffle and two conversions
 // decode 32 columns where two widenings and two conversions decode them from 16-bit integers (5
 // vector operations per 32 columns instead of 6), the same bytes per row. The weights differ from
