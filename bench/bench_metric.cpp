@@ -5,6 +5,7 @@
 // ns/frame is the "per_frame" counter (seconds per frame, shown with its unit).
 #include <benchmark/benchmark.h>
 
+#include <cstdint>
 #include <memory>
 #include <string>
 #include <vector>
@@ -173,13 +174,15 @@ void Metric_ScoreBatch(benchmark::State& state) {
 BENCHMARK(Metric_ScoreBatch)->Arg(1)->Arg(2)->Arg(4)->Arg(8)->Arg(16);
 
 // The projection kernel alone (one pass over the blocked W), each implementation explicitly.
-enum class Isa { kBase, kAvx2, kAvx512 };
+// kAvx512 reads the pair-packed W the metric uses on AVX-512 (kernels.hpp BlockedW::pairs);
+// kAvx512Int16 the 16-bit integers the other ISAs read.
+enum class Isa { kBase, kAvx2, kAvx512, kAvx512Int16 };
 // kRows: how many rows of W one pass walks (0: all 1683). 300 rows
 // of 50 int16 columns are 30 KB and stay in L1 (48 KiB here): per row, the kernel's instruction
 // cost; over 1683 rows (168 KB, from L2) the cost of streaming W from L2 too.
 template <Isa kIsa, int kRows = 0>
 void Metric_Kernel(benchmark::State& state) {
-  if ((kIsa == Isa::kAvx2 && !cpu_has_avx2()) || (kIsa == Isa::kAvx512 && !cpu_has_avx512())) {
+  if ((kIsa == Isa::kAvx2 && !cpu_has_avx2()) || ((kIsa == Isa::kAvx512 || kIsa == Isa::kAvx512Int16) && !cpu_has_avx512())) {
     state.SkipWithError("instruction set not available");
     return;
   }
@@ -204,9 +207,15 @@ void Metric_Kernel(benchmark::State& state) {
   std::vector<int> perm(gpd::kDims);
   for (int k = 0; k < gpd::kDims; ++k) perm[static_cast<size_t>(k)] = (k * 7) % gpd::kDims;
   bw.perm = perm.data();
+  // 64-byte aligned, as Metric holds it.
+  std::vector<uint32_t> pairs(metric::detail::pair_words_total(gpd::kDims, kRank) + 15);
+  uint32_t* aligned = pairs.data() + ((64 - reinterpret_cast<uintptr_t>(pairs.data()) % 64) % 64) / sizeof(uint32_t);
+  const std::vector<double> steps(w.begin(), w.end());
+  metric::detail::pack_pairs(steps.data(), gpd::kDims, kRank, aligned);
+  if (kIsa == Isa::kAvx512) bw.pairs = aligned;
   std::vector<float> v(static_cast<size_t>(bw.groups) * bw.out_stride);
   for (auto _ : state) {
-    if constexpr (kIsa == Isa::kAvx512)
+    if constexpr (kIsa == Isa::kAvx512 || kIsa == Isa::kAvx512Int16)
       metric::detail::avx512::project_groups(bw, ws.xp.data(), v.data());
     else if constexpr (kIsa == Isa::kAvx2)
       metric::detail::avx2::project_groups(bw, ws.xp.data(), v.data());
@@ -218,8 +227,10 @@ void Metric_Kernel(benchmark::State& state) {
   per_frame(state, 1);
 }
 BENCHMARK(Metric_Kernel<Isa::kAvx512>)->Name("Metric_KernelAvx512");
+BENCHMARK(Metric_Kernel<Isa::kAvx512Int16>)->Name("Metric_KernelAvx512Int16");
 BENCHMARK(Metric_Kernel<Isa::kAvx2>)->Name("Metric_KernelAvx2");
 BENCHMARK(Metric_Kernel<Isa::kAvx512, 300>)->Name("Metric_KernelAvx512L1");
+BENCHMARK(Metric_Kernel<Isa::kAvx512Int16, 300>)->Name("Metric_KernelAvx512Int16L1");
 BENCHMARK(Metric_Kernel<Isa::kAvx2, 300>)->Name("Metric_KernelAvx2L1");
 BENCHMARK(Metric_Kernel<Isa::kBase>)->Name("Metric_KernelBaseline");
 

@@ -25,6 +25,7 @@ void project_groups_batch(const BlockedW& w, const float* const* xp, float* cons
 double normalise(const float* x, const float* a, const float* b, int n, float* xn) {
   return base::normalise(x, a, b, n, xn);
 }
+double dot(const float* a, const float* b, int n) { return base::dot(a, b, n); }
 void combine(const Combine& c, const float* v, int stride, float scale, float* out) {
   base::combine(c, v, stride, scale, out);
 }

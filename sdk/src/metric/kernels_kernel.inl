@@ -275,11 +275,210 @@ void project_many(const BlockedW& w, const float* const* xp, float* const* v) {
   }
 }
 
+#if defined(__AVX512F__)
+// ---- The pair-packed W (kernels.hpp BlockedW::pairs), AVX-512 only ----
+// Per 16 words (32 columns) and frame: one load, a byte shuffle moving each word's low half to
+// its high half (the low column's integer x 2^16, exact), two conversions (the raw word is the
+// high column's integer x 2^16 plus the low half's bits, compensated by pack_pair) and two
+// multiply-adds. The sums are multiplied by scale / 2^16 (exact) as they are stored. A chunk's
+// h words per row are covered by vectors at word 0 and 16, each from its own block, whole: the
+// lanes past the row's words read the next row (or the padding after W, kernels.hpp) and are
+// never stored (masked stores). No overlap, so the batched kernel's one-vector slabs never add a tile twice; single
+// and batched run the same lane operations in the same row order, so they agree bit for bit.
+// (Masked loads in the loops would be cleaner, but GCC 12 then keeps every accumulator in memory.)
+// (xsimd's batch as the accumulator type: GCC 12 keeps arrays of raw __m512 in memory here.)
+using PB = B;
+using PI = __m512i;
+
+inline PI low_half_up() {
+  // Per dword: bytes 0, 1 -> 2, 3; bytes 0, 1 zeroed (a control byte with its top bit set).
+  return _mm512_set4_epi32(0x0D0C8080, 0x09088080, 0x05048080, 0x01008080);
+}
+inline __mmask16 lanes(int n) {
+  return n >= 16 ? static_cast<__mmask16>(0xFFFF) : n <= 0 ? static_cast<__mmask16>(0) : static_cast<__mmask16>((1u << n) - 1u);
+}
+inline __m512 cvt(PI q) { return _mm512_maskz_cvtepi32_ps(0xFFFF, q); }
+
+// The column layout of one chunk's word vectors: vector v covers words [16 v, 16 v + 16) of the
+// h words of a row, read from block v of the chunk (kernels.hpp: block[v] words from the chunk's
+// start, stride[v] words per row); load[v] its words, high[v] the columns its high halves write.
+struct PairVectors {
+  int nv = 0, h = 0;
+  int stride[2] = {0, 0};
+  ptrdiff_t block[2] = {0, 0};
+  __mmask16 load[2] = {0, 0}, high[2] = {0, 0};
+};
+inline PairVectors pair_vectors(int width, int rows) {
+  PairVectors p;
+  p.h = pair_words(width);
+  p.nv = (p.h + 15) / 16;
+  for (int v = 0; v < p.nv; ++v) {
+    p.load[v] = lanes(p.h - 16 * v);
+    p.high[v] = lanes(width - p.h - 16 * v);  // high halves of words k < width - h are columns
+    p.stride[v] = p.h - 16 * v < 16 ? p.h - 16 * v : 16;
+    p.block[v] = static_cast<ptrdiff_t>(rows) * 16 * v;
+  }
+  return p;
+}
+inline void prefetch_pair_row(const uint32_t* row) { __builtin_prefetch(reinterpret_cast<const char*>(row) + kPrefetchAhead); }
+// The first page of each block of a chunk, which no earlier row prefetched.
+inline void prefetch_pair_start(const uint32_t* rows, const PairVectors& pv) {
+  for (int v = 0; v < pv.nv; ++v) prefetch_start(reinterpret_cast<const int16_t*>(rows + pv.block[v]));
+}
+
+// The words at p, in a register: without the empty asm GCC folds the load into the conversion
+// and loads every vector twice (the shuffle needs it too), two loads that mostly cross a line.
+inline PI load_words(const uint32_t* p) {
+  PI q = _mm512_loadu_si512(p);
+  asm("" : "+v"(q));
+  return q;
+}
+// One word vector's multiply-adds: lo / hi accumulate the low / high columns.
+inline void pair_madd(PI q, PI up, PB xi, PB& lo, PB& hi) {
+  hi = PB(_mm512_fmadd_ps(cvt(q), xi, hi));
+  lo = PB(_mm512_fmadd_ps(cvt(_mm512_shuffle_epi8(q, up)), xi, lo));
+}
+// The sums of word vector v scaled by scale / 2^16 and stored to their columns.
+inline void pair_store(const PairVectors& pv, int v, const float* scale, PB lo, PB hi, float* out) {
+  const __m512 unit = _mm512_set1_ps(1.0f / 65536.0f);
+  const __m512 sl = _mm512_mul_ps(_mm512_maskz_loadu_ps(pv.load[v], scale + 16 * v), unit);
+  const __m512 sh = _mm512_mul_ps(_mm512_maskz_loadu_ps(pv.high[v], scale + pv.h + 16 * v), unit);
+  _mm512_mask_storeu_ps(out + 16 * v, pv.load[v], _mm512_mul_ps(lo, sl));
+  _mm512_mask_storeu_ps(out + pv.h + 16 * v, pv.high[v], _mm512_mul_ps(hi, sh));
+}
+
+// (Named accumulators, not arrays: GCC 12 keeps an array of __m512 in memory here.)
+template <int NV>
+void pair_pass(const uint32_t* rows, const PairVectors& pv, const float* xp, const int* perm, int begin, int end,
+               const float* scale, float* out) {
+  const PI up = low_half_up();
+  const int s0 = pv.stride[0], s1 = pv.stride[1];
+  const uint32_t* rows0 = rows + pv.block[0];
+  const uint32_t* rows1 = rows + pv.block[1];
+  PB lo0(0.0f), hi0(0.0f), lo1(0.0f), hi1(0.0f);
+  for (int i = begin; i < end; ++i) {
+    const PB xi(xp[perm[i]]);
+    const uint32_t* row0 = rows0 + static_cast<ptrdiff_t>(i) * s0;
+    prefetch_pair_row(row0);
+    pair_madd(load_words(row0), up, xi, lo0, hi0);
+    if constexpr (NV == 2) {
+      const uint32_t* row1 = rows1 + static_cast<ptrdiff_t>(i) * s1;
+      prefetch_pair_row(row1);
+      pair_madd(load_words(row1), up, xi, lo1, hi1);
+    }
+  }
+  pair_store(pv, 0, scale, lo0, hi0, out);
+  if constexpr (NV == 2) pair_store(pv, 1, scale, lo1, hi1, out);
+}
+
+void project_one_pairs(const BlockedW& w, const float* xp, float* v) {
+  for (int c0 = 0; c0 < w.rank; c0 += kChunk) {
+    const int width = w.rank - c0 < kChunk ? w.rank - c0 : kChunk;
+    const PairVectors pv = pair_vectors(width, w.rows);
+    const uint32_t* rows = w.pairs + static_cast<ptrdiff_t>(w.rows) * (c0 / 2);
+    const float* scale = w.column_scale + c0;
+    prefetch_pair_start(rows, pv);
+    for (int g = 0; g < w.groups; ++g) {
+      float* out = v + static_cast<ptrdiff_t>(g) * w.out_stride + c0;
+      (pv.nv == 1 ? &pair_pass<1> : &pair_pass<2>)(rows, pv, xp, w.perm, w.group_begin[g], w.group_begin[g + 1], scale,
+                                                   out);
+      zero_padding(out, width);
+    }
+  }
+}
+
+// F frames x one word vector (2 x 16 columns) over rows [begin, end) of a tile, accumulated into
+// out[f] as slab() does (kFirst: from 0; kLast: scaled as stored).
+template <int F, bool kFirst, bool kLast>
+void pair_slab(const uint32_t* rows, const PairVectors& pv, int v, const float* const* xp, const int* perm, int begin,
+               int end, const float* scale, float* const* out) {
+  const PI up = low_half_up();
+  const __mmask16 m[2] = {pv.load[v], pv.high[v]};
+  const int off[2] = {16 * v, pv.h + 16 * v};
+  const int stride = pv.stride[v];
+  const uint32_t* block = rows + pv.block[v];
+  B acc[F][2];  // [f][0]: the low columns, [f][1]: the high ones
+  for (int f = 0; f < F; ++f)
+    for (int k = 0; k < 2; ++k) acc[f][k] = kFirst ? B(0.0f) : B(_mm512_maskz_loadu_ps(m[k], out[f] + off[k]));
+  for (int i = begin; i < end; ++i) {
+    const PI q = load_words(block + static_cast<ptrdiff_t>(i) * stride);
+    B wv[2];
+    wv[0] = B(cvt(_mm512_shuffle_epi8(q, up)));
+    wv[1] = B(cvt(q));
+    const int src = perm[i];
+    for (int f = 0; f < F; ++f) {
+      const B xi(xp[f][src]);
+      for (int k = 0; k < 2; ++k) acc[f][k] = madd(wv[k], xi, acc[f][k]);
+    }
+  }
+  if constexpr (kLast) {
+    const __m512 unit = _mm512_set1_ps(1.0f / 65536.0f);
+    B s[2];
+    for (int k = 0; k < 2; ++k) s[k] = B(_mm512_mul_ps(_mm512_maskz_loadu_ps(m[k], scale + off[k]), unit));
+    for (int f = 0; f < F; ++f)
+      for (int k = 0; k < 2; ++k) acc[f][k] = acc[f][k] * s[k];
+  }
+  for (int f = 0; f < F; ++f)
+    for (int k = 0; k < 2; ++k) _mm512_mask_storeu_ps(out[f] + off[k], m[k], acc[f][k]);
+}
+
+template <int F>
+void project_many_pairs(const BlockedW& w, const float* const* xp, float* const* v) {
+  float* out[F];
+  for (int c0 = 0; c0 < w.rank; c0 += kChunk) {
+    const int width = w.rank - c0 < kChunk ? w.rank - c0 : kChunk;
+    const PairVectors pv = pair_vectors(width, w.rows);
+    const uint32_t* rows = w.pairs + static_cast<ptrdiff_t>(w.rows) * (c0 / 2);
+    const float* scale = w.column_scale + c0;
+    for (int g = 0; g < w.groups; ++g) {
+      for (int f = 0; f < F; ++f) out[f] = v[f] + static_cast<ptrdiff_t>(g) * w.out_stride + c0;
+      const int begin = w.group_begin[g], end = w.group_begin[g + 1];
+      if (begin == end)  // an empty group: no tile writes its sums
+        for (int f = 0; f < F; ++f)
+          for (int c = 0; c < width; ++c) out[f][c] = 0.0f;
+      for (int t0 = begin; t0 < end; t0 += kTile) {
+        const int t1 = t0 + kTile < end ? t0 + kTile : end;
+        const bool first = t0 == begin, last = t1 == end;
+        for (int vec = 0; vec < pv.nv; ++vec) {
+          if (first && last) pair_slab<F, true, true>(rows, pv, vec, xp, w.perm, t0, t1, scale, out);
+          else if (first) pair_slab<F, true, false>(rows, pv, vec, xp, w.perm, t0, t1, scale, out);
+          else if (last) pair_slab<F, false, true>(rows, pv, vec, xp, w.perm, t0, t1, scale, out);
+          else pair_slab<F, false, false>(rows, pv, vec, xp, w.perm, t0, t1, scale, out);
+        }
+      }
+      for (int f = 0; f < F; ++f) zero_padding(out[f], width);
+    }
+  }
+}
+#endif  // __AVX512F__
+
 }  // namespace
 
-void project_groups(const BlockedW& w, const float* xp, float* v) { project_one(w, xp, v); }
+void project_groups(const BlockedW& w, const float* xp, float* v) {
+#if defined(__AVX512F__)
+  if (w.pairs) return project_one_pairs(w, xp, v);
+#endif
+  project_one(w, xp, v);
+}
 
 void project_groups_batch(const BlockedW& w, const float* const* xp, float* const* v, int n) {
+#if defined(__AVX512F__)
+  if (w.pairs) {
+    for (; n > 8; n -= 8, xp += 8, v += 8) project_many_pairs<8>(w, xp, v);
+    switch (n) {
+      case 1: project_one_pairs(w, xp[0], v[0]); break;
+      case 2: project_many_pairs<2>(w, xp, v); break;
+      case 3: project_many_pairs<3>(w, xp, v); break;
+      case 4: project_many_pairs<4>(w, xp, v); break;
+      case 5: project_many_pairs<5>(w, xp, v); break;
+      case 6: project_many_pairs<6>(w, xp, v); break;
+      case 7: project_many_pairs<7>(w, xp, v); break;
+      case 8: project_many_pairs<8>(w, xp, v); break;
+      default: break;
+    }
+    return;
+  }
+#endif
   // More frames than one pass takes: passes of kPassFrames (each frame's sums are the same
   // operations whatever pass it is in).
   for (; n > kPassFrames; n -= kPassFrames, xp += kPassFrames, v += kPassFrames)
@@ -395,6 +594,31 @@ int sum_squares8(const float* xn, int n, double* acc) {
   for (; i + 8 <= n; i += 8)
     for (int l = 0; l < 8; ++l) acc[l] += static_cast<double>(xn[i + l]) * xn[i + l];
   return i;
+}
+
+double dot(const float* a, const float* b, int n) {
+  // Eight double lanes over n (a multiple of 8) floats, summed pairwise: a float times a float
+  // is exact in double, so fused or not every ISA rounds the same sums in the same order.
+  double acc[8] = {};
+  int i = 0;
+#if defined(__AVX512F__)
+  __m512d s = _mm512_setzero_pd();
+  for (; i + 8 <= n; i += 8)
+    s = _mm512_fmadd_pd(_mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(a + i)),
+                        _mm512_maskz_cvtps_pd(0xFF, _mm256_loadu_ps(b + i)), s);
+  _mm512_storeu_pd(acc, s);
+#elif defined(__AVX2__) && defined(__FMA__)
+  __m256d s0 = _mm256_setzero_pd(), s1 = _mm256_setzero_pd();
+  for (; i + 8 <= n; i += 8) {
+    s0 = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(a + i)), _mm256_cvtps_pd(_mm_loadu_ps(b + i)), s0);
+    s1 = _mm256_fmadd_pd(_mm256_cvtps_pd(_mm_loadu_ps(a + i + 4)), _mm256_cvtps_pd(_mm_loadu_ps(b + i + 4)), s1);
+  }
+  _mm256_storeu_pd(acc, s0);
+  _mm256_storeu_pd(acc + 4, s1);
+#endif
+  for (; i + 8 <= n; i += 8)
+    for (int l = 0; l < 8; ++l) acc[l] += static_cast<double>(a[i + l]) * b[i + l];
+  return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
 }
 
 double normalise(const float* x, const float* a, const float* b, int n, float* xn) {

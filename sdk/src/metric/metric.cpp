@@ -2,10 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdlib>
 #include <limits>
 #include <new>
 
+#include "common/cpu.hpp"
 #include "common/error.hpp"
 
 namespace kata::metric {
@@ -92,18 +94,29 @@ Metric::Metric(const Model& model) {
       largest = std::max(largest, std::abs(model.w[static_cast<size_t>(c) * gpd::kDims + i]));
     column_scale_.data()[c] = largest / 32767.0f;
   }
-  w_.assign(static_cast<size_t>(gpd::kDims) * rank_, 0);
-  int16_t* dst = w_.data();
+  // Both formats are rounded from W in steps, in the blocked layout (pairs: kernels.hpp).
+  std::vector<double> steps(static_cast<size_t>(gpd::kDims) * rank_, 0.0);
   for (int c0 = 0; c0 < rank_; c0 += detail::kChunk) {
     const int width = std::min(detail::kChunk, rank_ - c0);
-    int16_t* chunk = dst + static_cast<size_t>(gpd::kDims) * c0;
+    double* chunk = steps.data() + static_cast<size_t>(gpd::kDims) * c0;
     for (int k = 0; k < gpd::kDims; ++k)
       for (int c = 0; c < width; ++c) {
         const float step = column_scale_.data()[c0 + c];
         const float value = model.w[static_cast<size_t>(c0 + c) * gpd::kDims + perm_[k]];
-        const double q = step > 0.0f ? std::nearbyint(static_cast<double>(value) / step) : 0.0;
-        chunk[static_cast<size_t>(k) * width + c] = static_cast<int16_t>(std::clamp(q, -32767.0, 32767.0));
+        chunk[static_cast<size_t>(k) * width + c] =
+            step > 0.0f ? std::clamp(static_cast<double>(value) / step, -32767.0, 32767.0) : 0.0;
       }
+  }
+  w_.resize(steps.size());
+  for (size_t i = 0; i < steps.size(); ++i) w_[i] = static_cast<int16_t>(std::nearbyint(steps[i]));
+  // The AVX-512 kernels' copy, only where they run: a frame reads one of the two copies, never both.
+  if (cpu_has_avx512()) {
+    // 64-byte aligned (kernels.hpp: a row's first 16 words are then one cache line).
+    pairs_.resize(detail::pair_words_total(gpd::kDims, rank_) + 15);
+    const uintptr_t at = reinterpret_cast<uintptr_t>(pairs_.data());
+    uint32_t* aligned = pairs_.data() + ((64 - at % 64) % 64) / sizeof(uint32_t);
+    detail::pack_pairs(steps.data(), gpd::kDims, rank_, aligned);
+    blocked_.pairs = aligned;
   }
   blocked_.data = w_.data();
   blocked_.column_scale = column_scale_.data();
@@ -144,9 +157,11 @@ std::vector<float> Metric::weights() const {
     const int width = std::min(detail::kChunk, rank_ - c0);
     const int16_t* chunk = w_.data() + static_cast<size_t>(gpd::kDims) * c0;
     for (int k = 0; k < gpd::kDims; ++k)
-      for (int c = 0; c < width; ++c)
-        w[static_cast<size_t>(c0 + c) * gpd::kDims + perm_[k]] =
-            static_cast<float>(chunk[static_cast<size_t>(k) * width + c]) * column_scale_.data()[c0 + c];
+      for (int c = 0; c < width; ++c) {
+        const float q = blocked_.pairs ? detail::paired_weight(blocked_.pairs, gpd::kDims, rank_, k, c0 + c)
+                                       : static_cast<float>(chunk[static_cast<size_t>(k) * width + c]);
+        w[static_cast<size_t>(c0 + c) * gpd::kDims + perm_[k]] = q * column_scale_.data()[c0 + c];
+      }
   }
   return w;
 }
@@ -209,12 +224,7 @@ void Metric::project(const float* x, Workspace& ws, float* u) const {
 }
 
 namespace detail {
-double dot(const float* a, const float* b, int n) {
-  double acc[8] = {};
-  for (int c = 0; c < n; c += 8)
-    for (int l = 0; l < 8; ++l) acc[l] += static_cast<double>(a[c + l]) * b[c + l];
-  return ((acc[0] + acc[1]) + (acc[2] + acc[3])) + ((acc[4] + acc[5]) + (acc[6] + acc[7]));
-}
+// dot: kernels.cpp (dispatched to the widest ISA, bit-identical on every one).
 
 double dist2(const float* a, const float* b, int n) {
   double acc[8] = {};

@@ -80,9 +80,10 @@ class Metric {
   // Number of dimension groups (distinct part sets) and the rows of W each holds.
   int groups() const { return static_cast<int>(group_mask_.size()); }
 
-  // W as the kernels apply it: column-major kDims x rank floats, W[i, c] = q[i, c] *
-  // weight_step(c) with q the stored 16-bit integers (kernels.hpp BlockedW), each within half a
-  // step of the model's W. For tests and diagnostics (allocates).
+  // W as this CPU's kernels apply it: column-major kDims x rank floats, W[i, c] = q[i, c] *
+  // weight_step(c) with q the stored 16-bit integers, or on a CPU running the AVX-512 kernels
+  // the weights their pair-packed words decode to (kernels.hpp BlockedW); each within half a
+  // step (plus 2^-9 step for the pairs) of the model's W. For tests and diagnostics (allocates).
   std::vector<float> weights() const;
   // The quantum of column c: max_i |W[i, c]| / 32767 of the model's W.
   float weight_step(int c) const { return column_scale_.data()[c]; }
@@ -120,6 +121,7 @@ class Metric {
   std::vector<int> perm_;          // row k of the blocked W multiplies feature perm_[k]
   AlignedFloats shift_, gain_;     // per feature: x' = (x - shift) * gain
   std::vector<int16_t> w_;         // blocked W, 16-bit (kernels.hpp)
+  std::vector<uint32_t> pairs_;    // the same W pair-packed for the AVX-512 kernels (empty without them)
   AlignedFloats column_scale_;     // rank: W[., c] = w_ * column_scale_[c]
   std::vector<int> group_begin_;   // groups + 1
   std::vector<uint8_t> group_mask_;  // part bit set per group
