@@ -7,7 +7,7 @@
   the drops by cause; kata send says how many frames a peer took;
 - a serve nobody sends to says so after 10 s;
 - kata send slower than recorded (--speed 0.5) with the clip's capture times says, before it
-  sends, that an ingest judging age will drop the frames as stale (it does), and what to pass.
+  sends, that an ingest judging age will drop the frames as stale (it does, and its log says why).
 Unique ipc paths per run; every wait bounded; no timing asserted."""
 import os, signal, subprocess, sys, tempfile, time
 
@@ -87,6 +87,9 @@ with tempfile.TemporaryDirectory(prefix="kata_silences_") as tmp:
     err = stop(slow)
     stale = [l for l in err.splitlines() if "ingest messages dropped" in l or " dropped (" in l]
     assert any(" stale " in l and " stale 0," not in l for l in stale), stale
+    # ...and says why, once: frames ever later, the rate, the likely cause.
+    assert err.count("sends frames ever later behind their capture times") == 1, err
+    assert "60 in a row dropped as stale" in err and "x this host's, or a source falling behind" in err, err
     r = subprocess.run([kata, "send", "--bvh", clip, "--endpoint", "ipc://%s/nobody" % tmp, "--frames", "10",
                         "--speed", "0.5", "--live-clock", "--connect-timeout", "0.5"],
                        capture_output=True, text=True, timeout=60)

@@ -752,6 +752,76 @@ TEST(runtime_ingest_table, LateMessagesOfAClosedConnectionOwnNothing) {
   EXPECT_EQ(small.streams(), 3u);
 }
 
+// Stale frames said once, when a source is the cause: a capture clock at half the host's rate (a
+// replay at half speed stamping clip times) keeps every frame stale with its age growing 0.5 s a
+// second, and is explained once per run with that rate; a backlog after an outage (old frames
+// arriving together, their ages falling, then fresh ones) is dropped without a word.
+TEST(runtime_ingest_table, AStreamStaleWithAgesGrowingIsExplainedOnceABacklogIsNot) {
+  IngestTable table;  // max_frame_age 250 ms
+  const SenderToken sender = connection_sender(5, 0);
+  bool is_new = false, restarted = false;
+  uint64_t gap = 0;
+  int64_t age = 0;
+  ASSERT_EQ(table.judge_definition(sender, 1, 1, &is_new), TableVerdict::kAccepted);
+  table.commit_definition(sender, 1, 1, 3, 0);
+  const int64_t frame = 8'333'333;  // 120 Hz
+  int explained = 0, stale = 0;
+  double growth = 0.0;
+  int64_t explained_age = 0;
+  for (uint64_t k = 0; k < 360; ++k) {  // capture k frames, arrival 2k frames (+1 s)
+    const int64_t capture = static_cast<int64_t>(k) * frame, arrival = 1'000'000'000 + 2 * capture;
+    const TableVerdict v = table.judge_frame(sender, 1, k, capture, 3, arrival, &restarted, &gap, &age);
+    EXPECT_EQ(age, capture);  // each frame one frame time later behind its capture than the last
+    if (v == TableVerdict::kStale) {
+      ++stale;
+      double g = 0.0;
+      int64_t a = 0;
+      if (table.stale_run_to_explain(1, &g, &a)) ++explained, growth = g, explained_age = a;
+    }
+  }
+  EXPECT_EQ(stale, 360 - 31);  // ages 0 .. 30 frames (250 ms) pass
+  EXPECT_EQ(explained, 1);
+  EXPECT_NEAR(growth, 0.5, 1e-9);
+  EXPECT_EQ(explained_age, (31 + IngestTable::kStaleRunToExplain - 1) * frame);
+  // A fresh frame ends the run; a new run is explained again.
+  const int64_t fresh_capture = 400 * frame;
+  EXPECT_EQ(table.judge_frame(sender, 1, 400, fresh_capture, 3, 1'000'000'000 + fresh_capture, &restarted, &gap, &age),
+            TableVerdict::kAccepted);
+  EXPECT_EQ(age, 0);
+  explained = 0;
+  for (uint64_t j = 1; j <= 120; ++j) {
+    const int64_t capture = fresh_capture + static_cast<int64_t>(j) * frame;
+    table.judge_frame(sender, 1, 400 + j, capture, 3, 1'000'000'000 + fresh_capture + 2 * static_cast<int64_t>(j) * frame,
+                      &restarted, &gap, &age);
+    double g = 0.0;
+    int64_t a = 0;
+    explained += table.stale_run_to_explain(1, &g, &a);
+  }
+  EXPECT_EQ(explained, 1);
+
+  // Stream 2: live at 120 Hz, then a 2 s outage whose 240 queued frames arrive within 24 ms, then
+  // live again: the backlog's ages fall from 2 s; nothing to explain.
+  ASSERT_EQ(table.judge_definition(sender, 2, 1, &is_new), TableVerdict::kAccepted);
+  table.commit_definition(sender, 2, 1, 3, 0);
+  uint64_t sequence = 0;
+  for (int k = 0; k < 120; ++k, ++sequence)
+    EXPECT_EQ(table.judge_frame(sender, 2, sequence, k * frame, 3, 5 + k * frame, &restarted, &gap, &age),
+              TableVerdict::kAccepted);
+  stale = 0;
+  const int64_t back = 120 * frame + 2'000'000'000;
+  for (int k = 0; k < 240; ++k, ++sequence) {
+    const TableVerdict v =
+        table.judge_frame(sender, 2, sequence, (120 + k) * frame, 3, 5 + back + k * 100'000, &restarted, &gap, &age);
+    stale += v == TableVerdict::kStale;
+    double g = 0.0;
+    int64_t a = 0;
+    EXPECT_FALSE(table.stale_run_to_explain(2, &g, &a)) << k;
+  }
+  EXPECT_GT(stale, 200);
+  EXPECT_EQ(table.judge_frame(sender, 2, sequence, 360 * frame, 3, 5 + 360 * frame + 1'000'000, &restarted, &gap, &age),
+            TableVerdict::kAccepted);
+}
+
 // The premise of a keyless ingest's senders (zmq_io.cpp): with a ZAP domain set, libzmq asks the
 // context's ZAP handler about every NULL-mechanism connection too, and the number the handler
 // answers arrives on each message of that connection as its User-Id. Two connections, two numbers,

@@ -128,8 +128,12 @@ TableVerdict IngestTable::judge_frame(SenderToken sender, uint64_t id, uint64_t 
     s.last_sequence = sequence;
     s.candidate_run = 0;
     s.last_activity_ns = now_ns;
+    if (s.stale_run == 0) s.stale_run_first_ns = now_ns, s.stale_run_first_age = age;
+    if (s.stale_run <= kStaleRunToExplain) ++s.stale_run;  // stops one past: explained once per run
+    s.stale_run_last_ns = now_ns, s.stale_run_last_age = age;
     return TableVerdict::kStale;
   }
+  s.stale_run = 0;
   s.any_frame = true;
   s.restart_next = false;
   s.last_sequence = sequence;
@@ -158,6 +162,19 @@ void IngestTable::expire(int64_t now_ns, std::vector<uint64_t>* expired) {
       ++it;
     }
   }
+}
+
+bool IngestTable::stale_run_to_explain(uint64_t id, double* age_growth, int64_t* age_ns) const {
+  const auto it = streams_.find(id);
+  if (it == streams_.end()) return false;
+  const Stream& s = it->second;
+  // The frame that made the run kStaleRunToExplain long (the count stops there until a fresh one).
+  if (s.stale_run != kStaleRunToExplain || s.stale_run_last_ns == s.stale_run_first_ns) return false;
+  if (s.stale_run_last_age <= s.stale_run_first_age) return false;  // a backlog draining: ages fall
+  *age_growth = static_cast<double>(s.stale_run_last_age - s.stale_run_first_age) /
+                static_cast<double>(s.stale_run_last_ns - s.stale_run_first_ns);
+  *age_ns = s.stale_run_last_age;
+  return true;
 }
 
 bool IngestTable::first_refusal(SenderToken sender, TableVerdict cause) {

@@ -111,6 +111,14 @@ class IngestTable {
   // First refusal of `cause` for this sender? (log once per sender and cause).
   bool first_refusal(SenderToken sender, TableVerdict cause);
 
+  // A stream whose every frame has been stale for kStaleRunToExplain frames in a row, with their
+  // age growing: not a backlog after an outage (its queued frames arrive together, ages falling,
+  // then fresh ones) but a source whose capture clock runs slower than this host's, or that falls
+  // further behind every frame. True once per run, when the run reaches that length, with how fast
+  // the age grew (seconds of age per second of arrival) and the last frame's age.
+  static constexpr int kStaleRunToExplain = 60;
+  bool stale_run_to_explain(uint64_t id, double* age_growth, int64_t* age_ns) const;
+
   size_t streams() const { return streams_.size(); }
   bool known(uint64_t id) const { return streams_.count(id) != 0; }
   const IngestLimits& limits() const { return limits_; }
@@ -131,6 +139,11 @@ class IngestTable {
     int candidate_run = 0;
     bool has_offset = false;
     int64_t min_offset_ns = 0;       // smallest arrival - capture
+    int stale_run = 0;               // frames in a row judged stale (0 after an accepted one)
+    int64_t stale_run_first_ns = 0;  // the run's first frame: its arrival and age
+    int64_t stale_run_first_age = 0;
+    int64_t stale_run_last_age = 0;
+    int64_t stale_run_last_ns = 0;
     int64_t last_activity_ns = 0;
     bool has_practice = false;       // a practice setting was applied since the last definition
     uint32_t practice_revision = 0;  // its revision

@@ -438,7 +438,32 @@ void Ingest::refused(SenderToken sender, TableVerdict cause, uint64_t stream_id,
     case TableVerdict::kWrongJoints: ++counters_.wrong_joint_count; return;
     case TableVerdict::kOutOfOrder: ++counters_.out_of_order; return;
     case TableVerdict::kOutOfWindow: ++counters_.out_of_window; why = "sends sequence numbers far outside the window"; break;
-    case TableVerdict::kStale: ++counters_.stale; return;
+    case TableVerdict::kStale: {
+      ++counters_.stale;
+      // A backlog after an outage is dropped without a word; a stream that stays stale with its
+      // frames ever later is a source to fix (its clock, or its pace), and said once.
+      double growth = 0.0;
+      int64_t age_ns = 0;
+      if (!log_refusals_ || !table_.stale_run_to_explain(stream_id, &growth, &age_ns)) return;
+      char text[400];
+      if (growth < 1.0)
+        std::snprintf(text, sizeof text,
+                      "%d in a row dropped as stale, the last %.2f s old (max_frame_age_ms %lld), their age growing "
+                      "%.2f s per second: a capture clock at %.2fx this host's, or a source falling behind (a replay "
+                      "slower than recorded? kata send --live-clock)",
+                      IngestTable::kStaleRunToExplain, static_cast<double>(age_ns) * 1e-9,
+                      static_cast<long long>(table_.limits().max_frame_age_ns / 1'000'000), growth, 1.0 - growth);
+      else
+        std::snprintf(text, sizeof text,
+                      "%d in a row dropped as stale, the last %.2f s old (max_frame_age_ms %lld): its capture times "
+                      "do not advance with this host's clock (a unit other than nanoseconds?)",
+                      IngestTable::kStaleRunToExplain, static_cast<double>(age_ns) * 1e-9,
+                      static_cast<long long>(table_.limits().max_frame_age_ns / 1'000'000));
+      if (table_.first_refusal(sender, cause))
+        std::fprintf(stderr, "\nkata ingest: sender %s sends frames ever later behind their capture times (stream %llu: %s); "
+                     "counted, not logged again\n", describe(sender).c_str(), static_cast<unsigned long long>(stream_id), text);
+      return;
+    }
     case TableVerdict::kAccepted:
     case TableVerdict::kRepeated: return;
   }
