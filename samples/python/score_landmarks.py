@@ -53,7 +53,7 @@ def main():
             for start in range(0, len(landmarks), a.chunk):
                 s.push_many(times[start:start + a.chunk], landmarks[start:start + a.chunk])
                 r = s.read_results(buf)
-                scored = r.results["flags"] & kata.RESULT_SCORED != 0
+                scored = r.results["scored"] != 0
                 scores.extend(r.scores["score"][scored].tolist())
                 parts += r.scores["parts"][scored].sum(axis=0)
             print("%d landmark frames, %d scored (the first %d calibrate the body height: %.3g units)"

@@ -69,7 +69,7 @@ TEST(FeedbackCApi, StatesPartScoresAndOverride) {
   ASSERT_EQ(kata_stream_set_reference_bvh(s, m, clip, "cmu", 1, 60), KATA_OK) << kata_stream_last_error(s);
   const int n = static_cast<int>(kata_skeleton_joint_count(skel));
   std::vector<float> p(3 * static_cast<size_t>(n));
-  kata_score_record r{};
+  kata_result_record r{};
   r.struct_size = sizeof r;
   int lost = 0;
   for (uint32_t f = 1; f < 200; ++f) {
@@ -108,8 +108,8 @@ TEST(FeedbackCApi, StatesPartScoresAndOverride) {
   ASSERT_EQ(kata_stream_score(s, &r), KATA_OK);
   EXPECT_NEAR(r.score, documented_map(r.distance, cal.d50, cal.slope), 1e-3);
   // An old caller's smaller struct receives only the fields it knows.
-  kata_score_record small{};
-  small.struct_size = offsetof(kata_score_record, part_scores);
+  kata_result_record small{};
+  small.struct_size = offsetof(kata_result_record, part_scores);
   small.part_to_fix = 12345;
   ASSERT_EQ(kata_stream_score(s, &small), KATA_OK);
   EXPECT_EQ(small.part_to_fix, 12345);

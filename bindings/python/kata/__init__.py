@@ -12,7 +12,7 @@ ownership and thread rules are the C functions'). Every method calls one C funct
 
 Arrays: positions are float32 (joints x 3, x y z interleaved) and are passed to C without a copy
 when they are C-contiguous float32 already (else converted once per call). Results are read
-straight into numpy arrays (structured dtypes mirroring kata_result / kata_score_record).
+straight into numpy arrays (a structured dtype mirroring kata_result_record).
 Errors: a failed call raises KataError with .status (Status) and .message (the C message).
 Handles: every object has close() and is a context manager; a Context closes what was made from
 it that is still open before it is destroyed (kata.h requires that order).
@@ -22,7 +22,7 @@ import os
 from .errors import KataError, Status
 from .objects import (GPD_DIMS, GPD_JOINTS, BodyPart, Clip, Context, Model, ScoreState, Skeleton, Stencil, UpAxis,
                       default_model_path, library_path, presets, version)
-from .stream import (RESULT_DTYPE, RESULT_GHOST, RESULT_SCORED, SCORE_DTYPE, ResultBuffer, Results, ScoreRecord,
+from .stream import (RESULT_DTYPE, ResultBuffer, Results, ScoreRecord,
                      Stream, detect_time_units)
 from .retarget import Retargeter
 from .messages import PracticeSection, ResultMessage, Subscriber, read_message
@@ -30,7 +30,7 @@ from .runtime import Runtime, shard_of
 
 __all__ = ["Runtime", "shard_of", "Subscriber", "ResultMessage", "PracticeSection", "read_message", "ScoreState", "default_model_path", "Context", "Skeleton", "Clip", "Model", "Stream", "Retargeter", "ResultBuffer", "Results",
            "ScoreRecord", "KataError", "Status", "Stencil", "UpAxis", "BodyPart", "version", "library_path",
-           "GPD_DIMS", "GPD_JOINTS", "RESULT_SCORED", "RESULT_GHOST", "RESULT_DTYPE", "SCORE_DTYPE", "presets",
+           "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "presets",
            "detect_time_units"]
 
 # kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the
