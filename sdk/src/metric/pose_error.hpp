@@ -25,25 +25,41 @@
 // total"): 15 deg -> 98, 30 deg -> 76, 45 deg -> 39.
 #pragma once
 
+#include <cstdint>
+
 #include "gpd/gpd.hpp"
 #include "metric/parts.hpp"
 
 namespace kata::metric {
 
 constexpr int kBones = gpd::kJoints - 1;  // bone c - 1 ends at joint c (1..15)
-constexpr int kBoneFloats = kBones * 3;  // unit directions, bone order
 constexpr double kAngle50 = 36.0;        // degrees: a part this far off scores 50
 constexpr double kAngleSlope = 5.0;
+// A pose in the frames above, from its features: [0, 48) the 16 joints in the local frame (the hip
+// at the origin), [48, 69) joints 3..9 (head, arms) in the chest frame with the neck at the
+// origin, [69] the hip height. Body heights.
+constexpr int kChestJoint0 = 3, kChestJoints = 7;
+constexpr int kPoseFloats = 3 * gpd::kJoints + 3 * kChestJoints + 1;
 
-// The 15 bone directions (kBoneFloats floats, unit or all-zero for a degenerate bone) of a pose
-// given by its GPD features (at least the Jc block: x[0..44] = joints 1..15 in the local frame).
-// Allocation-free; never NaN for finite input.
-void bone_directions(const float* features, float* dirs);
+// The pose (kPoseFloats floats) of GPD features x (the Jc block: x[0..44] = joints 1..15 in the
+// local frame, x[45] the hip height). Allocation-free; never NaN for finite input.
+void pose_frames(const float* features, float* pose);
 
-// Per part: its angle, degrees (the largest angle between a student bone and the teacher's, 0..180)
-// and the GPD joint at the end of that bone (1..15; the bone's parent joint is the one to move).
-// A degenerate bone on either side counts 0 (nothing known). Allocation-free.
-void part_angles(const float* student_dirs, const float* teacher_dirs, float* degrees, int* worst_joint);
+// What one student pose differs from one teacher pose by, per part (parts.hpp order).
+struct PartError {
+  // Angle, degrees: the largest angle between a student bone of the part and the teacher's, each
+  // in its frame (0..180; a degenerate bone on either side counts 0), and the GPD joint (1..15)
+  // at the end of that bone (the bone's parent joint is the one to move).
+  float degrees[kParts];
+  int32_t joint[kParts];
+  // Offset, body heights: the mean over the part's joints of the student-teacher distance, each
+  // joint in its frame (the torso's hip by its height, chest and neck in the local frame, the
+  // head and arms in the chest frame from the neck, the legs in the local frame). The part to fix
+  // is ranked by it: over real pairs it follows the local-frame mean joint distance (geometry's
+  // ranking), and a bent spine moves the torso's joints, not the arms it carries.
+  float offset[kParts];
+};
+void part_error(const float* student_pose, const float* teacher_pose, PartError& out);
 
 // The per-part coaching score of a part angle (degrees): 100 / (1 + (a / kAngle50)^kAngleSlope).
 double angle_score(double degrees);

@@ -45,17 +45,20 @@ struct ScoreRecord {
   // joint positions (block Jc: its joints' local-frame coordinates; the hip height for the
   // torso) seen through W (metric.hpp kJointRows); reported, no longer scored.
   float part_distance[kParts] = {};
-  // Per part p: its angle, degrees (pose_error.hpp part_angles: the largest angle between a
-  // student bone of the part and the teacher's), the GPD joint (1..15) at the end of that bone,
-  // and its score angle_score(degrees), 0..100.
+  // Per part p (pose_error.hpp PartError): its angle, degrees (the largest angle between a
+  // student bone of the part and the teacher's, each in the body's frame it hangs from), the GPD
+  // joint (1..15) at the end of that bone, its offset (mean joint distance in those frames, body
+  // heights) and its score angle_score(degrees), 0..100.
   float part_degrees[kParts] = {};
   int32_t part_joint[kParts] = {};
+  float part_offset[kParts] = {};
   float part_scores[kParts] = {};
-  // The part to fix (Part index), -1 for none: Scorer::update_part_to_fix (scorer.cpp) decides it
-  // from the part scores averaged over FeedbackOptions::smoothing_time: the lowest averaged part,
-  // named at once when none is named and a part (or the total) is below the calibration's
-  // good_score in kScoring; another part replaces it, or "none" clears it, only after holding for
-  // FeedbackOptions::hold_time seconds (hysteresis).
+  // The part to fix (Part index), -1 for none: Scorer::update_part_to_fix (scorer.cpp), the one
+  // place it is decided. With part scores and offsets averaged over
+  // FeedbackOptions::smoothing_time: while the lowest averaged part score (or the averaged total)
+  // is below the calibration's good_score in kScoring, the candidate is the part with the largest
+  // averaged offset; named at once when no part is named; another part replaces it, or "none"
+  // clears it, only after holding for FeedbackOptions::hold_time seconds (hysteresis).
   int32_t part_to_fix = -1;
   ScoreState state = ScoreState::kScoring;
   // Where the student is in the routine: matched * the clip's frame time, seconds from the
@@ -139,7 +142,9 @@ class Scorer {
   Metric::Workspace ws_;
   AlignedFloats p_;                 // kProjectionRows x stride: this frame's projections
   AlignedFloats u_;                 // stride: u = W^T (x'' - y'')
-  float bones_[kBoneFloats] = {};   // this frame's student bone directions (pose_error.hpp)
+  float pose_[kPoseFloats] = {};    // this frame's student pose in the body's frames (pose_error.hpp)
+  PartError error_ = {};            // this frame's per-part angles and offsets
+  double smoothed_offset_[kParts] = {};  // part offsets averaged like the part scores (the ranking)
   int64_t count_ = 0;
   double start_time_ = 0.0;         // time of the first frame since construction or reset
   double at_end_since_ = -1.0;      // when the match reached the clip's last frame; -1: not there
