@@ -22,7 +22,7 @@
 //
 // The map: part score = 100 / (1 + (angle / kAngle50)^kAngleSlope), the same map for every part
 // (the same angle, the same score), fixed by measurement (docs/model/scores.md "The coaching
-// total"): 15 deg -> 98, 30 deg -> 76, 45 deg -> 39.
+// total"): 15 deg -> 99, 30 deg -> 81, 45 deg -> 36.
 #pragma once
 
 #include <cstdint>
@@ -33,7 +33,7 @@
 namespace kata::metric {
 
 constexpr int kBones = gpd::kJoints - 1;  // bone c - 1 ends at joint c (1..15)
-constexpr double kAngle50 = 36.0;        // degrees: a part this far off scores 50
+constexpr double kAngle50 = 40.0;        // degrees: a part this far off scores 50
 constexpr double kAngleSlope = 5.0;
 // A pose in the frames above, from its features: [0, 48) the 16 joints in the local frame (the hip
 // at the origin), [48, 69) joints 3..9 (head, arms) in the chest frame with the neck at the
