@@ -180,3 +180,19 @@ def test_the_installed_model_and_clips_are_found(tmp_path):
                        env=dict(os.environ, PYTHONPATH=str(site.parent), KATA_LIBRARY=kata.library_path))
     assert p.returncode == 0, p.stderr
     assert p.stdout.strip() == os.path.realpath(share / "default.kata")
+
+
+def test_the_landmarks_sample_scores_mediapipe_arrays_as_kata_mediapipe_does(recording, data, repo, tmp_path):  # noqa: F811
+    """samples/python/score_landmarks.py on MediaPipe's (frames, 33, 4) (x, y, z, visibility) with
+    its timestamps in milliseconds beside it: the mean kata.mediapipe.score gives."""
+    landmarks, timestamps_ms = recording
+    four = np.concatenate([landmarks, np.full(landmarks.shape[:2] + (1,), 0.95, np.float32)], axis=2)
+    np.save(tmp_path / "webcam.npy", four)
+    np.save(tmp_path / "webcam.times.npy", timestamps_ms)
+    teacher = os.path.join(data, "02_01.bvh")
+    expected = kata.mediapipe.score(four, timestamps_ms, teacher, first_frame=1)
+    p = subprocess.run([sys.executable, os.path.join(repo, "samples", "python", "score_landmarks.py"), "--landmarks",
+                        str(tmp_path / "webcam.npy"), "--teacher", teacher], capture_output=True, text=True,
+                       env=dict(os.environ, PYTHONPATH=os.pathsep.join(sys.path)))
+    assert p.returncode == 0, p.stderr
+    assert "%d scored" % len(expected.scored) in p.stdout and "mean score %.1f" % expected.mean_score in p.stdout, p.stdout
