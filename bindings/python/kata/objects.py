@@ -74,10 +74,13 @@ def _share_dirs() -> List[str]:
 
 def find_data(relative: str) -> str:
     """The path of one of kata's shared files, e.g. "models/default.kata" or "data/cmu/05_18.bvh"
-    (the clips `cmake --install` puts in PREFIX/share/kata): looked for inside the package, in the
-    install's share/kata, then in a build tree and checkout the package is used from. Raises
-    FileNotFoundError naming every place looked in."""
-    looked = []
+    (the clips `cmake --install` puts in PREFIX/share/kata): as the CLI does, first where the
+    program runs (relative to the current folder), then inside the package (a wheel carries the
+    model), in the install's share/kata, then in a build tree and checkout the package is used
+    from. Raises FileNotFoundError naming every place looked in."""
+    if os.path.isfile(relative):
+        return relative
+    looked = [os.getcwd()]
     for d in _share_dirs():
         path = os.path.join(d, relative)
         if os.path.isfile(path):
