@@ -79,7 +79,7 @@ def find_data(relative: str) -> str:
     model), in the install's share/kata, then in a build tree and checkout the package is used
     from. Raises FileNotFoundError naming every place looked in."""
     if os.path.isfile(relative):
-        return relative
+        return os.path.abspath(relative)
     looked = [os.getcwd()]
     for d in _share_dirs():
         path = os.path.join(d, relative)
