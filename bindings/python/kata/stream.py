@@ -93,17 +93,19 @@ class Results:
     the arrays are views valid until the next read into it; from push_and_read they are owned."""
     __slots__ = ("results", "scores", "ghosts", "features", "dropped")
 
-    def __init__(self, buf: Optional[ResultBuffer], n: int, dropped: int = 0) -> None:
-        self.results: np.ndarray = np.zeros(0, dtype=RESULT_DTYPE) if buf is None else buf.results[:n]
-        self.scores: Optional[np.ndarray] = None if buf is None or buf.scores is None else buf.scores[:n]
-        self.ghosts: Optional[np.ndarray] = None if buf is None or buf.ghosts is None else buf.ghosts[:n]
-        self.features: Optional[np.ndarray] = None if buf is None or buf.features is None else buf.features[:n]
+    def __init__(self, buf: ResultBuffer, n: int, dropped: int = 0) -> None:
+        self.results: np.ndarray = buf.results[:n]
+        self.scores: Optional[np.ndarray] = None if buf.scores is None else buf.scores[:n]
+        self.ghosts: Optional[np.ndarray] = None if buf.ghosts is None else buf.ghosts[:n]
+        self.features: Optional[np.ndarray] = None if buf.features is None else buf.features[:n]
         self.dropped = dropped
 
     @staticmethod
     def concatenate(parts: Sequence["Results"]) -> "Results":
         """One Results owning copies of every part's arrays, in order (dropped: their sum)."""
-        out = Results(None, 0, sum(p.dropped for p in parts))
+        out = Results.__new__(Results)
+        out.results, out.scores, out.ghosts, out.features = np.zeros(0, dtype=RESULT_DTYPE), None, None, None
+        out.dropped = sum(p.dropped for p in parts)
         for name in ("results", "scores", "ghosts", "features"):
             arrays = [getattr(p, name) for p in parts if getattr(p, name) is not None]
             if arrays:
@@ -467,12 +469,12 @@ class Stream(_Handle):
             capacity = max(self.results_pending, self._result_capacity)
         return ResultBuffer(capacity, self.ghost_joint_count if ghosts else 0, scores, features)
 
-    def _dropped_since_last_read(self, results: Results) -> Results:
-        """Sets results.dropped and applies the on_drop policy (after the read: nothing read is lost)."""
-        total = int(_n.stream_results_dropped(self._h))
+    def _report_drops(self, results: Results, total: int) -> Results:
+        """Results were overwritten since the previous read (total: the stream's count now): sets
+        results.dropped and applies the on_drop policy, after the read, so nothing read is lost."""
         dropped, self._dropped_seen = total - self._dropped_seen, total
         results.dropped = dropped
-        if dropped and self._on_drop != "count":
+        if self._on_drop != "count":
             message = ("kata: %d result%s overwritten unread before this read (the ring holds %d): read more often, "
                        "open the stream with a larger result_capacity, or push a recording with push_and_read"
                        % (dropped, "s were" if dropped > 1 else " was", self._result_capacity))
@@ -493,7 +495,9 @@ class Stream(_Handle):
         status = _n.stream_read_results(self.handle, *buffer._args, buffer._count_ref)
         if status:
             self._raise(status, "kata_stream_read_results")
-        return self._dropped_since_last_read(Results(buffer, buffer._count.value))
+        r = Results(buffer, buffer._count.value)
+        total = _n.stream_results_dropped(self._h)  # one C call per read: drops never go unseen
+        return r if total == self._dropped_seen else self._report_drops(r, total)
 
     def push_and_read(self, timestamps: Any, positions: Any, confidences: Any = None, time_units: Optional[str] = None,
                       features: bool = False) -> Results:
@@ -535,4 +539,6 @@ class Stream(_Handle):
         if status:
             self._raise(status, "kata_stream_read_newest")
         # Older unread results passed over are not drops (kata.h); overwritten ones are.
-        return self._dropped_since_last_read(Results(buffer, 1))
+        r = Results(buffer, 1)
+        total = _n.stream_results_dropped(self._h)
+        return r if total == self._dropped_seen else self._report_drops(r, total)
