@@ -101,18 +101,23 @@ for doc in [d for d in DOCS if not ONLY or d == ONLY]:
     os.makedirs(folder)
     open(os.path.join(folder, ".blocks.sh"), "w").write("\n".join(script) + "\n")
     t0 = time.monotonic()
-    p = subprocess.Popen(["bash", ".blocks.sh"], cwd=folder, env=env, stdout=subprocess.PIPE,
-                         stderr=subprocess.STDOUT, text=True, start_new_session=True)
-    try:
-        output, _ = p.communicate(timeout=150)
-    except subprocess.TimeoutExpired:
-        os.killpg(p.pid, signal.SIGKILL)
-        output, _ = p.communicate()
-        output += "\n(timed out after 150 s)"
-    try:  # whatever a block left running in the background (a kata serve) ends with the document
-        os.killpg(p.pid, signal.SIGKILL)
-    except ProcessLookupError:
-        pass
+    # Output to a file, not a pipe: a block's background process (a kata serve) would hold a pipe
+    # open after a failed block ended the script.
+    log_path = os.path.join(folder, ".blocks.log")
+    with open(log_path, "w") as log:
+        p = subprocess.Popen(["bash", ".blocks.sh"], cwd=folder, env=env, stdout=log, stderr=subprocess.STDOUT,
+                             start_new_session=True)
+        try:
+            p.wait(timeout=150)
+            timed_out = ""
+        except subprocess.TimeoutExpired:
+            timed_out = "\n(timed out after 150 s)"
+        try:  # whatever a block left running in the background ends with the document
+            os.killpg(p.pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+        p.wait()
+    output = open(log_path, encoding="utf-8", errors="replace").read() + timed_out
     print("==== %s: %d blocks run in %.1f s, %d skipped" % (doc, ran, time.monotonic() - t0, len(skipped)))
     for s in skipped:
         print("  skipped %s" % s)
