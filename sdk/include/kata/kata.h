@@ -612,14 +612,21 @@ KATA_API kata_status kata_stream_restart_teacher(kata_stream stream);
 /* kata_body_part (the five parts of a score breakdown) is in kata/result.h. */
 
 /* ==== Score calibration and feedback ====================================================== */
-/* The score is a calibrated map of the distance d: score = 100 / (1 + (d / d50)^slope), fitted
- * on real performances by other people (docs/model/README.md says what 30, 60 and 90 mean for
- * the shipped models). Each body part has its own map on its own distance, which the positions
- * of that part's own joints make (docs/model/scores.md). A model file without
- * a calibration uses the default d50 = delta*, slope 2 (the same for every part), good_score 75.
- * part_to_fix names the part whose score, averaged over the last 0.5 s, is the lowest, while that
- * average or the total's average is below good_score (a good total does not hide a poor part); a
- * new part (or none) replaces the shown one only after holding for 0.5 s, so cues do not flicker.
+/* The score is the coaching total (issue 34; docs/model/scores.md "The coaching total"):
+ *     score = min(model_score, the lowest part score)      so  score <= the worst part's score
+ * a part at 10 cannot hide in a total of 90. Each part's score is a map of its joint angle: the
+ * largest angle between one of the student's bones of that part and the teacher's, each bone read
+ * in the body frame it hangs from (spine and legs in the hips' frame, head and arms in the chest's),
+ * 100 / (1 + (angle / 40 deg)^5), the same map for every part: 15 deg scores 99, 30 deg 81, 45 deg
+ * 36, at any joint, either way, left or right. model_score is the model's calibrated map of the
+ * learned distance d, 100 / (1 + (d / d50)^slope): it keeps another motion low whatever the
+ * angles (for the shipped model a loose gate, d50 0.085, slope 10; good_score 92). A model file without a
+ * calibration uses d50 = delta*, slope 2, good_score 75; the part maps d50_p, slope_p of the
+ * struct below are kept for old readers and no longer read by the scorer.
+ * part_to_fix (averaged over 0.5 s): while the lowest part score's average or the total's is
+ * below good_score, the part whose joints are farthest from the teacher's, each in its own frame;
+ * named at once when nothing is named; another part (or none) replaces a named one only after
+ * holding for 0.5 s, so cues do not flicker.
  * The record's state (kata_score_state, kata/result.h) says when there is no score to show. */
 
 /* A score map. The caller sets struct_size = sizeof(kata_score_calibration). */
