@@ -19,7 +19,7 @@ namespace {
 double documented_map(double d, double d50, double slope) { return 100.0 / (1.0 + std::pow(d / d50, slope)); }
 // The coaching total of a record (kata.h "Score calibration and feedback"): the model's map of d,
 // capped by the worst part score.
-double coaching_total(const kata_score_record& r, double d50, double slope) {
+double coaching_total(const kata_result_record& r, double d50, double slope) {
   double t = documented_map(r.distance, d50, slope);
   for (int q = 0; q < KATA_PART_COUNT; ++q) t = std::min(t, static_cast<double>(r.part_scores[q]));
   return t;
