@@ -96,6 +96,29 @@ double cpu_seconds() {
          1e-6 * static_cast<double>(u.ru_utime.tv_usec + u.ru_stime.tv_usec);
 }
 
+// CPU time of every thread of this process (ns on a CPU, /proc/self/task/TID/schedstat), by the
+// thread's name (kata-worker0.., kata-io, ZMQbg/IO/0, ...; the main thread is "kata"), summed
+// over threads of one name. Threads that ended since are missing: take it while they run.
+// With each: its voluntary context switches (the times it went to sleep: a wake-up each).
+struct ThreadUse {
+  double ns = 0.0;
+  double sleeps = 0.0;
+};
+std::map<std::string, ThreadUse> thread_cpu_ns() {
+  std::map<std::string, ThreadUse> by_name;
+  std::error_code ec;
+  for (const auto& entry : std::filesystem::directory_iterator("/proc/self/task", ec)) {
+    std::ifstream comm(entry.path() / "comm"), sched(entry.path() / "schedstat"), status(entry.path() / "status");
+    std::string name, line;
+    double ns = 0.0;
+    if (!std::getline(comm, name) || !(sched >> ns)) continue;
+    by_name[name].ns += ns;
+    while (std::getline(status, line))
+      if (line.rfind("voluntary_ctxt_switches:", 0) == 0) by_name[name].sleeps += std::stod(line.substr(24));
+  }
+  return by_name;
+}
+
 // The q-quantile (us) of a sorted sample (ns): the element at rank round(q (n - 1)).
 double quantile_of_sorted(const std::vector<int64_t>& sorted, double q) {
   if (sorted.empty()) return 0.0;
@@ -549,6 +572,7 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
   rss_mib.reserve(static_cast<size_t>(o.seconds) + 2);
   const int64_t ticks_per_second = std::max<int64_t>(1, static_cast<int64_t>(o.rate));
   const double cpu0 = cpu_seconds();
+  const auto threads0 = thread_cpu_ns();
   const auto wall0 = std::chrono::steady_clock::now();
   json sender_report;
   if (o.ingest) {
@@ -592,8 +616,22 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
   });
   const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
   const double cpu = cpu_seconds() - cpu0;
+  const auto threads1 = thread_cpu_ns();
   runtime.stop();
   json j = finish_child(child);
+  // Per thread (issue 39): where the process's CPU per frame goes. The workers' share holds the
+  // push (the pose's compute); the rest is the runtime's plumbing (ingest: the I/O thread reads
+  // and verifies; libzmq's own threads move the bytes).
+  json per_thread = json::object(), wakes = json::object();
+  for (const auto& [name, use] : threads1) {
+    const auto before = threads0.find(name);
+    const ThreadUse base = before == threads0.end() ? ThreadUse{} : before->second;
+    if (!sent) continue;
+    per_thread[name] = 1e-3 * (use.ns - base.ns) / static_cast<double>(sent);
+    wakes[name] = (use.sleeps - base.sleeps) / static_cast<double>(sent);
+  }
+  j["cpu_us_per_frame_by_thread"] = per_thread;
+  j["wakeups_per_frame_by_thread"] = wakes;
   const auto counters = runtime.counters();
   j["sent"] = sent + refused_push;
   j["lost"] = static_cast<int64_t>(sent + refused_push) - j["received"].get<int64_t>();
@@ -869,6 +907,31 @@ void print_line(const json& r) {
     std::printf("  CPU per frame %.1f us (every thread of the kata process), push %.1f us: the runtime's own %.1f us\n",
                 r["kata"]["cpu_us_per_frame"].get<double>(), r["push_us"].get<double>(),
                 r["runtime_cpu_us_per_frame_beyond_push"].get<double>());
+  if (r["kata"].contains("cpu_us_per_frame_by_thread")) {
+    // The stages beyond the push: the workers' CPU less the push, the I/O thread (ingest, definitions,
+    // stats), libzmq's threads, the rest (the pacer, the ZAP handler).
+    double workers = 0.0, io = 0.0, zmq = 0.0, other = 0.0;
+    std::string line;
+    for (const auto& [name, us] : r["kata"]["cpu_us_per_frame_by_thread"].items()) {
+      const double v = us.get<double>();
+      if (v < 0.05) continue;
+      char part[96];
+      std::snprintf(part, sizeof part, " %s %.1f", name.c_str(), v);
+      line += part;
+      (name.rfind("kata-worker", 0) == 0 ? workers : name == "kata-io" ? io : name.rfind("ZMQbg", 0) == 0 ? zmq : other) += v;
+    }
+    std::printf("  CPU per frame by thread (us):%s\n", line.c_str());
+    std::string w;
+    for (const auto& [name, n] : r["kata"]["wakeups_per_frame_by_thread"].items()) {
+      if (n.get<double>() < 0.005) continue;
+      char part[96];
+      std::snprintf(part, sizeof part, " %s %.2f", name.c_str(), n.get<double>());
+      w += part;
+    }
+    std::printf("  wake-ups per frame by thread:%s\n", w.c_str());
+    std::printf("  the runtime's own by stage (us): workers beyond the push %.1f, I/O thread %.1f, libzmq threads %.1f, "
+                "other threads %.1f\n", workers - r["push_us"].get<double>(), io, zmq, other);
+  }
   std::fflush(stdout);
 }
 

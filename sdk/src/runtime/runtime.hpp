@@ -259,9 +259,18 @@ class Runtime {
                   std::function<void(pipeline::Pipeline*)> release, bool publish_features);
   void worker_loop(Worker& worker);
   void io_loop();
+  // Sends every result waiting in the workers' rings (holder of the publisher only).
   bool drain_results(transport::Encoder& encoder);
   bool results_pending() const;
-  bool workers_busy() const;
+  // The publisher (and the sinks, and the result rings' read side) belong to whichever thread
+  // holds publisher_token_: a worker after its frame, the I/O thread for definitions, stats,
+  // joins and retiring. try: never waits (a worker); acquire: waits for the holder's sends (the
+  // I/O thread only). flush_results: sends what waits unless another thread holds the publisher,
+  // which then sends it before it lets go (nothing is left behind: see the fences).
+  bool try_acquire_publisher();
+  void acquire_publisher();
+  void release_publisher();
+  void flush_results(transport::Encoder& encoder);
   void send_definitions(const uint8_t* prefix, size_t prefix_size);
   void send_stats(transport::Encoder& encoder);  // schemas/stats.fbs, with the periodic definitions
 
@@ -283,7 +292,10 @@ class Runtime {
   std::atomic<bool> definitions_dirty_{false};
   std::vector<std::unique_ptr<Worker>> workers_;
   int wake_io_fd_ = -1;
-  std::atomic<bool> io_sleeping_{false};  // the I/O thread is (about to be) in zmq_poll
+  alignas(64) std::atomic<bool> publisher_token_{false};
+  // The holder saw subscriptions waiting on the publisher (its sends read ZeroMQ's commands, so
+  // the socket's descriptor may not wake the I/O thread): the I/O thread reads them.
+  std::atomic<bool> joins_pending_{false};
   std::atomic<bool> stopping_{false};
   // stop() asks the I/O thread to read no more ingest messages and waits for its answer before
   // the workers are told to finish: a frame ingested after a worker's last look would be lost.

@@ -101,6 +101,19 @@ bool Publisher::send(Bytes message) {
   return true;
 }
 
+int Publisher::descriptor() const {
+  int fd = -1;
+  size_t size = sizeof fd;
+  if (zmq_getsockopt(socket_, ZMQ_FD, &fd, &size) != 0) throw Error(ErrorKind::kIo, "publisher: ZMQ_FD");
+  return fd;
+}
+
+bool Publisher::joins_waiting() const {
+  int events = 0;
+  size_t size = sizeof events;
+  return zmq_getsockopt(socket_, ZMQ_EVENTS, &events, &size) == 0 && (events & ZMQ_POLLIN);
+}
+
 int Publisher::poll_joins(const std::function<void(const uint8_t*, size_t)>& on_join) {
   int count = 0;
   uint8_t buffer[256];
