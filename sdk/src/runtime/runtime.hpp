@@ -112,6 +112,11 @@ struct RuntimeConfig {
   std::function<StreamSetup(const transport::SkeletonDefinition&)> configure_stream;
   double skeleton_resend_seconds = 1.0;  // periodic re-send of every skeleton definition
   IdleStrategy idle;                     // how workers and the I/O thread wait for work
+  // A worker sends its results after this many frames, or as soon as no frame waits for it
+  // (issue 39: a batch wakes libzmq's I/O thread once and goes out in one write: its CPU per
+  // frame halved at 64 streams; 1 sends after every frame; docs/runtime.md has the trade).
+  // A lone stream never waits: its worker has no next frame, so it sends at once.
+  int result_batch = 8;
   std::vector<Sink> sinks;               // in-process consumers of every result
 };
 

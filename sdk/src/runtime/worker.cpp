@@ -205,9 +205,15 @@ void Runtime::worker_loop(Worker& w) {
 
   const IdleStrategy& idle = config_.idle;
   const bool backoff = idle.kind == IdleStrategy::Kind::kBackoff;
+  const int batch = std::max(1, config_.result_batch);
+  int unsent = 0;  // frames since this worker last sent
   for (;;) {
     // Wait for the frame in turn (backing off first, by the idle strategy); every 50 ms look at
     // the stop flag. A producer posts only while this worker says it sleeps (publish_cell).
+    if (!frame_ready() && signalled) {  // nothing more to batch with (a practice setting ended the run)
+      unsent = 0;
+      send_results();
+    }
     if (!frame_ready() && !(backoff && back_off(idle.worker_spin_ns, idle.worker_yield_ns, frame_ready))) {
       w.sleeping.store(true, std::memory_order_relaxed);
       std::atomic_thread_fence(std::memory_order_seq_cst);
@@ -285,7 +291,10 @@ void Runtime::worker_loop(Worker& w) {
     cell.turn.store(w.dequeue_pos + w.mask + 1, std::memory_order_release);
     ++w.dequeue_pos;
     move_results(s);
-    send_results();
+    if (++unsent >= batch || !frame_ready()) {
+      unsent = 0;
+      send_results();
+    }
     w.done_pos.store(w.dequeue_pos, std::memory_order_release);  // closed streams retire past it
   }
 }
