@@ -1,4 +1,4 @@
-// kata-replay (`kata replay` forwards to it; a measurement tool built in bench/, never installed):
+// kata-replay (`kata replay` forwards to it; a measurement tool of its own, built from bench/):
 // K CMU clips replayed as K live streams at their recorded rate through the whole
 // runtime (features + score + ghost + FlatBuffers + ZeroMQ PUB) to a subscriber in another
 // process, and, in the same run, a bare ZeroMQ PUB/SUB sending messages of the same size with

@@ -1,6 +1,6 @@
 // kata replay: forwards to kata-replay, the live path's measurement tool (bench/replay/; issue 35
-// moved it out of the installed CLI). It is built beside this binary (build/bin/kata-replay) and
-// never installed: an installed kata says so instead of measuring.
+// moved it out of the CLI's binary), built and installed beside this binary; a kata without it
+// (a partial copy of bin/) says so instead of measuring.
 #include <unistd.h>
 
 #include <cerrno>
@@ -29,8 +29,8 @@ void setup(CLI::App& app) {
     execv(name.c_str(), argv.data());
     throw kata::Error(kata::ErrorKind::kNotFound,
                       "replay: cannot run " + name + " (" + std::strerror(errno) +
-                          "): kata replay is a measurement tool built with the benchmarks (KATA_BUILD_BENCH), "
-                          "not installed; run it from the build tree");
+                          "): kata replay is the separate tool kata-replay (bench/replay), "
+                          "built and installed beside kata");
   });
 }
 
