@@ -147,7 +147,9 @@ bool Runtime::drain_results(transport::Encoder& encoder) {
       auto& s = *static_cast<StreamState*>(cell.stream);
       const pipeline::Result& r = cell.result;
       transport::ResultFields f;
-      f.stream_id = s.definition.stream_id;
+      // The id, not the definition: a revision rewrites the definition on the I/O thread while a
+      // worker may be sending here; the id stays until the stream is retired (after this ring).
+      f.stream_id = s.id.load(std::memory_order_relaxed);
       f.result_sequence = s.next_result_sequence++;
       f.frame_sequence = cell.frame_sequence;
       f.frame_index = r.frame_index;
