@@ -618,14 +618,21 @@ typedef enum kata_body_part {
 } kata_body_part;
 
 /* ==== Score calibration and feedback ====================================================== */
-/* The score is a calibrated map of the distance d: score = 100 / (1 + (d / d50)^slope), fitted
- * on real performances by other people (docs/model/README.md says what 30, 60 and 90 mean for
- * the shipped models). Each body part has its own map on its own distance, which the positions
- * of that part's own joints make (docs/model/scores.md). A model file without
- * a calibration uses the default d50 = delta*, slope 2 (the same for every part), good_score 75.
- * part_to_fix names the part whose score, averaged over the last 0.5 s, is the lowest, while that
- * average or the total's average is below good_score (a good total does not hide a poor part); a
- * new part (or none) replaces the shown one only after holding for 0.5 s, so cues do not flicker.
+/* The score is the coaching total (issue 34; docs/model/scores.md "The coaching total"):
+ *     score = min(model_score, the lowest part score)      so  score <= the worst part's score
+ * a part at 10 cannot hide in a total of 90. Each part's score is a map of its joint angle: the
+ * largest angle between one of the student's bones of that part and the teacher's, each bone read
+ * in the body frame it hangs from (spine and legs in the hips' frame, head and arms in the chest's),
+ * 100 / (1 + (angle / 40 deg)^5), the same map for every part: 15 deg scores 99, 30 deg 81, 45 deg
+ * 36, at any joint, either way, left or right. model_score is the model's calibrated map of the
+ * learned distance d, 100 / (1 + (d / d50)^slope): it keeps another motion low whatever the
+ * angles (for the shipped model a loose gate, d50 0.085, slope 10; good_score 92). A model file without a
+ * calibration uses d50 = delta*, slope 2, good_score 75; the part maps d50_p, slope_p of the
+ * struct below are kept for old readers and no longer read by the scorer.
+ * part_to_fix (averaged over 0.5 s): while the lowest part score's average or the total's is
+ * below good_score, the part whose joints are farthest from the teacher's, each in its own frame;
+ * named at once when nothing is named; another part (or none) replaces a named one only after
+ * holding for 0.5 s, so cues do not flicker.
  * The record's state says when there is no score to show: */
 typedef enum kata_score_state {
   KATA_SCORE_SCORING = 0,          /* the scores are this frame's */
@@ -685,11 +692,11 @@ typedef struct kata_score_record {
   int64_t frame_index;             /* the stream frame scored (as in kata_stream_features) */
   double timestamp;                /* that frame's timestamp, seconds */
   float distance;                  /* d, dimensionless (>= 0) */
-  float score;                     /* 0..100 */
+  float score;                     /* 0..100: the coaching total, <= every part score (below) */
   float parts[KATA_PART_COUNT];    /* split of d^2 by kata_body_part; sums to d^2 */
   /* Added with the calibrated score (section "Score calibration and feedback" below); a caller
    * whose struct_size ends before a field does not receive it. */
-  float part_scores[KATA_PART_COUNT]; /* each part's own calibrated score, 0..100 */
+  float part_scores[KATA_PART_COUNT]; /* each part's joint-angle score, 0..100 (see below) */
   int32_t part_to_fix;             /* kata_body_part to correct, -1 for none (see below) */
   int32_t state;                   /* kata_score_state: whether the scores are to be shown */
   /* Added with the re-localising alignment: where the student is in the routine, the matched
