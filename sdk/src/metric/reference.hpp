@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "metric/metric.hpp"
+#include "metric/pose_error.hpp"
 
 namespace kata::metric {
 
@@ -65,6 +66,9 @@ class Reference {
   const uint16_t* search_rows_half(int i) const {
     return search_grid_ > 1 ? search_half_.data() + static_cast<size_t>(i) * stride_ : alignment_rows_half(i);
   }
+  // Frame j's joints in the body's frames (pose_error.hpp pose_frames: kPoseFloats floats), from
+  // which the scorer takes each part's angle and offset to the student's.
+  const float* pose(int j) const { return poses_.data() + static_cast<size_t>(j) * kPoseFloats; }
 
  private:
   void build(const float* features);
@@ -77,6 +81,7 @@ class Reference {
   double spread_ = 0.0;
   AlignedFloats rows_;
   std::vector<uint16_t> align_half_;
+  std::vector<float> poses_;  // frames x kPoseFloats
   float align_half_scale_ = 1.0f;
   int search_grid_ = 1;
   std::vector<uint16_t> search_half_;  // every search_grid_-th half row (search_grid_ > 1 only)
