@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <map>
 #include <memory>
 #include <thread>
 #include <string>
@@ -27,8 +28,13 @@ struct AlignFixture {
   int n = 0, stride = 0;
 };
 
-const AlignFixture& align_fixture() {
-  static const AlignFixture f = [] {
+// times: the teacher is the clip's frames repeated that many times (issue 36's long teachers:
+// 16x is 4 minutes, 64x 16 minutes); each fixture is built once.
+const AlignFixture& align_fixture(int times = 1) {
+  static std::map<int, AlignFixture> fixtures;
+  auto found = fixtures.find(times);
+  if (found != fixtures.end()) return found->second;
+  const AlignFixture& f = fixtures[times] = [times] {
     AlignFixture r;
     const auto metric = std::make_shared<const metric::Metric>(
         metric::load_model(std::string(KATA_DATA_DIR) + "/../models/default.kata"));
@@ -36,7 +42,10 @@ const AlignFixture& align_fixture() {
       const BvhClip clip = load_bvh(std::string(KATA_DATA_DIR) + "/cmu/" + name);
       return clip_features(clip, make_gpd_map(clip.skeleton, preset_joint_names("cmu")), metric->stencil(), 1);
     };
-    const std::vector<float> teacher = rows("05_18.bvh"), student = rows("05_19_on_02.bvh");
+    const std::vector<float> clip = rows("05_18.bvh"), student = rows("05_19_on_02.bvh");
+    std::vector<float> teacher;
+    teacher.reserve(clip.size() * static_cast<size_t>(times));
+    for (int k = 0; k < times; ++k) teacher.insert(teacher.end(), clip.begin(), clip.end());
     r.ref = std::make_shared<const metric::Reference>(metric, teacher.data(),
                                                       static_cast<int>(teacher.size() / gpd::kDims), 1.0 / 120);
     r.stride = metric->stride();
@@ -55,8 +64,8 @@ const AlignFixture& align_fixture() {
   return f;
 }
 
-void run_aligner(benchmark::State& state, double relocate_time) {
-  const AlignFixture& f = align_fixture();
+void run_aligner(benchmark::State& state, double relocate_time, int times = 1) {
+  const AlignFixture& f = align_fixture(times);
   metric::AlignmentOptions o;
   o.relocate_time = relocate_time;
   metric::Aligner aligner(f.ref, o);
@@ -76,6 +85,16 @@ void Align_Relocating(benchmark::State& state) { run_aligner(state, 0.2); }
 BENCHMARK(Align_Relocating);
 void Align_NoRelocation(benchmark::State& state) { run_aligner(state, 0.0); }
 BENCHMARK(Align_NoRelocation);
+// Issue 36: the same with the teacher 1, 16 and 64 times as long (counter search_rows: the rows
+// the search reads per frame, window excluded).
+void Align_RelocatingLong(benchmark::State& state) {
+  run_aligner(state, 0.2, static_cast<int>(state.range(0)));
+  const AlignFixture& f = align_fixture(static_cast<int>(state.range(0)));
+  metric::Aligner probe(f.ref, metric::AlignmentOptions{});
+  const int grid = f.ref->frames() > metric::Reference::kSearchFrames ? f.ref->search_grid() : 1;
+  state.counters["search_rows"] = (f.ref->frames() / grid) / static_cast<double>(probe.decimation());
+}
+BENCHMARK(Align_RelocatingLong)->ArgName("teacher_x")->Arg(1)->Arg(16)->Arg(64);
 
 // The hot aligner timed frame by frame (wall clock): p50_us, and max_us the median over blocks of
 // 32 frames of the block's slowest frame, to show the frame that runs the windowed search's
@@ -119,10 +138,9 @@ BENCHMARK(Align_RelocatingPerFrame)
 // The same aligner when a live frame finds the caches cold: between two frames, an 8.3 ms sleep
 // (a 120 Hz stream: what the machine leaves in the caches meanwhile) or a 64 MiB write (every
 // data line cold). Counter p50_us: the median wall time of one align() of 240.
-void run_aligner_paced(benchmark::State& state) {
-  const AlignFixture& f = align_fixture();
+void run_aligner_paced(benchmark::State& state, int times, bool evict) {
+  const AlignFixture& f = align_fixture(times);
   metric::Aligner aligner(f.ref, metric::AlignmentOptions{});
-  const bool evict = state.range(0) == 1;
   std::vector<char> buffer(evict ? (64u << 20) : 0, 1);
   std::vector<double> took;
   took.reserve(static_cast<size_t>(state.max_iterations));
@@ -146,10 +164,23 @@ void run_aligner_paced(benchmark::State& state) {
   std::nth_element(took.begin(), took.begin() + static_cast<long>(took.size() / 2), took.end());
   state.counters["p50_us"] = took.empty() ? 0.0 : 1e6 * took[took.size() / 2];
 }
-BENCHMARK(run_aligner_paced)
-    ->Name("Align_RelocatingPaced")
+void Align_RelocatingPaced(benchmark::State& state) { run_aligner_paced(state, 1, state.range(0) == 1); }
+BENCHMARK(Align_RelocatingPaced)
     ->ArgName("sleep0_evictall1")
     ->DenseRange(0, 1)
+    ->UseManualTime()
+    ->Iterations(240)
+    ->Unit(benchmark::kMicrosecond);
+// Issue 36: the paced aligner (8.3 ms sleeps) with the teacher 1, 16 and 64 times as long.
+void Align_RelocatingPacedLong(benchmark::State& state) {
+  state.SetLabel("sleep");
+  run_aligner_paced(state, static_cast<int>(state.range(0)), false);
+}
+BENCHMARK(Align_RelocatingPacedLong)
+    ->ArgName("teacher_x")
+    ->Arg(1)
+    ->Arg(16)
+    ->Arg(64)
     ->UseManualTime()
     ->Iterations(240)
     ->Unit(benchmark::kMicrosecond);

@@ -323,6 +323,55 @@ TEST_F(Relocate, LoopedSectionFollowsEveryRepetition) {
   EXPECT_EQ(r.relocations, 0);
 }
 
+// Long teachers (issue 36): the same students against the clip repeated 16 times (29,264
+// frames, 4 minutes: the search on a grid of every 4th frame, align.hpp "Long teachers"). Every
+// copy is the same motion, so the match is judged by its place in the clip (frame mod the
+// clip's length), with the same criterion as above: found within 1.5 s of each event.
+TEST_F(Relocate, SixteenTimesLongerTeacher) {
+  const int clip = frames();
+  std::vector<float> longer;
+  for (int k = 0; k < 16; ++k) longer.insert(longer.end(), teacher_->begin(), teacher_->end());
+  const auto ref = std::make_shared<const metric::Reference>(shipped_metric(), longer.data(), 16 * clip, 1.0 / kFps);
+  ASSERT_EQ(ref->search_grid(), 4);
+  auto run_long = [&](const char* what, int student_frames, const std::function<double(int)>& truth,
+                      const std::vector<double>& events, metric::AlignmentOptions o = {}) {
+    const std::vector<float> student = features(*motion_, student_frames, truth, 1.3, 40.0 * M_PI / 180.0);
+    metric::Scorer scorer(ref, o);
+    Followed r;
+    for (size_t f = 0; f < student.size() / gpd::kDims; ++f) {
+      const metric::ScoreRecord& rec = scorer.score(student.data() + f * gpd::kDims, static_cast<double>(f) / kFps);
+      if (o.loop) {
+        ASSERT_GE(rec.matched, o.first_frame);
+        ASSERT_LE(rec.matched, o.last_frame);
+      }
+      r.matched.push_back(rec.matched % clip);
+      r.score.push_back(rec.score);
+    }
+    r.relocations = scorer.relocations();
+    expect_found(what, r, truth, events);
+  };
+  const int join = static_cast<int>(0.4 * clip);
+  run_long("16x join 40%", clip - join, [=](int f) { return double(join + f); }, {0.0});
+  const int at = static_cast<int>(0.2 * clip), skip = static_cast<int>(0.2 * clip);
+  run_long("16x skip ahead", clip - skip, [=](int f) { return double(f < at ? f : f + skip); }, {0.0, at / kFps});
+  const int back_at = static_cast<int>(0.5 * clip), back = static_cast<int>(0.1 * clip);
+  run_long("16x skip back", clip + back, [=](int f) { return double(f < back_at ? f : f - back); },
+           {0.0, back_at / kFps});
+  const int hold_at = static_cast<int>(0.4 * clip), hold = static_cast<int>(2.0 * kFps);
+  run_long("16x 2 s pause", clip + hold,
+           [=](int f) { return double(f < hold_at ? f : f < hold_at + hold ? hold_at : f - hold); },
+           {0.0, hold_at / kFps, (hold_at + hold) / kFps});
+  run_long("16x tempo 0.5x", 2 * (clip - 1), [](int f) { return f * 0.5; }, {0.0});
+  run_long("16x tempo 1.9x", static_cast<int>((clip - 1) / 1.9), [](int f) { return f * 1.9; }, {0.0});
+  // A practice loop over six copies (10,974 frames, itself on a grid of every 2nd frame): the
+  // student plays the clip twice; the match stays in the section and follows both.
+  metric::AlignmentOptions o;
+  o.first_frame = 3 * clip;
+  o.last_frame = 9 * clip - 1;
+  o.loop = true;
+  run_long("16x loop", 2 * clip, [=](int f) { return double(f % clip); }, {0.0, clip / kFps}, o);
+}
+
 TEST_F(Relocate, WindowedAgreesWithTheWholeSectionPass) {
   const auto ref = std::make_shared<const metric::Reference>(shipped_metric(), teacher_->data(), frames(), 1.0 / kFps);
   const double turn = 40.0 * M_PI / 180.0;

@@ -29,9 +29,6 @@ Aligner::Aligner(std::shared_ptr<const Reference> reference, AlignmentOptions op
   last_ = last;
   span_ = std::max(1, static_cast<int>(std::ceil(options_.window / reference_->frame_time())));
   const int n = last_ - first_ + 1;
-  search_.prev.assign(static_cast<size_t>(frames), 0.0);
-  search_.cur.assign(static_cast<size_t>(frames), 0.0);
-  search_c_.assign(static_cast<size_t>(frames), 0.0f);
   step_costs_.assign(static_cast<size_t>(span_) + 1, 0.0);
   const size_t stride = static_cast<size_t>(reference_->metric().stride());
   scaled_.assign(stride, 0.0f);
@@ -39,8 +36,23 @@ Aligner::Aligner(std::shared_ptr<const Reference> reference, AlignmentOptions op
   window_back_ = span_;
   window_size_ = 3 * span_ + 1;
   windowed_ = options_.windowed && n > 2 * window_size_;
+  window_.span = span_;
+  search_.span = span_;
+  search_a_ = first_;
+  search_b_ = last_;
+  if (windowed_ && n > Reference::kSearchFrames) {  // a long section: the search on a grid
+    search_grid_ = (n + Reference::kSearchFrames - 1) / Reference::kSearchFrames;
+    search_a_ = (first_ + search_grid_ - 1) / search_grid_;
+    search_b_ = last_ / search_grid_;
+    search_.grid = search_grid_;
+    search_.span = std::max(1, (span_ + search_grid_ - 1) / search_grid_);
+  }
+  // The search's arrays are indexed by grid index (teacher frame when not on a grid).
+  search_.prev.assign(static_cast<size_t>(search_b_) + 1, 0.0);
+  search_.cur.assign(static_cast<size_t>(search_b_) + 1, 0.0);
+  search_c_.assign(static_cast<size_t>(search_b_) + 1, 0.0f);
   if (windowed_) {
-    decimation_ = std::clamp((n + 255) / 256, 4, 30);
+    decimation_ = std::clamp((search_b_ - search_a_ + 1 + 255) / 256, 4, 30);
     search_row_.assign(stride, 0.0f);
     search_pk_.assign(static_cast<size_t>(span_) + 1, 0.0);
     window_.prev.assign(static_cast<size_t>(window_size_), 0.0);
@@ -81,6 +93,23 @@ void Aligner::distances(const float* scaled, int a, int b, float* c) const {
                                    ref.alignment_half_scale(), c);
 }
 
+void Aligner::search_distances(const float* scaled, int a, int b, float* c) const {
+  if (search_grid_ == 1) return distances(scaled, a, b, c);
+  const Reference& ref = *reference_;
+  if (ref.search_grid() == search_grid_) {  // the reference's own grid: contiguous rows
+    detail::alignment_distances_half(scaled, ref.search_rows_half(a), b - a + 1, ref.metric().stride(),
+                                     ref.alignment_half_scale(), c);
+    return;
+  }
+  for (int i = a; i <= b; ++i)  // a section's own grid: one row at a time
+    detail::alignment_distances_half(scaled, ref.alignment_rows_half(search_frame(i)), 1, ref.metric().stride(),
+                                     ref.alignment_half_scale(), c + (i - a));
+}
+
+int Aligner::search_index(int frame) const {
+  return std::clamp((frame + search_grid_ / 2) / search_grid_, search_a_, search_b_);
+}
+
 int Aligner::follow(Track& tr, const float* c, int a, int b, bool loop, int start, double t, int decimation) {
   const Reference& ref = *reference_;
   const int n = b - a + 1;
@@ -97,7 +126,7 @@ int Aligner::follow(Track& tr, const float* c, int a, int b, bool loop, int star
     // (the same best place, and the same head start for the band).
     if (!(tr.student_dt > 0.0)) tr.student_dt = ft;
     const double prior = 0.1 * jump_cost(tr), scale = 1.0 / decimation;
-    for (int j = a; j <= b; ++j) cur[j] = (c[j] + (j >= start && j - start <= span_ ? 0.0 : prior)) * scale;
+    for (int j = a; j <= b; ++j) cur[j] = (c[j] + (j >= start && j - start <= tr.span ? 0.0 : prior)) * scale;
     tr.student_dt = std::max(tr.student_dt, decimation * ft);
     // Re-based on the cheapest frame, the best place anywhere.
     best = detail::alignment_rebase(cur, a, b);
@@ -121,10 +150,10 @@ Aligner::StepCosts Aligner::begin_step(Track& tr, int n, double t, int decimatio
   // The jump cost is set in seconds, so it follows the student's frame rate, smoothed over
   // about 10 frames (a gap after lost tracking counts as at most 0.1 s per frame the track sees).
   if (dt > 0.0) tr.student_dt += 0.1 * (std::min(dt, 0.1 * decimation) - tr.student_dt);
-  const double advance = dt / ref.frame_time();  // expected teacher frames
+  const double advance = dt / (ref.frame_time() * tr.grid);  // expected teacher frames (grid frames)
   StepCosts step;
   // Steps beyond the band are never needed: further moves are jumps.
-  step.k_max = std::min({std::max(1, static_cast<int>(std::ceil(options_.max_rate * advance))), span_, n - 1});
+  step.k_max = std::min({std::max(1, static_cast<int>(std::ceil(options_.max_rate * advance))), tr.span, n - 1});
   const double penalty = options_.step_penalty * ref.step_cost(), hold = options_.hold_penalty * ref.step_cost();
   for (int k = 0; k <= step.k_max; ++k)
     pk[k] = penalty * std::max(0.0, k - advance) + hold * std::max(0.0, advance - k);
@@ -140,8 +169,8 @@ void Aligner::decide(Track& tr, int best, int a, int b, bool loop, double jump) 
   const double* cur = tr.cur.data();
   const int n = b - a + 1;
   int local = tr.match;
-  for (int k = 1; k <= std::min(span_, n - 1); ++k) {
-    const int j = loop ? wrap(tr.match + k) : tr.match + k;
+  for (int k = 1; k <= std::min(tr.span, n - 1); ++k) {
+    const int j = loop && tr.match + k > b ? tr.match + k - n : tr.match + k;
     if (j > b) break;
     if (cur[j] < cur[local]) local = j;
   }
@@ -190,7 +219,7 @@ void Aligner::move_window(int target) {
   double* cur = window_.cur.data();
   const double* costs = search_.cur.data();
   for (int i = 0; i < window_size_; ++i)
-    cur[i] = std::min(cap, static_cast<double>(decimation_) * costs[teacher_frame(i)]);
+    cur[i] = std::min(cap, static_cast<double>(decimation_) * costs[search_index(teacher_frame(i))]);
   int index = target - window_start_;
   if (index < 0) index += n;  // looping: the window runs over the section's end
   window_.match = index;
@@ -258,14 +287,16 @@ int Aligner::align(const float* s, double t) {
     relocations_ = search_.relocations;
     return match_;
   }
+  // The search's section, on its grid (the teacher's frames unless the section is long).
+  const int sa = search_a_, sb = search_b_, sn = sb - sa + 1;
   if (!search_.started) {
     // The first frame: the whole section at once (join anywhere), the window seeded at its best.
-    distances(scaled, a, b, c + a);
-    follow(search_, c, a, b, options_.loop, a, t, decimation_);
+    search_distances(scaled, sa, sb, c + sa);
+    follow(search_, c, sa, sb, options_.loop, sa, t, decimation_);
     search_moves_ = search_.relocations;
     search_anchor_ = search_.match;
     phase_ = 0;
-    seed_window(search_.match, t, scaled);
+    seed_window(std::clamp(search_frame(search_.match), a, b), t, scaled);
     return match_;
   }
   // The search: this frame's slice of its pass and of its programme's step (each frame's costs
@@ -274,36 +305,37 @@ int Aligner::align(const float* s, double t) {
   if (phase_ == 0) {
     std::copy(scaled, scaled + stride, search_row_.data());
     search_time_ = t;
-    search_step_ = begin_step(search_, n, t, decimation_, search_pk_.data());
+    search_step_ = begin_step(search_, sn, t, decimation_, search_pk_.data());
   }
-  const int slice = (n + decimation_ - 1) / decimation_;
-  const int lo = a + phase_ * slice, hi = std::min(b, lo + slice - 1);
+  const int slice = (sn + decimation_ - 1) / decimation_;
+  const int lo = sa + phase_ * slice, hi = std::min(sb, lo + slice - 1);
   if (lo <= hi) {
-    distances(search_row_.data(), lo, hi, c + lo);
-    detail::alignment_step_range(search_.prev.data(), search_.cur.data(), c, a, b, lo, hi, search_pk_.data(),
+    search_distances(search_row_.data(), lo, hi, c + lo);
+    detail::alignment_step_range(search_.prev.data(), search_.cur.data(), c, sa, sb, lo, hi, search_pk_.data(),
                                  search_step_.k_max, search_step_.jump, options_.loop);
   }
   if (phase_ == 0) search_anchor_pending_ = true;
   if (++phase_ == decimation_) {
     phase_ = 0;
-    const int best = detail::alignment_rebase(search_.cur.data(), a, b);
+    const int best = detail::alignment_rebase(search_.cur.data(), sa, sb);
     // The search judges the window's match of its frame: the band after it, against the best
     // place of the whole section by the margin.
     search_.match = search_anchor_;
-    decide(search_, best, a, b, options_.loop, search_step_.jump);
+    decide(search_, best, sa, sb, options_.loop, search_step_.jump);
     if (search_.relocations != search_moves_) {
       search_moves_ = search_.relocations;
-      int away = std::abs(search_.match - match_);
+      const int target = std::clamp(search_frame(search_.match), a, b);
+      int away = std::abs(target - match_);
       if (options_.loop) away = std::min(away, n - away);
       if (away > span_) {
         ++relocations_;
-        move_window(search_.match);
+        move_window(target);
       }
     }
   }
   follow_window(scaled, t, -1);
   if (search_anchor_pending_) {
-    search_anchor_ = match_;
+    search_anchor_ = search_index(match_);
     search_anchor_pending_ = false;
   }
   return match_;

@@ -36,6 +36,16 @@
 // of them; a skip is found up to 2R frames later than by the whole-section pass. Shorter sections
 // take the whole-section programme every frame, as before (docs/performance.md, issue 23,
 // "cold4", has the figures).
+//
+// Long teachers (issue 36): R stops at 30 (the search must see the student at 4 Hz or more to
+// find a skip within 1.5 s), so past 7,680 frames (64 s at 120 Hz) the search would read more
+// rows per frame the longer the teacher. A section longer than Reference::kSearchFrames is
+// searched on a grid instead: every M-th teacher frame, M = ceil(frames / kSearchFrames), the
+// programme's steps counted in grid frames (M teacher frames each: a step of k grid frames is
+// k M teacher frames, the band span / M grid frames). The search only chooses where the window
+// goes; the window then follows at the teacher's full rate, so the match is as fine as before.
+// A frame reads the window's rows and at most 7,680 / 30 = 256 of the grid's: the same for a
+// 20-minute teacher as for a 64-second one (docs/model/alignment.md has the figures).
 // Threads: an Aligner belongs to one stream, used by one thread at a time.
 #pragma once
 
@@ -121,6 +131,8 @@ class Aligner {
     int64_t relocations = 0;
     double last_time = 0.0;
     double student_dt = 0.0;  // smoothed student frame interval, seconds
+    int grid = 1;             // teacher frames per index (the search's grid on a long section)
+    int span = 1;             // the band, in indices
   };
   int wrap(int j) const;                   // j folded into the section when looping
   double jump_cost(const Track& track) const;  // P, for the track's student frame interval
@@ -140,6 +152,10 @@ class Aligner {
   void decide(Track& track, int best, int a, int b, bool loop, double jump);
   // c[j - a] = the distance of the student's scaled row to section frames j = a..b (in order).
   void distances(const float* scaled, int a, int b, float* c) const;
+  // The same for the search's grid indices a..b (teacher frames a M .. b M).
+  void search_distances(const float* scaled, int a, int b, float* c) const;
+  int search_frame(int index) const { return index * search_grid_; }  // grid index -> teacher frame
+  int search_index(int frame) const;  // teacher frame -> the nearest grid index of the section
   int teacher_frame(int window_index) const;  // the section frame at a window index
   int window_start_for(int target) const;  // the window placed one band behind a match at target
   void seed_window(int target, double t, const float* scaled);
@@ -153,6 +169,8 @@ class Aligner {
   std::vector<double> step_costs_;  // the cost of a step of k frames, k <= span_
   std::vector<float> scaled_;       // the student's row / the reference's half scale
   Track search_;                    // the whole section (every frame, or every R-th when windowed)
+  int search_grid_ = 1;             // M: the search's teacher frames are every M-th (long sections)
+  int search_a_ = 0, search_b_ = 0; // the section on the search's grid (indices)
   std::vector<float> search_c_;     // its distances (section frames), filled slice by slice
   // Windowed sections only:
   bool windowed_ = false;

@@ -42,18 +42,23 @@ void Reference::build(const float* features) {
   poses_.resize(static_cast<size_t>(frames_) * kPoseFloats);
   for (int j = 0; j < frames_; ++j)
     pose_frames(features + static_cast<size_t>(j) * gpd::kDims, poses_.data() + static_cast<size_t>(j) * kPoseFloats);
-  align_rows_ = AlignedFloats(static_cast<size_t>(frames_) * stride_);
-  for (int j = 0; j < frames_; ++j)
-    std::copy(part_projection(j) + static_cast<size_t>(kParts) * stride_,
-              part_projection(j) + static_cast<size_t>(kParts + 1) * stride_,
-              align_rows_.data() + static_cast<size_t>(j) * stride_);
   float largest = 0.0f;
-  for (size_t i = 0; i < static_cast<size_t>(frames_) * stride_; ++i) largest = std::max(largest, std::fabs(align_rows_.data()[i]));
+  for (int j = 0; j < frames_; ++j)
+    for (int i = 0; i < stride_; ++i) largest = std::max(largest, std::fabs(alignment_projection(j)[i]));
   align_half_scale_ = 1.0f;
   while (largest / align_half_scale_ > 16384.0f) align_half_scale_ *= 2.0f;
   align_half_.resize(static_cast<size_t>(frames_) * stride_);
-  for (size_t i = 0; i < align_half_.size(); ++i)
-    align_half_[i] = detail::float_to_half(align_rows_.data()[i] / align_half_scale_);
+  for (int j = 0; j < frames_; ++j)
+    for (int i = 0; i < stride_; ++i)
+      align_half_[static_cast<size_t>(j) * stride_ + i] = detail::float_to_half(alignment_projection(j)[i] / align_half_scale_);
+  if (kind_ == ReferenceKind::kClip && frames_ > kSearchFrames) {
+    search_grid_ = (frames_ + kSearchFrames - 1) / kSearchFrames;
+    const int rows = (frames_ - 1) / search_grid_ + 1;
+    search_half_.resize(static_cast<size_t>(rows) * stride_);
+    for (int i = 0; i < rows; ++i)
+      std::copy(alignment_rows_half(i * search_grid_), alignment_rows_half(i * search_grid_) + stride_,
+                search_half_.data() + static_cast<size_t>(i) * stride_);
+  }
   if (frames_ > 1) {
     std::vector<double> steps(static_cast<size_t>(frames_ - 1));
     for (int j = 0; j + 1 < frames_; ++j)

@@ -47,14 +47,25 @@ class Reference {
   const float* part_projection(int j) const {
     return rows_.data() + static_cast<size_t>(j) * kProjectionRows * stride_;
   }
-  // The static-blocks projection of frame j (stride floats): what the alignment compares. A
-  // contiguous copy (frames x stride), so the alignment's pass over the whole clip streams it.
-  const float* alignment_projection(int j) const { return align_rows_.data() + static_cast<size_t>(j) * stride_; }
+  // The static-blocks projection of frame j (stride floats): what the alignment compares, row
+  // kParts of the frame's projection (no copy: the live pass streams the half rows below).
+  const float* alignment_projection(int j) const { return part_projection(j) + static_cast<size_t>(kParts) * stride_; }
   // The same rows in IEEE half precision, each value divided by alignment_half_scale() (a power
   // of two keeping every value within +-16384, so none overflows): what the live aligner streams
   // every frame (align_pass.hpp), half the bytes of the float rows. Relative rounding 2^-11.
   const uint16_t* alignment_rows_half(int j) const { return align_half_.data() + static_cast<size_t>(j) * stride_; }
   float alignment_half_scale() const { return align_half_scale_; }
+  // The re-localisation grid (issue 36): a clip longer than kSearchFrames is searched on every
+  // M-th frame only, M = ceil(frames / kSearchFrames) (1 otherwise), so the aligner's search over
+  // a 20-minute teacher reads what it reads over a 64-second one (align.hpp, "Long teachers").
+  // search_rows_half(i) is the half row of frame i * M, contiguous (frames / M rows): built once
+  // here, shared by every aligner following this reference.
+  static constexpr int kSearchFrames = 7680;
+  int search_grid() const { return search_grid_; }
+  int search_rows() const { return search_grid_ > 1 ? static_cast<int>(search_half_.size() / static_cast<size_t>(stride_)) : frames_; }
+  const uint16_t* search_rows_half(int i) const {
+    return search_grid_ > 1 ? search_half_.data() + static_cast<size_t>(i) * stride_ : alignment_rows_half(i);
+  }
   // Frame j's joints in the body's frames (pose_error.hpp pose_frames: kPoseFloats floats), from
   // which the scorer takes each part's angle and offset to the student's.
   const float* pose(int j) const { return poses_.data() + static_cast<size_t>(j) * kPoseFloats; }
@@ -69,10 +80,11 @@ class Reference {
   double step_cost_ = 0.0;
   double spread_ = 0.0;
   AlignedFloats rows_;
-  AlignedFloats align_rows_;
   std::vector<uint16_t> align_half_;
   std::vector<float> poses_;  // frames x kPoseFloats
   float align_half_scale_ = 1.0f;
+  int search_grid_ = 1;
+  std::vector<uint16_t> search_half_;  // every search_grid_-th half row (search_grid_ > 1 only)
 };
 
 }  // namespace kata::metric
