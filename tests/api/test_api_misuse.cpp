@@ -15,6 +15,7 @@
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "kata/kata.h"
@@ -590,6 +591,60 @@ TEST(Misuse, ShortBuffersAndWrongJointCountsChangeNothing) {
       << kata_retargeter_last_error(rt);
   kata_retargeter_destroy(rt);
   kata_stream_close(s);
+}
+
+}  // namespace
+
+namespace {
+
+// kata.h: "the message of the last failed call made on this context from the calling thread".
+// Two contexts on one thread keep their own; a runtime reports on the context it was made on; a
+// context-less failure shows on any context while it is the thread's newest.
+TEST(Misuse, EachContextKeepsItsOwnLastError) {
+  kata_context a = nullptr, b = nullptr;
+  ASSERT_EQ(kata_context_create(&a), KATA_OK);
+  ASSERT_EQ(kata_context_create(&b), KATA_OK);
+  EXPECT_STREQ(kata_context_last_error(a), "");
+  kata_clip clip = nullptr;
+  EXPECT_NE(kata_clip_load_bvh(a, "/nonexistent/first.bvh", &clip), KATA_OK);
+  kata_skeleton skel = nullptr;
+  EXPECT_NE(kata_skeleton_create_layout(b, "no-such-layout", &skel), KATA_OK);
+  const std::string on_a = kata_context_last_error(a), on_b = kata_context_last_error(b);
+  EXPECT_NE(on_a.find("first.bvh"), std::string::npos) << on_a;
+  EXPECT_NE(on_b.find("no-such-layout"), std::string::npos) << on_b;
+  EXPECT_EQ(on_a.find("no-such-layout"), std::string::npos) << on_a;
+
+  // Another thread's failure on a does not replace this thread's message.
+  std::thread([a] {
+    kata_clip c = nullptr;
+    EXPECT_NE(kata_clip_load_bvh(a, "/nonexistent/other-thread.bvh", &c), KATA_OK);
+    EXPECT_NE(std::string(kata_context_last_error(a)).find("other-thread.bvh"), std::string::npos);
+  }).join();
+  EXPECT_EQ(kata_context_last_error(a), on_a);
+
+  // A runtime's refusal goes to its own context.
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.workers = 0;
+  kata_runtime rt = nullptr;
+  EXPECT_EQ(kata_runtime_create(b, &rd, &rt), KATA_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(kata_context_last_error(b)).find("workers 1..256"), std::string::npos);
+  EXPECT_EQ(kata_context_last_error(a), on_a);
+
+  // A call without a context reports on the thread: newest, so shown on both.
+  const double steps[3] = {0.0, 0.7, 1.4};  // 0.7 s or 0.7 ms a frame: neither plausible
+  kata_time_units units = KATA_TIME_SECONDS;
+  EXPECT_EQ(kata_time_units_detect(steps, 3, &units), KATA_E_INVALID_ARGUMENT);
+  const std::string loose = kata_context_last_error(nullptr);
+  EXPECT_FALSE(loose.empty());
+  EXPECT_EQ(kata_context_last_error(a), loose);
+  EXPECT_EQ(kata_context_last_error(b), loose);
+  // ... until a context's own failure is newer again.
+  EXPECT_NE(kata_clip_load_bvh(a, "/nonexistent/third.bvh", &clip), KATA_OK);
+  EXPECT_NE(std::string(kata_context_last_error(a)).find("third.bvh"), std::string::npos);
+  EXPECT_EQ(kata_context_last_error(b), loose);
+  kata_context_destroy(a);
+  kata_context_destroy(b);
 }
 
 }  // namespace

@@ -21,8 +21,9 @@ class Runtime(_Handle):
     def add_stream(self, stream_id: int, stream: "Stream", preset: Optional[str] = None,
                    publish_features: bool = False) -> None:
         """kata_runtime_add_stream: hands `stream` to the runtime under stream_id; the runtime owns
-        it afterwards (the Stream object is closed here without freeing it). preset: the joint map
-        named in the published skeleton definition (None: "cmu"). [any thread]"""
+        it afterwards (the Stream object is closed here without freeing it). The published
+        skeleton definition names the layout the stream was opened with (a built-in layout or its
+        name map); preset: None, or that same layout's name (another is refused). [any thread]"""
         h = ctypes.c_void_p(stream.handle)
         status = _n.runtime_add_stream(self.handle, stream_id, ctypes.byref(h), _utf8(preset),
                                        1 if publish_features else 0)

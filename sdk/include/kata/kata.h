@@ -138,8 +138,11 @@ KATA_API kata_status kata_context_create(kata_context* out);
 /* Destroys a context. Every stream, skeleton, clip and model made from it must be released
  * first. NULL is ignored. [any thread, not concurrently with other calls on the context] */
 KATA_API void kata_context_destroy(kata_context context);
-/* The message of the last failed call made on this context from the calling thread, or "".
- * Valid until that thread's next call on the context. [any thread] */
+/* The message of the last failed call made on this context from the calling thread, or "": two
+ * contexts used on one thread keep their own messages. A call that takes no context
+ * (kata_clip_positions, kata_time_units_detect; a runtime's calls report on the context it was
+ * created on) reports on the calling thread, shown here on any context when it is the thread's
+ * newest failure. Valid until that thread's next failed call on the context. [any thread] */
 KATA_API const char* kata_context_last_error(kata_context context);
 
 /* ##############################################################################################
@@ -993,7 +996,9 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
 KATA_API void kata_runtime_destroy(kata_runtime runtime);
 /* Hands an open stream (kata_stream_open, teacher attached or not) to the runtime under
  * stream_id; on success the runtime owns it and *stream is set to NULL (do not close it).
- * preset: the GPD joint map named in the published skeleton definition (NULL: "cmu").
+ * The published skeleton definition announces the layout the stream was opened with (its built-in
+ * layout, or its name map's 16 joint names), so subscribers and shards map it as the stream does.
+ * preset: NULL, or the name of that same layout (another is refused: KATA_E_INVALID_ARGUMENT).
  * publish_features: 1 puts each result's features in its message (the stream needs
  * desc.keep_features). KATA_E_INVALID_ARGUMENT for a used id or a full runtime. [any thread] */
 KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
@@ -1103,7 +1108,7 @@ typedef struct kata_result_message {
 /* Reads one ZeroMQ message of a kata runtime (16-byte topic + FlatBuffer, schemas/result.fbs):
  * the FlatBuffers verifier checks it first. KATA_OK: *out holds the result (as much as
  * out->struct_size holds); KATA_NO_DATA: a valid kata message that is not a result (a skeleton
- * definition); KATA_E_PARSE: refused (truncated, corrupt, unknown). Allocates once per thread
+ * definition, a frame, the runtime's stats, a practice setting); KATA_E_PARSE: refused (truncated, corrupt, unknown). Allocates once per thread
  * (a scratch buffer for misaligned messages). [any thread] */
 KATA_API kata_status kata_message_read_result(const void* message, size_t size, kata_result_message* out);
 

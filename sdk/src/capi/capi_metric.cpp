@@ -55,6 +55,7 @@ kata_status check_pair(kata_stream stream, kata_model model) {
 extern "C" {
 
 KATA_API kata_status kata_model_load(kata_context context, const char* path, kata_model* out) {
+  const kata::capi::ContextScope scope(context);
   if (!context || !path || !out) {
     kata::capi::set_context_error("kata_model_load: context, path and out must not be NULL");
     return KATA_E_NULL_POINTER;
@@ -64,6 +65,7 @@ KATA_API kata_status kata_model_load(kata_context context, const char* path, kat
 }
 
 KATA_API kata_status kata_model_load_memory(kata_context context, const void* data, size_t size, kata_model* out) {
+  const kata::capi::ContextScope scope(context);
   if (!context || !data || !out) {
     kata::capi::set_context_error("kata_model_load_memory: context, data and out must not be NULL");
     return KATA_E_NULL_POINTER;

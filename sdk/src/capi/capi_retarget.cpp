@@ -209,6 +209,7 @@ KATA_API void (kata_retarget_desc_init)(kata_retarget_desc* desc) {
 
 KATA_API kata_status kata_retargeter_create(kata_context context, kata_skeleton student,
                                             const kata_retarget_desc* desc, kata_retargeter* out) {
+  const kata::capi::ContextScope scope(context);
   return kata::capi::guarded_context([&] {
     if (!context || !student || !out) {
       kata::capi::set_context_error("kata_retargeter_create: context, student and out must not be NULL");
@@ -221,6 +222,7 @@ KATA_API kata_status kata_retargeter_create(kata_context context, kata_skeleton 
 
 KATA_API kata_status kata_retargeter_create_for_stream(kata_context context, kata_stream student,
                                                        const kata_retarget_desc* desc, kata_retargeter* out) {
+  const kata::capi::ContextScope scope(context);
   return kata::capi::guarded_context([&] {
     if (!context || !student || !out) {
       kata::capi::set_context_error("kata_retargeter_create_for_stream: context, student and out must not be NULL");
@@ -236,6 +238,7 @@ KATA_API kata_status kata_retargeter_create_for_stream(kata_context context, kat
 KATA_API kata_status kata_retargeter_create_across(kata_context context, kata_stream student, kata_skeleton teacher,
                                                    const char* teacher_layout, kata_up_axis teacher_up_axis,
                                                    const kata_retarget_desc* desc, kata_retargeter* out) {
+  const kata::capi::ContextScope scope(context);
   return kata::capi::guarded_context([&] {
     if (!context || !student || !teacher || !out) {
       kata::capi::set_context_error("kata_retargeter_create_across: context, student, teacher and out must not be NULL");

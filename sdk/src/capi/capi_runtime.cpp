@@ -6,6 +6,7 @@
 
 struct kata_runtime_s {
   std::unique_ptr<kata::runtime::Runtime> runtime;
+  kata_context context = nullptr;  // where the runtime's calls report their errors
 };
 
 namespace {
@@ -68,6 +69,7 @@ KATA_API void (kata_runtime_desc_init)(kata_runtime_desc* desc) {
 }
 
 KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtime_desc* desc, kata_runtime* out) {
+  const kata::capi::ContextScope scope(context);
   if (!context || !out) return KATA_E_NULL_POINTER;
   *out = nullptr;
   return kata::capi::guarded_context([&] {
@@ -117,6 +119,7 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
     }
     auto r = std::make_unique<kata_runtime_s>();
     r->runtime = std::make_unique<kata::runtime::Runtime>(std::move(config));
+    r->context = context;
     *out = r.release();
     return KATA_OK;
   });
@@ -127,13 +130,23 @@ KATA_API void kata_runtime_destroy(kata_runtime runtime) { delete runtime; }
 KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
                                              const char* preset, int32_t publish_features) {
   if (!runtime || !stream || !*stream) return KATA_E_NULL_POINTER;
+  const kata::capi::ContextScope scope(runtime->context);
   return kata::capi::guarded_context([&] {
     kata_stream s = *stream;
     kata::transport::SkeletonDefinition d;
     d.stream_id = stream_id;
     d.revision = 1;
     d.skeleton = s->pipeline.student();
-    d.preset = preset && preset[0] ? preset : "cmu";
+    // The stream's own layout, so subscribers and shards rebuild the map it was opened with;
+    // a preset that names another layout contradicts the stream and is refused.
+    if (preset && preset[0] && (s->name_map.size() || s->layout_name != kata::c_string(preset, "preset")))
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        "kata_runtime_add_stream: preset '" + kata::bounded(kata::c_string(preset, "preset")) +
+                            "' is not the layout the stream was opened with (" +
+                            (s->name_map.empty() ? "'" + s->layout_name + "'" : std::string("a name map")) +
+                            "); pass NULL to announce the stream's own");
+    d.preset = s->layout_name;
+    d.name_map = s->name_map;
     d.up_axis = s->pipeline.stream().config().up_axis;
     // The runtime owns the stream from here; it closes it when it is done with the pipeline.
     runtime->runtime->adopt_stream(
@@ -155,6 +168,7 @@ KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t st
                                                double teacher_start, int32_t loop, double loop_start,
                                                double loop_end) {
   if (!runtime) return KATA_E_NULL_POINTER;
+  const kata::capi::ContextScope scope(runtime->context);
   kata::transport::PracticeSetting p;
   p.stream_id = stream_id;
   p.revision = revision;
@@ -181,6 +195,7 @@ KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t st
 
 KATA_API kata_status kata_runtime_stop(kata_runtime runtime) {
   if (!runtime) return KATA_E_NULL_POINTER;
+  const kata::capi::ContextScope scope(runtime->context);
   return kata::capi::guarded_context([&] {
     runtime->runtime->stop();
     return KATA_OK;
@@ -234,9 +249,10 @@ KATA_API kata_status kata_message_read_result(const void* message, size_t size, 
   try {
     thread_local kata::transport::Decoder decoder(1 << 22, false);
     const kata::transport::MessageKind kind = decoder.decode(message, size);
-    if (kind == kata::transport::MessageKind::kSkeleton || kind == kata::transport::MessageKind::kFrame)
-      return KATA_NO_DATA;
-    if (kind != kata::transport::MessageKind::kResult) return KATA_E_PARSE;
+    // Every verified kata message that is not a result (skeleton definitions, frames, the
+    // runtime's Stats on the same socket, practice settings) is valid data for someone else.
+    if (kind == kata::transport::MessageKind::kNone) return KATA_E_PARSE;
+    if (kind != kata::transport::MessageKind::kResult) return KATA_NO_DATA;
     const kata::transport::ResultFields& r = decoder.result();
     kata_result_message k{};
     k.struct_size = sizeof k;
