@@ -2,6 +2,7 @@
 #include <sstream>
 
 #include "capi/capi_internal.hpp"
+#include "common/text.hpp"
 #include "runtime/runtime.hpp"
 
 struct kata_runtime_s {
