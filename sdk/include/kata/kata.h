@@ -72,7 +72,13 @@ extern "C" {
 
 /* Semantic versioning (README "Versions and compatibility"): within a major version the ABI only
  * grows (new functions, new enumerators, fields appended to a struct that starts with
- * struct_size); libkata's soname is libkata.so.MAJOR. CI checks this with abidiff (abi/README.md). */
+ * struct_size); libkata's soname is libkata.so.MAJOR. CI checks this with abidiff (abi/README.md).
+ * One rule for every struct that starts with struct_size, read or written by the library: any
+ * struct_size from the struct as 1.0 released it up is accepted. A caller built against an older
+ * 1.x kata.h (a smaller struct) gets the defaults of the fields it lacks when read, and nothing
+ * written past its struct; a caller built against a newer one (a larger struct) has the fields
+ * this library does not know ignored when read and zeroed when written. A struct_size below
+ * 1.0's (an uninitialised struct; no 0.x struct is read) is refused with KATA_E_INVALID_ARGUMENT. */
 #define KATA_VERSION_MAJOR 1
 #define KATA_VERSION_MINOR 0 /* additions since the major's first release */
 #define KATA_VERSION_PATCH 0 /* fixes only */
@@ -286,7 +292,7 @@ typedef struct kata_stream_desc {
    * Negative, NaN or out-of-range values are refused (KATA_E_INVALID_ARGUMENT). */
   double body_height;
   uint32_t calibration_frames; /* 1..history_capacity - 1 when H is estimated. Default 8 */
-  /* ---- since 0.2 (a caller built against 0.1 passes the smaller struct_size: defaults apply) */
+  /* ---- since 0.2 */
   uint32_t result_capacity;    /* results kept until read (kata_stream_read_results). Default 64 */
   int32_t keep_features;       /* 1: each result also keeps its feature vector. Default 0 */
 } kata_stream_desc;
@@ -312,10 +318,8 @@ KATA_API const char* kata_preset_name(uint32_t i);
  * the push that emitted it, and keeps each result in a ring until read (kata_stream_read_results).
  * Allocates all its memory now. The skeleton is
  * copied; it may be destroyed afterwards. Errors (unknown preset, a mapped joint missing from
- * the skeleton, bad values) are reported on the context. desc->struct_size must be the size
- * of a released kata_stream_desc (0.1's or this one's, sizeof(kata_stream_desc)); any other
- * value (an uninitialised desc, a newer kata.h) is refused with KATA_E_INVALID_ARGUMENT.
- * [any thread] */
+ * the skeleton, bad values) are reported on the context. desc->struct_size: 1.0's size or more
+ * (see Versions). [any thread] */
 KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skeleton, const kata_stream_desc* desc,
                                       kata_stream* out);
 /* kata_stream_open with a name map held in memory (the contents of a name-map file: JSON
@@ -556,7 +560,7 @@ KATA_API void kata_retarget_desc_init(kata_retarget_desc* desc);
  * single-pose teacher. A teacher given as features or GPD joints has no joint positions to
  * retarget: set ghost = 0 for it (ghost = 1 is refused). Fill with kata_teacher_desc_init. */
 typedef struct kata_teacher_desc {
-  uint32_t struct_size;      /* sizeof(kata_teacher_desc) (0.2's smaller size is accepted too) */
+  uint32_t struct_size;      /* sizeof(kata_teacher_desc); 1.0's size or more (see Versions) */
   kata_model model;          /* required; the stream must use the model's stencil */
   /* The teacher's motion: a recorded clip ... */
   kata_clip clip;            /* a BVH clip, or NULL and one of the forms below */
@@ -572,7 +576,7 @@ typedef struct kata_teacher_desc {
   int32_t ghost;             /* 1 (default): make a ghost per result (the student skeleton needs rest
                                 offsets and the same joint names as the teacher); 0: scores only */
   const kata_retarget_desc* retarget;  /* the ghost's solver (joint set "cmu" or "gpd"); NULL: defaults */
-  /* ---- since 1.0 (a 0.2 caller passes the smaller struct_size: these stay NULL / 0) */
+  /* ---- since 1.0 */
   /* ... or GPD v1 feature vectors: `frames` x KATA_GPD_DIMS floats, row-major (copied) ... */
   const float* features;
   /* ... or one pose as the 16 GPD joints' world positions: KATA_GPD_JOINTS x 3 floats, GPD joint
@@ -599,7 +603,7 @@ KATA_API void kata_teacher_desc_init(kata_teacher_desc* desc);
  * skeleton) the student's body. Replaces any teacher; a refused call leaves the old one in
  * place. The alignment starts at the teacher's first frame. Errors (stencil mismatch, unknown
  * preset, a ghost joint missing from one skeleton, bad frames or features, two motions given,
- * desc->struct_size other than a released sizeof(kata_teacher_desc)) go to
+ * desc->struct_size below 1.0's kata_teacher_desc) go to
  * kata_stream_last_error. Allocates. [stream owner] */
 KATA_API kata_status kata_stream_attach_teacher(kata_stream stream, const kata_teacher_desc* desc);
 /* Removes the stream's teacher: later results are not scored (no KATA_RESULT_SCORED) and carry
@@ -650,7 +654,7 @@ typedef struct kata_score_calibration {
 } kata_score_calibration;
 
 /* The model's calibration (or the default above) into *out. KATA_E_INVALID_ARGUMENT when
- * out->struct_size is smaller than this struct. Does not allocate. [any thread] */
+ * out->struct_size is below 1.0's struct (see Versions). Does not allocate. [any thread] */
 KATA_API kata_status kata_model_calibration(kata_model model, kata_score_calibration* out);
 /* Overrides the calibration of the stream's current teacher (e.g. fitted on a teacher's own
  * takes); NULL restores the model's. Attaching a new teacher returns to the model's calibration.
@@ -794,8 +798,8 @@ typedef struct kata_retarget_info {
 } kata_retarget_info;
 
 /* Creates a retargeter for the student `student` (a skeleton with rest offsets; copied, may be
- * destroyed afterwards). desc may be NULL for the defaults; else desc->struct_size must be
- * sizeof(kata_retarget_desc). Errors (unknown preset, missing
+ * destroyed afterwards). desc may be NULL for the defaults; else desc->struct_size is 1.0's
+ * size or more (see Versions). Errors (unknown preset, missing
  * joint, no rest pose, zero bone length) are reported on the context. [any thread] */
 KATA_API kata_status kata_retargeter_create(kata_context context, kata_skeleton student,
                                             const kata_retarget_desc* desc, kata_retargeter* out);
@@ -1032,7 +1036,7 @@ KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t st
  * result is published before stop returns) or refused (it returns KATA_E_STOPPED); never lost.
  * Every push after stop began returns KATA_E_STOPPED. */
 KATA_API kata_status kata_runtime_stop(kata_runtime runtime);
-/* Copies the counters (as much as out->struct_size holds). [any thread] */
+/* Copies the counters (out->struct_size: 1.0's size or more, see Versions). [any thread] */
 KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtime_counters* out);
 /* The endpoint the publisher bound last, resolved (a "tcp://127.0.0.1:*" shows its port), or
  * "" without a publisher; valid while the runtime lives. [any thread] */

@@ -357,19 +357,11 @@ static kata_status open_stream(kata_context context, kata_skeleton skeleton, con
     set_context_error("kata_stream_open: context, skeleton and desc must not be NULL");
     return KATA_E_NULL_POINTER;
   }
-  // A caller built against 0.1 passes the 0.1 struct (up to calibration_frames): defaults for
-  // the rest. Any other size is an uninitialised desc or a newer kata.h: refused.
-  constexpr size_t kSize01 = offsetof(kata_stream_desc, result_capacity);
-  if (desc->struct_size != kSize01 && desc->struct_size != sizeof(kata_stream_desc)) {
-    set_context_error(desc->struct_size < kSize01
-                          ? "kata_stream_open: desc.struct_size is too small (call kata_stream_desc_init)"
-                          : "kata_stream_open: desc.struct_size is not the size of a released kata_stream_desc "
-                            "(a newer kata.h, or an uninitialised desc)");
+  kata_stream_desc full;
+  if (!kata::capi::read_sized(desc, stream_desc_defaults(), kata::capi::kStreamDesc10, &full)) {
+    set_context_error("kata_stream_open: desc.struct_size is below 1.0's kata_stream_desc (call kata_stream_desc_init)");
     return KATA_E_INVALID_ARGUMENT;
   }
-  kata_stream_desc full;
-  kata_stream_desc_init(&full);
-  std::memcpy(&full, desc, std::min<size_t>(desc->struct_size, sizeof full));
   desc = &full;
   return guarded_context([&] {
     const kata::Skeleton& skel = skeleton->skeleton;

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <algorithm>
+#include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -14,6 +15,7 @@
 #include <unordered_map>
 #include <vector>
 
+#include "capi/struct_size.hpp"
 #include "common/error.hpp"
 #include "common/status.hpp"
 #include "io/bvh.hpp"
@@ -43,6 +45,19 @@ void init_sized(Desc* desc, uint32_t struct_size, const Desc& defaults) noexcept
   std::memcpy(static_cast<void*>(desc), &defaults, size);
   desc->struct_size = size;
 }
+
+// Each growable struct's size as 1.0 released it: the end of its last 1.0 field (tail padding
+// differs between ABIs; a caller's sizeof is never smaller). read_sized / write_sized
+// (capi/struct_size.hpp) refuse a struct_size below these. Never change them: 1.1's fields go
+// after these ends.
+#define KATA_CAPI_END_OF(T, field) static_cast<uint32_t>(offsetof(T, field) + sizeof(static_cast<T*>(nullptr)->field))
+inline constexpr uint32_t kStreamDesc10 = KATA_CAPI_END_OF(kata_stream_desc, keep_features);
+inline constexpr uint32_t kTeacherDesc10 = KATA_CAPI_END_OF(kata_teacher_desc, body_height);
+inline constexpr uint32_t kRetargetDesc10 = KATA_CAPI_END_OF(kata_retarget_desc, restore_bone_lengths);
+inline constexpr uint32_t kRuntimeDesc10 = KATA_CAPI_END_OF(kata_runtime_desc, idle_stream_seconds);
+inline constexpr uint32_t kScoreCalibration10 = KATA_CAPI_END_OF(kata_score_calibration, good_score);
+inline constexpr uint32_t kRuntimeCounters10 = KATA_CAPI_END_OF(kata_runtime_counters, ingest_practice_queue_full);
+inline constexpr uint32_t kRetargetInfo10 = KATA_CAPI_END_OF(kata_retarget_info, max_bone_error);
 
 // Context errors are kept per context and per thread (kata.h: "the last failed call made on this
 // context from the calling thread"). A call made on a context, or on an object that knows its

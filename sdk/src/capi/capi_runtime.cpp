@@ -23,14 +23,6 @@ std::vector<std::string> split_endpoints(const char* text) {
   return out;
 }
 
-kata_runtime_desc effective(const kata_runtime_desc* desc) {
-  kata_runtime_desc d;
-  kata_runtime_desc_init(&d);
-  if (desc) std::memcpy(&d, desc, std::min<size_t>(desc->struct_size, sizeof d));
-  d.struct_size = sizeof d;
-  return d;
-}
-
 }  // namespace
 
 namespace {
@@ -74,7 +66,10 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
   if (!context || !out) return KATA_E_NULL_POINTER;
   *out = nullptr;
   return kata::capi::guarded_context([&] {
-    const kata_runtime_desc d = effective(desc);
+    kata_runtime_desc d = runtime_desc_defaults();
+    if (desc && !kata::capi::read_sized(desc, runtime_desc_defaults(), kata::capi::kRuntimeDesc10, &d))
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        "kata_runtime_create: desc->struct_size is below 1.0's kata_runtime_desc (call kata_runtime_desc_init)");
     if (d.workers < 1 || d.workers > 256 || d.max_streams < 1 || d.max_joints < 1 || d.queue_capacity < 2 ||
         d.max_message_bytes < 64 || !(d.skeleton_resend_seconds > 0.0))
       throw kata::Error(kata::ErrorKind::kInvalidArgument,
@@ -205,7 +200,7 @@ KATA_API kata_status kata_runtime_stop(kata_runtime runtime) {
 
 KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtime_counters* out) {
   if (!runtime || !out) return KATA_E_NULL_POINTER;
-  if (out->struct_size < 2 * sizeof(uint32_t)) return KATA_E_INVALID_ARGUMENT;
+  if (out->struct_size < kata::capi::kRuntimeCounters10) return KATA_E_INVALID_ARGUMENT;
   const kata::runtime::RuntimeCounters c = runtime->runtime->counters();
   kata_runtime_counters k{};
   k.struct_size = sizeof k;
@@ -230,9 +225,7 @@ KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtim
   k.ingest_practice_outside_clip = c.ingest.practice_outside_clip;
   k.ingest_practice_no_clip = c.ingest.practice_no_clip;
   k.ingest_practice_queue_full = c.ingest.practice_queue_full;
-  const uint32_t caller = out->struct_size;
-  std::memcpy(out, &k, std::min<size_t>(caller, sizeof k));
-  out->struct_size = caller;
+  kata::capi::write_sized(k, kata::capi::kRuntimeCounters10, out);  // size checked above
   return KATA_OK;
 }
 
