@@ -293,4 +293,56 @@ TEST(runtime_capi, AddStreamAnnouncesTheStreamsOwnLayout) {
   kata_context_destroy(ctx);
 }
 
+// "Queue full" and "no clip teacher" are distinct codes (KATA_E_STATE meant both): a stream with
+// no teacher refuses a practice setting with KATA_E_NO_CLIP_TEACHER, and a worker queue of two
+// cells overrun by a burst of pushes answers KATA_E_QUEUE_FULL, each counted as queue_full.
+TEST(runtime_capi, QueueFullAndNoClipTeacherAreTheirOwnCodes) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_clip clip = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &clip), KATA_OK);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(clip, &skel), KATA_OK);
+  kata_stream_desc sd;
+  kata_stream_desc_init(&sd);
+  sd.preset = "cmu";
+  kata_stream stream = nullptr;
+  ASSERT_EQ(kata_stream_open(ctx, skel, &sd, &stream), KATA_OK) << kata_context_last_error(ctx);
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.workers = 1;
+  rd.queue_capacity = 2;
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  ASSERT_EQ(kata_runtime_add_stream(runtime, 9, &stream, nullptr, 0), KATA_OK) << kata_context_last_error(ctx);
+  EXPECT_EQ(kata_runtime_set_practice(runtime, 9, 1, 0.0, 1, 0.1, 0.4), KATA_E_NO_CLIP_TEACHER);
+  EXPECT_NE(std::string(kata_context_last_error(ctx)).find("no clip teacher"), std::string::npos)
+      << kata_context_last_error(ctx);
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  std::vector<float> p(3 * joints);
+  ASSERT_EQ(kata_clip_positions(clip, 1, p.data(), p.size()), KATA_OK);
+  uint64_t full = 0, other = 0;
+  for (int i = 0; i < 20000 && full < 10; ++i) {
+    const kata_status st = kata_runtime_push(runtime, 9, static_cast<uint64_t>(i), i / 120.0, p.data(), joints);
+    if (st == KATA_E_QUEUE_FULL) {
+      ++full;
+    } else if (st != KATA_OK) {
+      ++other;
+    }
+  }
+  EXPECT_GT(full, 0u);
+  EXPECT_EQ(other, 0u);
+  EXPECT_STREQ(kata_status_string(KATA_E_QUEUE_FULL), "KATA_E_QUEUE_FULL");
+  EXPECT_STREQ(kata_status_string(KATA_E_NO_CLIP_TEACHER), "KATA_E_NO_CLIP_TEACHER");
+  EXPECT_EQ(kata_runtime_stop(runtime), KATA_OK);
+  kata_runtime_counters c;
+  c.struct_size = sizeof c;
+  ASSERT_EQ(kata_runtime_get_counters(runtime, &c), KATA_OK);
+  EXPECT_EQ(c.queue_full, full);
+  kata_runtime_destroy(runtime);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(clip);
+  kata_context_destroy(ctx);
+}
+
 }  // namespace

@@ -127,8 +127,12 @@ typedef enum kata_status {
   KATA_TRACKING_LOST = 15,            /* a result, not an error: the frame was accepted (its timestamp
                                          counts) but too many joints are missing to compute features
                                          (see kata_stream_push_confidence); the stream recovers by itself */
-  KATA_E_STOPPED = 16                 /* the runtime is stopping or stopped: the frame was not taken
+  KATA_E_STOPPED = 16,                /* the runtime is stopping or stopped: the frame was not taken
                                          (kata_runtime_push) */
+  KATA_E_QUEUE_FULL = 17,             /* a runtime stream's worker queue is full: the frame or setting
+                                         was dropped (counted); send again later */
+  KATA_E_NO_CLIP_TEACHER = 18         /* the call needs a clip teacher and the stream has none (no
+                                         teacher, or one given as a pose or features) */
 } kata_status;
 
 /* A static English name for a status ("KATA_OK", ...). Never NULL. [any thread] */
@@ -1009,7 +1013,7 @@ KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stre
                                              const char* preset, int32_t publish_features);
 /* Queues one frame of a stream: the source's sequence number, capture time in seconds (must
  * increase), positions (joint_count x 3 floats). KATA_E_NOT_FOUND (no such stream),
- * KATA_E_WRONG_JOINT_COUNT (more than max_joints), KATA_E_STATE (the worker's queue is full:
+ * KATA_E_WRONG_JOINT_COUNT (more than max_joints), KATA_E_QUEUE_FULL (the worker's queue is full:
  * dropped and counted), KATA_E_STOPPED (kata_runtime_stop has begun: not taken, counted).
  * Values are checked by the worker (bad frames counted as refused).
  * Never blocks, never allocates. [any thread] */
@@ -1024,8 +1028,8 @@ KATA_API kata_status kata_runtime_push(kata_runtime runtime, uint64_t stream_id,
  * thread; every result from then on says it (kata_result_message.practice_*, practice_revision =
  * revision: give each change its own). KATA_E_NOT_FOUND (no such stream), KATA_E_INVALID_ARGUMENT
  * (a time not finite, negative or outside the clip, an empty loop, a start and a loop),
- * KATA_E_STATE (the stream has no clip teacher; or its worker queue is full, or stop has begun: send
- * it again); the reason in kata_context_last_error. Nothing changes on a refusal. Never blocks.
+ * KATA_E_NO_CLIP_TEACHER (the stream has no clip teacher), KATA_E_QUEUE_FULL (its worker queue is
+ * full, or stop has begun: send it again); the reason in kata_context_last_error. Nothing changes on a refusal. Never blocks.
  * [any thread] */
 KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t stream_id, uint32_t revision,
                                                double teacher_start, int32_t loop, double loop_start,

@@ -152,6 +152,8 @@ KATA_API const char* kata_status_string(kata_status status) {
     case KATA_E_STATE: return "KATA_E_STATE";
     case KATA_TRACKING_LOST: return "KATA_TRACKING_LOST";
     case KATA_E_STOPPED: return "KATA_E_STOPPED";
+    case KATA_E_QUEUE_FULL: return "KATA_E_QUEUE_FULL";
+    case KATA_E_NO_CLIP_TEACHER: return "KATA_E_NO_CLIP_TEACHER";
   }
   return "KATA_E_UNKNOWN_STATUS";
 }

@@ -184,6 +184,8 @@ KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t st
       case TableVerdict::kUnknownStream: return KATA_E_NOT_FOUND;
       case TableVerdict::kPracticeValues:
       case TableVerdict::kPracticeOutsideClip: return KATA_E_INVALID_ARGUMENT;
+      case TableVerdict::kPracticeNoClip: return KATA_E_NO_CLIP_TEACHER;
+      case TableVerdict::kPracticeQueueFull: return KATA_E_QUEUE_FULL;
       default: return KATA_E_STATE;
     }
   });
