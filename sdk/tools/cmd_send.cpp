@@ -22,6 +22,7 @@
 
 #include "command.hpp"
 #include "common/error.hpp"
+#include "data_files.hpp"
 #include "io/bvh.hpp"
 #include "io/clip_features.hpp"
 #include "transport/curve.hpp"
@@ -331,7 +332,10 @@ void setup(CLI::App& app) {
       ->excludes("--teacher-start");
   cmd->add_flag("--close", o->close, "close the streams at the end (a closing definition)");
   cmd->add_flag("--live-clock", o->live_clock, "capture times from this host's steady clock (stale frames judged)");
-  cmd->callback([o] { run_send(*o); });
+  cmd->callback([o] {
+    o->bvh = kata::cli::default_data_file(o->bvh);
+    run_send(*o);
+  });
 }
 
 const kata::cli::RegisterCommand reg(setup);
