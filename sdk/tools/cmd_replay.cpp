@@ -192,8 +192,9 @@ int run_subscriber(const Options& o) {
       // The soak judge's own test: a latency that grows by this much per second of the run.
       const int64_t injected = static_cast<int64_t>(o.inject_growth_us_per_s * 1e-6 * static_cast<double>(t - first_received));
       // Shards: from the source's send (capture_ns, same clock) to here, the proxies included.
-      total.push_back(t - (o.capture_is_send ? r.capture_ns : r.arrival_ns) + injected);
-      if (o.capture_is_send) source_to_arrival.push_back(r.arrival_ns - r.capture_ns);
+      const int64_t capture_ns = std::llround(r.capture_time * 1e9);
+      total.push_back(t - (o.capture_is_send ? capture_ns : r.arrival_ns) + injected);
+      if (o.capture_is_send) source_to_arrival.push_back(r.arrival_ns - capture_ns);
       if (o.window > 0) received_at.push_back(t);
       queue_compute.push_back(r.computed_ns - r.arrival_ns);
       publish.push_back(r.published_ns - r.computed_ns);

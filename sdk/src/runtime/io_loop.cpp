@@ -4,6 +4,8 @@
 // with an eventfd that workers write when a result is ready and it is asleep.
 #include "runtime/runtime_internal.hpp"
 
+#include "pipeline/record.hpp"
+
 namespace kata::runtime {
 
 using namespace internal;
@@ -111,30 +113,19 @@ bool Runtime::drain_results(transport::Encoder& encoder) {
       auto& s = *static_cast<StreamState*>(cell.stream);
       const pipeline::Result& r = cell.result;
       transport::ResultFields f;
+      pipeline::fill_record(r, static_cast<uint32_t>(s.ghost_joints), &f);
       f.stream_id = s.definition.stream_id;
       f.result_sequence = s.next_result_sequence++;
       f.frame_sequence = cell.frame_sequence;
-      f.frame_index = r.frame_index;
-      f.capture_ns = static_cast<int64_t>(r.capture_time * 1e9);
-      f.arrival_ns = r.arrival_ns;
       f.computed_ns = cell.computed_ns;
-      f.scored = r.scored;
-      if (r.scored) {
-        f.distance = r.score.distance;
-        f.score = r.score.score;
-        for (int i = 0; i < 5; ++i) f.parts[i] = r.score.parts[i];
-        for (int i = 0; i < 5; ++i) f.part_scores[i] = r.score.part_scores[i];
-        f.part_to_fix = r.score.part_to_fix;
-        f.state = static_cast<int32_t>(r.score.state);
+      if (cell.has_practice) {
+        f.has_practice = 1;
+        f.practice_start_time = cell.practice.start_time;
+        f.practice_end_time = cell.practice.end_time;
+        f.practice_loop = cell.practice.loop ? 1 : 0;
+        f.practice_revision = cell.practice.revision;
       }
-      f.matched_teacher_frame = r.matched_frame;
-      f.matched_teacher_time = r.scored ? r.score.matched_time : -1.0;
-      f.has_practice = cell.has_practice;
-      f.practice = cell.practice;
-      if (r.has_ghost) {
-        f.ghost = w.ghosts.data() + k * kMaxGhostJoints * 3;
-        f.ghost_joints = s.ghost_joints;
-      }
+      if (r.has_ghost) f.ghost = w.ghosts.data() + k * kMaxGhostJoints * 3;
       if (s.publish_features) {
         f.features = w.features.data() + k * gpd::kDims;
         f.feature_count = gpd::kDims;
