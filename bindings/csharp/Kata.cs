@@ -23,7 +23,8 @@ namespace Kata
     {
         Ok = 0, NoData = 1, InvalidArgument = 2, NullPointer = 3, WrongJointCount = 4, NonFinite = 5,
         TimestampNotIncreasing = 6, Parse = 7, Io = 8, Model = 9, NotFound = 10, OutOfMemory = 11,
-        BufferTooSmall = 12, Internal = 13, State = 14
+        BufferTooSmall = 12, Internal = 13, State = 14, TrackingLost = 15, Stopped = 16, QueueFull = 17,
+        NoClipTeacher = 18
     }
 
     public enum Stencil { Backward = 0, Central = 1 }

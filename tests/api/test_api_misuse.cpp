@@ -9,12 +9,14 @@
 #include <unistd.h>
 
 #include <climits>
+#include <cstddef>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "kata/kata.h"
@@ -295,17 +297,33 @@ TEST(Misuse, PresetAndNameMapTogetherAreRefused) {
   EXPECT_TRUE(contains(kata_context_last_error(c.ctx), "not both")) << kata_context_last_error(c.ctx);
 }
 
-TEST(Misuse, DescriptorStructSizeMustBeThisLibrarys) {
+// Every descriptor follows one rule (sdk/src/capi/struct_size.hpp): a struct_size below 1.0's
+// struct is refused (an uninitialised desc: no released kata.h has such a struct); 1.0's size and
+// anything larger (a caller built against a newer kata.h) are read up to this library's struct,
+// a newer caller's extra fields ignored.
+TEST(Misuse, DescriptorStructSizeFromTheReleasedSizeUp) {
   Fixture c;
+  // A newer caller's struct below: this library's, then 64 bytes of fields it does not know.
   kata_stream_desc d;
   kata_stream_desc_init(&d);
   d.preset = "cmu";
   kata_stream s = nullptr;
-  for (const uint32_t size : {0u, 4u, static_cast<uint32_t>(sizeof d) - 1, static_cast<uint32_t>(sizeof d) + 8,
-                              0xdeadbeefu, UINT32_MAX}) {
+  // 1.0's struct ends with keep_features (a caller's sizeof adds tail padding).
+  for (const uint32_t size : {0u, 4u, static_cast<uint32_t>(offsetof(kata_stream_desc, keep_features) + 3)}) {
     d.struct_size = size;
     EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_INVALID_ARGUMENT) << size;
     EXPECT_EQ(s, nullptr);
+    EXPECT_TRUE(contains(kata_context_last_error(c.ctx), "below 1.0's kata_stream_desc")) << kata_context_last_error(c.ctx);
+  }
+  {
+    std::vector<unsigned char> newer(sizeof(kata_stream_desc) + 64, 0xA5);
+    std::memcpy(newer.data(), &d, sizeof d);
+    auto* nd = reinterpret_cast<kata_stream_desc*>(newer.data());
+    for (const uint32_t size : {static_cast<uint32_t>(sizeof d), static_cast<uint32_t>(sizeof d) + 64}) {
+      nd->struct_size = size;
+      ASSERT_EQ(kata_stream_open(c.ctx, c.skel, nd, &s), KATA_OK) << size << kata_context_last_error(c.ctx);
+      kata_stream_close(s);
+    }
   }
   kata_model model = nullptr;
   ASSERT_EQ(kata_model_load(c.ctx, KATA_SOURCE_DIR "/tests/data/models/v1-minmax-backward.kata", &model), KATA_OK);
@@ -314,10 +332,16 @@ TEST(Misuse, DescriptorStructSizeMustBeThisLibrarys) {
   kata_teacher_desc_init(&t);
   t.model = model;
   t.clip = c.clip;
-  for (const uint32_t size : {0u, 4u, 12u, static_cast<uint32_t>(sizeof t) - 4, static_cast<uint32_t>(sizeof t) + 8,
-                              UINT32_MAX}) {
+  for (const uint32_t size : {0u, 4u, 12u, static_cast<uint32_t>(offsetof(kata_teacher_desc, body_height))}) {
     t.struct_size = size;
     EXPECT_EQ(kata_stream_attach_teacher(live, &t), KATA_E_INVALID_ARGUMENT) << size;
+  }
+  {
+    std::vector<unsigned char> newer(sizeof(kata_teacher_desc) + 64, 0xA5);
+    std::memcpy(newer.data(), &t, sizeof t);
+    auto* nt = reinterpret_cast<kata_teacher_desc*>(newer.data());
+    nt->struct_size = static_cast<uint32_t>(newer.size());
+    EXPECT_EQ(kata_stream_attach_teacher(live, nt), KATA_OK) << kata_stream_last_error(live);
   }
   t.struct_size = sizeof t;
   EXPECT_EQ(kata_stream_attach_teacher(live, &t), KATA_OK) << kata_stream_last_error(live);
@@ -326,17 +350,49 @@ TEST(Misuse, DescriptorStructSizeMustBeThisLibrarys) {
   kata_retarget_desc r;
   kata_retarget_desc_init(&r);
   kata_retargeter rt = nullptr;
-  for (const uint32_t size : {0u, 12u, static_cast<uint32_t>(sizeof r) + 8, UINT32_MAX}) {
+  for (const uint32_t size : {0u, 12u, static_cast<uint32_t>(offsetof(kata_retarget_desc, restore_bone_lengths) + 1)}) {
     r.struct_size = size;
     EXPECT_EQ(kata_retargeter_create(c.ctx, c.skel, &r, &rt), KATA_E_INVALID_ARGUMENT) << size;
     EXPECT_EQ(rt, nullptr);
   }
+  {
+    std::vector<unsigned char> newer(sizeof(kata_retarget_desc) + 64, 0xA5);
+    kata_retarget_desc_init(&r);
+    std::memcpy(newer.data(), &r, sizeof r);
+    auto* nr = reinterpret_cast<kata_retarget_desc*>(newer.data());
+    nr->struct_size = static_cast<uint32_t>(newer.size());
+    ASSERT_EQ(kata_retargeter_create(c.ctx, c.skel, nr, &rt), KATA_OK) << kata_context_last_error(c.ctx);
+    kata_retargeter_destroy(rt);
+  }
+  // Runtime desc: below 1.0 refused; a newer caller's larger struct read up to ours.
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.publish_endpoints = "inproc://kata-misuse-sizes";
+  kata_runtime runtime = nullptr;
+  rd.struct_size = 64;  // 0.2's
+  EXPECT_EQ(kata_runtime_create(c.ctx, &rd, &runtime), KATA_E_INVALID_ARGUMENT);
+  EXPECT_TRUE(contains(kata_context_last_error(c.ctx), "below 1.0's kata_runtime_desc")) << kata_context_last_error(c.ctx);
+  std::vector<unsigned char> newer(sizeof(kata_runtime_desc) + 64, 0xA5);
+  rd.struct_size = static_cast<uint32_t>(newer.size());
+  std::memcpy(newer.data(), &rd, sizeof rd);
+  ASSERT_EQ(kata_runtime_create(c.ctx, reinterpret_cast<kata_runtime_desc*>(newer.data()), &runtime), KATA_OK)
+      << kata_context_last_error(c.ctx);
+  // Writers: a 1.0-sized counters struct or a newer one (its unknown fields zeroed); less refused.
+  std::vector<unsigned char> counters(sizeof(kata_runtime_counters) + 16, 0xA5);
+  auto* kc = reinterpret_cast<kata_runtime_counters*>(counters.data());
+  kc->struct_size = static_cast<uint32_t>(counters.size());
+  ASSERT_EQ(kata_runtime_get_counters(runtime, kc), KATA_OK);
+  EXPECT_EQ(kc->struct_size, counters.size());
+  EXPECT_EQ(kc->streams, 0u);
+  for (size_t i = sizeof(kata_runtime_counters); i < counters.size(); ++i) EXPECT_EQ(counters[i], 0) << i;
+  kc->struct_size = 8;
+  EXPECT_EQ(kata_runtime_get_counters(runtime, kc), KATA_E_INVALID_ARGUMENT);
+  kata_runtime_destroy(runtime);
 }
 
-// A caller built against 0.2's kata.h has a smaller kata_runtime_desc (64 bytes) and
-// kata_teacher_desc (88): the sized init writes its struct and not one byte past it (guard bytes
-// after the struct stay as they were), and the library then reads only that much (the runtime
-// comes up with the defaults of the fields the old struct lacks). A size past this library's
+// A caller with a smaller struct (0.2's kata_runtime_desc of 64 bytes, kata_teacher_desc of 88):
+// the sized init writes its struct and not one byte past it (guard bytes after the struct stay as
+// they were); the readers then refuse it, being below 1.0's size. A size past this library's
 // struct (a newer kata.h) is cut to this one's, which struct_size then reports.
 TEST(Misuse, DescInitWritesOnlyTheCallersStruct) {
   constexpr uint32_t kRuntime02 = 64, kTeacher02 = 88, kGuard = 64;
@@ -359,8 +415,8 @@ TEST(Misuse, DescInitWritesOnlyTheCallersStruct) {
   kata_context ctx = nullptr;
   ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
   kata_runtime runtime = nullptr;
-  ASSERT_EQ(kata_runtime_create(ctx, rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
-  kata_runtime_destroy(runtime);
+  // 1.0 reads no 0.x struct (libkata.so.1 is loaded by no 0.x binary): refused, not half-read.
+  EXPECT_EQ(kata_runtime_create(ctx, rd, &runtime), KATA_E_INVALID_ARGUMENT);
   kata_context_destroy(ctx);
 
   std::vector<unsigned char> old_teacher = guarded(kTeacher02);
@@ -590,6 +646,60 @@ TEST(Misuse, ShortBuffersAndWrongJointCountsChangeNothing) {
       << kata_retargeter_last_error(rt);
   kata_retargeter_destroy(rt);
   kata_stream_close(s);
+}
+
+}  // namespace
+
+namespace {
+
+// kata.h: "the message of the last failed call made on this context from the calling thread".
+// Two contexts on one thread keep their own; a runtime reports on the context it was made on; a
+// context-less failure shows on any context while it is the thread's newest.
+TEST(Misuse, EachContextKeepsItsOwnLastError) {
+  kata_context a = nullptr, b = nullptr;
+  ASSERT_EQ(kata_context_create(&a), KATA_OK);
+  ASSERT_EQ(kata_context_create(&b), KATA_OK);
+  EXPECT_STREQ(kata_context_last_error(a), "");
+  kata_clip clip = nullptr;
+  EXPECT_NE(kata_clip_load_bvh(a, "/nonexistent/first.bvh", &clip), KATA_OK);
+  kata_skeleton skel = nullptr;
+  EXPECT_NE(kata_skeleton_create_layout(b, "no-such-layout", &skel), KATA_OK);
+  const std::string on_a = kata_context_last_error(a), on_b = kata_context_last_error(b);
+  EXPECT_NE(on_a.find("first.bvh"), std::string::npos) << on_a;
+  EXPECT_NE(on_b.find("no-such-layout"), std::string::npos) << on_b;
+  EXPECT_EQ(on_a.find("no-such-layout"), std::string::npos) << on_a;
+
+  // Another thread's failure on a does not replace this thread's message.
+  std::thread([a] {
+    kata_clip c = nullptr;
+    EXPECT_NE(kata_clip_load_bvh(a, "/nonexistent/other-thread.bvh", &c), KATA_OK);
+    EXPECT_NE(std::string(kata_context_last_error(a)).find("other-thread.bvh"), std::string::npos);
+  }).join();
+  EXPECT_EQ(kata_context_last_error(a), on_a);
+
+  // A runtime's refusal goes to its own context.
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.workers = 0;
+  kata_runtime rt = nullptr;
+  EXPECT_EQ(kata_runtime_create(b, &rd, &rt), KATA_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(kata_context_last_error(b)).find("workers 1..256"), std::string::npos);
+  EXPECT_EQ(kata_context_last_error(a), on_a);
+
+  // A call without a context reports on the thread: newest, so shown on both.
+  const double steps[3] = {0.0, 0.7, 1.4};  // 0.7 s or 0.7 ms a frame: neither plausible
+  kata_time_units units = KATA_TIME_SECONDS;
+  EXPECT_EQ(kata_time_units_detect(steps, 3, &units), KATA_E_INVALID_ARGUMENT);
+  const std::string loose = kata_context_last_error(nullptr);
+  EXPECT_FALSE(loose.empty());
+  EXPECT_EQ(kata_context_last_error(a), loose);
+  EXPECT_EQ(kata_context_last_error(b), loose);
+  // ... until a context's own failure is newer again.
+  EXPECT_NE(kata_clip_load_bvh(a, "/nonexistent/third.bvh", &clip), KATA_OK);
+  EXPECT_NE(std::string(kata_context_last_error(a)).find("third.bvh"), std::string::npos);
+  EXPECT_EQ(kata_context_last_error(b), loose);
+  kata_context_destroy(a);
+  kata_context_destroy(b);
 }
 
 }  // namespace

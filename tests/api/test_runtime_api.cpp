@@ -164,4 +164,185 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
   kata_context_destroy(ctx);
 }
 
+// The runtime publishes its Stats on the result socket: a subscriber in C reads each as a valid
+// message that is no result (KATA_NO_DATA), never as a corrupt one.
+TEST(runtime_capi, StatsOnTheResultSocketAreValidNonResults) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.publish_endpoints = "tcp://127.0.0.1:*";
+  rd.skeleton_resend_seconds = 0.05;  // stats go out with the periodic definitions
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  void* zctx = zmq_ctx_new();
+  auto sub = std::make_unique<kata::test::ZmqSubscriber>(zctx, kata_runtime_publish_endpoint(runtime), 1000,
+                                                         "ffffffffffffffff", 1 << 16);
+  ASSERT_TRUE(sub->connected());
+  const char* buffer = reinterpret_cast<const char*>(sub->data());
+  int stats = 0;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (stats < 2 && std::chrono::steady_clock::now() < deadline) {
+    const int n = sub->receive(100);
+    if (n > 24 && std::memcmp(buffer + 20, "KSTA", 4) == 0) {
+      kata_result_record r;
+      r.struct_size = sizeof r;
+      r.stream_id = 99;
+      EXPECT_EQ(kata_message_read_result(buffer, static_cast<size_t>(n), &r), KATA_NO_DATA);
+      EXPECT_EQ(r.stream_id, 99u);  // untouched
+      ++stats;
+    }
+  }
+  EXPECT_EQ(stats, 2);
+  sub.reset();
+  zmq_ctx_term(zctx);
+  EXPECT_EQ(kata_runtime_stop(runtime), KATA_OK);
+  kata_runtime_destroy(runtime);
+  kata_context_destroy(ctx);
+}
+
+// The skeleton definition a runtime publishes for a stream handed to it (the first message a
+// subscriber gets on the stream's topic).
+std::string definition_of(kata_context ctx, kata_stream stream, const char* preset, kata_status* added) {
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.publish_endpoints = "tcp://127.0.0.1:*";
+  kata_runtime runtime = nullptr;
+  if (kata_runtime_create(ctx, &rd, &runtime) != KATA_OK) return "";
+  *added = kata_runtime_add_stream(runtime, 5, &stream, preset, 0);
+  std::string definition;
+  if (*added == KATA_OK) {
+    void* zctx = zmq_ctx_new();
+    auto sub = std::make_unique<kata::test::ZmqSubscriber>(zctx, kata_runtime_publish_endpoint(runtime), 1000,
+                                                           "0000000000000005", 1 << 16);
+    const char* buffer = reinterpret_cast<const char*>(sub->data());
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (definition.empty() && std::chrono::steady_clock::now() < deadline) {
+      const int n = sub->receive(100);
+      if (n > 24 && std::memcmp(buffer + 20, "KSKL", 4) == 0) definition.assign(buffer, buffer + n);
+    }
+    sub.reset();
+    zmq_ctx_term(zctx);
+  } else {
+    kata_stream_close(stream);
+  }
+  kata_runtime_destroy(runtime);
+  return definition;
+}
+
+// A FlatBuffers string as stored: 32-bit length, the bytes, a NUL.
+std::string fb_string(const std::string& s) {
+  std::string out(4, '\0');
+  out[0] = static_cast<char>(s.size());
+  return out + s + std::string(1, '\0');
+}
+
+// A runtime announces each stream's own layout, not "cmu": a MediaPipe stream as "mediapipe", a
+// name-map stream by its map; a preset naming another layout is refused.
+TEST(runtime_capi, AddStreamAnnouncesTheStreamsOwnLayout) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_skeleton mp = nullptr, gpd = nullptr;
+  ASSERT_EQ(kata_skeleton_create_layout(ctx, "mediapipe", &mp), KATA_OK);
+  ASSERT_EQ(kata_skeleton_create_layout(ctx, "gpd", &gpd), KATA_OK);
+  kata_stream_desc d;
+  kata_stream_desc_init(&d);
+  d.preset = "mediapipe";
+  for (const char* preset : {static_cast<const char*>(nullptr), "mediapipe"}) {
+    kata_stream s = nullptr;
+    ASSERT_EQ(kata_stream_open(ctx, mp, &d, &s), KATA_OK) << kata_context_last_error(ctx);
+    kata_status added = KATA_E_INTERNAL;
+    const std::string def = definition_of(ctx, s, preset, &added);
+    ASSERT_EQ(added, KATA_OK) << kata_context_last_error(ctx);
+    ASSERT_FALSE(def.empty());
+    EXPECT_NE(def.find(fb_string("mediapipe")), std::string::npos);
+    EXPECT_EQ(def.find(fb_string("cmu")), std::string::npos);
+  }
+  kata_stream s = nullptr;
+  ASSERT_EQ(kata_stream_open(ctx, mp, &d, &s), KATA_OK);
+  kata_status added = KATA_OK;
+  definition_of(ctx, s, "cmu", &added);
+  EXPECT_EQ(added, KATA_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(kata_context_last_error(ctx)).find("not the layout the stream was opened with"),
+            std::string::npos) << kata_context_last_error(ctx);
+
+  // The same skeleton under its own names and with left and right swapped: only the announced
+  // map tells a subscriber how to read each (a preset would announce both alike).
+  const char* identity = "{\"Hip\":\"Hip\",\"Chest\":\"Chest\",\"Neck\":\"Neck\",\"Head\":\"Head\",\"LShoulder\":\"LShoulder\","
+                         "\"LElbow\":\"LElbow\",\"LHand\":\"LHand\",\"RShoulder\":\"RShoulder\",\"RElbow\":\"RElbow\","
+                         "\"RHand\":\"RHand\",\"LHip\":\"LHip\",\"LKnee\":\"LKnee\",\"LFoot\":\"LFoot\",\"RHip\":\"RHip\","
+                         "\"RKnee\":\"RKnee\",\"RFoot\":\"RFoot\"}";
+  const char* swapped = "{\"Hip\":\"Hip\",\"Chest\":\"Chest\",\"Neck\":\"Neck\",\"Head\":\"Head\",\"LShoulder\":\"RShoulder\","
+                        "\"LElbow\":\"RElbow\",\"LHand\":\"RHand\",\"RShoulder\":\"LShoulder\",\"RElbow\":\"LElbow\","
+                        "\"RHand\":\"LHand\",\"LHip\":\"RHip\",\"LKnee\":\"RKnee\",\"LFoot\":\"RFoot\",\"RHip\":\"LHip\","
+                        "\"RKnee\":\"LKnee\",\"RFoot\":\"LFoot\"}";
+  std::string defs[2];
+  for (int i = 0; i < 2; ++i) {
+    kata_stream_desc_init(&d);
+    ASSERT_EQ(kata_stream_open_name_map(ctx, gpd, &d, i ? swapped : identity, &s), KATA_OK) << kata_context_last_error(ctx);
+    defs[i] = definition_of(ctx, s, nullptr, &added);
+    ASSERT_EQ(added, KATA_OK) << kata_context_last_error(ctx);
+    ASSERT_FALSE(defs[i].empty());
+    EXPECT_EQ(defs[i].find(fb_string("cmu")), std::string::npos);
+    EXPECT_EQ(defs[i].find(fb_string("gpd")), std::string::npos);
+  }
+  EXPECT_EQ(defs[0].size(), defs[1].size());
+  EXPECT_NE(defs[0], defs[1]);
+  kata_skeleton_destroy(mp);
+  kata_skeleton_destroy(gpd);
+  kata_context_destroy(ctx);
+}
+
+// "Queue full" and "no clip teacher" are distinct codes (KATA_E_STATE meant both): a stream with
+// no teacher refuses a practice setting with KATA_E_NO_CLIP_TEACHER, and a worker queue of two
+// cells overrun by a burst of pushes answers KATA_E_QUEUE_FULL, each counted as queue_full.
+TEST(runtime_capi, QueueFullAndNoClipTeacherAreTheirOwnCodes) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_clip clip = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &clip), KATA_OK);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(clip, &skel), KATA_OK);
+  kata_stream_desc sd;
+  kata_stream_desc_init(&sd);
+  sd.preset = "cmu";
+  kata_stream stream = nullptr;
+  ASSERT_EQ(kata_stream_open(ctx, skel, &sd, &stream), KATA_OK) << kata_context_last_error(ctx);
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.workers = 1;
+  rd.queue_capacity = 2;
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  ASSERT_EQ(kata_runtime_add_stream(runtime, 9, &stream, nullptr, 0), KATA_OK) << kata_context_last_error(ctx);
+  EXPECT_EQ(kata_runtime_set_practice(runtime, 9, 1, 0.0, 1, 0.1, 0.4), KATA_E_NO_CLIP_TEACHER);
+  EXPECT_NE(std::string(kata_context_last_error(ctx)).find("no clip teacher"), std::string::npos)
+      << kata_context_last_error(ctx);
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  std::vector<float> p(3 * joints);
+  ASSERT_EQ(kata_clip_positions(clip, 1, p.data(), p.size()), KATA_OK);
+  uint64_t full = 0, other = 0;
+  for (int i = 0; i < 20000 && full < 10; ++i) {
+    const kata_status st = kata_runtime_push(runtime, 9, static_cast<uint64_t>(i), i / 120.0, p.data(), joints);
+    if (st == KATA_E_QUEUE_FULL) {
+      ++full;
+    } else if (st != KATA_OK) {
+      ++other;
+    }
+  }
+  EXPECT_GT(full, 0u);
+  EXPECT_EQ(other, 0u);
+  EXPECT_STREQ(kata_status_string(KATA_E_QUEUE_FULL), "KATA_E_QUEUE_FULL");
+  EXPECT_STREQ(kata_status_string(KATA_E_NO_CLIP_TEACHER), "KATA_E_NO_CLIP_TEACHER");
+  EXPECT_EQ(kata_runtime_stop(runtime), KATA_OK);
+  kata_runtime_counters c;
+  c.struct_size = sizeof c;
+  ASSERT_EQ(kata_runtime_get_counters(runtime, &c), KATA_OK);
+  EXPECT_EQ(c.queue_full, full);
+  kata_runtime_destroy(runtime);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(clip);
+  kata_context_destroy(ctx);
+}
+
 }  // namespace

@@ -305,11 +305,11 @@ TEST_F(TeacherCapi, DescSizesMotionsAndNullsAreChecked) {
   kata_teacher_desc d = desc();
   d.clip = clip;
   d.first_frame = kFirst;
-  // 0.2's struct (every field before features) is accepted: a 0.2 caller keeps working.
-  d.struct_size = static_cast<uint32_t>(offsetof(kata_teacher_desc, features));
-  EXPECT_EQ(kata_stream_attach_teacher(s, &d), KATA_OK) << kata_stream_last_error(s);
+  ASSERT_EQ(kata_stream_attach_teacher(s, &d), KATA_OK) << kata_stream_last_error(s);
   EXPECT_GT(kata_stream_ghost_joint_count(s), 0u);
-  for (uint32_t size : {0u, 4u, static_cast<uint32_t>(sizeof d) + 8u, static_cast<uint32_t>(sizeof d) - 8u}) {
+  // Below 1.0's struct (0.2's: every field before features) is refused.
+  for (uint32_t size : {0u, 4u, static_cast<uint32_t>(offsetof(kata_teacher_desc, features)),
+                        static_cast<uint32_t>(offsetof(kata_teacher_desc, body_height))}) {
     d.struct_size = size;
     EXPECT_EQ(kata_stream_attach_teacher(s, &d), KATA_E_INVALID_ARGUMENT) << size;
   }

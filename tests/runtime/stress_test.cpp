@@ -305,7 +305,7 @@ TEST(runtime_stress, PushesRacingStopAreTakenOrRefusedNeverLost) {
             if (st == Status::kOk) {
               ++t.ok;
               if (t.stopped) ++t.ok_after_stopped;
-            } else if (st == Status::kState) {
+            } else if (st == Status::kQueueFull) {
               ++t.full;
             } else if (st == Status::kStopped) {
               if (++t.stopped >= 3) break;  // a few more after the first: refused every time

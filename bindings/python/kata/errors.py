@@ -27,6 +27,9 @@ class Status(enum.IntEnum):
     E_STATE = 14
     #: not an error: the frame was accepted without features (too many joints missing)
     TRACKING_LOST = 15
+    E_STOPPED = 16
+    E_QUEUE_FULL = 17
+    E_NO_CLIP_TEACHER = 18
 
 
 class KataError(Exception):

@@ -90,7 +90,7 @@ def read_message(message: bytes) -> Optional[ResultMessage]:
 class Subscriber:
     """A ZeroMQ SUB socket on a runtime's publish endpoint (Debian's python3-zmq), decoding result
     messages with kata_message_read_result. stream: only that stream id (its topic), or all.
-    Skeleton definitions and refused messages are counted (skipped, refused), never returned.
+    Valid non-result messages (skeleton definitions, stats, practice settings) and refused messages are counted (skipped, refused), never returned.
 
         with kata.Subscriber("tcp://127.0.0.1:5556") as sub:
             msg = sub.receive(timeout=1.0)   # a ResultMessage, or None after 1 s without one
@@ -107,7 +107,7 @@ class Subscriber:
         self._socket.connect(endpoint)
         self._poller = zmq.Poller()
         self._poller.register(self._socket, zmq.POLLIN)
-        self.skipped = 0  #: valid messages that are not results (skeleton definitions)
+        self.skipped = 0  #: valid messages that are not results (skeleton definitions, stats, practice settings)
         self.refused = 0  #: messages the verifier refused
 
     def receive(self, timeout: Optional[float] = None) -> Optional[ResultMessage]:

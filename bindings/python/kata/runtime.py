@@ -25,8 +25,9 @@ class Runtime(_Handle):
     def add_stream(self, stream_id: int, stream: "Stream", preset: Optional[str] = None,
                    publish_features: bool = False) -> None:
         """kata_runtime_add_stream: hands `stream` to the runtime under stream_id; the runtime owns
-        it afterwards (the Stream object is closed here without freeing it). preset: the joint map
-        named in the published skeleton definition (None: "cmu"). [any thread]"""
+        it afterwards (the Stream object is closed here without freeing it). The published
+        skeleton definition names the layout the stream was opened with (a built-in layout or its
+        name map); preset: None, or that same layout's name (another is refused). [any thread]"""
         h = ctypes.c_void_p(stream.handle)
         status = _n.runtime_add_stream(self.handle, stream_id, ctypes.byref(h), _utf8(preset),
                                        1 if publish_features else 0)
@@ -40,8 +41,8 @@ class Runtime(_Handle):
 
     def push(self, stream_id: int, sequence: int, capture_time: float, positions: Any) -> None:
         """kata_runtime_push: queues one frame (capture_time seconds, increasing; positions
-        (joints, 3) float32). KataError E_NOT_FOUND (no such stream), E_STATE (queue full: dropped
-        and counted). Never blocks, never allocates in C. [any thread]"""
+        (joints, 3) float32). KataError E_NOT_FOUND (no such stream), E_QUEUE_FULL (dropped and
+        counted), E_STOPPED (stop has begun). Never blocks, never allocates in C. [any thread]"""
         a = positions
         if type(a) is not np.ndarray or a.dtype != np.float32 or not a.flags.c_contiguous:
             a = _positions_f32(a)
@@ -59,8 +60,8 @@ class Runtime(_Handle):
         teacher from teacher_start seconds, or loops the section loop = (start, end) seconds
         (teacher seconds from its first frame, as ResultMessage.matched_teacher_time); every result
         then carries practice.revision == revision. KataError E_NOT_FOUND (no such stream),
-        E_INVALID_ARGUMENT (not finite, negative, outside the clip, an empty loop), E_STATE (no clip
-        teacher; the worker queue full). Never blocks. [any thread]"""
+        E_INVALID_ARGUMENT (not finite, negative, outside the clip, an empty loop), E_NO_CLIP_TEACHER,
+        E_QUEUE_FULL (the worker queue full, or stop has begun). Never blocks. [any thread]"""
         a, b = loop if loop is not None else (0.0, 0.0)
         status = _n.runtime_set_practice(self.handle, stream_id, revision, teacher_start, 1 if loop is not None else 0,
                                          a, b)

@@ -74,7 +74,13 @@ extern "C" {
 
 /* Semantic versioning (README "Versions and compatibility"): within a major version the ABI only
  * grows (new functions, new enumerators, fields appended to a struct that starts with
- * struct_size); libkata's soname is libkata.so.MAJOR. CI checks this with abidiff (abi/README.md). */
+ * struct_size); libkata's soname is libkata.so.MAJOR. CI checks this with abidiff (abi/README.md).
+ * One rule for every struct that starts with struct_size, read or written by the library: any
+ * struct_size from the struct as 1.0 released it up is accepted. A caller built against an older
+ * 1.x kata.h (a smaller struct) gets the defaults of the fields it lacks when read, and nothing
+ * written past its struct; a caller built against a newer one (a larger struct) has the fields
+ * this library does not know ignored when read and zeroed when written. A struct_size below
+ * 1.0's (an uninitialised struct; no 0.x struct is read) is refused with KATA_E_INVALID_ARGUMENT. */
 #define KATA_VERSION_MAJOR 1
 #define KATA_VERSION_MINOR 0 /* additions since the major's first release */
 #define KATA_VERSION_PATCH 0 /* fixes only */
@@ -123,8 +129,12 @@ typedef enum kata_status {
   KATA_TRACKING_LOST = 15,            /* a result, not an error: the frame was accepted (its timestamp
                                          counts) but too many joints are missing to compute features
                                          (see kata_stream_push_confidence); the stream recovers by itself */
-  KATA_E_STOPPED = 16                 /* the runtime is stopping or stopped: the frame was not taken
+  KATA_E_STOPPED = 16,                /* the runtime is stopping or stopped: the frame was not taken
                                          (kata_runtime_push) */
+  KATA_E_QUEUE_FULL = 17,             /* a runtime stream's worker queue is full: the frame or setting
+                                         was dropped (counted); send again later */
+  KATA_E_NO_CLIP_TEACHER = 18         /* the call needs a clip teacher and the stream has none (no
+                                         teacher, or one given as a pose or features) */
 } kata_status;
 
 /* A static English name for a status ("KATA_OK", ...). Never NULL. [any thread] */
@@ -140,8 +150,11 @@ KATA_API kata_status kata_context_create(kata_context* out);
 /* Destroys a context. Every stream, skeleton, clip and model made from it must be released
  * first. NULL is ignored. [any thread, not concurrently with other calls on the context] */
 KATA_API void kata_context_destroy(kata_context context);
-/* The message of the last failed call made on this context from the calling thread, or "".
- * Valid until that thread's next call on the context. [any thread] */
+/* The message of the last failed call made on this context from the calling thread, or "": two
+ * contexts used on one thread keep their own messages. A call that takes no context
+ * (kata_clip_positions, kata_time_units_detect; a runtime's calls report on the context it was
+ * created on) reports on the calling thread, shown here on any context when it is the thread's
+ * newest failure. Valid until that thread's next failed call on the context. [any thread] */
 KATA_API const char* kata_context_last_error(kata_context context);
 
 /* ##############################################################################################
@@ -285,7 +298,7 @@ typedef struct kata_stream_desc {
    * Negative, NaN or out-of-range values are refused (KATA_E_INVALID_ARGUMENT). */
   double body_height;
   uint32_t calibration_frames; /* 1..history_capacity - 1 when H is estimated. Default 8 */
-  /* ---- since 0.2 (a caller built against 0.1 passes the smaller struct_size: defaults apply) */
+  /* ---- since 0.2 */
   uint32_t result_capacity;    /* results kept until read (kata_stream_read_results). Default 64 */
   int32_t keep_features;       /* 1: each result also keeps its feature vector. Default 0 */
 } kata_stream_desc;
@@ -311,10 +324,8 @@ KATA_API const char* kata_preset_name(uint32_t i);
  * the push that emitted it, and keeps each result in a ring until read (kata_stream_read_results).
  * Allocates all its memory now. The skeleton is
  * copied; it may be destroyed afterwards. Errors (unknown preset, a mapped joint missing from
- * the skeleton, bad values) are reported on the context. desc->struct_size must be the size
- * of a released kata_stream_desc (0.1's or this one's, sizeof(kata_stream_desc)); any other
- * value (an uninitialised desc, a newer kata.h) is refused with KATA_E_INVALID_ARGUMENT.
- * [any thread] */
+ * the skeleton, bad values) are reported on the context. desc->struct_size: 1.0's size or more
+ * (see Versions). [any thread] */
 KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skeleton, const kata_stream_desc* desc,
                                       kata_stream* out);
 /* kata_stream_open with a name map held in memory (the contents of a name-map file: JSON
@@ -555,7 +566,7 @@ KATA_API void kata_retarget_desc_init(kata_retarget_desc* desc);
  * single-pose teacher. A teacher given as features or GPD joints has no joint positions to
  * retarget: set ghost = 0 for it (ghost = 1 is refused). Fill with kata_teacher_desc_init. */
 typedef struct kata_teacher_desc {
-  uint32_t struct_size;      /* sizeof(kata_teacher_desc) (0.2's smaller size is accepted too) */
+  uint32_t struct_size;      /* sizeof(kata_teacher_desc); 1.0's size or more (see Versions) */
   kata_model model;          /* required; the stream must use the model's stencil */
   /* The teacher's motion: a recorded clip ... */
   kata_clip clip;            /* a BVH clip, or NULL and one of the forms below */
@@ -571,7 +582,7 @@ typedef struct kata_teacher_desc {
   int32_t ghost;             /* 1 (default): make a ghost per result (the student skeleton needs rest
                                 offsets and the same joint names as the teacher); 0: scores only */
   const kata_retarget_desc* retarget;  /* the ghost's solver (joint set "cmu" or "gpd"); NULL: defaults */
-  /* ---- since 1.0 (a 0.2 caller passes the smaller struct_size: these stay NULL / 0) */
+  /* ---- since 1.0 */
   /* ... or GPD v1 feature vectors: `frames` x KATA_GPD_DIMS floats, row-major (copied) ... */
   const float* features;
   /* ... or one pose as the 16 GPD joints' world positions: KATA_GPD_JOINTS x 3 floats, GPD joint
@@ -598,7 +609,7 @@ KATA_API void kata_teacher_desc_init(kata_teacher_desc* desc);
  * skeleton) the student's body. Replaces any teacher; a refused call leaves the old one in
  * place. The alignment starts at the teacher's first frame. Errors (stencil mismatch, unknown
  * preset, a ghost joint missing from one skeleton, bad frames or features, two motions given,
- * desc->struct_size other than a released sizeof(kata_teacher_desc)) go to
+ * desc->struct_size below 1.0's kata_teacher_desc) go to
  * kata_stream_last_error. Allocates. [stream owner] */
 KATA_API kata_status kata_stream_attach_teacher(kata_stream stream, const kata_teacher_desc* desc);
 /* Removes the stream's teacher: later results are not scored (scored 0) and carry
@@ -641,7 +652,7 @@ typedef struct kata_score_calibration {
 } kata_score_calibration;
 
 /* The model's calibration (or the default above) into *out. KATA_E_INVALID_ARGUMENT when
- * out->struct_size is smaller than this struct. Does not allocate. [any thread] */
+ * out->struct_size is below 1.0's struct (see Versions). Does not allocate. [any thread] */
 KATA_API kata_status kata_model_calibration(kata_model model, kata_score_calibration* out);
 /* Overrides the calibration of the stream's current teacher (e.g. fitted on a teacher's own
  * takes); NULL restores the model's. Attaching a new teacher returns to the model's calibration.
@@ -741,8 +752,8 @@ typedef struct kata_retarget_info {
 } kata_retarget_info;
 
 /* Creates a retargeter for the student `student` (a skeleton with rest offsets; copied, may be
- * destroyed afterwards). desc may be NULL for the defaults; else desc->struct_size must be
- * sizeof(kata_retarget_desc). Errors (unknown preset, missing
+ * destroyed afterwards). desc may be NULL for the defaults; else desc->struct_size is 1.0's
+ * size or more (see Versions). Errors (unknown preset, missing
  * joint, no rest pose, zero bone length) are reported on the context. [any thread] */
 KATA_API kata_status kata_retargeter_create(kata_context context, kata_skeleton student,
                                             const kata_retarget_desc* desc, kata_retargeter* out);
@@ -943,14 +954,16 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
 KATA_API void kata_runtime_destroy(kata_runtime runtime);
 /* Hands an open stream (kata_stream_open, teacher attached or not) to the runtime under
  * stream_id; on success the runtime owns it and *stream is set to NULL (do not close it).
- * preset: the GPD joint map named in the published skeleton definition (NULL: "cmu").
+ * The published skeleton definition announces the layout the stream was opened with (its built-in
+ * layout, or its name map's 16 joint names), so subscribers and shards map it as the stream does.
+ * preset: NULL, or the name of that same layout (another is refused: KATA_E_INVALID_ARGUMENT).
  * publish_features: 1 puts each result's features in its message (the stream needs
  * desc.keep_features). KATA_E_INVALID_ARGUMENT for a used id or a full runtime. [any thread] */
 KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
                                              const char* preset, int32_t publish_features);
 /* Queues one frame of a stream: the source's sequence number, capture time in seconds (must
  * increase), positions (joint_count x 3 floats). KATA_E_NOT_FOUND (no such stream),
- * KATA_E_WRONG_JOINT_COUNT (more than max_joints), KATA_E_STATE (the worker's queue is full:
+ * KATA_E_WRONG_JOINT_COUNT (more than max_joints), KATA_E_QUEUE_FULL (the worker's queue is full:
  * dropped and counted), KATA_E_STOPPED (kata_runtime_stop has begun: not taken, counted).
  * Values are checked by the worker (bad frames counted as refused).
  * Never blocks, never allocates. [any thread] */
@@ -965,8 +978,8 @@ KATA_API kata_status kata_runtime_push(kata_runtime runtime, uint64_t stream_id,
  * thread; every result from then on says it (kata_result_record.practice_*, practice_revision =
  * revision: give each change its own). KATA_E_NOT_FOUND (no such stream), KATA_E_INVALID_ARGUMENT
  * (a time not finite, negative or outside the clip, an empty loop, a start and a loop),
- * KATA_E_STATE (the stream has no clip teacher; or its worker queue is full, or stop has begun: send
- * it again); the reason in kata_context_last_error. Nothing changes on a refusal. Never blocks.
+ * KATA_E_NO_CLIP_TEACHER (the stream has no clip teacher), KATA_E_QUEUE_FULL (its worker queue is
+ * full, or stop has begun: send it again); the reason in kata_context_last_error. Nothing changes on a refusal. Never blocks.
  * [any thread] */
 KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t stream_id, uint32_t revision,
                                                double teacher_start, int32_t loop, double loop_start,
@@ -977,7 +990,7 @@ KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t st
  * result is published before stop returns) or refused (it returns KATA_E_STOPPED); never lost.
  * Every push after stop began returns KATA_E_STOPPED. */
 KATA_API kata_status kata_runtime_stop(kata_runtime runtime);
-/* Copies the counters (as much as out->struct_size holds). [any thread] */
+/* Copies the counters (out->struct_size: 1.0's size or more, see Versions). [any thread] */
 KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtime_counters* out);
 /* The endpoint the publisher bound last, resolved (a "tcp://127.0.0.1:*" shows its port), or
  * "" without a publisher; valid while the runtime lives. [any thread] */

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstring>
+#include <stdexcept>
 #include <string>
 
 #include "capi/capi_internal.hpp"
@@ -29,16 +30,39 @@ using kata::capi::set_context_error;
 
 namespace kata::capi {
 namespace {
-thread_local std::string t_context_error;
-}
+thread_local kata_context t_current = nullptr;    // the context of the call in progress
+thread_local uint64_t t_tick = 0;                 // failed calls on this thread so far
+thread_local kata_context_s::ErrorSlot t_loose;   // the last context-less failure
+}  // namespace
+
+ContextScope::ContextScope(kata_context context) noexcept : previous_(t_current) { t_current = context; }
+ContextScope::~ContextScope() { t_current = previous_; }
+
 void set_context_error(const char* message) noexcept {
   try {
-    t_context_error = message;
+    const uint64_t tick = ++t_tick;
+    if (t_current) {
+      std::lock_guard<std::mutex> lock(t_current->errors_mutex);
+      kata_context_s::ErrorSlot& slot = t_current->errors[std::this_thread::get_id()];
+      slot.text = message;
+      slot.tick = tick;
+    } else {
+      t_loose.text = message;
+      t_loose.tick = tick;
+    }
   } catch (...) {
     // Out of memory while reporting an error: keep the previous message.
   }
 }
-const char* context_error() noexcept { return t_context_error.c_str(); }
+
+const char* context_error(kata_context context) noexcept {
+  if (context) {
+    std::lock_guard<std::mutex> lock(context->errors_mutex);
+    const auto it = context->errors.find(std::this_thread::get_id());
+    if (it != context->errors.end() && it->second.tick > t_loose.tick) return it->second.text.c_str();
+  }
+  return t_loose.text.c_str();
+}
 }  // namespace kata::capi
 
 namespace {
@@ -128,6 +152,8 @@ KATA_API const char* kata_status_string(kata_status status) {
     case KATA_E_STATE: return "KATA_E_STATE";
     case KATA_TRACKING_LOST: return "KATA_TRACKING_LOST";
     case KATA_E_STOPPED: return "KATA_E_STOPPED";
+    case KATA_E_QUEUE_FULL: return "KATA_E_QUEUE_FULL";
+    case KATA_E_NO_CLIP_TEACHER: return "KATA_E_NO_CLIP_TEACHER";
   }
   return "KATA_E_UNKNOWN_STATUS";
 }
@@ -145,12 +171,13 @@ KATA_API kata_status kata_context_create(kata_context* out) {
 
 KATA_API void kata_context_destroy(kata_context context) { delete context; }
 
-KATA_API const char* kata_context_last_error(kata_context) { return kata::capi::context_error(); }
+KATA_API const char* kata_context_last_error(kata_context context) { return kata::capi::context_error(context); }
 
 /* ---- skeletons ---- */
 
 KATA_API kata_status kata_skeleton_create(kata_context context, uint32_t joint_count, const char* const* names,
                                           const int32_t* parents, const double* rest_offsets, kata_skeleton* out) {
+  const kata::capi::ContextScope scope(context);
   if (!out) return KATA_E_NULL_POINTER;
   *out = nullptr;
   if (!context || !names || !parents) {
@@ -175,6 +202,7 @@ KATA_API kata_status kata_skeleton_create(kata_context context, uint32_t joint_c
 }
 
 KATA_API kata_status kata_skeleton_load_bvh(kata_context context, const char* path, kata_skeleton* out) {
+  const kata::capi::ContextScope scope(context);
   if (!out) return KATA_E_NULL_POINTER;
   *out = nullptr;
   if (!context || !path) {
@@ -216,6 +244,7 @@ KATA_API kata_status kata_skeleton_joint_offset(kata_skeleton skeleton, uint32_t
 /* ---- clips ---- */
 
 KATA_API kata_status kata_clip_load_bvh(kata_context context, const char* path, kata_clip* out) {
+  const kata::capi::ContextScope scope(context);
   if (!out) return KATA_E_NULL_POINTER;
   *out = nullptr;
   if (!context || !path) {
@@ -299,6 +328,7 @@ KATA_API const char* kata_layout_name(uint32_t i) {
 }
 
 KATA_API kata_status kata_skeleton_create_layout(kata_context context, const char* layout, kata_skeleton* out) {
+  const kata::capi::ContextScope scope(context);
   if (!out) return KATA_E_NULL_POINTER;
   *out = nullptr;
   if (!context || !layout) {
@@ -322,25 +352,18 @@ KATA_API const char* kata_preset_name(uint32_t i) {
 
 static kata_status open_stream(kata_context context, kata_skeleton skeleton, const kata_stream_desc* desc,
                                const char* name_map_text, kata_stream* out) {
+  const kata::capi::ContextScope scope(context);
   if (!out) return KATA_E_NULL_POINTER;
   *out = nullptr;
   if (!context || !skeleton || !desc) {
     set_context_error("kata_stream_open: context, skeleton and desc must not be NULL");
     return KATA_E_NULL_POINTER;
   }
-  // A caller built against 0.1 passes the 0.1 struct (up to calibration_frames): defaults for
-  // the rest. Any other size is an uninitialised desc or a newer kata.h: refused.
-  constexpr size_t kSize01 = offsetof(kata_stream_desc, result_capacity);
-  if (desc->struct_size != kSize01 && desc->struct_size != sizeof(kata_stream_desc)) {
-    set_context_error(desc->struct_size < kSize01
-                          ? "kata_stream_open: desc.struct_size is too small (call kata_stream_desc_init)"
-                          : "kata_stream_open: desc.struct_size is not the size of a released kata_stream_desc "
-                            "(a newer kata.h, or an uninitialised desc)");
+  kata_stream_desc full;
+  if (!kata::capi::read_sized(desc, stream_desc_defaults(), kata::capi::kStreamDesc10, &full)) {
+    set_context_error("kata_stream_open: desc.struct_size is below 1.0's kata_stream_desc (call kata_stream_desc_init)");
     return KATA_E_INVALID_ARGUMENT;
   }
-  kata_stream_desc full;
-  kata_stream_desc_init(&full);
-  std::memcpy(&full, desc, std::min<size_t>(desc->struct_size, sizeof full));
   desc = &full;
   return guarded_context([&] {
     const kata::Skeleton& skel = skeleton->skeleton;
@@ -362,7 +385,17 @@ static kata_status open_stream(kata_context context, kata_skeleton skeleton, con
     pc.student = skel;
     pc.result_capacity = static_cast<int>(std::min<uint32_t>(desc->result_capacity, 1u << 20));
     pc.keep_features = desc->keep_features != 0;
-    *out = new kata_stream_s(pc);
+    auto opened = std::make_unique<kata_stream_s>(pc);
+    if (!name_map_text && desc->preset && desc->preset[0]) {
+      opened->layout_name = kata::c_string(desc->preset, "desc.preset");
+    } else {
+      for (int g = 0; g < kata::kGpdJoints; ++g) {
+        const int source = layout.map.source[static_cast<size_t>(g)];
+        if (source < 0) throw std::logic_error("stream: a name map left a GPD joint unmapped");
+        opened->name_map.push_back(skel.names[static_cast<size_t>(source)]);
+      }
+    }
+    *out = opened.release();
     return KATA_OK;
   });
 }
@@ -375,6 +408,7 @@ KATA_API kata_status kata_stream_open(kata_context context, kata_skeleton skelet
 KATA_API kata_status kata_stream_open_name_map(kata_context context, kata_skeleton skeleton,
                                                const kata_stream_desc* desc, const char* name_map_text,
                                                kata_stream* out) {
+  const kata::capi::ContextScope scope(context);
   if (!name_map_text) {
     if (out) *out = nullptr;
     set_context_error("kata_stream_open_name_map: name_map_text must not be NULL");

@@ -3,14 +3,19 @@
 #pragma once
 
 #include <algorithm>
-#include <algorithm>
+#include <cstddef>
+#include <cstdint>
 #include <cstdio>
-#include <vector>
 #include <cstring>
 #include <memory>
+#include <mutex>
 #include <new>
 #include <string>
+#include <thread>
+#include <unordered_map>
+#include <vector>
 
+#include "capi/struct_size.hpp"
 #include "common/error.hpp"
 #include "common/status.hpp"
 #include "io/bvh.hpp"
@@ -42,9 +47,38 @@ void init_sized(Desc* desc, uint32_t struct_size, const Desc& defaults) noexcept
   desc->struct_size = size;
 }
 
-// Sets / reads the calling thread's context error message.
+// Each growable struct's size as 1.0 released it: the end of its last 1.0 field (tail padding
+// differs between ABIs; a caller's sizeof is never smaller). read_sized / write_sized
+// (capi/struct_size.hpp) refuse a struct_size below these. Never change them: 1.1's fields go
+// after these ends.
+#define KATA_CAPI_END_OF(T, field) static_cast<uint32_t>(offsetof(T, field) + sizeof(static_cast<T*>(nullptr)->field))
+inline constexpr uint32_t kStreamDesc10 = KATA_CAPI_END_OF(kata_stream_desc, keep_features);
+inline constexpr uint32_t kTeacherDesc10 = KATA_CAPI_END_OF(kata_teacher_desc, body_height);
+inline constexpr uint32_t kRetargetDesc10 = KATA_CAPI_END_OF(kata_retarget_desc, restore_bone_lengths);
+inline constexpr uint32_t kRuntimeDesc10 = KATA_CAPI_END_OF(kata_runtime_desc, idle_stream_seconds);
+inline constexpr uint32_t kScoreCalibration10 = KATA_CAPI_END_OF(kata_score_calibration, good_score);
+inline constexpr uint32_t kRuntimeCounters10 = KATA_CAPI_END_OF(kata_runtime_counters, ingest_practice_queue_full);
+inline constexpr uint32_t kRetargetInfo10 = KATA_CAPI_END_OF(kata_retarget_info, max_bone_error);
+
+// Context errors are kept per context and per thread (kata.h: "the last failed call made on this
+// context from the calling thread"). A call made on a context, or on an object that knows its
+// context (a runtime), opens a ContextScope; set_context_error then files the message under that
+// context. Calls that have no context (kata_clip_positions, kata_time_units_detect) file it under
+// the thread alone, and kata_context_last_error shows it on every context of that thread when it
+// is newer than the context's own.
+class ContextScope {
+ public:
+  explicit ContextScope(kata_context context) noexcept;
+  ~ContextScope();
+  ContextScope(const ContextScope&) = delete;
+  ContextScope& operator=(const ContextScope&) = delete;
+
+ private:
+  kata_context previous_;
+};
 void set_context_error(const char* message) noexcept;
-const char* context_error() noexcept;
+// The message kata_context_last_error(context) returns on the calling thread.
+const char* context_error(kata_context context) noexcept;
 
 inline kata_status to_status(ErrorKind kind) noexcept {
   switch (kind) {
@@ -89,7 +123,15 @@ kata_status guarded_context(Body&& body) noexcept {
 }  // namespace kata::capi
 
 struct kata_context_s {
-  int reserved = 0;  // a place for the future runtime (thread pool, transports)
+  // One message per thread that made a failed call on this context; the tick orders it against
+  // the thread's context-less message. A node map: a returned c_str() stays valid until that
+  // thread's next failed call on the context. Locked only on failure and when read.
+  struct ErrorSlot {
+    uint64_t tick = 0;
+    std::string text;
+  };
+  std::mutex errors_mutex;
+  std::unordered_map<std::thread::id, ErrorSlot> errors;
 };
 
 struct kata_skeleton_s {
@@ -117,6 +159,11 @@ struct kata_stream_s {
   // kata_stream_push_landmarks splits interleaved channels into these (sized at open: no
   // allocation per frame).
   std::vector<float> landmark_xyz, landmark_confidence;
+  // The layout the stream was opened with, as a runtime announces it to subscribers and shards
+  // (kata_runtime_add_stream): a built-in layout's name, or a name map's 16 joint names in GPD
+  // order (layout_name empty).
+  std::string layout_name;
+  std::vector<std::string> name_map;
   char error[256] = {0};
 
   // Copies a message into the stream's fixed buffer (no allocation: used on the frame path).

@@ -55,6 +55,7 @@ kata_status check_pair(kata_stream stream, kata_model model) {
 extern "C" {
 
 KATA_API kata_status kata_model_load(kata_context context, const char* path, kata_model* out) {
+  const kata::capi::ContextScope scope(context);
   if (!context || !path || !out) {
     kata::capi::set_context_error("kata_model_load: context, path and out must not be NULL");
     return KATA_E_NULL_POINTER;
@@ -64,6 +65,7 @@ KATA_API kata_status kata_model_load(kata_context context, const char* path, kat
 }
 
 KATA_API kata_status kata_model_load_memory(kata_context context, const void* data, size_t size, kata_model* out) {
+  const kata::capi::ContextScope scope(context);
   if (!context || !data || !out) {
     kata::capi::set_context_error("kata_model_load_memory: context, data and out must not be NULL");
     return KATA_E_NULL_POINTER;
@@ -195,25 +197,26 @@ KATA_API kata_status kata_stream_score(kata_stream stream, kata_result_record* o
 
 KATA_API kata_status kata_model_calibration(kata_model model, kata_score_calibration* out) {
   if (!model || !out) return KATA_E_NULL_POINTER;
-  if (out->struct_size < sizeof(kata_score_calibration)) return KATA_E_INVALID_ARGUMENT;
   const kata::metric::ScoreCalibration& c = model->metric->calibration();
-  out->reserved = 0;
-  out->d50 = c.d50;
-  out->slope = c.slope;
+  kata_score_calibration k{};
+  k.d50 = c.d50;
+  k.slope = c.slope;
   for (int q = 0; q < KATA_PART_COUNT; ++q) {
-    out->part_d50[q] = c.part_d50[q];
-    out->part_slope[q] = c.part_slope[q];
+    k.part_d50[q] = c.part_d50[q];
+    k.part_slope[q] = c.part_slope[q];
   }
-  out->good_score = c.good_score;
-  return KATA_OK;
+  k.good_score = c.good_score;
+  return kata::capi::write_sized(k, kata::capi::kScoreCalibration10, out) ? KATA_OK : KATA_E_INVALID_ARGUMENT;
 }
 
 KATA_API kata_status kata_stream_set_calibration(kata_stream stream, const kata_score_calibration* calibration) {
   if (!stream) return KATA_E_NULL_POINTER;
   kata::metric::Scorer* scorer = stream->pipeline.scorer();
   if (!scorer) return refuse(stream, KATA_E_STATE, "kata_stream_set_calibration: no reference is set on this stream");
-  if (calibration && calibration->struct_size < sizeof(kata_score_calibration))
-    return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_set_calibration: struct_size is too small");
+  kata_score_calibration given{};
+  if (calibration && !kata::capi::read_sized(calibration, given, kata::capi::kScoreCalibration10, &given))
+    return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_set_calibration: struct_size is below 1.0's kata_score_calibration");
+  if (calibration) calibration = &given;
   return guarded_stream(stream, [&] {
     kata::metric::ScoreCalibration c = scorer->reference().metric().calibration();
     if (calibration) {

@@ -14,21 +14,14 @@ using kata::capi::refuse;
 
 namespace {
 
-// The size of 0.2's kata_teacher_desc: every field before the 1.0 additions (features, joints).
-constexpr uint32_t kTeacherDescSize02 = static_cast<uint32_t>(offsetof(kata_teacher_desc, features));
-
-// The caller's desc, checked to be a whole released kata_teacher_desc (0.2's or this one); the
-// fields a 0.2 caller does not have keep kata_teacher_desc_init's values.
+// The caller's desc over the defaults (capi/struct_size.hpp: from 1.0's size up).
 kata_teacher_desc effective_teacher_desc(const kata_teacher_desc* desc, const char* call) {
-  kata_teacher_desc d;
-  kata_teacher_desc_init(&d);
-  // Only whole released structs: a partial copy could take half of a pointer.
-  if (desc->struct_size != sizeof d && desc->struct_size != kTeacherDescSize02)
+  kata_teacher_desc defaults, d;
+  kata_teacher_desc_init(&defaults);
+  if (!kata::capi::read_sized(desc, defaults, kata::capi::kTeacherDesc10, &d))
     throw kata::Error(kata::ErrorKind::kInvalidArgument,
-                      std::string(call) + ": desc->struct_size is not sizeof(kata_teacher_desc) "
+                      std::string(call) + ": desc->struct_size is below 1.0's kata_teacher_desc "
                       "(call kata_teacher_desc_init)");
-  std::memcpy(&d, desc, desc->struct_size);
-  d.struct_size = sizeof d;
   return d;
 }
 

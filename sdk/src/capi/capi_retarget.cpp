@@ -72,18 +72,12 @@ namespace {
 
 // The caller's desc over the defaults (only the part its possibly older, smaller struct has).
 kata_retarget_desc effective_desc(const kata_retarget_desc* desc) {
-  kata_retarget_desc d;
-  kata_retarget_desc_init(&d);
-  if (desc) {
-    // A partial copy could take half of the preset pointer: only the whole v1 struct is read.
-    if (desc->struct_size != sizeof d) {
-      throw kata::Error(kata::ErrorKind::kInvalidArgument,
-                        desc->struct_size < sizeof d
-                            ? "retargeter: desc->struct_size is too small (call kata_retarget_desc_init)"
-                            : "retargeter: desc->struct_size is larger than this library's kata_retarget_desc");
-    }
-    std::memcpy(&d, desc, sizeof d);
-  }
+  kata_retarget_desc defaults;
+  kata_retarget_desc_init(&defaults);
+  kata_retarget_desc d = defaults;
+  if (desc && !kata::capi::read_sized(desc, defaults, kata::capi::kRetargetDesc10, &d))
+    throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                      "retargeter: desc->struct_size is below 1.0's kata_retarget_desc (call kata_retarget_desc_init)");
   if (!d.preset || !d.preset[0]) d.preset = "cmu";
   (void)kata::c_string(d.preset, "desc->preset");  // refuses a preset without a terminator in bounds
   if (!(d.gradient_tolerance > 0.0) || !std::isfinite(d.gradient_tolerance) || d.max_iterations == 0) {
@@ -209,6 +203,7 @@ KATA_API void (kata_retarget_desc_init)(kata_retarget_desc* desc) {
 
 KATA_API kata_status kata_retargeter_create(kata_context context, kata_skeleton student,
                                             const kata_retarget_desc* desc, kata_retargeter* out) {
+  const kata::capi::ContextScope scope(context);
   return kata::capi::guarded_context([&] {
     if (!context || !student || !out) {
       kata::capi::set_context_error("kata_retargeter_create: context, student and out must not be NULL");
@@ -221,6 +216,7 @@ KATA_API kata_status kata_retargeter_create(kata_context context, kata_skeleton 
 
 KATA_API kata_status kata_retargeter_create_for_stream(kata_context context, kata_stream student,
                                                        const kata_retarget_desc* desc, kata_retargeter* out) {
+  const kata::capi::ContextScope scope(context);
   return kata::capi::guarded_context([&] {
     if (!context || !student || !out) {
       kata::capi::set_context_error("kata_retargeter_create_for_stream: context, student and out must not be NULL");
@@ -236,6 +232,7 @@ KATA_API kata_status kata_retargeter_create_for_stream(kata_context context, kat
 KATA_API kata_status kata_retargeter_create_across(kata_context context, kata_stream student, kata_skeleton teacher,
                                                    const char* teacher_layout, kata_up_axis teacher_up_axis,
                                                    const kata_retarget_desc* desc, kata_retargeter* out) {
+  const kata::capi::ContextScope scope(context);
   return kata::capi::guarded_context([&] {
     if (!context || !student || !teacher || !out) {
       kata::capi::set_context_error("kata_retargeter_create_across: context, student, teacher and out must not be NULL");
@@ -283,8 +280,8 @@ KATA_API kata_status kata_retargeter_solve(kata_retargeter rt, const float* teac
     rt->set_error("kata_retargeter_solve: the teacher frame has a NaN or Inf");
     return KATA_E_NON_FINITE;
   }
-  if (info && info->struct_size < sizeof(uint32_t)) {
-    rt->set_error("kata_retargeter_solve: info->struct_size is not set");
+  if (info && info->struct_size < kata::capi::kRetargetInfo10) {
+    rt->set_error("kata_retargeter_solve: info->struct_size is below 1.0's kata_retarget_info");
     return KATA_E_INVALID_ARGUMENT;
   }
   return kata::capi::guarded([rt](const char* m) { rt->set_error(m); }, [&] {
@@ -300,16 +297,14 @@ KATA_API kata_status kata_retargeter_solve(kata_retargeter rt, const float* teac
     }
     const kata::retarget::RetargetReport& r = *report;
     if (info) {
-      kata_retarget_info full;
-      full.struct_size = info->struct_size;
+      kata_retarget_info full{};
       full.iterations = static_cast<uint32_t>(r.iterations);
       full.converged = r.converged ? 1 : 0;
       full.warm = r.warm ? 1 : 0;
       full.stress = r.stress;
       full.max_bone_error_solved = r.max_bone_error_solved;
       full.max_bone_error = r.max_bone_error;
-      // Fill only what the caller's (possibly older, smaller) struct has.
-      std::memcpy(info, &full, std::min<size_t>(info->struct_size, sizeof full));
+      kata::capi::write_sized(full, kata::capi::kRetargetInfo10, info);  // size checked above
     }
     rt->error[0] = '\0';
     return KATA_OK;

@@ -2,10 +2,12 @@
 #include <sstream>
 
 #include "capi/capi_internal.hpp"
+#include "common/text.hpp"
 #include "runtime/runtime.hpp"
 
 struct kata_runtime_s {
   std::unique_ptr<kata::runtime::Runtime> runtime;
+  kata_context context = nullptr;  // where the runtime's calls report their errors
 };
 
 namespace {
@@ -19,14 +21,6 @@ std::vector<std::string> split_endpoints(const char* text) {
     if (b != std::string::npos) out.push_back(e.substr(b, f - b + 1));
   }
   return out;
-}
-
-kata_runtime_desc effective(const kata_runtime_desc* desc) {
-  kata_runtime_desc d;
-  kata_runtime_desc_init(&d);
-  if (desc) std::memcpy(&d, desc, std::min<size_t>(desc->struct_size, sizeof d));
-  d.struct_size = sizeof d;
-  return d;
 }
 
 }  // namespace
@@ -68,10 +62,14 @@ KATA_API void (kata_runtime_desc_init)(kata_runtime_desc* desc) {
 }
 
 KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtime_desc* desc, kata_runtime* out) {
+  const kata::capi::ContextScope scope(context);
   if (!context || !out) return KATA_E_NULL_POINTER;
   *out = nullptr;
   return kata::capi::guarded_context([&] {
-    const kata_runtime_desc d = effective(desc);
+    kata_runtime_desc d = runtime_desc_defaults();
+    if (desc && !kata::capi::read_sized(desc, runtime_desc_defaults(), kata::capi::kRuntimeDesc10, &d))
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        "kata_runtime_create: desc->struct_size is below 1.0's kata_runtime_desc (call kata_runtime_desc_init)");
     if (d.workers < 1 || d.workers > 256 || d.max_streams < 1 || d.max_joints < 1 || d.queue_capacity < 2 ||
         d.max_message_bytes < 64 || !(d.skeleton_resend_seconds > 0.0))
       throw kata::Error(kata::ErrorKind::kInvalidArgument,
@@ -117,6 +115,7 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
     }
     auto r = std::make_unique<kata_runtime_s>();
     r->runtime = std::make_unique<kata::runtime::Runtime>(std::move(config));
+    r->context = context;
     *out = r.release();
     return KATA_OK;
   });
@@ -127,13 +126,23 @@ KATA_API void kata_runtime_destroy(kata_runtime runtime) { delete runtime; }
 KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
                                              const char* preset, int32_t publish_features) {
   if (!runtime || !stream || !*stream) return KATA_E_NULL_POINTER;
+  const kata::capi::ContextScope scope(runtime->context);
   return kata::capi::guarded_context([&] {
     kata_stream s = *stream;
     kata::transport::SkeletonDefinition d;
     d.stream_id = stream_id;
     d.revision = 1;
     d.skeleton = s->pipeline.student();
-    d.preset = preset && preset[0] ? preset : "cmu";
+    // The stream's own layout, so subscribers and shards rebuild the map it was opened with;
+    // a preset that names another layout contradicts the stream and is refused.
+    if (preset && preset[0] && (s->name_map.size() || s->layout_name != kata::c_string(preset, "preset")))
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        "kata_runtime_add_stream: preset '" + kata::bounded(kata::c_string(preset, "preset")) +
+                            "' is not the layout the stream was opened with (" +
+                            (s->name_map.empty() ? "'" + s->layout_name + "'" : std::string("a name map")) +
+                            "); pass NULL to announce the stream's own");
+    d.preset = s->layout_name;
+    d.name_map = s->name_map;
     d.up_axis = s->pipeline.stream().config().up_axis;
     // The runtime owns the stream from here; it closes it when it is done with the pipeline.
     runtime->runtime->adopt_stream(
@@ -155,6 +164,7 @@ KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t st
                                                double teacher_start, int32_t loop, double loop_start,
                                                double loop_end) {
   if (!runtime) return KATA_E_NULL_POINTER;
+  const kata::capi::ContextScope scope(runtime->context);
   kata::transport::PracticeSetting p;
   p.stream_id = stream_id;
   p.revision = revision;
@@ -174,6 +184,8 @@ KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t st
       case TableVerdict::kUnknownStream: return KATA_E_NOT_FOUND;
       case TableVerdict::kPracticeValues:
       case TableVerdict::kPracticeOutsideClip: return KATA_E_INVALID_ARGUMENT;
+      case TableVerdict::kPracticeNoClip: return KATA_E_NO_CLIP_TEACHER;
+      case TableVerdict::kPracticeQueueFull: return KATA_E_QUEUE_FULL;
       default: return KATA_E_STATE;
     }
   });
@@ -181,6 +193,7 @@ KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t st
 
 KATA_API kata_status kata_runtime_stop(kata_runtime runtime) {
   if (!runtime) return KATA_E_NULL_POINTER;
+  const kata::capi::ContextScope scope(runtime->context);
   return kata::capi::guarded_context([&] {
     runtime->runtime->stop();
     return KATA_OK;
@@ -189,7 +202,7 @@ KATA_API kata_status kata_runtime_stop(kata_runtime runtime) {
 
 KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtime_counters* out) {
   if (!runtime || !out) return KATA_E_NULL_POINTER;
-  if (out->struct_size < 2 * sizeof(uint32_t)) return KATA_E_INVALID_ARGUMENT;
+  if (out->struct_size < kata::capi::kRuntimeCounters10) return KATA_E_INVALID_ARGUMENT;
   const kata::runtime::RuntimeCounters c = runtime->runtime->counters();
   kata_runtime_counters k{};
   k.struct_size = sizeof k;
@@ -214,9 +227,7 @@ KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtim
   k.ingest_practice_outside_clip = c.ingest.practice_outside_clip;
   k.ingest_practice_no_clip = c.ingest.practice_no_clip;
   k.ingest_practice_queue_full = c.ingest.practice_queue_full;
-  const uint32_t caller = out->struct_size;
-  std::memcpy(out, &k, std::min<size_t>(caller, sizeof k));
-  out->struct_size = caller;
+  kata::capi::write_sized(k, kata::capi::kRuntimeCounters10, out);  // size checked above
   return KATA_OK;
 }
 

@@ -22,6 +22,8 @@ enum class Status : int {
   kState = 14,                // the call is not valid in the object's current state
   kTrackingLost = 15,         // a frame was accepted but too many joints are missing: no features
   kStopped = 16,              // the runtime is stopping or stopped: the frame was not taken
+  kQueueFull = 17,            // a runtime stream's worker queue is full: dropped and counted
+  kNoClipTeacher = 18,        // the call needs a clip teacher and the stream has none
 };
 
 }  // namespace kata

@@ -72,7 +72,7 @@ Status Runtime::push(uint64_t stream_id, uint64_t sequence, double capture_time,
   FrameCell* cell = claim_cell(*stream, &pos, &stopped);
   if (!cell) {
     (stopped ? stream->counters.stopped : stream->counters.queue_full).fetch_add(1, std::memory_order_relaxed);
-    return stopped ? Status::kStopped : Status::kState;
+    return stopped ? Status::kStopped : Status::kQueueFull;
   }
   cell->stream = stream;
   cell->practice = false;

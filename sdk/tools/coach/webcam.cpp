@@ -30,6 +30,12 @@ namespace {
 
 constexpr uint32_t kMagic = 0x3143574bu;  // "KWC1"
 constexpr size_t kHeaderBytes = 48;
+// The frame table is indexed by the page's sequence and keeps every frame for the recordings and
+// the report, so the page's number decides how much memory a POST takes: a sequence may run at
+// most kMaxSequenceGap ahead of the table (a page drops a few frames, never ten seconds' worth at
+// 60 Hz), and a lesson holds at most kMaxFrames (two hours at 30 Hz, about 150 MB of landmarks).
+constexpr uint64_t kMaxSequenceGap = 600;
+constexpr uint64_t kMaxFrames = 2 * 60 * 60 * 30;
 constexpr uint64_t kStudentStream = 2;
 
 double steady_ms() {
@@ -59,6 +65,13 @@ std::string html_text(const std::string& s) {
   std::string out;
   for (char c : s.substr(0, 64)) out += c == '<' ? "&lt;" : c == '>' ? "&gt;" : c == '&' ? "&amp;" : std::string(1, c);
   return out;
+}
+
+// A header value for an error message: at most 80 printable characters.
+std::string header_text(const std::string& value) {
+  std::string out;
+  for (char c : value.substr(0, 80)) out += (c >= 32 && c < 127) ? c : '?';
+  return out.empty() ? "(none)" : out;
 }
 
 }  // namespace
@@ -290,9 +303,23 @@ struct WebcamCoach::Impl {
     if (seq + 1 > answered_upto) answered_upto = seq + 1;
   }
 
-  // [an HTTP thread]
-  std::string receive(const WebcamFrame& f) {
+  // Why a frame's sequence cannot be stored ("" when it can). [mutex held]
+  std::string sequence_refusal(uint64_t seq) const {
+    if (seq >= kMaxFrames) return "sequence " + std::to_string(seq) + ": a lesson holds at most " + std::to_string(kMaxFrames) + " frames";
+    if (seq > frames.size() + kMaxSequenceGap)
+      return "sequence " + std::to_string(seq) + " is more than " + std::to_string(kMaxSequenceGap) +
+             " frames ahead of the last one (" + std::to_string(frames.size()) + " received)";
+    return "";
+  }
+
+  // [an HTTP thread] Empty when the frame's sequence was refused (*why says why).
+  std::string receive(const WebcamFrame& f, std::string* why) {
     std::lock_guard<std::mutex> lock(mutex);
+    *why = sequence_refusal(f.sequence);
+    if (!why->empty()) {
+      ++malformed;
+      return "";
+    }
     const double received = steady_ms();
     if (f.sequence >= frames.size()) frames.resize(f.sequence + 1);
     Received& r = frames[f.sequence];
@@ -356,6 +383,27 @@ WebcamCoach::WebcamCoach(const WebcamSettings& settings, const std::string& stat
   m.server.set_file_extension_and_mimetype_mapping("tflite", "application/octet-stream");
   m.server.set_file_extension_and_mimetype_mapping("binarypb", "application/octet-stream");
   m.server.set_file_extension_and_mimetype_mapping("data", "application/octet-stream");
+  // Any page open in the user's browser can send a "simple" cross-origin POST to 127.0.0.1 without
+  // a preflight, and a DNS-rebinding page can even read the answers: only requests addressed to
+  // this server by its own name (Host) and coming from its own page (Origin, when the browser
+  // sends one) are served. The port is known only after binding, hence read at request time.
+  m.server.set_pre_routing_handler([this, host](const httplib::Request& req, httplib::Response& res) {
+    const std::string own_port = std::to_string(port_);
+    auto own = [&](const std::string& authority) {
+      return authority == "127.0.0.1:" + own_port || authority == "localhost:" + own_port || authority == host + ":" + own_port ||
+             authority == "[::1]:" + own_port;
+    };
+    const std::string origin = req.get_header_value("Origin");
+    const std::string scheme = "http://";
+    const bool origin_ok = !req.has_header("Origin") ||
+                           (origin.compare(0, scheme.size(), scheme) == 0 && own(origin.substr(scheme.size())));
+    if (own(req.get_header_value("Host")) && origin_ok) return httplib::Server::HandlerResponse::Unhandled;
+    res.status = 403;
+    res.set_content("kata coach serves only its own page (Host " + header_text(req.get_header_value("Host")) +
+                        ", Origin " + header_text(origin) + " refused)",
+                    "text/plain");
+    return httplib::Server::HandlerResponse::Handled;
+  });
   m.server.Get("/", [](const httplib::Request&, httplib::Response& res) { res.set_redirect("/webcam.html"); });
   m.server.Get("/webcam/setup", [this](const httplib::Request&, httplib::Response& res) {
     std::lock_guard<std::mutex> lock(impl_->mutex);
@@ -385,7 +433,13 @@ WebcamCoach::WebcamCoach(const WebcamSettings& settings, const std::string& stat
       res.set_content("malformed frame: " + why, "text/plain");
       return;
     }
-    res.set_content(impl_->receive(f), "application/json");
+    std::string ack = impl_->receive(f, &why);
+    if (ack.empty()) {
+      res.status = 400;
+      res.set_content("frame refused: " + why, "text/plain");
+      return;
+    }
+    res.set_content(ack, "application/json");
   });
   m.server.Post("/webcam/latency", [this](const httplib::Request& req, httplib::Response& res) {
     nlohmann::json j = nlohmann::json::parse(req.body, nullptr, false);
