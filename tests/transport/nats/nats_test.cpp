@@ -34,6 +34,7 @@
 #include "transport/nats/lease.hpp"
 #include "transport/nats/partition.hpp"
 #include "transport/nats/results.hpp"
+#include "transport/nats/shard.hpp"
 #include "transport/wire.hpp"
 
 namespace kata::test {
@@ -232,6 +233,122 @@ TEST(NatsCluster, SendPublishesEveryStreamInItsPartition) {
     EXPECT_EQ(n, frames) << "stream " << id;
     EXPECT_GE(definitions[id], 2) << "stream " << id << ": the first definition and the closing one";
   }
+}
+
+// Three shards in one process: each receives exactly the streams of the partitions it holds (its
+// subscriptions, not a filter over everyone's traffic), and only the holder's results go out.
+TEST(NatsCluster, ShardsReceiveOnlyTheirPartitions) {
+  TempDir dir;
+  NatsCluster cluster(dir.path().string(), 3);
+  ASSERT_EQ(cluster.problem(), "");
+  struct Seen {
+    std::mutex mutex;
+    std::map<uint64_t, int> messages;  // by stream
+    int dropped = 0;
+  };
+  const std::vector<std::string> names{"shard-a", "shard-b", "shard-c"};
+  std::vector<std::unique_ptr<Seen>> seen;
+  std::vector<std::unique_ptr<kn::Shard>> shards;
+  for (size_t i = 0; i < names.size(); ++i) {
+    seen.push_back(std::make_unique<Seen>());
+    kn::ShardOptions so;
+    so.connection.servers = cluster.urls();
+    so.lease.member = names[i];
+    Seen* mine = seen.back().get();
+    kn::Shard::Handlers h;
+    h.on_message = [mine](const void* data, size_t) {
+      uint64_t id = 0;
+      ASSERT_TRUE(transport::parse_topic(static_cast<const uint8_t*>(data), &id));
+      std::lock_guard<std::mutex> lock(mine->mutex);
+      ++mine->messages[id];
+    };
+    h.on_dropped = [mine](uint32_t) {
+      std::lock_guard<std::mutex> lock(mine->mutex);
+      ++mine->dropped;
+    };
+    shards.push_back(std::make_unique<kn::Shard>(so, h));
+  }
+  // Balanced: every partition held by the member rendezvous hashing gives it.
+  ASSERT_TRUE(wait_for([&] {
+    for (uint32_t p = 0; p < kPartitions; ++p) {
+      uint64_t epoch = 0;
+      if (!shards[static_cast<size_t>(kn::rendezvous_owner(names, p))]->leases().may_publish(p, &epoch)) return false;
+    }
+    return true;
+  }, 15000));
+  for (auto& s : seen) {
+    std::lock_guard<std::mutex> lock(s->mutex);
+    s->messages.clear();
+  }
+  kn::ConnectionOptions co;
+  co.servers = cluster.urls();
+  kn::Connection source(co);
+  transport::Encoder encoder;
+  const float xyz[3] = {0, 1, 0};
+  const int streams = 96;
+  for (int round = 0; round < 3; ++round)
+    for (uint64_t id = 1; id <= streams; ++id) {
+      const auto m = encoder.frame(id, static_cast<uint64_t>(round), round, xyz, 1);
+      ASSERT_TRUE(source.publish(kn::ingest_subject("kata", id), m.data, m.size));
+    }
+  // Around the mapping: stream 1's frame published straight to another partition's subject.
+  const uint32_t p1 = kn::partition_of(1, kPartitions);
+  const auto stray = encoder.frame(1, 99, 99, xyz, 1);
+  source.publish("kata.in." + std::to_string((p1 + 1) % kPartitions) + ".0000000000000001", stray.data, stray.size);
+  ASSERT_TRUE(source.flush(2000));
+  ASSERT_TRUE(wait_for([&] {
+    int total = 0;
+    for (auto& s : seen) {
+      std::lock_guard<std::mutex> lock(s->mutex);
+      for (const auto& [id, n] : s->messages) total += n;
+    }
+    return total >= 3 * streams;
+  }, 5000));
+  std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  uint64_t wrong = 0;
+  for (size_t i = 0; i < names.size(); ++i) {
+    std::lock_guard<std::mutex> lock(seen[i]->mutex);
+    for (const auto& [id, n] : seen[i]->messages) {
+      const uint32_t p = kn::partition_of(id, kPartitions);
+      EXPECT_EQ(names[static_cast<size_t>(kn::rendezvous_owner(names, p))], names[i]) << "stream " << id;
+      EXPECT_EQ(n, 3) << "stream " << id;
+    }
+    wrong += shards[i]->counters().wrong_partition;
+    // Nothing else reached it: every message it received was one of its own streams'.
+    EXPECT_EQ(shards[i]->counters().received, shards[i]->counters().handed_on + shards[i]->counters().wrong_partition);
+  }
+  EXPECT_EQ(wrong, 1u) << "the frame published around the mapping";
+  size_t covered = 0;
+  for (auto& s : seen) covered += s->messages.size();
+  EXPECT_EQ(covered, static_cast<size_t>(streams));
+  // Results: every shard tries every stream; only the holder's go out, under its epoch.
+  natsSubscription* sub = nullptr;
+  ASSERT_EQ(natsConnection_SubscribeSync(&sub, source.get(), "kata.out.>"), NATS_OK);
+  ASSERT_TRUE(source.flush(2000));
+  int published = 0;
+  for (auto& shard : shards)
+    for (uint64_t id = 1; id <= streams; ++id) published += shard->publish_result(id, "r", 1);
+  EXPECT_EQ(published, streams);
+  std::set<uint64_t> results;
+  for (int n = 0; n < streams; ++n) {
+    natsMsg* msg = nullptr;
+    ASSERT_EQ(natsSubscription_NextMsg(&msg, sub, 2000), NATS_OK);
+    uint64_t id = 0, epoch = 0;
+    const char* owner = nullptr;
+    ASSERT_TRUE(kn::parse_result_subject("kata", natsMsg_GetSubject(msg), &id, &epoch, &owner));
+    const uint32_t p = kn::partition_of(id, kPartitions);
+    EXPECT_EQ(owner, names[static_cast<size_t>(kn::rendezvous_owner(names, p))]);
+    uint64_t held_epoch = 0;
+    EXPECT_TRUE(shards[static_cast<size_t>(kn::rendezvous_owner(names, p))]->leases().may_publish(p, &held_epoch));
+    EXPECT_EQ(epoch, held_epoch);
+    results.insert(id);
+    natsMsg_Destroy(msg);
+  }
+  EXPECT_EQ(results.size(), static_cast<size_t>(streams));
+  natsSubscription_Destroy(sub);
+  // Stopping gives every partition back (each dropped once).
+  shards[0]->stop(true);
+  EXPECT_EQ(static_cast<size_t>(seen[0]->dropped), shards[0]->counters().leases.acquired);
 }
 
 // ---------------------------------------------------------------- leases across processes

@@ -45,6 +45,10 @@ struct ConnectionOptions {
   // vanished without closing its sockets (a host down) is noticed within their product.
   int ping_interval_ms = 1000;
   int max_pings_out = 2;
+  // Deliver every subscription's messages on one thread (libnats' shared delivery pool, one thread
+  // by default) instead of a thread per subscription: a shard's partitions then reach its ingest
+  // one at a time, in order.
+  bool single_delivery_thread = false;
   // Timeout of each JetStream request (the lease loop's KV operations), milliseconds.
   int jetstream_wait_ms = 500;
 };
