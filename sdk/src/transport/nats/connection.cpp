@@ -65,6 +65,7 @@ Connection::Connection(const ConnectionOptions& o) {
   check(natsOptions_SetMaxReconnect(raw, o.max_reconnect), "max reconnect");
   check(natsOptions_SetPingInterval(raw, o.ping_interval_ms), "ping interval");
   check(natsOptions_SetMaxPingsOut(raw, o.max_pings_out), "max pings out");
+  check(natsOptions_SetSendAsap(raw, o.send_asap), "send asap");
   if (o.single_delivery_thread) check(natsOptions_UseGlobalMessageDelivery(raw, true), "global message delivery");
   check(natsOptions_SetDisconnectedCB(raw, &Connection::on_disconnected, this), "disconnected callback");
   check(natsOptions_SetReconnectedCB(raw, &Connection::on_reconnected, this), "reconnected callback");
