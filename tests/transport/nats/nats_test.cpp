@@ -351,6 +351,81 @@ TEST(NatsCluster, ShardsReceiveOnlyTheirPartitions) {
   EXPECT_EQ(static_cast<size_t>(seen[0]->dropped), shards[0]->counters().leases.acquired);
 }
 
+// kata serve x 3 with [transport] kind = "nats" and kata send --transport nats: every stream's
+// results come back on NATS, once each, in order, from the shard rendezvous hashing gives the
+// stream's partition, with its definitions, through the runtime's own ingest (counters by cause).
+TEST(NatsCluster, ServeShardsScoreEveryStreamOnce) {
+  TempDir dir;
+  NatsCluster cluster(dir.path().string(), 3);
+  ASSERT_EQ(cluster.problem(), "");
+  const std::vector<std::string> names{"serve-a", "serve-b", "serve-c"};
+  std::vector<pid_t> pids;
+  for (size_t i = 0; i < names.size(); ++i) {
+    const std::string config = dir.file(names[i] + ".toml");
+    std::ofstream out(config);
+    out << "[transport]\nkind = \"nats\"\nservers = [\"" << cluster.url(static_cast<int>(i)) << "\", \""
+        << cluster.url(static_cast<int>((i + 1) % 3)) << "\"]\nshard = \"" << names[i] << "\"\n[runtime]\nworkers = 1\n";
+    out.close();
+    pids.push_back(spawn({KATA_CLI, "serve", "--config", config, "--counters", dir.file(names[i] + ".json")},
+                         dir.file(names[i] + ".log")));
+    ASSERT_GT(pids.back(), 0);
+  }
+  kn::ConnectionOptions co;
+  co.servers = cluster.urls();
+  kn::Connection consumer(co);
+  natsSubscription* sub = nullptr;
+  ASSERT_EQ(natsConnection_SubscribeSync(&sub, consumer.get(), "kata.out.>"), NATS_OK);
+  natsSubscription_SetPendingLimits(sub, -1, -1);
+  ASSERT_TRUE(consumer.flush(2000));
+  std::this_thread::sleep_for(std::chrono::milliseconds(2000));  // the shards share the partitions out
+  const int streams = 12, frames = 60;
+  const std::string command = std::string(KATA_CLI) + " send --transport nats --nats-server " + cluster.url(1) +
+                              " --bvh " KATA_DATA_DIR "/cmu/05_18.bvh --streams " + std::to_string(streams) +
+                              " --stream-id 500 --frames " + std::to_string(frames) + " --speed 2 --warmup 0.5 2>&1";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  transport::Decoder decoder;
+  std::map<uint64_t, std::vector<uint64_t>> sequences;  // frame_sequence of each result, by stream
+  std::map<uint64_t, std::set<std::string>> owners;
+  std::map<uint64_t, int> definitions;
+  for (;;) {
+    natsMsg* msg = nullptr;
+    if (natsSubscription_NextMsg(&msg, sub, 1500) != NATS_OK) break;
+    uint64_t id = 0, epoch = 0;
+    const char* owner = nullptr;
+    ASSERT_TRUE(kn::parse_result_subject("kata", natsMsg_GetSubject(msg), &id, &epoch, &owner));
+    const auto kind = decoder.decode(natsMsg_GetData(msg), static_cast<size_t>(natsMsg_GetDataLength(msg)));
+    ASSERT_NE(kind, transport::MessageKind::kNone) << transport::decode_error_name(decoder.error());
+    EXPECT_EQ(decoder.stream_id(), id);
+    owners[id].insert(owner);
+    if (kind == transport::MessageKind::kResult) sequences[id].push_back(decoder.result().frame_sequence);
+    if (kind == transport::MessageKind::kSkeleton) ++definitions[id];
+    natsMsg_Destroy(msg);
+  }
+  natsSubscription_Destroy(sub);
+  for (pid_t pid : pids) ::kill(pid, SIGTERM);
+  for (pid_t pid : pids) {
+    int status = -1;
+    ::waitpid(pid, &status, 0);
+    EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << "kata serve exited with " << status;
+  }
+  ASSERT_EQ(sequences.size(), static_cast<size_t>(streams));
+  for (const auto& [id, seq] : sequences) {
+    ASSERT_EQ(seq.size(), static_cast<size_t>(frames)) << "stream " << id << ": one result per frame, none twice";
+    for (size_t k = 0; k < seq.size(); ++k) EXPECT_EQ(seq[k], k) << "stream " << id << ": in order";
+    EXPECT_EQ(owners[id], (std::set<std::string>{names[static_cast<size_t>(
+                  kn::rendezvous_owner(names, kn::partition_of(id, kPartitions)))]}))
+        << "stream " << id;
+    EXPECT_GE(definitions[id], 1) << "stream " << id << ": its skeleton definition reached the consumer";
+  }
+  // Every shard's ingest took only its own streams, refusing nothing.
+  for (const auto& name : names) {
+    std::ifstream log(dir.file(name + ".log"));
+    const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+    EXPECT_NE(text.find("0 outside their partition"), std::string::npos) << text;
+    EXPECT_NE(text.find(" + 0 dropped (not owner"), std::string::npos) << text;
+  }
+}
+
 // ---------------------------------------------------------------- leases across processes
 
 // One tenure of a partition as a shard's log tells it.

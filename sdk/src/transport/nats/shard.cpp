@@ -100,18 +100,24 @@ void Shard::on_msg(natsConnection*, natsSubscription*, natsMsg* msg, void* closu
 }
 
 bool Shard::publish_result(uint64_t stream_id, const void* data, size_t size) {
+  const int outcome = publish(stream_id, data, size, subject_, sizeof subject_);
+  (outcome == 0 ? results_published_ : outcome == 1 ? results_not_held_ : results_failed_)
+      .fetch_add(1, std::memory_order_relaxed);
+  return outcome == 0;
+}
+
+bool Shard::publish_definition(uint64_t stream_id, const void* data, size_t size) {
+  return 0 == publish(stream_id, data, size, definition_subject_, sizeof definition_subject_);
+}
+
+int Shard::publish(uint64_t stream_id, const void* data, size_t size, char* subject, size_t capacity) {
   uint64_t epoch = 0;
-  if (!leases_->may_publish(partition_of(stream_id, options_.lease.partitions), &epoch)) {
-    results_not_held_.fetch_add(1, std::memory_order_relaxed);
-    return false;
+  if (!leases_->may_publish(partition_of(stream_id, options_.lease.partitions), &epoch)) return 1;
+  if (!format_result_subject(subject, capacity, options_.prefix, stream_id, epoch, options_.lease.member) ||
+      natsConnection_Publish(connection_->get(), subject, data, static_cast<int>(size)) != NATS_OK) {
+    return 2;
   }
-  if (!format_result_subject(subject_, sizeof subject_, options_.prefix, stream_id, epoch, options_.lease.member) ||
-      natsConnection_Publish(connection_->get(), subject_, data, static_cast<int>(size)) != NATS_OK) {
-    results_failed_.fetch_add(1, std::memory_order_relaxed);
-    return false;
-  }
-  results_published_.fetch_add(1, std::memory_order_relaxed);
-  return true;
+  return 0;
 }
 
 ShardCounters Shard::counters() const {

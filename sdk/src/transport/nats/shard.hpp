@@ -78,6 +78,8 @@ class Shard {
   // Publishes one result message (wire bytes) of a stream if its partition is held now; false
   // otherwise (counted). Allocation-free.
   bool publish_result(uint64_t stream_id, const void* data, size_t size);
+  // The same for a stream's skeleton definition, from on_message's thread (its own subject buffer).
+  bool publish_definition(uint64_t stream_id, const void* data, size_t size);
 
   ShardCounters counters() const;
   const LeaseManager& leases() const { return *leases_; }
@@ -104,7 +106,10 @@ class Shard {
   std::atomic<uint64_t> results_published_{0}, results_not_held_{0}, results_failed_{0};
   mutable std::mutex subscriptions_mutex_;  // the subscriptions (lease thread) against counters()
   uint64_t slow_consumer_ended_ = 0;        // drops of subscriptions ended; subscriptions_mutex_
-  char subject_[256] = {};  // publish_result's subject [publishing thread]
+  char subject_[256] = {};             // publish_result's subject [publishing thread]
+  char definition_subject_[256] = {};  // publish_definition's [delivery thread]
+  // 0 published, 1 the partition is not held, 2 refused by libnats.
+  int publish(uint64_t stream_id, const void* data, size_t size, char* subject, size_t capacity);
   bool stopped_ = false;
 };
 
