@@ -311,6 +311,7 @@ void run_serve(const std::string& file, const std::string& counters_path) {
   std::fprintf(stderr, "kata serve: ingest %s, publishing on %s (Ctrl-C stops)\n", runtime.ingest_endpoint().c_str(),
                runtime.publish_endpoint().c_str());
   auto previous = runtime.counters();
+  uint64_t previous_out = previous.total.published;
   auto last = std::chrono::steady_clock::now();
   const auto started = last;
   uint64_t handshakes_told = 0;
@@ -323,6 +324,11 @@ void run_serve(const std::string& file, const std::string& counters_path) {
     const double dt = std::chrono::duration<double>(now - last).count();
     if (dt < config.status_seconds) continue;
     const auto c = runtime.counters();
+    // Results out: the publisher's, or on NATS the shard's (the runtime hands them to its sink).
+    uint64_t out = c.total.published;
+#ifdef KATA_HAVE_NATS
+    if (nats) out = nats->shard()->counters().results_published;
+#endif
     if (c.ingest.handshake_failures > handshakes_told) {
       if (handshakes_told == 0)
         std::fprintf(stderr, "\nkata serve: a sender's connection to %s was refused at the handshake: %s; counted "
@@ -361,7 +367,7 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                  "gaps %llu, restarts %llu | latency in->out p50 %.0f us p99 %.0f us | source age p50 %.0f us p99 %.0f us   ",
                  static_cast<unsigned long long>(c.streams),
                  static_cast<double>(c.total.frames_in - previous.total.frames_in) / dt,
-                 static_cast<double>(c.total.published - previous.total.published) / dt,
+                 static_cast<double>(out - previous_out) / dt,
                  static_cast<unsigned long long>(drops), drop_causes(c).c_str(),
                  static_cast<unsigned long long>(c.ingest.handshake_failures),
                  static_cast<unsigned long long>(c.ingest.sequence_gaps), static_cast<unsigned long long>(c.ingest.restarts),
@@ -370,6 +376,7 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                  kata::runtime::latency_percentile(age, 0.5) / 1000.0,
                  kata::runtime::latency_percentile(age, 0.99) / 1000.0);
     previous = c;
+    previous_out = out;
     last = now;
   }
   for (auto& s : sources) s->stop();
