@@ -47,10 +47,11 @@ std::string all_results_subject(const std::string& prefix) { return prefix + ".o
 
 bool parse_partition_subject(const std::string& prefix, const char* subject, uint32_t* partition,
                              uint64_t* stream_id) {
-  if (subject == nullptr) return false;
-  const std::string head = prefix + ".in.";
-  if (std::strncmp(subject, head.c_str(), head.size()) != 0) return false;
-  const char* p = subject + head.size();
+  // Compared in place: a shard reads every message's subject here (nothing allocated per message).
+  if (subject == nullptr || std::strncmp(subject, prefix.c_str(), prefix.size()) != 0 ||
+      std::strncmp(subject + prefix.size(), ".in.", 4) != 0)
+    return false;
+  const char* p = subject + prefix.size() + 4;
   uint32_t value = 0;
   int digits = 0;
   for (; *p >= '0' && *p <= '9'; ++p) {

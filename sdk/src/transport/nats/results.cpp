@@ -19,10 +19,10 @@ bool format_result_subject(char* out, size_t capacity, const std::string& prefix
 
 bool parse_result_subject(const std::string& prefix, const char* subject, uint64_t* stream_id, uint64_t* epoch,
                           const char** owner) {
-  if (subject == nullptr) return false;
-  const std::string head = prefix + ".out.";
-  if (std::strncmp(subject, head.c_str(), head.size()) != 0) return false;
-  const char* p = subject + head.size();
+  if (subject == nullptr || std::strncmp(subject, prefix.c_str(), prefix.size()) != 0 ||
+      std::strncmp(subject + prefix.size(), ".out.", 5) != 0)
+    return false;
+  const char* p = subject + prefix.size() + 5;
   if (std::strlen(p) < kTopicBytes + 4 || p[kTopicBytes] != '.') return false;
   uint64_t id = 0;
   if (!parse_topic(reinterpret_cast<const uint8_t*>(p), &id)) return false;

@@ -104,6 +104,7 @@ class Shard {
   std::unique_ptr<LeaseManager> leases_;
   std::atomic<uint64_t> received_{0}, handed_on_{0}, oversized_{0}, wrong_partition_{0}, not_held_{0};
   std::atomic<uint64_t> results_published_{0}, results_not_held_{0}, results_failed_{0};
+  std::atomic<int> inflight_{0};  // message callbacks running now (stop waits for none)
   mutable std::mutex subscriptions_mutex_;  // the subscriptions (lease thread) against counters()
   uint64_t slow_consumer_ended_ = 0;        // drops of subscriptions ended; subscriptions_mutex_
   char subject_[256] = {};             // publish_result's subject [publishing thread]
