@@ -1,5 +1,7 @@
 """ctypes declarations of the C ABI (sdk/include/kata/kata.h), one per C function, and the search
-for libkata. Nothing here is Pythonic on purpose: kata/__init__.py builds the objects on top.
+for libkata. Nothing here is Pythonic on purpose: the package's modules (errors,
+objects, stream, retarget, messages, runtime) build the objects on top; every C declaration stays
+here, in one place.
 
 Library search order (like pylsl): $KATA_LIBRARY (a file), the package folder (a libkata.so
 dropped next to this file), the install prefix recorded by `cmake --install` (_install_paths.py),

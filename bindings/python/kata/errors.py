@@ -1,0 +1,42 @@
+"""Statuses and the one exception: every failed C call raises KataError with .status (Status) and
+.message (the C library's last error of the handle the call was made on)."""
+import enum
+from . import _native as _n
+
+__all__ = ["Status", "KataError"]
+
+
+class Status(enum.IntEnum):
+    OK = 0
+    NO_DATA = 1
+    E_INVALID_ARGUMENT = 2
+    E_NULL_POINTER = 3
+    E_WRONG_JOINT_COUNT = 4
+    E_NON_FINITE = 5
+    E_TIMESTAMP_NOT_INCREASING = 6
+    E_PARSE = 7
+    E_IO = 8
+    E_MODEL = 9
+    E_NOT_FOUND = 10
+    E_OUT_OF_MEMORY = 11
+    E_BUFFER_TOO_SMALL = 12
+    E_INTERNAL = 13
+    E_STATE = 14
+    #: not an error: the frame was accepted without features (too many joints missing)
+    TRACKING_LOST = 15
+
+
+
+class KataError(Exception):
+    """A failed C call: .status (Status, or the raw int for a status this binding does not know)
+    and .message (kata_*_last_error of the handle the call was made on)."""
+
+    def __init__(self, status, message, call=""):
+        try:
+            self.status = Status(status)
+        except ValueError:
+            self.status = status
+        self.message = message
+        self.call = call
+        name = _n.status_string(int(status)).decode()
+        super().__init__("%s%s: %s" % (call + ": " if call else "", name, message))

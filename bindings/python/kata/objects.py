@@ -1,0 +1,376 @@
+"""The library instance and the immutable things made from it: Context (kata_context), Skeleton,
+Clip (a BVH recording), Model (a scoring model), the shared enums, and where the shipped model is."""
+import ctypes
+import enum
+import os
+import weakref
+from typing import TYPE_CHECKING, Any, List, Optional
+
+import numpy as np
+
+from . import _native as _n
+from ._util import _text, _utf8
+from .errors import KataError, Status
+
+if TYPE_CHECKING:
+    from .retarget import Retargeter
+    from .runtime import Runtime
+    from .stream import Stream
+
+__all__ = ["Context", "Skeleton", "Clip", "Model", "Stencil", "UpAxis", "ScoreState", "BodyPart",
+           "default_model_path", "presets", "version", "library_path", "GPD_DIMS", "GPD_JOINTS"]
+
+GPD_DIMS = _n.GPD_DIMS
+GPD_JOINTS = _n.GPD_JOINTS
+library_path = _n.library_path
+
+
+def version():
+    """The loaded library's (major, minor, patch) (kata_version)."""
+    return _n.version
+
+
+
+class Stencil(enum.IntEnum):
+    BACKWARD = 0
+    CENTRAL = 1
+
+
+class UpAxis(enum.IntEnum):
+    """How a stream reads its frames' axes (kata_up_axis)."""
+    Y = 0       #: +Y up (BVH, most engines)
+    Z = 1       #: +Z up: (x, y, z) is read as (x, z, -y)
+    Y_DOWN = 2  #: camera frame, x right, y down, z away (MediaPipe world landmarks, Azure Kinect)
+
+
+class ScoreState(enum.IntEnum):
+    """Whether a score record's scores are to be shown (kata_score_state)."""
+    SCORING = 0           #: the scores are this frame's
+    CALIBRATING = 1       #: the first 0.25 s after a teacher is attached or restarted
+    TRACKING_LOST = 2     #: fewer than 13 of the 16 GPD joints tracked; scores are 0
+    TEACHER_FINISHED = 3  #: the student has outlasted the teacher clip by 0.25 s
+
+
+class BodyPart(enum.IntEnum):
+    TORSO_HEAD = 0
+    LEFT_ARM = 1
+    RIGHT_ARM = 2
+    LEFT_LEG = 3
+    RIGHT_LEG = 4
+
+
+def default_model_path() -> str:
+    """The scoring model shipped with kata: inside the installed package (kata/models/default.kata),
+    else a checkout's models/default.kata."""
+    here = os.path.dirname(os.path.abspath(__file__))
+    for path in (os.path.join(here, "models", "default.kata"),
+                 os.path.normpath(os.path.join(here, "..", "..", "..", "models", "default.kata"))):
+        if os.path.isfile(path):
+            return path
+    raise FileNotFoundError("kata: no default.kata inside the package (%s/models) nor in a checkout; "
+                            "pass a model path" % here)
+
+
+def presets() -> List[str]:
+    """Names of the built-in layouts (kata_layout_name): every joint-map preset ("cmu", ...), then
+    "mediapipe". Each is a valid open_stream(preset=...); create_layout makes the skeleton of
+    "mediapipe", "gpd", "azure-kinect" and "xsens"."""
+    out: List[str] = []
+    i = 0
+    while True:
+        name = _n.layout_name(i)
+        if name is None:
+            return out
+        out.append(name.decode())
+        i += 1
+
+
+
+class _Handle:
+    """An owned C handle released exactly once (close(), the with block, or garbage collection)."""
+    _release: Any = None  # the C release function, set per subclass
+
+    def __init__(self, handle, context):
+        self._h = handle
+        self._context = context  # keeps the context alive while this object is
+        if context is not None:
+            context._children.add(self)
+
+    @property
+    def handle(self) -> int:
+        """The raw C handle (an int), for calls this binding does not wrap."""
+        if not self._h:
+            raise ValueError("%s is closed" % type(self).__name__)
+        return self._h
+
+    @property
+    def closed(self) -> bool:
+        return not self._h
+
+    def close(self) -> None:
+        h, self._h = self._h, None
+        if h:
+            type(self)._release(h)
+            if self._context is not None:
+                self._context._children.discard(self)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc: Any) -> None:
+        self.close()
+
+    def __del__(self) -> None:
+        try:
+            self.close()
+        except Exception:  # interpreter shutdown: the module may already be gone
+            pass
+
+
+class Context(_Handle):
+    """The library instance (kata_context_create). Objects made from it keep it alive."""
+    _release = _n.context_destroy
+
+    def __init__(self):
+        self._children = weakref.WeakSet()
+        h = ctypes.c_void_p()
+        status = _n.context_create(ctypes.byref(h))
+        if status:
+            raise KataError(status, "cannot create a context", "kata_context_create")
+        super().__init__(h.value, None)
+
+    def close(self) -> None:
+        for child in list(self._children):  # kata.h: every object must be released first
+            child.close()
+        super().close()
+
+    def _check(self, status, call):
+        if status and status != Status.NO_DATA:
+            raise KataError(status, _text(_n.context_last_error(self._h)), call)
+        return status
+
+    def _make(self, cls, call, fn, *args):
+        h = ctypes.c_void_p()
+        self._check(fn(self.handle, *args, ctypes.byref(h)), call)
+        return cls(h.value, self)
+
+    # -- constructors (one C call each) --
+    def create_skeleton(self, names, parents, rest_offsets=None):
+        """kata_skeleton_create: names (str), parents (-1 for the root, topological order), rest
+        offsets (joints x 3, parent-relative, input units) or None for a bare live source."""
+        n = len(names)
+        c_names = (ctypes.c_char_p * n)(*[_utf8(x) for x in names])
+        par = np.ascontiguousarray(parents, dtype=np.int32)
+        if par.size != n:
+            raise ValueError("parents must have one entry per joint")
+        rest = None
+        if rest_offsets is not None:
+            rest = np.ascontiguousarray(rest_offsets, dtype=np.float64)
+            if rest.size != 3 * n:
+                raise ValueError("rest_offsets must be joints x 3")
+        return self._make(Skeleton, "kata_skeleton_create", _n.skeleton_create, n, c_names, par.ctypes.data,
+                          None if rest is None else rest.ctypes.data)
+
+    def create_layout(self, layout: str) -> "Skeleton":
+        """kata_skeleton_create_layout: the joint list of a built-in layout as a skeleton without
+        rest pose: "mediapipe" (33 landmarks in MediaPipe's order, metres, camera axes), "gpd"
+        (16 GPD joints), "azure-kinect" (32 joints, millimetres: stream with UpAxis.Y_DOWN),
+        "xsens" (23 segments, metres: UpAxis.Z). Unknown names raise E_NOT_FOUND. [any thread]"""
+        return self._make(Skeleton, "kata_skeleton_create_layout", _n.skeleton_create_layout, _utf8(layout))
+
+    def load_skeleton_bvh(self, path: str) -> "Skeleton":
+        """kata_skeleton_load_bvh: the HIERARCHY of a BVH file."""
+        return self._make(Skeleton, "kata_skeleton_load_bvh", _n.skeleton_load_bvh, _utf8(path))
+
+    def load_clip(self, path: str) -> "Clip":
+        """kata_clip_load_bvh: a BVH clip (a malformed file raises E_PARSE naming file and line)."""
+        return self._make(Clip, "kata_clip_load_bvh", _n.clip_load_bvh, _utf8(path))
+
+    def load_model(self, path: str) -> "Model":
+        """kata_model_load: a verified .kata model (a refused file raises E_MODEL with the reason)."""
+        return self._make(Model, "kata_model_load", _n.model_load, _utf8(path))
+
+    def load_model_bytes(self, data: bytes) -> "Model":
+        """kata_model_load_memory: a model from bytes (copied)."""
+        data = bytes(data)
+        return self._make(Model, "kata_model_load_memory", _n.model_load_memory, data, len(data))
+
+    def open_stream(self, skeleton, preset="cmu", name_map=None, stencil=None, up_axis=None, max_gap=None,
+                    history_capacity=None, body_height=None, calibration_frames=None, result_capacity=None,
+                    keep_features=None, name_map_text=None):
+        """kata_stream_open with a kata_stream_desc: arguments left None keep kata_stream_desc_init's
+        defaults. Give a preset name (a layout, see presets()), name_map (a file path) or
+        name_map_text (the contents of a name-map file; kata_stream_open_name_map), only one.
+        up_axis: UpAxis (ignored for "mediapipe", which is always camera axes). max_gap: seconds.
+        body_height: input units, 0 = estimated. [any thread]"""
+        from . import stream as _stream  # stream.py builds on this module
+        d = _n.StreamDesc()
+        _n.stream_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
+        if d.struct_size != ctypes.sizeof(_n.StreamDesc):
+            raise ImportError("kata_stream_desc layout differs from this binding's (%d vs %d bytes)"
+                              % (d.struct_size, ctypes.sizeof(_n.StreamDesc)))
+        d.preset = None if (name_map is not None or name_map_text is not None) else _utf8(preset)
+        d.name_map_path = _utf8(name_map)
+        for field, value in (("stencil", stencil), ("up_axis", up_axis), ("max_gap", max_gap),
+                             ("history_capacity", history_capacity), ("body_height", body_height),
+                             ("calibration_frames", calibration_frames), ("result_capacity", result_capacity),
+                             ("keep_features", keep_features)):
+            if value is not None:
+                setattr(d, field, int(value) if field in ("stencil", "up_axis", "keep_features") else value)
+        if name_map_text is not None:
+            s = self._make(_stream.Stream, "kata_stream_open_name_map", _n.stream_open_name_map, skeleton.handle,
+                           ctypes.byref(d), _utf8(name_map_text))
+        else:
+            s = self._make(_stream.Stream, "kata_stream_open", _n.stream_open, skeleton.handle, ctypes.byref(d))
+        s._joints = skeleton.joint_count
+        return s
+
+    def create_runtime(self, workers: Optional[int] = None, max_streams: Optional[int] = None,
+                       max_joints: Optional[int] = None, queue_capacity: Optional[int] = None,
+                       publish: Optional[str] = None, send_hwm: Optional[int] = None, ingest: Optional[str] = None,
+                       ingest_pull: Optional[bool] = None, max_message_bytes: Optional[int] = None,
+                       skeleton_resend_seconds: Optional[float] = None) -> "Runtime":
+        """kata_runtime_create: many streams on worker threads, every result published on ZeroMQ.
+        publish: comma-separated endpoints to bind ("tcp://127.0.0.1:*" picks a free port: see
+        Runtime.publish_endpoint); ingest: endpoints to read frames from ("bind:" prefix binds).
+        Arguments left None keep kata_runtime_desc_init's defaults. [any thread]"""
+        from . import runtime as _runtime  # runtime.py builds on this module
+        d = _n.RuntimeDesc()
+        _n.runtime_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
+        for field, value in (("workers", workers), ("max_streams", max_streams), ("max_joints", max_joints),
+                             ("queue_capacity", queue_capacity), ("send_hwm", send_hwm),
+                             ("max_message_bytes", max_message_bytes),
+                             ("skeleton_resend_seconds", skeleton_resend_seconds)):
+            if value is not None:
+                setattr(d, field, value)
+        d.publish_endpoints = _utf8(publish)
+        d.ingest_endpoints = _utf8(ingest)
+        if ingest_pull is not None:
+            d.ingest_pull = 1 if ingest_pull else 0
+        return self._make(_runtime.Runtime, "kata_runtime_create", _n.runtime_create, ctypes.byref(d))
+
+    def create_retargeter(self, student, **options):
+        """kata_retargeter_create: student is a Skeleton with rest offsets. options: preset ("cmu" or
+        "gpd"), gradient_tolerance, max_iterations, warm_start, restore_bone_lengths."""
+        from . import retarget as _retarget  # retarget.py builds on this module
+        d = _retarget._retarget_desc(options)
+        r = self._make(_retarget.Retargeter, "kata_retargeter_create", _n.retargeter_create, student.handle, ctypes.byref(d))
+        r._student_joints = student.joint_count
+        return r
+
+    def create_retargeter_for_stream(self, stream, **options):
+        """kata_retargeter_create_for_stream: the stream's skeleton is the student."""
+        from . import retarget as _retarget
+        d = _retarget._retarget_desc(options)
+        r = self._make(_retarget.Retargeter, "kata_retargeter_create_for_stream", _n.retargeter_create_for_stream,
+                       stream.handle, ctypes.byref(d))
+        r._student_joints = stream._joints
+        return r
+
+
+
+class Skeleton(_Handle):
+    """An immutable joint tree (kata_skeleton)."""
+    _release = _n.skeleton_destroy
+
+    @property
+    def joint_count(self) -> int:
+        return _n.skeleton_joint_count(self.handle)
+
+    @property
+    def names(self) -> List[str]:
+        return [_text(_n.skeleton_joint_name(self.handle, i)) for i in range(self.joint_count)]
+
+    @property
+    def parents(self) -> np.ndarray:
+        return np.array([_n.skeleton_joint_parent(self.handle, i) for i in range(self.joint_count)], dtype=np.int32)
+
+    @property
+    def offsets(self) -> Optional[np.ndarray]:
+        """Rest offsets (joints, 3) float64 from each parent, skeleton units (the root's: its rest
+        position), by kata_skeleton_joint_offset; None for a bare live source (no rest pose)."""
+        out = np.empty((self.joint_count, 3), dtype=np.float64)
+        h = self.handle
+        for i in range(self.joint_count):
+            status = _n.skeleton_joint_offset(h, i, out[i].ctypes.data_as(ctypes.POINTER(ctypes.c_double)))
+            if status == Status.E_STATE:
+                return None
+            if status:
+                raise KataError(status, "joint %d" % i, "kata_skeleton_joint_offset")
+        return out
+
+
+class Clip(_Handle):
+    """A recorded motion (kata_clip): a BVH file with its skeleton."""
+    _release = _n.clip_destroy
+    _joints = None
+
+    @property
+    def frame_count(self) -> int:
+        return _n.clip_frame_count(self.handle)
+
+    @property
+    def frame_time(self) -> float:
+        return _n.clip_frame_time(self.handle)
+
+    @property
+    def joint_count(self) -> int:
+        """Joints of the clip's skeleton."""
+        if self._joints is None:
+            with self.skeleton() as sk:
+                self._joints = sk.joint_count
+        return self._joints
+
+    def skeleton(self) -> "Skeleton":
+        """kata_clip_skeleton: a new Skeleton handle (closed by its own close())."""
+        h = ctypes.c_void_p()
+        status = _n.clip_skeleton(self.handle, ctypes.byref(h))
+        if status:
+            raise KataError(status, "cannot copy the clip's skeleton", "kata_clip_skeleton")
+        return Skeleton(h.value, self._context)
+
+    def positions(self, frame: int, out: Optional[np.ndarray] = None) -> np.ndarray:
+        """kata_clip_positions: world positions (joints x 3 float32) of one frame, into out if given."""
+        if out is None:
+            out = np.empty((self.joint_count, 3), dtype=np.float32)
+        if out.dtype != np.float32 or not out.flags.c_contiguous:
+            raise ValueError("out must be a C-contiguous float32 array")
+        status = _n.clip_positions(self.handle, frame, out.ctypes.data, out.size)
+        if status:
+            raise KataError(status, "frame %d of %d (buffer %d floats)" % (frame, self.frame_count, out.size),
+                            "kata_clip_positions")
+        return out
+
+    def all_positions(self, first: int = 0) -> np.ndarray:
+        """Positions of frames first..end as (frames, joints, 3) float32: one kata_clip_positions per frame."""
+        joints = self.joint_count
+        frames = self.frame_count - first
+        out = np.empty((max(frames, 0), joints, 3), dtype=np.float32)
+        h, size = self.handle, 3 * joints
+        base, stride = out.ctypes.data, out.strides[0] if frames > 0 else 0
+        for i in range(frames):
+            status = _n.clip_positions(h, first + i, base + i * stride, size)
+            if status:
+                raise KataError(status, "frame %d" % (first + i), "kata_clip_positions")
+        return out
+
+
+class Model(_Handle):
+    """A loaded, verified scoring model (kata_model); shareable by any number of streams."""
+    _release = _n.model_free
+
+    @property
+    def rank(self) -> int:
+        return _n.model_rank(self.handle)
+
+    @property
+    def delta_star(self) -> float:
+        return _n.model_delta_star(self.handle)
+
+    @property
+    def stencil(self) -> Stencil:
+        return Stencil(_n.model_stencil(self.handle))
+
+    def metadata(self, key: str) -> Optional[str]:
+        """kata_model_metadata: "layout", "date", "data", "parameters"; None for an unknown key."""
+        return _text(_n.model_metadata(self.handle, _utf8(key)))

@@ -1,0 +1,90 @@
+"""The runtime (kata_runtime): many streams on worker threads, frames in and results out on ZeroMQ."""
+import ctypes
+from typing import Any, Optional, Tuple
+
+import numpy as np
+
+from . import _native as _n
+from ._util import _address, _positions_f32, _text, _utf8
+from .errors import KataError
+from .objects import _Handle
+from .stream import Stream
+
+__all__ = ["Runtime", "shard_of"]
+
+
+class Runtime(_Handle):
+    """Many streams, ZeroMQ in and out (kata_runtime). push may be called from any thread (one
+    producer per stream keeps its order); it never blocks: a full worker queue drops and counts."""
+    _release = _n.runtime_destroy
+
+    def add_stream(self, stream_id: int, stream: "Stream", preset: Optional[str] = None,
+                   publish_features: bool = False) -> None:
+        """kata_runtime_add_stream: hands `stream` to the runtime under stream_id; the runtime owns
+        it afterwards (the Stream object is closed here without freeing it). preset: the joint map
+        named in the published skeleton definition (None: "cmu"). [any thread]"""
+        h = ctypes.c_void_p(stream.handle)
+        status = _n.runtime_add_stream(self.handle, stream_id, ctypes.byref(h), _utf8(preset),
+                                       1 if publish_features else 0)
+        if status:
+            raise KataError(status, _text(_n.context_last_error(self._context.handle)), "kata_runtime_add_stream")
+        stream._h = None  # owned by the runtime now
+        if stream._context is not None:
+            stream._context._children.discard(stream)
+        self._joints = getattr(self, "_joints", {})
+        self._joints[stream_id] = stream._joints
+
+    def push(self, stream_id: int, sequence: int, capture_time: float, positions: Any) -> None:
+        """kata_runtime_push: queues one frame (capture_time seconds, increasing; positions
+        (joints, 3) float32). KataError E_NOT_FOUND (no such stream), E_STATE (queue full: dropped
+        and counted). Never blocks, never allocates in C. [any thread]"""
+        a = positions
+        if type(a) is not np.ndarray or a.dtype != np.float32 or not a.flags.c_contiguous:
+            a = _positions_f32(a)
+        status = _n.runtime_push(self.handle, stream_id, sequence, capture_time, _address(a), a.size // 3)
+        if status:
+            raise KataError(status, "stream %d frame %d" % (stream_id, sequence), "kata_runtime_push")
+
+    def set_practice(self, stream_id: int, revision: int, teacher_start: float = 0.0,
+                     loop: Optional[Tuple[float, float]] = None) -> None:
+        """kata_runtime_set_practice: from the frames pushed after it, the stream follows its clip
+        teacher from teacher_start seconds, or loops the section loop = (start, end) seconds
+        (teacher seconds from its first frame, as ResultMessage.matched_teacher_time); every result
+        then carries practice.revision == revision. KataError E_NOT_FOUND (no such stream),
+        E_INVALID_ARGUMENT (not finite, negative, outside the clip, an empty loop), E_STATE (no clip
+        teacher; the worker queue full). Never blocks. [any thread]"""
+        a, b = loop if loop is not None else (0.0, 0.0)
+        status = _n.runtime_set_practice(self.handle, stream_id, revision, teacher_start, 1 if loop is not None else 0,
+                                         a, b)
+        if status:
+            raise KataError(status, _text(_n.context_last_error(self._context.handle)), "kata_runtime_set_practice")
+
+    def stop(self) -> None:
+        """kata_runtime_stop: finishes every queued frame, publishes every result, stops the threads."""
+        status = _n.runtime_stop(self.handle)
+        if status:
+            raise KataError(status, "stop failed", "kata_runtime_stop")
+
+    def counters(self) -> dict:
+        """kata_runtime_get_counters as a dict (streams, frames_in, queue_full, refused, results,
+        results_dropped, published, ingest_*). [any thread]"""
+        c = _n.RuntimeCounters()
+        c.struct_size = ctypes.sizeof(c)
+        status = _n.runtime_get_counters(self.handle, ctypes.byref(c))
+        if status:
+            raise KataError(status, "counters", "kata_runtime_get_counters")
+        return {name: getattr(c, name) for name, _ in _n.RuntimeCounters._fields_[1:]}
+
+    @property
+    def publish_endpoint(self) -> str:
+        """The endpoint the publisher bound last, resolved (a "*" port shows its number)."""
+        return _text(_n.runtime_publish_endpoint(self.handle)) or ""
+
+    @property
+    def ingest_endpoint(self) -> str:
+        return _text(_n.runtime_ingest_endpoint(self.handle)) or ""
+
+
+def shard_of(stream_id: int, shard_count: int) -> int:
+    """kata_shard_of: the shard (0..shard_count-1) that scores stream_id (FNV-1a; stable)."""
+    return int(_n.shard_of(stream_id, shard_count))

@@ -1,0 +1,438 @@
+"""A live pose stream (kata_stream): frames in, features, scores and ghosts out, and the numpy
+records results are read into."""
+import ctypes
+from typing import Any, NoReturn, Optional, Tuple
+
+import numpy as np
+
+from . import _native as _n
+from ._util import _address, _deprecated, _positions_f32, _text, _time_units_code, _utf8
+from .errors import KataError, Status
+from .objects import GPD_DIMS, GPD_JOINTS, _Handle
+from .retarget import _retarget_desc
+
+__all__ = ["Stream", "ResultBuffer", "Results", "ScoreRecord", "detect_time_units", "RESULT_SCORED", "RESULT_GHOST",
+           "RESULT_DTYPE", "SCORE_DTYPE"]
+
+RESULT_SCORED = 1
+RESULT_GHOST = 2
+#: numpy dtypes with the exact layout of kata_result and kata_score_record (read into directly).
+RESULT_DTYPE = np.dtype(_n.Result)
+SCORE_DTYPE = np.dtype(_n.ScoreRecord)
+assert RESULT_DTYPE.itemsize == ctypes.sizeof(_n.Result) and SCORE_DTYPE.itemsize == ctypes.sizeof(_n.ScoreRecord)
+
+
+def detect_time_units(timestamps):
+    """kata_time_units_detect: "s" or "ms" for recorded timestamps (n >= 2, increasing) from the
+    median step between frames (2..1000 Hz is plausible); raises KataError when it fits neither."""
+    ts = np.ascontiguousarray(timestamps, dtype=np.float64)
+    out = ctypes.c_int(0)
+    status = _n.time_units_detect(ts.ctypes.data, ts.size, ctypes.byref(out))
+    if status:
+        raise KataError(status, _text(_n.context_last_error(None)), "kata_time_units_detect")
+    return "ms" if out.value == 1 else "s"
+
+
+
+class ScoreRecord:
+    """One scored frame (kata_score_record), as plain Python values."""
+    __slots__ = ("matched_reference_frame", "frame_index", "timestamp", "distance", "score", "parts",
+                 "part_scores", "part_to_fix", "state")
+
+    def __init__(self, rec):
+        self.matched_reference_frame = rec.matched_reference_frame
+        self.frame_index = rec.frame_index
+        self.timestamp = rec.timestamp
+        self.distance = rec.distance
+        self.score = rec.score
+        self.parts = tuple(rec.parts)
+        self.part_scores = tuple(rec.part_scores)
+        self.part_to_fix = rec.part_to_fix
+        self.state = rec.state
+
+    def __repr__(self):
+        return "ScoreRecord(frame=%d, score=%.2f, distance=%.5g)" % (self.frame_index, self.score, self.distance)
+
+
+class ResultBuffer:
+    """Preallocated arrays that Stream.read_results fills in place (no allocation per read):
+    results (capacity,) RESULT_DTYPE, scores (capacity,) SCORE_DTYPE, ghosts (capacity, G, 3)
+    float32 where G = the stream's ghost joint count, features (capacity, 1683) float32 when
+    with_features. The views a read returns stay valid until the next read into this buffer."""
+
+    def __init__(self, capacity, ghost_joints=0, with_scores=True, with_features=False):
+        self.capacity = int(capacity)
+        self.results = np.zeros(self.capacity, dtype=RESULT_DTYPE)
+        self.results["struct_size"] = RESULT_DTYPE.itemsize
+        self.scores = None
+        if with_scores:
+            self.scores = np.zeros(self.capacity, dtype=SCORE_DTYPE)
+            self.scores["struct_size"] = SCORE_DTYPE.itemsize
+        self.ghosts = np.zeros((self.capacity, ghost_joints, 3), dtype=np.float32) if ghost_joints else None
+        self.features = np.zeros((self.capacity, GPD_DIMS), dtype=np.float32) if with_features else None
+        # The C call's arguments, computed once.
+        self._args = (_address(self.results), None if self.scores is None else _address(self.scores),
+                      None if self.ghosts is None else _address(self.ghosts),
+                      0 if self.ghosts is None else self.ghosts.size,
+                      None if self.features is None else _address(self.features),
+                      0 if self.features is None else self.features.size, self.capacity)
+        self._count = ctypes.c_uint32()
+        self._count_ref = ctypes.byref(self._count)
+
+
+class Results:
+    """What one read_results call moved: numpy views (results, scores, ghosts, features; None
+    when not requested), `len()` results long."""
+    __slots__ = ("results", "scores", "ghosts", "features")
+
+    def __init__(self, buf, n):
+        self.results = buf.results[:n]
+        self.scores = None if buf.scores is None else buf.scores[:n]
+        self.ghosts = None if buf.ghosts is None else buf.ghosts[:n]
+        self.features = None if buf.features is None else buf.features[:n]
+
+    def __len__(self):
+        return len(self.results)
+
+
+class Stream(_Handle):
+    """A live pose stream (kata_stream): frames in, features / scores / ghosts out. Used by one
+    thread at a time (kata.h)."""
+    _release = _n.stream_close
+    _joints = 0
+
+    def _raise(self, status: int, call: str) -> NoReturn:
+        raise KataError(status, _text(_n.stream_last_error(self._h)), call)
+
+    @property
+    def joint_count(self) -> int:
+        return self._joints
+
+    def push(self, timestamp: float, positions: Any, confidences: Any = None) -> Status:
+        """kata_stream_push (or kata_stream_push_confidence with confidences): one frame, timestamp
+        in seconds (must increase by at least KATA_MIN_TIME_STEP), positions (joints, 3) in input
+        units (float32 C-contiguous is passed without a copy; other arrays are converted), and
+        optionally one confidence per joint (e.g. MediaPipe visibility; below the gate's threshold
+        or NaN: the joint is missing and held). Returns Status.OK, or Status.TRACKING_LOST (accepted
+        without features: too many joints missing). A refused frame raises KataError and changes
+        nothing. Does not allocate in C. [stream owner: one thread at a time]"""
+        a = positions
+        if type(a) is not np.ndarray or a.dtype != np.float32 or not a.flags.c_contiguous:
+            a = _positions_f32(a)
+        if confidences is None:
+            status = _n.stream_push(self.handle, timestamp, _address(a), a.size // 3)
+        else:
+            c = confidences
+            if type(c) is not np.ndarray or c.dtype != np.float32 or not c.flags.c_contiguous:
+                c = np.ascontiguousarray(c, dtype=np.float32)
+            if c.size * 3 != a.size:
+                raise ValueError("confidences: one per joint (%d), got %d" % (a.size // 3, c.size))
+            status = _n.stream_push_confidence(self.handle, timestamp, _address(a), _address(c), a.size // 3)
+        if status and status != Status.TRACKING_LOST:
+            self._raise(status, "kata_stream_push_confidence" if confidences is not None else "kata_stream_push")
+        return Status(status)
+
+    def push_landmarks(self, timestamp, values, time_units="s"):
+        """kata_stream_push_landmarks: one frame in a landmark source's own shape, values
+        (joints, 3|4|5) float32: x y z [confidence | MediaPipe's visibility presence, read as
+        confidence = the smaller]; timestamp in time_units "s" or "ms"."""
+        a = np.ascontiguousarray(values, dtype=np.float32)
+        if a.ndim != 2 or a.shape[0] != self._joints or a.shape[1] not in (3, 4, 5):
+            raise ValueError("values must be (%d joints, 3, 4 or 5 channels)" % self._joints)
+        status = _n.stream_push_landmarks(self.handle, timestamp, _time_units_code(time_units), _address(a),
+                                          a.shape[0], a.shape[1])
+        if status not in (0, Status.TRACKING_LOST):
+            self._raise(status, "kata_stream_push_landmarks")
+        return status
+
+    def push_many(self, timestamps: Any, positions: Any, confidences: Any = None, time_units: Any = None) -> int:
+        """Pushes frames i = 0..n-1: timestamps (n,) seconds, positions (n, joints, 3) float32 and
+        optionally confidences (n, joints), in one kata_stream_push_many call (no copy of
+        positions when already C-contiguous float32). A refused frame raises KataError
+        naming its index; the frames before it were pushed. Returns the frames reported
+        TRACKING_LOST (accepted without features). [stream owner]
+        MediaPipe's shapes: positions (n, joints, 4 or 5) (x y z confidence, or x y z visibility
+        presence: confidence = the smaller) and time_units "s", "ms" or "auto" (from the steps
+        between frames, kata_time_units_detect: refused when they fit neither unit) go through
+        kata_stream_push_landmarks (frames tracking lost are accepted)."""
+        if time_units is not None or np.ndim(positions) == 3 and np.shape(positions)[2] in (4, 5):
+            if confidences is not None:
+                raise ValueError("confidences go in the positions' 4th/5th channel with time_units")
+            return self._push_many_landmarks(timestamps, positions, "s" if time_units is None else time_units)
+        a = _positions_f32(positions)
+        ts = np.ascontiguousarray(timestamps, dtype=np.float64)
+        n = len(ts)
+        joints = self._joints
+        if a.size != n * 3 * joints:
+            raise ValueError("positions must be %d frames x %d joints x 3" % (n, joints))
+        cbase = None
+        if confidences is not None:
+            c = np.ascontiguousarray(confidences, dtype=np.float32)
+            if c.size != n * joints:
+                raise ValueError("confidences must be %d frames x %d joints" % (n, joints))
+            cbase = c.ctypes.data
+        # One call for the whole chunk (kata_stream_push_many): the per-call cost of ctypes is paid
+        # once, not per frame.
+        pushed, lost = ctypes.c_uint32(0), ctypes.c_uint32(0)
+        status = _n.stream_push_many(self.handle, ts.ctypes.data, a.ctypes.data, cbase, joints, n,
+                                     ctypes.byref(pushed), ctypes.byref(lost))
+        if status:
+            raise KataError(status, "frame %d: %s" % (pushed.value, _text(_n.stream_last_error(self.handle))),
+                            "kata_stream_push_many")
+        return lost.value
+
+    def set_confidence_gate(self, threshold: float = 0.5, max_hold: float = 0.5,
+                            max_missing_share: float = 0.25) -> None:
+        """kata_stream_set_confidence_gate: a GPD joint below `threshold` (or NaN) is missing and
+        held at its last good position for at most `max_hold` seconds; more than
+        max_missing_share x 16 joints missing (or one missing longer) is TRACKING_LOST. Takes effect
+        at the next push. [stream owner]"""
+        status = _n.stream_set_confidence_gate(self.handle, threshold, max_hold, max_missing_share)
+        if status:
+            self._raise(status, "kata_stream_set_confidence_gate")
+
+    def set_smoothing(self, enabled: bool = True, min_cutoff: float = 2.0, beta: float = 1.0,
+                      d_cutoff: float = 1.0) -> None:
+        """kata_stream_set_smoothing: the One-Euro filter on the 16 mapped joints (cutoff =
+        min_cutoff + beta x |speed| Hz, speed in input units per second low-passed at d_cutoff Hz).
+        On by default for "mediapipe" (2 Hz, 1.0, 1 Hz), off otherwise. [stream owner]"""
+        status = _n.stream_set_smoothing(self.handle, 1 if enabled else 0, min_cutoff, beta, d_cutoff)
+        if status:
+            self._raise(status, "kata_stream_set_smoothing")
+
+    @property
+    def lost_frames(self) -> int:
+        """Frames reported TRACKING_LOST so far (kata_stream_lost_frames). [stream owner]"""
+        return int(_n.stream_lost_frames(self.handle))
+
+    def bone_lengths(self) -> Optional[Tuple[np.ndarray, np.ndarray]]:
+        """kata_stream_bone_lengths: (lengths, spread), each (16,) float64 in input units, GPD joint
+        order (lengths[0] = 0), estimated from the first 60 frames whose 16 joints are all good
+        (noise-corrected; kata.h); None until those frames were seen. [stream owner]"""
+        lengths = np.zeros(GPD_JOINTS, dtype=np.float64)
+        spread = np.zeros(GPD_JOINTS, dtype=np.float64)
+        status = _n.stream_bone_lengths(self.handle, lengths.ctypes.data, spread.ctypes.data, GPD_JOINTS)
+        if status == Status.NO_DATA:
+            return None
+        if status:
+            self._raise(status, "kata_stream_bone_lengths")
+        return lengths, spread
+
+    def _push_many_landmarks(self, timestamps, values, time_units):
+        a = np.ascontiguousarray(values, dtype=np.float32)
+        ts = np.ascontiguousarray(timestamps, dtype=np.float64)
+        n = len(ts)
+        if a.ndim != 3 or a.shape[0] != n or a.shape[1] != self._joints or a.shape[2] not in (3, 4, 5):
+            raise ValueError("values must be (%d frames, %d joints, 3, 4 or 5 channels)" % (n, self._joints))
+        if time_units == "auto":
+            time_units = detect_time_units(ts)
+        units = _time_units_code(time_units)
+        push, h, joints, channels = _n.stream_push_landmarks, self.handle, self._joints, a.shape[2]
+        base, stride = _address(a), 4 * joints * channels
+        lost = 0
+        for i, t in enumerate(ts.tolist()):
+            status = push(h, t, units, base + i * stride, joints, channels)
+            if status == Status.TRACKING_LOST:
+                lost += 1
+            elif status:
+                raise KataError(status, "frame %d: %s" % (i, _text(_n.stream_last_error(h))), "kata_stream_push_landmarks")
+        return lost
+
+    def flush(self) -> None:
+        """kata_stream_flush: end of a take."""
+        status = _n.stream_flush(self.handle)
+        if status:
+            self._raise(status, "kata_stream_flush")
+
+    def reset(self) -> None:
+        """kata_stream_reset: the next frame starts a new segment."""
+        status = _n.stream_reset(self.handle)
+        if status:
+            self._raise(status, "kata_stream_reset")
+
+    def features(self, out=None):
+        """kata_stream_features: (vector float32[1683], timestamp, frame_index) of the newest
+        feature vector, or None before the first one. out: a float32[1683] to fill."""
+        if out is None:
+            out = np.empty(GPD_DIMS, dtype=np.float32)
+        elif out.dtype != np.float32 or not out.flags.c_contiguous or out.size < GPD_DIMS:
+            raise ValueError("out must be a C-contiguous float32 array of %d values" % GPD_DIMS)
+        t, frame = ctypes.c_double(), ctypes.c_int64()
+        status = _n.stream_features(self.handle, out.ctypes.data, out.size, ctypes.byref(t), ctypes.byref(frame))
+        if status == Status.NO_DATA:
+            return None
+        if status:
+            self._raise(status, "kata_stream_features")
+        return out, t.value, frame.value
+
+    @property
+    def feature_count(self) -> int:
+        return _n.stream_feature_count(self.handle)
+
+    @property
+    def body_height(self) -> float:
+        return _n.stream_body_height(self.handle)
+
+    # -- the teacher: what the stream is compared with --
+    def attach_teacher(self, model, clip=None, skeleton=None, positions=None, frame_time=None, preset=None,
+                       first_frame=0, pose_frame=-1, ghost=None, features=None, joints=None, body_height=0.0,
+                       **retarget):
+        """kata_stream_attach_teacher: score against (and ghost from) a teacher given as one of
+        a Clip; a Skeleton + positions (frames, joints, 3) + frame_time; GPD features
+        (frames, 1683) + frame_time; or joints, one held pose of the 16 GPD joints (16, 3) with its
+        body_height. pose_frame >= first_frame: that frame only, as a single pose. ghost: default
+        True for a clip or positions (features and joints have none to make). retarget: the ghost
+        solver's options (preset "cmu"/"gpd", gradient_tolerance, max_iterations, warm_start,
+        restore_bone_lengths)."""
+        d = _n.TeacherDesc()
+        _n.teacher_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
+        d.model = model.handle
+        keep = []
+        if clip is not None:
+            d.clip = clip.handle
+        if skeleton is not None:
+            d.skeleton = skeleton.handle
+        if positions is not None:
+            p = _positions_f32(positions)
+            keep.append(p)
+            d.positions = p.ctypes.data
+            d.frames = p.shape[0]
+        if features is not None:
+            f = np.ascontiguousarray(features, dtype=np.float32)
+            if f.size == 0 or f.size % GPD_DIMS:
+                raise ValueError("features must be frames x %d" % GPD_DIMS)
+            keep.append(f)
+            d.features = f.ctypes.data
+            d.frames = f.size // GPD_DIMS
+        if joints is not None:
+            j = np.ascontiguousarray(joints, dtype=np.float32)
+            if j.size != 3 * GPD_JOINTS:
+                raise ValueError("joints must be %d x 3 (the 16 GPD joints, GPD order)" % GPD_JOINTS)
+            keep.append(j)
+            d.joints = j.ctypes.data
+            d.frames = 1
+            d.body_height = body_height
+        if frame_time is not None:
+            d.frame_time = frame_time
+        d.preset = _utf8(preset)
+        d.first_frame = first_frame
+        d.pose_frame = pose_frame
+        if ghost is None:
+            ghost = features is None and joints is None
+        d.ghost = 1 if ghost else 0
+        rdesc = _retarget_desc(retarget) if retarget else None
+        if rdesc is not None:
+            d.retarget = ctypes.pointer(rdesc)
+        status = _n.stream_attach_teacher(self.handle, ctypes.byref(d))
+        del keep  # copied by the call
+        if status:
+            self._raise(status, "kata_stream_attach_teacher")
+
+    def detach_teacher(self) -> None:
+        """kata_stream_detach_teacher: later results are not scored and carry no ghost."""
+        status = _n.stream_detach_teacher(self.handle)
+        if status:
+            self._raise(status, "kata_stream_detach_teacher")
+
+    def restart_teacher(self) -> None:
+        """kata_stream_restart_teacher: the next frame is matched from the teacher's first frame."""
+        status = _n.stream_restart_teacher(self.handle)
+        if status:
+            self._raise(status, "kata_stream_restart_teacher")
+
+    def read_newest(self, buffer=None):
+        """kata_stream_read_newest: the newest unread result (older unread ones are passed over) as
+        a Results of length 1, or None when nothing is unread. buffer: a result_buffer(1) to reuse
+        (no allocation per call)."""
+        if buffer is None:
+            buffer = ResultBuffer(1, self.ghost_joint_count, True, False)
+        a = buffer._args
+        status = _n.stream_read_newest(self.handle, a[0], a[1], a[2], a[3], a[4], a[5])
+        if status == Status.NO_DATA:
+            return None
+        if status:
+            self._raise(status, "kata_stream_read_newest")
+        return Results(buffer, 1)
+
+    # -- deprecated since 1.0 (removed in 2.0, not before 2027-06-01): the 0.x reference calls --
+    def set_reference_pose(self, model, features):
+        """Deprecated: attach_teacher(model, features=f, pose_frame=0)."""
+        _deprecated("set_reference_pose", "attach_teacher(model, features=..., pose_frame=0)")
+        self.attach_teacher(model, features=np.asarray(features).reshape(1, GPD_DIMS), pose_frame=0)
+
+    def set_reference_joints(self, model, joints, body_height):
+        """Deprecated: attach_teacher(model, joints=j, body_height=h)."""
+        _deprecated("set_reference_joints", "attach_teacher(model, joints=..., body_height=...)")
+        self.attach_teacher(model, joints=joints, body_height=body_height)
+
+    def set_reference_clip(self, model, features, frame_time):
+        """Deprecated: attach_teacher(model, features=f, frame_time=t)."""
+        _deprecated("set_reference_clip", "attach_teacher(model, features=..., frame_time=...)")
+        self.attach_teacher(model, features=features, frame_time=frame_time)
+
+    def set_reference_bvh(self, model, clip, preset="cmu", first_frame=0, pose_frame=-1):
+        """Deprecated: attach_teacher(model, clip=c, ..., ghost=False)."""
+        _deprecated("set_reference_bvh", "attach_teacher(model, clip=..., ghost=False)")
+        self.attach_teacher(model, clip=clip, preset=preset, first_frame=first_frame, pose_frame=pose_frame,
+                            ghost=False)
+
+    def clear_reference(self):
+        """Deprecated: detach_teacher()."""
+        _deprecated("clear_reference", "detach_teacher()")
+        self.detach_teacher()
+
+    def restart_reference(self):
+        """Deprecated: restart_teacher()."""
+        _deprecated("restart_reference", "restart_teacher()")
+        self.restart_teacher()
+
+    def score(self):
+        """Deprecated: read_newest() (or read_results() for every frame). The newest frame's
+        ScoreRecord (read or not), or None before the first vector (kata_stream_score)."""
+        _deprecated("score", "read_newest()")
+        rec = _n.ScoreRecord()
+        rec.struct_size = ctypes.sizeof(rec)
+        status = _n.stream_score(self.handle, ctypes.byref(rec))
+        if status == Status.NO_DATA:
+            return None
+        if status:
+            self._raise(status, "kata_stream_score")
+        return ScoreRecord(rec)
+
+    # -- results --
+    @property
+    def ghost_joint_count(self) -> int:
+        return _n.stream_ghost_joint_count(self.handle)
+
+    @property
+    def ghost_joint_sources(self) -> np.ndarray:
+        """Student skeleton joint index of each ghost joint (kata_stream_ghost_joint_source)."""
+        h = self.handle
+        return np.array([_n.stream_ghost_joint_source(h, i) for i in range(_n.stream_ghost_joint_count(h))],
+                        dtype=np.int32)
+
+    @property
+    def results_pending(self) -> int:
+        return _n.stream_results_pending(self.handle)
+
+    @property
+    def results_dropped(self) -> int:
+        return _n.stream_results_dropped(self.handle)
+
+    def result_buffer(self, capacity=None, scores=True, ghosts=True, features=False):
+        """A ResultBuffer sized for this stream (capacity default: every result the ring can hold)."""
+        if capacity is None:
+            capacity = max(self.results_pending, 64)
+        return ResultBuffer(capacity, self.ghost_joint_count if ghosts else 0, scores, features)
+
+    def read_results(self, buffer=None, features=False):
+        """kata_stream_read_results: moves every unread result (oldest first, at most the buffer's
+        capacity) into numpy arrays and returns them as Results. Without a buffer, fresh arrays
+        sized for what is pending are made (features only when asked and the stream keeps them)."""
+        if buffer is None:
+            buffer = ResultBuffer(max(_n.stream_results_pending(self.handle), 1), self.ghost_joint_count, True,
+                                  features)
+        status = _n.stream_read_results(self.handle, *buffer._args, buffer._count_ref)
+        if status:
+            self._raise(status, "kata_stream_read_results")
+        return Results(buffer, buffer._count.value)
