@@ -1,15 +1,16 @@
-#!/usr/bin/python3
+#!/usr/bin/env python3
 """Prints kata results as they arrive: a plain ZeroMQ SUB socket (Debian's python3-zmq) and the
 readers flatc --python generates from the installed schemas (python3-flatbuffers).
 
-  python_subscriber.py --endpoint tcp://127.0.0.1:5556 [--stream ID] [--count N] [--timeout S]
-                       [--python-dir DIR]   # where kata/fb/ lives: build/python, or
-                                            # <prefix>/share/kata/python when installed
+  python3 python_subscriber.py --endpoint tcp://127.0.0.1:5556 [--stream ID] [--count N] [--timeout S]
+                       [--python-dir DIR]   # where kata/fb/ lives, when none of the below finds it
                        [--key ME.secret --server-key SERVER.pub]   # CURVE (kata keygen; docs/deploy.md)
 
-With the kata Python package installed (pip install bindings/python, or cmake --install), no
---python-dir is needed: the package carries the same readers as kata.fb (one package named kata,
-not two).
+The readers come from the kata Python package the running python3 imports (a venv with
+`pip install ./bindings/python`, or PYTHONPATH), else from the places this file may sit in: a
+checkout's build/python (samples/ beside build/) or an install (PREFIX/share/kata/samples: the
+package in PREFIX/lib/python3.X/dist-packages or site-packages). --python-dir is needed only
+elsewhere.
 
 Every kata message is one ZeroMQ frame: 16 bytes of topic (the stream id as lowercase hex, so
 subscribing to one stream's topic selects it) and then the FlatBuffer; its file identifier
@@ -37,6 +38,33 @@ def read_key_file(path):
     return keys
 
 
+def import_readers(python_dir):
+    """Makes kata.fb importable: --python-dir, the package this python3 has, a checkout's build or
+    the install this file is part of (see the module)."""
+    if python_dir:
+        sys.path.insert(0, python_dir)
+    try:
+        import kata.fb.Result  # noqa: F401
+        return
+    except ImportError:
+        pass
+    here = os.path.dirname(os.path.abspath(__file__))
+    version = "python%d.%d" % sys.version_info[:2]
+    prefix = os.path.normpath(os.path.join(here, "..", "..", ".."))  # PREFIX/share/kata/samples
+    tried = [os.path.join(here, "..", "build", "python")] + [
+        os.path.join(prefix, lib, version, kind) for lib in ("lib", "lib64", "local/lib")
+        for kind in ("dist-packages", "site-packages")]
+    for d in tried:
+        if os.path.isfile(os.path.join(d, "kata", "fb", "Result.py")):
+            sys.path.insert(0, os.path.normpath(d))
+            for name in [m for m in sys.modules if m == "kata" or m.startswith("kata.")]:
+                del sys.modules[name]
+            return
+    raise SystemExit("python_subscriber: the kata message readers (kata.fb) are not importable by %s: install the kata "
+                     "package for it (pip install ./bindings/python, or cmake --install), or pass --python-dir "
+                     "(tried %s)" % (sys.executable, ", ".join(os.path.normpath(d) for d in tried)))
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("--endpoint", required=True)
@@ -47,8 +75,7 @@ def main():
     ap.add_argument("--key", help="CURVE: this subscriber's key pair (kata keygen's .secret)")
     ap.add_argument("--server-key", help="CURVE: the server's public key (.pub)")
     args = ap.parse_args()
-    if args.python_dir:
-        sys.path.insert(0, args.python_dir)
+    import_readers(args.python_dir)
     from kata.fb.Result import Result
     from kata.fb.SkeletonDefinition import SkeletonDefinition
 

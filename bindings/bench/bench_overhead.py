@@ -5,7 +5,7 @@ The same stream (a CMU clip's skeleton, preset cmu, no teacher: the cheapest C w
 share is the most visible), the same frames, the same two loops in C, Python (timeit) and C# (Mono,
 Stopwatch):
   single   push one frame + read one result (kata_stream_push + kata_stream_read_results)
-  chunked  push CHUNK frames (one C call each: kata.h has no bulk push) + read them in one call
+  chunked  push CHUNK frames (one kata_stream_push_many call from Python) + read them in one call
 Each figure is a median over REPS runs of FRAMES frames; ROUNDS rounds alternate C, Python, C# so
 the machine's load hits all three alike. The overhead is the binding's median minus C's, per frame.
 

@@ -1,14 +1,28 @@
 """Puts the native parts into the package as it is built (pyproject.toml has the metadata):
 libkata.so from $KATA_LIBRARY or <repo>/build/lib, and the FlatBuffers readers flatc generated
 (kata/fb/*.py) from $KATA_PYTHON_FB or <repo>/build/python/kata/fb, and the scoring model
-(kata/models/default.kata) from $KATA_MODEL or <repo>/models/default.kata. The version is kata.h's."""
+(kata/models/default.kata) from $KATA_MODEL or <repo>/models/default.kata. The version is kata.h's.
+Nothing is written into the source folder: build/ and kata.egg-info go to a scratch folder."""
+import atexit
 import os
 import re
 import shutil
+import sys
+import tempfile
 
 from setuptools import Distribution, setup
 from setuptools.command.build_py import build_py
-from wheel.bdist_wheel import bdist_wheel
+
+try:  # setuptools >= 70.1 carries bdist_wheel; older ones take it from the wheel package
+    from setuptools.command.bdist_wheel import bdist_wheel  # type: ignore[import-not-found]
+except ImportError:
+    try:
+        from wheel.bdist_wheel import bdist_wheel
+    except ImportError:
+        raise SystemExit("kata: %s cannot build a wheel: it has neither the 'wheel' package nor a setuptools >= 70.1. "
+                         "Use Debian's python (apt-get install python3-wheel python3-numpy; /usr/bin/python3 -m venv "
+                         "--system-site-packages v && v/bin/pip install --no-build-isolation ./bindings/python), or "
+                         "install wheel and numpy for this python first" % sys.executable)
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 REPO = os.path.normpath(os.path.join(HERE, "..", ".."))
@@ -75,5 +89,10 @@ class NativeDistribution(Distribution):
         return True
 
 
+# pip builds in the source folder: its build/ and kata.egg-info go to a scratch folder instead.
+_SCRATCH = tempfile.mkdtemp(prefix="kata-pip-build-")
+atexit.register(shutil.rmtree, _SCRATCH, True)
+
 setup(version=_version(), distclass=NativeDistribution,
-      cmdclass={"build_py": BuildWithNative, "bdist_wheel": PlatformWheel})
+      cmdclass={"build_py": BuildWithNative, "bdist_wheel": PlatformWheel},
+      options={"build": {"build_base": os.path.join(_SCRATCH, "build")}, "egg_info": {"egg_base": _SCRATCH}})

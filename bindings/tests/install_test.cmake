@@ -9,7 +9,7 @@ if(rc)
   message(FATAL_ERROR "install failed: ${rc}")
 endif()
 execute_process(COMMAND ${CMAKE_COMMAND} -E env --unset=KATA_LIBRARY PYTHONPATH=${prefix}/${PYTHON_DIR} PYTHONDONTWRITEBYTECODE=1
-                        ${PYTHON} -c "import kata, os; print(kata._native.found_by, os.path.realpath(kata.library_path), kata.version())"
+                        ${PYTHON} -c "import kata, os; print(kata._native.found_by, os.path.realpath(kata.library_path), kata.version)"
                 WORKING_DIRECTORY ${WORK_DIR} RESULT_VARIABLE rc OUTPUT_VARIABLE out ERROR_VARIABLE err)
 file(REAL_PATH ${prefix} real_prefix)
 if(rc OR NOT out MATCHES "^install prefix ${real_prefix}/")

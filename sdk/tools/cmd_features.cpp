@@ -5,6 +5,7 @@
 
 #include "command.hpp"
 #include "common/error.hpp"
+#include "data_files.hpp"
 #include "io/bvh.hpp"
 #include "io/npy.hpp"
 #include "io/clip_features.hpp"
@@ -74,12 +75,12 @@ void setup(CLI::App& app) {
   auto args = std::make_shared<FeaturesArgs>();
   CLI::App* cmd = app.add_subcommand("features", "GPD v1 features (frames x 1683) of a BVH clip, pushed frame by frame "
                                                  "through a live stream; timestamps i x frame time, H from the rest pose");
-  auto* bvh = cmd->add_option("--bvh", args->bvh, "input BVH clip")->check(CLI::ExistingFile);
+  auto* bvh = cmd->add_option("--bvh", args->bvh, "input BVH clip")->transform(kata::cli::default_data_file)->check(CLI::ExistingFile);
   cmd->add_option("--student", args->student,
                   "input motion of any source: .bvh, or landmarks as .npy (frames, joints, 3|4|5: x y z [confidence | "
                   "visibility presence]) or .csv (a row per frame, optionally a timestamp first) in the joint order of --layout; rows are the frames that gave features")
       ->excludes(bvh)
-      ->check(CLI::ExistingFile);
+      ->transform(kata::cli::default_data_file)->check(CLI::ExistingFile);
   auto* preset = cmd->add_option("--layout,--preset", args->preset,
                                  "layout mapping the input onto the 16 GPD joints: a preset (cmu, h36m, kinect2, "
                                  "azure-kinect, xsens, gpd, ...) or mediapipe (--preset is the old name)");
@@ -92,7 +93,7 @@ void setup(CLI::App& app) {
       ->check(CLI::IsMember({"y", "z", "y-down"}));
   cmd->add_option("--name-map", args->name_map, "user name-map file (JSON or 'Hip = joint' lines) instead of a preset")
       ->excludes(preset)
-      ->check(CLI::ExistingFile);
+      ->transform(kata::cli::default_data_file)->check(CLI::ExistingFile);
   cmd->add_option("--stencil", args->stencil, "kinetics stencil: backward (lag 0) or central (lag 1)")
       ->check(CLI::IsMember({"backward", "central"}));
   cmd->add_option("--out", args->out, "output .npy file (frames x 1683)")->required();

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "command.hpp"
+#include "data_files.hpp"
 #include "io/model_file.hpp"
 #include "metric/model.hpp"
 
@@ -48,7 +49,7 @@ void setup(CLI::App& app) {
   auto path = std::make_shared<std::string>();
   CLI::App* cmd = app.add_subcommand("model-info", "print a .kata model's metadata, or refuse a bad file with its reason");
   cmd->add_option("model", *path, "the .kata model file")->required();
-  cmd->callback([path] { run_model_info(*path); });
+  cmd->callback([path] { run_model_info(kata::cli::default_data_file(*path)); });
 }
 
 const kata::cli::RegisterCommand reg(setup);

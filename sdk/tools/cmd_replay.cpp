@@ -41,6 +41,7 @@
 
 #include "command.hpp"
 #include "common/error.hpp"
+#include "data_files.hpp"
 #include "io/bvh.hpp"
 #include "io/clip_features.hpp"
 #include "io/model_file.hpp"
@@ -1066,7 +1067,13 @@ void setup(CLI::App& app) {
                   "run the kata phase through two kata proxy processes (frames, results) and this many kata serve "
                   "shards (ipc endpoints in a temporary directory); latency from the frame's send")
       ->capture_default_str();
-  cmd->callback([o] { run_replay(*o); });
+  cmd->callback([o] {
+    // The defaults are the checkout's paths; from elsewhere (an install) the shipped copies.
+    o->model = kata::cli::default_data_file(o->model);
+    if (o->data_dir == "data/cmu")
+      o->data_dir = std::filesystem::path(kata::cli::default_data_file("data/cmu/02_02.bvh")).parent_path().string();
+    run_replay(*o);
+  });
 }
 
 const kata::cli::RegisterCommand reg(setup);

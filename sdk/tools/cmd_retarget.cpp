@@ -11,6 +11,7 @@
 
 #include "command.hpp"
 #include "common/error.hpp"
+#include "data_files.hpp"
 #include "io/bvh.hpp"
 #include "io/npy.hpp"
 #include "io/ghost_bvh.hpp"
@@ -198,12 +199,12 @@ void setup(CLI::App& app) {
   cmd->add_option("--teacher", args->teacher,
                   "teacher motion (retargeted): a BVH clip, or across layouts a landmark .npy/.csv (see kata features)")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->transform(kata::cli::default_data_file)->check(CLI::ExistingFile);
   cmd->add_option("--student", args->student,
                   "student: a BVH clip of the same hierarchy (only its rest offsets are used); across layouts any "
                   "motion (.bvh/.npy/.csv) whose rest pose or first 60 well-tracked frames give its bone lengths")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->transform(kata::cli::default_data_file)->check(CLI::ExistingFile);
   cmd->add_option("--teacher-layout", args->teacher_layout,
                   "layout of the teacher (cmu, mediapipe, gpd, kinect2, ...); with it, or --student-layout, or a "
                   "non-BVH input, the ghost is made across layouts on the 16 GPD joints (default cmu for a BVH)");

@@ -10,6 +10,7 @@
 
 #include "command.hpp"
 #include "common/error.hpp"
+#include "data_files.hpp"
 #include "io/bvh.hpp"
 #include "io/model_file.hpp"
 #include "metric/model.hpp"
@@ -243,17 +244,17 @@ void setup(CLI::App& app) {
                   "models/transition-static.kata between clips of different motions (0.836 vs JCD 0.620); "
                   "docs/model/transition.md")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->transform(kata::cli::default_data_file)->check(CLI::ExistingFile);
   cmd->add_option("--teacher", args->teacher, "teacher motion: .bvh, or a landmark .npy/.csv (see kata features)")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->transform(kata::cli::default_data_file)->check(CLI::ExistingFile);
   cmd->add_option("--teacher-frame", args->teacher_frame,
                   "score against this single teacher frame (clip frame index) instead of following the whole clip; "
                   "-1 (default): the whole clip")
       ->check(CLI::Range(-1, std::numeric_limits<int>::max()));
   cmd->add_option("--student", args->student, "student motion: .bvh, or a landmark .npy/.csv (see kata features)")
       ->required()
-      ->check(CLI::ExistingFile);
+      ->transform(kata::cli::default_data_file)->check(CLI::ExistingFile);
   auto* preset = cmd->add_option("--layout,--preset", args->preset,
                                  "layout of both inputs (cmu, mediapipe, gpd, ...; --preset is the old name)");
   cmd->add_option("--teacher-layout", args->teacher_layout, "layout of the teacher (overrides --layout)");
@@ -267,7 +268,7 @@ void setup(CLI::App& app) {
       ->check(CLI::IsMember({"y", "z", "y-down"}));
   cmd->add_option("--name-map", args->name_map, "name-map file for both clips instead of a preset")
       ->excludes(preset)
-      ->check(CLI::ExistingFile);
+      ->transform(kata::cli::default_data_file)->check(CLI::ExistingFile);
   cmd->add_option("--first-frame", args->first, "first frame of each clip (1 skips the CMU converter's T-pose); default 0");
   cmd->add_option("--window", args->window, "alignment window ahead of the last match, teacher seconds (default 0.5)")
       ->check(CLI::PositiveNumber);

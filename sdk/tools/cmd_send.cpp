@@ -26,6 +26,7 @@
 
 #include "command.hpp"
 #include "common/error.hpp"
+#include "data_files.hpp"
 #include "io/bvh.hpp"
 #include "io/clip_features.hpp"
 #include "transport/curve.hpp"
@@ -443,6 +444,7 @@ void setup(CLI::App& app) {
   cmd->callback([o] {
     if (o->transport == "zmq" && o->endpoint.empty()) throw CLI::RequiredError("--endpoint");
     if (o->transport == "nats" && o->nats_servers.empty()) throw CLI::RequiredError("--nats-server");
+    o->bvh = kata::cli::default_data_file(o->bvh);
     run_send(*o);
   });
 }

@@ -53,6 +53,7 @@
 //   subject_prefix = "kata"                    # partitions = 64, lease_bucket = "kata_leases",
 //   lease_ttl_ms = 3000                        #   lease_replicas = 3 (docs/deploy.md, "NATS")
 #include <sys/resource.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
@@ -156,8 +157,14 @@ std::string handshake_advice(uint32_t error, const ServeConfig& config) {
   const bool sub = config.runtime.ingest.kind == kata::transport::IngestKind::kSub;
   // ZeroMQ reports socket kinds that cannot talk without detail (libzmq 4.3: the peer's READY is
   // refused), or as invalid metadata.
+  // Over TCP a keyless sender meeting a CURVE ingest is reported the same way (libzmq 4.3), so with
+  // a key here that is named first.
+  const bool curve = !config.runtime.ingest.security.curve.own.secret_key.empty();
   if (error == 0 || error == ZMQ_PROTOCOL_ERROR_ZMTP_INVALID_METADATA)
-    return std::string("most likely its socket kind cannot talk to this ingest's (") + config.ingest_kind_where + "): " +
+    return std::string(curve ? "most likely CURVE is set on one side only ([security] key here; kata send --key and "
+                               "--server-key there), else its socket kind cannot talk to this ingest's ("
+                             : "most likely its socket kind cannot talk to this ingest's (") +
+           config.ingest_kind_where + "): " +
            (sub ? "a SUB ingest takes PUB senders (kata send --socket pub); kata send's default, --socket push, "
                   "needs kind = \"pull\""
                 : "a PULL ingest takes PUSH senders (kata send's default); a PUB sender (--socket pub) needs "
@@ -318,6 +325,9 @@ void run_serve(const std::string& file, const std::string& counters_path) {
   bool silence_told = false;
   // Nothing received this long after the start: say so, with the likely cause.
   constexpr double kSilenceSeconds = 10.0;
+  // On a terminal the status line rewrites itself (\r); into a file or a pipe each is a line of
+  // its own, so a log keeps them apart.
+  const bool terminal = isatty(fileno(stderr)) != 0;
   while (!g_stop.load()) {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     const auto now = std::chrono::steady_clock::now();
@@ -363,9 +373,9 @@ void run_serve(const std::string& file, const std::string& counters_path) {
     const uint64_t drops = c.total.queue_full + c.total.refused + c.total.result_queue_full +
                            c.total.pipeline_dropped + c.total.send_failed + c.ingest.dropped_total();
     std::fprintf(stderr,
-                 "\rstreams %llu | in %.0f frames/s | out %.0f results/s | drops %llu%s | handshakes refused %llu | "
-                 "gaps %llu, restarts %llu | latency in->out p50 %.0f us p99 %.0f us | source age p50 %.0f us p99 %.0f us   ",
-                 static_cast<unsigned long long>(c.streams),
+                 "%sstreams %llu | in %.0f frames/s | out %.0f results/s | drops %llu%s | handshakes refused %llu | "
+                 "gaps %llu, restarts %llu | latency in->out p50 %.0f us p99 %.0f us | source age p50 %.0f us p99 %.0f us%s",
+                 terminal ? "\r" : "", static_cast<unsigned long long>(c.streams),
                  static_cast<double>(c.total.frames_in - previous.total.frames_in) / dt,
                  static_cast<double>(out - previous_out) / dt,
                  static_cast<unsigned long long>(drops), drop_causes(c).c_str(),
@@ -374,7 +384,7 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                  kata::runtime::latency_percentile(window, 0.5) / 1000.0,
                  kata::runtime::latency_percentile(window, 0.99) / 1000.0,
                  kata::runtime::latency_percentile(age, 0.5) / 1000.0,
-                 kata::runtime::latency_percentile(age, 0.99) / 1000.0);
+                 kata::runtime::latency_percentile(age, 0.99) / 1000.0, terminal ? "   " : "\n");
     previous = c;
     previous_out = out;
     last = now;

@@ -16,7 +16,7 @@ std::string share_dir() {
 
 std::string default_data_file(const std::string& relative) {
   std::error_code ec;
-  if (std::filesystem::path(relative).is_absolute() || std::filesystem::exists(relative, ec)) return relative;
+  if (relative.empty() || std::filesystem::path(relative).is_absolute() || std::filesystem::exists(relative, ec)) return relative;
   const std::filesystem::path shipped = std::filesystem::path(share_dir()) / relative;
   if (std::filesystem::exists(shipped, ec)) return shipped.string();
   return relative;

@@ -14,7 +14,8 @@ std::string share_dir();
 // A default file named relative to the checkout (e.g. "models/default.kata"): that path when it
 // exists from the current directory (running from the repository root, as the README does),
 // otherwise share_dir()/relative when that exists, otherwise `relative` unchanged so that the
-// error that follows names the file the user expected.
+// error that follows names the file the user expected (and "" stays ""). The commands apply it to
+// their input files too, so the docs' `data/cmu/...` and `models/...` work from an install.
 std::string default_data_file(const std::string& relative);
 
 }  // namespace kata::cli

@@ -1,37 +1,50 @@
-"""kata: real-time 3D human pose (GPD v1 features, scoring against a teacher, retargeting).
-
-A thin, Pythonic layer over the C ABI (sdk/include/kata/kata.h, which is the manual: units,
-ownership and thread rules are the C functions'). Every method calls one C function, except the
-*_many helpers, which loop over one C call per frame in Python (the C ABI has no bulk push).
+"""kata: real-time 3D human pose: GPD v1 features, a learned score against a teacher, the
+teacher's pose retargeted onto the student (the "ghost"), from Python over libkata's C ABI.
 
     import kata, numpy as np
-    with kata.Context() as ctx, ctx.load_clip("data/cmu/02_01.bvh") as clip:
-        with ctx.open_stream(clip.skeleton(), preset="cmu", keep_features=True) as s:
-            s.push_many(np.arange(n) * clip.frame_time, clip.all_positions())
-            r = s.read_results()          # r.results, r.scores, r.ghosts, r.features: numpy
+    teacher = kata.find_data("data/cmu/05_18.bvh")          # a clip kata installs
+    with kata.Context() as ctx, ctx.load_model(kata.default_model_path()) as model, \\
+         ctx.load_clip(teacher) as clip, clip.skeleton() as skeleton, \\
+         ctx.open_stream(skeleton, preset="cmu", stencil=model.stencil) as stream:
+        stream.attach_teacher(model, clip=clip, first_frame=1)
+        frames = clip.all_positions(1)                       # (n, joints, 3) float32
+        r = stream.push_and_read(1 + np.arange(len(frames)) * clip.frame_time, frames)
+        print(len(r), r.scores["score"].mean())              # every result: nothing dropped
 
-Arrays: positions are float32 (joints x 3, x y z interleaved) and are passed to C without a copy
-when they are C-contiguous float32 already (else converted once per call). Results are read
-straight into numpy arrays (structured dtypes mirroring kata_result / kata_score_record).
-Errors: a failed call raises KataError with .status (Status) and .message (the C message).
+Modules (all re-exported here): errors (Status, KataError, the dropped-results warning),
+objects (Context, Skeleton, Clip, Model, the enums, find_data), stream (Stream, Results),
+retarget (Retargeter), messages (Subscriber, read_message), runtime (Runtime), mediapipe
+(MediaPipe Pose recordings and live feeds scored against a BVH teacher); _native holds every
+ctypes declaration. The C header kata.h is the manual: units, ownership and thread rules are its.
+
+Results are never lost in silence: a stream keeps result_capacity results (64) until read; a
+read after some were overwritten says so (Results.dropped, and a ResultsDroppedWarning by default;
+Stream.on_drop = "raise" or "count"). push_and_read reads as it pushes and loses nothing.
+Arrays: positions are float32 (joints, 3), passed without a copy when C-contiguous float32.
+Errors: a failed C call raises KataError (.status, .message); a wrong argument type, TypeError.
 Handles: every object has close() and is a context manager; a Context closes what was made from
-it that is still open before it is destroyed (kata.h requires that order).
+it before it is destroyed (kata.h requires that order).
 """
 import os
 
-from .errors import KataError, Status
+from .errors import KataError, ResultsDroppedError, ResultsDroppedWarning, Status
 from .objects import (GPD_DIMS, GPD_JOINTS, BodyPart, Clip, Context, Model, ScoreState, Skeleton, Stencil, UpAxis,
-                      default_model_path, library_path, presets, version)
-from .stream import (RESULT_DTYPE, RESULT_GHOST, RESULT_SCORED, SCORE_DTYPE, ResultBuffer, Results, ScoreRecord,
-                     Stream, detect_time_units)
+                      default_model_path, find_data, library_path, presets, version)
+from .stream import (DROP_POLICIES, RESULT_DTYPE, RESULT_GHOST, RESULT_SCORED, SCORE_DTYPE, ResultBuffer, Results,
+                     ScoreRecord, Stream, detect_time_units)
 from .retarget import Retargeter
 from .messages import PracticeSection, ResultMessage, Subscriber, read_message
 from .runtime import Runtime, shard_of
 
-__all__ = ["Runtime", "shard_of", "Subscriber", "ResultMessage", "PracticeSection", "read_message", "ScoreState", "default_model_path", "Context", "Skeleton", "Clip", "Model", "Stream", "Retargeter", "ResultBuffer", "Results",
-           "ScoreRecord", "KataError", "Status", "Stencil", "UpAxis", "BodyPart", "version", "library_path",
-           "GPD_DIMS", "GPD_JOINTS", "RESULT_SCORED", "RESULT_GHOST", "RESULT_DTYPE", "SCORE_DTYPE", "presets",
-           "detect_time_units"]
+#: The loaded libkata's version as "MAJOR.MINOR.PATCH" (the package is versioned with it).
+__version__ = "%d.%d.%d" % version
+
+__all__ = ["Context", "Skeleton", "Clip", "Model", "Stream", "Retargeter", "Runtime", "Subscriber",
+           "Results", "ResultBuffer", "ScoreRecord", "ResultMessage", "PracticeSection",
+           "KataError", "ResultsDroppedWarning", "ResultsDroppedError", "Status", "Stencil", "UpAxis", "ScoreState",
+           "BodyPart", "read_message", "shard_of", "detect_time_units", "default_model_path", "find_data", "presets",
+           "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_SCORED", "RESULT_GHOST", "RESULT_DTYPE",
+           "SCORE_DTYPE", "DROP_POLICIES"]
 
 # kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the
 # installed package; used from a checkout, they are the build's (<repo>/build/python/kata/fb).
@@ -40,3 +53,4 @@ if not os.path.isdir(os.path.join(os.path.dirname(os.path.abspath(__file__)), "f
                                               "build", "python", "kata"))
     if os.path.isdir(os.path.join(_build_fb, "fb")):
         __path__.append(_build_fb)
+del os

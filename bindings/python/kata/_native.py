@@ -11,7 +11,7 @@ import ctypes
 import ctypes.util
 import os
 import sys
-from typing import Any
+from typing import Any, Iterator, List, Tuple
 
 # The C ABI major version this binding is written against (kata.h KATA_VERSION_MAJOR), and the
 # oldest minor that has every function declared below (1.0: the teacher as the one way).
@@ -25,7 +25,7 @@ PART_COUNT = 5
 c_float_p = ctypes.POINTER(ctypes.c_float)
 
 
-def _library_file_names():
+def _library_file_names() -> List[str]:
     if sys.platform == "win32":
         return ["kata.dll"]
     if sys.platform == "darwin":
@@ -33,7 +33,7 @@ def _library_file_names():
     return ["libkata.so", "libkata.so.%d" % EXPECTED_MAJOR]
 
 
-def _candidates():
+def _candidates() -> Iterator[Tuple[str, str]]:
     """Where libkata is looked for, in order, as (how it was found, path)."""
     env = os.environ.get("KATA_LIBRARY")
     if env:
@@ -43,7 +43,7 @@ def _candidates():
     for name in _library_file_names():
         yield "package folder", os.path.join(here, name)
     try:
-        from . import _install_paths  # written by `cmake --install`
+        from . import _install_paths  # type: ignore[attr-defined]  # written by `cmake --install`
         for name in _library_file_names():
             yield "install prefix", os.path.normpath(os.path.join(here, _install_paths.LIBDIR_FROM_PACKAGE, name))
     except ImportError:
@@ -57,7 +57,7 @@ def _candidates():
         yield "system", found
 
 
-def _open_library():
+def _open_library() -> Tuple[ctypes.CDLL, str, str]:
     tried = []
     for how, path in _candidates():
         if how != "system" and not os.path.exists(path):
@@ -73,7 +73,7 @@ def _open_library():
 lib, library_path, found_by = _open_library()
 
 
-def _check_version():
+def _check_version() -> Tuple[int, int, int]:
     lib.kata_version.restype = ctypes.c_uint32
     lib.kata_version.argtypes = []
     v = lib.kata_version()

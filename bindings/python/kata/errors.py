@@ -1,9 +1,12 @@
-"""Statuses and the one exception: every failed C call raises KataError with .status (Status) and
-.message (the C library's last error of the handle the call was made on)."""
+"""Statuses and errors: every failed C call raises KataError with .status (Status) and .message
+(the C library's last error of the handle the call was made on); results lost to a full ring are
+reported by ResultsDroppedWarning or ResultsDroppedError (Stream.on_drop)."""
 import enum
+from typing import Any, Union
+
 from . import _native as _n
 
-__all__ = ["Status", "KataError"]
+__all__ = ["Status", "KataError", "ResultsDroppedWarning", "ResultsDroppedError"]
 
 
 class Status(enum.IntEnum):
@@ -26,12 +29,13 @@ class Status(enum.IntEnum):
     TRACKING_LOST = 15
 
 
-
 class KataError(Exception):
     """A failed C call: .status (Status, or the raw int for a status this binding does not know)
     and .message (kata_*_last_error of the handle the call was made on)."""
 
-    def __init__(self, status, message, call=""):
+    status: Union[Status, int]
+
+    def __init__(self, status: int, message: Any, call: str = "") -> None:
         try:
             self.status = Status(status)
         except ValueError:
@@ -40,3 +44,24 @@ class KataError(Exception):
         self.call = call
         name = _n.status_string(int(status)).decode()
         super().__init__("%s%s: %s" % (call + ": " if call else "", name, message))
+
+
+class ResultsDroppedWarning(UserWarning):
+    """Results were overwritten unread (the stream's result ring was full) before a read: .count of
+    them. Read more often, give open_stream a larger result_capacity, or use Stream.push_and_read
+    for a recording. Stream.on_drop = "raise" makes it an error, "count" silences it (the count
+    stays in Results.dropped and Stream.results_dropped)."""
+
+    def __init__(self, count: int, message: str) -> None:
+        super().__init__(message)
+        self.count = count
+
+
+class ResultsDroppedError(Exception):
+    """Stream.on_drop = "raise": results were overwritten unread before this read. .count of them
+    were lost; .results holds what the read did move (nothing more is lost by the raise)."""
+
+    def __init__(self, count: int, message: str, results: Any = None) -> None:
+        super().__init__(message)
+        self.count = count
+        self.results = results

@@ -4,15 +4,18 @@ metres, camera axes x right / y down / z away; pelvis, chest, neck and head synt
 by default) and kata_stream_push_confidence with each landmark's visibility as its confidence.
 
     import kata.mediapipe
-    r = kata.mediapipe.score(landmarks, timestamps_ms, "teacher.bvh")
+    r = kata.mediapipe.score(landmarks, timestamps_ms, "teacher.bvh")    # units inferred
     print(r.mean_score, r.scores["score"])
 
 landmarks: a sequence of MediaPipe results (the Pose solution's objects with
 .pose_world_landmarks.landmark[i].x/.y/.z/.visibility, or the Pose Landmarker's with
 .pose_world_landmarks[0][i]; a frame without a person (None or empty) is skipped), or an array
 frames x 33 x 3, 4 or 5 (x, y, z[, visibility[, presence]]); confidence = visibility, or the
-smaller of visibility and presence (no channel: fully confident). timestamps_ms: one per frame,
-milliseconds (MediaPipe's), increasing."""
+smaller of visibility and presence (no channel: fully confident). timestamps: one per frame,
+increasing, in time_units: "ms" (MediaPipe's), "s", or "auto" (the default for a recording:
+inferred from the median step as the CLI does, 2..1000 Hz; steps that fit neither unit are
+refused). Stated units are checked the same way: seconds given as "ms" (or the reverse) raise a
+ValueError naming the units instead of scoring nothing."""
 import os
 from typing import Any, Optional, Sequence, Union
 
@@ -21,6 +24,34 @@ import numpy as np
 import kata
 
 LANDMARKS = 33
+TIME_UNITS = ("auto", "ms", "s")
+
+
+def _seconds(timestamps: np.ndarray, time_units: str) -> np.ndarray:
+    """timestamps (n,) in time_units as seconds; "auto" inferred (kata_time_units_detect) and
+    stated units checked against what the steps fit (a recording of 2..1000 Hz)."""
+    if time_units not in TIME_UNITS:
+        raise ValueError("time_units must be one of %s, not %r" % (", ".join(TIME_UNITS), time_units))
+    fits: Optional[str] = None
+    if len(timestamps) >= 2:
+        try:
+            fits = kata.detect_time_units(timestamps)
+        except kata.KataError as e:
+            if time_units == "auto":
+                raise ValueError("timestamps: the steps between frames fit neither seconds nor milliseconds at "
+                                 "2..1000 Hz (%s); state time_units=\"s\" or \"ms\"" % e.message) from None
+    if time_units == "auto":
+        if fits is None:
+            raise ValueError("timestamps: one frame cannot tell seconds from milliseconds; state time_units")
+        time_units = fits
+    elif fits is not None and fits != time_units:
+        step = float(np.median(np.diff(timestamps)))
+        raise ValueError("timestamps are in %s (median step %.6g: %.4g Hz if %s), not %s as time_units=%r says; "
+                         "pass time_units=%r (or \"auto\")" % (
+                             "seconds" if fits == "s" else "milliseconds", step,
+                             (1.0 if fits == "s" else 1000.0) / step if step > 0 else float("inf"), fits,
+                             "seconds" if time_units == "s" else "milliseconds", time_units, fits))
+    return timestamps / 1000.0 if time_units == "ms" else timestamps
 
 __all__ = ["LANDMARKS", "landmarks_array", "Scorer", "Scores", "score"]
 
@@ -91,7 +122,7 @@ class Scorer:
 
     def __init__(self, teacher: Union[str, "os.PathLike[str]", kata.Clip], model: Optional[str] = None,
                  first_frame: int = 0, teacher_preset: str = "cmu", smoothing: bool = True,
-                 result_capacity: int = 1024) -> None:
+                 result_capacity: int = 1024, time_units: str = "ms") -> None:
         self._ctx = kata.Context()
         self._model = self._ctx.load_model(model or kata.default_model_path())
         clip = teacher if isinstance(teacher, kata.Clip) else self._ctx.load_clip(os.fspath(teacher))
@@ -108,26 +139,42 @@ class Scorer:
         self._results: list = []
         self._scores: list = []
         self.skipped_frames = 0
+        if time_units not in ("ms", "s"):
+            raise ValueError('time_units of a live Scorer: "ms" (MediaPipe\'s) or "s", not %r' % (time_units,))
+        self.time_units = time_units  #: what push's timestamps are in (push_many may say otherwise)
+        self._last_time: Optional[float] = None
 
-    def push(self, landmarks: Any, timestamp_ms: float) -> kata.Status:
-        """One frame: a MediaPipe result object or a (33, 3..5) array, at timestamp_ms milliseconds.
-        Status.OK or Status.TRACKING_LOST; a frame without a person is skipped (Status.NO_DATA)."""
+    def push(self, landmarks: Any, timestamp: float) -> kata.Status:
+        """One frame: a MediaPipe result object or a (33, 3..5) array, at timestamp in the Scorer's
+        time_units ("ms" unless told). Status.OK or Status.TRACKING_LOST; a frame without a person
+        is skipped (Status.NO_DATA). A step between frames that no camera makes in those units
+        (above 1000 Hz) raises ValueError naming the units."""
         a = landmarks_array(np.asarray(landmarks, dtype=np.float32)[None] if isinstance(landmarks, np.ndarray)
                             else [landmarks])[0]
         if np.isnan(a[:, 0]).all():
             self.skipped_frames += 1
             return kata.Status.NO_DATA
-        status = self.stream.push(timestamp_ms / 1000.0, a[:, :3], np.minimum(a[:, 3], a[:, 4]))
+        seconds = float(timestamp) / (1000.0 if self.time_units == "ms" else 1.0)
+        if self._last_time is not None and 0 < seconds - self._last_time < 0.001:
+            step = float(timestamp) - self._last_time * (1000.0 if self.time_units == "ms" else 1.0)
+            hint = ("these look like seconds: make the Scorer with time_units=\"s\"" if self.time_units == "ms"
+                    else "no camera runs above 1000 Hz")
+            raise ValueError("timestamp %r: a step of %.6g %s (%.0f Hz) since the previous frame; %s"
+                             % (timestamp, step, self.time_units, 1.0 / (seconds - self._last_time), hint))
+        status = self.stream.push(seconds, a[:, :3], np.minimum(a[:, 3], a[:, 4]))
+        self._last_time = seconds
         self._drain_if_full()
         return status
 
-    def push_many(self, landmarks: Any, timestamps_ms: Any) -> int:
+    def push_many(self, landmarks: Any, timestamps: Any, time_units: str = "auto") -> int:
         """A recording (see the module): frames without a person are skipped; returns the frames
-        pushed. Reads results as it goes, so any length fits."""
+        pushed. time_units: "auto" (inferred), "ms" or "s" (checked). Reads results as it goes, so
+        any length fits."""
         a = landmarks_array(landmarks)
-        t = np.asarray(timestamps_ms, dtype=np.float64) / 1000.0
+        t = np.asarray(timestamps, dtype=np.float64)
         if t.shape != (len(a),):
-            raise ValueError("timestamps_ms: one per frame (%d), got shape %s" % (len(a), t.shape))
+            raise ValueError("timestamps: one per frame (%d), got shape %s" % (len(a), t.shape))
+        t = _seconds(t, time_units)
         present = ~np.isnan(a[:, :, 0]).all(axis=1)
         self.skipped_frames += int((~present).sum())
         a, t = a[present], t[present]
@@ -138,6 +185,8 @@ class Scorer:
             self.stream.push_many(t[start:start + chunk], positions[start:start + chunk],
                                   confidences[start:start + chunk])
             self._drain()
+        if len(t):
+            self._last_time = float(t[-1])
         return len(a)
 
     def _drain_if_full(self) -> None:
@@ -146,7 +195,7 @@ class Scorer:
 
     def _drain(self) -> None:
         r = self.stream.read_results(self._buffer)
-        if len(r):
+        if len(r) and r.scores is not None:
             self._results.append(r.results.copy())
             self._scores.append(r.scores.copy())
 
@@ -168,10 +217,10 @@ class Scorer:
         self.close()
 
 
-def score(landmarks: Any, timestamps_ms: Any, teacher: Union[str, "os.PathLike[str]"], model: Optional[str] = None,
-          first_frame: int = 0, teacher_preset: str = "cmu") -> Scores:
+def score(landmarks: Any, timestamps: Any, teacher: Union[str, "os.PathLike[str]"], model: Optional[str] = None,
+          first_frame: int = 0, teacher_preset: str = "cmu", time_units: str = "auto") -> Scores:
     """Scores a MediaPipe recording (see the module) against a BVH teacher: a Scorer, every frame
-    pushed, every result read."""
+    pushed, every result read. time_units: "auto" (inferred from the steps), "ms" or "s"."""
     with Scorer(teacher, model, first_frame=first_frame, teacher_preset=teacher_preset) as s:
-        s.push_many(landmarks, timestamps_ms)
+        s.push_many(landmarks, timestamps, time_units)
         return s.read()

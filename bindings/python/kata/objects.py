@@ -4,12 +4,12 @@ import ctypes
 import enum
 import os
 import weakref
-from typing import TYPE_CHECKING, Any, List, Optional
+from typing import TYPE_CHECKING, Any, List, Optional, Sequence, Tuple, Type, TypeVar
 
 import numpy as np
 
 from . import _native as _n
-from ._util import _text, _utf8
+from ._util import _text, _typed, _utf8
 from .errors import KataError, Status
 
 if TYPE_CHECKING:
@@ -18,16 +18,13 @@ if TYPE_CHECKING:
     from .stream import Stream
 
 __all__ = ["Context", "Skeleton", "Clip", "Model", "Stencil", "UpAxis", "ScoreState", "BodyPart",
-           "default_model_path", "presets", "version", "library_path", "GPD_DIMS", "GPD_JOINTS"]
+           "default_model_path", "find_data", "presets", "version", "library_path", "GPD_DIMS", "GPD_JOINTS"]
 
 GPD_DIMS = _n.GPD_DIMS
 GPD_JOINTS = _n.GPD_JOINTS
-library_path = _n.library_path
-
-
-def version():
-    """The loaded library's (major, minor, patch) (kata_version)."""
-    return _n.version
+#: The loaded libkata's file and its (major, minor, patch) (kata_version): plain values, both.
+library_path: str = _n.library_path
+version: Tuple[int, int, int] = _n.version
 
 
 
@@ -59,16 +56,43 @@ class BodyPart(enum.IntEnum):
     RIGHT_LEG = 4
 
 
-def default_model_path() -> str:
-    """The scoring model shipped with kata: inside the installed package (kata/models/default.kata),
-    else a checkout's models/default.kata."""
+def _share_dirs() -> List[str]:
+    """Where kata's shared files may be, in order: inside the package (a wheel: models/), the
+    install prefix's share/kata (`cmake --install`), a build tree's share/kata and the checkout
+    (the package used from bindings/python)."""
     here = os.path.dirname(os.path.abspath(__file__))
-    for path in (os.path.join(here, "models", "default.kata"),
-                 os.path.normpath(os.path.join(here, "..", "..", "..", "models", "default.kata"))):
+    dirs = [here]
+    try:
+        from . import _install_paths  # type: ignore[attr-defined]  # written by `cmake --install`
+        dirs.append(os.path.normpath(os.path.join(here, _install_paths.DATADIR_FROM_PACKAGE)))
+    except (ImportError, AttributeError):
+        pass
+    repo = os.path.normpath(os.path.join(here, "..", "..", ".."))
+    dirs += [os.path.join(repo, "build", "share", "kata"), repo]
+    return dirs
+
+
+def find_data(relative: str) -> str:
+    """The path of one of kata's shared files, e.g. "models/default.kata" or "data/cmu/05_18.bvh"
+    (the clips `cmake --install` puts in PREFIX/share/kata): as the CLI does, first where the
+    program runs (relative to the current folder), then inside the package (a wheel carries the
+    model), in the install's share/kata, then in a build tree and checkout the package is used
+    from. Raises FileNotFoundError naming every place looked in."""
+    if os.path.isfile(relative):
+        return os.path.abspath(relative)
+    looked = [os.getcwd()]
+    for d in _share_dirs():
+        path = os.path.join(d, relative)
         if os.path.isfile(path):
             return path
-    raise FileNotFoundError("kata: no default.kata inside the package (%s/models) nor in a checkout; "
-                            "pass a model path" % here)
+        looked.append(d)
+    raise FileNotFoundError("kata: no %s in %s" % (relative, ", ".join(looked)))
+
+
+def default_model_path() -> str:
+    """The scoring model shipped with kata (find_data("models/default.kata")): inside the
+    package (a wheel), the install's share/kata/models, or a checkout's models/."""
+    return find_data(os.path.join("models", "default.kata"))
 
 
 def presets() -> List[str]:
@@ -86,11 +110,14 @@ def presets() -> List[str]:
 
 
 
+_H = TypeVar("_H", bound="_Handle")
+
+
 class _Handle:
     """An owned C handle released exactly once (close(), the with block, or garbage collection)."""
     _release: Any = None  # the C release function, set per subclass
 
-    def __init__(self, handle, context):
+    def __init__(self, handle: Optional[int], context: Optional["Context"]) -> None:
         self._h = handle
         self._context = context  # keeps the context alive while this object is
         if context is not None:
@@ -114,7 +141,7 @@ class _Handle:
             if self._context is not None:
                 self._context._children.discard(self)
 
-    def __enter__(self):
+    def __enter__(self: _H) -> _H:
         return self
 
     def __exit__(self, *exc: Any) -> None:
@@ -131,8 +158,8 @@ class Context(_Handle):
     """The library instance (kata_context_create). Objects made from it keep it alive."""
     _release = _n.context_destroy
 
-    def __init__(self):
-        self._children = weakref.WeakSet()
+    def __init__(self) -> None:
+        self._children: "weakref.WeakSet[_Handle]" = weakref.WeakSet()
         h = ctypes.c_void_p()
         status = _n.context_create(ctypes.byref(h))
         if status:
@@ -144,18 +171,18 @@ class Context(_Handle):
             child.close()
         super().close()
 
-    def _check(self, status, call):
+    def _check(self, status: int, call: str) -> int:
         if status and status != Status.NO_DATA:
             raise KataError(status, _text(_n.context_last_error(self._h)), call)
         return status
 
-    def _make(self, cls, call, fn, *args):
+    def _make(self, cls: Type[_H], call: str, fn: Any, *args: Any) -> _H:
         h = ctypes.c_void_p()
         self._check(fn(self.handle, *args, ctypes.byref(h)), call)
         return cls(h.value, self)
 
     # -- constructors (one C call each) --
-    def create_skeleton(self, names, parents, rest_offsets=None):
+    def create_skeleton(self, names: Sequence[str], parents: Any, rest_offsets: Any = None) -> "Skeleton":
         """kata_skeleton_create: names (str), parents (-1 for the root, topological order), rest
         offsets (joints x 3, parent-relative, input units) or None for a bare live source."""
         n = len(names)
@@ -195,14 +222,19 @@ class Context(_Handle):
         data = bytes(data)
         return self._make(Model, "kata_model_load_memory", _n.model_load_memory, data, len(data))
 
-    def open_stream(self, skeleton, preset="cmu", name_map=None, stencil=None, up_axis=None, max_gap=None,
-                    history_capacity=None, body_height=None, calibration_frames=None, result_capacity=None,
-                    keep_features=None, name_map_text=None):
+    def open_stream(self, skeleton: "Skeleton", preset: Optional[str] = "cmu", name_map: Optional[str] = None,
+                    stencil: Optional[int] = None, up_axis: Optional[int] = None, max_gap: Optional[float] = None,
+                    history_capacity: Optional[int] = None, body_height: Optional[float] = None,
+                    calibration_frames: Optional[int] = None, result_capacity: Optional[int] = None,
+                    keep_features: Optional[bool] = None, name_map_text: Optional[str] = None,
+                    on_drop: Optional[str] = None) -> "Stream":
         """kata_stream_open with a kata_stream_desc: arguments left None keep kata_stream_desc_init's
         defaults. Give a preset name (a layout, see presets()), name_map (a file path) or
         name_map_text (the contents of a name-map file; kata_stream_open_name_map), only one.
         up_axis: UpAxis (ignored for "mediapipe", which is always camera axes). max_gap: seconds.
-        body_height: input units, 0 = estimated. [any thread]"""
+        body_height: input units, 0 = estimated. result_capacity: results kept until read (64).
+        on_drop: what a read does about results lost to a full ring ("warn", "raise", "count";
+        Stream.on_drop). [any thread]"""
         from . import stream as _stream  # stream.py builds on this module
         d = _n.StreamDesc()
         _n.stream_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
@@ -223,6 +255,9 @@ class Context(_Handle):
         else:
             s = self._make(_stream.Stream, "kata_stream_open", _n.stream_open, skeleton.handle, ctypes.byref(d))
         s._joints = skeleton.joint_count
+        s._result_capacity = int(d.result_capacity)
+        if on_drop is not None:
+            s.on_drop = on_drop
         return s
 
     def create_runtime(self, workers: Optional[int] = None, max_streams: Optional[int] = None,
@@ -249,7 +284,7 @@ class Context(_Handle):
             d.ingest_pull = 1 if ingest_pull else 0
         return self._make(_runtime.Runtime, "kata_runtime_create", _n.runtime_create, ctypes.byref(d))
 
-    def create_retargeter(self, student, **options):
+    def create_retargeter(self, student: "Skeleton", **options: Any) -> "Retargeter":
         """kata_retargeter_create: student is a Skeleton with rest offsets. options: preset ("cmu" or
         "gpd"), gradient_tolerance, max_iterations, warm_start, restore_bone_lengths."""
         from . import retarget as _retarget  # retarget.py builds on this module
@@ -258,7 +293,7 @@ class Context(_Handle):
         r._student_joints = student.joint_count
         return r
 
-    def create_retargeter_for_stream(self, stream, **options):
+    def create_retargeter_for_stream(self, stream: "Stream", **options: Any) -> "Retargeter":
         """kata_retargeter_create_for_stream: the stream's skeleton is the student."""
         from . import retarget as _retarget
         d = _retarget._retarget_desc(options)
@@ -279,7 +314,7 @@ class Skeleton(_Handle):
 
     @property
     def names(self) -> List[str]:
-        return [_text(_n.skeleton_joint_name(self.handle, i)) for i in range(self.joint_count)]
+        return [_text(_n.skeleton_joint_name(self.handle, i)) or "" for i in range(self.joint_count)]
 
     @property
     def parents(self) -> np.ndarray:
@@ -329,6 +364,7 @@ class Clip(_Handle):
             raise KataError(status, "cannot copy the clip's skeleton", "kata_clip_skeleton")
         return Skeleton(h.value, self._context)
 
+    @_typed
     def positions(self, frame: int, out: Optional[np.ndarray] = None) -> np.ndarray:
         """kata_clip_positions: world positions (joints x 3 float32) of one frame, into out if given."""
         if out is None:
@@ -341,6 +377,7 @@ class Clip(_Handle):
                             "kata_clip_positions")
         return out
 
+    @_typed
     def all_positions(self, first: int = 0) -> np.ndarray:
         """Positions of frames first..end as (frames, joints, 3) float32: one kata_clip_positions per frame."""
         joints = self.joint_count

@@ -1,6 +1,6 @@
 """Retargeting (kata_retargeter): a teacher frame solved onto a student's skeleton (the ghost)."""
 import ctypes
-from typing import NoReturn, Tuple
+from typing import Any, Dict, NoReturn, Optional, Tuple
 
 import numpy as np
 
@@ -12,7 +12,7 @@ from .objects import _Handle
 __all__ = ["Retargeter"]
 
 
-def _retarget_desc(options):
+def _retarget_desc(options: Dict[str, Any]) -> "_n.RetargetDesc":
     d = _n.RetargetDesc()
     _n.retarget_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
     for key, value in options.items():
@@ -41,7 +41,7 @@ class Retargeter(_Handle):
         return np.array([_n.retargeter_joint_source(h, i) for i in range(_n.retargeter_joint_count(h))],
                         dtype=np.int32)
 
-    def solve(self, teacher, out=None):
+    def solve(self, teacher: Any, out: Optional[np.ndarray] = None) -> Tuple[np.ndarray, Dict[str, Any]]:
         """kata_retargeter_solve: one teacher frame (skeleton joints x 3) -> (ghost (joint_count, 3)
         float32, info dict)."""
         t = _positions_f32(teacher)
@@ -55,7 +55,7 @@ class Retargeter(_Handle):
             self._raise(status, "kata_retargeter_solve")
         return out, {name: getattr(info, name) for name, _ in _n.RetargetInfo._fields_[1:]}
 
-    def place(self, student, ghost):
+    def place(self, student: Any, ghost: np.ndarray) -> np.ndarray:
         """kata_retargeter_place: moves ghost (in place) over the student's posture."""
         s = _positions_f32(student)
         if ghost.dtype != np.float32 or not ghost.flags.c_contiguous:

@@ -5,7 +5,7 @@ from typing import Any, Optional, Tuple
 import numpy as np
 
 from . import _native as _n
-from ._util import _address, _positions_f32, _text, _utf8
+from ._util import _address, _positions_f32, _text, _type_error, _typed, _utf8
 from .errors import KataError
 from .objects import _Handle
 from .stream import Stream
@@ -18,6 +18,10 @@ class Runtime(_Handle):
     producer per stream keeps its order); it never blocks: a full worker queue drops and counts."""
     _release = _n.runtime_destroy
 
+    def _context_error(self) -> Optional[str]:
+        return _text(_n.context_last_error(self._context.handle if self._context is not None else None))
+
+    @_typed
     def add_stream(self, stream_id: int, stream: "Stream", preset: Optional[str] = None,
                    publish_features: bool = False) -> None:
         """kata_runtime_add_stream: hands `stream` to the runtime under stream_id; the runtime owns
@@ -27,7 +31,7 @@ class Runtime(_Handle):
         status = _n.runtime_add_stream(self.handle, stream_id, ctypes.byref(h), _utf8(preset),
                                        1 if publish_features else 0)
         if status:
-            raise KataError(status, _text(_n.context_last_error(self._context.handle)), "kata_runtime_add_stream")
+            raise KataError(status, self._context_error(), "kata_runtime_add_stream")
         stream._h = None  # owned by the runtime now
         if stream._context is not None:
             stream._context._children.discard(stream)
@@ -41,10 +45,14 @@ class Runtime(_Handle):
         a = positions
         if type(a) is not np.ndarray or a.dtype != np.float32 or not a.flags.c_contiguous:
             a = _positions_f32(a)
-        status = _n.runtime_push(self.handle, stream_id, sequence, capture_time, _address(a), a.size // 3)
+        try:
+            status = _n.runtime_push(self.handle, stream_id, sequence, capture_time, _address(a), a.size // 3)
+        except ctypes.ArgumentError as e:
+            raise _type_error(Runtime.push, (self, stream_id, sequence, capture_time, positions), {}, e) from None
         if status:
             raise KataError(status, "stream %d frame %d" % (stream_id, sequence), "kata_runtime_push")
 
+    @_typed
     def set_practice(self, stream_id: int, revision: int, teacher_start: float = 0.0,
                      loop: Optional[Tuple[float, float]] = None) -> None:
         """kata_runtime_set_practice: from the frames pushed after it, the stream follows its clip
@@ -57,7 +65,7 @@ class Runtime(_Handle):
         status = _n.runtime_set_practice(self.handle, stream_id, revision, teacher_start, 1 if loop is not None else 0,
                                          a, b)
         if status:
-            raise KataError(status, _text(_n.context_last_error(self._context.handle)), "kata_runtime_set_practice")
+            raise KataError(status, self._context_error(), "kata_runtime_set_practice")
 
     def stop(self) -> None:
         """kata_runtime_stop: finishes every queued frame, publishes every result, stops the threads."""
@@ -85,6 +93,7 @@ class Runtime(_Handle):
         return _text(_n.runtime_ingest_endpoint(self.handle)) or ""
 
 
+@_typed
 def shard_of(stream_id: int, shard_count: int) -> int:
     """kata_shard_of: the shard (0..shard_count-1) that scores stream_id (FNV-1a; stable)."""
     return int(_n.shard_of(stream_id, shard_count))

@@ -1,18 +1,24 @@
 """A live pose stream (kata_stream): frames in, features, scores and ghosts out, and the numpy
 records results are read into."""
 import ctypes
-from typing import Any, NoReturn, Optional, Tuple
+import warnings
+from typing import Any, List, NoReturn, Optional, Sequence, Tuple
 
 import numpy as np
 
 from . import _native as _n
-from ._util import _address, _deprecated, _positions_f32, _text, _time_units_code, _utf8
-from .errors import KataError, Status
-from .objects import GPD_DIMS, GPD_JOINTS, _Handle
+from ._util import _address, _deprecated, _positions_f32, _text, _time_units_code, _type_error, _typed, _utf8
+from .errors import KataError, ResultsDroppedError, ResultsDroppedWarning, Status
+from .objects import GPD_DIMS, GPD_JOINTS, Clip, Model, Skeleton, _Handle
 from .retarget import _retarget_desc
 
 __all__ = ["Stream", "ResultBuffer", "Results", "ScoreRecord", "detect_time_units", "RESULT_SCORED", "RESULT_GHOST",
-           "RESULT_DTYPE", "SCORE_DTYPE"]
+           "RESULT_DTYPE", "SCORE_DTYPE", "DROP_POLICIES"]
+
+#: What read_results does when results were overwritten unread since the previous read (a full
+#: ring): "warn" (ResultsDroppedWarning, the default), "raise" (ResultsDroppedError carrying the
+#: results that were read), "count" (only Results.dropped says so).
+DROP_POLICIES = ("warn", "raise", "count")
 
 RESULT_SCORED = 1
 RESULT_GHOST = 2
@@ -22,7 +28,7 @@ SCORE_DTYPE = np.dtype(_n.ScoreRecord)
 assert RESULT_DTYPE.itemsize == ctypes.sizeof(_n.Result) and SCORE_DTYPE.itemsize == ctypes.sizeof(_n.ScoreRecord)
 
 
-def detect_time_units(timestamps):
+def detect_time_units(timestamps: Any) -> str:
     """kata_time_units_detect: "s" or "ms" for recorded timestamps (n >= 2, increasing) from the
     median step between frames (2..1000 Hz is plausible); raises KataError when it fits neither."""
     ts = np.ascontiguousarray(timestamps, dtype=np.float64)
@@ -33,13 +39,12 @@ def detect_time_units(timestamps):
     return "ms" if out.value == 1 else "s"
 
 
-
 class ScoreRecord:
     """One scored frame (kata_score_record), as plain Python values."""
     __slots__ = ("matched_reference_frame", "frame_index", "timestamp", "distance", "score", "parts",
                  "part_scores", "part_to_fix", "state")
 
-    def __init__(self, rec):
+    def __init__(self, rec: "_n.ScoreRecord") -> None:
         self.matched_reference_frame = rec.matched_reference_frame
         self.frame_index = rec.frame_index
         self.timestamp = rec.timestamp
@@ -50,7 +55,7 @@ class ScoreRecord:
         self.part_to_fix = rec.part_to_fix
         self.state = rec.state
 
-    def __repr__(self):
+    def __repr__(self) -> str:
         return "ScoreRecord(frame=%d, score=%.2f, distance=%.5g)" % (self.frame_index, self.score, self.distance)
 
 
@@ -60,11 +65,12 @@ class ResultBuffer:
     float32 where G = the stream's ghost joint count, features (capacity, 1683) float32 when
     with_features. The views a read returns stay valid until the next read into this buffer."""
 
-    def __init__(self, capacity, ghost_joints=0, with_scores=True, with_features=False):
+    def __init__(self, capacity: int, ghost_joints: int = 0, with_scores: bool = True,
+                 with_features: bool = False) -> None:
         self.capacity = int(capacity)
         self.results = np.zeros(self.capacity, dtype=RESULT_DTYPE)
         self.results["struct_size"] = RESULT_DTYPE.itemsize
-        self.scores = None
+        self.scores: Optional[np.ndarray] = None
         if with_scores:
             self.scores = np.zeros(self.capacity, dtype=SCORE_DTYPE)
             self.scores["struct_size"] = SCORE_DTYPE.itemsize
@@ -81,18 +87,36 @@ class ResultBuffer:
 
 
 class Results:
-    """What one read_results call moved: numpy views (results, scores, ghosts, features; None
-    when not requested), `len()` results long."""
-    __slots__ = ("results", "scores", "ghosts", "features")
+    """What one read moved: numpy arrays (results, scores, ghosts, features; None when not
+    requested), `len()` results long, and dropped: the results overwritten unread (a full ring)
+    since the previous read, lost before this one (0 when nothing was lost). From a ResultBuffer
+    the arrays are views valid until the next read into it; from push_and_read they are owned."""
+    __slots__ = ("results", "scores", "ghosts", "features", "dropped")
 
-    def __init__(self, buf, n):
-        self.results = buf.results[:n]
-        self.scores = None if buf.scores is None else buf.scores[:n]
-        self.ghosts = None if buf.ghosts is None else buf.ghosts[:n]
-        self.features = None if buf.features is None else buf.features[:n]
+    def __init__(self, buf: ResultBuffer, n: int, dropped: int = 0) -> None:
+        self.results: np.ndarray = buf.results[:n]
+        self.scores: Optional[np.ndarray] = None if buf.scores is None else buf.scores[:n]
+        self.ghosts: Optional[np.ndarray] = None if buf.ghosts is None else buf.ghosts[:n]
+        self.features: Optional[np.ndarray] = None if buf.features is None else buf.features[:n]
+        self.dropped = dropped
 
-    def __len__(self):
+    @staticmethod
+    def concatenate(parts: Sequence["Results"]) -> "Results":
+        """One Results owning copies of every part's arrays, in order (dropped: their sum)."""
+        out = Results.__new__(Results)
+        out.results, out.scores, out.ghosts, out.features = np.zeros(0, dtype=RESULT_DTYPE), None, None, None
+        out.dropped = sum(p.dropped for p in parts)
+        for name in ("results", "scores", "ghosts", "features"):
+            arrays = [getattr(p, name) for p in parts if getattr(p, name) is not None]
+            if arrays:
+                setattr(out, name, np.concatenate(arrays))
+        return out
+
+    def __len__(self) -> int:
         return len(self.results)
+
+    def __repr__(self) -> str:
+        return "Results(%d results%s)" % (len(self), ", %d dropped before them" % self.dropped if self.dropped else "")
 
 
 class Stream(_Handle):
@@ -100,6 +124,9 @@ class Stream(_Handle):
     thread at a time (kata.h)."""
     _release = _n.stream_close
     _joints = 0
+    _result_capacity = 64  # set by Context.open_stream from the descriptor
+    _dropped_seen = 0      # results_dropped at the previous read
+    _on_drop = "warn"
 
     def _raise(self, status: int, call: str) -> NoReturn:
         raise KataError(status, _text(_n.stream_last_error(self._h)), call)
@@ -119,31 +146,37 @@ class Stream(_Handle):
         a = positions
         if type(a) is not np.ndarray or a.dtype != np.float32 or not a.flags.c_contiguous:
             a = _positions_f32(a)
-        if confidences is None:
-            status = _n.stream_push(self.handle, timestamp, _address(a), a.size // 3)
-        else:
-            c = confidences
-            if type(c) is not np.ndarray or c.dtype != np.float32 or not c.flags.c_contiguous:
-                c = np.ascontiguousarray(c, dtype=np.float32)
-            if c.size * 3 != a.size:
-                raise ValueError("confidences: one per joint (%d), got %d" % (a.size // 3, c.size))
-            status = _n.stream_push_confidence(self.handle, timestamp, _address(a), _address(c), a.size // 3)
+        try:  # free unless raised (3.11): a wrong timestamp type is a TypeError naming it, not ctypes'
+            if confidences is None:
+                status = _n.stream_push(self.handle, timestamp, _address(a), a.size // 3)
+            else:
+                c = confidences
+                if type(c) is not np.ndarray or c.dtype != np.float32 or not c.flags.c_contiguous:
+                    c = np.ascontiguousarray(c, dtype=np.float32)
+                if c.size * 3 != a.size:
+                    raise ValueError("confidences: one per joint (%d), got %d" % (a.size // 3, c.size))
+                status = _n.stream_push_confidence(self.handle, timestamp, _address(a), _address(c), a.size // 3)
+        except ctypes.ArgumentError as e:
+            raise _type_error(Stream.push, (self, timestamp, positions, confidences), {}, e) from None
         if status and status != Status.TRACKING_LOST:
             self._raise(status, "kata_stream_push_confidence" if confidences is not None else "kata_stream_push")
         return Status(status)
 
-    def push_landmarks(self, timestamp, values, time_units="s"):
+    def push_landmarks(self, timestamp: float, values: Any, time_units: str = "s") -> Status:
         """kata_stream_push_landmarks: one frame in a landmark source's own shape, values
         (joints, 3|4|5) float32: x y z [confidence | MediaPipe's visibility presence, read as
         confidence = the smaller]; timestamp in time_units "s" or "ms"."""
         a = np.ascontiguousarray(values, dtype=np.float32)
         if a.ndim != 2 or a.shape[0] != self._joints or a.shape[1] not in (3, 4, 5):
             raise ValueError("values must be (%d joints, 3, 4 or 5 channels)" % self._joints)
-        status = _n.stream_push_landmarks(self.handle, timestamp, _time_units_code(time_units), _address(a),
-                                          a.shape[0], a.shape[1])
+        try:
+            status = _n.stream_push_landmarks(self.handle, timestamp, _time_units_code(time_units), _address(a),
+                                              a.shape[0], a.shape[1])
+        except ctypes.ArgumentError as e:
+            raise _type_error(Stream.push_landmarks, (self, timestamp, values, time_units), {}, e) from None
         if status not in (0, Status.TRACKING_LOST):
             self._raise(status, "kata_stream_push_landmarks")
-        return status
+        return Status(status)
 
     def push_many(self, timestamps: Any, positions: Any, confidences: Any = None, time_units: Any = None) -> int:
         """Pushes frames i = 0..n-1: timestamps (n,) seconds, positions (n, joints, 3) float32 and
@@ -181,6 +214,7 @@ class Stream(_Handle):
                             "kata_stream_push_many")
         return lost.value
 
+    @_typed
     def set_confidence_gate(self, threshold: float = 0.5, max_hold: float = 0.5,
                             max_missing_share: float = 0.25) -> None:
         """kata_stream_set_confidence_gate: a GPD joint below `threshold` (or NaN) is missing and
@@ -191,6 +225,7 @@ class Stream(_Handle):
         if status:
             self._raise(status, "kata_stream_set_confidence_gate")
 
+    @_typed
     def set_smoothing(self, enabled: bool = True, min_cutoff: float = 2.0, beta: float = 1.0,
                       d_cutoff: float = 1.0) -> None:
         """kata_stream_set_smoothing: the One-Euro filter on the 16 mapped joints (cutoff =
@@ -218,7 +253,7 @@ class Stream(_Handle):
             self._raise(status, "kata_stream_bone_lengths")
         return lengths, spread
 
-    def _push_many_landmarks(self, timestamps, values, time_units):
+    def _push_many_landmarks(self, timestamps: Any, values: Any, time_units: str) -> int:
         a = np.ascontiguousarray(values, dtype=np.float32)
         ts = np.ascontiguousarray(timestamps, dtype=np.float64)
         n = len(ts)
@@ -250,7 +285,7 @@ class Stream(_Handle):
         if status:
             self._raise(status, "kata_stream_reset")
 
-    def features(self, out=None):
+    def features(self, out: Optional[np.ndarray] = None) -> Optional[Tuple[np.ndarray, float, int]]:
         """kata_stream_features: (vector float32[1683], timestamp, frame_index) of the newest
         feature vector, or None before the first one. out: a float32[1683] to fill."""
         if out is None:
@@ -274,9 +309,11 @@ class Stream(_Handle):
         return _n.stream_body_height(self.handle)
 
     # -- the teacher: what the stream is compared with --
-    def attach_teacher(self, model, clip=None, skeleton=None, positions=None, frame_time=None, preset=None,
-                       first_frame=0, pose_frame=-1, ghost=None, features=None, joints=None, body_height=0.0,
-                       **retarget):
+    @_typed
+    def attach_teacher(self, model: Model, clip: Optional[Clip] = None, skeleton: Optional[Skeleton] = None,
+                       positions: Any = None, frame_time: Optional[float] = None, preset: Optional[str] = None,
+                       first_frame: int = 0, pose_frame: int = -1, ghost: Optional[bool] = None, features: Any = None,
+                       joints: Any = None, body_height: float = 0.0, **retarget: Any) -> None:
         """kata_stream_attach_teacher: score against (and ghost from) a teacher given as one of
         a Clip; a Skeleton + positions (frames, joints, 3) + frame_time; GPD features
         (frames, 1683) + frame_time; or joints, one held pose of the 16 GPD joints (16, 3) with its
@@ -340,53 +377,40 @@ class Stream(_Handle):
         if status:
             self._raise(status, "kata_stream_restart_teacher")
 
-    def read_newest(self, buffer=None):
-        """kata_stream_read_newest: the newest unread result (older unread ones are passed over) as
-        a Results of length 1, or None when nothing is unread. buffer: a result_buffer(1) to reuse
-        (no allocation per call)."""
-        if buffer is None:
-            buffer = ResultBuffer(1, self.ghost_joint_count, True, False)
-        a = buffer._args
-        status = _n.stream_read_newest(self.handle, a[0], a[1], a[2], a[3], a[4], a[5])
-        if status == Status.NO_DATA:
-            return None
-        if status:
-            self._raise(status, "kata_stream_read_newest")
-        return Results(buffer, 1)
-
     # -- deprecated since 1.0 (removed in 2.0, not before 2027-06-01): the 0.x reference calls --
-    def set_reference_pose(self, model, features):
+    def set_reference_pose(self, model: Model, features: Any) -> None:
         """Deprecated: attach_teacher(model, features=f, pose_frame=0)."""
         _deprecated("set_reference_pose", "attach_teacher(model, features=..., pose_frame=0)")
         self.attach_teacher(model, features=np.asarray(features).reshape(1, GPD_DIMS), pose_frame=0)
 
-    def set_reference_joints(self, model, joints, body_height):
+    def set_reference_joints(self, model: Model, joints: Any, body_height: float) -> None:
         """Deprecated: attach_teacher(model, joints=j, body_height=h)."""
         _deprecated("set_reference_joints", "attach_teacher(model, joints=..., body_height=...)")
         self.attach_teacher(model, joints=joints, body_height=body_height)
 
-    def set_reference_clip(self, model, features, frame_time):
+    def set_reference_clip(self, model: Model, features: Any, frame_time: float) -> None:
         """Deprecated: attach_teacher(model, features=f, frame_time=t)."""
         _deprecated("set_reference_clip", "attach_teacher(model, features=..., frame_time=...)")
         self.attach_teacher(model, features=features, frame_time=frame_time)
 
-    def set_reference_bvh(self, model, clip, preset="cmu", first_frame=0, pose_frame=-1):
+    def set_reference_bvh(self, model: Model, clip: Clip, preset: str = "cmu", first_frame: int = 0,
+                          pose_frame: int = -1) -> None:
         """Deprecated: attach_teacher(model, clip=c, ..., ghost=False)."""
         _deprecated("set_reference_bvh", "attach_teacher(model, clip=..., ghost=False)")
         self.attach_teacher(model, clip=clip, preset=preset, first_frame=first_frame, pose_frame=pose_frame,
                             ghost=False)
 
-    def clear_reference(self):
+    def clear_reference(self) -> None:
         """Deprecated: detach_teacher()."""
         _deprecated("clear_reference", "detach_teacher()")
         self.detach_teacher()
 
-    def restart_reference(self):
+    def restart_reference(self) -> None:
         """Deprecated: restart_teacher()."""
         _deprecated("restart_reference", "restart_teacher()")
         self.restart_teacher()
 
-    def score(self):
+    def score(self) -> Optional[ScoreRecord]:
         """Deprecated: read_newest() (or read_results() for every frame). The newest frame's
         ScoreRecord (read or not), or None before the first vector (kata_stream_score)."""
         _deprecated("score", "read_newest()")
@@ -413,26 +437,108 @@ class Stream(_Handle):
 
     @property
     def results_pending(self) -> int:
-        return _n.stream_results_pending(self.handle)
+        """Unread results in the ring (kata_stream_results_pending). [stream owner]"""
+        return int(_n.stream_results_pending(self.handle))
 
     @property
     def results_dropped(self) -> int:
-        return _n.stream_results_dropped(self.handle)
+        """Results overwritten unread since the stream was opened (kata_stream_results_dropped)."""
+        return int(_n.stream_results_dropped(self.handle))
 
-    def result_buffer(self, capacity=None, scores=True, ghosts=True, features=False):
+    @property
+    def result_capacity(self) -> int:
+        """Results the ring keeps until read (open_stream's result_capacity)."""
+        return self._result_capacity
+
+    @property
+    def on_drop(self) -> str:
+        """What a read does when results were lost since the previous read: "warn" (the default),
+        "raise" or "count" (DROP_POLICIES). Settable."""
+        return self._on_drop
+
+    @on_drop.setter
+    def on_drop(self, policy: str) -> None:
+        if policy not in DROP_POLICIES:
+            raise ValueError("on_drop must be one of %s, not %r" % (", ".join(DROP_POLICIES), policy))
+        self._on_drop = policy
+
+    def result_buffer(self, capacity: Optional[int] = None, scores: bool = True, ghosts: bool = True,
+                      features: bool = False) -> ResultBuffer:
         """A ResultBuffer sized for this stream (capacity default: every result the ring can hold)."""
         if capacity is None:
-            capacity = max(self.results_pending, 64)
+            capacity = max(self.results_pending, self._result_capacity)
         return ResultBuffer(capacity, self.ghost_joint_count if ghosts else 0, scores, features)
 
-    def read_results(self, buffer=None, features=False):
+    def _report_drops(self, results: Results, total: int) -> Results:
+        """Results were overwritten since the previous read (total: the stream's count now): sets
+        results.dropped and applies the on_drop policy, after the read, so nothing read is lost."""
+        dropped, self._dropped_seen = total - self._dropped_seen, total
+        results.dropped = dropped
+        if self._on_drop != "count":
+            message = ("kata: %d result%s overwritten unread before this read (the ring holds %d): read more often, "
+                       "open the stream with a larger result_capacity, or push a recording with push_and_read"
+                       % (dropped, "s were" if dropped > 1 else " was", self._result_capacity))
+            if self._on_drop == "raise":
+                raise ResultsDroppedError(dropped, message, results)
+            warnings.warn(ResultsDroppedWarning(dropped, message), stacklevel=3)
+        return results
+
+    def read_results(self, buffer: Optional[ResultBuffer] = None, features: bool = False) -> Results:
         """kata_stream_read_results: moves every unread result (oldest first, at most the buffer's
         capacity) into numpy arrays and returns them as Results. Without a buffer, fresh arrays
-        sized for what is pending are made (features only when asked and the stream keeps them)."""
+        sized for what is pending are made (features only when asked and the stream keeps them).
+        Results.dropped counts the results overwritten unread since the previous read; when it is
+        not 0, on_drop says what happens (a ResultsDroppedWarning by default). [stream owner]"""
         if buffer is None:
             buffer = ResultBuffer(max(_n.stream_results_pending(self.handle), 1), self.ghost_joint_count, True,
                                   features)
         status = _n.stream_read_results(self.handle, *buffer._args, buffer._count_ref)
         if status:
             self._raise(status, "kata_stream_read_results")
-        return Results(buffer, buffer._count.value)
+        r = Results(buffer, buffer._count.value)
+        total = _n.stream_results_dropped(self._h)  # one C call per read: drops never go unseen
+        return r if total == self._dropped_seen else self._report_drops(r, total)
+
+    def push_and_read(self, timestamps: Any, positions: Any, confidences: Any = None, time_units: Optional[str] = None,
+                      features: bool = False) -> Results:
+        """A recording in, every result out: push_many in chunks that fit the free room of the
+        result ring, each followed by a read, so no result is overwritten whatever the length.
+        Arguments as push_many; returns one Results owning its arrays (ghosts when the teacher
+        makes them, features when asked and the stream keeps them). [stream owner]"""
+        ts = np.asarray(timestamps, dtype=np.float64)
+        if ts.ndim != 1:
+            raise ValueError("timestamps must be one per frame (n,), got shape %s" % (ts.shape,))
+        values = np.asarray(positions, dtype=np.float32)
+        if len(values) != len(ts):
+            raise ValueError("positions: one frame per timestamp (%d), got %d" % (len(ts), len(values)))
+        conf = None if confidences is None else np.asarray(confidences, dtype=np.float32)
+        if time_units == "auto" and len(ts) >= 2:
+            time_units = detect_time_units(ts)  # once for the whole recording, not per chunk
+        buffer = ResultBuffer(self._result_capacity, self.ghost_joint_count, True, features)
+        parts: List[Results] = [Results.concatenate([self.read_results(buffer)])]
+        start = 0
+        while start < len(ts):
+            room = self._result_capacity - self.results_pending
+            end = min(len(ts), start + max(room, 1))
+            self.push_many(ts[start:end], values[start:end], None if conf is None else conf[start:end],
+                           time_units=time_units)
+            parts.append(Results.concatenate([self.read_results(buffer)]))
+            start = end
+        return Results.concatenate(parts)
+
+    def read_newest(self, buffer: Optional[ResultBuffer] = None) -> Optional[Results]:
+        """kata_stream_read_newest: the newest unread result (older unread ones are passed over) as
+        a Results of length 1, or None when nothing is unread. buffer: a result_buffer(1) to reuse
+        (no allocation per call)."""
+        if buffer is None:
+            buffer = ResultBuffer(1, self.ghost_joint_count, True, False)
+        a = buffer._args
+        status = _n.stream_read_newest(self.handle, a[0], a[1], a[2], a[3], a[4], a[5])
+        if status == Status.NO_DATA:
+            return None
+        if status:
+            self._raise(status, "kata_stream_read_newest")
+        # Older unread results passed over are not drops (kata.h); overwritten ones are.
+        r = Results(buffer, 1)
+        total = _n.stream_results_dropped(self._h)
+        return r if total == self._dropped_seen else self._report_drops(r, total)

@@ -111,6 +111,17 @@ const char* const kXsensSegments[23] = {
     "LeftUpperArm", "LeftForeArm",  "LeftHand",     "RightUpperLeg", "RightLowerLeg", "RightFoot",
     "RightToe",     "LeftUpperLeg", "LeftLowerLeg", "LeftFoot",    "LeftToe"};
 constexpr int kXsensParents[23] = {-1, 0, 1, 2, 3, 4, 5, 4, 7, 8, 9, 4, 11, 12, 13, 0, 15, 16, 17, 0, 19, 20, 21};
+// The CMU Motion Capture Database's 31 joints in its BVH files' order (data/cmu), so an array
+// exported from one (frames, 31, 3) reads with the "cmu" preset as the BVH does.
+const char* const kCmuJoints[31] = {
+    "Hips",          "LHipJoint",      "LeftUpLeg",    "LeftLeg",       "LeftFoot",       "LeftToeBase",
+    "RHipJoint",     "RightUpLeg",     "RightLeg",     "RightFoot",     "RightToeBase",   "LowerBack",
+    "Spine",         "Spine1",         "Neck",         "Neck1",         "Head",           "LeftShoulder",
+    "LeftArm",       "LeftForeArm",    "LeftHand",     "LeftFingerBase", "LeftHandIndex1", "LThumb",
+    "RightShoulder", "RightArm",       "RightForeArm", "RightHand",     "RightFingerBase", "RightHandIndex1",
+    "RThumb"};
+constexpr int kCmuParents[31] = {-1, 0, 1, 2, 3, 4, 0, 6, 7, 8, 9, 0, 11, 12, 13, 14,
+                                 15, 13, 17, 18, 19, 20, 21, 20, 13, 24, 25, 26, 27, 28, 27};
 
 Skeleton bare_skeleton(const char* const* names, const int* parents, int n) {
   Skeleton s;
@@ -162,8 +173,9 @@ Skeleton layout_skeleton(const std::string& name) {
   if (name == "gpd") return bare_skeleton(kGpdJointNames.data(), kGpdParents.data(), kGpdJoints);
   if (name == "azure-kinect") return bare_skeleton(kAzureKinectJoints, kAzureKinectParents, 32);
   if (name == "xsens") return bare_skeleton(kXsensSegments, kXsensParents, 23);
+  if (name == "cmu") return bare_skeleton(kCmuJoints, kCmuParents, 31);
   throw Error(ErrorKind::kNotFound, "layout '" + bounded(name) +
-                                        "' has no built-in joint list (known: mediapipe, gpd, azure-kinect, xsens); "
+                                        "' has no built-in joint list (known: mediapipe, gpd, azure-kinect, xsens, cmu); "
                                         "build the skeleton "
                                         "from your source's joint names instead");
 }

@@ -1,7 +1,13 @@
 #include "coach/viewer_server.hpp"
 
+#include <netdb.h>
+#include <sys/socket.h>
+#include <unistd.h>
+
+#include <cerrno>
 #include <chrono>
 #include <cstdlib>
+#include <cstring>
 #include <fstream>
 
 #include <httplib.h>
@@ -9,6 +15,31 @@
 #include "common/error.hpp"
 
 namespace kata::coach {
+
+std::string cannot_listen_message(const char* who, const std::string& host, int port) {
+  std::string reason = "the reason is unknown (the port was free when tried again)";
+  addrinfo hints{};
+  hints.ai_family = AF_UNSPEC;
+  hints.ai_socktype = SOCK_STREAM;
+  hints.ai_flags = AI_PASSIVE;
+  addrinfo* found = nullptr;
+  if (const int gai = getaddrinfo(host.c_str(), std::to_string(port).c_str(), &hints, &found); gai != 0) {
+    reason = gai_strerror(gai);
+  } else {
+    const int fd = ::socket(found->ai_family, found->ai_socktype, found->ai_protocol);
+    if (fd < 0) {
+      reason = std::strerror(errno);
+    } else {
+      const int yes = 1;  // as httplib binds: a port in TIME_WAIT is not the reason
+      ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+      if (::bind(fd, found->ai_addr, found->ai_addrlen) != 0) reason = std::strerror(errno);
+      ::close(fd);
+    }
+    freeaddrinfo(found);
+  }
+  return std::string(who) + ": cannot listen on " + host + ":" + std::to_string(port) + ": " + reason +
+         " (another kata coach or another program on that port? --port 0 picks a free port)";
+}
 
 ViewerServer::ViewerServer(const std::string& static_dir, const std::string& host, int port)
     : server_(std::make_unique<httplib::Server>()) {
@@ -60,7 +91,7 @@ ViewerServer::ViewerServer(const std::string& static_dir, const std::string& hos
     });
   });
   port_ = port == 0 ? server_->bind_to_any_port(host) : (server_->bind_to_port(host, port) ? port : -1);
-  if (port_ <= 0) throw Error(ErrorKind::kIo, "viewer: cannot listen on " + host + ":" + std::to_string(port));
+  if (port_ <= 0) throw Error(ErrorKind::kIo, cannot_listen_message("viewer", host, port));
   thread_ = std::thread([this] { server_->listen_after_bind(); });
 }
 

@@ -26,6 +26,10 @@ class Server;
 
 namespace kata::coach {
 
+// "WHO: cannot listen on HOST:PORT: <the reason> (...; --port 0 picks a free port)": httplib
+// reports a failed bind without its cause, so the bind is tried once more on a plain socket for it.
+std::string cannot_listen_message(const char* who, const std::string& host, int port);
+
 class ViewerServer {
  public:
   // Serves `static_dir` on host:port (port 0: any free port). Throws kata::Error(kIo) when the

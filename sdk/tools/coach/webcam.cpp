@@ -1,5 +1,7 @@
 #include "coach/webcam.hpp"
 
+#include "coach/viewer_server.hpp"
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -425,7 +427,7 @@ WebcamCoach::WebcamCoach(const WebcamSettings& settings, const std::string& stat
     });
   });
   port_ = port == 0 ? m.server.bind_to_any_port(host) : (m.server.bind_to_port(host, port) ? port : -1);
-  if (port_ <= 0) throw Error(ErrorKind::kIo, "webcam: cannot listen on " + host + ":" + std::to_string(port));
+  if (port_ <= 0) throw Error(ErrorKind::kIo, cannot_listen_message("webcam", host, port));
   m.thread = std::thread([this] { impl_->server.listen_after_bind(); });
 }
 
