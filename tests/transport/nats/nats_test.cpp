@@ -326,6 +326,9 @@ TEST(NatsCluster, ShardsReceiveOnlyTheirPartitions) {
   natsSubscription* sub = nullptr;
   ASSERT_EQ(natsConnection_SubscribeSync(&sub, source.get(), "kata.out.>"), NATS_OK);
   ASSERT_TRUE(source.flush(2000));
+  // flush() answers for the server this connection is on; the others learn of the subscription
+  // over their routes a moment later (results published before that would not reach it).
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
   int published = 0;
   for (auto& shard : shards)
     for (uint64_t id = 1; id <= streams; ++id) published += shard->publish_result(id, "r", 1);
