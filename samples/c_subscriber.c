@@ -51,7 +51,7 @@ int main(int argc, char** argv) {
   }
   while (count == 0 || seen < count) {
     zmq_pollitem_t item = {sub, 0, ZMQ_POLLIN, 0};
-    kata_result_message r;
+    kata_result_record r;
     struct timespec now;
     int n;
     if (zmq_poll(&item, 1, 10000) <= 0) {

@@ -57,12 +57,8 @@ int main(int argc, char** argv) {
   desc.preset = "cmu";
   CHECK(kata_stream_open(ctx, skel, &desc, &stream));
 
-  kata_result* results = calloc(chunk, sizeof *results);
-  kata_score_record* scores = calloc(chunk, sizeof *scores);
-  for (uint32_t i = 0; i < chunk; ++i) {
-    results[i].struct_size = sizeof *results;
-    scores[i].struct_size = sizeof *scores;
-  }
+  kata_result_record* results = calloc(chunk, sizeof *results);
+  for (uint32_t i = 0; i < chunk; ++i) results[i].struct_size = sizeof *results;
   double* single = malloc(sizeof(double) * (size_t)reps);
   double* chunked = malloc(sizeof(double) * (size_t)reps);
   double t = 0.0;
@@ -72,7 +68,7 @@ int main(int argc, char** argv) {
     for (int i = 0; i < frames; ++i) {
       t += dt;
       CHECK(kata_stream_push(stream, t, xyz + (size_t)f * 3 * joints, joints));
-      CHECK(kata_stream_read_results(stream, results, scores, NULL, 0, NULL, 0, 1, &count));
+      CHECK(kata_stream_read_results(stream, results, NULL, 0, NULL, 0, 1, &count));
       f = f + 1 < clip_frames ? f + 1 : 0;
     }
     single[r] = (now_ns() - start) / frames;
@@ -83,7 +79,7 @@ int main(int argc, char** argv) {
         CHECK(kata_stream_push(stream, t, xyz + (size_t)f * 3 * joints, joints));
         f = f + 1 < clip_frames ? f + 1 : 0;
       }
-      CHECK(kata_stream_read_results(stream, results, scores, NULL, 0, NULL, 0, chunk, &count));
+      CHECK(kata_stream_read_results(stream, results, NULL, 0, NULL, 0, chunk, &count));
     }
     chunked[r] = (now_ns() - start) / (double)((frames + (int)chunk - 1) / (int)chunk * (int)chunk);
   }
@@ -96,7 +92,6 @@ int main(int argc, char** argv) {
   kata_context_destroy(ctx);
   free(xyz);
   free(results);
-  free(scores);
   free(single);
   free(chunked);
   return 0;

@@ -99,17 +99,37 @@ namespace Kata
         public double BodyHeight;
     }
 
+    // kata_result_record (kata/result.h): one result of a stream (or a runtime message), its score included.
     [StructLayout(LayoutKind.Sequential)]
-    public struct ScoreRecord
+    public struct ResultRecord
     {
         public uint StructSize;
-        public int MatchedReferenceFrame;
+        public int Scored;                 // 1: a teacher scored the frame
+        public ulong StreamId;
+        public ulong ResultSequence;
+        public ulong FrameSequence;
         public long FrameIndex;
-        public double Timestamp;
+        public double CaptureTime;         // seconds, the source's clock
+        public long ArrivalNs;
+        public long ComputedNs;
+        public long PublishedNs;
+        public int MatchedTeacherFrame;
+        public int State;                  // a ScoreState
+        public double MatchedTeacherTime;
         public float Distance;
         public float Score;
-        // float parts[KATA_PART_COUNT] as five fields: blittable without unsafe code.
+        // float parts[KATA_PART_COUNT] and part_scores[] as five fields each: blittable without unsafe code.
         public float PartTorsoHead, PartLeftArm, PartRightArm, PartLeftLeg, PartRightLeg;
+        public float PartScoreTorsoHead, PartScoreLeftArm, PartScoreRightArm, PartScoreLeftLeg, PartScoreRightLeg;
+        public int PartToFix;
+        public uint GhostJointCount;
+        public IntPtr Ghost;               // NULL for a stream's results (ghosts go to the batch's array)
+        public int HasPractice;
+        public uint PracticeRevision;
+        public double PracticeStartTime;
+        public double PracticeEndTime;
+        public int PracticeLoop;
+        public uint Reserved0;
 
         public float Part(BodyPart p)
         {
@@ -122,21 +142,6 @@ namespace Kata
                 default: return PartRightLeg;
             }
         }
-    }
-
-    [StructLayout(LayoutKind.Sequential)]
-    public struct Result
-    {
-        public const uint FlagScored = 1, FlagGhost = 2; // KATA_RESULT_SCORED, KATA_RESULT_GHOST
-        public uint StructSize;
-        public uint Flags;
-        public ulong Sequence;
-        public long FrameIndex;
-        public double CaptureTime;
-        public long ArrivalNs;
-        public long ComputedNs;
-        public int MatchedTeacherFrame;
-        public uint GhostJointCount;
     }
 
     // ---- errors ------------------------------------------------------------------------------------------
@@ -233,7 +238,7 @@ namespace Kata
         [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_restart_reference(StreamHandle stream);
         [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
-        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_score(StreamHandle stream, ref ScoreRecord record);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_score(StreamHandle stream, ref ResultRecord record);
 
         [DllImport(Lib, CallingConvention = CC)] public static extern void kata_retarget_desc_init(ref RetargetDesc desc);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_retargeter_create(ContextHandle ctx, SkeletonHandle student, ref RetargetDesc desc, out RetargeterHandle r);
@@ -254,11 +259,11 @@ namespace Kata
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_detach_teacher(StreamHandle stream);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_restart_teacher(StreamHandle stream);
         [DllImport(Lib, CallingConvention = CC)]
-        public static extern Status kata_stream_read_newest(StreamHandle stream, [In, Out] Result[] result, [In, Out] ScoreRecord[] score,
+        public static extern Status kata_stream_read_newest(StreamHandle stream, [In, Out] ResultRecord[] result,
                                                             [Out] float[] ghost, UIntPtr ghostCapacity, [Out] float[] features,
                                                             UIntPtr featureCapacity);
         [DllImport(Lib, CallingConvention = CC)]
-        public static extern Status kata_stream_read_results(StreamHandle stream, [In, Out] Result[] results, [In, Out] ScoreRecord[] scores,
+        public static extern Status kata_stream_read_results(StreamHandle stream, [In, Out] ResultRecord[] results,
                                                              [Out] float[] ghosts, UIntPtr ghostCapacity, [Out] float[] features,
                                                              UIntPtr featureCapacity, uint capacity, out uint count);
         [DllImport(Lib, CallingConvention = CC)] public static extern ulong kata_stream_results_dropped(StreamHandle stream);
@@ -537,8 +542,8 @@ namespace Kata
     // Arrays kata_stream_read_results fills in place; allocate once, read every frame.
     public sealed class ResultBatch
     {
-        public readonly Result[] Results;
-        public readonly ScoreRecord[] Scores;
+        public readonly ResultRecord[] Results;
+        public readonly ResultRecord[] Scores;   // the same array as Results: each record carries its score
         public readonly float[] Ghosts;      // Capacity x GhostJoints x 3, or null
         public readonly float[] Features;    // Capacity x 1683, or null
         public readonly int GhostJoints;
@@ -546,13 +551,9 @@ namespace Kata
 
         public ResultBatch(int capacity, int ghostJoints, bool features = false)
         {
-            Results = new Result[capacity];
-            Scores = new ScoreRecord[capacity];
-            for (int i = 0; i < capacity; ++i)
-            {
-                Results[i].StructSize = (uint)Marshal.SizeOf(typeof(Result));
-                Scores[i].StructSize = (uint)Marshal.SizeOf(typeof(ScoreRecord));
-            }
+            Results = new ResultRecord[capacity];
+            Scores = Results;
+            for (int i = 0; i < capacity; ++i) Results[i].StructSize = (uint)Marshal.SizeOf(typeof(ResultRecord));
             GhostJoints = ghostJoints;
             Ghosts = ghostJoints > 0 ? new float[capacity * ghostJoints * 3] : null;
             Features = features ? new float[capacity * Gpd.Dims] : null;
@@ -600,9 +601,9 @@ namespace Kata
 
         // Deprecated since 1.0 (removed in 2.0): ReadNewest. kata_stream_score: false before the first vector.
         [Obsolete("since 1.0, removed in 2.0: ReadNewest(batch)")]
-        public bool Score(ref ScoreRecord record)
+        public bool Score(ref ResultRecord record)
         {
-            record.StructSize = (uint)Marshal.SizeOf(typeof(ScoreRecord));
+            record.StructSize = (uint)Marshal.SizeOf(typeof(ResultRecord));
             Status s = Native.kata_stream_score(Handle, ref record);
             if (s == Status.NoData) return false;
             if (s != Status.Ok) Throw(s, "kata_stream_score");
@@ -660,7 +661,7 @@ namespace Kata
         // over); false (batch.Count = 0) when nothing is unread.
         public bool ReadNewest(ResultBatch batch)
         {
-            Status s = Native.kata_stream_read_newest(Handle, batch.Results, batch.Scores, batch.Ghosts,
+            Status s = Native.kata_stream_read_newest(Handle, batch.Results, batch.Ghosts,
                                                       (UIntPtr)(batch.Ghosts == null ? 0 : batch.Ghosts.Length), batch.Features,
                                                       (UIntPtr)(batch.Features == null ? 0 : batch.Features.Length));
             batch.Count = s == Status.Ok ? 1 : 0;
@@ -709,7 +710,7 @@ namespace Kata
         public int ReadResults(ResultBatch batch)
         {
             uint n;
-            Status s = Native.kata_stream_read_results(Handle, batch.Results, batch.Scores, batch.Ghosts,
+            Status s = Native.kata_stream_read_results(Handle, batch.Results, batch.Ghosts,
                                                        (UIntPtr)(batch.Ghosts == null ? 0 : batch.Ghosts.Length), batch.Features,
                                                        (UIntPtr)(batch.Features == null ? 0 : batch.Features.Length),
                                                        (uint)batch.Capacity, out n);

@@ -31,6 +31,11 @@ $KATA calibrate --model models/default.kata --out models/default.kata --delta-st
 # then the part to fix against local-frame geometry on real pairs of different subjects (report
 # in eval-part-fix/part_fix.md).
 /usr/bin/python3 docs/model/part_fix.py fit $KATA $DATA models/default.kata
+# The coaching total (issue 34): total = min(model map, worst part's joint-angle score). The model
+# map becomes the gate that keeps another motion low (d50 0.085, slope 10, good 92; coaching.py
+# says why), then the totals on calibrate.py's real pairs (eval-calibration/coaching.md). Runs
+# before part_fix.py measure: the part to fix is gated by good_score.
+/usr/bin/python3 docs/model/coaching.py $KATA $DATA models/default.kata docs/model/eval-calibration
 /usr/bin/python3 docs/model/part_fix.py measure $KATA $DATA models/default.kata docs/model/eval-part-fix
 # The transition model (issue 27, docs/model/transition.md): the joint form (kata train --method
 # joint-form: one quadratic form per axis on each joint's position, velocity and acceleration

@@ -51,7 +51,7 @@ static void* activate(const kata_plugin_host* host, const char* config, char* er
   s->buffer = (char*)malloc(1 << 16);
   if (s->buffer) setvbuf(s->file, s->buffer, _IOFBF, 1 << 16);
   fprintf(s->file,
-          "stream_id,result_sequence,frame_sequence,frame_index,capture_ns,arrival_ns,computed_ns,scored,score,"
+          "stream_id,result_sequence,frame_sequence,frame_index,capture_time,arrival_ns,computed_ns,scored,score,"
           "distance,matched_teacher_frame,torso_head,left_arm,right_arm,left_leg,right_leg,"
           "torso_head_score,left_arm_score,right_arm_score,left_leg_score,right_leg_score,part_to_fix,state,"
           "matched_teacher_time,practice_start_time,practice_end_time,practice_loop,practice_revision\n");
@@ -69,14 +69,14 @@ static void deactivate(void* instance) {
 static const char* const kPartNames[5] = {"torso_head", "left_arm", "right_arm", "left_leg", "right_leg"};
 static const char* const kStateNames[4] = {"scoring", "calibrating", "tracking_lost", "teacher_finished"};
 
-static void on_result(void* instance, const kata_plugin_result* r) {
+static void on_result(void* instance, const kata_result_record* r) {
   csv_sink* s = (csv_sink*)instance;
-  fprintf(s->file, "%llu,%llu,%llu,%lld,%lld,%lld,%lld,%d,%.9g,%.9g,%d,%.9g,%.9g,%.9g,%.9g,%.9g",
+  fprintf(s->file, "%llu,%llu,%llu,%lld,%.17g,%lld,%lld,%d,%.9g,%.9g,%d,%.9g,%.9g,%.9g,%.9g,%.9g",
           (unsigned long long)r->stream_id, (unsigned long long)r->result_sequence,
-          (unsigned long long)r->frame_sequence, (long long)r->frame_index, (long long)r->capture_ns,
+          (unsigned long long)r->frame_sequence, (long long)r->frame_index, r->capture_time,
           (long long)r->arrival_ns, (long long)r->computed_ns, (int)r->scored, r->score, r->distance,
           (int)r->matched_teacher_frame, r->parts[0], r->parts[1], r->parts[2], r->parts[3], r->parts[4]);
-  if (!KATA_PLUGIN_RESULT_HAS(r, practice_loop)) { /* a host of plugin ABI minor 0: empty cells */
+  if (!KATA_RESULT_HAS(r, practice_loop)) { /* a host that does not fill them: empty cells */
     fputs(",,,,,,,,,,,,\n", s->file);
     return;
   }

@@ -83,7 +83,7 @@ def main():
                     s.push_many(times[start:start + a.chunk], xyz[start:start + a.chunk],
                                 None if confidences is None else confidences[start:start + a.chunk])
                     r = s.read_results(buf)  # a ResultsDroppedWarning would say if any were lost
-                    ok = (r.results["flags"] & kata.RESULT_SCORED != 0) & (r.scores["state"] == kata.ScoreState.SCORING)
+                    ok = (r.results["scored"] != 0) & (r.scores["state"] == kata.ScoreState.SCORING)
                     parts_read.append(r.scores[ok].copy())
                 scored = np.concatenate(parts_read)
                 print("%d landmark frames, %d scored (the first ones calibrate the body height: %.3g units)"

@@ -198,12 +198,10 @@ RunResult run(kata_stream s, kata_model model, kata_clip teacher, const std::vec
     EXPECT_EQ(kata_stream_features(s, f.data(), f.size(), nullptr, nullptr), KATA_OK);
     r.features.back() = f;
     if (teacher) {
-      kata_result res;
-      res.struct_size = sizeof res;
-      kata_score_record rec;
+      kata_result_record rec;
       rec.struct_size = sizeof rec;
-      EXPECT_EQ(kata_stream_read_newest(s, &res, &rec, nullptr, 0, nullptr, 0), KATA_OK) << kata_stream_last_error(s);
-      EXPECT_TRUE(res.flags & KATA_RESULT_SCORED);
+      EXPECT_EQ(kata_stream_read_newest(s, &rec, nullptr, 0, nullptr, 0), KATA_OK) << kata_stream_last_error(s);
+      EXPECT_TRUE(rec.scored);
       r.scores.push_back(rec.score);
       r.distances.push_back(rec.distance);
     }

@@ -492,14 +492,14 @@ TEST(Misuse, PoseFrameBelowMinusOneIsRefused) {
     std::vector<float> p = c.frames[i];
     if (i == 3) p[0] = 1e30f;
     kata_stream_push(s, static_cast<double>(i) / 30.0, p.data(), c.joints);
-    kata_score_record r;
+    kata_result_record r;
     r.struct_size = sizeof r;
     if (kata_stream_score(s, &r) == KATA_OK) {
       EXPECT_TRUE(std::isfinite(r.distance) && std::isfinite(r.score));
       for (float part : r.parts) EXPECT_TRUE(std::isfinite(part));
     }
   }
-  kata_score_record r;
+  kata_result_record r;
   r.struct_size = 0;
   EXPECT_EQ(kata_stream_score(s, &r), KATA_E_INVALID_ARGUMENT);
   kata_stream_close(s);

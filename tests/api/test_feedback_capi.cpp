@@ -17,6 +17,13 @@ namespace kata {
 namespace {
 
 double documented_map(double d, double d50, double slope) { return 100.0 / (1.0 + std::pow(d / d50, slope)); }
+// The coaching total of a record (kata.h "Score calibration and feedback"): the model's map of d,
+// capped by the worst part score.
+double coaching_total(const kata_result_record& r, double d50, double slope) {
+  double t = documented_map(r.distance, d50, slope);
+  for (int q = 0; q < KATA_PART_COUNT; ++q) t = std::min(t, static_cast<double>(r.part_scores[q]));
+  return t;
+}
 
 // A model file written before calibrations existed (the stand-in models are) reads as the
 // default: d50 = delta*, slope 2 for the total and every part, good score 75.
@@ -69,7 +76,7 @@ TEST(FeedbackCApi, StatesPartScoresAndOverride) {
   ASSERT_EQ(kata_stream_set_reference_bvh(s, m, clip, "cmu", 1, 60), KATA_OK) << kata_stream_last_error(s);
   const int n = static_cast<int>(kata_skeleton_joint_count(skel));
   std::vector<float> p(3 * static_cast<size_t>(n));
-  kata_score_record r{};
+  kata_result_record r{};
   r.struct_size = sizeof r;
   int lost = 0;
   for (uint32_t f = 1; f < 200; ++f) {
@@ -85,7 +92,8 @@ TEST(FeedbackCApi, StatesPartScoresAndOverride) {
       ++lost;
     } else if (f > 40 && f < 100) {
       EXPECT_EQ(r.state, KATA_SCORE_SCORING) << f;
-      EXPECT_NEAR(r.score, documented_map(r.distance, cal.d50, cal.slope), 1e-3);
+      // The coaching total (kata.h): min(the model's map of d, the worst part score).
+      EXPECT_NEAR(r.score, coaching_total(r, cal.d50, cal.slope), 1e-3);
       for (int q = 0; q < KATA_PART_COUNT; ++q) EXPECT_TRUE(r.part_scores[q] >= 0.0f && r.part_scores[q] <= 100.0f);
     }
   }
@@ -98,7 +106,7 @@ TEST(FeedbackCApi, StatesPartScoresAndOverride) {
   ASSERT_EQ(kata_clip_positions(clip, 200, p.data(), p.size()), KATA_OK);
   ASSERT_EQ(kata_stream_push(s, 200 / 120.0, p.data(), static_cast<uint32_t>(n)), KATA_OK);
   ASSERT_EQ(kata_stream_score(s, &r), KATA_OK);
-  EXPECT_NEAR(r.score, documented_map(r.distance, 4.0 * cal.d50, 1.0), 1e-3);
+  EXPECT_NEAR(r.score, coaching_total(r, 4.0 * cal.d50, 1.0), 1e-3);
   mine.slope = -1.0;
   EXPECT_EQ(kata_stream_set_calibration(s, &mine), KATA_E_INVALID_ARGUMENT);
   EXPECT_NE(std::string(kata_stream_last_error(s)).find("slope"), std::string::npos) << kata_stream_last_error(s);
@@ -106,10 +114,10 @@ TEST(FeedbackCApi, StatesPartScoresAndOverride) {
   ASSERT_EQ(kata_clip_positions(clip, 201, p.data(), p.size()), KATA_OK);
   ASSERT_EQ(kata_stream_push(s, 201 / 120.0, p.data(), static_cast<uint32_t>(n)), KATA_OK);
   ASSERT_EQ(kata_stream_score(s, &r), KATA_OK);
-  EXPECT_NEAR(r.score, documented_map(r.distance, cal.d50, cal.slope), 1e-3);
+  EXPECT_NEAR(r.score, coaching_total(r, cal.d50, cal.slope), 1e-3);
   // An old caller's smaller struct receives only the fields it knows.
-  kata_score_record small{};
-  small.struct_size = offsetof(kata_score_record, part_scores);
+  kata_result_record small{};
+  small.struct_size = offsetof(kata_result_record, part_scores);
   small.part_to_fix = 12345;
   ASSERT_EQ(kata_stream_score(s, &small), KATA_OK);
   EXPECT_EQ(small.part_to_fix, 12345);

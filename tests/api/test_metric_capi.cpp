@@ -110,7 +110,7 @@ TEST_F(MetricCapi, FollowsAClipReferenceFrameByFrame) {
   kata_model m = nullptr;
   ASSERT_EQ(kata_model_load(ctx, path.c_str(), &m), KATA_OK);
   kata_stream s = open();
-  kata_score_record r{};
+  kata_result_record r{};
   r.struct_size = sizeof r;
   EXPECT_EQ(kata_stream_score(s, &r), KATA_E_STATE);
   ASSERT_EQ(kata_stream_set_reference_bvh(s, m, clip, "cmu", 1, -1), KATA_OK) << kata_stream_last_error(s);
@@ -125,8 +125,8 @@ TEST_F(MetricCapi, FollowsAClipReferenceFrameByFrame) {
     ASSERT_EQ(kata_stream_push(s, (f - 1) * dt, pos[f - 1].data(), kata_skeleton_joint_count(skel)), KATA_OK);
     ASSERT_EQ(kata_stream_score(s, &r), KATA_OK) << kata_stream_last_error(s);
     ASSERT_EQ(r.frame_index, static_cast<int64_t>(f - 1));
-    ASSERT_EQ(r.matched_reference_frame, static_cast<int32_t>(f - 1));
-    ASSERT_DOUBLE_EQ(r.matched_reference_time, (f - 1) * dt);  // where the student is in the routine
+    ASSERT_EQ(r.matched_teacher_frame, static_cast<int32_t>(f - 1));
+    ASSERT_DOUBLE_EQ(r.matched_teacher_time, (f - 1) * dt);  // where the student is in the routine
     ASSERT_EQ(r.distance, 0.0f) << f;
     ASSERT_EQ(r.score, 100.0f);
   }
@@ -154,15 +154,15 @@ TEST_F(MetricCapi, PracticeSectionLoopsAPartOfTheClip) {
   EXPECT_EQ(kata_stream_set_practice_section(s, 80, 40, 1), KATA_E_INVALID_ARGUMENT);
   ASSERT_EQ(kata_stream_set_practice_section(s, 40, 140, 1), KATA_OK) << kata_stream_last_error(s);
   const double dt = kata_clip_frame_time(clip);
-  kata_score_record r{};
+  kata_result_record r{};
   r.struct_size = sizeof r;
   int exact = 0;
   for (uint32_t f = 1; f < frames; ++f) {
     ASSERT_EQ(kata_stream_push(s, (f - 1) * dt, positions(f).data(), kata_skeleton_joint_count(skel)), KATA_OK);
     ASSERT_EQ(kata_stream_score(s, &r), KATA_OK) << kata_stream_last_error(s);
-    ASSERT_GE(r.matched_reference_frame, 40) << f;
-    ASSERT_LE(r.matched_reference_frame, 140) << f;
-    if (f - 1 >= 50 && f - 1 <= 140 && r.matched_reference_frame == static_cast<int32_t>(f - 1)) ++exact;
+    ASSERT_GE(r.matched_teacher_frame, 40) << f;
+    ASSERT_LE(r.matched_teacher_frame, 140) << f;
+    if (f - 1 >= 50 && f - 1 <= 140 && r.matched_teacher_frame == static_cast<int32_t>(f - 1)) ++exact;
   }
   EXPECT_GE(exact, 85);  // of the 91 frames 50..140 (the first frames of the section settle)
   kata_stream_close(s);
@@ -179,7 +179,7 @@ TEST_F(MetricCapi, PoseReferenceFromFeaturesScoresOtherFramesLower) {
   ASSERT_EQ(kata_stream_features(teacher, feats.data(), feats.size(), nullptr, nullptr), KATA_OK);
   EXPECT_EQ(kata_stream_set_reference_pose(student, m, feats.data(), 100), KATA_E_INVALID_ARGUMENT);
   ASSERT_EQ(kata_stream_set_reference_pose(student, m, feats.data(), feats.size()), KATA_OK) << kata_stream_last_error(student);
-  kata_score_record r{};
+  kata_result_record r{};
   r.struct_size = sizeof r;
   for (uint32_t f = 1; f <= 60; ++f) {
     ASSERT_EQ(kata_stream_push(student, f * dt, positions(f).data(), kata_skeleton_joint_count(skel)), KATA_OK);
@@ -192,7 +192,7 @@ TEST_F(MetricCapi, PoseReferenceFromFeaturesScoresOtherFramesLower) {
     }
   }
   EXPECT_EQ(r.distance, 0.0f);  // frame 60 is the reference pose itself
-  EXPECT_EQ(r.matched_reference_frame, 0);
+  EXPECT_EQ(r.matched_teacher_frame, 0);
   kata_stream_close(teacher);
   kata_stream_close(student);
   kata_model_free(m);

@@ -71,22 +71,21 @@ TEST_F(PipelineCapi, EveryFrameScoredAndGhostedWhenReadAtAQuarterOfThePushRate) 
   kata_stream legacy = open();
   ASSERT_EQ(kata_stream_set_reference_bvh(legacy, model, teacher, "cmu", 1, -1), KATA_OK);
 
-  std::vector<kata_result> results(64);
-  std::vector<kata_score_record> scores(64);
+  std::vector<kata_result_record> results(64);
+  
   std::vector<float> ghosts(64 * 3 * static_cast<size_t>(g));
-  std::vector<kata_result> all;
-  std::vector<kata_score_record> all_scores, want;
+  std::vector<kata_result_record> all;
+  std::vector<kata_result_record> all_scores, want;
   std::vector<float> all_ghosts;
   auto drain = [&] {
-    results[0].struct_size = sizeof(kata_result);
-    scores[0].struct_size = sizeof(kata_score_record);
+    results[0].struct_size = sizeof(kata_result_record);
     uint32_t n = 0;
-    ASSERT_EQ(kata_stream_read_results(s, results.data(), scores.data(), ghosts.data(), ghosts.size(), nullptr, 0,
+    ASSERT_EQ(kata_stream_read_results(s, results.data(), ghosts.data(), ghosts.size(), nullptr, 0,
                                        64, &n),
               KATA_OK)
         << kata_stream_last_error(s);
     all.insert(all.end(), results.begin(), results.begin() + n);
-    all_scores.insert(all_scores.end(), scores.begin(), scores.begin() + n);
+    all_scores.insert(all_scores.end(), results.begin(), results.begin() + n);
     all_ghosts.insert(all_ghosts.end(), ghosts.begin(), ghosts.begin() + static_cast<long>(n) * 3 * g);
   };
   for (uint32_t i = 0; i < kFrames; ++i) {
@@ -94,7 +93,7 @@ TEST_F(PipelineCapi, EveryFrameScoredAndGhostedWhenReadAtAQuarterOfThePushRate) 
     const double t = i * kata_clip_frame_time(student);
     ASSERT_EQ(kata_stream_push(s, t, p.data(), joints), KATA_OK);
     ASSERT_EQ(kata_stream_push(legacy, t, p.data(), joints), KATA_OK);
-    kata_score_record r;
+    kata_result_record r;
     r.struct_size = sizeof r;
     ASSERT_EQ(kata_stream_score(legacy, &r), KATA_OK);
     want.push_back(r);
@@ -111,18 +110,18 @@ TEST_F(PipelineCapi, EveryFrameScoredAndGhostedWhenReadAtAQuarterOfThePushRate) 
   std::vector<float> ghost(3 * static_cast<size_t>(g));
   double worst = 0.0;
   for (uint32_t i = 0; i < kFrames; ++i) {
-    const kata_result& r = all[i];
-    EXPECT_EQ(r.sequence, i);
+    const kata_result_record& r = all[i];
+    EXPECT_EQ(r.result_sequence, i);
     EXPECT_EQ(r.frame_index, static_cast<int64_t>(i));
-    EXPECT_EQ(r.flags, KATA_RESULT_SCORED | KATA_RESULT_GHOST);
+    EXPECT_EQ(r.scored, 1);
     EXPECT_LE(r.arrival_ns, r.computed_ns);
     EXPECT_EQ(r.ghost_joint_count, g);
     EXPECT_EQ(all_scores[i].distance, want[i].distance) << i;
-    EXPECT_EQ(all_scores[i].matched_reference_frame, want[i].matched_reference_frame) << i;
+    EXPECT_EQ(all_scores[i].matched_teacher_frame, want[i].matched_teacher_frame) << i;
     for (int q = 0; q < KATA_PART_COUNT; ++q) EXPECT_EQ(all_scores[i].parts[q], want[i].parts[q]) << i;
-    EXPECT_EQ(r.matched_teacher_frame, want[i].matched_reference_frame);
-    EXPECT_EQ(r.matched_teacher_time, want[i].matched_reference_time);
-    EXPECT_EQ(all_scores[i].matched_reference_time, want[i].matched_reference_time);
+    EXPECT_EQ(r.matched_teacher_frame, want[i].matched_teacher_frame);
+    EXPECT_EQ(r.matched_teacher_time, want[i].matched_teacher_time);
+    EXPECT_EQ(all_scores[i].matched_teacher_time, want[i].matched_teacher_time);
     // The ghost: the matched teacher frame solved by a separate retargeter, placed over the student.
     const std::vector<float> tf = frame(teacher, static_cast<uint32_t>(1 + r.matched_teacher_frame));
     const std::vector<float> sf = frame(student, i + 1);
@@ -146,18 +145,18 @@ TEST_F(PipelineCapi, OverflowIsCountedAndReadsRefuseShortBuffers) {
   }
   EXPECT_EQ(kata_stream_results_pending(s), 4u);
   EXPECT_EQ(kata_stream_results_dropped(s), 6u);
-  std::vector<kata_result> r(8);
-  r[0].struct_size = sizeof(kata_result);
+  std::vector<kata_result_record> r(8);
+  r[0].struct_size = sizeof(kata_result_record);
   uint32_t n = 99;
   std::vector<float> features(KATA_GPD_DIMS);
-  EXPECT_EQ(kata_stream_read_results(s, r.data(), nullptr, nullptr, 0, features.data(), features.size(), 8, &n),
+  EXPECT_EQ(kata_stream_read_results(s, r.data(), nullptr, 0, features.data(), features.size(), 8, &n),
             KATA_E_BUFFER_TOO_SMALL);
   EXPECT_EQ(n, 0u);
-  ASSERT_EQ(kata_stream_read_results(s, r.data(), nullptr, nullptr, 0, nullptr, 0, 8, &n), KATA_OK);
+  ASSERT_EQ(kata_stream_read_results(s, r.data(), nullptr, 0, nullptr, 0, 8, &n), KATA_OK);
   ASSERT_EQ(n, 4u);
-  EXPECT_EQ(r[0].sequence, 6u);
-  EXPECT_EQ(r[3].sequence, 9u);
-  EXPECT_EQ(r[0].flags, 0u);  // no teacher: features only
+  EXPECT_EQ(r[0].result_sequence, 6u);
+  EXPECT_EQ(r[3].result_sequence, 9u);
+  EXPECT_EQ(r[0].scored, 0);  // no teacher: features only
   EXPECT_EQ(r[0].matched_teacher_frame, -1);
   kata_stream_close(s);
 }
@@ -196,16 +195,15 @@ TEST_F(PipelineCapi, PushAndReadAllocateNothing) {
   ASSERT_EQ(kata_stream_attach_teacher(s, &td), KATA_OK);
   std::vector<std::vector<float>> frames;
   for (uint32_t i = 0; i < 60; ++i) frames.push_back(frame(student, i + 1));
-  std::vector<kata_result> r(16);
-  std::vector<kata_score_record> sc(16);
+  std::vector<kata_result_record> r(16);
+  
   std::vector<float> ghosts(16 * 3 * 21);
   const long before = kata::test::allocations();
   for (uint32_t i = 0; i < 60; ++i) {
     ASSERT_EQ(kata_stream_push(s, i / 120.0, frames[i].data(), joints), KATA_OK);
-    r[0].struct_size = sizeof(kata_result);
-    sc[0].struct_size = sizeof(kata_score_record);
+    r[0].struct_size = sizeof(kata_result_record);
     uint32_t n = 0;
-    ASSERT_EQ(kata_stream_read_results(s, r.data(), sc.data(), ghosts.data(), ghosts.size(), nullptr, 0, 16, &n),
+    ASSERT_EQ(kata_stream_read_results(s, r.data(), ghosts.data(), ghosts.size(), nullptr, 0, 16, &n),
               KATA_OK);
   }
   EXPECT_EQ(kata::test::allocations() - before, 0);

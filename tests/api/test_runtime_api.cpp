@@ -93,7 +93,7 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
   while (results < frames && std::chrono::steady_clock::now() < limit) {
     const int n = sub->receive(100);
     if (n > 24 && std::memcmp(buffer + 20, "KRES", 4) == 0) {
-      kata_result_message r;
+      kata_result_record r;
       r.struct_size = sizeof r;
       ASSERT_EQ(kata_message_read_result(buffer, static_cast<size_t>(n), &r), KATA_OK);
       EXPECT_EQ(r.stream_id, 42u);
@@ -124,8 +124,8 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
         EXPECT_LE(r.matched_teacher_time, r.practice_end_time + 1e-9);
       }
       if (results == 40) {  // a caller built before the calibrated fields receives only its prefix
-        kata_result_message old_layout;
-        old_layout.struct_size = static_cast<uint32_t>(offsetof(kata_result_message, part_scores));
+        kata_result_record old_layout;
+        old_layout.struct_size = static_cast<uint32_t>(offsetof(kata_result_record, part_scores));
         old_layout.part_to_fix = 77;
         ASSERT_EQ(kata_message_read_result(buffer, static_cast<size_t>(n), &old_layout), KATA_OK);
         EXPECT_EQ(old_layout.score, r.score);
@@ -137,7 +137,7 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
   }
   EXPECT_EQ(results, frames);
   // The C reader: a definition is no result, a truncated or flipped result is refused.
-  kata_result_message r;
+  kata_result_record r;
   r.struct_size = sizeof r;
   EXPECT_EQ(kata_message_read_result(definition.data(), definition.size(), &r), KATA_NO_DATA);
   ASSERT_FALSE(result.empty());

@@ -52,17 +52,15 @@ struct TeacherCapi : ::testing::Test {
     return t;
   }
   // Drains every unread result of s.
-  static std::vector<kata_result> drain(kata_stream s, std::vector<kata_score_record>* scores) {
-    std::vector<kata_result> r(kata_stream_results_pending(s) + 1);
-    scores->assign(r.size(), kata_score_record{});
+  static std::vector<kata_result_record> drain(kata_stream s, std::vector<kata_result_record>* scores) {
+    std::vector<kata_result_record> r(kata_stream_results_pending(s) + 1);
     r[0].struct_size = sizeof r[0];
-    (*scores)[0].struct_size = sizeof(kata_score_record);
     uint32_t n = 0;
-    EXPECT_EQ(kata_stream_read_results(s, r.data(), scores->data(), nullptr, 0, nullptr, 0,
+    EXPECT_EQ(kata_stream_read_results(s, r.data(), nullptr, 0, nullptr, 0,
                                        static_cast<uint32_t>(r.size()), &n),
               KATA_OK);
     r.resize(n);
-    scores->resize(n);
+    *scores = r;  // each record carries its score
     return r;
   }
   kata_context ctx = nullptr;
@@ -103,15 +101,15 @@ TEST_F(TeacherCapi, AStreamComparedWithItsOwnFeaturesIsAtDistanceZeroFrameForFra
   EXPECT_EQ(kata_stream_ghost_joint_count(s), 0u);
   for (uint32_t i = 0; i < kFrames; ++i)
     ASSERT_EQ(kata_stream_push(s, i * kata_clip_frame_time(clip), frame(kFirst + i).data(), joints), KATA_OK);
-  std::vector<kata_score_record> sc;
-  const std::vector<kata_result> r = drain(s, &sc);
+  std::vector<kata_result_record> sc;
+  const std::vector<kata_result_record> r = drain(s, &sc);
   ASSERT_EQ(r.size(), vectors);
   for (size_t k = 0; k < r.size(); ++k) {
-    EXPECT_TRUE(r[k].flags & KATA_RESULT_SCORED) << k;
-    EXPECT_FALSE(r[k].flags & KATA_RESULT_GHOST) << k;
-    EXPECT_EQ(r[k].sequence, k);
+    EXPECT_TRUE(r[k].scored) << k;
+    EXPECT_EQ(r[k].ghost_joint_count, 0u) << k;
+    EXPECT_EQ(r[k].result_sequence, k);
     EXPECT_EQ(r[k].matched_teacher_frame, static_cast<int32_t>(k)) << "frame for frame";
-    EXPECT_EQ(sc[k].matched_reference_frame, static_cast<int32_t>(k));
+    EXPECT_EQ(sc[k].matched_teacher_frame, static_cast<int32_t>(k));
     EXPECT_LT(sc[k].distance, 1e-4f) << k;
     if (sc[k].state == KATA_SCORE_SCORING) {
       EXPECT_GT(sc[k].score, 99.99f) << k;
@@ -127,11 +125,11 @@ TEST_F(TeacherCapi, AStreamComparedWithItsOwnFeaturesIsAtDistanceZeroFrameForFra
   kata_stream_reset(s);
   for (uint32_t i = 0; i < kFrames; ++i)
     ASSERT_EQ(kata_stream_push(s, 10.0 + i * kata_clip_frame_time(clip), frame(kFirst + i).data(), joints), KATA_OK);
-  const std::vector<kata_result> p = drain(s, &sc);
+  const std::vector<kata_result_record> p = drain(s, &sc);
   ASSERT_EQ(p.size(), vectors);
   float farthest = 0.0f;
   for (size_t k = 0; k < p.size(); ++k) {
-    EXPECT_EQ(sc[k].matched_reference_frame, 0) << k;
+    EXPECT_EQ(sc[k].matched_teacher_frame, 0) << k;
     if (k == pose) {
       EXPECT_LT(sc[k].distance, 1e-4f);
     }
@@ -176,12 +174,11 @@ TEST_F(TeacherCapi, AHeldPoseGivenAsTheSixteenGpdJointsMatchesAStudentHoldingIt)
   EXPECT_NE(std::strstr(kata_stream_last_error(s), "positions"), nullptr) << kata_stream_last_error(s);
 
   for (int i = 0; i < 20; ++i) ASSERT_EQ(kata_stream_push(s, i / 30.0, pose.data(), KATA_GPD_JOINTS), KATA_OK);
-  kata_result r;
+  kata_result_record r;
   r.struct_size = sizeof r;
-  kata_score_record sc;
-  sc.struct_size = sizeof sc;
-  ASSERT_EQ(kata_stream_read_newest(s, &r, &sc, nullptr, 0, nullptr, 0), KATA_OK);
-  EXPECT_TRUE(r.flags & KATA_RESULT_SCORED);
+  kata_result_record& sc = r;
+  ASSERT_EQ(kata_stream_read_newest(s, &r, nullptr, 0, nullptr, 0), KATA_OK);
+  EXPECT_TRUE(r.scored);
   EXPECT_LT(sc.distance, 1e-4f) << "held still: kinetics zero on both sides, the same static features";
   EXPECT_EQ(sc.state, KATA_SCORE_SCORING);
   EXPECT_GT(sc.score, 99.99f);
@@ -194,7 +191,7 @@ TEST_F(TeacherCapi, AHeldPoseGivenAsTheSixteenGpdJointsMatchesAStudentHoldingIt)
     for (int k = 0; k < 3; ++k) other[3 * g + k] = other_all[3 * j + k];
   }
   for (int i = 20; i < 40; ++i) ASSERT_EQ(kata_stream_push(s, i / 30.0, other.data(), KATA_GPD_JOINTS), KATA_OK);
-  ASSERT_EQ(kata_stream_read_newest(s, &r, &sc, nullptr, 0, nullptr, 0), KATA_OK);
+  ASSERT_EQ(kata_stream_read_newest(s, &r, nullptr, 0, nullptr, 0), KATA_OK);
   EXPECT_GT(sc.distance, 1e-2f);
   kata_stream_close(s);
 }
@@ -214,13 +211,12 @@ TEST_F(TeacherCapi, TheNewestResultIsTheLastEntryOfADrain) {
   const uint32_t g = kata_stream_ghost_joint_count(b);
   ASSERT_GT(g, 0u);
 
-  kata_result r;
+  kata_result_record r;
   r.struct_size = sizeof r;
-  kata_score_record sc;
-  sc.struct_size = sizeof sc;
+  kata_result_record& sc = r;
   std::vector<float> ghost(3 * g);
-  EXPECT_EQ(kata_stream_read_newest(b, &r, &sc, ghost.data(), ghost.size(), nullptr, 0), KATA_NO_DATA);
-  EXPECT_EQ(kata_stream_read_newest(b, &r, &sc, ghost.data(), ghost.size() - 1, nullptr, 0), KATA_E_BUFFER_TOO_SMALL);
+  EXPECT_EQ(kata_stream_read_newest(b, &r, ghost.data(), ghost.size(), nullptr, 0), KATA_NO_DATA);
+  EXPECT_EQ(kata_stream_read_newest(b, &r, ghost.data(), ghost.size() - 1, nullptr, 0), KATA_E_BUFFER_TOO_SMALL);
 
   std::vector<float> p(3 * static_cast<size_t>(sj));
   for (uint32_t round = 0; round < 3; ++round) {
@@ -231,31 +227,30 @@ TEST_F(TeacherCapi, TheNewestResultIsTheLastEntryOfADrain) {
       ASSERT_EQ(kata_stream_push(b, f / 120.0, p.data(), sj), KATA_OK);
     }
     // a: every result; b: the newest only.
-    std::vector<kata_result> all(64);
-    std::vector<kata_score_record> all_sc(64);
+    std::vector<kata_result_record> all(64);
+    
     std::vector<float> all_ghosts(64 * 3 * static_cast<size_t>(g));
     all[0].struct_size = sizeof all[0];
-    all_sc[0].struct_size = sizeof all_sc[0];
     uint32_t n = 0;
-    ASSERT_EQ(kata_stream_read_results(a, all.data(), all_sc.data(), all_ghosts.data(), all_ghosts.size(), nullptr, 0,
+    ASSERT_EQ(kata_stream_read_results(a, all.data(), all_ghosts.data(), all_ghosts.size(), nullptr, 0,
                                        64, &n),
               KATA_OK);
     ASSERT_GT(n, 1u);
-    ASSERT_EQ(kata_stream_read_newest(b, &r, &sc, ghost.data(), ghost.size(), nullptr, 0), KATA_OK);
-    const kata_result& last = all[n - 1];
-    EXPECT_EQ(r.sequence, last.sequence);
+    ASSERT_EQ(kata_stream_read_newest(b, &r, ghost.data(), ghost.size(), nullptr, 0), KATA_OK);
+    const kata_result_record& last = all[n - 1];
+    EXPECT_EQ(r.result_sequence, last.result_sequence);
     EXPECT_EQ(r.frame_index, last.frame_index);
     EXPECT_EQ(r.capture_time, last.capture_time);
-    EXPECT_EQ(r.flags, last.flags);
+    EXPECT_EQ(r.scored, last.scored);
     EXPECT_EQ(r.matched_teacher_frame, last.matched_teacher_frame);
     EXPECT_EQ(r.ghost_joint_count, g);
-    EXPECT_EQ(sc.distance, all_sc[n - 1].distance);
-    EXPECT_EQ(sc.score, all_sc[n - 1].score);
+    EXPECT_EQ(sc.distance, all[n - 1].distance);
+    EXPECT_EQ(sc.score, all[n - 1].score);
     for (size_t k = 0; k < ghost.size(); ++k) ASSERT_EQ(ghost[k], all_ghosts[(n - 1) * ghost.size() + k]) << k;
     // The older ones were passed over, not dropped; nothing new: no data.
     EXPECT_EQ(kata_stream_results_pending(b), 0u);
     EXPECT_EQ(kata_stream_results_dropped(b), 0u);
-    EXPECT_EQ(kata_stream_read_newest(b, &r, &sc, nullptr, 0, nullptr, 0), KATA_NO_DATA);
+    EXPECT_EQ(kata_stream_read_newest(b, &r, nullptr, 0, nullptr, 0), KATA_NO_DATA);
   }
   kata_stream_close(a);
   kata_stream_close(b);
@@ -271,33 +266,33 @@ TEST_F(TeacherCapi, RestartMatchesFromTheStartAndDetachStopsScoring) {
   d.first_frame = kFirst;
   ASSERT_EQ(kata_stream_attach_teacher(s, &d), KATA_OK) << kata_stream_last_error(s);
   const double dt = kata_clip_frame_time(clip);
-  kata_result r;
+  kata_result_record r;
   r.struct_size = sizeof r;
-  kata_score_record sc;
-  sc.struct_size = sizeof sc;
+  kata_result_record& sc = r;
   // The teacher's own frames 1..60: the match follows, frame for frame.
   for (uint32_t i = 0; i < 60; ++i) ASSERT_EQ(kata_stream_push(s, i * dt, frame(kFirst + i).data(), joints), KATA_OK);
-  ASSERT_EQ(kata_stream_read_newest(s, &r, &sc, nullptr, 0, nullptr, 0), KATA_OK);
+  ASSERT_EQ(kata_stream_read_newest(s, &r, nullptr, 0, nullptr, 0), KATA_OK);
   EXPECT_GE(r.matched_teacher_frame, 50);
   // From the clip's start again: without a restart the monotone match cannot go back ...
   kata_stream_reset(s);
   ASSERT_EQ(kata_stream_push(s, 60 * dt, frame(kFirst).data(), joints), KATA_OK);
   ASSERT_EQ(kata_stream_push(s, 61 * dt, frame(kFirst + 1).data(), joints), KATA_OK);
-  ASSERT_EQ(kata_stream_read_newest(s, &r, &sc, nullptr, 0, nullptr, 0), KATA_OK);
+  ASSERT_EQ(kata_stream_read_newest(s, &r, nullptr, 0, nullptr, 0), KATA_OK);
   EXPECT_GE(r.matched_teacher_frame, 50);
   // ... with one it does, and calibrates again.
   ASSERT_EQ(kata_stream_restart_teacher(s), KATA_OK);
   kata_stream_reset(s);
   for (uint32_t i = 0; i < 3; ++i) ASSERT_EQ(kata_stream_push(s, (70 + i) * dt, frame(kFirst + i).data(), joints), KATA_OK);
-  ASSERT_EQ(kata_stream_read_newest(s, &r, &sc, nullptr, 0, nullptr, 0), KATA_OK);
+  ASSERT_EQ(kata_stream_read_newest(s, &r, nullptr, 0, nullptr, 0), KATA_OK);
   EXPECT_LE(r.matched_teacher_frame, 3);
   EXPECT_EQ(sc.state, KATA_SCORE_CALIBRATING);
 
   ASSERT_EQ(kata_stream_detach_teacher(s), KATA_OK);
   EXPECT_EQ(kata_stream_ghost_joint_count(s), 0u);
   ASSERT_EQ(kata_stream_push(s, 80 * dt, frame(kFirst + 3).data(), joints), KATA_OK);
-  ASSERT_EQ(kata_stream_read_newest(s, &r, &sc, nullptr, 0, nullptr, 0), KATA_OK);
-  EXPECT_EQ(r.flags & (KATA_RESULT_SCORED | KATA_RESULT_GHOST), 0u);
+  ASSERT_EQ(kata_stream_read_newest(s, &r, nullptr, 0, nullptr, 0), KATA_OK);
+  EXPECT_EQ(r.scored, 0);
+  EXPECT_EQ(r.ghost_joint_count, 0u);
   EXPECT_EQ(r.matched_teacher_frame, -1);
   EXPECT_EQ(sc.distance, 0.0f);
   EXPECT_EQ(kata_stream_restart_teacher(s), KATA_E_STATE);
@@ -333,8 +328,8 @@ TEST_F(TeacherCapi, DescSizesMotionsAndNullsAreChecked) {
   f[7] = NAN;
   EXPECT_EQ(kata_stream_attach_teacher(s, &d), KATA_E_INVALID_ARGUMENT) << "non-finite features";
   EXPECT_GT(kata_stream_ghost_joint_count(s), 0u) << "a refused call leaves the old teacher";
-  EXPECT_EQ(kata_stream_read_newest(nullptr, nullptr, nullptr, nullptr, 0, nullptr, 0), KATA_E_NULL_POINTER);
-  EXPECT_EQ(kata_stream_read_newest(s, nullptr, nullptr, nullptr, 0, nullptr, 0), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_read_newest(nullptr, nullptr, nullptr, 0, nullptr, 0), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_read_newest(s, nullptr, nullptr, 0, nullptr, 0), KATA_E_NULL_POINTER);
   EXPECT_EQ(kata_stream_detach_teacher(nullptr), KATA_E_NULL_POINTER);
   EXPECT_EQ(kata_stream_restart_teacher(nullptr), KATA_E_NULL_POINTER);
   kata_stream_close(s);

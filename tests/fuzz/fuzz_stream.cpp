@@ -115,13 +115,11 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
       reference = set == KATA_OK;
       continue;
     }
-    kata_result res;
-    res.struct_size = sizeof res;
-    kata_score_record r;
+    kata_result_record r;
     r.struct_size = sizeof r;
-    const kata_status scored = kata_stream_read_newest(s, &res, &r, nullptr, 0, nullptr, 0);
+    const kata_status scored = kata_stream_read_newest(s, &r, nullptr, 0, nullptr, 0);
     check(scored != KATA_E_INTERNAL);
-    if (scored == KATA_OK && (res.flags & KATA_RESULT_SCORED)) {
+    if (scored == KATA_OK && r.scored) {
       check(std::isfinite(r.distance) && std::isfinite(r.score) && r.score >= 0.0f && r.score <= 100.0f);
       for (float p : r.parts) check(std::isfinite(p));
     }

@@ -171,11 +171,11 @@ TEST(Blame, RotatingOneJointBlamesItsPart) {
     for (int q = 0; q < kParts; ++q) total += confusion[p][q];
     EXPECT_GE(double(confusion[p][p]) / total, 0.9) << metric::part_name(p);
   }
-  // Measured (shipped model): 49 of 54 in the top 2; the 5 others are all twists about the
-  // vertical, which turn the local frame and so move the legs about as far as the arms (one of
-  // them, 1 of 54, names the least moved of the four: legs 0.4 points apart in score).
-  EXPECT_GE(double(spine_in_top2) / spine_trials, 0.9);
-  EXPECT_LE(spine_below_median, spine_trials / 20);
+  // The bent spine (issue 34): the torso's own angle is what changed, and the part scores read
+  // the arms in the chest frame, so the torso is the lowest part: measured 36 of 54; the 18
+  // others are all the twists about the vertical, which turn the local frame (its yaw comes from
+  // the shoulder and hip lines) and so turn the legs in it as far (named 11 / 7 legs).
+  EXPECT_GE(double(spine_torso) / spine_trials, 0.6);
 }
 
 }  // namespace

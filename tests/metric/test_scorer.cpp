@@ -2,6 +2,8 @@
 // with an independent dense evaluation in double precision; batching and allocation.
 #include <gtest/gtest.h>
 
+#include <algorithm>
+
 #include <cmath>
 #include <cstdlib>
 
@@ -54,7 +56,11 @@ TEST(Scorer, DistanceAndPartsMatchDenseQuadraticForm) {
     SCOPED_TRACE(std::string(p.teacher) + ":" + std::to_string(p.tf) + " vs " + p.student + ":" + std::to_string(p.sf) +
                  " d=" + std::to_string(d));
     EXPECT_NEAR(r.distance, d, 1e-5 * d);
-    EXPECT_NEAR(r.score, 100.0 / (1.0 + (d / model.delta_star) * (d / model.delta_star)), 1e-3);
+    EXPECT_NEAR(r.model_score, 100.0 / (1.0 + (d / model.delta_star) * (d / model.delta_star)), 1e-3);
+    // The coaching total: never above the model's map nor the worst part (scorer.hpp).
+    float worst = 100.0f;
+    for (int q = 0; q < kParts; ++q) worst = std::min(worst, r.part_scores[q]);
+    EXPECT_EQ(r.score, std::min(r.model_score, worst));
 
     double dense_parts[kParts] = {};
     for (int i = 0; i < gpd::kDims; ++i) {

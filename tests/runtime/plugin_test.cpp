@@ -38,7 +38,7 @@ std::string refusal(const std::string& path) {
 TEST(runtime_plugin, RefusalsNameTheFileAndTheReason) {
   const std::string dir = KATA_TEST_PLUGIN_DIR;
   const std::string major = dir + "/broken_major.so";
-  EXPECT_EQ(refusal(major), "plugin " + major + ": ABI major version 2, this host speaks 1");
+  EXPECT_EQ(refusal(major), "plugin " + major + ": ABI major version 1, this host speaks 2");
   const std::string size = dir + "/broken_size.so";
   EXPECT_NE(refusal(size).find("plugin " + size + ": its table is"), std::string::npos) << refusal(size);
   EXPECT_NE(refusal(size).find("larger than this host knows"), std::string::npos);

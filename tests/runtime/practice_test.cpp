@@ -165,7 +165,7 @@ double share_found(const std::vector<ResultFields>& results, uint32_t revision, 
   int near = 0, judged = 0;
   const double ft = lesson().ft;
   for (const ResultFields& r : results) {
-    if (r.practice.revision != revision || !r.scored || r.frame_sequence < entered + static_cast<uint64_t>(1.5 / ft))
+    if (r.practice_revision != revision || !r.scored || r.frame_sequence < entered + static_cast<uint64_t>(1.5 / ft))
       continue;
     ++judged;
     near += std::abs(r.matched_teacher_time - row_of(r.frame_sequence) * ft) <= 0.25 ? 1 : 0;
@@ -204,7 +204,7 @@ TEST(runtime_practice, ALoopHoldsTheMatchInsideItAndAChangeMidStreamMovesIt) {
     int scored[3] = {0, 0, 0};
     for (const ResultFields& f : r) {
       ASSERT_TRUE(f.has_practice) << "a stream with a clip teacher says its practice in every result";
-      const uint32_t rev = f.practice.revision;
+      const uint32_t rev = f.practice_revision;
       // The setting is the one in force when the frame was computed: the frames sent after the
       // change are computed under it (a central stencil emits a frame one push late: the frame
       // just before the change may already be computed under it).
@@ -214,19 +214,19 @@ TEST(runtime_practice, ALoopHoldsTheMatchInsideItAndAChangeMidStreamMovesIt) {
         ASSERT_EQ(rev, 2u) << "frame " << f.frame_sequence;
       }
       if (rev == 1) {
-        EXPECT_DOUBLE_EQ(f.practice.start_time, kLoopFirst * l.ft);
-        EXPECT_DOUBLE_EQ(f.practice.end_time, kLoopLast * l.ft);
-        EXPECT_TRUE(f.practice.loop);
+        EXPECT_DOUBLE_EQ(f.practice_start_time, kLoopFirst * l.ft);
+        EXPECT_DOUBLE_EQ(f.practice_end_time, kLoopLast * l.ft);
+        EXPECT_TRUE(f.practice_loop);
       } else {
-        EXPECT_DOUBLE_EQ(f.practice.start_time, kStart * l.ft);
-        EXPECT_DOUBLE_EQ(f.practice.end_time, last_time);
-        EXPECT_FALSE(f.practice.loop);
+        EXPECT_DOUBLE_EQ(f.practice_start_time, kStart * l.ft);
+        EXPECT_DOUBLE_EQ(f.practice_end_time, last_time);
+        EXPECT_FALSE(f.practice_loop);
       }
       if (!f.scored) continue;
       ++scored[rev];
       // The matched teacher time stays in the section, wherever the student is.
-      ASSERT_GE(f.matched_teacher_time, f.practice.start_time - 1e-9) << "frame " << f.frame_sequence;
-      ASSERT_LE(f.matched_teacher_time, f.practice.end_time + 1e-9) << "frame " << f.frame_sequence;
+      ASSERT_GE(f.matched_teacher_time, f.practice_start_time - 1e-9) << "frame " << f.frame_sequence;
+      ASSERT_LE(f.matched_teacher_time, f.practice_end_time + 1e-9) << "frame " << f.frame_sequence;
       EXPECT_EQ(f.matched_teacher_frame, static_cast<int>(std::lround(f.matched_teacher_time / l.ft)));
     }
     EXPECT_GT(scored[1], kPhase1 * 9 / 10);
@@ -236,7 +236,7 @@ TEST(runtime_practice, ALoopHoldsTheMatchInsideItAndAChangeMidStreamMovesIt) {
     const uint64_t loop_entered = kLoopFirst, start_entered = kPhase1 + (kStart - kPhase2Begin);
     int near_loop = 0, judged_loop = 0;
     for (const ResultFields& f : r)
-      if (f.scored && f.practice.revision == 1 && f.frame_sequence >= loop_entered + 180 &&
+      if (f.scored && f.practice_revision == 1 && f.frame_sequence >= loop_entered + 180 &&
           f.frame_sequence <= static_cast<uint64_t>(kLoopLast)) {
         ++judged_loop;
         near_loop += std::abs(f.matched_teacher_time - static_cast<double>(f.frame_sequence) * l.ft) <= 0.25;
@@ -315,7 +315,7 @@ TEST(runtime_practice, BadSettingsAreRefusedByCauseAndNoOtherStreamIsTouched) {
     ASSERT_EQ(results.of[7].size(), static_cast<size_t>(kFrames));
     ASSERT_EQ(results.of[8].size(), static_cast<size_t>(kFrames));
     for (const ResultFields& f : results.of[7]) {
-      ASSERT_EQ(f.practice.revision, 1u) << "stream 7 keeps its setting, frame " << f.frame_sequence;
+      ASSERT_EQ(f.practice_revision, 1u) << "stream 7 keeps its setting, frame " << f.frame_sequence;
       if (f.scored) {
         ASSERT_GE(f.matched_teacher_time, kLoopFirst * l.ft - 1e-9);
         ASSERT_LE(f.matched_teacher_time, kLoopLast * l.ft + 1e-9);
@@ -327,10 +327,10 @@ TEST(runtime_practice, BadSettingsAreRefusedByCauseAndNoOtherStreamIsTouched) {
       const ResultFields& f = results.of[8][k];
       ASSERT_EQ(f.frame_sequence, k);
       ASSERT_TRUE(f.has_practice);
-      ASSERT_EQ(f.practice.revision, 0u);
-      ASSERT_EQ(f.practice.start_time, 0.0);
-      ASSERT_DOUBLE_EQ(f.practice.end_time, (l.rows - 1) * l.ft);
-      ASSERT_FALSE(f.practice.loop);
+      ASSERT_EQ(f.practice_revision, 0u);
+      ASSERT_EQ(f.practice_start_time, 0.0);
+      ASSERT_DOUBLE_EQ(f.practice_end_time, (l.rows - 1) * l.ft);
+      ASSERT_FALSE(f.practice_loop);
     }
     EXPECT_GE(share_found(results.of[8], 0, [](uint64_t k) { return static_cast<int>(k); }, 0), 0.9);
 

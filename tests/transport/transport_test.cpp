@@ -153,7 +153,7 @@ TEST(runtime_wire, ResultRoundTrip) {
   r.result_sequence = 11;
   r.frame_sequence = 12;
   r.frame_index = 13;
-  r.capture_ns = 1;
+  r.capture_time = 1.5;
   r.arrival_ns = 2;
   r.computed_ns = 3;
   r.published_ns = 4;
@@ -168,7 +168,7 @@ TEST(runtime_wire, ResultRoundTrip) {
   r.state = 3;  // teacher finished
   const auto ghost = pose(9, 1, 4);
   r.ghost = ghost.data();
-  r.ghost_joints = 4;
+  r.ghost_joint_count = 4;
   Bytes m = encoder.result(r);
   std::vector<uint8_t> copy(m.data, m.data + m.size);
   ASSERT_EQ(decoder.decode(copy.data(), copy.size()), MessageKind::kResult);
@@ -177,6 +177,7 @@ TEST(runtime_wire, ResultRoundTrip) {
   EXPECT_EQ(o.frame_sequence, 12u);
   EXPECT_EQ(o.frame_index, 13);
   EXPECT_EQ(o.published_ns, 4);
+  EXPECT_EQ(o.capture_time, 1.5);  // seconds in the record, nanoseconds on the wire
   EXPECT_TRUE(o.scored);
   EXPECT_EQ(o.score, 75.0f);
   EXPECT_EQ(o.parts[4], 0.04f);
@@ -186,7 +187,7 @@ TEST(runtime_wire, ResultRoundTrip) {
   EXPECT_EQ(o.part_scores[4], 54.0f);
   EXPECT_EQ(o.part_to_fix, 3);
   EXPECT_EQ(o.state, 3);
-  ASSERT_EQ(o.ghost_joints, 4);
+  ASSERT_EQ(o.ghost_joint_count, 4u);
   EXPECT_EQ(o.ghost[11], ghost[11]);
   EXPECT_EQ(o.features, nullptr);
 }
@@ -263,22 +264,25 @@ TEST(runtime_wire, ResultCarriesItsPracticeSection) {
   Decoder decoder;
   ResultFields r;
   r.stream_id = 5;
-  r.has_practice = true;
-  r.practice = PracticeSection{1.25, 3.5, true, 4};
+  r.has_practice = 1;
+  r.practice_start_time = 1.25;
+  r.practice_end_time = 3.5;
+  r.practice_loop = 1;
+  r.practice_revision = 4;
   Bytes m = encoder.result(r);
   std::vector<uint8_t> copy(m.data, m.data + m.size);
   ASSERT_EQ(decoder.decode(copy.data(), copy.size()), MessageKind::kResult);
   EXPECT_TRUE(decoder.result().has_practice);
-  EXPECT_EQ(decoder.result().practice.start_time, 1.25);
-  EXPECT_EQ(decoder.result().practice.end_time, 3.5);
-  EXPECT_TRUE(decoder.result().practice.loop);
-  EXPECT_EQ(decoder.result().practice.revision, 4u);
-  r.has_practice = false;
+  EXPECT_EQ(decoder.result().practice_start_time, 1.25);
+  EXPECT_EQ(decoder.result().practice_end_time, 3.5);
+  EXPECT_TRUE(decoder.result().practice_loop);
+  EXPECT_EQ(decoder.result().practice_revision, 4u);
+  r.has_practice = 0;
   m = encoder.result(r);
   copy.assign(m.data, m.data + m.size);
   ASSERT_EQ(decoder.decode(copy.data(), copy.size()), MessageKind::kResult);
   EXPECT_FALSE(decoder.result().has_practice);
-  EXPECT_EQ(decoder.result().practice.revision, 0u);
+  EXPECT_EQ(decoder.result().practice_revision, 0u);
 }
 
 TEST(runtime_wire, RefusalsNameTheirReason) {

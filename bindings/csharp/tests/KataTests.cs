@@ -122,9 +122,9 @@ static class KataTests
                 for (int r = 0; r < n && r + 1 < lines.Length; ++r)
                 {
                     string[] f = lines[r + 1].Split(',');
-                    Result res = batch.Results[r];
-                    ScoreRecord sc = batch.Scores[r];
-                    bool ok = (res.Flags & Result.FlagScored) != 0 && long.Parse(f[0]) == res.FrameIndex + 1 &&
+                    ResultRecord res = batch.Results[r];
+                    ResultRecord sc = batch.Scores[r];
+                    bool ok = res.Scored != 0 && long.Parse(f[0]) == res.FrameIndex + 1 &&
                               SameAsPrinted(sc.Distance, f[2], false) && SameAsPrinted(sc.Score, f[3], true) &&
                               int.Parse(f[9]) == res.MatchedTeacherFrame + 1;
                     for (int q = 0; q < Gpd.PartCount; ++q) ok &= SameAsPrinted(sc.Part((BodyPart)q), f[4 + q], false);
@@ -249,14 +249,14 @@ static class KataTests
             Check(n == vectors, "features teacher: " + n + " results for " + vectors + " vectors");
             int bad = 0;
             for (int k = 0; k < n; ++k)
-                if (all.Results[k].MatchedTeacherFrame != k || !(all.Scores[k].Distance < 1e-4f) || (all.Results[k].Flags & Result.FlagScored) == 0) ++bad;
+                if (all.Results[k].MatchedTeacherFrame != k || !(all.Scores[k].Distance < 1e-4f) || all.Results[k].Scored == 0) ++bad;
             Check(bad == 0, "features teacher: " + bad + " results not at distance 0 on their own frame");
-            Check(u.ReadNewest(one) && one.Count == 1 && one.Results[0].Sequence == all.Results[n - 1].Sequence &&
+            Check(u.ReadNewest(one) && one.Count == 1 && one.Results[0].ResultSequence == all.Results[n - 1].ResultSequence &&
                   one.Scores[0].Score == all.Scores[n - 1].Score, "ReadNewest is the last entry of a drain");
             Check(!u.ReadNewest(one) && u.ResultsPending == 0 && u.ResultsDropped == 0, "ReadNewest: nothing new, nothing dropped");
             u.DetachTeacher();
             u.Push(41 * clip.FrameTime, Frame(clip, 41, joints));
-            Check(u.ReadNewest(one) && (one.Results[0].Flags & Result.FlagScored) == 0, "detached: not scored");
+            Check(u.ReadNewest(one) && one.Results[0].Scored == 0, "detached: not scored");
             try { u.RestartTeacher(); Check(false, "restart without a teacher was accepted"); }
             catch (KataException e) { Check(e.Status == Status.State, "restart without a teacher: " + e.Message); }
         }

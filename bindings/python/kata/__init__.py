@@ -30,7 +30,7 @@ import os
 from .errors import KataError, ResultsDroppedError, ResultsDroppedWarning, Status
 from .objects import (GPD_DIMS, GPD_JOINTS, BodyPart, Clip, Context, Model, ScoreState, Skeleton, Stencil, UpAxis,
                       default_model_path, find_data, library_path, presets, version)
-from .stream import (DROP_POLICIES, RESULT_DTYPE, RESULT_GHOST, RESULT_SCORED, SCORE_DTYPE, ResultBuffer, Results,
+from .stream import (DROP_POLICIES, RESULT_DTYPE, ResultBuffer, Results,
                      ScoreRecord, Stream, detect_time_units)
 from .retarget import Retargeter
 from .messages import PracticeSection, ResultMessage, Subscriber, read_message
@@ -43,8 +43,7 @@ __all__ = ["Context", "Skeleton", "Clip", "Model", "Stream", "Retargeter", "Runt
            "Results", "ResultBuffer", "ScoreRecord", "ResultMessage", "PracticeSection",
            "KataError", "ResultsDroppedWarning", "ResultsDroppedError", "Status", "Stencil", "UpAxis", "ScoreState",
            "BodyPart", "read_message", "shard_of", "detect_time_units", "default_model_path", "find_data", "presets",
-           "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_SCORED", "RESULT_GHOST", "RESULT_DTYPE",
-           "SCORE_DTYPE", "DROP_POLICIES"]
+           "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "DROP_POLICIES"]
 
 # kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the
 # installed package; used from a checkout, they are the build's (<repo>/build/python/kata/fb).

@@ -120,38 +120,22 @@ class TeacherDesc(ctypes.Structure):
                 ("features", ctypes.c_void_p), ("joints", ctypes.c_void_p), ("body_height", ctypes.c_double)]
 
 
-class ScoreRecord(ctypes.Structure):
-    _fields_ = [("struct_size", ctypes.c_uint32), ("matched_reference_frame", ctypes.c_int32),
-                ("frame_index", ctypes.c_int64), ("timestamp", ctypes.c_double), ("distance", ctypes.c_float),
-                ("score", ctypes.c_float), ("parts", ctypes.c_float * PART_COUNT),
-                # with the calibrated score
-                ("part_scores", ctypes.c_float * PART_COUNT), ("part_to_fix", ctypes.c_int32),
-                ("state", ctypes.c_int32)]
-
-
-class ResultMessage(ctypes.Structure):
-    _fields_ = [("struct_size", ctypes.c_uint32), ("ghost_joint_count", ctypes.c_uint32),
+class ResultRecord(ctypes.Structure):
+    """kata_result_record (kata/result.h): every result a stream, a message or a plugin gives."""
+    _fields_ = [("struct_size", ctypes.c_uint32), ("scored", ctypes.c_int32),
                 ("stream_id", ctypes.c_uint64), ("result_sequence", ctypes.c_uint64),
                 ("frame_sequence", ctypes.c_uint64), ("frame_index", ctypes.c_int64),
-                ("capture_ns", ctypes.c_int64), ("arrival_ns", ctypes.c_int64), ("computed_ns", ctypes.c_int64),
-                ("published_ns", ctypes.c_int64), ("scored", ctypes.c_int32),
-                ("matched_teacher_frame", ctypes.c_int32), ("distance", ctypes.c_float),
-                ("score", ctypes.c_float), ("parts", ctypes.c_float * PART_COUNT),
-                ("ghost", ctypes.POINTER(ctypes.c_float)),
+                ("capture_time", ctypes.c_double), ("arrival_ns", ctypes.c_int64), ("computed_ns", ctypes.c_int64),
+                ("published_ns", ctypes.c_int64), ("matched_teacher_frame", ctypes.c_int32),
+                ("state", ctypes.c_int32), ("matched_teacher_time", ctypes.c_double),
+                ("distance", ctypes.c_float), ("score", ctypes.c_float), ("parts", ctypes.c_float * PART_COUNT),
                 ("part_scores", ctypes.c_float * PART_COUNT), ("part_to_fix", ctypes.c_int32),
-                ("state", ctypes.c_int32),
-                # with the re-localising alignment, then with practice messages
-                ("matched_teacher_time", ctypes.c_double), ("has_practice", ctypes.c_int32),
-                ("practice_revision", ctypes.c_uint32), ("practice_start_time", ctypes.c_double),
-                ("practice_end_time", ctypes.c_double), ("practice_loop", ctypes.c_int32),
-                ("reserved", ctypes.c_uint32)]
-
-
-class Result(ctypes.Structure):
-    _fields_ = [("struct_size", ctypes.c_uint32), ("flags", ctypes.c_uint32), ("sequence", ctypes.c_uint64),
-                ("frame_index", ctypes.c_int64), ("capture_time", ctypes.c_double), ("arrival_ns", ctypes.c_int64),
-                ("computed_ns", ctypes.c_int64), ("matched_teacher_frame", ctypes.c_int32),
-                ("ghost_joint_count", ctypes.c_uint32)]
+                ("ghost_joint_count", ctypes.c_uint32),
+                # const float* ghost, as an address: numpy dtypes take no ctypes pointer
+                ("ghost", ctypes.c_size_t),
+                ("has_practice", ctypes.c_int32), ("practice_revision", ctypes.c_uint32),
+                ("practice_start_time", ctypes.c_double), ("practice_end_time", ctypes.c_double),
+                ("practice_loop", ctypes.c_int32), ("reserved0", ctypes.c_uint32)]
 
 
 class RuntimeDesc(ctypes.Structure):
@@ -232,7 +216,7 @@ _SIGNATURES = {
     "kata_stream_set_reference_bvh": (_st, [_p, _p, _p, _s, _u32, _i32]),
     "kata_stream_clear_reference": (_st, [_p]),
     "kata_stream_restart_reference": (_st, [_p]),
-    "kata_stream_score": (_st, [_p, ctypes.POINTER(ScoreRecord)]),
+    "kata_stream_score": (_st, [_p, ctypes.POINTER(ResultRecord)]),
     "kata_retarget_desc_init": (None, [ctypes.POINTER(RetargetDesc)]),
     "kata_retarget_desc_init_sized": (None, [ctypes.POINTER(RetargetDesc), _u32]),
     "kata_retargeter_create": (_st, [_p, _p, ctypes.POINTER(RetargetDesc), _pp]),
@@ -249,8 +233,8 @@ _SIGNATURES = {
     "kata_stream_attach_teacher": (_st, [_p, ctypes.POINTER(TeacherDesc)]),
     "kata_stream_detach_teacher": (_st, [_p]),
     "kata_stream_restart_teacher": (_st, [_p]),
-    "kata_stream_read_newest": (_st, [_p, _p, _p, _p, _sz, _p, _sz]),
-    "kata_stream_read_results": (_st, [_p, _p, _p, _p, _sz, _p, _sz, _u32, ctypes.POINTER(_u32)]),
+    "kata_stream_read_newest": (_st, [_p, _p, _p, _sz, _p, _sz]),
+    "kata_stream_read_results": (_st, [_p, _p, _p, _sz, _p, _sz, _u32, ctypes.POINTER(_u32)]),
     "kata_stream_results_dropped": (_u64, [_p]),
     "kata_stream_results_pending": (_u32, [_p]),
     "kata_stream_ghost_joint_count": (_u32, [_p]),
@@ -269,7 +253,7 @@ _SIGNATURES = {
     "kata_retargeter_rotation_joint_count": (_u32, [_p]),
     "kata_retargeter_local_rotations": (_st, [_p, _p, _sz, _p, _sz, _p, _p, _sz, ctypes.POINTER(_d)]),
     # messages
-    "kata_message_read_result": (_st, [_p, _sz, ctypes.POINTER(ResultMessage)]),
+    "kata_message_read_result": (_st, [_p, _sz, ctypes.POINTER(ResultRecord)]),
     "kata_shard_of": (_u32, [_u64, _u32]),
     # the runtime
     "kata_runtime_desc_init": (None, [ctypes.POINTER(RuntimeDesc)]),

@@ -93,7 +93,7 @@ def landmarks_array(landmarks: Any) -> np.ndarray:
 
 
 class Scores:
-    """What a Scorer read: results (RESULT_DTYPE) and scores (SCORE_DTYPE) numpy arrays, one per
+    """What a Scorer read: results and scores (the same RESULT_DTYPE records) numpy arrays, one per
     frame that gave features; mean_score over the frames with ScoreState.SCORING; lost_frames:
     frames accepted without features (tracking lost)."""
 
@@ -102,7 +102,7 @@ class Scores:
         self.scores = scores
         self.lost_frames = lost_frames
         self.skipped_frames = skipped_frames  #: frames without a person (not pushed)
-        scoring = (results["flags"] & kata.RESULT_SCORED != 0) & (scores["state"] == kata.ScoreState.SCORING)
+        scoring = (results["scored"] != 0) & (scores["state"] == kata.ScoreState.SCORING)
         self.scored = scores[scoring]
         self.mean_score = float(self.scored["score"].mean()) if len(self.scored) else float("nan")
 
@@ -203,7 +203,7 @@ class Scorer:
         """Every result since the last read, as Scores."""
         self._drain()
         results = np.concatenate(self._results) if self._results else np.zeros(0, dtype=kata.RESULT_DTYPE)
-        scores = np.concatenate(self._scores) if self._scores else np.zeros(0, dtype=kata.SCORE_DTYPE)
+        scores = np.concatenate(self._scores) if self._scores else np.zeros(0, dtype=kata.RESULT_DTYPE)
         self._results, self._scores = [], []
         return Scores(results, scores, self.stream.lost_frames, self.skipped_frames)
 

@@ -24,21 +24,21 @@ class PracticeSection(NamedTuple):
 
 
 class ResultMessage:
-    """One result message (kata_result_message) as Python values: stream_id, result_sequence,
-    frame_sequence, frame_index, capture_ns (source clock), arrival_ns / computed_ns /
+    """One result message (a kata_result_record) as Python values: stream_id, result_sequence,
+    frame_sequence, frame_index, capture_time (seconds, source clock), arrival_ns / computed_ns /
     published_ns (CLOCK_MONOTONIC ns on the runtime's host), scored, matched_teacher_frame,
     matched_teacher_time (seconds from the teacher's first frame, -1 unless scored), distance
     (dimensionless), score (0..100), parts (split of d^2), part_scores, part_to_fix (BodyPart or
     -1), state (ScoreState), ghost ((G, 3) float32 copy, or None), practice (the PracticeSection it
     was computed under; None without a clip teacher or from an older runtime)."""
-    __slots__ = ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_ns", "arrival_ns",
+    __slots__ = ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_time", "arrival_ns",
                  "computed_ns", "published_ns", "scored", "matched_teacher_frame", "matched_teacher_time",
                  "distance", "score", "parts", "part_scores", "part_to_fix", "state", "ghost", "practice")
     stream_id: int
     result_sequence: int
     frame_sequence: int
     frame_index: int
-    capture_ns: int
+    capture_time: float
     arrival_ns: int
     computed_ns: int
     published_ns: int
@@ -50,8 +50,8 @@ class ResultMessage:
     part_to_fix: int
     state: int
 
-    def __init__(self, m: "_n.ResultMessage") -> None:
-        for name in ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_ns", "arrival_ns",
+    def __init__(self, m: "_n.ResultRecord") -> None:
+        for name in ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_time", "arrival_ns",
                      "computed_ns", "published_ns", "matched_teacher_frame", "matched_teacher_time", "distance",
                      "score", "part_to_fix", "state"):
             setattr(self, name, getattr(m, name))
@@ -61,22 +61,22 @@ class ResultMessage:
         self.parts = tuple(m.parts)
         self.part_scores = tuple(m.part_scores)
         # The C ghost pointer is valid only until this thread's next call: copied now.
-        self.ghost = (np.ctypeslib.as_array(m.ghost, shape=(m.ghost_joint_count, 3)).copy()
+        self.ghost = (np.ctypeslib.as_array(ctypes.cast(m.ghost, ctypes.POINTER(ctypes.c_float)),
+                                            shape=(m.ghost_joint_count, 3)).copy()
                       if m.ghost_joint_count and m.ghost else None)
 
     def __repr__(self) -> str:
         return "ResultMessage(stream=%d, seq=%d, score=%.2f)" % (self.stream_id, self.result_sequence, self.score)
 
 
-_message = _n.ResultMessage()
 
 
 def read_message(message: bytes) -> Optional[ResultMessage]:
     """kata_message_read_result: one ZeroMQ message of a kata runtime (16-byte topic + FlatBuffer),
     checked by the FlatBuffers verifier. A ResultMessage; None for a valid message that is not a
-    result (a skeleton definition); KataError E_PARSE for a refused one (truncated, corrupt).
+    result (a skeleton definition, stats, a practice setting); KataError E_PARSE for a refused one (truncated, corrupt).
     [any thread]"""
-    m = _n.ResultMessage()
+    m = _n.ResultRecord()
     m.struct_size = ctypes.sizeof(m)
     data = bytes(message)
     status = _n.message_read_result(data, len(data), ctypes.byref(m))

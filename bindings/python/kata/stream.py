@@ -12,20 +12,16 @@ from .errors import KataError, ResultsDroppedError, ResultsDroppedWarning, Statu
 from .objects import GPD_DIMS, GPD_JOINTS, Clip, Model, Skeleton, _Handle
 from .retarget import _retarget_desc
 
-__all__ = ["Stream", "ResultBuffer", "Results", "ScoreRecord", "detect_time_units", "RESULT_SCORED", "RESULT_GHOST",
-           "RESULT_DTYPE", "SCORE_DTYPE", "DROP_POLICIES"]
+__all__ = ["Stream", "ResultBuffer", "Results", "ScoreRecord", "detect_time_units", "RESULT_DTYPE", "DROP_POLICIES"]
 
 #: What read_results does when results were overwritten unread since the previous read (a full
 #: ring): "warn" (ResultsDroppedWarning, the default), "raise" (ResultsDroppedError carrying the
 #: results that were read), "count" (only Results.dropped says so).
 DROP_POLICIES = ("warn", "raise", "count")
 
-RESULT_SCORED = 1
-RESULT_GHOST = 2
-#: numpy dtypes with the exact layout of kata_result and kata_score_record (read into directly).
-RESULT_DTYPE = np.dtype(_n.Result)
-SCORE_DTYPE = np.dtype(_n.ScoreRecord)
-assert RESULT_DTYPE.itemsize == ctypes.sizeof(_n.Result) and SCORE_DTYPE.itemsize == ctypes.sizeof(_n.ScoreRecord)
+#: numpy dtype with the exact layout of kata_result_record (read into directly).
+RESULT_DTYPE = np.dtype(_n.ResultRecord)
+assert RESULT_DTYPE.itemsize == ctypes.sizeof(_n.ResultRecord)
 
 
 def detect_time_units(timestamps: Any) -> str:
@@ -40,14 +36,15 @@ def detect_time_units(timestamps: Any) -> str:
 
 
 class ScoreRecord:
-    """One scored frame (kata_score_record), as plain Python values."""
-    __slots__ = ("matched_reference_frame", "frame_index", "timestamp", "distance", "score", "parts",
-                 "part_scores", "part_to_fix", "state")
+    """One scored frame (a kata_result_record), as plain Python values."""
+    __slots__ = ("matched_teacher_frame", "matched_teacher_time", "frame_index", "capture_time", "distance", "score",
+                 "parts", "part_scores", "part_to_fix", "state")
 
-    def __init__(self, rec: "_n.ScoreRecord") -> None:
-        self.matched_reference_frame = rec.matched_reference_frame
+    def __init__(self, rec: "_n.ResultRecord") -> None:
+        self.matched_teacher_frame = rec.matched_teacher_frame
+        self.matched_teacher_time = rec.matched_teacher_time
         self.frame_index = rec.frame_index
-        self.timestamp = rec.timestamp
+        self.capture_time = rec.capture_time
         self.distance = rec.distance
         self.score = rec.score
         self.parts = tuple(rec.parts)
@@ -61,7 +58,7 @@ class ScoreRecord:
 
 class ResultBuffer:
     """Preallocated arrays that Stream.read_results fills in place (no allocation per read):
-    results (capacity,) RESULT_DTYPE, scores (capacity,) SCORE_DTYPE, ghosts (capacity, G, 3)
+    results (capacity,) RESULT_DTYPE (scores: the same array, each record carries its score), ghosts (capacity, G, 3)
     float32 where G = the stream's ghost joint count, features (capacity, 1683) float32 when
     with_features. The views a read returns stay valid until the next read into this buffer."""
 
@@ -70,15 +67,13 @@ class ResultBuffer:
         self.capacity = int(capacity)
         self.results = np.zeros(self.capacity, dtype=RESULT_DTYPE)
         self.results["struct_size"] = RESULT_DTYPE.itemsize
-        self.scores: Optional[np.ndarray] = None
-        if with_scores:
-            self.scores = np.zeros(self.capacity, dtype=SCORE_DTYPE)
-            self.scores["struct_size"] = SCORE_DTYPE.itemsize
+        # One record per result holds its score too: scores is the same array (with_scores is kept
+        # so callers of 0.x need no change; None when they asked for none).
+        self.scores: Optional[np.ndarray] = self.results if with_scores else None
         self.ghosts = np.zeros((self.capacity, ghost_joints, 3), dtype=np.float32) if ghost_joints else None
         self.features = np.zeros((self.capacity, GPD_DIMS), dtype=np.float32) if with_features else None
         # The C call's arguments, computed once.
-        self._args = (_address(self.results), None if self.scores is None else _address(self.scores),
-                      None if self.ghosts is None else _address(self.ghosts),
+        self._args = (_address(self.results), None if self.ghosts is None else _address(self.ghosts),
                       0 if self.ghosts is None else self.ghosts.size,
                       None if self.features is None else _address(self.features),
                       0 if self.features is None else self.features.size, self.capacity)
@@ -414,7 +409,7 @@ class Stream(_Handle):
         """Deprecated: read_newest() (or read_results() for every frame). The newest frame's
         ScoreRecord (read or not), or None before the first vector (kata_stream_score)."""
         _deprecated("score", "read_newest()")
-        rec = _n.ScoreRecord()
+        rec = _n.ResultRecord()
         rec.struct_size = ctypes.sizeof(rec)
         status = _n.stream_score(self.handle, ctypes.byref(rec))
         if status == Status.NO_DATA:
@@ -533,7 +528,7 @@ class Stream(_Handle):
         if buffer is None:
             buffer = ResultBuffer(1, self.ghost_joint_count, True, False)
         a = buffer._args
-        status = _n.stream_read_newest(self.handle, a[0], a[1], a[2], a[3], a[4], a[5])
+        status = _n.stream_read_newest(self.handle, a[0], a[1], a[2], a[3], a[4])
         if status == Status.NO_DATA:
             return None
         if status:

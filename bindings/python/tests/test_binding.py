@@ -105,7 +105,7 @@ def test_scores_equal_the_cli_csv(cli, data, model_path, tmp_path):
     assert len(r) == len(rows)
     names = list(rows[0].keys())
     for row, res, sc in zip(rows, r.results, r.scores):
-        assert res["flags"] & kata.RESULT_SCORED
+        assert res["scored"]
         assert int(row["frame"]) == res["frame_index"] + first
         assert row["time"] == "%.6f" % res["capture_time"]
         assert row["distance"] == "%.7g" % sc["distance"]
@@ -129,14 +129,14 @@ def test_read_newest_is_the_last_entry_of_a_drain(data, model_path):
         ring = a.read_results()
         newest = b.read_newest()
         assert len(newest) == 1 and len(ring) > 1
-        assert newest.results["sequence"][0] == ring.results["sequence"][-1]
+        assert newest.results["result_sequence"][0] == ring.results["result_sequence"][-1]
         assert newest.scores["score"][0] == ring.scores["score"][-1]
         assert (newest.scores["parts"][0] == ring.scores["parts"][-1]).all()
         assert (newest.ghosts[0] == ring.ghosts[-1]).all()
         assert b.results_pending == 0 and b.results_dropped == 0 and b.read_newest() is None
         b.detach_teacher()
         b.push(9 * clip.frame_time, clip.positions(9))
-        assert not (b.read_newest().results["flags"][0] & kata.RESULT_SCORED)
+        assert not b.read_newest().results["scored"][0]
 
 
 def test_a_teacher_given_as_its_own_features_is_at_distance_zero(data, model_path):
@@ -246,12 +246,12 @@ def test_ghosts_come_with_the_results(data, model_path):
         s.push_many(np.arange(20) * st.frame_time, pos)
         r = s.read_results(buf)
         assert len(r) == 8 and s.results_pending == 12
-        assert np.all(r.results["flags"] == kata.RESULT_SCORED | kata.RESULT_GHOST)
+        assert np.all(r.results["scored"] == 1) and np.all(r.results["ghost_joint_count"] > 0)
         # The ghost's root sits on the student's root (kata_retargeter_place).
         root = s.ghost_joint_sources[0]
         assert np.allclose(r.ghosts[:, 0, :], pos[:8, root, :], atol=1e-3)
         r2 = s.read_results(buf)
-        assert len(r2) == 8 and r2.results["sequence"][0] == 8
+        assert len(r2) == 8 and r2.results["result_sequence"][0] == 8
 
 
 def test_retargeter_matches_the_stream_ghost_joint_set(data):

@@ -50,7 +50,7 @@ def test_the_readme_pattern_with_a_small_ring_says_how_many_were_dropped(data, m
         assert w[0].message.count == len(results) - 64
         assert len(r) == 64 and r.dropped == len(results) - 64 == s.results_dropped
         # The 64 kept are the newest: the tail of the whole run.
-        assert np.array_equal(r.results["sequence"], results["sequence"][-64:])
+        assert np.array_equal(r.results["result_sequence"], results["result_sequence"][-64:])
         with warnings.catch_warnings():
             warnings.simplefilter("error")
             assert s.read_results().dropped == 0  # counted once, not again
@@ -64,7 +64,7 @@ def test_push_and_read_loses_nothing_whatever_the_ring(data, model_path, everyth
             warnings.simplefilter("error")
             r = s.push_and_read(times, positions)
         assert r.dropped == 0 and s.results_dropped == 0
-    assert np.array_equal(r.results["sequence"], results["sequence"])
+    assert np.array_equal(r.results["result_sequence"], results["result_sequence"])
     assert np.array_equal(r.scores["score"], scores["score"])
     assert r.ghosts is not None and len(r.ghosts) == len(results)
 

@@ -41,6 +41,8 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "result.h" /* kata_result_record, kata_body_part, kata_score_state */
+
 #if defined(_WIN32)
 #  if defined(KATA_BUILDING_SHARED)
 #    define KATA_API __declspec(dllexport)
@@ -533,7 +535,7 @@ KATA_API void kata_retarget_desc_init(kata_retarget_desc* desc);
  *   score against the teacher (clip alignment picks the matched teacher frame)
  *   -> that teacher frame retargeted onto the student's bones (warm-started solve, exact bones)
  *   -> placed over the student's pose of the same frame: the "ghost" to draw over the student.
- * Each emitted vector becomes one kata_result in a ring of desc.result_capacity entries; the
+ * Each emitted vector becomes one kata_result_record in a ring of desc.result_capacity entries; the
  * caller drains them with kata_stream_read_results at any rate (push at 120 Hz, read at 30 Hz:
  * nothing is lost while the ring holds what arrives between reads; when it is full the oldest
  * unread result is overwritten and counted by kata_stream_results_dropped).
@@ -599,7 +601,7 @@ KATA_API void kata_teacher_desc_init(kata_teacher_desc* desc);
  * desc->struct_size other than a released sizeof(kata_teacher_desc)) go to
  * kata_stream_last_error. Allocates. [stream owner] */
 KATA_API kata_status kata_stream_attach_teacher(kata_stream stream, const kata_teacher_desc* desc);
-/* Removes the stream's teacher: later results are not scored (no KATA_RESULT_SCORED) and carry
+/* Removes the stream's teacher: later results are not scored (scored 0) and carry
  * no ghost. KATA_OK without one too. [stream owner] */
 KATA_API kata_status kata_stream_detach_teacher(kata_stream stream);
 /* Restarts the teacher: the next frame is matched from the teacher's first frame, the ghost's
@@ -607,33 +609,25 @@ KATA_API kata_status kata_stream_detach_teacher(kata_stream stream);
  * without a teacher. [stream owner] */
 KATA_API kata_status kata_stream_restart_teacher(kata_stream stream);
 
-/* The five body parts of a score breakdown, in array order. */
-typedef enum kata_body_part {
-  KATA_PART_TORSO_HEAD = 0, /* Hip, Chest, Neck, Head */
-  KATA_PART_LEFT_ARM = 1,   /* LShoulder, LElbow, LHand */
-  KATA_PART_RIGHT_ARM = 2,  /* RShoulder, RElbow, RHand */
-  KATA_PART_LEFT_LEG = 3,   /* LHip, LKnee, LFoot */
-  KATA_PART_RIGHT_LEG = 4,  /* RHip, RKnee, RFoot */
-  KATA_PART_COUNT = 5
-} kata_body_part;
+/* kata_body_part (the five parts of a score breakdown) is in kata/result.h. */
 
 /* ==== Score calibration and feedback ====================================================== */
-/* The score is a calibrated map of the distance d: score = 100 / (1 + (d / d50)^slope), fitted
- * on real performances by other people (docs/model/README.md says what 30, 60 and 90 mean for
- * the shipped models). Each body part has its own map on its own distance, which the positions
- * of that part's own joints make (docs/model/scores.md). A model file without
- * a calibration uses the default d50 = delta*, slope 2 (the same for every part), good_score 75.
- * part_to_fix names the part whose score, averaged over the last 0.5 s, is the lowest, while that
- * average or the total's average is below good_score (a good total does not hide a poor part); a
- * new part (or none) replaces the shown one only after holding for 0.5 s, so cues do not flicker.
- * The record's state says when there is no score to show: */
-typedef enum kata_score_state {
-  KATA_SCORE_SCORING = 0,          /* the scores are this frame's */
-  KATA_SCORE_CALIBRATING = 1,      /* the first 0.25 s after a teacher is attached or restarted */
-  KATA_SCORE_TRACKING_LOST = 2,    /* fewer than 13 of the 16 GPD joints are tracked in the frame
-                                      (a joint at exactly (0,0,0) counts as lost); scores are 0 */
-  KATA_SCORE_TEACHER_FINISHED = 3  /* the student has outlasted the teacher clip by 0.25 s */
-} kata_score_state;
+/* The score is the coaching total (issue 34; docs/model/scores.md "The coaching total"):
+ *     score = min(model_score, the lowest part score)      so  score <= the worst part's score
+ * a part at 10 cannot hide in a total of 90. Each part's score is a map of its joint angle: the
+ * largest angle between one of the student's bones of that part and the teacher's, each bone read
+ * in the body frame it hangs from (spine and legs in the hips' frame, head and arms in the chest's),
+ * 100 / (1 + (angle / 40 deg)^5), the same map for every part: 15 deg scores 99, 30 deg 81, 45 deg
+ * 36, at any joint, either way, left or right. model_score is the model's calibrated map of the
+ * learned distance d, 100 / (1 + (d / d50)^slope): it keeps another motion low whatever the
+ * angles (for the shipped model a loose gate, d50 0.085, slope 10; good_score 92). A model file without a
+ * calibration uses d50 = delta*, slope 2, good_score 75; the part maps d50_p, slope_p of the
+ * struct below are kept for old readers and no longer read by the scorer.
+ * part_to_fix (averaged over 0.5 s): while the lowest part score's average or the total's is
+ * below good_score, the part whose joints are farthest from the teacher's, each in its own frame;
+ * named at once when nothing is named; another part (or none) replaces a named one only after
+ * holding for 0.5 s, so cues do not flicker.
+ * The record's state (kata_score_state, kata/result.h) says when there is no score to show. */
 
 /* A score map. The caller sets struct_size = sizeof(kata_score_calibration). */
 typedef struct kata_score_calibration {
@@ -669,78 +663,34 @@ KATA_API kata_status kata_stream_set_practice_section(kata_stream stream, int32_
 /* ##############################################################################################
  * Task 3 - read results: every pushed frame's score, matched teacher frame and ghost
  *
- * kata_result r[64];  kata_score_record sc[64];  uint32_t n;
- * r[0].struct_size = sizeof r[0];  sc[0].struct_size = sizeof sc[0];
- * kata_stream_read_results(s, r, sc, NULL, 0, NULL, 0, 64, &n);  -- every frame, oldest first
- * kata_stream_read_newest(s, r, sc, NULL, 0, NULL, 0);           -- or only the newest
- * draw(sc[0].score, sc[0].part_to_fix, r[0].matched_teacher_frame);
+ * kata_result_record r[64];  uint32_t n;
+ * r[0].struct_size = sizeof r[0];
+ * kata_stream_read_results(s, r, NULL, 0, NULL, 0, 64, &n);  -- every frame, oldest first
+ * kata_stream_read_newest(s, r, NULL, 0, NULL, 0);           -- or only the newest
+ * draw(r[0].score, r[0].part_to_fix, r[0].matched_teacher_frame);
  * ############################################################################################ */
 
-/* ==== Score records and results =========================================================== */
-/* One scored frame. The caller sets struct_size = sizeof(kata_score_record). */
-typedef struct kata_score_record {
-  uint32_t struct_size;            /* sizeof(kata_score_record), set by the caller */
-  int32_t matched_reference_frame; /* teacher clip frame matched (0-based index into the
-                                      reference's frames); 0 for a pose reference */
-  int64_t frame_index;             /* the stream frame scored (as in kata_stream_features) */
-  double timestamp;                /* that frame's timestamp, seconds */
-  float distance;                  /* d, dimensionless (>= 0) */
-  float score;                     /* 0..100 */
-  float parts[KATA_PART_COUNT];    /* split of d^2 by kata_body_part; sums to d^2 */
-  /* Added with the calibrated score (section "Score calibration and feedback" below); a caller
-   * whose struct_size ends before a field does not receive it. */
-  float part_scores[KATA_PART_COUNT]; /* each part's own calibrated score, 0..100 */
-  int32_t part_to_fix;             /* kata_body_part to correct, -1 for none (see below) */
-  int32_t state;                   /* kata_score_state: whether the scores are to be shown */
-  /* Added with the re-localising alignment: where the student is in the routine, the matched
-   * frame's time, matched_reference_frame x the clip's frame time, seconds from the reference
-   * clip's first frame (0 for a pose). */
-  double matched_reference_time;
-} kata_score_record;
-
-
-/* kata_result.flags */
-#define KATA_RESULT_SCORED 1u /* the score record is valid (a teacher is attached) */
-#define KATA_RESULT_GHOST 2u  /* the ghost was made */
-
-/* One emitted feature vector's result. */
-typedef struct kata_result {
-  uint32_t struct_size;        /* set by the caller in results[0]: sizeof(kata_result) */
-  uint32_t flags;              /* KATA_RESULT_* */
-  uint64_t sequence;           /* 0, 1, 2... per stream, one per emitted vector (gaps = dropped) */
-  int64_t frame_index;         /* the stream frame (as kata_stream_features reports it) */
-  double capture_time;         /* the caller's timestamp of that frame, seconds */
-  int64_t arrival_ns;          /* CLOCK_MONOTONIC ns when the push that emitted it began */
-  int64_t computed_ns;         /* CLOCK_MONOTONIC ns when this result was complete */
-  int32_t matched_teacher_frame; /* teacher frame the score matched (index from first_frame), -1 */
-  uint32_t ghost_joint_count;  /* joints in this result's ghost (0 without one) */
-  /* Added with the re-localising alignment (a caller whose struct_size ends before it does not
-   * receive it): the matched frame's time, seconds from the teacher's first_frame; -1 unless
-   * scored. */
-  double matched_teacher_time;
-} kata_result;
+/* ==== Results ================================================================== */
+/* Each result is one kata_result_record (kata/result.h): here stream_id and published_ns are 0,
+ * frame_sequence = frame_index, ghost NULL (ghosts go to the caller's array), has_practice 0. */
 
 /* Moves every unread result, oldest first (at most `capacity`), to the caller's arrays and sets
  * *count. Each array may be NULL except results:
- *   results  capacity entries of results[0].struct_size bytes (set it to sizeof(kata_result));
- *   scores   capacity entries of scores[0].struct_size bytes (sizeof(kata_score_record));
+ *   results  capacity entries of results[0].struct_size bytes (set it to sizeof(kata_result_record));
  *   ghosts   ghost_capacity floats: entry i at i x 3 x kata_stream_ghost_joint_count() (x, y, z
  *            per ghost joint, the student's units, placed over the student; zeros without one);
  *   features feature_capacity floats: entry i at i x KATA_GPD_DIMS (needs desc.keep_features).
  * KATA_E_BUFFER_TOO_SMALL (nothing moved) when ghosts or features hold fewer than capacity
  * entries. *count = 0 and KATA_OK when nothing is unread. Does not allocate. [stream owner] */
-KATA_API kata_status kata_stream_read_results(kata_stream stream, kata_result* results, kata_score_record* scores,
-                                              float* ghosts, size_t ghost_capacity, float* features,
+KATA_API kata_status kata_stream_read_results(kata_stream stream, kata_result_record* results, float* ghosts, size_t ghost_capacity, float* features,
                                               size_t feature_capacity, uint32_t capacity, uint32_t* count);
 /* The newest result, for a caller that only draws the latest frame: the newest unread result
- * into *result (result->struct_size set by the caller) and, each when not NULL, its score record
- * (score->struct_size set), ghost (ghost_capacity >= 3 x kata_stream_ghost_joint_count() floats)
+ * into *result (result->struct_size set by the caller) and, each when not NULL, its ghost (ghost_capacity >= 3 x kata_stream_ghost_joint_count() floats)
  * and features (feature_capacity >= KATA_GPD_DIMS floats; needs desc.keep_features). Every older
  * unread result is passed over (marked read; not counted as dropped): the same as draining the
  * ring with kata_stream_read_results and keeping the last entry. KATA_NO_DATA (nothing written)
  * when nothing is unread: no new result since the last read. Does not allocate. [stream owner] */
-KATA_API kata_status kata_stream_read_newest(kata_stream stream, kata_result* result, kata_score_record* score,
-                                             float* ghost, size_t ghost_capacity, float* features,
+KATA_API kata_status kata_stream_read_newest(kata_stream stream, kata_result_record* result, float* ghost, size_t ghost_capacity, float* features,
                                              size_t feature_capacity);
 /* Results overwritten before they were read (a full ring), since the stream was opened; 0 for
  * NULL. [stream owner] */
@@ -1010,9 +960,9 @@ KATA_API kata_status kata_runtime_push(kata_runtime runtime, uint64_t stream_id,
  * schemas/practice.fbs): from the frames pushed after this call on, the stream follows its clip
  * teacher from teacher_start seconds (0: the teacher's first frame), or with loop != 0 only the
  * section loop_start..loop_end seconds, looped (teacher_start then 0). Times are teacher seconds
- * from the teacher's first frame, as kata_result_message.matched_teacher_time; each is rounded to
+ * from the teacher's first frame, as kata_result_record.matched_teacher_time; each is rounded to
  * the nearest teacher frame. Queued in order with the frames pushed before it from the same
- * thread; every result from then on says it (kata_result_message.practice_*, practice_revision =
+ * thread; every result from then on says it (kata_result_record.practice_*, practice_revision =
  * revision: give each change its own). KATA_E_NOT_FOUND (no such stream), KATA_E_INVALID_ARGUMENT
  * (a time not finite, negative or outside the clip, an empty loop, a start and a loop),
  * KATA_E_STATE (the stream has no clip teacher; or its worker queue is full, or stop has begun: send
@@ -1050,62 +1000,23 @@ KATA_API uint32_t kata_shard_of(uint64_t stream_id, uint32_t shard_count);
  *
  * -- a ZeroMQ SUB socket connected to kata_runtime_publish_endpoint(rt), subscribed to ""
  * int n = zmq_recv(sub, buffer, sizeof buffer, 0);
- * kata_result_message msg;  msg.struct_size = sizeof msg;
+ * kata_result_record msg;  msg.struct_size = sizeof msg;
  * if (kata_message_read_result(buffer, (size_t)n, &msg) == KATA_OK)
  *   draw(msg.stream_id, msg.score, msg.ghost, msg.ghost_joint_count);
  * ############################################################################################ */
 
 /* ---- Reading published messages (for subscribers in C; no FlatBuffers library needed) ---- */
 
-/* One result message, read by kata_message_read_result. */
-typedef struct kata_result_message {
-  uint32_t struct_size;          /* set by the caller: sizeof(kata_result_message) */
-  uint32_t ghost_joint_count;    /* joints in ghost (0: none) */
-  uint64_t stream_id;            /* the stream (the message's topic) */
-  uint64_t result_sequence;      /* per stream, +1 per published result: gaps = dropped */
-  uint64_t frame_sequence;       /* the source's sequence number of the frame */
-  int64_t frame_index;           /* the stream frame (as kata_result.frame_index) */
-  int64_t capture_ns;            /* source clock */
-  int64_t arrival_ns;            /* CLOCK_MONOTONIC ns (the runtime's host) */
-  int64_t computed_ns;           /* CLOCK_MONOTONIC ns: the result was complete */
-  int64_t published_ns;          /* CLOCK_MONOTONIC ns: handed to ZeroMQ */
-  int32_t scored;                /* 1: distance, score, parts and the matched frame are valid */
-  int32_t matched_teacher_frame; /* teacher frame matched (index from first_frame), -1 */
-  float distance;                /* d, dimensionless */
-  float score;                   /* 0..100 */
-  float parts[KATA_PART_COUNT];  /* split of d^2, kata_body_part order */
-  const float* ghost;            /* ghost_joint_count x 3 floats, or NULL; valid until the message
-                                    is freed or the thread's next call */
-  /* Added with the calibrated scores in result messages (schemas/result.fbs fields 16-18); a
-   * caller whose struct_size ends before a field does not receive it. Messages from older
-   * runtimes carry none: part_scores 0, part_to_fix -1, state KATA_SCORE_SCORING. */
-  float part_scores[KATA_PART_COUNT]; /* each part's calibrated score, 0..100 (0 unless scored) */
-  int32_t part_to_fix;           /* kata_body_part to correct, -1 for none (as kata_score_record) */
-  int32_t state;                 /* kata_score_state of the scored frame */
-  /* Added with the re-localising alignment (schemas/result.fbs field 19): the matched teacher
-   * frame's time, seconds from the teacher's first frame; -1 unless scored or from an older
-   * runtime. */
-  double matched_teacher_time;
-  /* Added with practice messages (schemas/result.fbs field 20; a stream's source sets its practice
-   * with a schemas/practice.fbs message, e.g. `kata send --teacher-start` / `--loop`): the teacher
-   * section this result was computed under, in teacher seconds from the teacher's first frame (the
-   * axis of matched_teacher_time: a scored result's matched time lies in it). has_practice 0: the
-   * stream has no clip teacher, or the runtime is older (then the fields below are 0). */
-  int32_t has_practice;
-  uint32_t practice_revision;    /* the practice message's revision; 0: the stream's configured
-                                    setting (kata serve's [scoring] teacher_start / loop, or none) */
-  double practice_start_time;    /* the section's first teacher frame (where the lesson starts) */
-  double practice_end_time;      /* its last teacher frame */
-  int32_t practice_loop;         /* 1: the section is looped (its end is followed by its start) */
-  uint32_t reserved;             /* 0 */
-} kata_result_message;
+/* A result message reads into one kata_result_record (kata/result.h); a message from a runtime
+ * older than a field leaves it at its default (part_to_fix -1, matched_teacher_time -1, the rest 0). */
 
 /* Reads one ZeroMQ message of a kata runtime (16-byte topic + FlatBuffer, schemas/result.fbs):
  * the FlatBuffers verifier checks it first. KATA_OK: *out holds the result (as much as
  * out->struct_size holds); KATA_NO_DATA: a valid kata message that is not a result (a skeleton
- * definition); KATA_E_PARSE: refused (truncated, corrupt, unknown). Allocates once per thread
+ * definition, a frame, stats, a practice setting: the runtime publishes stats on the results'
+ * socket); KATA_E_PARSE: refused (truncated, corrupt, unknown). Allocates once per thread
  * (a scratch buffer for misaligned messages). [any thread] */
-KATA_API kata_status kata_message_read_result(const void* message, size_t size, kata_result_message* out);
+KATA_API kata_status kata_message_read_result(const void* message, size_t size, kata_result_record* out);
 
 /* ##############################################################################################
  * Deprecated - kept for one major version (each names its replacement)
@@ -1158,14 +1069,14 @@ kata_status kata_stream_clear_reference(kata_stream stream);
 KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_restart_teacher")
 kata_status kata_stream_restart_reference(kata_stream stream);
 /* Use kata_stream_read_newest (or kata_stream_read_results for every frame).
- * Copies the score record of the stream's newest feature vector into *out. Every vector is
+ * Copies the result record of the stream's newest feature vector into *out. Every vector is
  * scored in the push that emits it (so the alignment sees every frame, whatever the read rate);
  * a vector emitted before the reference was set is scored by this call. A later call without a
  * new push returns the same record. KATA_NO_DATA before the first feature vector; KATA_E_STATE
  * without a reference; KATA_E_INTERNAL (a bug, the record is withheld) when the score is not
  * finite. Does not allocate. [stream owner] */
 KATA_API KATA_DEPRECATED("since 1.0, removed in 2.0: kata_stream_read_newest")
-kata_status kata_stream_score(kata_stream stream, kata_score_record* out);
+kata_status kata_stream_score(kata_stream stream, kata_result_record* out);
 
 #ifdef __cplusplus
 }

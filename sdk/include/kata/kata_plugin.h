@@ -1,5 +1,5 @@
 /* kata_plugin.h: the C ABI of kata plugins (sources and sinks loaded by `kata serve` or any
- * host using the runtime). C99, no other kata header needed.
+ * host using the runtime). C99; the result record it receives is kata/result.h's.
  *
  * A plugin is a shared library exporting ONE symbol, KATA_PLUGIN_ENTRY ("kata_plugin_entry"),
  * a function returning a pointer to a static kata_plugin table. The table starts with the ABI
@@ -23,13 +23,15 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "result.h" /* kata_result_record: what a sink receives */
+
 #ifdef __cplusplus
 extern "C" {
 #endif
 
-#define KATA_PLUGIN_ABI_MAJOR 1u /* a host refuses a plugin of another major */
-#define KATA_PLUGIN_ABI_MINOR 1u /* + 1 when fields are added at the end of a table (1: the result's
-                                    part scores, cue, state and teacher position) */
+#define KATA_PLUGIN_ABI_MAJOR 2u /* a host refuses a plugin of another major (2: on_result takes the
+                                    one kata_result_record of kata/result.h) */
+#define KATA_PLUGIN_ABI_MINOR 0u /* + 1 when fields are added at the end of a table */
 #define KATA_PLUGIN_ABI_VERSION ((KATA_PLUGIN_ABI_MAJOR << 16) | KATA_PLUGIN_ABI_MINOR) /* kata_plugin.abi_version */
 #define KATA_PLUGIN_ENTRY "kata_plugin_entry" /* the one exported symbol's name */
 
@@ -43,45 +45,9 @@ extern "C" {
 #define KATA_PLUGIN_SOURCE 1u /* produces frames (start / stop required) */
 #define KATA_PLUGIN_SINK 2u   /* consumes results (on_result required) */
 
-/* One result, as a sink sees it. Pointers are valid during the call only. */
-typedef struct kata_plugin_result {
-  uint32_t struct_size;          /* sizeof(kata_plugin_result) of the host */
-  uint32_t ghost_joint_count;    /* joints in ghost (0: no ghost) */
-  uint64_t stream_id;            /* the runtime's stream id */
-  uint64_t result_sequence;      /* per stream, +1 per result (gaps: dropped before the sink) */
-  uint64_t frame_sequence;       /* the source's sequence number of the frame */
-  int64_t frame_index;           /* the frame's index in the stream since it opened */
-  int64_t capture_ns;            /* the source's capture time, ns on its clock */
-  int64_t arrival_ns;            /* CLOCK_MONOTONIC ns: the frame reached the runtime */
-  int64_t computed_ns;           /* CLOCK_MONOTONIC ns: features, score and ghost were done */
-  int32_t scored;                /* 1: the fields below hold a score */
-  int32_t matched_teacher_frame; /* -1 unless scored */
-  float distance;                /* d = |W^T (x'' - y'')| */
-  float score;                   /* 0..100 */
-  float parts[5];                /* split of d^2: torso/head, left arm, right arm, left leg, right leg */
-  const float* ghost;            /* ghost_joint_count x 3 floats (student units), or NULL */
-  /* Added in minor 1: what a coaching app shows, as kata.h's kata_result_message carries it (the
-   * same names, order and meaning). A host of minor 0 passes a smaller struct_size: read these only
-   * when KATA_PLUGIN_RESULT_HAS(r, field). */
-  float part_scores[5];          /* each part's calibrated score, 0..100, parts' order (0 unless scored) */
-  int32_t part_to_fix;           /* the part to correct, 0..4 in parts' order; -1: none */
-  int32_t state;                 /* a kata_score_state value: 0 scoring, 1 calibrating, 2 tracking lost,
-                                    3 teacher finished */
-  uint32_t reserved0;            /* 0 */
-  double matched_teacher_time;   /* the matched teacher frame's time, s from the teacher's first frame;
-                                    -1 unless scored */
-  int32_t has_practice;          /* 1: the stream follows a teacher clip; the practice_* fields say which
-                                    section (0: no clip teacher, the fields are 0) */
-  uint32_t practice_revision;    /* the practice message that set it; 0: the stream's configured setting */
-  double practice_start_time;    /* the section's first teacher frame, s */
-  double practice_end_time;      /* its last teacher frame, s */
-  int32_t practice_loop;         /* 1: the section is looped */
-  uint32_t reserved1;            /* 0 */
-} kata_plugin_result;
-
-/* 1 when a result from this host carries FIELD (a field added after minor 0). */
-#define KATA_PLUGIN_RESULT_HAS(r, field) \
-  ((r)->struct_size >= offsetof(kata_plugin_result, field) + sizeof((r)->field))
+/* A sink receives each result as a kata_result_record (kata/result.h), struct_size set by the
+ * host: read a field added after 1.0 only when KATA_RESULT_HAS(r, field). Its ghost pointer is
+ * valid during the call only; stream_id is the runtime's. */
 
 /* What the host offers a plugin (valid from activate to deactivate). */
 typedef struct kata_plugin_host {
@@ -119,7 +85,7 @@ typedef struct kata_plugin {
   /* Sources: required. Stops producing; returns when the plugin's threads have ended. [main] */
   void (*stop)(void* instance);
   /* Sinks: required. One result; must neither block nor allocate. [io] */
-  void (*on_result)(void* instance, const kata_plugin_result* result);
+  void (*on_result)(void* instance, const kata_result_record* result);
   /* Sinks: optional. Writes out what is buffered (at shutdown, after the last result). [io] */
   void (*flush)(void* instance);
 } kata_plugin;

@@ -18,6 +18,7 @@
 #include "skeleton/skeleton.hpp"
 #include "metric/model.hpp"
 #include "pipeline/pipeline.hpp"
+#include "pipeline/record.hpp"
 #include "stream/stream.hpp"
 
 namespace kata::capi {
@@ -127,25 +128,6 @@ namespace kata::capi {
 template <class Body>
 kata_status guarded_stream(kata_stream stream, Body&& body) noexcept {
   return guarded([stream](const char* m) { stream->set_error(m); }, std::forward<Body>(body));
-}
-// Copies a result's score into the caller's record, only as much as its (possibly older,
-// smaller) struct holds.
-inline void copy_score(const kata::pipeline::Result& r, kata_score_record* out) noexcept {
-  kata_score_record k{};
-  k.struct_size = sizeof k;
-  k.matched_reference_frame = r.score.matched;
-  k.frame_index = r.frame_index;
-  k.timestamp = r.capture_time;
-  k.distance = r.score.distance;
-  k.score = r.score.score;
-  for (int q = 0; q < KATA_PART_COUNT; ++q) k.parts[q] = r.score.parts[q];
-  for (int q = 0; q < KATA_PART_COUNT; ++q) k.part_scores[q] = r.score.part_scores[q];
-  k.part_to_fix = r.score.part_to_fix;
-  k.state = static_cast<int32_t>(r.score.state);
-  k.matched_reference_time = r.score.matched_time;
-  const uint32_t caller_size = out->struct_size;
-  std::memcpy(out, &k, std::min<size_t>(caller_size, sizeof k));
-  out->struct_size = caller_size;
 }
 inline kata_status refuse(kata_stream stream, kata_status status, const char* message) noexcept {
   stream->set_error(message);

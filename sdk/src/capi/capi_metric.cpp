@@ -172,7 +172,7 @@ KATA_API kata_status kata_stream_set_practice_section(kata_stream stream, int32_
   });
 }
 
-KATA_API kata_status kata_stream_score(kata_stream stream, kata_score_record* out) {
+KATA_API kata_status kata_stream_score(kata_stream stream, kata_result_record* out) {
   if (!stream) return KATA_E_NULL_POINTER;
   if (!out) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_score: out is NULL");
   if (out->struct_size < sizeof(uint32_t))
@@ -187,7 +187,9 @@ KATA_API kata_status kata_stream_score(kata_stream stream, kata_score_record* ou
   if (!finite)
     return refuse(stream, KATA_E_INTERNAL,
                   "kata_stream_score: internal error: the score is not finite; the record was withheld (please report)");
-  kata::capi::copy_score(*r, out);
+  kata_result_record k;
+  kata::pipeline::fill_record(*r, 0u, &k);
+  kata::pipeline::copy_record_out(k, out->struct_size, out);
   return KATA_OK;
 }
 

@@ -108,34 +108,6 @@ std::shared_ptr<const kata::pipeline::Teacher> make_teacher(const kata_teacher_d
                                                  frame_time, pose);
 }
 
-// One pipeline result into the caller's records, as much as each caller struct holds (its
-// struct_size, which is kept).
-void copy_result(const kata::pipeline::Pipeline& p, const kata::pipeline::Result& r, uint32_t result_size,
-                 kata_result* out, uint32_t score_size, kata_score_record* score) {
-  kata_result k{};
-  k.struct_size = sizeof k;
-  k.flags = (r.scored ? KATA_RESULT_SCORED : 0u) | (r.has_ghost ? KATA_RESULT_GHOST : 0u);
-  k.sequence = r.sequence;
-  k.frame_index = r.frame_index;
-  k.capture_time = r.capture_time;
-  k.arrival_ns = r.arrival_ns;
-  k.computed_ns = r.computed_ns;
-  k.matched_teacher_frame = r.scored ? r.matched_frame : -1;
-  k.matched_teacher_time = r.scored ? r.score.matched_time : -1.0;
-  k.ghost_joint_count = r.has_ghost ? static_cast<uint32_t>(p.ghost_joint_count()) : 0u;
-  std::memcpy(out, &k, std::min<size_t>(result_size, sizeof k));
-  std::memcpy(out, &result_size, sizeof result_size);
-  if (score) {
-    score->struct_size = score_size;
-    if (r.scored) {
-      kata::capi::copy_score(r, score);
-    } else {
-      std::memset(score, 0, score_size);
-      score->struct_size = score_size;
-    }
-  }
-}
-
 }  // namespace
 
 namespace kata::capi {
@@ -209,19 +181,15 @@ KATA_API kata_status kata_stream_restart_teacher(kata_stream stream) {
   return KATA_OK;
 }
 
-KATA_API kata_status kata_stream_read_results(kata_stream stream, kata_result* results, kata_score_record* scores,
-                                              float* ghosts, size_t ghost_capacity, float* features,
+KATA_API kata_status kata_stream_read_results(kata_stream stream, kata_result_record* results, float* ghosts, size_t ghost_capacity, float* features,
                                               size_t feature_capacity, uint32_t capacity, uint32_t* count) {
   if (!stream) return KATA_E_NULL_POINTER;
   if (!results || !count) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_read_results: results and count must not be NULL");
   *count = 0;
   kata::pipeline::Pipeline& p = stream->pipeline;
   const uint32_t result_size = results->struct_size;
-  if (result_size < offsetof(kata_result, flags) + sizeof(uint32_t))
+  if (result_size < offsetof(kata_result_record, scored) + sizeof(int32_t))
     return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_read_results: results[0].struct_size is not set");
-  const uint32_t score_size = scores ? scores->struct_size : 0;
-  if (scores && score_size < sizeof(uint32_t))
-    return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_read_results: scores[0].struct_size is not set");
   const size_t ghost_floats = 3 * static_cast<size_t>(p.ghost_joint_count());
   if (ghosts && ghost_capacity < capacity * ghost_floats)
     return refuse(stream, KATA_E_BUFFER_TOO_SMALL,
@@ -236,28 +204,22 @@ KATA_API kata_status kata_stream_read_results(kata_stream stream, kata_result* r
     float* g = ghosts ? ghosts + n * ghost_floats : nullptr;
     float* f = features ? features + static_cast<size_t>(n) * KATA_GPD_DIMS : nullptr;
     if (p.read(&r, g, f, 1) == 0) break;
-    auto* res = reinterpret_cast<kata_result*>(reinterpret_cast<unsigned char*>(results) + static_cast<size_t>(n) * result_size);
-    auto* rec = scores ? reinterpret_cast<kata_score_record*>(reinterpret_cast<unsigned char*>(scores) +
-                                                             static_cast<size_t>(n) * score_size)
-                       : nullptr;
-    copy_result(p, r, result_size, res, score_size, rec);
+    kata_result_record k;
+    kata::pipeline::fill_record(r, static_cast<uint32_t>(p.ghost_joint_count()), &k);
+    kata::pipeline::copy_record_out(k, result_size, reinterpret_cast<unsigned char*>(results) + static_cast<size_t>(n) * result_size);
   }
   *count = n;
   return KATA_OK;
 }
 
-KATA_API kata_status kata_stream_read_newest(kata_stream stream, kata_result* result, kata_score_record* score,
-                                             float* ghost, size_t ghost_capacity, float* features,
+KATA_API kata_status kata_stream_read_newest(kata_stream stream, kata_result_record* result, float* ghost, size_t ghost_capacity, float* features,
                                              size_t feature_capacity) {
   if (!stream) return KATA_E_NULL_POINTER;
   if (!result) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_read_newest: result must not be NULL");
   kata::pipeline::Pipeline& p = stream->pipeline;
   const uint32_t result_size = result->struct_size;
-  if (result_size < offsetof(kata_result, flags) + sizeof(uint32_t))
+  if (result_size < offsetof(kata_result_record, scored) + sizeof(int32_t))
     return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_read_newest: result->struct_size is not set");
-  const uint32_t score_size = score ? score->struct_size : 0;
-  if (score && score_size < sizeof(uint32_t))
-    return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_read_newest: score->struct_size is not set");
   if (ghost && ghost_capacity < 3 * static_cast<size_t>(p.ghost_joint_count()))
     return refuse(stream, KATA_E_BUFFER_TOO_SMALL,
                   "kata_stream_read_newest: ghost holds fewer than 3 x kata_stream_ghost_joint_count() floats");
@@ -267,7 +229,9 @@ KATA_API kata_status kata_stream_read_newest(kata_stream stream, kata_result* re
   kata::pipeline::Result r;
   while (p.pending() > 1) p.read(&r, nullptr, nullptr, 1);  // the older unread results: passed over
   p.read(&r, ghost, features, 1);
-  copy_result(p, r, result_size, result, score_size, score);
+  kata_result_record k;
+  kata::pipeline::fill_record(r, static_cast<uint32_t>(p.ghost_joint_count()), &k);
+  kata::pipeline::copy_record_out(k, result_size, result);
   return KATA_OK;
 }
 

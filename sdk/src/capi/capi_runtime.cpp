@@ -228,47 +228,17 @@ KATA_API const char* kata_runtime_ingest_endpoint(kata_runtime runtime) {
   return runtime ? runtime->runtime->ingest_endpoint_cstr() : "";
 }
 
-KATA_API kata_status kata_message_read_result(const void* message, size_t size, kata_result_message* out) {
+KATA_API kata_status kata_message_read_result(const void* message, size_t size, kata_result_record* out) {
   if (!message || !out) return KATA_E_NULL_POINTER;
-  if (out->struct_size < 2 * sizeof(uint32_t)) return KATA_E_INVALID_ARGUMENT;
+  if (out->struct_size < sizeof(uint32_t)) return KATA_E_INVALID_ARGUMENT;
   try {
     thread_local kata::transport::Decoder decoder(1 << 22, false);
     const kata::transport::MessageKind kind = decoder.decode(message, size);
-    if (kind == kata::transport::MessageKind::kSkeleton || kind == kata::transport::MessageKind::kFrame)
-      return KATA_NO_DATA;
-    if (kind != kata::transport::MessageKind::kResult) return KATA_E_PARSE;
-    const kata::transport::ResultFields& r = decoder.result();
-    kata_result_message k{};
-    k.struct_size = sizeof k;
-    k.ghost_joint_count = r.ghost ? static_cast<uint32_t>(r.ghost_joints) : 0u;
-    k.stream_id = r.stream_id;
-    k.result_sequence = r.result_sequence;
-    k.frame_sequence = r.frame_sequence;
-    k.frame_index = r.frame_index;
-    k.capture_ns = r.capture_ns;
-    k.arrival_ns = r.arrival_ns;
-    k.computed_ns = r.computed_ns;
-    k.published_ns = r.published_ns;
-    k.scored = r.scored ? 1 : 0;
-    k.matched_teacher_frame = r.matched_teacher_frame;
-    k.matched_teacher_time = r.matched_teacher_time;
-    k.distance = r.distance;
-    k.score = r.score;
-    for (int i = 0; i < KATA_PART_COUNT; ++i) k.parts[i] = r.parts[i];
-    k.ghost = r.ghost;
-    for (int i = 0; i < KATA_PART_COUNT; ++i) k.part_scores[i] = r.part_scores[i];
-    k.part_to_fix = r.part_to_fix;
-    k.state = r.state;
-    k.has_practice = r.has_practice ? 1 : 0;
-    if (r.has_practice) {
-      k.practice_revision = r.practice.revision;
-      k.practice_start_time = r.practice.start_time;
-      k.practice_end_time = r.practice.end_time;
-      k.practice_loop = r.practice.loop ? 1 : 0;
-    }
-    const uint32_t caller = out->struct_size;
-    std::memcpy(out, &k, std::min<size_t>(caller, sizeof k));
-    out->struct_size = caller;
+    // Every verified kata message that is not a result (the runtime publishes stats on the results'
+    // socket; practice and frames travel the other way) is "no result here", not corrupt.
+    if (kind == kata::transport::MessageKind::kNone) return KATA_E_PARSE;
+    if (kind != kata::transport::MessageKind::kResult) return KATA_NO_DATA;
+    kata::pipeline::copy_record_out(decoder.result(), out->struct_size, out);
     return KATA_OK;
   } catch (const std::bad_alloc&) {
     return KATA_E_OUT_OF_MEMORY;

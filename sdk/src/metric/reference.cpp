@@ -39,6 +39,9 @@ void Reference::build(const float* features) {
   for (int j = 0; j < frames_; ++j)
     metric_->part_projections(features + static_cast<size_t>(j) * gpd::kDims, ws,
                               rows_.data() + static_cast<size_t>(j) * kProjectionRows * stride_);
+  poses_.resize(static_cast<size_t>(frames_) * kPoseFloats);
+  for (int j = 0; j < frames_; ++j)
+    pose_frames(features + static_cast<size_t>(j) * gpd::kDims, poses_.data() + static_cast<size_t>(j) * kPoseFloats);
   align_rows_ = AlignedFloats(static_cast<size_t>(frames_) * stride_);
   for (int j = 0; j < frames_; ++j)
     std::copy(part_projection(j) + static_cast<size_t>(kParts) * stride_,

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "metric/metric.hpp"
+#include "metric/pose_error.hpp"
 
 namespace kata::metric {
 
@@ -54,6 +55,9 @@ class Reference {
   // every frame (align_pass.hpp), half the bytes of the float rows. Relative rounding 2^-11.
   const uint16_t* alignment_rows_half(int j) const { return align_half_.data() + static_cast<size_t>(j) * stride_; }
   float alignment_half_scale() const { return align_half_scale_; }
+  // Frame j's joints in the body's frames (pose_error.hpp pose_frames: kPoseFloats floats), from
+  // which the scorer takes each part's angle and offset to the student's.
+  const float* pose(int j) const { return poses_.data() + static_cast<size_t>(j) * kPoseFloats; }
 
  private:
   void build(const float* features);
@@ -67,6 +71,7 @@ class Reference {
   AlignedFloats rows_;
   AlignedFloats align_rows_;
   std::vector<uint16_t> align_half_;
+  std::vector<float> poses_;  // frames x kPoseFloats
   float align_half_scale_ = 1.0f;
 };
 

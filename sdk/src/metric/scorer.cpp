@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "common/error.hpp"
+#include "metric/pose_error.hpp"
 
 namespace kata::metric {
 
@@ -70,7 +71,10 @@ const ScoreRecord& Scorer::score_lost(double t) {
   record_.frame = count_++;
   record_.distance = 0.0f;
   record_.score = 0.0f;
-  for (int q = 0; q < kParts; ++q) record_.parts[q] = record_.part_distance[q] = record_.part_scores[q] = 0.0f;
+  record_.model_score = 0.0f;
+  for (int q = 0; q < kParts; ++q)
+    record_.parts[q] = record_.part_distance[q] = record_.part_scores[q] = record_.part_degrees[q] =
+        record_.part_offset[q] = 0.0f;
   record_.matched = aligner_.match();
   record_.matched_time = record_.matched * reference_->frame_time();
   record_.state = ScoreState::kTrackingLost;
@@ -82,13 +86,13 @@ const ScoreRecord& Scorer::score_lost(double t) {
 
 const ScoreRecord& Scorer::score(const float* x, double t) {
   reference_->metric().part_projections(x, ws_, p_.data());
-  finish(t);
+  finish(x, t);
   return record_;
 }
 
 const ScoreRecord& Scorer::score_matched(const float* x, double t, int matched) {
   reference_->metric().part_projections(x, ws_, p_.data());
-  finish(t, std::clamp(matched, 0, reference_->frames() - 1));
+  finish(x, t, std::clamp(matched, 0, reference_->frames() - 1));
   return record_;
 }
 
@@ -103,11 +107,11 @@ void Scorer::score_batch(Scorer* const* scorers, const float* const* x, const do
       p[f] = scorers[f0 + f]->p_.data();
     }
     scorers[f0]->reference_->metric().part_projections_batch(x + f0, ws, p, m);
-    for (int f = 0; f < m; ++f) scorers[f0 + f]->finish(t[f0 + f]);
+    for (int f = 0; f < m; ++f) scorers[f0 + f]->finish(x[f0 + f], t[f0 + f]);
   }
 }
 
-void Scorer::finish(double t, int matched) {
+void Scorer::finish(const float* x, double t, int matched) {
   const Reference& ref = *reference_;
   const Metric& m = ref.metric();
   const int stride = m.stride();
@@ -124,20 +128,31 @@ void Scorer::finish(double t, int matched) {
   sum_parts(p, stride, u);
   const double d2 = detail::dot(u, u, stride);
   const ScoreCalibration& c = calibration_;
+  // The parts' joint angles against the matched teacher frame, and their scores (pose_error.hpp).
+  pose_frames(x, pose_);
+  part_error(pose_, ref.pose(j), error_);
+  double worst = 100.0;
   for (int q = 0; q < kParts; ++q) {
     const float* pq = p + static_cast<size_t>(q) * stride;
     record_.parts[q] = static_cast<float>(detail::dot(u, pq, stride));
     const float* jq = p + joint_rows + static_cast<size_t>(q) * stride;
-    const double dq = std::sqrt(detail::dot(jq, jq, stride));
-    record_.part_distance[q] = static_cast<float>(dq);
-    record_.part_scores[q] = static_cast<float>(calibrated_score(dq, c.part_d50[q], c.part_slope[q]));
+    record_.part_distance[q] = static_cast<float>(std::sqrt(detail::dot(jq, jq, stride)));
+    record_.part_degrees[q] = error_.degrees[q];
+    record_.part_joint[q] = error_.joint[q];
+    record_.part_offset[q] = error_.offset[q];
+    const double sq = angle_score(error_.degrees[q]);
+    record_.part_scores[q] = static_cast<float>(sq);
+    worst = std::min(worst, sq);
   }
   const double d = std::sqrt(d2);
   if (count_ == 0) start_time_ = t;
   record_.time = t;
   record_.frame = count_++;
   record_.distance = static_cast<float>(d);
-  record_.score = static_cast<float>(calibrated_score(d, c.d50, c.slope));
+  const double model = calibrated_score(d, c.d50, c.slope);
+  record_.model_score = static_cast<float>(model);
+  // The total is never above the worst part (kata.h, docs/model/scores.md "The coaching total").
+  record_.score = static_cast<float>(std::min(model, worst));
   record_.matched = j;
   record_.matched_time = j * ref.frame_time();
   feedback(t);
@@ -158,35 +173,52 @@ void Scorer::feedback(double t) {
     shown_ = candidate_ = -1;  // no cue outside scoring; the next one starts fresh
     smoothed_time_ = -1.0;
   } else {
-    // The part scores averaged over smoothing_time (an exponential average over the frames'
-    // own time steps, so a lower frame rate weighs each frame more), started from this frame.
-    const double keep = smoothed_time_ < 0.0 || feedback_.smoothing_time <= 0.0
-                            ? 0.0
-                            : std::exp(-(t - smoothed_time_) / feedback_.smoothing_time);
-    for (int q = 0; q < kParts; ++q)
-      smoothed_parts_[q] = record_.part_scores[q] + keep * (smoothed_parts_[q] - record_.part_scores[q]);
-    smoothed_total_ = record_.score + keep * (smoothed_total_ - record_.score);
-    smoothed_time_ = t;
-    // The candidate: the lowest averaged part, while it or the averaged total is below good
-    // (none otherwise). Either alone misses what a coach sees: each part's map is fitted on how
-    // much that part varies between people, so an elbow bent 45 degrees keeps the arm's own score
-    // at 81 while the total falls to 24, and a knee bent 45 degrees takes the leg to 50 while the
-    // total stays at 93 (tests/metric/test_part_fix.cpp).
-    int32_t candidate = 0;
-    for (int q = 1; q < kParts; ++q)
-      if (smoothed_parts_[q] < smoothed_parts_[candidate]) candidate = q;
-    if (!(smoothed_parts_[candidate] < calibration_.good_score || smoothed_total_ < calibration_.good_score))
-      candidate = -1;
-    // Hysteresis: the candidate must hold for hold_time before it replaces the part shown.
-    if (candidate != candidate_) {
-      candidate_ = candidate;
-      candidate_since_ = t;
-    }
-    // 1 ns of slack: a hold of exactly k frame times (frame index / rate) must not lose a frame
-    // to the rounding of t - since (20/120 - 8/120 < 0.1 in doubles).
-    if (candidate_ != shown_ && t - candidate_since_ >= feedback_.hold_time - 1e-9) shown_ = candidate_;
+    update_part_to_fix(t);
   }
   record_.part_to_fix = shown_;
+}
+
+void Scorer::update_part_to_fix(double t) {
+  // The part scores averaged over smoothing_time (an exponential average over the frames' own
+  // time steps, so a lower frame rate weighs each frame more), started from this frame. A single
+  // frame's lowest part changes every few frames (joints cross the reference's path); a coach
+  // names what has been wrong for a while.
+  const double keep = smoothed_time_ < 0.0 || feedback_.smoothing_time <= 0.0
+                          ? 0.0
+                          : std::exp(-(t - smoothed_time_) / feedback_.smoothing_time);
+  for (int q = 0; q < kParts; ++q) {
+    smoothed_parts_[q] = record_.part_scores[q] + keep * (smoothed_parts_[q] - record_.part_scores[q]);
+    smoothed_offset_[q] = record_.part_offset[q] + keep * (smoothed_offset_[q] - record_.part_offset[q]);
+  }
+  smoothed_total_ = record_.score + keep * (smoothed_total_ - record_.score);
+  smoothed_time_ = t;
+  // The candidate, while the lowest averaged part score or the averaged total is below good (none
+  // otherwise): the part whose joints are farthest from the teacher's, each in its own frame
+  // (the largest averaged offset). Why the offset and not the lowest angle score: over real pairs
+  // of different people the angle's largest part agreed with geometry's top two (local-frame mean
+  // joint distance) on 68 of 98 pairs, the offset on 82 (docs/model/scores.md); for one turned
+  // joint both name its part (no other part's joints move in their frames).
+  int32_t lowest = 0, candidate = 0;
+  for (int q = 1; q < kParts; ++q) {
+    if (smoothed_parts_[q] < smoothed_parts_[lowest]) lowest = q;
+    if (smoothed_offset_[q] > smoothed_offset_[candidate]) candidate = q;
+  }
+  if (!(smoothed_parts_[lowest] < calibration_.good_score || smoothed_total_ < calibration_.good_score))
+    candidate = -1;
+  if (candidate != candidate_) {
+    candidate_ = candidate;
+    candidate_since_ = t;
+  }
+  // Hysteresis only between two answers a student has seen: with nothing shown, a part below good
+  // is named at once (before 2026-12-03 it had to hold for hold_time too, and a lowest part that
+  // changed faster than the hold was never named: 02_01 <- 07_01 named nothing on 317 frames while
+  // a part was below 50 on 116). A named part gives way to another part, or to "none", only once
+  // that has been the candidate for hold_time. 1 ns of slack: a hold of exactly k frame times
+  // (frame index / rate) must not lose a frame to the rounding of t - since.
+  if (shown_ < 0 && candidate_ >= 0)
+    shown_ = candidate_;
+  else if (candidate_ != shown_ && t - candidate_since_ >= feedback_.hold_time - 1e-9)
+    shown_ = candidate_;
 }
 
 }  // namespace kata::metric

@@ -26,23 +26,39 @@ enum class ScoreState : int32_t {
 };
 
 // One scored frame.
+//
+// The coaching total (issue 34): score = min(model_score, the lowest part score), so the total is
+// never above its worst part (a part at 10 cannot hide in a total of 90). model_score is the
+// model's calibrated map of the learned distance d (it tells motions apart: another motion scores
+// low whatever the joints' angles); each part score is the map of the part's joint angle
+// (pose_error.hpp: the largest angle between a student bone and the teacher's, in the body's
+// frames), the same map for every part, so the same bend costs the same at every joint, left or right.
 struct ScoreRecord {
   double time = 0.0;          // timestamp of the scored frame, seconds (stream clock)
   int64_t frame = -1;         // count of frames scored before this one by this Scorer
   float distance = 0.0f;      // d = |W^T (x'' - y'')|, dimensionless
-  float score = 0.0f;         // calibrated_score(d, d50, slope) of the scorer's calibration, 0..100
+  float score = 0.0f;         // the coaching total: min(model_score, min over parts of part_scores), 0..100
+  float model_score = 0.0f;   // calibrated_score(d, d50, slope) of the scorer's calibration, 0..100
   float parts[kParts] = {};   // split of d^2 (sums to d^2), in Part order
   int32_t matched = 0;        // matched reference frame (0 for a pose reference)
   // Per part p: its distance d_p = |W^T (jc_p o (x'' - y''))|, the difference of the part's own
   // joint positions (block Jc: its joints' local-frame coordinates; the hip height for the
-  // torso) seen through W (metric.hpp kJointRows), and its calibrated 0..100 score.
+  // torso) seen through W (metric.hpp kJointRows); reported, no longer scored.
   float part_distance[kParts] = {};
+  // Per part p (pose_error.hpp PartError): its angle, degrees (the largest angle between a
+  // student bone of the part and the teacher's, each in the body's frame it hangs from), the GPD
+  // joint (1..15) at the end of that bone, its offset (mean joint distance in those frames, body
+  // heights) and its score angle_score(degrees), 0..100.
+  float part_degrees[kParts] = {};
+  int32_t part_joint[kParts] = {};
+  float part_offset[kParts] = {};
   float part_scores[kParts] = {};
-  // The part to fix (Part index), -1 for none: the part whose score, averaged over the last
-  // FeedbackOptions::smoothing_time seconds, is the lowest, named while that average or the total
-  // averaged the same way is below the calibration's good_score and the state is kScoring, and
-  // changed only after the new candidate has held for FeedbackOptions::hold_time seconds
-  // (hysteresis). A good total does not hide a part below good (the legs carry little of it).
+  // The part to fix (Part index), -1 for none: Scorer::update_part_to_fix (scorer.cpp), the one
+  // place it is decided. With part scores and offsets averaged over
+  // FeedbackOptions::smoothing_time: while the lowest averaged part score (or the averaged total)
+  // is below the calibration's good_score in kScoring, the candidate is the part with the largest
+  // averaged offset; named at once when no part is named; another part replaces it, or "none"
+  // clears it, only after holding for FeedbackOptions::hold_time seconds (hysteresis).
   int32_t part_to_fix = -1;
   ScoreState state = ScoreState::kScoring;
   // Where the student is in the routine: matched * the clip's frame time, seconds from the
@@ -52,8 +68,9 @@ struct ScoreRecord {
 
 // How feedback is held and when the states apply.
 struct FeedbackOptions {
-  // A new part to fix (or "none") replaces the shown one only after it has been the candidate
-  // for this long, seconds: a person needs about half a second to read a cue and react.
+  // A new part to fix (or "none") replaces a part shown only after it has been the candidate for
+  // this long, seconds: a person needs about half a second to read a cue and react. When no part
+  // is shown, a candidate is named at once.
   double hold_time = 0.5;
   // The part scores the cue compares are averaged exponentially with this time constant,
   // seconds (0: this frame's alone). A single frame's lowest part changes every few frames
@@ -112,8 +129,11 @@ class Scorer {
   void reset();
 
  private:
-  void finish(double t, int matched = -1);  // matched >= 0: that frame, not the alignment's
+  void finish(const float* x, double t, int matched = -1);  // matched >= 0: that frame, not the alignment's
   void feedback(double t);
+  // The part to fix of a kScoring frame at time t, from this frame's part scores and total: the
+  // one decision (candidate, averaging and hysteresis) that the cue follows.
+  void update_part_to_fix(double t);
 
   std::shared_ptr<const Reference> reference_;
   Aligner aligner_;
@@ -122,6 +142,9 @@ class Scorer {
   Metric::Workspace ws_;
   AlignedFloats p_;                 // kProjectionRows x stride: this frame's projections
   AlignedFloats u_;                 // stride: u = W^T (x'' - y'')
+  float pose_[kPoseFloats] = {};    // this frame's student pose in the body's frames (pose_error.hpp)
+  PartError error_ = {};            // this frame's per-part angles and offsets
+  double smoothed_offset_[kParts] = {};  // part offsets averaged like the part scores (the ranking)
   int64_t count_ = 0;
   double start_time_ = 0.0;         // time of the first frame since construction or reset
   double at_end_since_ = -1.0;      // when the match reached the clip's last frame; -1: not there

@@ -1,8 +1,11 @@
-// The I/O thread (runtime.hpp, "threads"): it owns every ZeroMQ socket. It reads the ingest,
-// sends skeleton definitions (on a subscriber's join and periodically) and stats, drains the
-// workers' result rings into FlatBuffers messages and the sink plugins, and sleeps in zmq_poll
-// with an eventfd that workers write when a result is ready and it is asleep.
+// The I/O thread (runtime.hpp, "threads"): it owns the ingest socket. It reads the ingest, sends
+// skeleton definitions (on a subscriber's join and periodically) and stats, retires closed
+// streams, and sleeps in zmq_poll beside an eventfd (stop, opened streams) and the publisher's
+// descriptor (subscriptions). Results are sent by the workers (flush_results): the publisher
+// belongs to whichever thread holds its token.
 #include "runtime/runtime_internal.hpp"
+
+#include "pipeline/record.hpp"
 
 namespace kata::runtime {
 
@@ -93,10 +96,45 @@ bool Runtime::results_pending() const {
   return false;
 }
 
-bool Runtime::workers_busy() const {
-  for (const auto& w : workers_)
-    if (w->busy.load(std::memory_order_acquire)) return true;
-  return false;
+bool Runtime::try_acquire_publisher() {
+  return !publisher_token_.load(std::memory_order_relaxed) &&
+         !publisher_token_.exchange(true, std::memory_order_seq_cst);
+}
+
+void Runtime::acquire_publisher() {
+  // The holder is a worker sending a burst's results (bounded); on a loaded machine it may have
+  // lost its CPU, so yield rather than spin long.
+  for (unsigned n = 0; !try_acquire_publisher(); ++n) {
+    if (n < 64)
+      cpu_relax();
+    else
+      std::this_thread::yield();
+  }
+}
+
+void Runtime::release_publisher() {
+  // Subscriptions the sends read out of ZeroMQ's command queue: the publisher's descriptor may
+  // not signal them again, so the I/O thread is told (rare: a subscriber joining).
+  if (publisher_ && publisher_->joins_waiting()) {
+    if (!joins_pending_.exchange(true, std::memory_order_relaxed)) {
+      const uint64_t one = 1;
+      (void)!write(wake_io_fd_, &one, sizeof one);
+    }
+  }
+  publisher_token_.store(false, std::memory_order_seq_cst);
+}
+
+void Runtime::flush_results(transport::Encoder& encoder) {
+  // Store-load against another thread's flush: a result queued by a thread that found the token
+  // held is seen by the holder's look after its release (both sides fence), so it never waits
+  // for a later frame.
+  for (;;) {
+    std::atomic_thread_fence(std::memory_order_seq_cst);
+    if (!results_pending()) return;
+    if (!try_acquire_publisher()) return;  // the holder sends it
+    drain_results(encoder);
+    release_publisher();
+  }
 }
 
 bool Runtime::drain_results(transport::Encoder& encoder) {
@@ -111,30 +149,21 @@ bool Runtime::drain_results(transport::Encoder& encoder) {
       auto& s = *static_cast<StreamState*>(cell.stream);
       const pipeline::Result& r = cell.result;
       transport::ResultFields f;
-      f.stream_id = s.definition.stream_id;
+      pipeline::fill_record(r, static_cast<uint32_t>(s.ghost_joints), &f);
+      // The id, not the definition: a revision rewrites the definition on the I/O thread while a
+      // worker may be sending here; the id stays until the stream is retired (after this ring).
+      f.stream_id = s.id.load(std::memory_order_relaxed);
       f.result_sequence = s.next_result_sequence++;
       f.frame_sequence = cell.frame_sequence;
-      f.frame_index = r.frame_index;
-      f.capture_ns = static_cast<int64_t>(r.capture_time * 1e9);
-      f.arrival_ns = r.arrival_ns;
       f.computed_ns = cell.computed_ns;
-      f.scored = r.scored;
-      if (r.scored) {
-        f.distance = r.score.distance;
-        f.score = r.score.score;
-        for (int i = 0; i < 5; ++i) f.parts[i] = r.score.parts[i];
-        for (int i = 0; i < 5; ++i) f.part_scores[i] = r.score.part_scores[i];
-        f.part_to_fix = r.score.part_to_fix;
-        f.state = static_cast<int32_t>(r.score.state);
+      if (cell.has_practice) {
+        f.has_practice = 1;
+        f.practice_start_time = cell.practice.start_time;
+        f.practice_end_time = cell.practice.end_time;
+        f.practice_loop = cell.practice.loop ? 1 : 0;
+        f.practice_revision = cell.practice.revision;
       }
-      f.matched_teacher_frame = r.matched_frame;
-      f.matched_teacher_time = r.scored ? r.score.matched_time : -1.0;
-      f.has_practice = cell.has_practice;
-      f.practice = cell.practice;
-      if (r.has_ghost) {
-        f.ghost = w.ghosts.data() + k * kMaxGhostJoints * 3;
-        f.ghost_joints = s.ghost_joints;
-      }
+      if (r.has_ghost) f.ghost = w.ghosts.data() + k * kMaxGhostJoints * 3;
       if (s.publish_features) {
         f.features = w.features.data() + k * gpd::kDims;
         f.feature_count = gpd::kDims;
@@ -163,39 +192,35 @@ void Runtime::io_loop() {
       std::chrono::duration<double>(config_.skeleton_resend_seconds > 0 ? config_.skeleton_resend_seconds : 1.0));
   auto next_resend = clock::now() + resend_every;
   auto last_snapshot = clock::now();
-  const IdleStrategy& idle = config_.idle;
-  const bool backoff = idle.kind == IdleStrategy::Kind::kBackoff;
+  // The publisher's descriptor (ZMQ_FD), polled as a plain descriptor: a worker may be sending
+  // on the socket meanwhile, and polling the descriptor does not touch the socket.
+  const int publisher_fd = publisher_ ? publisher_->descriptor() : -1;
   for (;;) {
-    // A frame in a worker: wait for its result awake (bounded) rather than park and be woken.
-    if (backoff && !results_pending() && workers_busy() &&
-        back_off(idle.io_spin_ns, idle.io_yield_ns, [&] { return results_pending() || !workers_busy(); }) &&
-        results_pending()) {
-      drain_results(encoder);
-    }
     zmq_pollitem_t items[3];
     int n = 0;
     items[n++] = zmq_pollitem_t{nullptr, wake_io_fd_, ZMQ_POLLIN, 0};
     const int publisher_item = publisher_ ? n : -1;
-    if (publisher_) items[n++] = zmq_pollitem_t{publisher_->socket(), 0, ZMQ_POLLIN, 0};
+    if (publisher_) items[n++] = zmq_pollitem_t{nullptr, publisher_fd, ZMQ_POLLIN, 0};
     const int ingest_item = ingest_ ? n : -1;
     if (ingest_) items[n++] = zmq_pollitem_t{ingest_->socket(), 0, ZMQ_POLLIN, 0};
     const auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(next_resend - clock::now()).count();
-    // Announce the sleep, then look once more: a result queued before the flag was set is sent
-    // now; one queued after it comes with an eventfd write.
-    io_sleeping_.store(true);
-    const bool pending = results_pending();
-    zmq_poll(items, n, pending ? 0 : static_cast<long>(std::max<long long>(0, std::min<long long>(wait, 100))));
-    io_sleeping_.store(false);
+    zmq_poll(items, n, static_cast<long>(std::max<long long>(0, std::min<long long>(wait, 100))));
 
     if (items[0].revents & ZMQ_POLLIN) {
       uint64_t value;
       (void)!read(wake_io_fd_, &value, sizeof value);
     }
-    if (definitions_dirty_.exchange(false, std::memory_order_acq_rel)) send_definitions(nullptr, 0);
-    drain_results(encoder);
+    const bool dirty = definitions_dirty_.exchange(false, std::memory_order_acq_rel);
+    const bool joins = publisher_item >= 0 && ((items[publisher_item].revents & ZMQ_POLLIN) ||
+                                               joins_pending_.exchange(false, std::memory_order_relaxed));
+    if (publisher_ && (dirty || joins)) {
+      acquire_publisher();
+      if (dirty) send_definitions(nullptr, 0);
+      // Edge-triggered: read every subscription now (the descriptor fires once).
+      if (joins) publisher_->poll_joins([this](const uint8_t* prefix, size_t size) { send_definitions(prefix, size); });
+      release_publisher();
+    }
     if (retiring_count_.load(std::memory_order_acquire) > 0) retire_closed(encoder);
-    if (publisher_item >= 0 && (items[publisher_item].revents & ZMQ_POLLIN))
-      publisher_->poll_joins([this](const uint8_t* prefix, size_t size) { send_definitions(prefix, size); });
     if (ingest_stop_requested_.load(std::memory_order_acquire)) {
       ingest_stopped_.store(true, std::memory_order_release);
     } else if (ingest_item >= 0 && (items[ingest_item].revents & ZMQ_POLLIN)) {
@@ -205,19 +230,30 @@ void Runtime::io_loop() {
     }
     const auto now = clock::now();
     if (now >= next_resend) {
-      send_definitions(nullptr, 0);
-      send_stats(encoder);
+      if (publisher_) {
+        acquire_publisher();
+        send_definitions(nullptr, 0);
+        // The periodic look at subscriptions: a join whose signal a worker's send consumed
+        // before release_publisher could see it is answered within a resend period at most.
+        publisher_->poll_joins([this](const uint8_t* prefix, size_t size) { send_definitions(prefix, size); });
+        send_stats(encoder);
+        release_publisher();
+      }
       next_resend = now + resend_every;
     }
+    // Results a worker left while this thread held the publisher.
+    flush_results(encoder);
     if (ingest_ && now - last_snapshot > std::chrono::milliseconds(50)) {
       std::lock_guard<std::mutex> lock(io_counters_mutex_);
       ingest_snapshot_ = ingest_->counters();
       last_snapshot = now;
     }
     if (workers_done_.load(std::memory_order_acquire) == static_cast<int>(workers_.size())) {
+      acquire_publisher();
       drain_results(encoder);
       for (const Sink& sink : config_.sinks)
         if (sink.flush) sink.flush();
+      release_publisher();
       if (ingest_) {
         std::lock_guard<std::mutex> lock(io_counters_mutex_);
         ingest_snapshot_ = ingest_->counters();

@@ -77,36 +77,8 @@ Sink PluginInstance::sink() {
   const kata_plugin* table = &plugin_->table();
   void* instance = instance_;
   Sink s;
-  s.on_result = [table, instance](const transport::ResultFields& f) {
-    kata_plugin_result r{};
-    r.struct_size = sizeof r;
-    r.ghost_joint_count = f.ghost ? static_cast<uint32_t>(f.ghost_joints) : 0u;
-    r.stream_id = f.stream_id;
-    r.result_sequence = f.result_sequence;
-    r.frame_sequence = f.frame_sequence;
-    r.frame_index = f.frame_index;
-    r.capture_ns = f.capture_ns;
-    r.arrival_ns = f.arrival_ns;
-    r.computed_ns = f.computed_ns;
-    r.scored = f.scored ? 1 : 0;
-    r.matched_teacher_frame = f.matched_teacher_frame;
-    r.distance = f.distance;
-    r.score = f.score;
-    for (int i = 0; i < 5; ++i) r.parts[i] = f.parts[i];
-    r.ghost = f.ghost;
-    for (int i = 0; i < 5; ++i) r.part_scores[i] = f.part_scores[i];
-    r.part_to_fix = f.part_to_fix;
-    r.state = f.state;
-    r.has_practice = f.has_practice ? 1 : 0;
-    r.matched_teacher_time = f.matched_teacher_time;
-    if (f.has_practice) {
-      r.practice_start_time = f.practice.start_time;
-      r.practice_end_time = f.practice.end_time;
-      r.practice_loop = f.practice.loop ? 1 : 0;
-      r.practice_revision = f.practice.revision;
-    }
-    table->on_result(instance, &r);
-  };
+  // The record as published (its struct_size is this host's sizeof(kata_result_record)).
+  s.on_result = [table, instance](const transport::ResultFields& f) { table->on_result(instance, &f); };
   if (table->flush) s.flush = [table, instance] { table->flush(instance); };
   return s;
 }

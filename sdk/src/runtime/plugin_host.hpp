@@ -27,7 +27,7 @@ class PluginInstance {
   PluginInstance(const PluginInstance&) = delete;
   PluginInstance& operator=(const PluginInstance&) = delete;
 
-  // The runtime Sink of a sink plugin (on_result converts to kata_plugin_result on the I/O thread).
+  // The runtime Sink of a sink plugin (on_result hands the published kata_result_record over on the I/O thread).
   Sink sink();
   // Starts / stops a source plugin. Throws kata::Error naming the file when start fails.
   void start();

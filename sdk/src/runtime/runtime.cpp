@@ -93,11 +93,18 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
     worker->read_buffer.resize(kReadBatch);
     worker->read_ghosts.assign(kReadBatch * kMaxGhostJoints * 3, 0.0f);
     worker->owned.reserve(static_cast<size_t>(config_.max_streams));
+    worker->encoder = std::make_unique<transport::Encoder>();
     sem_init(&worker->wake, 0, 0);
     workers_.push_back(std::move(worker));
   }
-  for (auto& w : workers_) w->thread = std::thread([this, wp = w.get()] { worker_loop(*wp); });
+  // Named, so per-thread CPU (kata replay, top -H) tells them apart: kata-worker0.., kata-io.
+  for (auto& w : workers_) {
+    w->thread = std::thread([this, wp = w.get()] { worker_loop(*wp); });
+    const std::string name = "kata-worker" + std::to_string(w->index);
+    pthread_setname_np(w->thread.native_handle(), name.c_str());
+  }
   io_thread_ = std::thread([this] { io_loop(); });
+  pthread_setname_np(io_thread_.native_handle(), "kata-io");
 }
 
 Runtime::~Runtime() {

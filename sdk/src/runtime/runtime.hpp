@@ -1,22 +1,25 @@
 // The runtime: many per-stream pipelines, a small worker pool and one I/O thread.
 //
-// Threads and why:
+// Threads and why (issue 39: cost per frame, measured side by side in docs/runtime.md):
 //   producers (any thread; the I/O thread for ZeroMQ ingest) -> push(stream id, frame)
 //       the frame is copied into the bounded queue of its stream's worker (the one with the
 //       fewest streams when the stream opened, so a burst splits evenly): a lock-free
 //       multi-producer ring (per-cell sequence numbers); a full queue drops the frame and counts
-//       it on its stream. No lock is shared between streams on this path.
+//       it on its stream. No lock is shared between streams on this path. The worker's semaphore
+//       is posted only while it is parked: a burst costs one wake-up, not a call per frame.
 //   workers (N threads) -> each owns the pipelines of its shard, so a pipeline is only ever
-//       touched by one thread (no lock); it pushes the frame through features -> score -> ghost
-//       and moves every result (with its ghost) into its own single-producer queue to the I/O
-//       thread; a full queue drops the result and counts it (the pipeline's own drop).
-//   the I/O thread -> owns every ZeroMQ socket (they are not thread-safe): it encodes results
-//       with one reused FlatBufferBuilder, stamps the published time and sends without blocking;
-//       it reads the ingest socket, sees subscribers join (XPUB) and re-sends skeleton
-//       definitions on join and periodically.
-// Workers wake on a per-worker semaphore; the I/O thread on an eventfd polled beside its
-// sockets, written after every result while the I/O thread sleeps, so a result is sent as soon
-// as it exists (no polling interval in the latency, no batching behind later frames).
+//       touched by one thread (no lock); it pushes the frame through features -> score -> ghost,
+//       moves every result (with its ghost) into its own single-producer ring and sends it
+//       itself (run to completion: no hand-off to another thread, no wake-up per result), after
+//       RuntimeConfig::result_batch frames or as soon as no frame waits, if it can take the
+//       publisher's token; if another thread holds it, that thread sends these results before it
+//       lets go (flush_results). A full ring drops the result and counts it.
+//   the I/O thread -> owns the ingest socket: it reads frames and definitions, sees subscribers
+//       join (the publisher's ZMQ_FD, polled as a plain descriptor), re-sends skeleton definitions
+//       on join and periodically, sends stats and retires closed streams, taking the token for
+//       every use of the publisher.
+// The publisher (ZeroMQ sockets are not thread-safe) is used by one thread at a time: the token is
+// an atomic exchange, the full memory barrier ZeroMQ asks for when a socket changes thread.
 //
 // Clock: capture times are the source's (seconds); arrival, computed and published times are
 // the host's monotonic clock (steady_clock, CLOCK_MONOTONIC) in nanoseconds, comparable between
@@ -65,11 +68,12 @@ StreamSetup setup_from_definition(const transport::SkeletonDefinition& definitio
 transport::TableVerdict practice_rows(const transport::PracticeSetting& practice, int frames, double frame_time,
                                       int32_t* first, int32_t* last, char* why, size_t size);
 
-// A consumer of every result inside the process (a sink plugin, a file writer): called on the
-// I/O thread, after the result was sent; must neither block nor allocate.
+// A consumer of every result inside the process (a sink plugin, a file writer): called by the
+// runtime thread that holds the publisher (a worker or the I/O thread; one at a time, each
+// stream's results in order), after the result was sent; must neither block nor allocate.
 struct Sink {
   std::function<void(const transport::ResultFields&)> on_result;
-  std::function<void()> flush;  // optional; on the I/O thread after the last result
+  std::function<void()> flush;  // optional; on the I/O thread after the last result (at stop)
 };
 
 // How a runtime thread waits for work (docs/runtime.md, "Idle strategy"). A parked thread costs no
@@ -77,8 +81,8 @@ struct Sink {
 // time work is handed to it; a thread that backs off keeps looking for a while first.
 struct IdleStrategy {
   enum class Kind {
-    kPark,     // sleep at once: a worker in its semaphore, the I/O thread in zmq_poll
-    kBackoff,  // spin (cpu pause) for spin_ns, then sched_yield until yield_ns, then park
+    kPark,     // sleep at once: a worker in its semaphore
+    kBackoff,  // a worker spins (cpu pause) for worker_spin_ns, then sched_yield until worker_yield_ns, then parks
   };
   // Park by default: on the 2-core VM shared with other load, backoff measured no better at one
   // stream and no clear gain at 64 (a spinning or yielding thread loses its CPU to the others
@@ -88,11 +92,8 @@ struct IdleStrategy {
   // little apart find it awake).
   int64_t worker_spin_ns = 5'000;
   int64_t worker_yield_ns = 5'000;
-  // The I/O thread: a worker that takes a frame wakes a parked I/O thread at once (the wake-up
-  // overlaps the frame's compute), and the I/O thread backs off, waiting for that result, up to
-  // this long instead of parking (yielding after io_spin_ns: a yield on a loaded machine gives the
-  // CPU away for a time slice, so by default it only spins). Its CPU is bounded by the frames'
-  // compute time: it spins only while a worker holds a frame, at most io_yield_ns per frame.
+  // Read by nothing since issue 39 (the workers send their own results, so the I/O thread waits
+  // for none); kept so that configurations setting them (kata serve's idle_spin_us) still load.
   int64_t io_spin_ns = 300'000;
   int64_t io_yield_ns = 300'000;
 };
@@ -100,7 +101,7 @@ struct IdleStrategy {
 struct RuntimeConfig {
   int workers = 2;                 // worker threads (>= 1); streams are sharded by id over them
   int frame_queue_capacity = 4096; // frames queued per worker (rounded up to a power of two)
-  int result_queue_capacity = 4096;// results queued per worker for the I/O thread (power of two)
+  int result_queue_capacity = 4096;// results a worker holds before they are sent (power of two)
   int max_joints = 128;            // largest input skeleton (sizes the queue cells)
   int max_streams = 1024;          // streams the runtime can hold
   // Results out (empty endpoints: nothing published; results are still counted).
@@ -112,6 +113,11 @@ struct RuntimeConfig {
   std::function<StreamSetup(const transport::SkeletonDefinition&)> configure_stream;
   double skeleton_resend_seconds = 1.0;  // periodic re-send of every skeleton definition
   IdleStrategy idle;                     // how workers and the I/O thread wait for work
+  // A worker sends its results after this many frames, or as soon as no frame waits for it
+  // (issue 39: a batch wakes libzmq's I/O thread once and goes out in one write: its CPU per
+  // frame halved at 64 streams; 1 sends after every frame; docs/runtime.md has the trade).
+  // A lone stream never waits: its worker has no next frame, so it sends at once.
+  int result_batch = 8;
   std::vector<Sink> sinks;               // in-process consumers of every result
 };
 
@@ -259,9 +265,18 @@ class Runtime {
                   std::function<void(pipeline::Pipeline*)> release, bool publish_features);
   void worker_loop(Worker& worker);
   void io_loop();
+  // Sends every result waiting in the workers' rings (holder of the publisher only).
   bool drain_results(transport::Encoder& encoder);
   bool results_pending() const;
-  bool workers_busy() const;
+  // The publisher (and the sinks, and the result rings' read side) belong to whichever thread
+  // holds publisher_token_: a worker after its frame, the I/O thread for definitions, stats,
+  // joins and retiring. try: never waits (a worker); acquire: waits for the holder's sends (the
+  // I/O thread only). flush_results: sends what waits unless another thread holds the publisher,
+  // which then sends it before it lets go (nothing is left behind: see the fences).
+  bool try_acquire_publisher();
+  void acquire_publisher();
+  void release_publisher();
+  void flush_results(transport::Encoder& encoder);
   void send_definitions(const uint8_t* prefix, size_t prefix_size);
   void send_stats(transport::Encoder& encoder);  // schemas/stats.fbs, with the periodic definitions
 
@@ -283,7 +298,10 @@ class Runtime {
   std::atomic<bool> definitions_dirty_{false};
   std::vector<std::unique_ptr<Worker>> workers_;
   int wake_io_fd_ = -1;
-  std::atomic<bool> io_sleeping_{false};  // the I/O thread is (about to be) in zmq_poll
+  alignas(64) std::atomic<bool> publisher_token_{false};
+  // The holder saw subscriptions waiting on the publisher (its sends read ZeroMQ's commands, so
+  // the socket's descriptor may not wake the I/O thread): the I/O thread reads them.
+  std::atomic<bool> joins_pending_{false};
   std::atomic<bool> stopping_{false};
   // stop() asks the I/O thread to read no more ingest messages and waits for its answer before
   // the workers are told to finish: a frame ingested after a worker's last look would be lost.

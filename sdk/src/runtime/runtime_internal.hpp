@@ -9,6 +9,7 @@
 
 #include "runtime/runtime.hpp"
 
+#include <pthread.h>
 #include <sched.h>
 #include <semaphore.h>
 #include <sys/eventfd.h>
@@ -160,9 +161,10 @@ struct Runtime::Worker {
   alignas(64) std::atomic<size_t> enqueue_pos{0};  // | kQueueClosed once stop() began
   alignas(64) size_t dequeue_pos = 0;
   std::atomic<size_t> done_pos{0};  // dequeue_pos once the frame's results were handed over
+  // Parked in its semaphore (or about to be): a producer posts only then, so a burst of frames
+  // costs one wake-up, not a futex call per frame (issue 39).
+  alignas(64) std::atomic<bool> sleeping{false};
   sem_t wake;
-  // Between taking a frame and handing over its results (the I/O thread backs off on it).
-  alignas(64) std::atomic<bool> busy{false};
   // Results out: single-producer (this worker) / single-consumer (I/O thread) ring.
   std::vector<ResultCell> results;
   std::vector<float> ghosts;     // result cells x max ghost joints x 3
@@ -174,6 +176,8 @@ struct Runtime::Worker {
   size_t stream_count = 0;          // streams assigned here (under open_mutex_)
   std::mutex owned_mutex;           // open_stream vs the final flush only
   std::thread thread;
+  // The worker sends results itself when it holds the publisher (Runtime::flush_results).
+  std::unique_ptr<transport::Encoder> encoder;
   // Scratch for Pipeline::read.
   std::vector<pipeline::Result> read_buffer;
   std::vector<float> read_ghosts, read_features;

@@ -183,7 +183,10 @@ void Runtime::retire_closed(transport::Encoder& encoder) {
     }
   }
   if (ready.empty()) return;
+  // Their last results are in the rings or being sent by a worker: the holder's sends finish first.
+  acquire_publisher();
   drain_results(encoder);
+  release_publisher();
   std::lock_guard<std::mutex> lock(open_mutex_);
   for (StreamState* s : ready) {
     const StreamCounters c = read_counters(*s);

@@ -39,7 +39,12 @@ Runtime::FrameCell* Runtime::claim_cell(StreamState& stream, size_t* claimed, bo
 void Runtime::publish_cell(StreamState& stream, FrameCell& cell, size_t pos) {
   Worker& w = *workers_[static_cast<size_t>(stream.worker)];
   cell.turn.store(pos + 1, std::memory_order_release);
-  sem_post(&w.wake);
+  // Post only to a parked worker (a busy one finds the cell by its turn): against the worker's
+  // sleeping store and its last look at the queue (seq_cst fences on both sides), either it sees
+  // this cell or this push sees it asleep.
+  std::atomic_thread_fence(std::memory_order_seq_cst);
+  if (w.sleeping.load(std::memory_order_relaxed) && w.sleeping.exchange(false, std::memory_order_acq_rel))
+    sem_post(&w.wake);
 }
 
 namespace {
@@ -186,33 +191,44 @@ void Runtime::worker_loop(Worker& w) {
     }
     s.counters.pipeline_dropped.store(p.dropped(), std::memory_order_relaxed);
   };
-  // Wakes the I/O thread after every result (so it sends while this worker computes the next),
-  // with a syscall only when it is asleep in zmq_poll.
-  auto wake_io = [&] {
+  // Results go out from here, right after their frame (issue 39: no hand-off to the I/O thread,
+  // no wake-up per result): this worker sends them unless another thread holds the publisher,
+  // which then sends them before it lets go.
+  auto send_results = [&] {
     if (!signalled) return;
     signalled = false;
-    if (!io_sleeping_.exchange(false)) return;
-    const uint64_t one = 1;
-    (void)!write(wake_io_fd_, &one, sizeof one);
+    flush_results(*w.encoder);
+  };
+  auto frame_ready = [&] {
+    return w.cells[w.dequeue_pos & w.mask].turn.load(std::memory_order_acquire) == w.dequeue_pos + 1;
   };
 
   const IdleStrategy& idle = config_.idle;
   const bool backoff = idle.kind == IdleStrategy::Kind::kBackoff;
+  const int batch = std::max(1, config_.result_batch);
+  int unsent = 0;  // frames since this worker last sent
   for (;;) {
-    // Wait for a frame (backing off first, by the idle strategy); every 50 ms look at the stop flag.
-    if (sem_trywait(&w.wake) != 0 &&
-        !(backoff && (wake_io(), w.busy.store(false, std::memory_order_release),
-                      back_off(idle.worker_spin_ns, idle.worker_yield_ns, [&] { return sem_trywait(&w.wake) == 0; })))) {
-      wake_io();
-      w.busy.store(false, std::memory_order_release);
-      timespec deadline;
-      clock_gettime(CLOCK_REALTIME, &deadline);
-      deadline.tv_nsec += 50'000'000;
-      if (deadline.tv_nsec >= 1'000'000'000) {
-        deadline.tv_sec += 1;
-        deadline.tv_nsec -= 1'000'000'000;
+    // Wait for the frame in turn (backing off first, by the idle strategy); every 50 ms look at
+    // the stop flag. A producer posts only while this worker says it sleeps (publish_cell).
+    if (!frame_ready() && signalled) {  // nothing more to batch with (a practice setting ended the run)
+      unsent = 0;
+      send_results();
+    }
+    if (!frame_ready() && !(backoff && back_off(idle.worker_spin_ns, idle.worker_yield_ns, frame_ready))) {
+      w.sleeping.store(true, std::memory_order_relaxed);
+      std::atomic_thread_fence(std::memory_order_seq_cst);
+      if (!frame_ready()) {
+        timespec deadline;
+        clock_gettime(CLOCK_REALTIME, &deadline);
+        deadline.tv_nsec += 50'000'000;
+        if (deadline.tv_nsec >= 1'000'000'000) {
+          deadline.tv_sec += 1;
+          deadline.tv_nsec -= 1'000'000'000;
+        }
+        (void)sem_timedwait(&w.wake, &deadline);
       }
-      if (sem_timedwait(&w.wake, &deadline) != 0) {
+      w.sleeping.store(false, std::memory_order_relaxed);
+      if (!frame_ready()) {
         if (stopping_.load(std::memory_order_acquire)) {
           // A push that claimed a cell before stop() closed the queue is finished first (its
           // post is on its way): nothing stop() took is left behind.
@@ -223,7 +239,7 @@ void Runtime::worker_loop(Worker& w) {
             s->pipeline->flush();
             move_results(*s);
           }
-          wake_io();
+          send_results();
           workers_done_.fetch_add(1, std::memory_order_release);
           const uint64_t one = 1;
           (void)!write(wake_io_fd_, &one, sizeof one);
@@ -232,19 +248,7 @@ void Runtime::worker_loop(Worker& w) {
         continue;
       }
     }
-    if (backoff) {
-      // The I/O thread's wake-up, if it sleeps, overlaps this frame's compute; it then backs off
-      // on busy until the result is there instead of parking again.
-      w.busy.store(true, std::memory_order_seq_cst);
-      if (io_sleeping_.exchange(false)) {
-        const uint64_t one = 1;
-        (void)!write(wake_io_fd_, &one, sizeof one);
-      }
-    }
     FrameCell& cell = w.cells[w.dequeue_pos & w.mask];
-    // A post means some producer published a cell, not necessarily this one (two producers may
-    // finish out of order): wait the few instructions until the one in turn is published.
-    while (cell.turn.load(std::memory_order_acquire) != w.dequeue_pos + 1) std::this_thread::yield();
     StreamState& s = *cell.stream;
     pipeline::Pipeline& p = *s.pipeline;
     if (cell.practice) {
@@ -287,8 +291,11 @@ void Runtime::worker_loop(Worker& w) {
     cell.turn.store(w.dequeue_pos + w.mask + 1, std::memory_order_release);
     ++w.dequeue_pos;
     move_results(s);
+    if (++unsent >= batch || !frame_ready()) {
+      unsent = 0;
+      send_results();
+    }
     w.done_pos.store(w.dequeue_pos, std::memory_order_release);  // closed streams retire past it
-    wake_io();
   }
 }
 

@@ -194,7 +194,7 @@ void ZapHandler::run(void* socket) {
       // This thread alone numbers connections, in the order it answers. A number that reaches
       // messages was answered before its connection's handshake ended, so before that connection
       // closed and its descriptor could carry the next one: on one descriptor, a later connection
-      // always has the larger number (zmq_io.cpp relies on it).
+      // always has the larger number (ingest_connections.cpp relies on it).
       std::snprintf(user, sizeof user, "%llu", static_cast<unsigned long long>(numbered_count_.fetch_add(1) + 1));
       allow = true;
     } else {

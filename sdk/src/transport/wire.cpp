@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <algorithm>
+#include <climits>
 
 #include "common/error.hpp"
 #include "kata_schemas/frame_generated.h"
@@ -198,12 +200,21 @@ const char* practice_values_problem(const PracticeSetting& p, char* why, size_t 
   return why;
 }
 
+// A record's capture time (seconds, the source's clock) as the wire's nanoseconds, rounded; a
+// time outside +-292 years (no source's) saturates rather than overflow.
+static int64_t seconds_to_ns(double seconds) {
+  const double ns = std::round(seconds * 1e9);
+  if (!(ns > -9.2e18)) return ns != ns ? 0 : INT64_MIN;
+  if (ns > 9.2e18) return INT64_MAX;
+  return static_cast<int64_t>(ns);
+}
+
 Bytes Encoder::result(const ResultFields& r) {
   auto& b = impl_->builder;
   b.Clear();
   flatbuffers::Offset<flatbuffers::Vector<const fb::Vec3*>> ghost;
   if (r.ghost) {
-    ghost = vec3_vector(b, r.ghost, r.ghost_joints);
+    ghost = vec3_vector(b, r.ghost, static_cast<int>(r.ghost_joint_count));
   }
   flatbuffers::Offset<flatbuffers::Vector<float>> features;
   if (r.features) features = b.CreateVector(r.features, static_cast<size_t>(r.feature_count));
@@ -213,12 +224,14 @@ Bytes Encoder::result(const ResultFields& r) {
   o.add_result_sequence(r.result_sequence);
   o.add_frame_sequence(r.frame_sequence);
   o.add_frame_index(r.frame_index);
-  const fb::Time capture(r.capture_ns), arrival(r.arrival_ns), computed(r.computed_ns), published(r.published_ns);
+  // The record's capture time is the source's seconds; the wire's Time is nanoseconds.
+  const fb::Time capture(seconds_to_ns(r.capture_time)), arrival(r.arrival_ns), computed(r.computed_ns),
+      published(r.published_ns);
   o.add_capture_time(&capture);
   o.add_arrival_time(&arrival);
   o.add_computed_time(&computed);
   o.add_published_time(&published);
-  o.add_scored(r.scored);
+  o.add_scored(r.scored != 0);
   o.add_distance(r.distance);
   o.add_score(r.score);
   const fb::PartBreakdown parts(r.parts[0], r.parts[1], r.parts[2], r.parts[3], r.parts[4]);
@@ -230,7 +243,8 @@ Bytes Encoder::result(const ResultFields& r) {
   if (r.scored) o.add_part_scores(&part_scores);
   o.add_part_to_fix(static_cast<int8_t>(r.part_to_fix));
   o.add_feedback_state(static_cast<fb::FeedbackState>(r.state));
-  const fb::PracticeSection practice(r.practice.start_time, r.practice.end_time, r.practice.loop, r.practice.revision);
+  const fb::PracticeSection practice(r.practice_start_time, r.practice_end_time, r.practice_loop != 0,
+                                     r.practice_revision);
   if (r.has_practice) o.add_practice(&practice);
   if (r.ghost) o.add_ghost(ghost);
   if (r.features) o.add_features(features);
@@ -442,45 +456,41 @@ MessageKind Decoder::decode(const void* data, size_t size) {
     if (r->stream_id() != stream_id_) return fail(DecodeError::kTopicMismatch);
     auto ns = [](const fb::Time* t) { return t ? t->nanoseconds() : 0; };
     ResultFields& o = result_;
+    o = ResultFields{};
     o.stream_id = r->stream_id();
     o.result_sequence = r->result_sequence();
     o.frame_sequence = r->frame_sequence();
     o.frame_index = r->frame_index();
-    o.capture_ns = ns(r->capture_time());
+    o.capture_time = static_cast<double>(ns(r->capture_time())) * 1e-9;
     o.arrival_ns = ns(r->arrival_time());
     o.computed_ns = ns(r->computed_time());
     o.published_ns = ns(r->published_time());
-    o.scored = r->scored();
+    o.scored = r->scored() ? 1 : 0;
     o.distance = r->distance();
     o.score = r->score();
     if (const auto* parts = r->parts()) {
-      o.parts[0] = parts->torso_head();
-      o.parts[1] = parts->left_arm();
-      o.parts[2] = parts->right_arm();
-      o.parts[3] = parts->left_leg();
-      o.parts[4] = parts->right_leg();
-    } else {
-      for (float& p : o.parts) p = 0.0f;
+      const float p[KATA_PART_COUNT] = {parts->torso_head(), parts->left_arm(), parts->right_arm(), parts->left_leg(),
+                                        parts->right_leg()};
+      std::copy(p, p + KATA_PART_COUNT, o.parts);
     }
     o.matched_teacher_frame = r->matched_teacher_frame();
     o.matched_teacher_time = r->matched_teacher_time();
     if (const auto* scores = r->part_scores()) {
-      o.part_scores[0] = scores->torso_head();
-      o.part_scores[1] = scores->left_arm();
-      o.part_scores[2] = scores->right_arm();
-      o.part_scores[3] = scores->left_leg();
-      o.part_scores[4] = scores->right_leg();
-    } else {
-      for (float& p : o.part_scores) p = 0.0f;
+      const float p[KATA_PART_COUNT] = {scores->torso_head(), scores->left_arm(), scores->right_arm(),
+                                        scores->left_leg(), scores->right_leg()};
+      std::copy(p, p + KATA_PART_COUNT, o.part_scores);
     }
     o.part_to_fix = r->part_to_fix();
     o.state = static_cast<int32_t>(r->feedback_state());
     o.ghost = r->ghost() ? reinterpret_cast<const float*>(r->ghost()->Data()) : nullptr;
-    o.ghost_joints = r->ghost() ? static_cast<int>(r->ghost()->size()) : 0;
-    o.has_practice = r->practice() != nullptr;
-    o.practice = PracticeSection{};
-    if (const auto* practice = r->practice())
-      o.practice = PracticeSection{practice->start_time(), practice->end_time(), practice->loop(), practice->revision()};
+    o.ghost_joint_count = r->ghost() ? r->ghost()->size() : 0u;
+    if (const auto* practice = r->practice()) {
+      o.has_practice = 1;
+      o.practice_start_time = practice->start_time();
+      o.practice_end_time = practice->end_time();
+      o.practice_loop = practice->loop() ? 1 : 0;
+      o.practice_revision = practice->revision();
+    }
     o.features = r->features() ? r->features()->data() : nullptr;
     o.feature_count = r->features() ? static_cast<int>(r->features()->size()) : 0;
     return MessageKind::kResult;

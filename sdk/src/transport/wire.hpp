@@ -19,6 +19,8 @@
 #include "skeleton/skeleton.hpp"
 #include "stream/stream.hpp"
 
+#include "kata/result.h"
+
 namespace kata::transport {
 
 inline constexpr size_t kTopicBytes = 16;
@@ -73,30 +75,19 @@ struct PracticeSection {
   uint32_t revision = 0;
 };
 
-// The published fields of one result (schemas/result.fbs documents each).
-struct ResultFields {
-  uint64_t stream_id = 0;
-  uint64_t result_sequence = 0;
-  uint64_t frame_sequence = 0;
-  int64_t frame_index = 0;
-  int64_t capture_ns = 0, arrival_ns = 0, computed_ns = 0, published_ns = 0;
-  bool scored = false;
-  float distance = 0.0f, score = 0.0f;
-  float parts[5] = {};
-  int32_t matched_teacher_frame = -1;
-  double matched_teacher_time = -1.0;  // seconds from the teacher's first frame; -1 unless scored
-  const float* ghost = nullptr;  // ghost_joints x 3, or null
-  int ghost_joints = 0;
+// The published fields of one result: the public record (kata/result.h, which schemas/result.fbs
+// mirrors field by field) plus the features, which only the wire carries. Encoder::result and
+// Decoder::decode are the record's only translations to and from the wire.
+struct ResultFields : kata_result_record {
+  // An unscored result of no stream: every field 0 but the "none" markers.
+  ResultFields() : kata_result_record{} {
+    struct_size = sizeof(kata_result_record);
+    matched_teacher_frame = -1;
+    matched_teacher_time = -1.0;
+    part_to_fix = -1;
+  }
   const float* features = nullptr;  // feature_count floats, or null
   int feature_count = 0;
-  // The calibrated per-part scores (0..100), the part to fix (-1: none) and the scorer's state
-  // (metric::ScoreState: 0 scoring, 1 calibrating, 2 tracking lost, 3 teacher finished).
-  float part_scores[5] = {};
-  int32_t part_to_fix = -1;
-  int32_t state = 0;
-  // The practice setting it was computed under; has_practice when the stream has a clip teacher.
-  bool has_practice = false;
-  PracticeSection practice;
 };
 
 // The counters a runtime publishes (schemas/stats.fbs documents each), on the topic of stream id

@@ -1,7 +1,8 @@
 // ZeroMQ sockets of the runtime: a publisher of results and skeleton definitions, and an
 // ingest of frames and skeleton definitions. ZeroMQ sockets are not thread-safe: each object
-// here is created, used and destroyed on one thread (the runtime's I/O thread), counters
-// included (the runtime copies them out for other threads).
+// here is used by one thread at a time (the ingest: the runtime's I/O thread; the publisher:
+// whichever runtime thread holds its token, handed over with a full memory barrier, as ZeroMQ
+// asks when a socket changes thread), counters included (the runtime copies them out).
 #pragma once
 
 #include <cstdint>
@@ -86,6 +87,12 @@ class Publisher {
   int poll_joins(const std::function<void(const uint8_t* prefix, size_t size)>& on_join);
   // The socket, for zmq_poll (POLLIN = subscription messages).
   void* socket() const { return socket_; }
+  // ZMQ_FD: a plain descriptor another thread may poll while the socket's owner of the moment
+  // sends (edge-triggered: after it fires, poll_joins reads until nothing is left).
+  int descriptor() const;
+  // Subscription messages wait to be read (ZMQ_EVENTS has POLLIN; a send may have moved them
+  // in from ZeroMQ's command queue without the descriptor firing again).
+  bool joins_waiting() const;
   // The last endpoint bound, resolved (a "tcp://127.0.0.1:*" bind reports its port).
   std::string endpoint() const;
 

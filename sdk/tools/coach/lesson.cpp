@@ -179,7 +179,7 @@ void Lesson::on_result(const transport::ResultFields& f) {
   r.matched_time = f.matched_teacher_time;
   r.part_to_fix = f.part_to_fix;
   r.latency_ns = f.published_ns > 0 ? f.published_ns - f.arrival_ns : f.computed_ns - f.arrival_ns;
-  r.has_ghost = f.ghost != nullptr && f.ghost_joints == data_.ghost_joints;
+  r.has_ghost = f.ghost != nullptr && static_cast<int>(f.ghost_joint_count) == data_.ghost_joints;
   if (r.has_ghost)
     std::memcpy(data_.ghosts.data() + i * 3 * static_cast<size_t>(data_.ghost_joints), f.ghost,
                 sizeof(float) * 3 * static_cast<size_t>(data_.ghost_joints));

@@ -1,4 +1,4 @@
-/* Plugins the host must refuse, one per macro: BROKEN_MAJOR (ABI major 2), BROKEN_SIZE (a table
+/* Plugins the host must refuse, one per macro: BROKEN_MAJOR (ABI major 1: before the one result record), BROKEN_SIZE (a table
  * larger than the host knows), BROKEN_MISSING (a sink without on_result), BROKEN_NO_ENTRY (no
  * entry symbol at all). */
 #include <stddef.h>
@@ -10,11 +10,11 @@ static void* activate(const kata_plugin_host* h, const char* c, char* e, size_t 
   return (void*)1;
 }
 static void deactivate(void* i) { (void)i; }
-static void on_result(void* i, const kata_plugin_result* r) { (void)i, (void)r; }
+static void on_result(void* i, const kata_result_record* r) { (void)i, (void)r; }
 
 #ifndef BROKEN_NO_ENTRY
 #if defined(BROKEN_MAJOR)
-#define VERSION ((2u << 16) | 0u)
+#define VERSION ((1u << 16) | 1u)
 #else
 #define VERSION KATA_PLUGIN_ABI_VERSION
 #endif

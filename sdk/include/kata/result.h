@@ -1,0 +1,94 @@
+/* kata/result.h: the one result record. C99, no other kata header needed.
+ *
+ * Every place a kata result reaches a caller carries this record: a stream's results
+ * (kata_stream_read_results / kata_stream_read_newest in kata.h), a runtime's published result
+ * messages read in C (kata_message_read_result in kata.h; schemas/result.fbs on the wire), and a
+ * sink plugin's on_result (kata_plugin.h). The same field has the same name, unit and meaning in
+ * all three; a field a source cannot know is 0 (named below).
+ *
+ * Growth: fields are only added at the end. The caller (or, for plugins, the host) sets
+ * struct_size to the sizeof it was built with; a writer fills only that many bytes and keeps
+ * struct_size, so a 1.0 caller keeps working with a later library, and a reader checks
+ * KATA_RESULT_HAS(record, field) before reading a field added after 1.0. */
+#ifndef KATA_RESULT_H
+#define KATA_RESULT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* The five body parts of a score breakdown, in array order. */
+typedef enum kata_body_part {
+  KATA_PART_TORSO_HEAD = 0, /* Hip, Chest, Neck, Head */
+  KATA_PART_LEFT_ARM = 1,   /* LShoulder, LElbow, LHand */
+  KATA_PART_RIGHT_ARM = 2,  /* RShoulder, RElbow, RHand */
+  KATA_PART_LEFT_LEG = 3,   /* LHip, LKnee, LFoot */
+  KATA_PART_RIGHT_LEG = 4,  /* RHip, RKnee, RFoot */
+  KATA_PART_COUNT = 5
+} kata_body_part;
+
+/* What a scored record's state says (kata.h "Score calibration and feedback" says when each
+ * applies). */
+typedef enum kata_score_state {
+  KATA_SCORE_SCORING = 0,          /* the scores are this frame's */
+  KATA_SCORE_CALIBRATING = 1,      /* the first 0.25 s after a teacher is attached or restarted */
+  KATA_SCORE_TRACKING_LOST = 2,    /* fewer than 13 of the 16 GPD joints are tracked in the frame
+                                      (a joint at exactly (0,0,0) counts as lost); scores are 0 */
+  KATA_SCORE_TEACHER_FINISHED = 3  /* the student has outlasted the teacher clip by 0.25 s */
+} kata_score_state;
+
+/* One result: one frame of one stream, scored against its teacher when it has one. */
+typedef struct kata_result_record {
+  uint32_t struct_size;          /* the caller's sizeof(kata_result_record); kept by every writer */
+  int32_t scored;                /* 1: a teacher scored the frame (distance .. part_to_fix, state and
+                                    the matched teacher frame are valid); 0: they are 0 / -1 */
+  uint64_t stream_id;            /* the runtime's stream id (the message topic); 0 for a kata_stream */
+  uint64_t result_sequence;      /* 0, 1, 2... per stream, +1 per result: a gap means results were
+                                    dropped (a full ring, ZeroMQ's high-water mark) */
+  uint64_t frame_sequence;       /* the source's sequence number of the frame (a runtime's Frame
+                                    message); for a kata_stream, frame_index */
+  int64_t frame_index;           /* the frame's 0-based index in the stream since it was opened or
+                                    restarted (accepted frames) */
+  double capture_time;           /* the frame's capture time, seconds on the source's clock, as it
+                                    was pushed (kata_stream_push, Frame.capture_time) */
+  int64_t arrival_ns;            /* CLOCK_MONOTONIC ns of the computing host: the frame arrived */
+  int64_t computed_ns;           /* CLOCK_MONOTONIC ns: its features, score and ghost were done */
+  int64_t published_ns;          /* CLOCK_MONOTONIC ns: handed to ZeroMQ; 0 for a kata_stream */
+  int32_t matched_teacher_frame; /* teacher frame matched (0-based from the teacher's first frame),
+                                    -1 unless scored */
+  int32_t state;                 /* kata_score_state; KATA_SCORE_SCORING unless scored */
+  double matched_teacher_time;   /* the matched frame's time, seconds from the teacher's first
+                                    frame (where the student is in the routine); -1 unless scored */
+  float distance;                /* d = |W^T (x'' - y'')|, dimensionless (>= 0) */
+  float score;                   /* 0..100 (100 at d = 0) */
+  float parts[KATA_PART_COUNT];  /* split of d^2 by kata_body_part; sums to d^2 */
+  float part_scores[KATA_PART_COUNT]; /* each part's calibrated score, 0..100 */
+  int32_t part_to_fix;           /* kata_body_part to correct, -1 for none (held 0.5 s, see kata.h) */
+  uint32_t ghost_joint_count;    /* joints of this result's ghost (0: none was made) */
+  const float* ghost;            /* ghost_joint_count x 3 floats (student units, placed over the
+                                    student), or NULL. Messages and plugins: valid until the next
+                                    read on the thread / the end of on_result. A kata_stream
+                                    writes its ghosts into the caller's array instead: NULL. */
+  int32_t has_practice;          /* 1: the stream follows a teacher clip and practice_* say which
+                                    section; 0: no clip teacher (practice_* are 0) */
+  uint32_t practice_revision;    /* the Practice message that set the section; 0: the stream's
+                                    configured setting (kata serve's [scoring], or the whole clip) */
+  double practice_start_time;    /* the section's first teacher frame, s (the axis of
+                                    matched_teacher_time: a scored result's lies in the section) */
+  double practice_end_time;      /* its last teacher frame, s */
+  int32_t practice_loop;         /* 1: the section is looped (its end is followed by its start) */
+  uint32_t reserved0;            /* 0 */
+} kata_result_record;
+
+/* 1 when a record written for a caller's struct_size holds FIELD. */
+#define KATA_RESULT_HAS(r, field) \
+  ((r)->struct_size >= offsetof(kata_result_record, field) + sizeof((r)->field))
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* KATA_RESULT_H */

@@ -1,0 +1,67 @@
+// Joint-level pose error (issue 34): how far each bone of the student points from the teacher's,
+// in degrees, in the body's own frames, and the per-part coaching score built on it.
+//
+// Why: the learned W was trained to tell motions apart, not to say how far a pose is from the
+// teacher's joint by joint: a knee bent 42 degrees more moved its total by 1 point, the head not at
+// all, and the left elbow five times as much as the right (docs/model/scores.md). An angle is what a
+// coach sees, and the same angle means the same error at every joint, left or right.
+//
+// Bones: the 15 GPD bones, bone c = joint c's parent -> joint c (spec gpd-v1.md section 1), taken
+// from the GPD block Jc (the local-frame joint coordinates, spec section 2: hip at the origin, yaw
+// removed, body heights; a direction does not depend on the scale). Each bone's direction is read
+// in the frame of the body segment it hangs from, so one turned joint changes the angle of the
+// bones it turns and of no other:
+//   - the spine (Hip->Chest, Chest->Neck) and the legs (Hip->LHip ... RKnee->RFoot): the local
+//     frame (the hips' and shoulders' yaw removed);
+//   - the head (Neck->Head) and the arms (Neck->LShoulder ... RElbow->RHand): the chest frame,
+//     y along Chest->Neck, x along RShoulder->LShoulder made orthogonal to y, z = x cross y.
+//     A bent spine then counts once, in the torso, not again in both arms it carries.
+// Parts (parts.hpp): torso/head = bones 1, 2, 3; left arm 4, 5, 6; right arm 7, 8, 9; left leg
+// 10, 11, 12; right leg 13, 14, 15. A part's angle is its largest bone angle: a bent knee is as
+// wrong as a bent hip, whatever the part's other bones do.
+//
+// The map: part score = 100 / (1 + (angle / kAngle50)^kAngleSlope), the same map for every part
+// (the same angle, the same score), fixed by measurement (docs/model/scores.md "The coaching
+// total"): 15 deg -> 99, 30 deg -> 81, 45 deg -> 36.
+#pragma once
+
+#include <cstdint>
+
+#include "gpd/gpd.hpp"
+#include "metric/parts.hpp"
+
+namespace kata::metric {
+
+constexpr int kBones = gpd::kJoints - 1;  // bone c - 1 ends at joint c (1..15)
+constexpr double kAngle50 = 40.0;        // degrees: a part this far off scores 50
+constexpr double kAngleSlope = 5.0;
+// A pose in the frames above, from its features: [0, 48) the 16 joints in the local frame (the hip
+// at the origin), [48, 69) joints 3..9 (head, arms) in the chest frame with the neck at the
+// origin, [69] the hip height. Body heights.
+constexpr int kChestJoint0 = 3, kChestJoints = 7;
+constexpr int kPoseFloats = 3 * gpd::kJoints + 3 * kChestJoints + 1;
+
+// The pose (kPoseFloats floats) of GPD features x (the Jc block: x[0..44] = joints 1..15 in the
+// local frame, x[45] the hip height). Allocation-free; never NaN for finite input.
+void pose_frames(const float* features, float* pose);
+
+// What one student pose differs from one teacher pose by, per part (parts.hpp order).
+struct PartError {
+  // Angle, degrees: the largest angle between a student bone of the part and the teacher's, each
+  // in its frame (0..180; a degenerate bone on either side counts 0), and the GPD joint (1..15)
+  // at the end of that bone (the bone's parent joint is the one to move).
+  float degrees[kParts];
+  int32_t joint[kParts];
+  // Offset, body heights: the mean over the part's joints of the student-teacher distance, each
+  // joint in its frame (the torso's hip by its height, chest and neck in the local frame, the
+  // head and arms in the chest frame from the neck, the legs in the local frame). The part to fix
+  // is ranked by it: over real pairs it follows the local-frame mean joint distance (geometry's
+  // ranking), and a bent spine moves the torso's joints, not the arms it carries.
+  float offset[kParts];
+};
+void part_error(const float* student_pose, const float* teacher_pose, PartError& out);
+
+// The per-part coaching score of a part angle (degrees): 100 / (1 + (a / kAngle50)^kAngleSlope).
+double angle_score(double degrees);
+
+}  // namespace kata::metric

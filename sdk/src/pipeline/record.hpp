@@ -1,0 +1,25 @@
+// The one translation of a pipeline Result into the public result record (kata/result.h): the C
+// ABI's stream reads, the runtime's published messages and sink plugins all start from it, so a
+// field is named, scaled and defaulted in this one place.
+#pragma once
+
+#include <cstdint>
+
+#include "kata/result.h"
+#include "pipeline/pipeline.hpp"
+
+namespace kata::pipeline {
+
+// Writes every field a pipeline knows into *out (struct_size = sizeof(kata_result_record)):
+// result_sequence = the pipeline's sequence, frame_sequence = frame_index, the times, and when
+// scored the score, parts, part scores, part to fix, state and matched teacher frame (else 0 and
+// -1); ghost_joint_count when the result has a ghost. stream_id, published_ns, the ghost pointer
+// and the practice section are the runtime's (0 here). Allocation-free.
+void fill_record(const Result& result, uint32_t ghost_joint_count, kata_result_record* out) noexcept;
+
+// Copies a record into a caller's struct of caller_size bytes (a 1.0 caller's smaller struct
+// gets the fields it knows), keeping caller_size as its struct_size. caller_size must be at least
+// the struct_size field.
+void copy_record_out(const kata_result_record& record, uint32_t caller_size, void* out) noexcept;
+
+}  // namespace kata::pipeline
