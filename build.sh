@@ -22,7 +22,8 @@ PACKAGES=(build-essential cmake pkg-config libeigen3-dev libzmq3-dev cppzmq-dev 
           flatbuffers-compiler flatbuffers-compiler-dev libgtest-dev libgmock-dev libbenchmark-dev
           libcli11-dev nlohmann-json3-dev libxsimd-dev ccache libtomlplusplus-dev libcpp-httplib-dev libzip-dev libkainjow-mustache-dev python3 python3-numpy python3-matplotlib python3-zmq python3-flatbuffers
           python3-pytest python3-setuptools python3-wheel python3-venv python3-pip python3-mypy mono-mcs mono-runtime abigail-tools xz-utils doxygen
-          chromium chromium-driver python3-selenium python3-pil ffmpeg opencv-doc)
+          chromium chromium-driver python3-selenium python3-pil ffmpeg opencv-doc
+          nats-server libnats-dev)  # the NATS transport (libkata does not link libnats) and its tests
 # Only `./build.sh fuzz`, `fuzz-smoke` and `tsan` need these (Debian's clang, its libFuzzer and
 # sanitizer runtimes).
 FUZZ_PACKAGES=(clang-14 libclang-rt-14-dev)

@@ -9,6 +9,10 @@
 // frames a peer took. --teacher-start SECONDS or --loop A B sends each stream's practice setting
 // (schemas/practice.fbs, revision 1) after its definition, and again with every re-sent definition
 // (a re-send of the revision in force changes nothing; a restarted kata serve learns it).
+// --transport nats publishes the same messages on NATS instead (docs/deploy.md, "NATS"): each
+// stream's on its own subject `<prefix>.in.<stream id as 16 hex digits>`, which the servers'
+// mapping puts in the stream's partition; --nats-server (repeatable) and --nats-creds say where and
+// as whom.
 #include <zmq.h>
 
 #include <atomic>
@@ -28,6 +32,10 @@
 #include "transport/curve.hpp"
 #include "transport/wire.hpp"
 #include "transport/zmq_io.hpp"
+#ifdef KATA_HAVE_NATS
+#include "transport/nats/connection.hpp"
+#include "transport/nats/partition.hpp"
+#endif
 
 namespace {
 
@@ -49,6 +57,10 @@ struct Options {
   // server's teacher clip or its frame rate).
   double teacher_start = -1.0;   // < 0: not given
   std::vector<double> loop;      // A B, or empty
+  // --transport nats: the servers, a credentials file, the subject prefix.
+  std::string transport = "zmq";
+  std::vector<std::string> nats_servers;
+  std::string nats_creds, nats_prefix = "kata";
 };
 
 // The sender's peers, from its socket's connection events (and, for pub, from the subscriptions
@@ -142,6 +154,95 @@ class PeerWatch {
   bool refused_auth_ = false;
 };
 
+// Plays the frames through `send` (one message's bytes) with the definitions re-sent on time:
+// the pacing both transports share. Returns the frames sent.
+template <typename Send>
+uint64_t play(const Options& o, const kata::BvhClip& clip, const std::vector<float>& positions, int frames, int available,
+              kata::transport::SkeletonDefinition& d, bool practice, kata::transport::PracticeSetting& setting, Send send) {
+  kata::transport::Encoder encoder;
+  const int joints = clip.skeleton.joint_count();
+  auto send_definitions = [&] {
+    for (int k = 0; k < o.streams; ++k) {
+      d.stream_id = o.stream_id + static_cast<uint64_t>(k);
+      send(encoder.skeleton(d));
+      if (practice && !d.closed) {
+        setting.stream_id = d.stream_id;
+        send(encoder.practice(setting));
+      }
+    }
+  };
+  const auto interval = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(o.definition_interval));
+  send_definitions();
+  if (o.warmup > 0) {
+    const auto warm_end = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                                  std::chrono::duration<double>(o.warmup));
+    while (std::chrono::steady_clock::now() < warm_end) {
+      std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(interval, warm_end - std::chrono::steady_clock::now()));
+      send_definitions();
+    }
+  }
+  const auto start = std::chrono::steady_clock::now();
+  auto next_definition = start + interval;
+  const double period = clip.frame_time / o.speed;
+  uint64_t sequence = 0, sent = 0;
+  for (int loop = 0; loop < o.loops; ++loop)
+    for (int f = 0; f < frames; ++f, ++sequence) {
+      std::this_thread::sleep_until(start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                std::chrono::duration<double>(period * static_cast<double>(sequence))));
+      if (std::chrono::steady_clock::now() >= next_definition) {
+        send_definitions();
+        next_definition += interval;
+      }
+      const int64_t capture_ns =
+          o.live_clock ? std::chrono::duration_cast<std::chrono::nanoseconds>(
+                             std::chrono::steady_clock::now().time_since_epoch()).count()
+                       : static_cast<int64_t>(static_cast<double>(sequence) * clip.frame_time * 1e9);
+      for (int k = 0; k < o.streams; ++k) {
+        const int frame = (f + k) % available;
+        send(encoder.frame(o.stream_id + static_cast<uint64_t>(k), sequence, capture_ns,
+                           positions.data() + static_cast<size_t>(frame) * 3 * static_cast<size_t>(joints), joints));
+        ++sent;
+      }
+    }
+  if (o.close) {
+    d.closed = true;
+    send_definitions();
+  }
+  return sent;
+}
+
+// --transport nats: every message on its stream's ingest subject (the topic, its first 16 bytes,
+// names the stream). NATS says nothing of who listens: the run ends saying what was published.
+void run_send_nats(const Options& o, const kata::BvhClip& clip, const std::vector<float>& positions, int frames,
+                   int available, kata::transport::SkeletonDefinition& d, bool practice,
+                   kata::transport::PracticeSetting& setting) {
+#ifdef KATA_HAVE_NATS
+  namespace kn = kata::transport::nats;
+  kn::ConnectionOptions co;
+  co.servers = o.nats_servers;
+  co.credentials_file = o.nats_creds;
+  co.name = "kata-send";
+  kn::Connection connection(co);
+  std::string subject = o.nats_prefix + ".in.";
+  const size_t head = subject.size();
+  uint64_t refused = 0;
+  const uint64_t sent = play(o, clip, positions, frames, available, d, practice, setting, [&](kata::transport::Bytes m) {
+    subject.replace(head, std::string::npos, reinterpret_cast<const char*>(m.data), kata::transport::kTopicBytes);
+    if (!connection.publish(subject, m.data, m.size)) ++refused;
+  });
+  const bool flushed = connection.flush(5000);
+  std::fprintf(stderr, "kata send: %llu frames (%d stream(s) from %llu) published on NATS at %s%s%s\n",
+               static_cast<unsigned long long>(sent), o.streams, static_cast<unsigned long long>(o.stream_id),
+               connection.connected_url().c_str(), refused ? "; some refused by the client (disconnected, buffer full)" : "",
+               flushed ? "" : "; the server did not confirm the last of them");
+  if (sent == 0 || refused == sent) throw kata::Error(kata::ErrorKind::kIo, "send: nothing was published on NATS");
+#else
+  (void)o, (void)clip, (void)positions, (void)frames, (void)available, (void)d, (void)practice, (void)setting;
+  throw kata::Error(kata::ErrorKind::kInvalidArgument, "send: this kata was built without NATS (libnats-dev)");
+#endif
+}
+
 void run_send(const Options& o) {
   const kata::BvhClip clip = kata::load_bvh(o.bvh);
   const auto positions = kata::clip_positions(clip, o.first_frame);
@@ -184,6 +285,7 @@ void run_send(const Options& o) {
   d.preset = o.preset;
   d.frame_rate = static_cast<float>(1.0 / clip.frame_time);
 
+  if (o.transport == "nats") return run_send_nats(o, clip, positions, frames, available, d, practice, setting);
   void* context = zmq_ctx_new();
   // pub is an XPUB socket (a PUB to its peers) so that the subscriptions tell who listens; a PUSH
   // queues only on connections whose handshake is done (ZMQ_IMMEDIATE), so a frame it takes went
@@ -306,7 +408,14 @@ void setup(CLI::App& app) {
   auto o = std::make_shared<Options>();
   CLI::App* cmd = app.add_subcommand("send", "play a BVH clip as a live ZeroMQ source of kata frames (for kata serve)");
   cmd->add_option("--bvh", o->bvh, "the clip")->required();
-  cmd->add_option("--endpoint", o->endpoint, "where to send (connect; \"bind:\" binds)")->required();
+  cmd->add_option("--endpoint", o->endpoint, "where to send (connect; \"bind:\" binds); ZeroMQ only");
+  cmd->add_option("--transport", o->transport, "zmq, or nats (--nats-server)")
+      ->capture_default_str()
+      ->check(CLI::IsMember({"zmq", "nats"}));
+  cmd->add_option("--nats-server", o->nats_servers, "NATS: a server URL (nats://host:4222; repeat for several)");
+  cmd->add_option("--nats-creds", o->nats_creds, "NATS: a credentials file (user JWT and NKEY seed)");
+  cmd->add_option("--nats-prefix", o->nats_prefix, "NATS: the subject prefix (as kata serve's [transport])")
+      ->capture_default_str();
   cmd->add_option("--socket", o->socket, "push or pub")->capture_default_str();
   cmd->add_option("--stream-id", o->stream_id, "the stream id")->capture_default_str();
   cmd->add_option("--preset", o->preset, "GPD joint map named in the skeleton definition")->capture_default_str();
@@ -333,6 +442,8 @@ void setup(CLI::App& app) {
   cmd->add_flag("--close", o->close, "close the streams at the end (a closing definition)");
   cmd->add_flag("--live-clock", o->live_clock, "capture times from this host's steady clock (stale frames judged)");
   cmd->callback([o] {
+    if (o->transport == "zmq" && o->endpoint.empty()) throw CLI::RequiredError("--endpoint");
+    if (o->transport == "nats" && o->nats_servers.empty()) throw CLI::RequiredError("--nats-server");
     o->bvh = kata::cli::default_data_file(o->bvh);
     run_send(*o);
   });

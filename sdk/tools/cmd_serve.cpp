@@ -44,10 +44,20 @@
 //   [[plugins]]                                # any number: sources and sinks (kata_plugin.h)
 //   path = "build/plugins/csv-sink.so"
 //   config = "path=scores.csv"
+//   [transport]                                # optional: frames and results over a NATS cluster
+//   kind = "nats"                              #   instead of [ingest] endpoints and [publish]
+//   servers = ["nats://10.0.0.1:4222", "nats://10.0.0.2:4222"]
+//   credentials = "keys/shard.creds"           # or nkey = "U..." + nkey_seed = "keys/shard.nk"
+//   tls = false                                # tls_ca, tls_cert, tls_key: files
+//   shard = "shard-a"                          # this shard's name (default kata-<host>-<pid>)
+//   subject_prefix = "kata"                    # partitions = 64, lease_bucket = "kata_leases",
+//   lease_ttl_ms = 3000                        #   lease_replicas = 3 (docs/deploy.md, "NATS")
 #include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
+#include <cctype>
 #include <chrono>
 #include <csignal>
 #include <cstdio>
@@ -70,6 +80,11 @@
 #include "runtime/plugin_host.hpp"
 #include "runtime/runtime.hpp"
 #include "serve_config.hpp"
+#ifdef KATA_HAVE_NATS
+#include <unistd.h>
+
+#include "transport/nats/serve_bridge.hpp"
+#endif
 
 namespace {
 
@@ -248,14 +263,62 @@ void run_serve(const std::string& file, const std::string& counters_path) {
     if (loaded->is_sink()) config.runtime.sinks.push_back(instance->sink());
     (loaded->is_source() ? sources : sinks).push_back(std::move(instance));
   }
+  // [transport] kind = "nats": the bridge's private socket feeds the runtime's ingest, its sink
+  // publishes the results (declared before the runtime: it outlives the runtime's last result).
+#ifdef KATA_HAVE_NATS
+  std::unique_ptr<kata::transport::nats::ServeBridge> nats;
+  if (config.nats.enabled) {
+    const auto& n = config.nats;
+    kata::transport::nats::ShardOptions so;
+    so.connection.servers = n.servers;
+    so.connection.credentials_file = n.credentials;
+    so.connection.nkey = n.nkey;
+    so.connection.nkey_seed_file = n.nkey_seed;
+    so.connection.tls = n.tls;
+    so.connection.tls_ca_file = n.tls_ca;
+    so.connection.tls_cert_file = n.tls_cert;
+    so.connection.tls_key_file = n.tls_key;
+    char host[64] = "host";
+    gethostname(host, sizeof host - 1);
+    std::string fallback = std::string("kata-") + host + "-" + std::to_string(getpid());
+    for (char& ch : fallback)
+      if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '-') ch = '_';
+    so.lease.member = n.shard.empty() ? fallback.substr(0, 64) : n.shard;
+    so.lease.bucket = n.lease_bucket;
+    so.lease.partitions = n.partitions;
+    so.lease.ttl_ms = n.lease_ttl_ms;
+    so.lease.renew_ms = std::max<int64_t>(50, n.lease_ttl_ms / 12);
+    so.lease.guard_ms = n.lease_ttl_ms / 4;
+    so.lease.replicas = n.lease_replicas;
+    so.prefix = n.subject_prefix;
+    so.max_message_bytes = config.runtime.ingest.max_message_bytes;
+    nats = std::make_unique<kata::transport::nats::ServeBridge>(so);
+    config.runtime.ingest.endpoints = {"bind:" + nats->ingest_endpoint()};
+    config.runtime.ingest.kind = kata::transport::IngestKind::kPull;
+    config.runtime.sinks.push_back(nats->sink());
+  }
+#else
+  if (config.nats.enabled)
+    throw Error(ErrorKind::kInvalidArgument, "serve: [transport] kind = \"nats\": this kata was built without libnats");
+#endif
   kata::runtime::Runtime runtime(config.runtime);
   target->runtime = &runtime;
+#ifdef KATA_HAVE_NATS
+  if (nats) {
+    nats->start();
+    std::fprintf(stderr, "kata serve: NATS shard %s on %s (subjects %s.in.<stream>, results %s.out.<stream>.<epoch>.<shard>)\n",
+                 nats->shard()->options().lease.member.c_str(),
+                 const_cast<kata::transport::nats::Shard*>(nats->shard())->connection().connected_url().c_str(),
+                 config.nats.subject_prefix.c_str(), config.nats.subject_prefix.c_str());
+  }
+#endif
   for (auto& s : sources) s->start();
   std::signal(SIGINT, serve_on_signal);
   std::signal(SIGTERM, serve_on_signal);
   std::fprintf(stderr, "kata serve: ingest %s, publishing on %s (Ctrl-C stops)\n", runtime.ingest_endpoint().c_str(),
                runtime.publish_endpoint().c_str());
   auto previous = runtime.counters();
+  uint64_t previous_out = previous.total.published;
   auto last = std::chrono::steady_clock::now();
   const auto started = last;
   uint64_t handshakes_told = 0;
@@ -271,6 +334,11 @@ void run_serve(const std::string& file, const std::string& counters_path) {
     const double dt = std::chrono::duration<double>(now - last).count();
     if (dt < config.status_seconds) continue;
     const auto c = runtime.counters();
+    // Results out: the publisher's, or on NATS the shard's (the runtime hands them to its sink).
+    uint64_t out = c.total.published;
+#ifdef KATA_HAVE_NATS
+    if (nats) out = nats->shard()->counters().results_published;
+#endif
     if (c.ingest.handshake_failures > handshakes_told) {
       if (handshakes_told == 0)
         std::fprintf(stderr, "\nkata serve: a sender's connection to %s was refused at the handshake: %s; counted "
@@ -309,7 +377,7 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                  "gaps %llu, restarts %llu | latency in->out p50 %.0f us p99 %.0f us | source age p50 %.0f us p99 %.0f us%s",
                  terminal ? "\r" : "", static_cast<unsigned long long>(c.streams),
                  static_cast<double>(c.total.frames_in - previous.total.frames_in) / dt,
-                 static_cast<double>(c.total.published - previous.total.published) / dt,
+                 static_cast<double>(out - previous_out) / dt,
                  static_cast<unsigned long long>(drops), drop_causes(c).c_str(),
                  static_cast<unsigned long long>(c.ingest.handshake_failures),
                  static_cast<unsigned long long>(c.ingest.sequence_gaps), static_cast<unsigned long long>(c.ingest.restarts),
@@ -318,11 +386,30 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                  kata::runtime::latency_percentile(age, 0.5) / 1000.0,
                  kata::runtime::latency_percentile(age, 0.99) / 1000.0, terminal ? "   " : "\n");
     previous = c;
+    previous_out = out;
     last = now;
   }
   for (auto& s : sources) s->stop();
   runtime.stop();  // finishes queued frames, sends every result, flushes the sink plugins
   target->runtime = nullptr;
+#ifdef KATA_HAVE_NATS
+  if (nats) {
+    const auto sc = nats->shard()->counters();
+    nats->stop();  // gives the partitions back: the other shards take them at once
+    std::fprintf(stderr,
+                 "kata serve: NATS %llu messages received (%llu handed on; %llu oversized, %llu outside their partition, "
+                 "%llu after the partition was given up, %llu dropped as a slow consumer, %llu not taken by the ingest); "
+                 "%llu results published, %llu of streams not held; partitions acquired %llu, released %llu, lost %llu, "
+                 "paused %llu; reconnects %llu\n",
+                 static_cast<unsigned long long>(sc.received), static_cast<unsigned long long>(sc.handed_on),
+                 static_cast<unsigned long long>(sc.oversized), static_cast<unsigned long long>(sc.wrong_partition),
+                 static_cast<unsigned long long>(sc.not_held), static_cast<unsigned long long>(sc.slow_consumer),
+                 static_cast<unsigned long long>(nats->bridge_dropped()), static_cast<unsigned long long>(sc.results_published),
+                 static_cast<unsigned long long>(sc.results_not_held), static_cast<unsigned long long>(sc.leases.acquired),
+                 static_cast<unsigned long long>(sc.leases.released), static_cast<unsigned long long>(sc.leases.lost),
+                 static_cast<unsigned long long>(sc.leases.paused), static_cast<unsigned long long>(sc.reconnects));
+  }
+#endif
   const auto c = runtime.counters();
   std::fprintf(stderr, "\nkata serve: stopped; %llu frames in, %llu results published, %llu ingest messages dropped\n",
                static_cast<unsigned long long>(c.total.frames_in), static_cast<unsigned long long>(c.total.published),

@@ -27,7 +27,26 @@ struct Practice {
   std::string where;       // "file:line" of the setting; empty: none set
 };
 
+// [transport] kind = "nats" (docs/deploy.md, "NATS"): frames in and results out over a NATS
+// cluster instead of the [ingest] / [publish] ZeroMQ sockets; the fields of
+// transport/nats/{connection,lease}.hpp, read here as plain values (the CLI links libnats only
+// where it is built).
+struct NatsTransport {
+  bool enabled = false;
+  std::vector<std::string> servers;
+  std::string credentials, nkey, nkey_seed;    // a .creds file, or an NKEY user and its seed file
+  bool tls = false;
+  std::string tls_ca, tls_cert, tls_key;
+  std::string shard;                           // this shard's name (empty: kata-<host>-<pid>)
+  std::string subject_prefix = "kata";
+  uint32_t partitions = 64;
+  std::string lease_bucket = "kata_leases";
+  int64_t lease_ttl_ms = 3000;
+  int lease_replicas = 3;
+};
+
 struct ServeConfig {
+  NatsTransport nats;
   runtime::RuntimeConfig runtime;  // shard count / index are in runtime.ingest
   std::string model;  // empty: features only
   TeacherSource default_teacher;

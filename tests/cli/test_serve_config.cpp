@@ -53,5 +53,35 @@ TEST(serve_config, AWholeConfigNamesTheLineOfABadValue) {
   EXPECT_EQ(c.runtime.ingest.limits.max_streams_per_sender, 64u);
 }
 
+// [transport] kind = "nats" (docs/deploy.md, "NATS"): the servers and lease settings are read,
+// [ingest] keeps only its limits, and what belongs to ZeroMQ is refused with its line.
+TEST(serve_config, ANatsTransportReplacesTheZeroMqSockets) {
+  const std::string config =
+      "[transport]\nkind = \"nats\"\nservers = [\"nats://10.0.0.1:4222\", \"nats://10.0.0.2:4222\"]\n"
+      "shard = \"shard-a\"\nlease_ttl_ms = 5000\n[ingest]\nmax_message_bytes = 65536\n[runtime]\nmax_streams = 300\n";
+  const ServeConfig c = parse_config_text(config, "shard.toml");
+  EXPECT_TRUE(c.nats.enabled);
+  EXPECT_EQ(c.nats.servers.size(), 2u);
+  EXPECT_EQ(c.nats.shard, "shard-a");
+  EXPECT_EQ(c.nats.lease_ttl_ms, 5000);
+  EXPECT_EQ(c.nats.partitions, 64u);
+  EXPECT_EQ(c.runtime.ingest.max_message_bytes, 65536u);
+  EXPECT_EQ(c.runtime.ingest.limits.max_streams_per_sender, 300u);  // one local sender carries every stream
+  EXPECT_TRUE(c.runtime.publish.endpoints.empty());
+  EXPECT_EQ(refusal([&] { parse_config_text(config + "[publish]\nendpoints = [\"tcp://127.0.0.1:5556\"]\n", "shard.toml"); }),
+            "shard.toml:10: [publish] is for ZeroMQ: with [transport] kind = \"nats\" results go out on NATS and shards "
+            "share the partitions by lease (docs/deploy.md)");
+  EXPECT_EQ(refusal([&] { parse_config_text("[transport]\nkind = \"nats\"\n", "shard.toml"); }),
+            "shard.toml:1: [transport] kind = \"nats\" needs servers = [\"nats://host:4222\", ...]");
+  EXPECT_EQ(refusal([&] { parse_config_text("[transport]\nkind = \"nats\"\nservers = [\"nats://a:1\"]\nshard = \"a.b\"\n", "s.toml"); }),
+            "s.toml:4: shard must be 1..64 of [A-Za-z0-9_-] (a NATS subject token)");
+  EXPECT_EQ(refusal([&] { parse_config_text("[transport]\nkind = \"mqtt\"\n", "s.toml"); }),
+            "s.toml:2: kind must be \"zmq\" or \"nats\"");
+  // kind = "zmq" takes no NATS key.
+  EXPECT_NE(refusal([&] { parse_config_text("[transport]\nservers = [\"nats://a:1\"]\n", "s.toml"); }).find(
+                "'servers' is for kind = \"nats\""),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace kata::serve

@@ -1,0 +1,104 @@
+// One client connection to a NATS cluster (libnats, the C client), with the options a kata
+// deployment sets: the servers to try, credentials (a .creds file holding a user JWT and NKEY
+// seed, or an NKEY public key and its seed file), TLS, and reconnection. The client reconnects
+// and resubscribes by itself after a server is lost; the counters say how often.
+//
+// Thread rules: a Connection is thread-safe as libnats' natsConnection is (publish from any
+// thread); create and destroy it on one thread. Message callbacks of its subscriptions run on
+// libnats' threads.
+#pragma once
+
+#include <atomic>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+// libnats' types, declared here so that this header does not pull nats.h into its includers.
+typedef struct __natsConnection natsConnection;
+typedef struct __jsCtx jsCtx;
+
+namespace kata::transport::nats {
+
+struct ConnectionOptions {
+  // nats://host:port (tls://host:port for TLS); every server of the cluster, or some of them (the
+  // others are learnt from the first one reached). At least one.
+  std::vector<std::string> servers;
+  // Try the servers in a random order (spreads clients over the cluster); false: in the given order.
+  bool randomize = true;
+  // The connection's name, shown by the servers' monitoring (e.g. "kata-serve-shard-a").
+  std::string name;
+  // Authentication, at most one of: a credentials file (user JWT + NKEY seed, as `nsc` writes
+  // it), or an NKEY user (public key "U..." and the file holding its seed "SU...").
+  std::string credentials_file;
+  std::string nkey;
+  std::string nkey_seed_file;
+  // TLS: required when set or when a server URL says tls://. ca_file verifies the servers;
+  // cert_file + key_file are this client's certificate (servers that verify clients).
+  bool tls = false;
+  std::string tls_ca_file, tls_cert_file, tls_key_file;
+  // Time to connect to one server, and between two rounds of reconnection attempts.
+  int connect_timeout_ms = 2000;
+  int reconnect_wait_ms = 100;
+  // Reconnection rounds before giving up (-1: never give up).
+  int max_reconnect = -1;
+  // PING interval and unanswered PINGs before the connection counts as lost: a server that
+  // vanished without closing its sockets (a host down) is noticed within their product.
+  int ping_interval_ms = 1000;
+  int max_pings_out = 2;
+  // Write each publish to the socket at once (a send per message, as ZeroMQ does) instead of
+  // leaving it to libnats' flusher thread, whose wake-up costs a hop about half a millisecond on a
+  // loaded host (kata_nats_hop). false batches: fewer system calls at high message rates.
+  bool send_asap = true;
+  // Deliver every subscription's messages on one thread (libnats' shared delivery pool, one thread
+  // by default) instead of a thread per subscription: a shard's partitions then reach its ingest
+  // one at a time, in order.
+  bool single_delivery_thread = false;
+  // Timeout of each JetStream request (the lease loop's KV operations), milliseconds.
+  int jetstream_wait_ms = 500;
+};
+
+// A description of the options' problem (an empty list of servers, credentials given twice, an
+// NKEY without its seed file, ...), or empty when they are usable.
+std::string options_problem(const ConnectionOptions& options);
+
+// libnats' last error text for the calling thread, after a failed call (e.g. "wrong last sequence: 12").
+std::string last_error();
+
+class Connection {
+ public:
+  // Connects (trying every server). Throws kata::Error(kInvalidArgument) for unusable options and
+  // kata::Error(kIo) naming the servers and libnats' reason when none can be reached.
+  explicit Connection(const ConnectionOptions& options);
+  // Flushes what was published (up to 1 s), then closes.
+  ~Connection();
+  Connection(const Connection&) = delete;
+  Connection& operator=(const Connection&) = delete;
+
+  natsConnection* get() const { return connection_; }
+  // The connection's JetStream context (requests time out after jetstream_wait_ms).
+  jsCtx* jetstream() const { return jetstream_; }
+
+  // Publishes bytes on a subject without waiting; false when libnats refused them (closed, or its
+  // reconnect buffer full while disconnected). [any thread]
+  bool publish(const std::string& subject, const void* data, size_t size);
+  // Waits until the server processed what was published before (false: timeout or not connected).
+  bool flush(int timeout_ms);
+
+  // Connected now (not reconnecting, not closed). [any thread]
+  bool connected() const;
+  // The URL of the server connected now ("" while reconnecting). [any thread]
+  std::string connected_url() const;
+
+  // Times the connection was lost, and re-established. [any thread]
+  uint64_t disconnects() const { return disconnects_.load(std::memory_order_relaxed); }
+  uint64_t reconnects() const { return reconnects_.load(std::memory_order_relaxed); }
+
+ private:
+  static void on_disconnected(natsConnection*, void* self);
+  static void on_reconnected(natsConnection*, void* self);
+  natsConnection* connection_ = nullptr;
+  jsCtx* jetstream_ = nullptr;
+  std::atomic<uint64_t> disconnects_{0}, reconnects_{0};
+};
+
+}  // namespace kata::transport::nats

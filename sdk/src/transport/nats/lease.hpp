@@ -1,0 +1,174 @@
+// Which shard holds which partition: leases in a replicated JetStream key-value bucket.
+//
+// NATS 2.9 assigns no partition to exactly one consumer, so shards agree among themselves through
+// one KV bucket (R3 on a 3-server cluster):
+//   m.<member>     a shard's membership, rewritten every renew_ms.
+//   p.<partition>  the lease of a partition: its value is the holder's member name (empty: given
+//                  back). Claimed with create (refused while a value exists) or update-by-revision
+//                  of a given-back or stale value, renewed with update-by-revision every renew_ms
+//                  (refused once another claim was made), given back with update-by-revision to
+//                  an empty value.
+// Every renew_ms each shard reads the whole bucket and notes, per key, when it first saw the
+// key's current revision (its own steady clock). A key whose revision has not changed for ttl_ms
+// of that shard's observation is stale: a stale member is gone, a stale lease may be taken over.
+// Each shard wants the partitions rendezvous hashing over the live members gives it
+// (partition.hpp): it claims those free or stale and gives back those another live member should
+// hold, so one shard joining or leaving moves only the partitions it wins or held.
+//
+// Staleness is judged by observation, not by the servers' clocks, and a read that fails (no
+// stream leader, a server lost) restarts every observation: a holder that could not renew while
+// the bucket could not be reached is not judged stale for it. So the loss of the server that leads
+// the bucket (a JetStream election: 4-9 s in NATS 2.9, raft's election timeout) changes no
+// ownership: holders pause (below) and resume once the bucket answers.
+//
+// No two holders at once. A renewal sent at the holder's time t0 and accepted is written no
+// earlier than t0, so any other shard first sees that revision no earlier than t0 and may take the
+// lease over (by that revision) no earlier than t0 + ttl_ms. The holder publishes for the
+// partition until valid_until = t0 + ttl_ms - guard_ms and then pauses unless a later renewal
+// succeeded; a renewal by revision that succeeds after a pause proves nobody took it over, so it
+// resumes, ownership unchanged. A renewal the servers refuse (taken over) loses it at once. Each
+// tenure is named by its epoch, the KV revision of its claim: a later tenure of a partition always
+// has a larger epoch, so results carry (owner, epoch) and subscribers drop a stream's results of an
+// older epoch than one already seen (results.hpp). Assumes the shards' clocks advance at the same
+// rate within guard_ms per ttl_ms (steady clocks: a stepped wall clock changes nothing).
+//
+// The bucket's own TTL (MaxAge) only collects the keys of shards long gone (bucket_ttl_ms >= ttl_ms).
+//
+// Thread rules: one lease thread does all KV work and calls the handler; may_publish(), held(),
+// members() and counters() may be called from any thread (may_publish is lock-free).
+#pragma once
+
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include "transport/nats/connection.hpp"
+#include "transport/nats/partition.hpp"
+
+typedef struct __kvStore kvStore;
+
+namespace kata::transport::nats {
+
+struct LeaseOptions {
+  std::string bucket = "kata_leases";  // [A-Za-z0-9_-]
+  std::string member;                  // this shard's name, unique in the cluster (valid_member_name)
+  uint32_t partitions = kDefaultPartitions;
+  // The bucket is created with these when missing (replicas: 3 on a 3-server cluster; memory:
+  // leases need not survive a restart of every server). An existing bucket must have this TTL.
+  int replicas = 3;
+  bool memory_storage = true;
+  // Lease lifetime, renewal period, and the margin kept before a lease could be taken over
+  // (milliseconds). A killed shard's partitions are held again after about ttl_ms + 2 renew_ms; a
+  // holder that cannot renew publishes until ttl_ms - guard_ms after its last renewal.
+  int64_t ttl_ms = 3000;
+  int64_t renew_ms = 250;
+  int64_t guard_ms = 750;
+  // The bucket's MaxAge when this shard creates it: forgets the keys of shards long gone.
+  int64_t bucket_ttl_ms = 60000;
+};
+
+// The options' problem (a bad member or bucket name, guard_ms not within ttl_ms, renewals too
+// rare to keep a lease), or empty.
+std::string lease_options_problem(const LeaseOptions& options);
+
+struct LeaseEvent {
+  enum class Kind {
+    kAcquired,  // the partition is this shard's from now (epoch: the claim's revision)
+    kExtended,  // renewed: valid_until_ns moves on (reported before it is used)
+    kPaused,    // valid_until passed without a renewal (the bucket out of reach): not published now
+    kResumed,   // a renewal succeeded after a pause: the same tenure goes on
+    kReleased,  // given back to the member that should hold it (publishing stopped first)
+    kLost,      // the servers refused a renewal: another shard took it over after it went stale
+  };
+  Kind kind;
+  uint32_t partition;
+  uint64_t epoch;
+  int64_t at_ns;           // steady clock, when the lease thread saw it
+  int64_t valid_until_ns;  // steady clock; 0 for kReleased, kLost and kPaused
+};
+const char* lease_event_name(LeaseEvent::Kind kind);
+
+struct LeaseCounters {
+  uint64_t acquired = 0, released = 0, lost = 0, paused = 0, resumed = 0;
+  uint64_t claims_refused = 0;      // a claim lost a race (another shard claimed first)
+  uint64_t takeovers = 0;           // claims of a stale lease (its holder stopped renewing)
+  uint64_t renewals = 0, renewals_failed = 0;
+  uint64_t reads_failed = 0;        // bucket reads that failed (every observation restarts)
+};
+
+class LeaseManager {
+ public:
+  using Handler = std::function<void(const LeaseEvent&)>;
+  // Opens (or creates) the bucket and starts the lease thread; the handler runs on that thread.
+  // Throws kata::Error(kInvalidArgument) for bad options, kata::Error(kIo) when the bucket cannot
+  // be opened or created, or exists with another TTL.
+  LeaseManager(Connection& connection, LeaseOptions options, Handler handler = {});
+  // stop(), then closes the bucket.
+  ~LeaseManager();
+  LeaseManager(const LeaseManager&) = delete;
+  LeaseManager& operator=(const LeaseManager&) = delete;
+
+  // Stops the lease thread. give_back: every partition is released (publishing stops first) and
+  // the membership deleted, so the others take over at once instead of after ttl_ms. Idempotent.
+  void stop(bool give_back = true);
+
+  // Whether this shard may publish for the partition now; epoch (when not null) receives the
+  // tenure's epoch. [any thread] Lock-free.
+  bool may_publish(uint32_t partition, uint64_t* epoch = nullptr) const;
+  // The partitions held now (valid or paused), ascending. [any thread]
+  std::vector<uint32_t> held() const;
+  // The live members of the last membership read, sorted. [any thread]
+  std::vector<std::string> members() const;
+  LeaseCounters counters() const;
+  const LeaseOptions& options() const { return options_; }
+
+ private:
+  struct Slot {
+    std::atomic<int64_t> valid_until{0};  // steady ns; 0: not held or paused
+    std::atomic<uint64_t> epoch{0};
+    std::atomic<bool> held{false};
+    uint64_t revision = 0;     // last accepted revision [lease thread]
+    int64_t last_ok_ns = 0;    // t0 of the last accepted claim or renewal [lease thread]
+    bool paused = false;       // [lease thread]
+  };
+  void run();
+  void tick(int64_t now);
+  // What the last read of the bucket showed of one key, and since when (this shard's clock).
+  struct Seen {
+    uint64_t revision = 0;
+    int64_t since_ns = 0;
+    std::string value;
+  };
+  bool renew(uint32_t p);  // false: the servers could not be reached
+  bool claim(uint32_t p, const Seen* seen, int64_t now);
+  void give_back(uint32_t p);
+  void lose(uint32_t p);
+  bool read_bucket(int64_t now);
+  void emit(LeaseEvent::Kind kind, uint32_t p, uint64_t epoch, int64_t valid_until);
+  std::string key(uint32_t p) const { return "p." + std::to_string(p); }
+
+  Connection& connection_;
+  LeaseOptions options_;
+  Handler handler_;
+  kvStore* kv_ = nullptr;
+  std::unique_ptr<Slot[]> slots_;
+  std::map<std::string, Seen> seen_;  // by key [lease thread]
+  mutable std::mutex mutex_;  // members_ and counters_ (copied out by other threads)
+  std::vector<std::string> members_;
+  LeaseCounters counters_;
+  std::mutex wait_mutex_;  // the lease thread's sleep between ticks, cut short by stop()
+  std::condition_variable wait_cv_;
+  std::atomic<bool> stop_{false};
+  bool stopped_ = false;
+  bool give_back_ = true;
+  std::thread thread_;
+};
+
+}  // namespace kata::transport::nats

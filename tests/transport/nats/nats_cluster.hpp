@@ -1,0 +1,54 @@
+// A NATS cluster for one test process: `servers` nats-server processes (Debian's nats-server)
+// on loopback, each with its own free ports, JetStream in memory, full-mesh routes, and the
+// partition subject mapping of kata's NATS transport (partition.hpp) in every server's config, as
+// docs/deploy.md deploys it. Started by the constructor (it returns once JetStream answers),
+// stopped by the destructor; kill() stops one server with SIGKILL.
+#pragma once
+
+#include <sys/types.h>
+
+#include <string>
+#include <vector>
+
+namespace kata::test {
+
+class NatsCluster {
+ public:
+  // dir: an empty directory of the test's own (configs, logs, JetStream store directories).
+  // Fails the test (gtest fatal assertion via the returned ok()) when nats-server is missing.
+  NatsCluster(const std::string& dir, int servers = 3, uint32_t partitions = 64, const std::string& prefix = "kata");
+  ~NatsCluster();
+  NatsCluster(const NatsCluster&) = delete;
+  NatsCluster& operator=(const NatsCluster&) = delete;
+
+  // Empty when every server runs and JetStream answers; else why not (with the servers' log tails).
+  const std::string& problem() const { return problem_; }
+  int size() const { return static_cast<int>(pids_.size()); }
+  // nats://127.0.0.1:PORT of server i, and of all servers.
+  std::string url(int i) const;
+  std::vector<std::string> urls() const;
+  // Server i's name (n0, n1, ...), as JetStream reports stream leaders.
+  static std::string name(int i) { return "n" + std::to_string(i); }
+  // SIGKILL server i and reap it.
+  void kill(int i);
+  // The last lines of server i's log (for failure messages).
+  std::string log_tail(int i, int lines = 20) const;
+
+  // The path of nats-server ("" when not found on PATH, /usr/sbin or /usr/local/sbin).
+  static std::string server_binary();
+
+ private:
+  std::string dir_;
+  std::vector<pid_t> pids_;
+  std::vector<int> client_ports_;
+  std::string problem_;
+};
+
+// A free TCP port on 127.0.0.1 (bound and released: another process could take it meanwhile, so
+// a server that fails to bind is reported, not hidden).
+int free_port();
+
+// A child process started with execv (argv[0] the program); -1 when it could not start.
+pid_t spawn(const std::vector<std::string>& argv, const std::string& log_file);
+
+}  // namespace kata::test
