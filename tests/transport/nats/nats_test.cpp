@@ -373,14 +373,14 @@ std::string fingerprint(const transport::ResultFields& r) {
   add(&r.result_sequence, 8);
   add(&r.frame_sequence, 8);
   add(&r.frame_index, 8);
-  add(&r.capture_ns, 8);
+  add(&r.capture_time, 8);
   add(&r.scored, 1);
   add(&r.distance, 4);
   add(&r.score, 4);
   add(r.parts, sizeof r.parts);
   add(&r.matched_teacher_frame, 4);
   add(&r.matched_teacher_time, 8);
-  if (r.ghost) add(r.ghost, sizeof(float) * 3 * static_cast<size_t>(r.ghost_joints));
+  if (r.ghost) add(r.ghost, sizeof(float) * 3 * static_cast<size_t>(r.ghost_joint_count));
   add(r.part_scores, sizeof r.part_scores);
   add(&r.part_to_fix, 4);
   add(&r.state, 4);
