@@ -6,6 +6,7 @@
 
 #include <cstddef>
 #include <cstring>
+#include <deque>
 #include <vector>
 
 #include "kata/kata.h"
@@ -17,9 +18,12 @@ using kata::transport::Bytes;
 using kata::transport::Encoder;
 using kata::transport::ResultFields;
 
+// The record's ghost points into the message (kata.h: valid while the message is), so every copy
+// read here is kept until the test ends.
 kata_status read(const Bytes& m, kata_result_record* out) {
-  std::vector<uint8_t> copy(m.data, m.data + m.size);
-  return kata_message_read_result(copy.data(), copy.size(), out);
+  static std::deque<std::vector<uint8_t>> kept;
+  kept.emplace_back(m.data, m.data + m.size);
+  return kata_message_read_result(kept.back().data(), kept.back().size(), out);
 }
 
 TEST(runtime_result_record, EveryFieldSurvivesTheWireAndTheCAbi) {

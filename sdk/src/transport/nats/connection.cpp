@@ -2,6 +2,7 @@
 
 #include <nats/nats.h>
 
+#include <chrono>
 #include <memory>
 
 #include "common/error.hpp"
@@ -69,6 +70,7 @@ Connection::Connection(const ConnectionOptions& o) {
   if (o.single_delivery_thread) check(natsOptions_UseGlobalMessageDelivery(raw, true), "global message delivery");
   check(natsOptions_SetDisconnectedCB(raw, &Connection::on_disconnected, this), "disconnected callback");
   check(natsOptions_SetReconnectedCB(raw, &Connection::on_reconnected, this), "reconnected callback");
+  check(natsOptions_SetClosedCB(raw, &Connection::on_closed, this), "closed callback");
   natsStatus s = natsConnection_Connect(&connection_, raw);
   if (s != NATS_OK) {
     std::string all;
@@ -80,6 +82,7 @@ Connection::Connection(const ConnectionOptions& o) {
   js.Wait = o.jetstream_wait_ms;
   if (natsConnection_JetStream(&jetstream_, connection_, &js) != NATS_OK) {
     std::string why = last_error();
+    close_and_wait();
     natsConnection_Destroy(connection_);
     throw Error(ErrorKind::kIo, "NATS: JetStream context: " + why);
   }
@@ -89,7 +92,7 @@ Connection::~Connection() {
   if (jetstream_ != nullptr) jsCtx_Destroy(jetstream_);
   if (connection_ != nullptr) {
     natsConnection_FlushTimeout(connection_, 1000);
-    natsConnection_Close(connection_);
+    close_and_wait();
     natsConnection_Destroy(connection_);
   }
 }
@@ -110,6 +113,19 @@ std::string Connection::connected_url() const {
 
 void Connection::on_disconnected(natsConnection*, void* self) {
   static_cast<Connection*>(self)->disconnects_.fetch_add(1, std::memory_order_relaxed);
+}
+
+void Connection::on_closed(natsConnection*, void* self) {
+  auto& c = *static_cast<Connection*>(self);
+  std::lock_guard<std::mutex> lock(c.closed_mutex_);
+  c.closed_ = true;
+  c.closed_cv_.notify_all();
+}
+
+void Connection::close_and_wait() {
+  natsConnection_Close(connection_);
+  std::unique_lock<std::mutex> lock(closed_mutex_);
+  closed_cv_.wait_for(lock, std::chrono::seconds(5), [this] { return closed_; });
 }
 
 void Connection::on_reconnected(natsConnection*, void* self) {

@@ -9,7 +9,9 @@
 #pragma once
 
 #include <atomic>
+#include <condition_variable>
 #include <cstdint>
+#include <mutex>
 #include <string>
 #include <vector>
 
@@ -96,7 +98,15 @@ class Connection {
  private:
   static void on_disconnected(natsConnection*, void* self);
   static void on_reconnected(natsConnection*, void* self);
+  static void on_closed(natsConnection*, void* self);
+  // Closes the connection and waits (up to 5 s) for libnats' closed callback: its callbacks run on
+  // a thread of its own and reach this object, so it may not go away before the last one (closed
+  // is always the last) has returned.
+  void close_and_wait();
   natsConnection* connection_ = nullptr;
+  std::mutex closed_mutex_;
+  std::condition_variable closed_cv_;
+  bool closed_ = false;  // closed_mutex_
   jsCtx* jetstream_ = nullptr;
   std::atomic<uint64_t> disconnects_{0}, reconnects_{0};
 };

@@ -32,9 +32,14 @@ void Shard::stop(bool give_back) {
   leases_->stop(give_back);  // gives back (on_lease drops each partition) or stops publishing
   for (uint32_t p = 0; p < options_.lease.partitions; ++p) drop(p);
   connection_->flush(1000);
-  // No subscription delivers any more; a callback already running finishes before the shard (and
-  // what its handlers reach) may go away.
-  while (inflight_.load(std::memory_order_acquire) > 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  // Every subscription is closed; a handler already taken by the delivery thread finishes (and its
+  // completion callback runs) before the shard, and what its handlers reach, may go away.
+  while (live_subscriptions_.load(std::memory_order_acquire) > 0)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+}
+
+void Shard::on_complete(void* closure) {
+  static_cast<Shard*>(closure)->live_subscriptions_.fetch_sub(1, std::memory_order_acq_rel);
 }
 
 void Shard::on_lease(const LeaseEvent& e) {
@@ -49,6 +54,8 @@ void Shard::on_lease(const LeaseEvent& e) {
         if (natsConnection_Subscribe(&part.subscription, connection_->get(), subject.c_str(), &Shard::on_msg, &part) ==
             NATS_OK) {
           natsSubscription_SetPendingLimits(part.subscription, options_.pending_messages, -1);
+          if (natsSubscription_SetOnCompleteCB(part.subscription, &Shard::on_complete, this) == NATS_OK)
+            live_subscriptions_.fetch_add(1, std::memory_order_acq_rel);
         } else {
           part.subscription = nullptr;  // retried at the next acquisition; the partition's streams stay silent
         }
@@ -83,7 +90,6 @@ void Shard::drop(uint32_t p) {
 void Shard::on_msg(natsConnection*, natsSubscription*, natsMsg* msg, void* closure) {
   auto* part = static_cast<Partition*>(closure);
   Shard& self = *part->shard;
-  self.inflight_.fetch_add(1, std::memory_order_acq_rel);
   self.received_.fetch_add(1, std::memory_order_relaxed);
   const char* data = natsMsg_GetData(msg);
   const size_t size = static_cast<size_t>(natsMsg_GetDataLength(msg));
@@ -103,7 +109,6 @@ void Shard::on_msg(natsConnection*, natsSubscription*, natsMsg* msg, void* closu
     if (self.handlers_.on_message) self.handlers_.on_message(data, size);
   }
   natsMsg_Destroy(msg);
-  self.inflight_.fetch_sub(1, std::memory_order_acq_rel);
 }
 
 bool Shard::publish_result(uint64_t stream_id, const void* data, size_t size) {

@@ -94,6 +94,7 @@ class Shard {
     std::atomic<bool> open{false};             // messages are handed on
   };
   static void on_msg(natsConnection*, natsSubscription*, natsMsg* msg, void* closure);
+  static void on_complete(void* closure);
   void on_lease(const LeaseEvent& event);
   void drop(uint32_t partition);
 
@@ -104,7 +105,11 @@ class Shard {
   std::unique_ptr<LeaseManager> leases_;
   std::atomic<uint64_t> received_{0}, handed_on_{0}, oversized_{0}, wrong_partition_{0}, not_held_{0};
   std::atomic<uint64_t> results_published_{0}, results_not_held_{0}, results_failed_{0};
-  std::atomic<int> inflight_{0};  // message callbacks running now (stop waits for none)
+  // Subscriptions whose message handler may still run: nats.c may deliver one last message after
+  // natsSubscription_Unsubscribe returns (its delivery thread had already taken it), so a
+  // subscription counts until its completion callback says the handler has returned for good;
+  // stop() waits for none before the shard (which every handler reaches) may go away.
+  std::atomic<int> live_subscriptions_{0};
   mutable std::mutex subscriptions_mutex_;  // the subscriptions (lease thread) against counters()
   uint64_t slow_consumer_ended_ = 0;        // drops of subscriptions ended; subscriptions_mutex_
   char subject_[256] = {};             // publish_result's subject [publishing thread]
