@@ -33,6 +33,10 @@ CLANG_PACKAGES=(clang)
 AARCH64_PACKAGES=(g++-aarch64-linux-gnu qemu-user libzmq3-dev:arm64 libgtest-dev:arm64 libflatbuffers-dev:arm64
                   libcpp-httplib-dev:arm64 libzip-dev:arm64)  # the CLI's viewer server and .npz are configured (not built) here
 JOBS=${JOBS:-2}
+# ccache (CMakeLists.txt) keyed on paths relative to the checkout, so a fresh clone elsewhere (CI
+# clones anew for every run) reuses what an earlier clone compiled; the sanitizer builds carry -g,
+# whose compile directory would otherwise be part of the key too.
+export CCACHE_BASEDIR="$PWD" CCACHE_NOHASHDIR=1
 
 deps() {  # deps [package...]: the given packages, or PACKAGES
   local missing=() wanted=("$@")

@@ -1,5 +1,6 @@
 // C shims for versions, status strings, contexts, skeletons, clips and streams.
 #include <algorithm>
+#include <atomic>
 #include <climits>
 #include <cmath>
 #include <cstddef>
@@ -31,7 +32,9 @@ using kata::capi::set_context_error;
 namespace kata::capi {
 namespace {
 thread_local kata_context t_current = nullptr;    // the context of the call in progress
-thread_local uint64_t t_tick = 0;                 // failed calls on this thread so far
+// Failed calls so far, in every thread: one clock, so a context's creation orders against a
+// thread's context-less failures (a context never shows a failure older than itself).
+std::atomic<uint64_t> g_tick{0};
 thread_local kata_context_s::ErrorSlot t_loose;   // the last context-less failure
 }  // namespace
 
@@ -40,7 +43,7 @@ ContextScope::~ContextScope() { t_current = previous_; }
 
 void set_context_error(const char* message) noexcept {
   try {
-    const uint64_t tick = ++t_tick;
+    const uint64_t tick = g_tick.fetch_add(1, std::memory_order_relaxed) + 1;
     if (t_current) {
       std::lock_guard<std::mutex> lock(t_current->errors_mutex);
       kata_context_s::ErrorSlot& slot = t_current->errors[std::this_thread::get_id()];
@@ -55,11 +58,14 @@ void set_context_error(const char* message) noexcept {
   }
 }
 
+uint64_t current_tick() noexcept { return g_tick.load(std::memory_order_relaxed); }
+
 const char* context_error(kata_context context) noexcept {
   if (context) {
     std::lock_guard<std::mutex> lock(context->errors_mutex);
     const auto it = context->errors.find(std::this_thread::get_id());
     if (it != context->errors.end() && it->second.tick > t_loose.tick) return it->second.text.c_str();
+    if (t_loose.tick <= context->born) return "";
   }
   return t_loose.text.c_str();
 }
@@ -165,6 +171,7 @@ KATA_API kata_status kata_context_create(kata_context* out) {
   *out = nullptr;
   return guarded_context([&] {
     *out = new kata_context_s();
+    (*out)->born = kata::capi::current_tick();
     return KATA_OK;
   });
 }

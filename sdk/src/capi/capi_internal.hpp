@@ -79,6 +79,8 @@ class ContextScope {
 void set_context_error(const char* message) noexcept;
 // The message kata_context_last_error(context) returns on the calling thread.
 const char* context_error(kata_context context) noexcept;
+// The failure clock now (context creation records it).
+uint64_t current_tick() noexcept;
 
 inline kata_status to_status(ErrorKind kind) noexcept {
   switch (kind) {
@@ -132,6 +134,7 @@ struct kata_context_s {
   };
   std::mutex errors_mutex;
   std::unordered_map<std::thread::id, ErrorSlot> errors;
+  uint64_t born = 0;  // the failure clock at creation: older context-less failures are not shown
 };
 
 struct kata_skeleton_s {

@@ -11,6 +11,7 @@
 #include <nats/nats.h>
 
 #include <chrono>
+#include <random>
 #include <deque>
 #include <filesystem>
 #include <fstream>
@@ -24,19 +25,25 @@ extern char** environ;
 namespace kata::test {
 
 int free_port() {
-  int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  if (fd < 0) return -1;
-  sockaddr_in addr{};
-  addr.sin_family = AF_INET;
-  addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  addr.sin_port = 0;
-  socklen_t len = sizeof addr;
-  int port = -1;
-  if (::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0 &&
-      ::getsockname(fd, reinterpret_cast<sockaddr*>(&addr), &len) == 0)
-    port = ntohs(addr.sin_port);
-  ::close(fd);
-  return port;
+  // Below Linux's ephemeral range (32768-60999 by default): a port picked from that range can be
+  // taken between our check and the server's bind by any outgoing connection on the machine (the
+  // other tests' ZeroMQ clients make hundreds), which is how a server once failed with "address
+  // already in use". Here only another listener could take it; start() retries when one does.
+  static std::mt19937 random(static_cast<unsigned>(::getpid()) * 2654435761u ^
+                              static_cast<unsigned>(std::chrono::steady_clock::now().time_since_epoch().count()));
+  for (int attempt = 0; attempt < 200; ++attempt) {
+    const int candidate = 20000 + static_cast<int>(random() % 12000);
+    int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+    if (fd < 0) return -1;
+    sockaddr_in addr{};
+    addr.sin_family = AF_INET;
+    addr.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+    addr.sin_port = htons(static_cast<uint16_t>(candidate));
+    const bool free = ::bind(fd, reinterpret_cast<sockaddr*>(&addr), sizeof addr) == 0;
+    ::close(fd);
+    if (free) return candidate;
+  }
+  return -1;
 }
 
 pid_t spawn(const std::vector<std::string>& argv, const std::string& log_file) {
@@ -74,6 +81,22 @@ NatsCluster::NatsCluster(const std::string& dir, int servers, uint32_t partition
     problem_ = "nats-server not found (Debian package nats-server; ./build.sh deps installs it)";
     return;
   }
+  // A port checked free can still be taken before the server binds it: then start again on others.
+  for (int attempt = 1; attempt <= 3; ++attempt) {
+    problem_.clear();
+    if (start(binary, servers, partitions, prefix) || !port_taken_) return;
+    stop();
+  }
+}
+
+bool NatsCluster::start(const std::string& binary, int servers, uint32_t partitions, const std::string& prefix) {
+  port_taken_ = false;
+  client_ports_.clear();
+  for (int i = 0; i < servers; ++i) {  // a previous attempt's store and log
+    std::error_code ignored;
+    std::filesystem::remove_all(dir_ + "/js-" + name(i), ignored);
+    std::filesystem::remove(dir_ + "/" + name(i) + ".log", ignored);
+  }
   std::vector<int> cluster_ports;
   for (int i = 0; i < servers; ++i) {
     client_ports_.push_back(free_port());
@@ -96,7 +119,7 @@ NatsCluster::NatsCluster(const std::string& dir, int servers, uint32_t partition
     const pid_t pid = spawn({binary, "-c", conf}, dir_ + "/" + name(i) + ".log");
     if (pid < 0) {
       problem_ = "cannot start " + binary;
-      return;
+      return false;
     }
     pids_.push_back(pid);
   }
@@ -106,6 +129,11 @@ NatsCluster::NatsCluster(const std::string& dir, int servers, uint32_t partition
   for (int i = 0; i < servers; ++i) {
     bool ready = false;
     while (!ready && std::chrono::steady_clock::now() < deadline) {
+      int status = 0;
+      if (::waitpid(pids_[static_cast<size_t>(i)], &status, WNOHANG) == pids_[static_cast<size_t>(i)]) {
+        pids_[static_cast<size_t>(i)] = -1;  // exited (a port taken, say): its log says why
+        break;
+      }
       natsConnection* nc = nullptr;
       if (natsConnection_ConnectTo(&nc, url(i).c_str()) == NATS_OK) {
         natsMsg* reply = nullptr;
@@ -120,12 +148,16 @@ NatsCluster::NatsCluster(const std::string& dir, int servers, uint32_t partition
     }
     if (!ready) {
       problem_ = "NATS server " + name(i) + " not ready in 20 s:\n" + log_tail(i);
-      return;
+      port_taken_ = problem_.find("address already in use") != std::string::npos;
+      return false;
     }
   }
+  return true;
 }
 
-NatsCluster::~NatsCluster() {
+NatsCluster::~NatsCluster() { stop(); }
+
+void NatsCluster::stop() {
   for (pid_t pid : pids_)
     if (pid > 0) ::kill(pid, SIGTERM);
   for (pid_t& pid : pids_) {
@@ -139,6 +171,7 @@ NatsCluster::~NatsCluster() {
     }
     pid = -1;
   }
+  pids_.clear();
 }
 
 std::string NatsCluster::url(int i) const { return "nats://127.0.0.1:" + std::to_string(client_ports_[i]); }

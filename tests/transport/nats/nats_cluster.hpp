@@ -38,14 +38,19 @@ class NatsCluster {
   static std::string server_binary();
 
  private:
+  // One try at starting the servers; false with problem_ set (port_taken_ when a port was taken).
+  bool start(const std::string& binary, int servers, uint32_t partitions, const std::string& prefix);
+  void stop();  // SIGTERM every server (SIGKILL after 2 s) and reap it
+
   std::string dir_;
+  bool port_taken_ = false;
   std::vector<pid_t> pids_;
   std::vector<int> client_ports_;
   std::string problem_;
 };
 
-// A free TCP port on 127.0.0.1 (bound and released: another process could take it meanwhile, so
-// a server that fails to bind is reported, not hidden).
+// A free TCP port on 127.0.0.1 below the ephemeral range (bound and released: another listener
+// could take it meanwhile; NatsCluster starts again on other ports when that happens).
 int free_port();
 
 // A child process started with execv (argv[0] the program); -1 when it could not start.
