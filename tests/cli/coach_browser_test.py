@@ -19,6 +19,7 @@ Exit 0 on success; every wait is bounded (the whole test takes under a minute).
 """
 import argparse
 import io
+import math
 import os
 import re
 import shutil
@@ -61,9 +62,12 @@ def start_replay(kata, source_dir, recording, port, log, speed):
 
 def score_colour(score):
     """The viewer's and the report's colour map: red (0) -> amber (50) -> green (100)."""
+    # JavaScript's Math.round (halves up), not Python's round (halves to even): a part score of
+    # 70.25 gives 70.5 there, which the page shows as 71 and round() made 70.
+    js_round = lambda x: math.floor(x + 0.5)
     s = max(0.0, min(1.0, score / 100.0))
-    r = 220 if s < 0.5 else round(220 - (s - 0.5) * 2 * 180)
-    g = round(60 + s * 2 * 140) if s < 0.5 else 200
+    r = 220 if s < 0.5 else js_round(220 - (s - 0.5) * 2 * 180)
+    g = js_round(60 + s * 2 * 140) if s < 0.5 else 200
     return f"rgb({r},{g},60)"
 
 
