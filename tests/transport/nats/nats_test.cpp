@@ -13,6 +13,7 @@
 #include <algorithm>
 #include <chrono>
 #include <climits>
+#include <condition_variable>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -703,10 +704,16 @@ class ProbeSubscriber {
     natsConnection_Subscribe(&sub_, connection_->get(), kn::all_results_subject("kata").c_str(), &ProbeSubscriber::on_msg,
                              this);
     natsSubscription_SetPendingLimits(sub_, -1, -1);
+    // Unsubscribe does not wait for a callback the delivery thread is already in; the completion
+    // callback comes after the last one, so the destructor waits for it before the vector goes.
+    natsSubscription_SetOnCompleteCB(sub_, &ProbeSubscriber::on_complete, this);
     connection_->flush(2000);
   }
   ~ProbeSubscriber() {
-    natsSubscription_Unsubscribe(sub_);
+    if (natsSubscription_Unsubscribe(sub_) == NATS_OK) {
+      std::unique_lock<std::mutex> lock(mutex_);
+      completed_cv_.wait_for(lock, std::chrono::seconds(5), [this] { return completed_; });
+    }
     natsSubscription_Destroy(sub_);
   }
   struct Received {
@@ -743,9 +750,17 @@ class ProbeSubscriber {
     }
     natsMsg_Destroy(msg);
   }
+  static void on_complete(void* self_ptr) {
+    auto* self = static_cast<ProbeSubscriber*>(self_ptr);
+    std::lock_guard<std::mutex> lock(self->mutex_);
+    self->completed_ = true;
+    self->completed_cv_.notify_all();
+  }
   std::unique_ptr<kn::Connection> connection_;
   natsSubscription* sub_ = nullptr;
   std::mutex mutex_;
+  std::condition_variable completed_cv_;
+  bool completed_ = false;
   std::vector<Received> received_;
   uint64_t malformed_ = 0;
 };
