@@ -96,7 +96,7 @@ TEST(runtime_result_record, EveryFieldSurvivesTheWireAndTheCAbi) {
   EXPECT_EQ(kata_cue_text(&o, text, sizeof text), std::strlen("left knee: bend 30 deg more"));
   EXPECT_STREQ(text, "left knee: bend 30 deg more");
 
-  // 1.0's record (up to reserved0) has no cue: nothing written past it, and no text.
+  // A record built before the cue (up to reserved0): nothing written past it, and no text.
   kata_result_record v10;
   std::memset(&v10, 0xab, sizeof v10);
   v10.struct_size = static_cast<uint32_t>(offsetof(kata_result_record, cue_joint));

@@ -136,7 +136,7 @@ class ResultRecord(ctypes.Structure):
                 ("has_practice", ctypes.c_int32), ("practice_revision", ctypes.c_uint32),
                 ("practice_start_time", ctypes.c_double), ("practice_end_time", ctypes.c_double),
                 ("practice_loop", ctypes.c_int32), ("reserved0", ctypes.c_uint32),
-                # since 1.1: the correction cue (kata.h "Score calibration and feedback")
+                # added with the correction cue (after reserved0) (kata.h "Score calibration and feedback")
                 ("cue_joint", ctypes.c_int32), ("cue_degrees", ctypes.c_float), ("cue_action", ctypes.c_int32),
                 ("reserved1", ctypes.c_uint32)]
 
@@ -270,7 +270,7 @@ _SIGNATURES = {
     "kata_runtime_get_counters": (_st, [_p, ctypes.POINTER(RuntimeCounters)]),
     "kata_runtime_publish_endpoint": (_s, [_p]),
     "kata_runtime_ingest_endpoint": (_s, [_p]),
-    # the correction cue (since 1.1)
+    # the correction cue
     "kata_gpd_joint_name": (_s, [_i32]),
     "kata_cue_text": (_sz, [ctypes.POINTER(ResultRecord), _p, _sz]),
 }

@@ -92,7 +92,7 @@ typedef struct kata_result_record {
   double practice_end_time;      /* its last teacher frame, s */
   int32_t practice_loop;         /* 1: the section is looped (its end is followed by its start) */
   uint32_t reserved0;            /* 0 */
-  /* The correction cue (added in 1.1; check KATA_RESULT_HAS(r, cue_joint)), present iff
+  /* The correction cue (added after reserved0: check KATA_RESULT_HAS(r, cue_action)), present iff
    * part_to_fix >= 0 ("left knee: bend 30 deg more": kata_cue_text in kata.h). */
   int32_t cue_joint;             /* the GPD joint to move (0..15, kata_gpd_joint_name: "LKnee"),
                                     always one of part_to_fix's joints; -1 for none */
