@@ -265,6 +265,10 @@ void Scorer::update_cue(double t) {
   int bone = -1;
   for (int c = 1; c < gpd::kJoints; ++c)
     if (cue_joint(c) == cue_shown_ && (bone < 0 || smoothed_cue_[c] > smoothed_cue_[bone])) bone = c;
+  if (bone < 0) {  // not reached: every part has bones, every cue joint a bone
+    clear_cue();
+    return;
+  }
   record_.cue_joint = cue_shown_;
   record_.cue_degrees = static_cast<float>(smoothed_cue_[bone]);
   record_.cue_action = static_cast<int32_t>(cue_action(bone, smoothed_cue_[bone], smoothed_change_[bone]));
