@@ -189,7 +189,8 @@ function showFrame(f) {
     $('score').textContent = f.score.toFixed(0);
     $('score').style.color = scoreColour(f.score);
     $('mean').textContent = (scoreSum / Math.max(scoreCount, 1)).toFixed(1);
-    $('fix').textContent = f.fix >= 0 ? setup.part_labels[f.fix] : 'nothing: well done';
+    // The part to fix and, with it, the correction cue ("left knee: bend 30 deg more").
+    $('fix').textContent = f.fix >= 0 ? setup.part_labels[f.fix] + (f.cue ? ' - ' + f.cue : '') : 'nothing: well done';
     $('fix').style.color = f.fix >= 0 ? scoreColour(f.part_scores[f.fix]) : '';
     $('matched').textContent = f.matched;
     $('matched-time').textContent = f.matched_time !== undefined ? f.matched_time.toFixed(2) : '-';

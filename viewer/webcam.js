@@ -132,7 +132,8 @@ function onResult(e) {
   if (r.state !== "not in frame" || !hook.personFrames) setState(r.state === "tracking" ? "scored" : r.state);
   if (r.score !== undefined) {
     document.getElementById("score").textContent = Math.round(r.score);
-    document.getElementById("fix").textContent = r.fix ? "fix: " + r.fix.replace("_", " ") : "looking good";
+    // The part to fix and the correction cue ("left knee: bend 30 deg more").
+    document.getElementById("fix").textContent = r.fix ? "fix: " + r.fix.replace("_", " ") + (r.cue ? " - " + r.cue : "") : "looking good";
     document.getElementById("parts").innerHTML = r.parts.map((p, i) =>
       `<div class="part" style="background:${scoreColour(p)}"><span>${PARTS[i]}</span><span>${Math.round(p)}</span></div>`).join("");
   }

@@ -131,6 +131,14 @@ namespace Kata
         public double PracticeEndTime;
         public int PracticeLoop;
         public uint Reserved0;
+        // The correction cue (kata.h "Score calibration and feedback"), present iff PartToFix >= 0:
+        // the GPD joint to move (-1: none; Native.GpdJointName), the angle at it in degrees, the
+        // kata_cue_action (0 bend, 1 straighten, 2 raise, 3 lower, 4 turn; -1: none). Native.CueText
+        // gives the phrase ("left knee: bend 30 deg more").
+        public int CueJoint;
+        public float CueDegrees;
+        public int CueAction;
+        public uint Reserved1;
 
         public float Part(BodyPart p)
         {
@@ -179,6 +187,9 @@ namespace Kata
 
         [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_version();
         [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_status_string(Status status);
+        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_gpd_joint_name(int joint);
+        [DllImport(Lib, CallingConvention = CC)]
+        public static extern UIntPtr kata_cue_text(ref ResultRecord record, byte[] buf, UIntPtr size);
 
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_context_create(out ContextHandle ctx);
         [DllImport(Lib, CallingConvention = CC)] public static extern void kata_context_destroy(IntPtr ctx);
@@ -293,6 +304,15 @@ namespace Kata
         }
 
         public static string StatusName(Status s) { return FromUtf8(kata_status_string(s)); }
+        // The GPD joint name of 0..15 ("LKnee"), e.g. of ResultRecord.CueJoint; "" out of range.
+        public static string GpdJointName(int joint) { return FromUtf8(kata_gpd_joint_name(joint)) ?? ""; }
+        // A record's correction cue phrase ("left knee: bend 30 deg more"); "" without one.
+        public static string CueText(ResultRecord record)
+        {
+            byte[] buf = new byte[64];
+            int n = (int)kata_cue_text(ref record, buf, (UIntPtr)buf.Length);
+            return Encoding.UTF8.GetString(buf, 0, Math.Min(n, buf.Length - 1));
+        }
     }
 
     // ---- versions ------------------------------------------------------------------------------------

@@ -1,6 +1,7 @@
 /* csv-sink: every result as one CSV row (score, distance and its split over the parts, each part's score, the part
- * to fix, the state, the matched teacher frame and time, the practice section, timestamps); the
- * columns after right_leg need a host of plugin ABI minor 1 (empty cells from an older host).
+ * to fix, the state, the matched teacher frame and time, the practice section, the correction
+ * cue, timestamps); the columns after right_leg need a host of plugin ABI minor 1, the cue's a
+ * host whose record has them (KATA_RESULT_HAS; empty cells from an older host).
  * Config: "path=FILE" (required). Public headers only (kata_plugin.h). */
 #include <stdio.h>
 #include <stdlib.h>
@@ -54,7 +55,8 @@ static void* activate(const kata_plugin_host* host, const char* config, char* er
           "stream_id,result_sequence,frame_sequence,frame_index,capture_time,arrival_ns,computed_ns,scored,score,"
           "distance,matched_teacher_frame,torso_head,left_arm,right_arm,left_leg,right_leg,"
           "torso_head_score,left_arm_score,right_arm_score,left_leg_score,right_leg_score,part_to_fix,state,"
-          "matched_teacher_time,practice_start_time,practice_end_time,practice_loop,practice_revision\n");
+          "matched_teacher_time,practice_start_time,practice_end_time,practice_loop,practice_revision,"
+          "cue_joint,cue_degrees,cue_action\n");
   return s;
 }
 
@@ -68,6 +70,10 @@ static void deactivate(void* instance) {
 /* The names kata score's CSV uses (kata_body_part and kata_score_state order). */
 static const char* const kPartNames[5] = {"torso_head", "left_arm", "right_arm", "left_leg", "right_leg"};
 static const char* const kStateNames[4] = {"scoring", "calibrating", "tracking_lost", "teacher_finished"};
+/* GPD joint names (kata_gpd_joint_name) and kata_cue_action words, for the cue's cells. */
+static const char* const kJointNames[16] = {"Hip",    "Chest", "Neck", "Head",  "LShoulder", "LElbow", "LHand", "RShoulder",
+                                            "RElbow", "RHand", "LHip", "LKnee", "LFoot",     "RHip",   "RKnee", "RFoot"};
+static const char* const kCueActions[5] = {"bend", "straighten", "raise", "lower", "turn"};
 
 static void on_result(void* instance, const kata_result_record* r) {
   csv_sink* s = (csv_sink*)instance;
@@ -77,17 +83,22 @@ static void on_result(void* instance, const kata_result_record* r) {
           (long long)r->arrival_ns, (long long)r->computed_ns, (int)r->scored, r->score, r->distance,
           (int)r->matched_teacher_frame, r->parts[0], r->parts[1], r->parts[2], r->parts[3], r->parts[4]);
   if (!KATA_RESULT_HAS(r, practice_loop)) { /* a host that does not fill them: empty cells */
-    fputs(",,,,,,,,,,,,\n", s->file);
+    fputs(",,,,,,,,,,,,,,,\n", s->file);
     return;
   }
   fprintf(s->file, ",%.9g,%.9g,%.9g,%.9g,%.9g,%s,%s,%.9g", r->part_scores[0], r->part_scores[1], r->part_scores[2],
           r->part_scores[3], r->part_scores[4], r->part_to_fix >= 0 && r->part_to_fix < 5 ? kPartNames[r->part_to_fix] : "",
           r->state >= 0 && r->state < 4 ? kStateNames[r->state] : "unknown", r->matched_teacher_time);
   if (r->has_practice)
-    fprintf(s->file, ",%.9g,%.9g,%d,%u\n", r->practice_start_time, r->practice_end_time, (int)r->practice_loop,
+    fprintf(s->file, ",%.9g,%.9g,%d,%u", r->practice_start_time, r->practice_end_time, (int)r->practice_loop,
             (unsigned)r->practice_revision);
   else
-    fputs(",,,,\n", s->file);
+    fputs(",,,,", s->file);
+  if (KATA_RESULT_HAS(r, cue_action) && r->cue_joint >= 0 && r->cue_joint < 16)
+    fprintf(s->file, ",%s,%.9g,%s\n", kJointNames[r->cue_joint], r->cue_degrees,
+            r->cue_action >= 0 && r->cue_action < 5 ? kCueActions[r->cue_action] : "");
+  else
+    fputs(",,,\n", s->file);
 }
 
 static void flush(void* instance) { fflush(((csv_sink*)instance)->file); }

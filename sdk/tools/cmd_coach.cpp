@@ -27,6 +27,8 @@
 #include "coach/webcam.hpp"
 #include "command.hpp"
 #include "common/error.hpp"
+#include "metric/cue.hpp"
+#include "skeleton/skeleton.hpp"
 
 namespace {
 
@@ -100,6 +102,10 @@ class TerminalView {
       static const char* const kShort[kata::metric::kParts] = {"torso", "l.arm", "r.arm", "l.leg", "r.leg"};
       for (int p = 0; p < kata::metric::kParts; ++p) append_line(line, sizeof line, at, " %s %3.0f", kShort[p], r->part_scores[p]);
       append_line(line, sizeof line, at, " | fix: %-10s", r->part_to_fix >= 0 ? kata::metric::part_name(r->part_to_fix) : "-");
+      // The correction cue ("left knee: bend 30 deg more"), padded so a shorter one overwrites it.
+      char cue[64];
+      kata::metric::cue_text(r->cue_joint, r->cue_degrees, r->cue_action, cue, sizeof cue);
+      append_line(line, sizeof line, at, " %-32s", cue);
       if (r->state == FrameState::kTeacherFinished) append_line(line, sizeof line, at, " (teacher finished)");
     } else if (r) {
       append_line(line, sizeof line, at, " | %-16s", state_name(r->state));
@@ -245,13 +251,18 @@ void run_coach(CoachArgs a) {
 
   // Summary.
   int fix_count[kata::metric::kParts] = {}, scored_frames = 0, named = 0;
+  int cue_count[kata::kGpdJoints] = {};
   double part_sum[kata::metric::kParts] = {};
   for (size_t i = 0; i < done; ++i)
     if (scored(data.frames[i])) {
       ++scored_frames;
       for (int p = 0; p < kata::metric::kParts; ++p) part_sum[p] += data.frames[i].part_scores[p];
       if (data.frames[i].part_to_fix >= 0) ++fix_count[data.frames[i].part_to_fix], ++named;
+      if (data.frames[i].cue_joint >= 0 && data.frames[i].cue_joint < kata::kGpdJoints) ++cue_count[data.frames[i].cue_joint];
     }
+  int most_cued = 0;
+  for (int j = 1; j < kata::kGpdJoints; ++j)
+    if (cue_count[j] > cue_count[most_cued]) most_cued = j;
   int most = 0;
   for (int p = 1; p < kata::metric::kParts; ++p)
     if (fix_count[p] > fix_count[most]) most = p;
@@ -260,8 +271,9 @@ void run_coach(CoachArgs a) {
   for (int p = 0; p < kata::metric::kParts; ++p)
     std::printf(" %s %.1f", kata::metric::part_name(p), scored_frames ? part_sum[p] / scored_frames : 0.0);
   if (named)
-    std::printf(", part to fix most often: %s (%d%% of scored frames)", kata::metric::part_name(most),
-                100 * fix_count[most] / scored_frames);
+    std::printf(", part to fix most often: %s (%d%% of scored frames), joint to move most often: %s (%d%%)",
+                kata::metric::part_name(most), 100 * fix_count[most] / scored_frames,
+                kata::metric::cue_joint_words(most_cued), 100 * cue_count[most_cued] / scored_frames);
   else
     std::printf(", no part to fix");
   if (live) {

@@ -17,6 +17,7 @@
 #include "metric/align_dtw.hpp"
 #include "metric/parts.hpp"
 #include "metric/scorer.hpp"
+#include "skeleton/skeleton.hpp"
 #include "io/clip_features.hpp"
 #include "io/motion_source.hpp"
 
@@ -157,7 +158,10 @@ void run_score(const ScoreArgs& a) {
   std::fprintf(out, ",matched_teacher_frame");
   for (int q = 0; q < metric::kParts; ++q) std::fprintf(out, ",%s_distance", metric::part_name(q));
   for (int q = 0; q < metric::kParts; ++q) std::fprintf(out, ",%s_score", metric::part_name(q));
-  std::fprintf(out, ",part_to_fix,state,matched_teacher_time\n");
+  // The correction cue (metric/cue.hpp): the GPD joint to move ("" for none), the angle at it in
+  // degrees and the phrase (cue_text: words, digits and one colon, never a comma or a quote, so
+  // the cell needs no quoting).
+  std::fprintf(out, ",part_to_fix,state,matched_teacher_time,cue_joint,cue_degrees,cue\n");
   // The summary covers the frames with a score to show (state "scoring").
   double score_sum = 0.0, part_score_sum[metric::kParts] = {};
   int scored = 0, finished = 0, calibrating = 0, lost = 0;
@@ -177,8 +181,15 @@ void run_score(const ScoreArgs& a) {
     std::fprintf(out, ",%d", matched);
     for (float p : r.part_distance) std::fprintf(out, ",%.7g", p);
     for (float p : r.part_scores) std::fprintf(out, ",%.4f", p);
-    std::fprintf(out, ",%s,%s,%.6f\n", r.part_to_fix >= 0 ? metric::part_name(r.part_to_fix) : "",
+    std::fprintf(out, ",%s,%s,%.6f", r.part_to_fix >= 0 ? metric::part_name(r.part_to_fix) : "",
                  kStates[static_cast<int>(r.state)], matched * teacher.frame_time);
+    if (r.cue_joint >= 0) {
+      char cue[64];
+      metric::cue_text(r.cue_joint, r.cue_degrees, r.cue_action, cue, sizeof cue);
+      std::fprintf(out, ",%s,%.2f,%s\n", kata::kGpdJointNames[static_cast<size_t>(r.cue_joint)], r.cue_degrees, cue);
+    } else {
+      std::fputs(",,,\n", out);
+    }
     if (r.state == metric::ScoreState::kTeacherFinished) ++finished;
     if (r.state == metric::ScoreState::kCalibrating) ++calibrating;
     if (r.state == metric::ScoreState::kTrackingLost) ++lost;

@@ -7,6 +7,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstddef>
 #include <string>
 #include <vector>
@@ -78,13 +79,30 @@ TEST(FeedbackCApi, StatesPartScoresAndOverride) {
   std::vector<float> p(3 * static_cast<size_t>(n));
   kata_result_record r{};
   r.struct_size = sizeof r;
-  int lost = 0;
+  int lost = 0, cued = 0;
   for (uint32_t f = 1; f < 200; ++f) {
     ASSERT_EQ(kata_clip_positions(clip, f, p.data(), p.size()), KATA_OK);
     const bool zeroed = f >= 100 && f < 110;
     if (zeroed) std::fill(p.begin(), p.end(), 0.0f);
     ASSERT_EQ(kata_stream_push(s, f / 120.0, p.data(), static_cast<uint32_t>(n)), KATA_OK) << kata_stream_last_error(s);
     if (kata_stream_score(s, &r) != KATA_OK) continue;
+    // The correction cue (kata.h): present iff a part is named, one of that part's joints (the
+    // GPD joint -> part grouping of kata_body_part), an action, finite degrees and a phrase.
+    EXPECT_EQ(r.cue_joint >= 0, r.part_to_fix >= 0) << f;
+    if (r.cue_joint >= 0) {
+      static const int kJointPart[16] = {0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 3, 3, 3, 4, 4, 4};
+      ASSERT_LT(r.cue_joint, 16) << f;
+      EXPECT_EQ(kJointPart[r.cue_joint], r.part_to_fix) << f;
+      EXPECT_TRUE(r.cue_degrees >= 0.0f && r.cue_degrees <= 180.0f) << f;
+      EXPECT_TRUE(r.cue_action >= KATA_CUE_BEND && r.cue_action <= KATA_CUE_TURN) << f;
+      char text[64];
+      EXPECT_GT(kata_cue_text(&r, text, sizeof text), 0u) << f;
+      EXPECT_NE(std::string(text).find(": "), std::string::npos) << text;
+      ++cued;
+    } else {
+      EXPECT_EQ(r.cue_action, KATA_CUE_NONE) << f;
+      EXPECT_EQ(r.cue_degrees, 0.0f) << f;
+    }
     if (zeroed) {
       EXPECT_EQ(r.state, KATA_SCORE_TRACKING_LOST) << f;
       EXPECT_EQ(r.part_to_fix, -1);
@@ -98,6 +116,7 @@ TEST(FeedbackCApi, StatesPartScoresAndOverride) {
     }
   }
   EXPECT_EQ(lost, 10);
+  std::printf("frames with a cue: %d\n", cued);
   // Override: d50 four times larger, slope 1.
   kata_score_calibration mine = cal;
   mine.d50 = 4.0 * cal.d50;

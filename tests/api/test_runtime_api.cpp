@@ -112,6 +112,9 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
       }
       for (float part : r.part_scores) EXPECT_TRUE(part >= 0.0f && part <= 100.0f);
       EXPECT_TRUE(r.part_to_fix >= -1 && r.part_to_fix < KATA_PART_COUNT);
+      // The correction cue rides the published message: present exactly when a part is named.
+      EXPECT_EQ(r.cue_joint >= 0, r.part_to_fix >= 0) << "frame " << results;
+      EXPECT_TRUE(r.cue_joint >= -1 && r.cue_joint < 16 && r.cue_action >= KATA_CUE_NONE && r.cue_action <= KATA_CUE_TURN);
       // The practice it was computed under, and the matched time inside it (within 1/120 s: the
       // section's ends are rounded to teacher frames).
       EXPECT_EQ(r.has_practice, 1);

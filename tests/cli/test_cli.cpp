@@ -9,9 +9,11 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <algorithm>
 #include <iterator>
 #include <sstream>
 #include <string>
+#include <vector>
 
 #include "io/bvh.hpp"
 #include "io/npy.hpp"
@@ -200,6 +202,74 @@ TEST(CliScore, AClipWithNothingScoredSaysWhyInsteadOfAMeanOfZero) {
   int count = 0;
   for (std::string row; std::getline(rows, row);) ++count;
   EXPECT_EQ(count, 3) << "the CSV still has each frame";
+  std::remove(student.c_str());
+  std::remove(csv.c_str());
+}
+
+// The correction cue in `kata score`'s CSV (issue 34 item 4): a copy of 02_01 with the left knee
+// (BVH LeftLeg, X rotation) turned by 30 degrees on every frame, scored against the original by
+// the online alignment, names LKnee in cue_joint on >= 70 % of the scoring rows, with a median
+// cue_degrees of 30 +- 8 and the phrase "left knee: ..."; the columns are named exactly so, and
+// empty exactly when part_to_fix is.
+TEST(CliScore, ABentKneeCopyNamesTheLeftKneeInTheCueColumns) {
+  kata::BvhClip clip = kata::load_bvh(std::string(KATA_DATA_DIR) + "/cmu/02_01.bvh");
+  const int j = clip.skeleton.find("LeftLeg");
+  ASSERT_GE(j, 0);
+  const auto& ch = clip.channels[static_cast<size_t>(j)];
+  int c = -1;
+  for (size_t k = 0; k < ch.size(); ++k)
+    if (ch[k] == kata::Channel::kXrot) c = static_cast<int>(k);
+  ASSERT_GE(c, 0);
+  for (int f = 1; f < clip.frame_count(); ++f)
+    clip.motion[static_cast<size_t>(f) * clip.channel_count + static_cast<size_t>(clip.channel_offset[static_cast<size_t>(j)] + c)] += 30.0;
+  const std::string student = kata::test::temp_path("kata_cli_bent_knee.bvh");
+  const std::string csv = kata::test::temp_path("kata_cli_bent_knee.csv");
+  kata::write_bvh(student, clip);
+  const CliRun r = run("score --model " + std::string(KATA_SOURCE_DIR) + "/models/default.kata --teacher " +
+                       std::string(KATA_DATA_DIR) + "/cmu/02_01.bvh --student " + student +
+                       " --preset cmu --first-frame 1 --out " + csv);
+  ASSERT_EQ(r.code, 0) << r.output;
+  std::ifstream in(csv);
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  auto split = [](const std::string& text) {
+    std::vector<std::string> cells;
+    std::stringstream ss(text);
+    for (std::string cell; std::getline(ss, cell, ',');) cells.push_back(cell);
+    if (!text.empty() && text.back() == ',') cells.emplace_back();
+    return cells;
+  };
+  const std::vector<std::string> header = split(line);
+  auto column = [&](const std::string& name) {
+    for (size_t i = 0; i < header.size(); ++i)
+      if (header[i] == name) return i;
+    ADD_FAILURE() << name << " missing from " << line;
+    return size_t{0};
+  };
+  const size_t joint = column("cue_joint"), degrees = column("cue_degrees"), cue = column("cue");
+  const size_t state = column("state"), part = column("part_to_fix");
+  int scoring = 0, knee = 0;
+  std::vector<double> knee_degrees;
+  while (std::getline(in, line)) {
+    const std::vector<std::string> cell = split(line);
+    ASSERT_EQ(cell.size(), header.size()) << line;
+    EXPECT_EQ(cell[joint].empty(), cell[part].empty()) << line;
+    EXPECT_EQ(cell[degrees].empty(), cell[joint].empty()) << line;
+    EXPECT_EQ(cell[cue].empty(), cell[joint].empty()) << line;
+    if (cell[state] != "scoring") continue;
+    ++scoring;
+    if (cell[joint] != "LKnee") continue;
+    ++knee;
+    knee_degrees.push_back(std::stod(cell[degrees]));
+    EXPECT_EQ(cell[part], "left_leg") << line;
+    EXPECT_EQ(cell[cue].rfind("left knee: ", 0), 0u) << line;
+  }
+  ASSERT_GT(scoring, 100);
+  std::sort(knee_degrees.begin(), knee_degrees.end());
+  const double median = knee_degrees.empty() ? 0.0 : knee_degrees[knee_degrees.size() / 2];
+  std::printf("bent knee copy: cue LKnee on %d of %d scoring rows, median %.1f deg\n", knee, scoring, median);
+  EXPECT_GE(knee, scoring * 7 / 10);
+  EXPECT_NEAR(median, 30.0, 8.0);
   std::remove(student.c_str());
   std::remove(csv.c_str());
 }

@@ -192,11 +192,23 @@ TEST(CliLandmarks, LostFramesKeepTheirRowsAsTrackingLost) {
   std::ifstream in(dir.file("s.csv"));
   std::string line;
   std::getline(in, line);
+  // The state's column, by its name (columns are appended: the cue's after it).
+  auto cells = [](const std::string& text) {
+    std::vector<std::string> out;
+    std::stringstream ss(text);
+    for (std::string cell; std::getline(ss, cell, ',');) out.push_back(cell);
+    if (!text.empty() && text.back() == ',') out.emplace_back();
+    return out;
+  };
+  const std::vector<std::string> header = cells(line);
+  const size_t state_column =
+      static_cast<size_t>(std::find(header.begin(), header.end(), "state") - header.begin());
+  ASSERT_LT(state_column, header.size()) << line;
   int rows = 0, lost_rows = 0, scored_rows = 0;
   while (std::getline(in, line)) {
-    // state is the column before the last (matched_teacher_time, issue 21).
-    const std::string head = line.substr(0, line.rfind(','));
-    const std::string state = head.substr(head.rfind(',') + 1);
+    const std::vector<std::string> row = cells(line);
+    ASSERT_EQ(row.size(), header.size()) << line;
+    const std::string state = row[state_column];
     const int frame = std::stoi(line.substr(0, line.find(',')));
     // --first-frame 1 skips the array's first frame too: CSV frame = array index.
     EXPECT_EQ(frame, rows + 1) << "one row per source frame, numbered from --first-frame";

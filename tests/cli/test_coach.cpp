@@ -54,6 +54,7 @@ struct Row {
   float part_scores[kata::metric::kParts] = {};
   int part_to_fix = -2, matched = -2;
   double matched_time = -2.0;
+  std::string cue_joint = "?", cue = "?";  // the correction cue's GPD joint name and phrase ("" for none)
 };
 
 std::vector<Row> read_csv(const std::string& path) {
@@ -65,7 +66,8 @@ std::vector<Row> read_csv(const std::string& path) {
     std::vector<std::string> cells;
     std::stringstream ss(line);
     for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
-    if (cells.size() != 18) continue;
+    if (line.back() == ',') cells.emplace_back();  // getline drops an empty last cell
+    if (cells.size() != 21) continue;
     Row r;
     r.state = std::stoi(cells[2]);
     r.score = std::stof(cells[3]);
@@ -73,6 +75,7 @@ std::vector<Row> read_csv(const std::string& path) {
     r.part_to_fix = std::stoi(cells[15]);
     r.matched = std::stoi(cells[16]);
     r.matched_time = std::stod(cells[17]);
+    r.cue_joint = cells[18], r.cue = cells[20];
     rows.push_back(r);
   }
   return rows;
@@ -85,7 +88,7 @@ struct Expected {
   std::vector<int> state;
   std::vector<float> score;
   std::vector<std::array<float, kata::metric::kParts>> part_scores;
-  std::vector<int> part_to_fix, matched;
+  std::vector<int> part_to_fix, matched, cue_joint;
   double mean = 0.0;  // over scored frames (tracking or teacher finished)
 };
 
@@ -127,6 +130,7 @@ Expected run_pipeline_here() {
   e.part_scores.assign(static_cast<size_t>(frames), {});
   e.part_to_fix.assign(static_cast<size_t>(frames), -2);
   e.matched.assign(static_cast<size_t>(frames), -2);
+  e.cue_joint.assign(static_cast<size_t>(frames), -2);
   auto drain = [&] {
     pipeline::Result r;
     while (p.read(&r, nullptr, nullptr, 1) == 1) {
@@ -136,6 +140,7 @@ Expected run_pipeline_here() {
       for (int q = 0; q < metric::kParts; ++q) e.part_scores[f][static_cast<size_t>(q)] = r.score.part_scores[q];
       e.matched[f] = r.matched_frame;
       e.part_to_fix[f] = r.score.part_to_fix;
+      e.cue_joint[f] = r.score.cue_joint;
     }
   };
   for (int i = 0; i < frames; ++i) {
@@ -224,6 +229,10 @@ TEST(CliCoach, HeadlessLessonEqualsThePipelineRunInProcess) {
     for (int q = 0; q < kata::metric::kParts; ++q)
       ASSERT_EQ(rows[i].part_scores[q], e.part_scores[i][static_cast<size_t>(q)]) << "frame " << i << " part " << q;
     ASSERT_EQ(rows[i].part_to_fix, e.part_to_fix[i]) << "frame " << i;
+    // The correction cue: the pipeline's joint, by its GPD name, and a phrase exactly when named.
+    ASSERT_EQ(rows[i].cue_joint, e.cue_joint[i] >= 0 ? kata::kGpdJointNames[static_cast<size_t>(e.cue_joint[i])] : "")
+        << "frame " << i;
+    ASSERT_EQ(rows[i].cue.empty(), e.cue_joint[i] < 0) << "frame " << i;
     ASSERT_EQ(rows[i].matched, e.matched[i]) << "frame " << i;
     if (rows[i].matched >= 0) {
       ASSERT_NEAR(rows[i].matched_time, rows[i].matched * 0.0083333, 1e-6) << "frame " << i;
@@ -248,6 +257,7 @@ TEST(CliCoach, HeadlessLessonEqualsThePipelineRunInProcess) {
     ASSERT_LT(sequence, e.score.size());
     ASSERT_EQ(f.score, e.score[sequence]) << "published frame " << sequence;
     ASSERT_EQ(f.part_to_fix, e.part_to_fix[sequence]) << "published frame " << sequence;
+    ASSERT_EQ(f.cue_joint, e.cue_joint[sequence]) << "published frame " << sequence;
     ASSERT_EQ(f.part_scores[4], e.part_scores[sequence][4]) << "published frame " << sequence;
     ASSERT_EQ(f.matched_teacher_frame, e.matched[sequence]) << "published frame " << sequence;
     // Where the student is in the routine: the matched frame at the teacher's 120 fps (its BVH
@@ -301,7 +311,7 @@ TEST(CliCoach, HeadlessLessonEqualsThePipelineRunInProcess) {
         "  matched=(\"<i4\", (F,)), latency_ns=(\"<i8\", (F,)), ghosts=(\"<f4\", (F, G, 3)), has_ghost=(\"|u1\", (F,)),\n"
         "  joint_parents=(\"<i4\", (J,)), joint_part=(\"<i4\", (J,)), ghost_sources=(\"<i4\", (G,)), hips=(\"<i4\", (2,)),\n"
         "  numbers=(\"<f8\", (9,)), text=(\"|u1\", (len(z[\"text\"]),)), matched_time=(\"<f8\", (F,)),\n"
-        "  practice=(\"<i4\", (3,)))\n"
+        "  practice=(\"<i4\", (3,)), cue_joint=(\"<i4\", (F,)), cue_degrees=(\"<f4\", (F,)), cue_action=(\"<i4\", (F,)))\n"
         "got = {k: (z[k].dtype.str, z[k].shape) for k in z.files}\n"
         "assert got == want, (got, want)\n"
         "lines = bytes(z[\"text\"]).decode().split(\"\\n\")\n"
@@ -334,6 +344,8 @@ TEST(CliCoach, HeadlessLessonEqualsThePipelineRunInProcess) {
     ASSERT_EQ(again[i].score, rows[i].score) << "frame " << i;
     ASSERT_EQ(again[i].part_scores[2], rows[i].part_scores[2]) << "frame " << i;
     ASSERT_EQ(again[i].part_to_fix, rows[i].part_to_fix) << "frame " << i;
+    ASSERT_EQ(again[i].cue_joint, rows[i].cue_joint) << "frame " << i;
+    ASSERT_EQ(again[i].cue, rows[i].cue) << "frame " << i;
     // Where the student was in the routine is kept in the recording too (array matched_time).
     ASSERT_EQ(again[i].matched, rows[i].matched) << "frame " << i;
     ASSERT_EQ(again[i].matched_time, rows[i].matched_time) << "frame " << i;

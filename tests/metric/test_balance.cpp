@@ -132,5 +132,72 @@ TEST(Balance, EveryJointCountsAlikeLeftAndRight) {
   }
 }
 
+// The correction cue (issue 34 item 4) on the same turned copies: the GPD joint whose BVH channel
+// is turned (the cue names the joint to move, cue.hpp), per kTurns entry.
+constexpr int kCueJoint[] = {5, 8, 4, 7, 11, 14, 10, 13, 1, 2};  // LElbow RElbow LShoulder ... Chest Neck
+
+struct CueResult {
+  double named = 0.0;   // share of kScoring records whose cue_joint is the turned joint
+  double median = 0.0;  // median cue_degrees over those records (0: none)
+};
+
+CueResult cue_turn(const std::shared_ptr<const metric::Reference>& ref, const BvhClip& student, const GpdMap& map,
+                   int joint, bool matched) {
+  const std::vector<float> x = clip_features(student, map, gpd::Stencil::kBackward, 1);
+  const int frames = static_cast<int>(x.size() / gpd::kDims);
+  metric::Scorer scorer(ref);
+  int live = 0;
+  std::vector<double> degrees;
+  for (int f = 0; f < frames; ++f) {
+    const float* xf = x.data() + static_cast<size_t>(f) * gpd::kDims;
+    const double t = f * student.frame_time;
+    const metric::ScoreRecord& r = matched ? scorer.score_matched(xf, t, f) : scorer.score(xf, t);
+    if (r.state != metric::ScoreState::kScoring) continue;
+    ++live;
+    EXPECT_TRUE(std::isfinite(r.cue_degrees));
+    EXPECT_EQ(r.cue_joint >= 0, r.part_to_fix >= 0) << "frame " << f;
+    if (r.cue_joint == joint) degrees.push_back(r.cue_degrees);
+  }
+  CueResult out;
+  out.named = live ? static_cast<double>(degrees.size()) / live : 0.0;
+  if (!degrees.empty()) {
+    std::nth_element(degrees.begin(), degrees.begin() + static_cast<long>(degrees.size() / 2), degrees.end());
+    out.median = degrees[degrees.size() / 2];
+  }
+  return out;
+}
+
+// Every one of the ten joints turned by +-30 degrees: its cue names it on >= 70 % of the scored
+// frames, with a median angle of 30 +- 8 degrees (each student frame matched to its own teacher
+// frame, as above; the online alignment's figures are printed beside them).
+TEST(Balance, TheCueNamesTheTurnedJoint) {
+  const auto metric = std::make_shared<const metric::Metric>(
+      metric::load_model(std::string(KATA_SOURCE_DIR) + "/models/default.kata"));
+  std::printf("clip   joint        cue joint  +30: share median  -30: share median | online +30, -30\n");
+  for (const char* name : {"02_01.bvh", "05_18.bvh", "09_01.bvh"}) {
+    const BvhClip clip = excerpt(name);
+    const GpdMap map = make_gpd_map(clip.skeleton, preset_joint_names("cmu"));
+    const std::vector<float> t = clip_features(clip, map, gpd::Stencil::kBackward, 1);
+    const auto ref = std::make_shared<const metric::Reference>(metric, t.data(), static_cast<int>(t.size() / gpd::kDims),
+                                                               clip.frame_time);
+    for (int k = 0; k < 10; ++k) {
+      const int joint = kCueJoint[k];
+      CueResult got[2], online[2];
+      for (int i = 0; i < 2; ++i) {
+        const BvhClip student = turned(clip, kTurns[k], i == 0 ? 30.0 : -30.0);
+        got[i] = cue_turn(ref, student, map, joint, true);
+        online[i] = cue_turn(ref, student, map, joint, false);
+      }
+      std::printf("%.5s  %-12s %-9s  %.2f %5.1f        %.2f %5.1f      | %.2f %5.1f, %.2f %5.1f\n", name,
+                  kTurns[k].joint, kGpdJointNames[static_cast<size_t>(joint)], got[0].named, got[0].median,
+                  got[1].named, got[1].median, online[0].named, online[0].median, online[1].named, online[1].median);
+      for (int i = 0; i < 2; ++i) {
+        EXPECT_GE(got[i].named, 0.70) << name << " " << kTurns[k].joint << (i ? " -30" : " +30");
+        EXPECT_NEAR(got[i].median, 30.0, 8.0) << name << " " << kTurns[k].joint << (i ? " -30" : " +30");
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace kata

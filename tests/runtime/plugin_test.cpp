@@ -137,6 +137,47 @@ std::vector<std::string> split_csv(const std::string& line) {
   return cells;
 }
 
+// The correction cue reaches a sink plugin in the record (kata/result.h): csv-sink's cue cells
+// from a record carrying one (the GPD joint's name, the degrees, the action's word) and empty
+// cells from a record without one.
+TEST(runtime_plugin, CsvSinkWritesTheCue) {
+  kata::test::TempDir tmp;
+  const std::string csv_path = (tmp.path() / "cue.csv").string();
+  std::shared_ptr<LoadedPlugin> sink_plugin = LoadedPlugin::load(std::string(KATA_PLUGIN_DIR) + "/csv-sink.so");
+  {
+    PluginInstance sink(sink_plugin, "path=" + csv_path, std::make_shared<PluginHostTarget>());
+    transport::ResultFields f;
+    f.scored = 1;
+    f.part_to_fix = 2;
+    f.cue_joint = 8;  // RElbow
+    f.cue_degrees = 31.5f;
+    f.cue_action = 1;  // straighten
+    sink.sink().on_result(f);
+    transport::ResultFields none;
+    none.result_sequence = 1;
+    sink.sink().on_result(none);
+  }
+  std::ifstream in(csv_path);
+  std::string line;
+  ASSERT_TRUE(std::getline(in, line));
+  const std::vector<std::string> header = split_csv(line);
+  std::map<std::string, size_t> column;
+  for (size_t i = 0; i < header.size(); ++i) column[header[i]] = i;
+  for (const char* name : {"cue_joint", "cue_degrees", "cue_action"}) ASSERT_TRUE(column.count(name)) << name;
+  ASSERT_TRUE(std::getline(in, line));
+  std::vector<std::string> cell = split_csv(line);
+  ASSERT_EQ(cell.size(), header.size()) << line;
+  EXPECT_EQ(cell[column["cue_joint"]], "RElbow") << line;
+  EXPECT_EQ(std::stof(cell[column["cue_degrees"]]), 31.5f) << line;
+  EXPECT_EQ(cell[column["cue_action"]], "straighten") << line;
+  ASSERT_TRUE(std::getline(in, line));
+  cell = split_csv(line);
+  ASSERT_EQ(cell.size(), header.size()) << line;
+  EXPECT_EQ(cell[column["cue_joint"]], "") << line;
+  EXPECT_EQ(cell[column["cue_degrees"]], "") << line;
+  EXPECT_EQ(cell[column["cue_action"]], "") << line;
+}
+
 // What a coaching app shows, through a sink plugin: each part's score, the part to fix, the
 // scorer's state, where the student is in the routine and the practice section (plugin ABI minor
 // 1). The student is the teacher's own clip (05_18 from frame 1, teacher row i = frame i); every
@@ -197,7 +238,7 @@ TEST(runtime_plugin, CsvSinkRowsCarryThePartScoresTheCueAndTheState) {
   for (size_t i = 0; i < header.size(); ++i) column[header[i]] = i;
   for (const char* name : {"torso_head_score", "left_arm_score", "right_arm_score", "left_leg_score", "right_leg_score",
                            "part_to_fix", "state", "matched_teacher_time", "practice_start_time", "practice_end_time",
-                           "practice_loop", "practice_revision"})
+                           "practice_loop", "practice_revision", "cue_joint", "cue_degrees", "cue_action"})
     ASSERT_TRUE(column.count(name)) << name << " missing from " << line;
   static const char* const kParts[] = {"torso_head", "left_arm", "right_arm", "left_leg", "right_leg"};
   static const char* const kStates[] = {"scoring", "calibrating", "tracking_lost", "teacher_finished"};
@@ -213,6 +254,17 @@ TEST(runtime_plugin, CsvSinkRowsCarryThePartScoresTheCueAndTheState) {
       EXPECT_FLOAT_EQ(std::stof(cell[column[std::string(kParts[q]) + "_score"]]), f.part_scores[q]) << line;
     EXPECT_EQ(cell[column["part_to_fix"]], f.part_to_fix >= 0 ? kParts[f.part_to_fix] : "") << line;
     EXPECT_EQ(cell[column["state"]], kStates[f.state]) << line;
+    // The cue as the record carries it (present iff part_to_fix is).
+    EXPECT_EQ(f.cue_joint >= 0, f.part_to_fix >= 0) << line;
+    EXPECT_EQ(cell[column["cue_joint"]], f.cue_joint >= 0 ? kGpdJointNames[static_cast<size_t>(f.cue_joint)] : "") << line;
+    if (f.cue_joint >= 0) {
+      EXPECT_FLOAT_EQ(std::stof(cell[column["cue_degrees"]]), f.cue_degrees) << line;
+      static const char* const kActions[] = {"bend", "straighten", "raise", "lower", "turn"};
+      ASSERT_TRUE(f.cue_action >= 0 && f.cue_action < 5) << line;
+      EXPECT_EQ(cell[column["cue_action"]], kActions[f.cue_action]) << line;
+    } else {
+      EXPECT_EQ(cell[column["cue_degrees"]], "") << line;
+    }
     EXPECT_DOUBLE_EQ(std::stod(cell[column["matched_teacher_time"]]), f.matched_teacher_time) << line;
     // The whole clip is the section, from the stream's configuration (revision 0).
     ASSERT_TRUE(f.has_practice) << line;

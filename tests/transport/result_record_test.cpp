@@ -54,6 +54,9 @@ TEST(runtime_result_record, EveryFieldSurvivesTheWireAndTheCAbi) {
   r.practice_start_time = 1.25;
   r.practice_end_time = 3.5;
   r.practice_loop = 1;
+  r.cue_joint = 11;  // LKnee, in part_to_fix
+  r.cue_degrees = 29.75f;
+  r.cue_action = KATA_CUE_BEND;
 
   kata_result_record o;
   std::memset(&o, 0xab, sizeof o);
@@ -85,6 +88,35 @@ TEST(runtime_result_record, EveryFieldSurvivesTheWireAndTheCAbi) {
   EXPECT_EQ(o.practice_start_time, 1.25);
   EXPECT_EQ(o.practice_end_time, 3.5);
   EXPECT_EQ(o.practice_loop, 1);
+  EXPECT_EQ(o.cue_joint, 11);
+  EXPECT_EQ(o.cue_degrees, 29.75f);
+  EXPECT_EQ(o.cue_action, KATA_CUE_BEND);
+  EXPECT_STREQ(kata_gpd_joint_name(o.cue_joint), "LKnee");
+  char text[64];
+  EXPECT_EQ(kata_cue_text(&o, text, sizeof text), std::strlen("left knee: bend 30 deg more"));
+  EXPECT_STREQ(text, "left knee: bend 30 deg more");
+
+  // A record built before the cue (up to reserved0): nothing written past it, and no text.
+  kata_result_record v10;
+  std::memset(&v10, 0xab, sizeof v10);
+  v10.struct_size = static_cast<uint32_t>(offsetof(kata_result_record, cue_joint));
+  ASSERT_EQ(read(encoder.result(r), &v10), KATA_OK);
+  EXPECT_EQ(v10.practice_loop, 1);
+  EXPECT_FALSE(KATA_RESULT_HAS(&v10, cue_joint));
+  EXPECT_EQ(v10.cue_joint, static_cast<int32_t>(0xabababab));
+  EXPECT_EQ(kata_cue_text(&v10, text, sizeof text), 0u);
+  EXPECT_STREQ(text, "");
+
+  // No cue (the writer's default, as from a writer older than the cue): -1, 0, -1.
+  ResultFields none;
+  none.stream_id = 0x1234;
+  ASSERT_EQ(read(encoder.result(none), &o), KATA_OK);
+  EXPECT_EQ(o.cue_joint, -1);
+  EXPECT_EQ(o.cue_degrees, 0.0f);
+  EXPECT_EQ(o.cue_action, KATA_CUE_NONE);
+  EXPECT_EQ(kata_cue_text(&o, text, sizeof text), 0u);
+  EXPECT_EQ(kata_gpd_joint_name(16), nullptr);
+  EXPECT_EQ(kata_gpd_joint_name(-1), nullptr);
 
   // A caller built with a shorter record receives its prefix and nothing past it.
   kata_result_record old;

@@ -119,6 +119,9 @@ static class KataTests
                 int n = s.ReadResults(batch);
                 Check(n == lines.Length - 1, "score: " + n + " results vs " + (lines.Length - 1) + " CSV rows");
                 int bad = 0;
+                // The correction cue's columns, by name (`kata score` appends them).
+                int cueJoint = Array.IndexOf(lines[0].Split(','), "cue_joint"), cue = Array.IndexOf(lines[0].Split(','), "cue");
+                Check(cueJoint > 0 && cue > 0, "score: no cue_joint / cue column in " + lines[0]);
                 for (int r = 0; r < n && r + 1 < lines.Length; ++r)
                 {
                     string[] f = lines[r + 1].Split(',');
@@ -127,6 +130,8 @@ static class KataTests
                     bool ok = res.Scored != 0 && long.Parse(f[0]) == res.FrameIndex + 1 &&
                               SameAsPrinted(sc.Distance, f[2], false) && SameAsPrinted(sc.Score, f[3], true) &&
                               int.Parse(f[9]) == res.MatchedTeacherFrame + 1;
+                    ok &= f[cueJoint] == (res.CueJoint >= 0 ? Native.GpdJointName(res.CueJoint) : "") &&
+                          f[cue] == Native.CueText(res) && (res.CueJoint >= 0) == (res.PartToFix >= 0);
                     for (int q = 0; q < Gpd.PartCount; ++q) ok &= SameAsPrinted(sc.Part((BodyPart)q), f[4 + q], false);
                     if (!ok && bad++ < 3) Console.Error.WriteLine("row " + lines[r + 1] + " vs " + sc.Distance + " " + sc.Score + " " + res.MatchedTeacherFrame);
                 }

@@ -28,10 +28,10 @@ it before it is destroyed (kata.h requires that order).
 import os
 
 from .errors import KataError, ResultsDroppedError, ResultsDroppedWarning, Status
-from .objects import (GPD_DIMS, GPD_JOINTS, BodyPart, Clip, Context, Model, ScoreState, Skeleton, Stencil, UpAxis,
+from .objects import (GPD_DIMS, GPD_JOINTS, BodyPart, Clip, Context, CueAction, Model, ScoreState, Skeleton, Stencil, UpAxis,
                       default_model_path, find_data, library_path, presets, version)
 from .stream import (DROP_POLICIES, RESULT_DTYPE, ResultBuffer, Results,
-                     ScoreRecord, Stream, detect_time_units)
+                     ScoreRecord, Stream, cue_text, detect_time_units, gpd_joint_name)
 from .retarget import Retargeter
 from .messages import PracticeSection, ResultMessage, Subscriber, read_message
 from .runtime import Runtime, shard_of
@@ -42,7 +42,7 @@ __version__ = "%d.%d.%d" % version
 __all__ = ["Context", "Skeleton", "Clip", "Model", "Stream", "Retargeter", "Runtime", "Subscriber",
            "Results", "ResultBuffer", "ScoreRecord", "ResultMessage", "PracticeSection",
            "KataError", "ResultsDroppedWarning", "ResultsDroppedError", "Status", "Stencil", "UpAxis", "ScoreState",
-           "BodyPart", "read_message", "shard_of", "detect_time_units", "default_model_path", "find_data", "presets",
+           "BodyPart", "CueAction", "cue_text", "gpd_joint_name", "read_message", "shard_of", "detect_time_units", "default_model_path", "find_data", "presets",
            "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "DROP_POLICIES"]
 
 # kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the

@@ -135,7 +135,10 @@ class ResultRecord(ctypes.Structure):
                 ("ghost", ctypes.c_size_t),
                 ("has_practice", ctypes.c_int32), ("practice_revision", ctypes.c_uint32),
                 ("practice_start_time", ctypes.c_double), ("practice_end_time", ctypes.c_double),
-                ("practice_loop", ctypes.c_int32), ("reserved0", ctypes.c_uint32)]
+                ("practice_loop", ctypes.c_int32), ("reserved0", ctypes.c_uint32),
+                # added with the correction cue (after reserved0) (kata.h "Score calibration and feedback")
+                ("cue_joint", ctypes.c_int32), ("cue_degrees", ctypes.c_float), ("cue_action", ctypes.c_int32),
+                ("reserved1", ctypes.c_uint32)]
 
 
 class RuntimeDesc(ctypes.Structure):
@@ -267,6 +270,9 @@ _SIGNATURES = {
     "kata_runtime_get_counters": (_st, [_p, ctypes.POINTER(RuntimeCounters)]),
     "kata_runtime_publish_endpoint": (_s, [_p]),
     "kata_runtime_ingest_endpoint": (_s, [_p]),
+    # the correction cue
+    "kata_gpd_joint_name": (_s, [_i32]),
+    "kata_cue_text": (_sz, [ctypes.POINTER(ResultRecord), _p, _sz]),
 }
 
 for _name, (_restype, _argtypes) in _SIGNATURES.items():
@@ -274,6 +280,13 @@ for _name, (_restype, _argtypes) in _SIGNATURES.items():
     _f.restype = _restype
     _f.argtypes = _argtypes
     globals()[_name[len("kata_"):]] = _f
+
+
+def cue_phrase(rec: ResultRecord) -> str:
+    """kata_cue_text of a record: "left knee: bend 30 deg more", "" without a cue."""
+    buf = ctypes.create_string_buffer(64)
+    cue_text(ctypes.byref(rec), buf, len(buf))  # noqa: F821 (set by the loop above)
+    return buf.value.decode()
 
 
 def __getattr__(name: str) -> Any:

@@ -30,10 +30,14 @@ class ResultMessage:
     matched_teacher_time (seconds from the teacher's first frame, -1 unless scored), distance
     (dimensionless), score (0..100), parts (split of d^2), part_scores, part_to_fix (BodyPart or
     -1), state (ScoreState), ghost ((G, 3) float32 copy, or None), practice (the PracticeSection it
-    was computed under; None without a clip teacher or from an older runtime)."""
+    was computed under; None without a clip teacher or from an older runtime), and the correction
+    cue (present iff part_to_fix >= 0): cue_joint (the GPD joint to move, e.g. "LKnee"; "" for
+    none), cue_degrees (the angle at it, degrees; 0 for none), cue_action (CueAction or -1) and
+    cue (the phrase, "left knee: bend 30 deg more"; "" for none)."""
     __slots__ = ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_time", "arrival_ns",
                  "computed_ns", "published_ns", "scored", "matched_teacher_frame", "matched_teacher_time",
-                 "distance", "score", "parts", "part_scores", "part_to_fix", "state", "ghost", "practice")
+                 "distance", "score", "parts", "part_scores", "part_to_fix", "state", "ghost", "practice",
+                 "cue_joint", "cue_degrees", "cue_action", "cue")
     stream_id: int
     result_sequence: int
     frame_sequence: int
@@ -49,6 +53,10 @@ class ResultMessage:
     score: float
     part_to_fix: int
     state: int
+    cue_joint: str
+    cue_degrees: float
+    cue_action: int
+    cue: str
 
     def __init__(self, m: "_n.ResultRecord") -> None:
         for name in ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_time", "arrival_ns",
@@ -60,6 +68,7 @@ class ResultMessage:
         self.scored = bool(m.scored)
         self.parts = tuple(m.parts)
         self.part_scores = tuple(m.part_scores)
+        _set_cue(self, m)
         # The C ghost pointer is valid only until this thread's next call: copied now.
         self.ghost = (np.ctypeslib.as_array(ctypes.cast(m.ghost, ctypes.POINTER(ctypes.c_float)),
                                             shape=(m.ghost_joint_count, 3)).copy()
@@ -69,6 +78,15 @@ class ResultMessage:
         return "ResultMessage(stream=%d, seq=%d, score=%.2f)" % (self.stream_id, self.result_sequence, self.score)
 
 
+
+
+def _set_cue(out: Any, rec: "_n.ResultRecord") -> None:
+    """The cue fields of a Python result from its record (ResultMessage, stream.ScoreRecord)."""
+    name = _n.gpd_joint_name(rec.cue_joint) if rec.cue_joint >= 0 else None
+    out.cue_joint = name.decode() if name else ""
+    out.cue_degrees = float(rec.cue_degrees) if name else 0.0
+    out.cue_action = int(rec.cue_action) if name else -1
+    out.cue = _n.cue_phrase(rec) if name else ""
 
 
 def read_message(message: bytes) -> Optional[ResultMessage]:

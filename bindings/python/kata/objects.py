@@ -17,7 +17,7 @@ if TYPE_CHECKING:
     from .runtime import Runtime
     from .stream import Stream
 
-__all__ = ["Context", "Skeleton", "Clip", "Model", "Stencil", "UpAxis", "ScoreState", "BodyPart",
+__all__ = ["Context", "Skeleton", "Clip", "Model", "Stencil", "UpAxis", "ScoreState", "BodyPart", "CueAction",
            "default_model_path", "find_data", "presets", "version", "library_path", "GPD_DIMS", "GPD_JOINTS"]
 
 GPD_DIMS = _n.GPD_DIMS
@@ -54,6 +54,15 @@ class BodyPart(enum.IntEnum):
     RIGHT_ARM = 2
     LEFT_LEG = 3
     RIGHT_LEG = 4
+
+
+class CueAction(enum.IntEnum):
+    """What a correction cue says to do at its joint (kata_cue_action; -1: no cue)."""
+    BEND = 0        #: bend the knee / elbow more, or lean the chest / lower back forward
+    STRAIGHTEN = 1  #: the opposite of bend
+    RAISE = 2       #: raise the limb (shoulder, hip) or the head (neck)
+    LOWER = 3       #: the opposite of raise
+    TURN = 4        #: mostly sideways or a twist
 
 
 def _share_dirs() -> List[str]:

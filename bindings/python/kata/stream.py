@@ -12,7 +12,7 @@ from .errors import KataError, ResultsDroppedError, ResultsDroppedWarning, Statu
 from .objects import GPD_DIMS, GPD_JOINTS, Clip, Model, Skeleton, _Handle
 from .retarget import _retarget_desc
 
-__all__ = ["Stream", "ResultBuffer", "Results", "ScoreRecord", "detect_time_units", "RESULT_DTYPE", "DROP_POLICIES"]
+__all__ = ["Stream", "ResultBuffer", "Results", "ScoreRecord", "cue_text", "gpd_joint_name", "detect_time_units", "RESULT_DTYPE", "DROP_POLICIES"]
 
 #: What read_results does when results were overwritten unread since the previous read (a full
 #: ring): "warn" (ResultsDroppedWarning, the default), "raise" (ResultsDroppedError carrying the
@@ -22,6 +22,21 @@ DROP_POLICIES = ("warn", "raise", "count")
 #: numpy dtype with the exact layout of kata_result_record (read into directly).
 RESULT_DTYPE = np.dtype(_n.ResultRecord)
 assert RESULT_DTYPE.itemsize == ctypes.sizeof(_n.ResultRecord)
+
+
+def cue_text(record: Any) -> str:
+    """The correction cue of a result (kata_cue_text): "left knee: bend 30 deg more", "" without
+    one. record: a RESULT_DTYPE row (e.g. of Stream.read_results' array) or a ResultRecord."""
+    if not isinstance(record, _n.ResultRecord):
+        record = _n.ResultRecord.from_buffer_copy(np.asarray(record, dtype=RESULT_DTYPE).tobytes())
+    return _n.cue_phrase(record)
+
+
+def gpd_joint_name(joint: int) -> str:
+    """The GPD joint name of joint 0..15 ("LKnee"; kata_gpd_joint_name), e.g. of a result's
+    cue_joint; "" out of range."""
+    name = _n.gpd_joint_name(int(joint))
+    return name.decode() if name else ""
 
 
 def detect_time_units(timestamps: Any) -> str:
@@ -38,7 +53,7 @@ def detect_time_units(timestamps: Any) -> str:
 class ScoreRecord:
     """One scored frame (a kata_result_record), as plain Python values."""
     __slots__ = ("matched_teacher_frame", "matched_teacher_time", "frame_index", "capture_time", "distance", "score",
-                 "parts", "part_scores", "part_to_fix", "state")
+                 "parts", "part_scores", "part_to_fix", "state", "cue_joint", "cue_degrees", "cue_action", "cue")
 
     def __init__(self, rec: "_n.ResultRecord") -> None:
         self.matched_teacher_frame = rec.matched_teacher_frame
@@ -51,6 +66,9 @@ class ScoreRecord:
         self.part_scores = tuple(rec.part_scores)
         self.part_to_fix = rec.part_to_fix
         self.state = rec.state
+        # The correction cue (messages.ResultMessage says what each field holds).
+        from .messages import _set_cue
+        _set_cue(self, rec)
 
     def __repr__(self) -> str:
         return "ScoreRecord(frame=%d, score=%.2f, distance=%.5g)" % (self.frame_index, self.score, self.distance)

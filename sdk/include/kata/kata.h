@@ -638,7 +638,29 @@ KATA_API kata_status kata_stream_restart_teacher(kata_stream stream);
  * below good_score, the part whose joints are farthest from the teacher's, each in its own frame;
  * named at once when nothing is named; another part (or none) replaces a named one only after
  * holding for 0.5 s, so cues do not flicker.
+ * The correction cue (cue_joint, cue_degrees, cue_action; present iff part_to_fix >= 0) says what
+ * to change in that part, as a coach does: "left knee: bend 30 deg more". cue_joint is the joint
+ * to move (a bone turns about the joint at its start: a bent knee names LKnee), the one of the
+ * part whose bone is farthest from the teacher's, measured at the joint (a forearm or shin
+ * against its upper arm or thigh, so a turned hip names the hip, not the knee as well);
+ * cue_degrees that angle. Both averaged like the part scores and held like the part: named at once
+ * with a new part, replaced within a part only after 0.5 s. cue_action from the body frame: knees
+ * and elbows bend / straighten (the inner angle), shoulders and hips raise / lower (the bone's
+ * height), the chest and lower back bend / straighten (the forward lean), the neck raises /
+ * lowers the head; "turn" when most of the angle is sideways or a twist (docs/model/scores.md "The cue").
  * The record's state (kata_score_state, kata/result.h) says when there is no score to show. */
+
+/* The GPD joint name of joint 0..15 ("Hip", "Chest", "Neck", "Head", "LShoulder", "LElbow",
+ * "LHand", "RShoulder", "RElbow", "RHand", "LHip", "LKnee", "LFoot", "RHip", "RKnee", "RFoot":
+ * spec GPD v1 order), e.g. of a record's cue_joint; NULL out of range. A static string. Does not
+ * allocate. [any thread] */
+KATA_API const char* kata_gpd_joint_name(int32_t joint);
+/* The record's correction cue in English into buf ("left knee: bend 30 deg more", "right
+ * shoulder: raise 25 deg"; lower-case joint words, whole degrees), "" when it has none (no cue,
+ * or a record whose struct_size predates the cue). Writes at most size bytes with the
+ * terminating 0 (truncated to fit; 64 bytes always suffice) and returns the phrase's length, as
+ * snprintf does; buf may be NULL when size is 0. Does not allocate. [any thread] */
+KATA_API size_t kata_cue_text(const kata_result_record* record, char* buf, size_t size);
 
 /* A score map. The caller sets struct_size = sizeof(kata_score_calibration). */
 typedef struct kata_score_calibration {

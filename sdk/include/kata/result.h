@@ -40,6 +40,17 @@ typedef enum kata_score_state {
   KATA_SCORE_TEACHER_FINISHED = 3  /* the student has outlasted the teacher clip by 0.25 s */
 } kata_score_state;
 
+/* The action of a correction cue (cue_action below; kata.h "Score calibration and feedback"
+ * says how it is chosen). Values are never reused. */
+typedef enum kata_cue_action {
+  KATA_CUE_NONE = -1,       /* no cue (part_to_fix is -1) */
+  KATA_CUE_BEND = 0,        /* bend the joint more (knee, elbow), or lean the chest / lower back forward */
+  KATA_CUE_STRAIGHTEN = 1,  /* the opposite of bend */
+  KATA_CUE_RAISE = 2,       /* raise the limb (shoulder, hip) or the head (neck) */
+  KATA_CUE_LOWER = 3,       /* the opposite of raise */
+  KATA_CUE_TURN = 4         /* the error is mostly sideways or a twist */
+} kata_cue_action;
+
 /* One result: one frame of one stream, scored against its teacher when it has one. */
 typedef struct kata_result_record {
   uint32_t struct_size;          /* the caller's sizeof(kata_result_record); kept by every writer */
@@ -81,6 +92,15 @@ typedef struct kata_result_record {
   double practice_end_time;      /* its last teacher frame, s */
   int32_t practice_loop;         /* 1: the section is looped (its end is followed by its start) */
   uint32_t reserved0;            /* 0 */
+  /* The correction cue (added after reserved0: check KATA_RESULT_HAS(r, cue_action)), present iff
+   * part_to_fix >= 0 ("left knee: bend 30 deg more": kata_cue_text in kata.h). */
+  int32_t cue_joint;             /* the GPD joint to move (0..15, kata_gpd_joint_name: "LKnee"),
+                                    always one of part_to_fix's joints; -1 for none */
+  float cue_degrees;             /* the angle at cue_joint between the student's bone and the
+                                    teacher's, each in the body's frame, degrees (0..180, averaged
+                                    over 0.5 s like the part scores); 0 for none */
+  int32_t cue_action;            /* kata_cue_action; KATA_CUE_NONE (-1) for none */
+  uint32_t reserved1;            /* 0 */
 } kata_result_record;
 
 /* 1 when a record written for a caller's struct_size holds FIELD. */

@@ -239,3 +239,15 @@ KATA_API kata_status kata_stream_set_calibration(kata_stream stream, const kata_
 }
 
 }  // extern "C"
+
+KATA_API const char* kata_gpd_joint_name(int32_t joint) {
+  return joint >= 0 && joint < kata::kGpdJoints ? kata::kGpdJointNames[static_cast<size_t>(joint)] : nullptr;
+}
+
+KATA_API size_t kata_cue_text(const kata_result_record* record, char* buf, size_t size) {
+  if (size > 0 && !buf) return 0;
+  const bool has = record && KATA_RESULT_HAS(record, cue_action);
+  const int n = kata::metric::cue_text(has ? record->cue_joint : -1, has ? record->cue_degrees : 0.0f,
+                                       has ? record->cue_action : -1, buf, size);
+  return n > 0 ? static_cast<size_t>(n) : 0u;
+}

@@ -113,6 +113,8 @@ void part_error(const float* s, const float* t, PartError& out) {
   }
 }
 
+bool bone_direction(const float* pose, int c, double* d) { return bone(pose, c, d); }
+
 double angle_score(double degrees) {
   const double a = std::max(0.0, degrees) / kAngle50;
   return 100.0 / (1.0 + std::pow(a, kAngleSlope));

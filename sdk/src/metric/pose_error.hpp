@@ -61,6 +61,11 @@ struct PartError {
 };
 void part_error(const float* student_pose, const float* teacher_pose, PartError& out);
 
+// Unit direction of bone c (1..15: joint c's parent -> joint c) of a pose, in the frame it is
+// read in above (the chest frame for the head and arms, the local frame otherwise); false (d
+// zeroed) for a degenerate bone. Allocation-free.
+bool bone_direction(const float* pose, int c, double* d);
+
 // The per-part coaching score of a part angle (degrees): 100 / (1 + (a / kAngle50)^kAngleSlope).
 double angle_score(double degrees);
 

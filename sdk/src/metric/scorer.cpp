@@ -46,7 +46,7 @@ void Scorer::reset() {
   aligner_.reset();
   count_ = 0;
   at_end_since_ = -1.0;
-  candidate_ = shown_ = -1;
+  candidate_ = shown_ = cue_candidate_ = cue_shown_ = -1;
   smoothed_time_ = -1.0;
   record_ = ScoreRecord{};
 }
@@ -80,6 +80,7 @@ const ScoreRecord& Scorer::score_lost(double t) {
   record_.state = ScoreState::kTrackingLost;
   // The cue is withdrawn at once: nothing about the pose is known.
   record_.part_to_fix = shown_ = candidate_ = -1;
+  clear_cue();
   smoothed_time_ = -1.0;
   return record_;
 }
@@ -131,6 +132,7 @@ void Scorer::finish(const float* x, double t, int matched) {
   // The parts' joint angles against the matched teacher frame, and their scores (pose_error.hpp).
   pose_frames(x, pose_);
   part_error(pose_, ref.pose(j), error_);
+  bone_cue(pose_, ref.pose(j), cue_);
   double worst = 100.0;
   for (int q = 0; q < kParts; ++q) {
     const float* pq = p + static_cast<size_t>(q) * stride;
@@ -171,6 +173,7 @@ void Scorer::feedback(double t) {
   record_.state = state;
   if (state != ScoreState::kScoring) {
     shown_ = candidate_ = -1;  // no cue outside scoring; the next one starts fresh
+    clear_cue();
     smoothed_time_ = -1.0;
   } else {
     update_part_to_fix(t);
@@ -189,6 +192,10 @@ void Scorer::update_part_to_fix(double t) {
   for (int q = 0; q < kParts; ++q) {
     smoothed_parts_[q] = record_.part_scores[q] + keep * (smoothed_parts_[q] - record_.part_scores[q]);
     smoothed_offset_[q] = record_.part_offset[q] + keep * (smoothed_offset_[q] - record_.part_offset[q]);
+  }
+  for (int c = 1; c < gpd::kJoints; ++c) {
+    smoothed_cue_[c] = cue_.degrees[c] + keep * (smoothed_cue_[c] - cue_.degrees[c]);
+    smoothed_change_[c] = cue_.change[c] + keep * (smoothed_change_[c] - cue_.change[c]);
   }
   smoothed_total_ = record_.score + keep * (smoothed_total_ - record_.score);
   smoothed_time_ = t;
@@ -219,6 +226,52 @@ void Scorer::update_part_to_fix(double t) {
     shown_ = candidate_;
   else if (candidate_ != shown_ && t - candidate_since_ >= feedback_.hold_time - 1e-9)
     shown_ = candidate_;
+  update_cue(t);
+}
+
+void Scorer::clear_cue() {
+  cue_shown_ = cue_candidate_ = -1;
+  record_.cue_joint = -1;
+  record_.cue_degrees = 0.0f;
+  record_.cue_action = -1;
+}
+
+void Scorer::update_cue(double t) {
+  if (shown_ < 0) {
+    clear_cue();
+    return;
+  }
+  // The candidate: the joint of the shown part's bone with the largest averaged angle at its
+  // joint (cue.hpp). The same averages and the same hysteresis as the part: named at once when
+  // the part changes (a new part, a new cue), and within a part another joint replaces the shown
+  // one only after it has been the candidate for hold_time. Why a hold and not a margin: in a
+  // part two joints are often wrong together (a turned hip also sets the knee's offset), and a
+  // margin would have to be chosen per joint; the hold is the time a student needs to read a cue,
+  // the reason the part holds too.
+  int best = -1;
+  for (int c = 1; c < gpd::kJoints; ++c)
+    if (joint_part(c) == shown_ && (best < 0 || smoothed_cue_[c] > smoothed_cue_[best])) best = c;
+  const int32_t candidate = cue_joint(best);
+  if (candidate != cue_candidate_) {
+    cue_candidate_ = candidate;
+    cue_candidate_since_ = t;
+  }
+  if (cue_shown_ < 0 || joint_part(cue_shown_) != shown_)
+    cue_shown_ = candidate;
+  else if (candidate != cue_shown_ && t - cue_candidate_since_ >= feedback_.hold_time - 1e-9)
+    cue_shown_ = candidate;
+  // The degrees and action: the shown joint's bone with the largest averaged angle (the shoulder
+  // and hip each move two bones), averaged like the part scores.
+  int bone = -1;
+  for (int c = 1; c < gpd::kJoints; ++c)
+    if (cue_joint(c) == cue_shown_ && (bone < 0 || smoothed_cue_[c] > smoothed_cue_[bone])) bone = c;
+  if (bone < 0) {  // not reached: every part has bones, every cue joint a bone
+    clear_cue();
+    return;
+  }
+  record_.cue_joint = cue_shown_;
+  record_.cue_degrees = static_cast<float>(smoothed_cue_[bone]);
+  record_.cue_action = static_cast<int32_t>(cue_action(bone, smoothed_cue_[bone], smoothed_change_[bone]));
 }
 
 }  // namespace kata::metric

@@ -12,6 +12,7 @@
 #include <memory>
 
 #include "metric/align.hpp"
+#include "metric/cue.hpp"
 #include "metric/metric.hpp"
 #include "metric/reference.hpp"
 
@@ -60,6 +61,14 @@ struct ScoreRecord {
   // averaged offset; named at once when no part is named; another part replaces it, or "none"
   // clears it, only after holding for FeedbackOptions::hold_time seconds (hysteresis).
   int32_t part_to_fix = -1;
+  // The correction cue (cue.hpp), present iff part_to_fix >= 0: the GPD joint to move (0..15,
+  // always in part_to_fix; -1 none), the angle at that joint between the student's bone and the
+  // teacher's (degrees, 0..180, averaged over FeedbackOptions::smoothing_time like the part
+  // scores; 0 for none) and the action (CueAction as int32_t, -1 none), from the same averages.
+  // Decided with the part to fix in Scorer::update_part_to_fix, with the same hysteresis.
+  int32_t cue_joint = -1;
+  float cue_degrees = 0.0f;
+  int32_t cue_action = -1;
   ScoreState state = ScoreState::kScoring;
   // Where the student is in the routine: matched * the clip's frame time, seconds from the
   // clip's first frame (0 for a pose reference).
@@ -134,6 +143,9 @@ class Scorer {
   // The part to fix of a kScoring frame at time t, from this frame's part scores and total: the
   // one decision (candidate, averaging and hysteresis) that the cue follows.
   void update_part_to_fix(double t);
+  // The cue of the part to fix (called by update_part_to_fix, after it chose the part).
+  void update_cue(double t);
+  void clear_cue();
 
   std::shared_ptr<const Reference> reference_;
   Aligner aligner_;
@@ -154,6 +166,12 @@ class Scorer {
   double smoothed_time_ = -1.0;     // time of the newest frame in smoothed_parts_; -1: none yet
   double candidate_since_ = 0.0;
   int32_t shown_ = -1;              // part to fix reported
+  BoneCue cue_ = {};                // this frame's per-bone angles at the joints (cue.hpp)
+  double smoothed_cue_[gpd::kJoints] = {};   // cue_.degrees averaged like the part scores
+  double smoothed_change_[gpd::kJoints] = {};  // cue_.change averaged the same way
+  int32_t cue_candidate_ = -1;      // cue joint proposed by the newest frames
+  double cue_candidate_since_ = 0.0;
+  int32_t cue_shown_ = -1;          // cue joint reported
   ScoreRecord record_;
 };
 

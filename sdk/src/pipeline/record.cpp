@@ -18,6 +18,8 @@ void fill_record(const Result& r, uint32_t ghost_joint_count, kata_result_record
   k.matched_teacher_frame = -1;
   k.matched_teacher_time = -1.0;
   k.part_to_fix = -1;
+  k.cue_joint = -1;
+  k.cue_action = -1;
   if (r.scored) {
     const metric::ScoreRecord& s = r.score;
     k.matched_teacher_frame = r.matched_frame;
@@ -28,6 +30,9 @@ void fill_record(const Result& r, uint32_t ghost_joint_count, kata_result_record
     std::copy(s.parts, s.parts + KATA_PART_COUNT, k.parts);
     std::copy(s.part_scores, s.part_scores + KATA_PART_COUNT, k.part_scores);
     k.part_to_fix = s.part_to_fix;
+    k.cue_joint = s.cue_joint;
+    k.cue_degrees = s.cue_degrees;
+    k.cue_action = s.cue_action;
   }
   k.ghost_joint_count = r.has_ghost ? ghost_joint_count : 0u;
   *out = k;

@@ -246,6 +246,9 @@ Bytes Encoder::result(const ResultFields& r) {
   const fb::PracticeSection practice(r.practice_start_time, r.practice_end_time, r.practice_loop != 0,
                                      r.practice_revision);
   if (r.has_practice) o.add_practice(&practice);
+  o.add_cue_joint(static_cast<int8_t>(r.cue_joint));
+  o.add_cue_degrees(r.cue_degrees);
+  o.add_cue_action(static_cast<int8_t>(r.cue_action));
   if (r.ghost) o.add_ghost(ghost);
   if (r.features) o.add_features(features);
   b.Finish(o.Finish(), fb::ResultIdentifier());
@@ -491,6 +494,9 @@ MessageKind Decoder::decode(const void* data, size_t size) {
       o.practice_loop = practice->loop() ? 1 : 0;
       o.practice_revision = practice->revision();
     }
+    o.cue_joint = r->cue_joint();
+    o.cue_degrees = r->cue_degrees();
+    o.cue_action = r->cue_action();
     o.features = r->features() ? r->features()->data() : nullptr;
     o.feature_count = r->features() ? static_cast<int>(r->features()->size()) : 0;
     return MessageKind::kResult;

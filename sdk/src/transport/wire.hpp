@@ -85,6 +85,8 @@ struct ResultFields : kata_result_record {
     matched_teacher_frame = -1;
     matched_teacher_time = -1.0;
     part_to_fix = -1;
+    cue_joint = -1;
+    cue_action = -1;
   }
   const float* features = nullptr;  // feature_count floats, or null
   int feature_count = 0;

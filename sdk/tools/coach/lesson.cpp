@@ -178,6 +178,7 @@ void Lesson::on_result(const transport::ResultFields& f) {
   r.matched = f.matched_teacher_frame;
   r.matched_time = f.matched_teacher_time;
   r.part_to_fix = f.part_to_fix;
+  r.cue_joint = f.cue_joint, r.cue_degrees = f.cue_degrees, r.cue_action = f.cue_action;
   r.latency_ns = f.published_ns > 0 ? f.published_ns - f.arrival_ns : f.computed_ns - f.arrival_ns;
   r.has_ghost = f.ghost != nullptr && static_cast<int>(f.ghost_joint_count) == data_.ghost_joints;
   if (r.has_ghost)

@@ -14,6 +14,7 @@
 
 #include "coach/report_assets.hpp"
 #include "common/error.hpp"
+#include "metric/cue.hpp"
 
 namespace kata::coach {
 namespace {
@@ -48,6 +49,13 @@ void append_ints(std::string& out, const std::vector<T>& v) {
     out += std::to_string(v[k]);
   }
   out += ']';
+}
+
+// The correction cue's phrase of a frame ("left knee: bend 30 deg more"; "" for none).
+std::string cue_phrase(const FrameRecord& r) {
+  char cue[64];
+  metric::cue_text(r.cue_joint, r.cue_degrees, r.cue_action, cue, sizeof cue);
+  return cue;
 }
 
 std::string json_string(const std::string& s) {
@@ -189,6 +197,10 @@ std::string frame_json(const LessonData& d, size_t i) {
       append(s, "%.3f", part_share(r, p));
     }
     s += "],\"fix\":" + std::to_string(r.part_to_fix) + ",\"matched\":" + std::to_string(r.matched);
+    // The correction cue: the GPD joint (-1: none) and the phrase ("" for none).
+    char cue[64];
+    metric::cue_text(r.cue_joint, r.cue_degrees, r.cue_action, cue, sizeof cue);
+    s += ",\"cue_joint\":" + std::to_string(r.cue_joint) + ",\"cue\":" + json_string(cue);
     if (r.matched_time >= 0.0) append(s, ",\"matched_time\":%.3f", r.matched_time);
     s += ",\"latency_us\":";
     append(s, "%.1f", r.latency_ns / 1e3);
@@ -330,6 +342,8 @@ void write_report(const LessonData& d, const std::string& path) {
                                        {"score", fixed("%.0f", r.score)},
                                        {"has_fix", r.part_to_fix >= 0},
                                        {"fix", r.part_to_fix >= 0 ? kPartLabel[r.part_to_fix] : ""},
+                                       {"has_cue", r.cue_joint >= 0},
+                                       {"cue", cue_phrase(r)},
                                        {"bones", bones},
                                        {"part_scores", scores}});
   }

@@ -7,6 +7,8 @@
 
 #include "common/error.hpp"
 #include "io/npz.hpp"
+#include "metric/cue.hpp"
+#include "skeleton/skeleton.hpp"
 
 namespace kata::coach {
 namespace {
@@ -37,8 +39,11 @@ NpzArrays recording_arrays(const LessonData& d) {
   std::vector<int32_t> fix(F), matched(F);
   std::vector<int64_t> latency(F);
   std::vector<double> matched_time(F);
+  std::vector<int32_t> cue_joint(F), cue_action(F);
+  std::vector<float> cue_degrees(F);
   for (size_t i = 0; i < F; ++i) {
     const FrameRecord& r = d.frames[i];
+    cue_joint[i] = r.cue_joint, cue_degrees[i] = r.cue_degrees, cue_action[i] = r.cue_action;
     matched_time[i] = r.matched_time;
     time[i] = r.time, state[i] = static_cast<uint8_t>(r.state), has_ghost[i] = r.has_ghost;
     score[i] = r.score, distance[i] = r.distance, fix[i] = r.part_to_fix, matched[i] = r.matched;
@@ -78,6 +83,10 @@ NpzArrays recording_arrays(const LessonData& d) {
       // Added with the practice modes (issue 21); a recording without them reads as before.
       {"matched_time", npy_array({F}, matched_time.data())},
       {"practice", npy_array({3}, practice)},
+      // Added with the correction cue (issue 34 item 4); optional on read.
+      {"cue_joint", npy_array({F}, cue_joint.data())},
+      {"cue_degrees", npy_array({F}, cue_degrees.data())},
+      {"cue_action", npy_array({F}, cue_action.data())},
   };
 }
 
@@ -129,6 +138,10 @@ LessonData read_recording(const std::string& path) {
   // and the practice section (teacher_start, loop_first, loop_last; -1: unset).
   const auto matched_time =
       arrays.count("matched_time") ? take<double>(arrays, path, "matched_time", {F}) : std::vector<double>(F, -1.0);
+  const bool has_cue = arrays.count("cue_joint") != 0;
+  const auto cue_joint = has_cue ? take<int32_t>(arrays, path, "cue_joint", {F}) : std::vector<int32_t>(F, -1);
+  const auto cue_degrees = has_cue ? take<float>(arrays, path, "cue_degrees", {F}) : std::vector<float>(F, 0.0f);
+  const auto cue_action = has_cue ? take<int32_t>(arrays, path, "cue_action", {F}) : std::vector<int32_t>(F, -1);
   if (arrays.count("practice")) {
     const auto practice = take<int32_t>(arrays, path, "practice", {3});
     d.settings.teacher_start = practice[0], d.settings.loop_first = practice[1], d.settings.loop_last = practice[2];
@@ -153,6 +166,10 @@ LessonData read_recording(const std::string& path) {
     r.latency_ns = latency[i], r.has_ghost = has_ghost[i] != 0 && G > 0;
     if (!std::isfinite(matched_time[i])) throw Error(ErrorKind::kParse, path + ": frame " + std::to_string(i) + ": matched_time is not finite");
     r.matched_time = matched_time[i];
+    if (cue_joint[i] < -1 || cue_joint[i] >= kGpdJoints || cue_action[i] < -1 || cue_action[i] > 4 ||
+        !(cue_degrees[i] >= 0.0f && cue_degrees[i] <= 180.0f))
+      throw Error(ErrorKind::kParse, path + ": frame " + std::to_string(i) + ": the cue is out of range");
+    r.cue_joint = cue_joint[i], r.cue_degrees = cue_degrees[i], r.cue_action = cue_action[i];
     std::copy(parts.begin() + static_cast<ptrdiff_t>(i * metric::kParts),
               parts.begin() + static_cast<ptrdiff_t>((i + 1) * metric::kParts), r.parts);
     std::copy(part_scores.begin() + static_cast<ptrdiff_t>(i * metric::kParts),
@@ -167,14 +184,21 @@ void write_results_csv(const LessonData& d, const std::string& path) {
   std::fprintf(out, "frame,time,state,score,distance");
   for (int p = 0; p < metric::kParts; ++p) std::fprintf(out, ",%s", metric::part_name(p));
   for (int p = 0; p < metric::kParts; ++p) std::fprintf(out, ",%s_score", metric::part_name(p));
-  std::fprintf(out, ",part_to_fix,matched_teacher_frame,matched_teacher_time\n");
+  std::fprintf(out, ",part_to_fix,matched_teacher_frame,matched_teacher_time,cue_joint,cue_degrees,cue\n");
   for (size_t i = 0; i < static_cast<size_t>(d.pushed); ++i) {
     const FrameRecord& r = d.frames[i];
     std::fprintf(out, "%lld,%.6f,%d,%.9g,%.9g", static_cast<long long>(r.frame), r.time, static_cast<int>(r.state), r.score,
                  r.distance);
     for (float p : r.parts) std::fprintf(out, ",%.9g", p);
     for (float p : r.part_scores) std::fprintf(out, ",%.9g", p);
-    std::fprintf(out, ",%d,%d,%.6f\n", r.part_to_fix, r.matched, r.matched_time);
+    std::fprintf(out, ",%d,%d,%.6f", r.part_to_fix, r.matched, r.matched_time);
+    if (r.cue_joint >= 0 && r.cue_joint < kGpdJoints) {
+      char cue[64];
+      metric::cue_text(r.cue_joint, r.cue_degrees, r.cue_action, cue, sizeof cue);
+      std::fprintf(out, ",%s,%.2f,%s\n", kGpdJointNames[static_cast<size_t>(r.cue_joint)], r.cue_degrees, cue);
+    } else {
+      std::fputs(",,,\n", out);
+    }
   }
   const bool ok = std::fflush(out) == 0 && !std::ferror(out);
   std::fclose(out);

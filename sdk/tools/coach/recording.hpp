@@ -25,6 +25,9 @@
 //                                    time, seconds from first_frame (-1: not scored; optional on read)
 //   practice      int32   (3)        teacher_start, loop_first, loop_last (teacher clip frames; -1:
 //                                    unset; optional on read)
+//   cue_joint     int32   (F)        the correction cue's GPD joint (-1: none; optional on read)
+//   cue_degrees   float32 (F)        its angle, degrees (0: none; optional on read)
+//   cue_action    int32   (F)        its kata_cue_action (-1: none; optional on read)
 #pragma once
 
 #include <string>
@@ -40,7 +43,9 @@ void write_recording(const LessonData& data, const std::string& path);
 LessonData read_recording(const std::string& path);
 
 // Every frame's result as CSV: frame, time, state, score, distance, the five parts (split of
-// distance^2), the five part scores (<part>_score), part_to_fix, matched_teacher_frame. Throws kata::Error(kIo).
+// distance^2), the five part scores (<part>_score), part_to_fix, matched_teacher_frame,
+// matched_teacher_time, then the cue as `kata score` writes it: cue_joint (GPD name, "" for
+// none), cue_degrees, cue (the phrase). Throws kata::Error(kIo).
 void write_results_csv(const LessonData& data, const std::string& path);
 
 }  // namespace kata::coach

@@ -294,6 +294,9 @@ struct WebcamCoach::Impl {
       e["score"] = f.score;
       e["parts"] = std::vector<float>(std::begin(f.part_scores), std::end(f.part_scores));
       e["fix"] = f.part_to_fix >= 0 ? metric::part_name(f.part_to_fix) : "";
+      char cue[64];  // the correction cue's phrase, "" for none
+      metric::cue_text(f.cue_joint, f.cue_degrees, f.cue_action, cue, sizeof cue);
+      e["cue"] = cue;
       e["matched"] = f.matched_teacher_frame;
       float ghost[3 * kGpdJoints];
       if (ghost_of(f.matched_teacher_frame, r.frame, ghost)) e["ghost"] = std::vector<float>(ghost, ghost + 3 * kGpdJoints);
