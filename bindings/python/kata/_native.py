@@ -285,7 +285,7 @@ for _name, (_restype, _argtypes) in _SIGNATURES.items():
 def cue_phrase(rec: ResultRecord) -> str:
     """kata_cue_text of a record: "left knee: bend 30 deg more", "" without a cue."""
     buf = ctypes.create_string_buffer(64)
-    cue_text(ctypes.byref(rec), buf, len(buf))  # noqa: F821 (set by the loop above)
+    globals()["cue_text"](ctypes.byref(rec), buf, len(buf))  # set by the loop above
     return buf.value.decode()
 
 
