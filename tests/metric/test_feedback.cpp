@@ -161,16 +161,23 @@ void check_part_to_fix_holds(double smoothing_time) {
   metric::Scorer scorer(std::make_shared<const metric::Reference>(m, test::clip_row("02_01.bvh", 100)), {}, fb);
   const double dt = 1.0 / 120;
   std::vector<int> lowest;
-  std::vector<double> average(kParts, 0.0);
+  std::vector<double> average(kParts, 0.0), offset(kParts, 0.0);
   int shown = -1, changes = 0, lowest_changes = 0;
   for (int f = 0; f < test::clip_frames("07_01.bvh"); ++f) {
     const metric::ScoreRecord& r = scorer.score(test::clip_row("07_01.bvh", f), f * dt);
     const double keep = f == 0 || smoothing_time == 0.0 ? 0.0 : std::exp(-dt / smoothing_time);
-    // The ranking (scorer.cpp update_part_to_fix): the largest averaged part offset.
-    for (int q = 0; q < kParts; ++q) average[q] = keep * average[q] + (1.0 - keep) * r.part_offset[q];
-    int low = 0;
-    for (int q = 1; q < kParts; ++q)
-      if (average[q] > average[low]) low = q;
+    // The ranking (scorer.cpp update_part_to_fix): the lowest averaged part score; with every
+    // part at 100 (none below good) and the total below, the largest averaged part offset.
+    for (int q = 0; q < kParts; ++q) {
+      average[q] = keep * average[q] + (1.0 - keep) * r.part_scores[q];
+      offset[q] = keep * offset[q] + (1.0 - keep) * r.part_offset[q];
+    }
+    int low = 0, far = 0;
+    for (int q = 1; q < kParts; ++q) {
+      if (average[q] < average[low]) low = q;
+      if (offset[q] > offset[far]) far = q;
+    }
+    if (!(average[low] < c.good_score)) low = far;
     lowest_changes += !lowest.empty() && lowest.back() != low;
     lowest.push_back(low);
     const int hold_frames = static_cast<int>(std::ceil(fb.hold_time / dt - 1e-9));
@@ -231,7 +238,7 @@ TEST(Feedback, APartIsNamedWhileItOrTheTotalIsBelowGood) {
               std::make_shared<const metric::Metric>(model), reference_row),
           {}, fb);
       std::vector<double> average(kParts + 1, 0.0); // the parts, then the total
-      std::vector<double> offset(kParts, 0.0);       // the parts' offsets (the ranking)
+      std::vector<double> offset(kParts, 0.0);       // the parts' offsets (the total's ranking)
       std::vector<int> candidate;
       for (int f = 0; f < frames; ++f) {
         const metric::ScoreRecord &r =
@@ -245,10 +252,13 @@ TEST(Feedback, APartIsNamedWhileItOrTheTotalIsBelowGood) {
         const int lowest = static_cast<int>(
             std::min_element(average.begin(), average.begin() + kParts) -
             average.begin());
-        const int low = static_cast<int>(
+        const int farthest = static_cast<int>(
             std::max_element(offset.begin(), offset.end()) - offset.begin());
         const bool part_poor = average[lowest] < good,
                    total_poor = average[kParts] < good;
+        // The ranking (scorer.cpp): the lowest averaged part while one is below good, the
+        // farthest part (largest averaged offset) when only the total is.
+        const int low = part_poor ? lowest : farthest;
         by_part_only += part_poor && !total_poor;
         by_total_only += total_poor && !part_poor;
         by_neither += !part_poor && !total_poor;

@@ -233,10 +233,15 @@ TEST(PartFix, AgreesWithGeometryOnShippedPairsOfDifferentSubjects) {
                 1000 * mjd[4] / scored, metric::part_name(order[0]), metric::part_name(order[1]),
                 metric::part_name(named), top2 ? "" : below ? " (BELOW THE MEDIAN)" : " (3rd)");
   }
-  // Measured with the shipped model (the part to fix ranked by the part offset, scorer.cpp): see
-  // the printout; docs/model/part_fix.py measures the 98 pairs of every subject.
-  EXPECT_GE(in_top2, 3);
-  EXPECT_EQ(below_median, 0);
+  // Measured with the shipped model: see the printout; docs/model/part_fix.py measures the 98
+  // pairs of every subject (the part named on the most frames: 68.4 % in geometry's top 2, 77.6 %
+  // ranked by the offset; issue 34's 85 % missed either way). On these four pairs the parts' MJD differ by 10-20 % (the printout), so geometry's
+  // order is close to a tie; with the part ranked by its offset (before 2026-12-04) 3 of 4 were in
+  // the top 2, now by its score 2 of 4 and one (02_02 <- 07_01: the right arm, the lowest score,
+  // geometry's 4th) below the median. The trade (scorer.cpp update_part_to_fix): the offset named
+  // a leg scoring 99 for a chest bent 45 deg scoring 33, on every frame.
+  EXPECT_GE(in_top2, 2);
+  EXPECT_LE(below_median, 1);
 }
 
 TEST(PartFix, PartDistanceFollowsItsJoints) {
