@@ -62,6 +62,7 @@
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -75,6 +76,7 @@
 #include "io/bvh.hpp"
 #include "io/clip_features.hpp"
 #include "io/model_file.hpp"
+#include "load_progress.hpp"
 #include "pipeline/pipeline.hpp"
 #include "runtime/plugin.hpp"
 #include "runtime/plugin_host.hpp"
@@ -195,12 +197,13 @@ void run_serve(const std::string& file, const std::string& counters_path) {
   std::map<std::string, std::shared_ptr<const kata::pipeline::Teacher>> teachers;
   auto load_teacher = [&](const TeacherSource& t) {
     if (t.path.empty() || !metric || teachers.count(t.path)) return;
+    kata::tools::LoadProgress progress(t.path);  // a line on stderr if loading takes > 1 s (issue 36)
     const kata::BvhClip clip = kata::load_bvh(t.path);
     const auto positions = kata::clip_positions(clip, t.first_frame);
     const kata::GpdMap map = kata::make_gpd_map(clip.skeleton, kata::preset_joint_names("cmu"));
     teachers[t.path] = kata::pipeline::Teacher::from_positions(
         metric, clip.skeleton, kata::stream_config_for(clip.skeleton, map, metric->stencil()), positions.data(),
-        clip.frame_count() - t.first_frame, clip.frame_time);
+        clip.frame_count() - t.first_frame, clip.frame_time, -1, std::ref(progress));
   };
   load_teacher(config.default_teacher);
   for (const auto& [id, t] : config.teachers) load_teacher(t);

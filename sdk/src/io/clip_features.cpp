@@ -18,12 +18,40 @@ std::vector<float> clip_features(const BvhClip& clip, const GpdMap& map, gpd::St
   }
 }
 
-std::vector<float> clip_positions(const BvhClip& clip, int first) {
+namespace {
+
+void check_first(const BvhClip& clip, int first) {
   const int frames = clip.frame_count();
   if (first < 0 || first > frames)
     throw Error(ErrorKind::kInvalidArgument, bounded(clip.path) + ": first frame " + std::to_string(first) +
                                                  " out of range (the clip has " + std::to_string(frames) +
                                                  " frames; --first-frame takes 0.." + std::to_string(frames) + ")");
+}
+
+}  // namespace
+
+void clip_features_in_chunks(const BvhClip& clip, const GpdMap& map, gpd::Stencil stencil, int first,
+                             int chunk_frames, const FeatureSink& sink) {
+  check_first(clip, first);
+  const int n = clip.skeleton.joint_count();
+  Eigen::MatrixX3d world(n, 3);
+  // Frame by frame exactly as clip_positions makes them (the same floats, so the same features).
+  auto positions = [&](int i, float* o) {
+    world_positions(clip, first + i, world);
+    for (int j = 0; j < n; ++j)
+      for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(world(j, k));
+  };
+  try {
+    features_in_chunks(stream_config_for(clip.skeleton, map, stencil), positions, clip.frame_count() - first,
+                       clip.frame_time, chunk_frames, sink);
+  } catch (const Error& e) {
+    throw Error(e.kind(), bounded(clip.path) + ": " + e.what());
+  }
+}
+
+std::vector<float> clip_positions(const BvhClip& clip, int first) {
+  const int frames = clip.frame_count();
+  check_first(clip, first);
   const int n = clip.skeleton.joint_count();
   Eigen::MatrixX3d world(n, 3);
   std::vector<float> xyz(static_cast<size_t>(frames - first) * 3 * static_cast<size_t>(n));

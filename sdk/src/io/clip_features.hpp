@@ -8,6 +8,7 @@
 #include "gpd/gpd.hpp"
 #include "io/bvh.hpp"
 #include "skeleton/skeleton.hpp"
+#include "stream/stream.hpp"
 
 namespace kata {
 
@@ -16,6 +17,11 @@ namespace kata {
 // so with the central stencil the last row uses the backward formulas (spec section 5).
 // `first` = 1 skips the T-pose the CMU converter put at frame 0.
 std::vector<float> clip_features(const BvhClip& clip, const GpdMap& map, gpd::Stencil stencil, int first = 0);
+// The same features in chunks of at most `chunk_frames` (stream.hpp features_in_chunks), each
+// frame's positions made when the stream needs them: neither the clip's positions nor its
+// features are ever held whole (a long teacher's Reference, issue 36).
+void clip_features_in_chunks(const BvhClip& clip, const GpdMap& map, gpd::Stencil stencil, int first,
+                             int chunk_frames, const FeatureSink& sink);
 
 // World positions of frames [first, frame_count) by forward kinematics: (frames - first) x
 // joints x 3 floats, row-major, file units.

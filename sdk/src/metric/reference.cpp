@@ -16,32 +16,67 @@ using detail::dist2;
 Reference::Reference(std::shared_ptr<const Metric> metric, const float* features)
     : metric_(std::move(metric)), kind_(ReferenceKind::kPose), frames_(1) {
   if (!metric_ || !features) throw Error(ErrorKind::kInvalidArgument, "reference: null model or features");
-  build(features);
+  begin();
+  add(features, 0, 1);
+  finish();
 }
 
 Reference::Reference(std::shared_ptr<const Metric> metric, const float* features, int frames, double frame_time)
     : metric_(std::move(metric)), kind_(ReferenceKind::kClip), frames_(frames), frame_time_(frame_time) {
   if (!metric_ || !features) throw Error(ErrorKind::kInvalidArgument, "reference: null model or features");
+  check_clip(frames, frame_time);
+  begin();
+  add(features, 0, frames);
+  finish();
+}
+
+Reference::Reference(std::shared_ptr<const Metric> metric, const FeatureChunks& features, int frames,
+                     double frame_time)
+    : metric_(std::move(metric)), kind_(ReferenceKind::kClip), frames_(frames), frame_time_(frame_time) {
+  if (!metric_ || !features) throw Error(ErrorKind::kInvalidArgument, "reference: null model or features");
+  check_clip(frames, frame_time);
+  begin();
+  int done = 0;
+  features([&](const float* chunk, int count) {
+    if (!chunk || count < 0 || count > frames_ - done)
+      throw Error(ErrorKind::kInvalidArgument, "reference clip: more feature frames than the " +
+                                                   std::to_string(frames_) + " announced");
+    add(chunk, done, count);
+    done += count;
+  });
+  if (done != frames_)
+    throw Error(ErrorKind::kInvalidArgument, "reference clip: " + std::to_string(done) + " feature frames of the " +
+                                                 std::to_string(frames_) + " announced");
+  finish();
+}
+
+void Reference::check_clip(int frames, double frame_time) const {
   if (frames < 1) throw Error(ErrorKind::kInvalidArgument, "reference clip: no frames");
   if (!(frame_time > 0.0) || !std::isfinite(frame_time))
     throw Error(ErrorKind::kInvalidArgument, "reference clip: frame time must be > 0 seconds");
-  build(features);
 }
 
-void Reference::build(const float* features) {
+void Reference::begin() {
   stride_ = metric_->stride();
-  for (size_t i = 0; i < static_cast<size_t>(frames_) * gpd::kDims; ++i)
+  rows_ = AlignedFloats(static_cast<size_t>(frames_) * kProjectionRows * stride_);
+  poses_.resize(static_cast<size_t>(frames_) * kPoseFloats);
+}
+
+void Reference::add(const float* features, int first, int count) {
+  for (size_t i = 0; i < static_cast<size_t>(count) * gpd::kDims; ++i)
     if (!std::isfinite(features[i]))
       throw Error(ErrorKind::kInvalidArgument, "reference: NaN/Inf in the features of frame " +
-                                                   std::to_string(i / gpd::kDims));
-  rows_ = AlignedFloats(static_cast<size_t>(frames_) * kProjectionRows * stride_);
+                                                   std::to_string(first + static_cast<int>(i / gpd::kDims)));
   Metric::Workspace ws = metric_->make_workspace();
-  for (int j = 0; j < frames_; ++j)
+  for (int j = 0; j < count; ++j)
     metric_->part_projections(features + static_cast<size_t>(j) * gpd::kDims, ws,
-                              rows_.data() + static_cast<size_t>(j) * kProjectionRows * stride_);
-  poses_.resize(static_cast<size_t>(frames_) * kPoseFloats);
-  for (int j = 0; j < frames_; ++j)
-    pose_frames(features + static_cast<size_t>(j) * gpd::kDims, poses_.data() + static_cast<size_t>(j) * kPoseFloats);
+                              rows_.data() + static_cast<size_t>(first + j) * kProjectionRows * stride_);
+  for (int j = 0; j < count; ++j)
+    pose_frames(features + static_cast<size_t>(j) * gpd::kDims,
+                poses_.data() + static_cast<size_t>(first + j) * kPoseFloats);
+}
+
+void Reference::finish() {
   float largest = 0.0f;
   for (int j = 0; j < frames_; ++j)
     for (int i = 0; i < stride_; ++i) largest = std::max(largest, std::fabs(alignment_projection(j)[i]));

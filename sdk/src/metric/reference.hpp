@@ -9,6 +9,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <vector>
 
@@ -28,6 +29,13 @@ class Reference {
   Reference(std::shared_ptr<const Metric> metric, const float* features);
   // A clip: `frames` feature vectors (frames x kDims, row-major), `frame_time` seconds apart.
   Reference(std::shared_ptr<const Metric> metric, const float* features, int frames, double frame_time);
+  // The same clip with its features streamed: `features(sink)` calls sink(chunk, n) with the
+  // clip's frames in order, n x kDims floats a call, `frames` in all (e.g. features_in_chunks).
+  // Each chunk is projected and let go, so loading a long teacher never holds its 6.7 KB a frame
+  // of features (issue 36); the result is bit for bit the one-shot constructor's. Throws
+  // kInvalidArgument as that does, and when the chunks do not add up to `frames`.
+  using FeatureChunks = std::function<void(const std::function<void(const float* features, int count)>& sink)>;
+  Reference(std::shared_ptr<const Metric> metric, const FeatureChunks& features, int frames, double frame_time);
   // A pose given as the 16 GPD joints' world positions (16 x 3 floats, +Y up, any units) and the
   // body height in the same units: a static pose (kinetics zero). Throws kInvalidArgument.
   static Reference from_joints(std::shared_ptr<const Metric> metric, const float* joints, double body_height);
@@ -71,7 +79,12 @@ class Reference {
   const float* pose(int j) const { return poses_.data() + static_cast<size_t>(j) * kPoseFloats; }
 
  private:
-  void build(const float* features);
+  void check_clip(int frames, double frame_time) const;
+  void begin();
+  // Frames [first, first + count): their projections and poses.
+  void add(const float* features, int first, int count);
+  // What needs the whole clip, from the projections only (the features are gone by then).
+  void finish();
 
   std::shared_ptr<const Metric> metric_;
   ReferenceKind kind_ = ReferenceKind::kPose;

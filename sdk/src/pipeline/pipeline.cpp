@@ -17,7 +17,7 @@ int64_t now_ns() {
 std::shared_ptr<const Teacher> Teacher::from_positions(std::shared_ptr<const metric::Metric> metric,
                                                        const Skeleton& skeleton, const StreamConfig& stream_config,
                                                        const float* positions, int frames, double frame_time,
-                                                       int pose_frame) {
+                                                       int pose_frame, const LoadProgress& progress) {
   if (!metric) throw Error(ErrorKind::kInvalidArgument, "teacher: no model");
   if (frames < 1 || !positions) throw Error(ErrorKind::kInvalidArgument, "teacher: no frames");
   if (stream_config.input_joints != skeleton.joint_count())
@@ -27,17 +27,34 @@ std::shared_ptr<const Teacher> Teacher::from_positions(std::shared_ptr<const met
   if (pose_frame < -1 || pose_frame >= frames)
     throw Error(ErrorKind::kInvalidArgument, "teacher: pose frame " + std::to_string(pose_frame) +
                                                  " is outside -1.." + std::to_string(frames - 1));
-  const std::vector<float> features = features_of_frames(stream_config, positions, frames, frame_time);
   auto teacher = std::make_shared<Teacher>();
   teacher->skeleton = skeleton;
   const size_t per_frame = 3 * static_cast<size_t>(skeleton.joint_count());
+  const FramePositions frame = [&](int i, float* xyz) {
+    const float* p = positions + static_cast<size_t>(i) * per_frame;
+    std::copy(p, p + per_frame, xyz);
+  };
   if (pose_frame >= 0) {
+    const std::vector<float> features = features_of_frames(stream_config, positions, frames, frame_time);
     teacher->reference = std::make_shared<const metric::Reference>(
         metric, features.data() + static_cast<size_t>(pose_frame) * gpd::kDims);
     const float* p = positions + static_cast<size_t>(pose_frame) * per_frame;
     teacher->positions.assign(p, p + per_frame);
   } else {
-    teacher->reference = std::make_shared<const metric::Reference>(metric, features.data(), frames, frame_time);
+    // The features are projected chunk by chunk as the stream makes them and let go (issue 36: an
+    // 11-minute teacher's would be 550 MB); the Reference is the one-shot constructor's, bit for bit.
+    constexpr int kChunkFrames = 1024;
+    int done = 0;
+    teacher->reference = std::make_shared<const metric::Reference>(
+        metric,
+        [&](const std::function<void(const float*, int)>& sink) {
+          features_in_chunks(stream_config, frame, frames, frame_time, kChunkFrames, [&](const float* f, int n) {
+            sink(f, n);
+            done += n;
+            if (progress) progress(done, frames);
+          });
+        },
+        frames, frame_time);
     teacher->positions.assign(positions, positions + static_cast<size_t>(frames) * per_frame);
   }
   return teacher;

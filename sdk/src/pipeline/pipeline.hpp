@@ -22,6 +22,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 #include <vector>
@@ -55,11 +56,14 @@ struct Teacher {
   // A teacher from recorded joint positions (frames x skeleton joints x 3 floats, row-major,
   // teacher units), `frame_time` seconds apart. Features are computed through a Stream with
   // `stream_config` (its stencil must be the metric's). pose_frame >= 0: only that frame, as a
-  // pose reference; -1: the whole clip, followed by the online alignment. Throws kata::Error.
+  // pose reference; -1: the whole clip, followed by the online alignment. `progress`, if set, is
+  // called with (frames projected, frames) after each chunk of a clip (a long teacher's loading
+  // takes seconds: kata coach and kata serve show it). Throws kata::Error.
+  using LoadProgress = std::function<void(int done, int frames)>;
   static std::shared_ptr<const Teacher> from_positions(std::shared_ptr<const metric::Metric> metric,
                                                        const Skeleton& skeleton, const StreamConfig& stream_config,
                                                        const float* positions, int frames, double frame_time,
-                                                       int pose_frame = -1);
+                                                       int pose_frame = -1, const LoadProgress& progress = {});
   // A teacher known only by its features (no positions: scores, no ghost).
   static std::shared_ptr<const Teacher> from_reference(std::shared_ptr<const metric::Reference> reference);
 };

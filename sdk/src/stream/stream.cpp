@@ -562,20 +562,48 @@ std::vector<float> features_of_frames(const StreamConfig& config, const float* p
                                       double frame_time) {
   if (frames < 0 || (frames > 0 && !positions))
     throw Error(ErrorKind::kInvalidArgument, "features_of_frames: no positions");
+  std::vector<float> out(static_cast<size_t>(std::max(frames, 0)) * gpd::kDims);
+  const size_t stride = 3 * static_cast<size_t>(config.input_joints);
+  size_t filled = 0;
+  features_in_chunks(
+      config,
+      [&](int i, float* xyz) {
+        const float* p = positions + static_cast<size_t>(i) * stride;
+        std::copy(p, p + stride, xyz);
+      },
+      frames, frame_time, 1024, [&](const float* v, int n) {  // a small chunk: no second copy of `out`
+        std::copy(v, v + static_cast<size_t>(n) * gpd::kDims, out.begin() + static_cast<long>(filled));
+        filled += static_cast<size_t>(n) * gpd::kDims;
+      });
+  return out;
+}
+
+void features_in_chunks(const StreamConfig& config, const FramePositions& positions, int frames, double frame_time,
+                        int chunk_frames, const FeatureSink& sink) {
+  if (frames < 0 || (frames > 0 && !positions))
+    throw Error(ErrorKind::kInvalidArgument, "features_of_frames: no positions");
   if (!(frame_time > 0.0) || !std::isfinite(frame_time))
     throw Error(ErrorKind::kInvalidArgument, "features_of_frames: frame time must be > 0 seconds");
+  if (chunk_frames < 1) throw Error(ErrorKind::kInvalidArgument, "features_in_chunks: chunk of no frames");
   Stream stream(config);
-  std::vector<float> out(static_cast<size_t>(frames) * gpd::kDims);
-  const size_t stride = 3 * static_cast<size_t>(config.input_joints);
+  std::vector<float> chunk(static_cast<size_t>(std::min(chunk_frames, std::max(frames, 1))) * gpd::kDims);
+  const int chunk_cap = static_cast<int>(chunk.size() / gpd::kDims);
+  std::vector<float> xyz(3 * static_cast<size_t>(std::max(config.input_joints, 0)));
+  int held = 0;        // vectors in `chunk`
   int64_t copied = 0;  // vectors copied out so far (they are frames 0, 1, ... in order)
   auto collect = [&] {
     for (; copied < stream.emitted_count(); ++copied) {
       const float* v = stream.vector_of(copied);
-      std::copy(v, v + gpd::kDims, out.begin() + copied * gpd::kDims);
+      std::copy(v, v + gpd::kDims, chunk.begin() + static_cast<long>(held) * gpd::kDims);
+      if (++held == chunk_cap) {
+        sink(chunk.data(), held);
+        held = 0;
+      }
     }
   };
   for (int i = 0; i < frames; ++i) {
-    const Status s = stream.push(i * frame_time, positions + static_cast<size_t>(i) * stride, config.input_joints);
+    positions(i, xyz.data());
+    const Status s = stream.push(i * frame_time, xyz.data(), config.input_joints);
     if (s != Status::kOk)
       throw Error(ErrorKind::kInvalidArgument, "frame " + std::to_string(i) + ": " + stream.last_error());
     collect();
@@ -583,7 +611,7 @@ std::vector<float> features_of_frames(const StreamConfig& config, const float* p
   if (stream.flush() != Status::kOk)
     throw Error(ErrorKind::kInvalidArgument, std::string("end of frames: ") + stream.last_error());
   collect();
-  return out;
+  if (held > 0) sink(chunk.data(), held);
 }
 
 }  // namespace kata

@@ -5,6 +5,7 @@
 #pragma once
 
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "common/status.hpp"
@@ -78,6 +79,16 @@ double stream_body_height(double given, const Skeleton& skeleton, const GpdMap& 
 // kata::Error(kInvalidArgument) naming the frame a stream refuses. Allocates (offline use).
 std::vector<float> features_of_frames(const StreamConfig& config, const float* positions, int frames,
                                       double frame_time);
+
+// The same features delivered in chunks instead of one matrix, so a long clip's features (6.7 KB
+// a frame) need never be held whole (issue 36: a 20-minute teacher's would be 1.3 GB).
+// `positions(i, xyz)` writes frame i's config.input_joints x 3 floats to xyz; `sink(features, n)`
+// receives the next n frames' features (n x gpd::kDims, in frame order, n <= chunk_frames; the
+// buffer is reused after it returns). Same values as features_of_frames, same errors.
+using FramePositions = std::function<void(int frame, float* xyz)>;
+using FeatureSink = std::function<void(const float* features, int count)>;
+void features_in_chunks(const StreamConfig& config, const FramePositions& positions, int frames, double frame_time,
+                        int chunk_frames, const FeatureSink& sink);
 
 // The check a Stream applies to each vector before it publishes it: the index of the vector's
 // first non-finite feature, or -1 when every feature is finite. `largest_bits` is the GPD

@@ -3,11 +3,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <functional>
 
 #include "common/error.hpp"
 #include "io/bvh.hpp"
 #include "io/clip_features.hpp"
 #include "io/model_file.hpp"
+#include "load_progress.hpp"
 #include "metric/scorer.hpp"
 #include "pipeline/pipeline.hpp"
 
@@ -66,6 +68,7 @@ transport::SkeletonDefinition definition(uint64_t id, const BvhClip& clip, const
 Lesson::Lesson(const LessonSettings& settings) {
   data_.settings = settings;
   const auto metric = std::make_shared<const metric::Metric>(metric::load_model(settings.model));
+  tools::LoadProgress progress(settings.teacher);  // a line on stderr if loading takes > 1 s (issue 36)
   const BvhClip teacher = load_bvh(settings.teacher);
   const BvhClip student = load_bvh(settings.student);
   if (settings.first_frame < 0 || settings.first_frame >= teacher.frame_count() ||
@@ -81,7 +84,7 @@ Lesson::Lesson(const LessonSettings& settings) {
   const int teacher_frames = teacher.frame_count() - settings.first_frame;
   const auto teacher_ref = pipeline::Teacher::from_positions(metric, teacher.skeleton, teacher_config,
                                                              teacher_positions_.data(), teacher_frames,
-                                                             teacher.frame_time);
+                                                             teacher.frame_time, -1, std::ref(progress));
   teacher_joints_ = teacher.skeleton.joint_count();
   teacher_frame_time_ = teacher.frame_time;
 

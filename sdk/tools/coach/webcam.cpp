@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstring>
 #include <fstream>
+#include <functional>
 
 #include <httplib.h>
 #include <nlohmann/json.hpp>
@@ -16,6 +17,7 @@
 #include "common/time_units.hpp"
 #include "io/bvh.hpp"
 #include "io/clip_features.hpp"
+#include "load_progress.hpp"
 #include "io/model_file.hpp"
 #include "io/motion_source.hpp"
 #include "io/npy.hpp"
@@ -142,6 +144,7 @@ struct WebcamCoach::Impl {
     double frame_time = 0.0;
     int count = 0;
     StreamConfig config;
+    tools::LoadProgress progress(path);  // a line on stderr if loading takes > 1 s (issue 36)
     if (bvh) {
       const BvhClip clip = load_bvh(path);
       if (settings.first_frame < 0 || settings.first_frame >= clip.frame_count())
@@ -169,7 +172,8 @@ struct WebcamCoach::Impl {
     }
     teacher_frames = count;
     teacher_frame_time = frame_time;
-    const auto ref = pipeline::Teacher::from_positions(metric, skeleton, config, positions.data(), count, frame_time);
+    const auto ref = pipeline::Teacher::from_positions(metric, skeleton, config, positions.data(), count, frame_time,
+                                                       -1, std::ref(progress));
     teacher_gpd.resize(static_cast<size_t>(count) * 3 * kGpdJoints);
     for (int f = 0; f < count; ++f)
       map_to_gpd(map, bvh ? config.up_axis : axes, positions.data() + static_cast<size_t>(f) * 3 * skeleton.joint_count(),
