@@ -84,9 +84,11 @@ def geometry(t, s, a, b):
 
 
 def model_key():
-    """The per-pair CSVs depend on the model's W and maps: cached under the model file's size and mtime."""
-    st = os.stat(MODEL)
-    return "%d_%d" % (st.st_size, int(st.st_mtime))
+    """The per-pair CSVs depend on the model's W and maps and on the scorer that wrote them: cached
+    under the model file's and the kata binary's size and mtime (a rebuilt scorer with the same
+    model must not reuse the old CSVs)."""
+    st, sk = os.stat(MODEL), os.stat(KATA)
+    return "%d_%d_%d_%d" % (st.st_size, int(st.st_mtime), sk.st_size, int(sk.st_mtime))
 
 
 def score_pair(t, s):
