@@ -166,18 +166,15 @@ void check_part_to_fix_holds(double smoothing_time) {
   for (int f = 0; f < test::clip_frames("07_01.bvh"); ++f) {
     const metric::ScoreRecord& r = scorer.score(test::clip_row("07_01.bvh", f), f * dt);
     const double keep = f == 0 || smoothing_time == 0.0 ? 0.0 : std::exp(-dt / smoothing_time);
-    // The ranking (scorer.cpp update_part_to_fix): the lowest averaged part score; with every
-    // part at 100 (none below good) and the total below, the largest averaged part offset.
+    // The ranking (scorer.cpp update_part_to_fix): the lowest averaged part score, equal scores
+    // by the largest averaged part offset.
     for (int q = 0; q < kParts; ++q) {
       average[q] = keep * average[q] + (1.0 - keep) * r.part_scores[q];
       offset[q] = keep * offset[q] + (1.0 - keep) * r.part_offset[q];
     }
-    int low = 0, far = 0;
-    for (int q = 1; q < kParts; ++q) {
-      if (average[q] < average[low]) low = q;
-      if (offset[q] > offset[far]) far = q;
-    }
-    if (!(average[low] < c.good_score)) low = far;
+    int low = 0;
+    for (int q = 1; q < kParts; ++q)
+      if (average[q] < average[low] || (average[q] == average[low] && offset[q] > offset[low])) low = q;
     lowest_changes += !lowest.empty() && lowest.back() != low;
     lowest.push_back(low);
     const int hold_frames = static_cast<int>(std::ceil(fb.hold_time / dt - 1e-9));
@@ -238,7 +235,7 @@ TEST(Feedback, APartIsNamedWhileItOrTheTotalIsBelowGood) {
               std::make_shared<const metric::Metric>(model), reference_row),
           {}, fb);
       std::vector<double> average(kParts + 1, 0.0); // the parts, then the total
-      std::vector<double> offset(kParts, 0.0);       // the parts' offsets (the total's ranking)
+      std::vector<double> offset(kParts, 0.0);       // the parts' offsets (equal scores' ranking)
       std::vector<int> candidate;
       for (int f = 0; f < frames; ++f) {
         const metric::ScoreRecord &r =
@@ -249,16 +246,15 @@ TEST(Feedback, APartIsNamedWhileItOrTheTotalIsBelowGood) {
                        (1.0 - keep) * (q < kParts ? r.part_scores[q] : r.score);
         for (int q = 0; q < kParts; ++q)
           offset[q] = keep * offset[q] + (1.0 - keep) * r.part_offset[q];
-        const int lowest = static_cast<int>(
-            std::min_element(average.begin(), average.begin() + kParts) -
-            average.begin());
-        const int farthest = static_cast<int>(
-            std::max_element(offset.begin(), offset.end()) - offset.begin());
+        // The ranking (scorer.cpp): the lowest averaged part, equal ones by the largest
+        // averaged offset.
+        int lowest = 0;
+        for (int q = 1; q < kParts; ++q)
+          if (average[q] < average[lowest] || (average[q] == average[lowest] && offset[q] > offset[lowest]))
+            lowest = q;
         const bool part_poor = average[lowest] < good,
                    total_poor = average[kParts] < good;
-        // The ranking (scorer.cpp): the lowest averaged part while one is below good, the
-        // farthest part (largest averaged offset) when only the total is.
-        const int low = part_poor ? lowest : farthest;
+        const int low = lowest;
         by_part_only += part_poor && !total_poor;
         by_total_only += total_poor && !part_poor;
         by_neither += !part_poor && !total_poor;

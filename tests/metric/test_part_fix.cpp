@@ -234,7 +234,7 @@ TEST(PartFix, AgreesWithGeometryOnShippedPairsOfDifferentSubjects) {
                 metric::part_name(named), top2 ? "" : below ? " (BELOW THE MEDIAN)" : " (3rd)");
   }
   // Measured with the shipped model: see the printout; docs/model/part_fix.py measures the 98
-  // pairs of every subject (the part named on the most frames: 68.4 % in geometry's top 2, 77.6 %
+  // pairs of every subject (the part named on the most frames: 67.3 % in geometry's top 2, 77.6 %
   // ranked by the offset; issue 34's 85 % missed either way). On these four pairs the parts' MJD differ by 10-20 % (the printout), so geometry's
   // order is close to a tie; with the part ranked by its offset (before 2026-12-04) 3 of 4 were in
   // the top 2, now by its score 2 of 4 and one (02_02 <- 07_01: the right arm, the lowest score,

@@ -200,23 +200,22 @@ void Scorer::update_part_to_fix(double t) {
   smoothed_total_ = record_.score + keep * (smoothed_total_ - record_.score);
   smoothed_time_ = t;
   // The candidate, while the lowest averaged part score or the averaged total is below good (none
-  // otherwise): the part with the lowest averaged score, the one the student sees lowest. Before
-  // 2026-12-04 the part whose joints were farthest from the teacher's (the largest averaged
-  // offset) was named, and a chest bent 45 deg (torso 33, legs 99) was blamed on a leg on every
-  // frame of 02_01: the torso's offset is a mean over four joints of which only the neck moves,
-  // while the online match's phase error moves the feet; the demo's line "total 43, right leg 43,
-  // fix: left arm" came from the same rule. Over the 98 real pairs of docs/model/part_fix.py the
-  // part with the lowest mean score is what is judged against geometry (scores.md); both rules
-  // name a turned joint's part on matched frames. With only the total below good (the model's
-  // gate), the part farthest from the teacher's is named.
-  int32_t lowest = 0, farthest = 0;
-  for (int q = 1; q < kParts; ++q) {
-    if (smoothed_parts_[q] < smoothed_parts_[lowest]) lowest = q;
-    if (smoothed_offset_[q] > smoothed_offset_[farthest]) farthest = q;
-  }
-  const bool part_below_good = smoothed_parts_[lowest] < calibration_.good_score;
-  int32_t candidate = part_below_good ? lowest : farthest;
-  if (!(part_below_good || smoothed_total_ < calibration_.good_score)) candidate = -1;
+  // otherwise): the part with the lowest averaged score, the one the student sees lowest (equal
+  // scores, e.g. all 100 under a low total: the part whose joints are farthest from the teacher's,
+  // the largest averaged offset). Before 2026-12-04 the offset ranked every part, and a chest bent
+  // 45 deg (torso 33, legs 99) was blamed on a leg on every frame of 02_01: the torso's offset is a
+  // mean over four joints of which only the neck moves, while the online match's phase error moves
+  // the feet. With only the total below good (the model's gate), the offset named the left arm at
+  // 95-97 in the demo lesson and held it to the end beside a torso at 56 and a right leg at 43.
+  // Over the 98 real pairs of docs/model/part_fix.py the offset agreed more often with geometry
+  // (scores.md "The part to fix" gives the trade).
+  int32_t candidate = 0;
+  for (int q = 1; q < kParts; ++q)
+    if (smoothed_parts_[q] < smoothed_parts_[candidate] ||
+        (smoothed_parts_[q] == smoothed_parts_[candidate] && smoothed_offset_[q] > smoothed_offset_[candidate]))
+      candidate = q;
+  if (!(smoothed_parts_[candidate] < calibration_.good_score || smoothed_total_ < calibration_.good_score))
+    candidate = -1;
   if (candidate != candidate_) {
     candidate_ = candidate;
     candidate_since_ = t;
