@@ -256,6 +256,34 @@ bool LeaseManager::renew(uint32_t p) {
     ++counters_.renewals_failed;
   }
   if (refused_by_servers(status, why)) {
+    // Refused because the key moved on, but maybe by our own hand: an update whose request timed
+    // out while the connection was down is still sent by the client once it is back (its
+    // reconnect buffer), and lands after we gave up on it. The key then holds our name at a newer
+    // revision (no other member writes our name), and the lease is still ours: renew on that
+    // revision. Seen as whole partitions "lost" half a second after a server was killed
+    // (runtime_nats_server_kill).
+    kvEntry* entry = nullptr;
+    if (kvStore_Get(&entry, kv_, key(p).c_str()) != NATS_OK || entry == nullptr) {
+      if (entry != nullptr) kvEntry_Destroy(entry);
+      return false;  // not known now: not renewed; the lease lapses at valid_until unless the next try settles it
+    }
+    const uint64_t current = kvEntry_Revision(entry);
+    const bool ours = kvEntry_Operation(entry) == kvOp_Put && current > s.revision &&
+                      static_cast<size_t>(kvEntry_ValueLen(entry)) == options_.member.size() &&
+                      std::memcmp(kvEntry_Value(entry), options_.member.data(), options_.member.size()) == 0;
+    kvEntry_Destroy(entry);
+    const int64_t t1 = steady_ns();
+    if (ours && kvStore_UpdateString(&rev, kv_, key(p).c_str(), options_.member.c_str(), current) == NATS_OK) {
+      const int64_t until = t1 + (options_.ttl_ms - options_.guard_ms) * kMs;
+      const bool was_paused = s.paused;
+      s.revision = rev;
+      s.last_ok_ns = t1;
+      s.paused = false;
+      emit(was_paused ? LeaseEvent::Kind::kResumed : LeaseEvent::Kind::kExtended, p, s.epoch.load(), until);
+      s.valid_until.store(until, std::memory_order_release);
+      return true;
+    }
+    if (ours) return false;  // ours, but this update did not land either: try again at the next renewal
     lose(p);
     return true;
   }
