@@ -237,17 +237,12 @@ void LeaseManager::tick(int64_t) {
 
 bool LeaseManager::renew(uint32_t p) {
   Slot& s = slots_[p];
+  const std::string k = key(p);
   const int64_t t0 = steady_ns();
   uint64_t rev = 0;
-  const natsStatus status = kvStore_UpdateString(&rev, kv_, key(p).c_str(), options_.member.c_str(), s.revision);
+  const natsStatus status = kvStore_UpdateString(&rev, kv_, k.c_str(), options_.member.c_str(), s.revision);
   if (status == NATS_OK) {
-    const int64_t until = t0 + (options_.ttl_ms - options_.guard_ms) * kMs;
-    const bool was_paused = s.paused;
-    s.revision = rev;
-    s.last_ok_ns = t0;
-    s.paused = false;
-    emit(was_paused ? LeaseEvent::Kind::kResumed : LeaseEvent::Kind::kExtended, p, s.epoch.load(), until);
-    s.valid_until.store(until, std::memory_order_release);
+    renewed(p, t0, rev);
     return true;
   }
   const std::string why = last_error();
@@ -255,39 +250,45 @@ bool LeaseManager::renew(uint32_t p) {
     std::lock_guard<std::mutex> lock(mutex_);
     ++counters_.renewals_failed;
   }
-  if (refused_by_servers(status, why)) {
-    // Refused because the key moved on, but maybe by our own hand: an update whose request timed
-    // out while the connection was down is still sent by the client once it is back (its
-    // reconnect buffer), and lands after we gave up on it. The key then holds our name at a newer
-    // revision (no other member writes our name), and the lease is still ours: renew on that
-    // revision. Seen as whole partitions "lost" half a second after a server was killed
-    // (runtime_nats_server_kill).
-    kvEntry* entry = nullptr;
-    if (kvStore_Get(&entry, kv_, key(p).c_str()) != NATS_OK || entry == nullptr) {
-      if (entry != nullptr) kvEntry_Destroy(entry);
-      return false;  // not known now: not renewed; the lease lapses at valid_until unless the next try settles it
-    }
-    const uint64_t current = kvEntry_Revision(entry);
-    const bool ours = kvEntry_Operation(entry) == kvOp_Put && current > s.revision &&
-                      static_cast<size_t>(kvEntry_ValueLen(entry)) == options_.member.size() &&
-                      std::memcmp(kvEntry_Value(entry), options_.member.data(), options_.member.size()) == 0;
-    kvEntry_Destroy(entry);
-    const int64_t t1 = steady_ns();
-    if (ours && kvStore_UpdateString(&rev, kv_, key(p).c_str(), options_.member.c_str(), current) == NATS_OK) {
-      const int64_t until = t1 + (options_.ttl_ms - options_.guard_ms) * kMs;
-      const bool was_paused = s.paused;
-      s.revision = rev;
-      s.last_ok_ns = t1;
-      s.paused = false;
-      emit(was_paused ? LeaseEvent::Kind::kResumed : LeaseEvent::Kind::kExtended, p, s.epoch.load(), until);
-      s.valid_until.store(until, std::memory_order_release);
-      return true;
-    }
-    if (ours) return false;  // ours, but this update did not land either: try again at the next renewal
+  if (!refused_by_servers(status, why)) return false;
+  // Refused because the key moved on, but maybe by our own hand: an update whose request timed
+  // out while the connection was down is still sent by the client once it is back (its
+  // reconnect buffer), and lands after we gave up on it. The key then holds our name at a newer
+  // revision (no other member writes our name), and the lease is still ours: renew on that
+  // revision. Seen as whole partitions "lost" half a second after a server was killed
+  // (runtime_nats_server_kill).
+  kvEntry* entry = nullptr;
+  if (kvStore_Get(&entry, kv_, k.c_str()) != NATS_OK || entry == nullptr) {
+    if (entry != nullptr) kvEntry_Destroy(entry);
+    return false;  // not known now: not renewed; the lease lapses at valid_until unless the next try settles it
+  }
+  const uint64_t current = kvEntry_Revision(entry);
+  const bool ours = kvEntry_Operation(entry) == kvOp_Put && current > s.revision &&
+                    static_cast<size_t>(kvEntry_ValueLen(entry)) == options_.member.size() &&
+                    std::memcmp(kvEntry_Value(entry), options_.member.data(), options_.member.size()) == 0;
+  kvEntry_Destroy(entry);
+  if (!ours) {
     lose(p);
     return true;
   }
-  return false;
+  const int64_t t1 = steady_ns();
+  if (kvStore_UpdateString(&rev, kv_, k.c_str(), options_.member.c_str(), current) != NATS_OK)
+    return false;  // ours, but this update did not land either: try again at the next renewal
+  renewed(p, t1, rev);
+  return true;
+}
+
+void LeaseManager::renewed(uint32_t p, int64_t sent_ns, uint64_t revision) {
+  Slot& s = slots_[p];
+  // Usable from when the request was sent, not when it was answered: the servers may have
+  // counted the ttl from any moment in between.
+  const int64_t until = sent_ns + (options_.ttl_ms - options_.guard_ms) * kMs;
+  const bool was_paused = s.paused;
+  s.revision = revision;
+  s.last_ok_ns = sent_ns;
+  s.paused = false;
+  emit(was_paused ? LeaseEvent::Kind::kResumed : LeaseEvent::Kind::kExtended, p, s.epoch.load(), until);
+  s.valid_until.store(until, std::memory_order_release);
 }
 
 bool LeaseManager::claim(uint32_t p, const Seen* seen, int64_t) {

@@ -147,6 +147,7 @@ class LeaseManager {
     std::string value;
   };
   bool renew(uint32_t p);  // false: the servers could not be reached
+  void renewed(uint32_t p, int64_t sent_ns, uint64_t revision);  // a renewal sent at sent_ns landed
   bool claim(uint32_t p, const Seen* seen, int64_t now);
   void give_back(uint32_t p);
   void lose(uint32_t p);
