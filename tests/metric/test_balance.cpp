@@ -66,26 +66,35 @@ BvhClip turned(const BvhClip& clip, const Turn& turn, double degrees) {
   return out;
 }
 
-// Mean total and share naming `part`, each student frame matched to its own teacher frame
-// (`matched`: the truth is known, and the score is under test) or by the online alignment.
-Result score_turn(const std::shared_ptr<const metric::Reference>& ref, const BvhClip& student, const GpdMap& map,
-                  int part, bool matched) {
+// Scores every frame of `student` against `ref` and hands each record to `on_record(frame, record)`:
+// each student frame matched to its own teacher frame (`matched`: the truth is known, and the
+// score is under test) or by the online alignment.
+template <class OnRecord>
+void score_frames(const std::shared_ptr<const metric::Reference>& ref, const BvhClip& student, const GpdMap& map,
+                  bool matched, OnRecord on_record) {
   const std::vector<float> x = clip_features(student, map, gpd::Stencil::kBackward, 1);
   const int frames = static_cast<int>(x.size() / gpd::kDims);
   metric::Scorer scorer(ref);
-  double sum = 0.0;
-  int n = 0, live = 0, named = 0;
   for (int f = 0; f < frames; ++f) {
     const float* xf = x.data() + static_cast<size_t>(f) * gpd::kDims;
     const double t = f * student.frame_time;
-    const metric::ScoreRecord& r = matched ? scorer.score_matched(xf, t, f) : scorer.score(xf, t);
-    if (r.state == metric::ScoreState::kTrackingLost) continue;
+    on_record(f, matched ? scorer.score_matched(xf, t, f) : scorer.score(xf, t));
+  }
+}
+
+// Mean total and share naming `part` (score_frames).
+Result score_turn(const std::shared_ptr<const metric::Reference>& ref, const BvhClip& student, const GpdMap& map,
+                  int part, bool matched) {
+  double sum = 0.0;
+  int n = 0, live = 0, named = 0;
+  score_frames(ref, student, map, matched, [&](int, const metric::ScoreRecord& r) {
+    if (r.state == metric::ScoreState::kTrackingLost) return;
     sum += r.score;
     ++n;
-    if (r.state != metric::ScoreState::kScoring) continue;
+    if (r.state != metric::ScoreState::kScoring) return;
     ++live;
     named += r.part_to_fix == part;
-  }
+  });
   return {n ? sum / n : 0.0, live ? static_cast<double>(named) / live : 0.0};
 }
 
@@ -143,21 +152,15 @@ struct CueResult {
 
 CueResult cue_turn(const std::shared_ptr<const metric::Reference>& ref, const BvhClip& student, const GpdMap& map,
                    int joint, bool matched) {
-  const std::vector<float> x = clip_features(student, map, gpd::Stencil::kBackward, 1);
-  const int frames = static_cast<int>(x.size() / gpd::kDims);
-  metric::Scorer scorer(ref);
   int live = 0;
   std::vector<double> degrees;
-  for (int f = 0; f < frames; ++f) {
-    const float* xf = x.data() + static_cast<size_t>(f) * gpd::kDims;
-    const double t = f * student.frame_time;
-    const metric::ScoreRecord& r = matched ? scorer.score_matched(xf, t, f) : scorer.score(xf, t);
-    if (r.state != metric::ScoreState::kScoring) continue;
+  score_frames(ref, student, map, matched, [&](int f, const metric::ScoreRecord& r) {
+    if (r.state != metric::ScoreState::kScoring) return;
     ++live;
     EXPECT_TRUE(std::isfinite(r.cue_degrees));
     EXPECT_EQ(r.cue_joint >= 0, r.part_to_fix >= 0) << "frame " << f;
     if (r.cue_joint == joint) degrees.push_back(r.cue_degrees);
-  }
+  });
   CueResult out;
   out.named = live ? static_cast<double>(degrees.size()) / live : 0.0;
   if (!degrees.empty()) {

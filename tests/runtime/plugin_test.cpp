@@ -127,7 +127,6 @@ TEST(runtime_plugin, BvhReplaySourceIntoCsvSinkThroughTheRuntime) {
             "");
 }
 
-
 std::vector<std::string> split_csv(const std::string& line) {
   std::vector<std::string> cells;
   std::stringstream row(line);
@@ -135,6 +134,13 @@ std::vector<std::string> split_csv(const std::string& line) {
   while (std::getline(row, cell, ',')) cells.push_back(cell);
   if (!line.empty() && line.back() == ',') cells.emplace_back();
   return cells;
+}
+
+// Each header cell's column index.
+std::map<std::string, size_t> columns_of(const std::vector<std::string>& header) {
+  std::map<std::string, size_t> column;
+  for (size_t i = 0; i < header.size(); ++i) column[header[i]] = i;
+  return column;
 }
 
 // The correction cue reaches a sink plugin in the record (kata/result.h): csv-sink's cue cells
@@ -161,8 +167,7 @@ TEST(runtime_plugin, CsvSinkWritesTheCue) {
   std::string line;
   ASSERT_TRUE(std::getline(in, line));
   const std::vector<std::string> header = split_csv(line);
-  std::map<std::string, size_t> column;
-  for (size_t i = 0; i < header.size(); ++i) column[header[i]] = i;
+  std::map<std::string, size_t> column = columns_of(header);
   for (const char* name : {"cue_joint", "cue_degrees", "cue_action"}) ASSERT_TRUE(column.count(name)) << name;
   ASSERT_TRUE(std::getline(in, line));
   std::vector<std::string> cell = split_csv(line);
@@ -234,8 +239,7 @@ TEST(runtime_plugin, CsvSinkRowsCarryThePartScoresTheCueAndTheState) {
   std::string line;
   ASSERT_TRUE(std::getline(in, line));
   const std::vector<std::string> header = split_csv(line);
-  std::map<std::string, size_t> column;
-  for (size_t i = 0; i < header.size(); ++i) column[header[i]] = i;
+  std::map<std::string, size_t> column = columns_of(header);
   for (const char* name : {"torso_head_score", "left_arm_score", "right_arm_score", "left_leg_score", "right_leg_score",
                            "part_to_fix", "state", "matched_teacher_time", "practice_start_time", "practice_end_time",
                            "practice_loop", "practice_revision", "cue_joint", "cue_degrees", "cue_action"})
