@@ -327,7 +327,7 @@ void setup(CLI::App& app) {
   cmd->add_option("--duration", a->duration, "webcam: stop after this many seconds (default: at Ctrl-C)");
   cmd->add_option("--student", a->lesson.student, "student BVH clip (default data/cmu/05_19_on_02.bvh)")->check(CLI::ExistingFile);
   cmd->add_option("--model", a->lesson.model, ".kata model (default models/default.kata)")->check(CLI::ExistingFile);
-  cmd->add_option("--preset", a->lesson.preset, "skeleton preset of both clips (default cmu)");
+  cmd->add_option("--layout,--preset", a->lesson.preset, "layout of both clips (default cmu; --preset: its name before 1.0)");
   cmd->add_option("--first-frame", a->lesson.first_frame, "first frame of each clip (default 1: skips CMU's T-pose)");
   cmd->add_option("--speed", a->lesson.speed, "playback rate, 1 = real time (default 1)");
   cmd->add_option("--window", a->lesson.window, "alignment window, teacher seconds (default 0.5)");
