@@ -18,7 +18,6 @@ import os
 import re
 import shutil
 import signal
-import socket
 import subprocess
 import sys
 import time
@@ -53,10 +52,8 @@ def blocks(path):
     return out
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from ports import free_port  # noqa: E402  below the ephemeral range (tests/support/ports.py)
 
 
 started = time.monotonic()
@@ -74,8 +71,7 @@ for doc in [d for d in DOCS if not ONLY or d == ONLY]:
     script = ["set -e"]
     ran, skipped = 0, []
     for line, language, mark, argument, text in blocks(os.path.join(source, doc)):
-        for old, new in ports.items():
-            text = text.replace(old, new)
+        text = re.sub("5555|5556", lambda m: ports[m.group(0)], text)  # one pass: a new port may contain 5556
         where = "%s:%d" % (doc, line)
         if mark == "skip":
             if not argument:

@@ -45,10 +45,8 @@ def folder(name):
     return d
 
 
-def free_port():
-    with socket.socket() as s:
-        s.bind(("127.0.0.1", 0))
-        return s.getsockname()[1]
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from ports import free_port  # noqa: E402  below the ephemeral range (tests/support/ports.py)
 
 
 def check(name):
@@ -60,13 +58,16 @@ def check(name):
 
 
 def serve(config_dir, config, seconds, sender=None):
-    """kata serve --config for `seconds` (stderr to a file), optionally running sender() meanwhile;
-    the log after SIGINT."""
+    """kata serve --config until it says it publishes (at most 30 s: a loaded machine takes longer
+    to load the model and teacher than a fixed sleep allowed), then `seconds` more (stderr to a
+    file), optionally running sender() meanwhile; the log after SIGINT."""
     log = open(os.path.join(config_dir, "serve.log"), "w")
     p = subprocess.Popen([kata, "serve", "--config", config], cwd=config_dir, env=env, stderr=log,
                          stdout=subprocess.DEVNULL)
     try:
-        time.sleep(0.5)
+        deadline = time.monotonic() + 30
+        while p.poll() is None and time.monotonic() < deadline and "publishing on" not in open(log.name).read():
+            time.sleep(0.05)
         if sender:
             sender()
         time.sleep(seconds)
@@ -118,16 +119,16 @@ def _():
     text = open(os.path.join(source, "docs", "runtime.md"), encoding="utf-8").read()
     minimal = re.search(r"Minimal:\n\n```toml\n(.*?)```", text, re.S).group(1)
     ports = {"5555": str(free_port()), "5556": str(free_port())}
-    for old, new in ports.items():
-        minimal = minimal.replace(old, new)
+    # One pass: a new port may itself contain "5556" (25556), which a second replace would change.
+    port_re = re.compile("|".join(ports))
+    minimal = port_re.sub(lambda m: ports[m.group(0)], minimal)
     d = folder("runtime_md")
     open(os.path.join(d, "stage.toml"), "w").write(minimal)
     log = serve(d, "stage.toml", 0.5)
     assert "publishing on tcp://127.0.0.1:%s" % ports["5556"] in log, log
     text = open(os.path.join(source, "docs", "deploy.md"), encoding="utf-8").read()
     stage = re.search(r"```toml\n(# stage.toml.*?)```", text, re.S).group(1)
-    for old, new in ports.items():
-        stage = stage.replace(old, new).replace("0.0.0.0", "127.0.0.1")
+    stage = port_re.sub(lambda m: ports[m.group(0)], stage).replace("0.0.0.0", "127.0.0.1")
     d = folder("deploy_md")
     for name in ("server", "clients/stage", "clients/viewer"):
         subprocess.run([kata, "keygen", "--out", "keys/" + name], cwd=d, env=env, check=True, capture_output=True)

@@ -5,19 +5,15 @@ stream in and samples/python_subscriber.py with a known key reads every result; 
 subscriber without keys get nothing; a config binding beyond this host without keys is refused
 (and only warned with insecure = true); kata proxy binds this host by default. Unique paths and
 free ports per run; every wait bounded."""
-import os, shutil, signal, socket, subprocess, sys, tempfile, time
+import os, shutil, signal, subprocess, sys, tempfile, time
 
 kata, source, python_dir = sys.argv[1:4]
 subscriber = os.path.join(source, "samples", "python_subscriber.py")
 clip = os.path.join(source, "data", "cmu", "07_01.bvh")
 
 
-def free_port():
-    s = socket.socket()
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "support"))
+from ports import free_port  # noqa: E402  below the ephemeral range (tests/support/ports.py)
 
 
 with tempfile.TemporaryDirectory(prefix="kata_curve_test_") as tmp:
