@@ -15,6 +15,21 @@
 
 namespace {
 
+// Waits (at most 10 s) for the first skeleton definition (file identifier KSKL at bytes 20..23) on
+// `sub`: from then on the subscription is joined. Its bytes go to *definition when not null.
+bool wait_for_definition(kata::test::ZmqSubscriber& sub, std::vector<char>* definition = nullptr) {
+  const char* buffer = reinterpret_cast<const char*>(sub.data());
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (std::chrono::steady_clock::now() < deadline) {
+    const int n = sub.receive(100);
+    if (n > 24 && std::memcmp(buffer + 20, "KSKL", 4) == 0) {
+      if (definition) definition->assign(buffer, buffer + n);
+      return true;
+    }
+  }
+  return false;
+}
+
 TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
   kata_context ctx = nullptr;
   ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
@@ -59,16 +74,8 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
                                                          "000000000000002a", 1 << 16);
   ASSERT_TRUE(sub->connected());
   const char* buffer = reinterpret_cast<const char*>(sub->data());
-  // Wait for the skeleton definition (file identifier KSKL at bytes 20..23): subscribed.
-  bool joined = false;
   std::vector<char> definition, result;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (!joined && std::chrono::steady_clock::now() < deadline) {
-    const int n = sub->receive(100);
-    joined = n > 24 && std::memcmp(buffer + 20, "KSKL", 4) == 0;
-    if (joined) definition.assign(buffer, buffer + n);
-  }
-  ASSERT_TRUE(joined);
+  ASSERT_TRUE(wait_for_definition(*sub, &definition));
 
   // Practice: the section 0.1..0.4 s of the teacher, looped, for every frame pushed from here on;
   // refusals name why and change nothing.
@@ -195,13 +202,7 @@ TEST(runtime_capi, PushWithConfidencesGatesJointsAsAStreamDoes) {
                                                          "0000000000000009", 1 << 16);
   ASSERT_TRUE(sub->connected());
   const char* buffer = reinterpret_cast<const char*>(sub->data());
-  bool joined = false;
-  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
-  while (!joined && std::chrono::steady_clock::now() < deadline) {
-    const int n = sub->receive(100);
-    joined = n > 24 && std::memcmp(buffer + 20, "KSKL", 4) == 0;
-  }
-  ASSERT_TRUE(joined);
+  ASSERT_TRUE(wait_for_definition(*sub));
   const uint32_t joints = kata_skeleton_joint_count(skel);
   std::vector<float> p(3 * joints), confident(joints, 1.0f), unseen(joints, 0.0f);
   const int frames = 80;
