@@ -120,12 +120,8 @@ TEST(Aligner, FollowsTheTeachersOwnProjectionsAndRestarts) {
   const int frames = test::clip_frames("07_01.bvh");
   const auto ref = std::make_shared<const metric::Reference>(metric, rows.data(), frames, 1.0 / 120);
   metric::Aligner aligner(ref);
-  std::vector<float> s(static_cast<size_t>(metric->stride()));
   for (int pass = 0; pass < 2; ++pass) {
-    for (int f = 0; f < frames; f += 1) {
-      ref->alignment_row(f, s.data());
-      ASSERT_EQ(aligner.align(s.data(), f / 120.0), f) << pass;
-    }
+    for (int f = 0; f < frames; f += 1) ASSERT_EQ(aligner.align(ref->alignment_projection(f), f / 120.0), f) << pass;
     aligner.reset();
   }
   EXPECT_THROW(metric::Aligner(ref, metric::AlignmentOptions{0.0, 2.0, 0.25}), Error);
@@ -138,9 +134,7 @@ TEST(Aligner, PoseReferenceAlwaysMatchesFrameZero) {
   const auto metric = test::test_metric();
   const auto ref = std::make_shared<const metric::Reference>(metric, test::clip_row("02_01.bvh", 5));
   metric::Aligner aligner(ref);
-  std::vector<float> s(static_cast<size_t>(metric->stride()));
-  ref->alignment_row(0, s.data());
-  for (int f = 0; f < 10; ++f) EXPECT_EQ(aligner.align(s.data(), f / 120.0), 0);
+  for (int f = 0; f < 10; ++f) EXPECT_EQ(aligner.align(ref->alignment_projection(0), f / 120.0), 0);
 }
 
 INSTANTIATE_TEST_SUITE_P(Clips, Align,

@@ -487,7 +487,9 @@ TEST(RelocateVsDtw, DtwFindsAKnownSubsequence) {
   const auto ref = std::make_shared<const metric::Reference>(metric, teacher.data(), frames, 1.0 / kFps);
   const int start = static_cast<int>(0.4 * frames), n = frames - start;
   std::vector<float> rows(static_cast<size_t>(n) * stride);
-  for (int i = 0; i < n; ++i) ref->alignment_row(start + i, rows.data() + static_cast<size_t>(i) * stride);
+  for (int i = 0; i < n; ++i)
+    std::copy(ref->alignment_projection(start + i), ref->alignment_projection(start + i) + stride,
+              rows.data() + static_cast<size_t>(i) * stride);
   const std::vector<int> dtw = metric::subsequence_dtw(*ref, rows.data(), n);
   for (int i = 0; i < n; ++i) ASSERT_EQ(dtw[static_cast<size_t>(i)], start + i) << i;
   EXPECT_THROW(metric::subsequence_dtw(*ref, rows.data(), 0), Error);

@@ -17,6 +17,7 @@
 #include <charconv>
 #include <cmath>
 #include <iterator>
+#include <memory>
 #include <string_view>
 #include <unordered_map>
 #include <utility>
@@ -26,6 +27,7 @@
 #include "common/error.hpp"
 #include "common/text.hpp"
 #include "io/file.hpp"
+#include "metric/huge_pages.hpp"
 
 namespace kata {
 namespace {
@@ -338,6 +340,7 @@ class Parser {
     // Reserve no more than the text could hold (a value takes at least 2 bytes), so a lying
     // Frames: count cannot make us allocate gigabytes before the truncation is detected.
     clip.motion.reserve(std::min(total, s_.size() / 2 + 1));
+    advise_huge_pages(clip.motion.data(), clip.motion.capacity() * sizeof(double));
 
     // Move to the line after "Frame Time:".
     while (pos_ < s_.size() && s_[pos_] != '\n') ++pos_;
@@ -493,7 +496,14 @@ BvhClip parse_bvh(const std::string& text, const std::string& name) { return Par
 
 BvhClip load_bvh(const std::string& path) {
   // Directories, FIFOs, devices and files over kMaxBvhBytes are refused before reading.
-  return parse_bvh(read_file_bounded(path, kMaxBvhBytes, "BVH file"), path);
+  BoundedFile file(path, kMaxBvhBytes, "BVH file");
+  const size_t n = static_cast<size_t>(file.size());
+  // Not a std::string: that would be zero-filled, then read into; this buffer is written once,
+  // by read(), on huge pages (a long teacher's text runs to 60 MB and more; huge_pages.hpp).
+  const std::unique_ptr<char[]> text(new char[n]);
+  advise_huge_pages(text.get(), n);
+  file.read_exact(text.get(), n);
+  return Parser(std::string_view(text.get(), n), path).run();
 }
 
 void world_positions(const BvhClip& clip, int i, Eigen::Ref<Eigen::MatrixX3d> out, double unit_scale) {

@@ -103,8 +103,8 @@ class Aligner {
   // > 0, step penalty and relocate time >= 0, a section inside the clip with first <= last).
   explicit Aligner(std::shared_ptr<const Reference> reference, AlignmentOptions options = {});
 
-  // Matches the frame whose static-blocks projection is s (stride floats, row kStaticRow of
-  // Metric::part_projections) at time t (seconds, increasing) and returns the matched teacher frame. A pose
+  // Matches the frame whose static-blocks projection is s (Reference::alignment_projection
+  // layout) at time t (seconds, increasing) and returns the matched teacher frame. A pose
   // reference always matches frame 0. Allocation-free.
   int align(const float* s, double t);
   int match() const { return match_; }

@@ -15,12 +15,8 @@ std::vector<int> subsequence_dtw(const Reference& ref, const float* s, int n) {
   // from: 0 diagonal, 1 vertical (same teacher frame, next student frame), 2 horizontal.
   std::vector<uint8_t> from(static_cast<size_t>(n) * m);
   std::vector<double> prev(static_cast<size_t>(m)), cur(static_cast<size_t>(m));
-  // The teacher's static rows as the live aligner reads them (the Reference keeps no float copy),
-  // decoded once: offline, so the m x stride floats are affordable.
-  std::vector<float> rows(static_cast<size_t>(m) * stride);
-  for (int j = 0; j < m; ++j) ref.alignment_row(j, rows.data() + static_cast<size_t>(j) * stride);
   auto cost = [&](int i, int j) {
-    return std::sqrt(detail::dist2(s + static_cast<size_t>(i) * stride, rows.data() + static_cast<size_t>(j) * stride, stride));
+    return std::sqrt(detail::dist2(s + static_cast<size_t>(i) * stride, ref.alignment_projection(j), stride));
   };
   for (int j = 0; j < m; ++j) cur[j] = cost(0, j), from[j] = 1;
   for (int i = 1; i < n; ++i) {

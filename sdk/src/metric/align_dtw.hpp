@@ -16,7 +16,7 @@
 namespace kata::metric {
 
 // The matched teacher frame of each of n student frames whose static-blocks projections are
-// `projections` (n x stride floats, row kStaticRow of Metric::part_projections). A pose reference
+// `projections` (n x stride floats, Reference::alignment_projection layout). A pose reference
 // matches frame 0 throughout. Throws kInvalidArgument for n < 1.
 std::vector<int> subsequence_dtw(const Reference& reference, const float* projections, int n);
 

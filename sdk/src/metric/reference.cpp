@@ -84,10 +84,10 @@ void Reference::check_clip(int frames, double frame_time) const {
 void Reference::begin() {
   stride_ = metric_->stride();
   rank_ = metric_->rank();
-  score_rows_.resize(static_cast<size_t>(frames_) * kScoreRows * rank_);
-  score_scale_.resize(static_cast<size_t>(frames_) * kScoreRows);
-  static_rows_.resize(static_cast<size_t>(frames_) * stride_);
-  poses_.resize(static_cast<size_t>(frames_) * kPoseFloats);
+  score_rows_ = LargeArray<int16_t>(static_cast<size_t>(frames_) * kScoreRows * rank_);
+  score_scale_ = LargeArray<float>(static_cast<size_t>(frames_) * kScoreRows);
+  static_rows_ = LargeArray<float>(static_cast<size_t>(frames_) * stride_);
+  poses_ = LargeArray<float>(static_cast<size_t>(frames_) * kPoseFloats);
 }
 
 namespace {
@@ -157,28 +157,23 @@ void Reference::projection(int j, float* out) const {
   std::fill(out, out + static_cast<size_t>(kProjectionRows) * stride_, 0.0f);
   subtract_projection(j, out);
   for (size_t i = 0; i < static_cast<size_t>(kProjectionRows) * stride_; ++i) out[i] = -out[i];
-  alignment_row(j, out + static_cast<size_t>(kStaticRow) * stride_);
+  std::copy(alignment_projection(j), alignment_projection(j) + stride_, out + static_cast<size_t>(kStaticRow) * stride_);
 }
 
 size_t Reference::memory_bytes() const {
-  return score_rows_.capacity() * sizeof(int16_t) + score_scale_.capacity() * sizeof(float) +
-         static_rows_.capacity() * sizeof(float) + align_half_.capacity() * sizeof(uint16_t) +
-         poses_.capacity() * sizeof(float) + search_half_.capacity() * sizeof(uint16_t);
-}
-
-void Reference::alignment_row(int j, float* out) const {
-  const uint16_t* h = alignment_rows_half(j);
-  for (int i = 0; i < stride_; ++i) out[i] = detail::half_to_float(h[i]) * align_half_scale_;
+  return score_rows_.size() * sizeof(int16_t) + score_scale_.size() * sizeof(float) +
+         static_rows_.size() * sizeof(float) + align_half_.size() * sizeof(uint16_t) + poses_.size() * sizeof(float) +
+         search_half_.capacity() * sizeof(uint16_t);
 }
 
 void Reference::finish() {
-  auto row = [&](int j) { return static_rows_.data() + static_cast<size_t>(j) * stride_; };
+  auto row = [&](int j) { return alignment_projection(j); };
   float largest = 0.0f;
   for (int j = 0; j < frames_; ++j)
     for (int i = 0; i < stride_; ++i) largest = std::max(largest, std::fabs(row(j)[i]));
   align_half_scale_ = 1.0f;
   while (largest / align_half_scale_ > 16384.0f) align_half_scale_ *= 2.0f;
-  align_half_.resize(static_cast<size_t>(frames_) * stride_);
+  align_half_ = LargeArray<uint16_t>(static_cast<size_t>(frames_) * stride_);
   for (int j = 0; j < frames_; ++j)
     for (int i = 0; i < stride_; ++i)
       align_half_[static_cast<size_t>(j) * stride_ + i] = detail::float_to_half(row(j)[i] / align_half_scale_);
@@ -213,7 +208,6 @@ void Reference::finish() {
     std::nth_element(far.begin(), far.begin() + static_cast<long>(far.size() / 2), far.end());
     spread_ = far[far.size() / 2];
   }
-  std::vector<float>().swap(static_rows_);  // 224 B a frame (rank 50) that nothing live reads
 }
 
 Reference Reference::from_joints(std::shared_ptr<const Metric> metric, const float* joints, double body_height) {

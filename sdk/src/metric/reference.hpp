@@ -13,6 +13,7 @@
 #include <memory>
 #include <vector>
 
+#include "metric/huge_pages.hpp"
 #include "metric/metric.hpp"
 #include "metric/pose_error.hpp"
 
@@ -57,19 +58,22 @@ class Reference {
   // |value| / 32767), so a value is within half a step, 2^-16 of its row's largest, of the
   // projection's float; the same scheme as W's (kernels.hpp), and the error is absolute, which
   // is what the differences the scorer takes care about (half precision would be 2^-12 of each
-  // value: 16x coarser on a row's large values). The static row (kStaticRow) is kept only as the
-  // aligner's half rows below.
+  // value: 16x coarser on a row's large values). The static row (kStaticRow) is kept in float (the
+  // offline DTW and the build read it) and as the aligner's half rows below.
   static constexpr int kScoreRows = 2 * kParts;
   // p (kProjectionRows x stride floats: a student frame's Metric::part_projections) minus frame
   // j's part and joint-position rows, as decoded; row kStaticRow and the padding are left as
   // they are. What the scorer does every frame: allocation-free.
   void subtract_projection(int j, float* p) const;
-  // Frame j's projection as kept, decoded (kProjectionRows x stride floats, padding 0; the static
-  // row is the half row times its scale). For tests and diagnostics.
+  // Frame j's projection as kept, decoded (kProjectionRows x stride floats, padding 0). For tests
+  // and diagnostics.
   void projection(int j, float* out) const;
-  // Frame j's static-blocks projection as the aligner sees it (stride floats): the half row
-  // times alignment_half_scale(). `--align dtw` and tests.
-  void alignment_row(int j, float* out) const;
+  // The static-blocks projection of frame j (stride floats, row kStaticRow of its projection, in
+  // float): what `--align dtw` compares (align_dtw.hpp) and the build's statistics (step cost,
+  // spread, the half scale). Kept whole although the live aligner streams the half rows below:
+  // the offline DTW's path turns on near ties (a held pose), and from the half rows it moved the
+  // default lesson's matches on 8 % of its frames; 224 B a frame (rank 50) keeps it exact.
+  const float* alignment_projection(int j) const { return static_rows_.data() + static_cast<size_t>(j) * stride_; }
   // The static-blocks rows in IEEE half precision, each value divided by alignment_half_scale()
   // (a power of two keeping every value within +-16384, so none overflows): what the live aligner
   // streams every frame (align_pass.hpp). Relative rounding 2^-11.
@@ -98,8 +102,7 @@ class Reference {
   // Frames [first, first + count): their projections (kept as above) and poses. Calls for
   // disjoint frames may run on different threads at once.
   void add(const float* features, int first, int count);
-  // What needs the whole clip, from the float static rows (the features are gone by then); then
-  // lets those go.
+  // What needs the whole clip, from the float static rows (the features are gone by then).
   void finish();
 
   std::shared_ptr<const Metric> metric_;
@@ -109,13 +112,12 @@ class Reference {
   double step_cost_ = 0.0;
   double spread_ = 0.0;
   int rank_ = 0;
-  std::vector<int16_t> score_rows_;  // frames x kScoreRows x rank: the part, then the joint rows
-  std::vector<float> score_scale_;   // frames x kScoreRows: each row's step
-  // frames x stride: the static rows in float while the Reference is built (step cost, spread and
-  // the half scale need the whole clip); empty once built.
-  std::vector<float> static_rows_;
-  std::vector<uint16_t> align_half_;
-  std::vector<float> poses_;  // frames x kPoseFloats
+  // Filled by add() (possibly on another thread: the first touch of their pages, huge_pages.hpp).
+  LargeArray<int16_t> score_rows_;  // frames x kScoreRows x rank: the part, then the joint rows
+  LargeArray<float> score_scale_;   // frames x kScoreRows: each row's step
+  LargeArray<float> static_rows_;   // frames x stride: the static rows in float
+  LargeArray<float> poses_;         // frames x kPoseFloats
+  LargeArray<uint16_t> align_half_;  // frames x stride, by finish()
   float align_half_scale_ = 1.0f;
   int search_grid_ = 1;
   std::vector<uint16_t> search_half_;  // every search_grid_-th half row (search_grid_ > 1 only)
