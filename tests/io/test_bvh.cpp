@@ -5,11 +5,14 @@
 
 #include "support/temp_paths.hpp"
 
+#include <charconv>
 #include <cstdint>
+#include <cstring>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <random>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -479,6 +482,47 @@ TEST(BvhErrors, TruncationAndCorruptionNeverCrash) {
 }
 
 // The longest developer clip loads whole (its load time is measured in kata_bench, BM_LoadBvh*).
+// Motion values are read by a fast path for plain decimals (bvh.cpp plain_decimal) and by
+// from_chars otherwise: every value, of every shape a file may hold (digit and decimal counts
+// around the fast path's limits, signs, a bare leading or trailing point, exponents, mantissas
+// above 2^53, negative zero), is from_chars' own bit for bit.
+TEST(BvhParse, MotionValuesAreFromCharsBitForBit) {
+  std::mt19937_64 rng(36);
+  auto digits = [&](int n) {
+    std::string d;
+    for (int i = 0; i < n; ++i) d += static_cast<char>('0' + rng() % 10);
+    return d;
+  };
+  std::vector<std::string> values = {"0", "-0", "-0.0", "0.", ".5", "-.25", "5.", "+3.5", "1e5", "-2.5E-3",
+                                     "9007199254740992", "9007199254740993", "18446744073709551616",
+                                     "1234567890123456789", "0.0000000000000000000001", "0.00000000000000000000001",
+                                     "123456789.123456789", "-179.99999999999997", "1.7976931348623157e308"};
+  for (int i = 0; i < 6000; ++i) {
+    const int before = static_cast<int>(rng() % 21), after = static_cast<int>(rng() % 26);
+    std::string v = (rng() % 2 ? "-" : "") + digits(before);
+    if (after > 0 || before == 0) v += "." + digits(std::max(after, 1));
+    if (rng() % 50 == 0) v += "e" + std::to_string(static_cast<int>(rng() % 40) - 20);
+    values.push_back(v);
+  }
+  while (values.size() % 6 != 0) values.push_back("1");
+  std::string text = "HIERARCHY\nROOT R\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation "
+                     "Xrotation Yrotation\n End Site\n {\n OFFSET 0 1 0\n }\n}\nMOTION\nFrames: " +
+                     std::to_string(values.size() / 6) + "\nFrame Time: 0.5\n";
+  for (size_t i = 0; i < values.size(); ++i) text += values[i] + (i % 6 == 5 ? "\n" : " ");
+  const BvhClip c = kata::parse_bvh(text, "values.bvh");
+  ASSERT_EQ(c.motion.size(), values.size());
+  for (size_t i = 0; i < values.size(); ++i) {
+    const std::string& v = values[i];
+    const char* b = v.data() + (v[0] == '+' ? 1 : 0);
+    double want = 0.0;
+    ASSERT_EQ(std::from_chars(b, v.data() + v.size(), want).ec, std::errc()) << v;
+    uint64_t got_bits = 0, want_bits = 0;
+    std::memcpy(&got_bits, &c.motion[i], sizeof got_bits);
+    std::memcpy(&want_bits, &want, sizeof want_bits);
+    ASSERT_EQ(got_bits, want_bits) << v << ": " << c.motion[i] << " vs " << want;
+  }
+}
+
 TEST(BvhLoad, LongCmuClipLoadsWhole) {
   const fs::path p = shared_data() / "cmu" / "01_06.bvh";
   if (!fs::exists(p)) GTEST_SKIP() << p << " not present";

@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <charconv>
 #include <cmath>
+#include <cstdint>
 #include <iterator>
 #include <memory>
 #include <string_view>
@@ -51,6 +52,37 @@ bool iequals(std::string_view a, std::string_view b) {
   return true;
 }
 
+// [b, e) as a plain decimal ("-12.345678": optional '-', digits with at most one '.', at least
+// one digit), when it has at most 19 digits, a mantissa of at most 2^53 and at most 22 after
+// the point: then the mantissa and 10^k are exact doubles and one IEEE division rounds their
+// quotient correctly (Clinger's fast path), so the value is from_chars' bit for bit. False for
+// anything else (exponents, more digits, not a number), which goes to from_chars. Why: the
+// motion rows of a long teacher are millions of such numbers (7.9 million at 11 minutes), read
+// on the thread everything after waits for: 19 ns a value here against 27 for from_chars
+// (libstdc++ 12, the CMU rows, median of 12 passes over 492,864 values).
+bool plain_decimal(const char* b, const char* e, double* out) {
+  static constexpr double kPow10[] = {1e0,  1e1,  1e2,  1e3,  1e4,  1e5,  1e6,  1e7,  1e8,  1e9,  1e10, 1e11,
+                                      1e12, 1e13, 1e14, 1e15, 1e16, 1e17, 1e18, 1e19, 1e20, 1e21, 1e22};
+  const char* p = b;
+  const bool negative = p != e && *p == '-';
+  if (negative) ++p;
+  uint64_t m = 0;
+  int digits = 0;
+  const char* integer = p;
+  for (; p != e && static_cast<unsigned>(*p - '0') < 10u; ++p, ++digits) m = m * 10 + static_cast<unsigned>(*p - '0');
+  const bool has_integer = p != integer;
+  long fraction = 0;
+  if (p != e && *p == '.') {
+    const char* f = ++p;
+    for (; p != e && static_cast<unsigned>(*p - '0') < 10u; ++p, ++digits) m = m * 10 + static_cast<unsigned>(*p - '0');
+    fraction = p - f;
+  }
+  if (p != e || (!has_integer && fraction == 0) || digits > 19 || m > (uint64_t{1} << 53) || fraction > 22) return false;
+  const double v = static_cast<double>(m) / kPow10[fraction];
+  *out = negative ? -v : v;
+  return true;
+}
+
 // Parses a whole token as a finite double. Accepts a leading '+', which from_chars does not.
 bool to_double(std::string_view tok, double* out) {
   const char* b = tok.data();
@@ -60,6 +92,7 @@ bool to_double(std::string_view tok, double* out) {
     if (b != e && (*b == '+' || *b == '-')) return false;  // "++1", "+-1"
   }
   if (b == e) return false;
+  if (plain_decimal(b, e, out)) return true;
   const auto r = std::from_chars(b, e, *out);
   return r.ec == std::errc() && r.ptr == e && std::isfinite(*out);
 }

@@ -88,6 +88,7 @@ void Reference::begin() {
   score_scale_ = LargeArray<float>(static_cast<size_t>(frames_) * kScoreRows);
   static_rows_ = LargeArray<float>(static_cast<size_t>(frames_) * stride_);
   poses_ = LargeArray<float>(static_cast<size_t>(frames_) * kPoseFloats);
+  align_half_ = LargeArray<uint16_t>(static_cast<size_t>(frames_) * stride_);
 }
 
 namespace {
@@ -135,6 +136,8 @@ void Reference::add(const float* features, int first, int count) {
       }
       const float* st = p[f] + static_cast<size_t>(kStaticRow) * stride_;
       std::copy(st, st + stride_, static_rows_.data() + j * stride_);
+      // At scale 1 (v / 1 is v): finish() redoes them if the whole clip needs another.
+      for (int i = 0; i < stride_; ++i) align_half_[j * stride_ + i] = detail::float_to_half(st[i]);
     }
   }
   for (int j = 0; j < count; ++j)
@@ -173,10 +176,12 @@ void Reference::finish() {
     for (int i = 0; i < stride_; ++i) largest = std::max(largest, std::fabs(row(j)[i]));
   align_half_scale_ = 1.0f;
   while (largest / align_half_scale_ > 16384.0f) align_half_scale_ *= 2.0f;
-  align_half_ = LargeArray<uint16_t>(static_cast<size_t>(frames_) * stride_);
-  for (int j = 0; j < frames_; ++j)
-    for (int i = 0; i < stride_; ++i)
-      align_half_[static_cast<size_t>(j) * stride_ + i] = detail::float_to_half(row(j)[i] / align_half_scale_);
+  // add() made the half rows at scale 1 (the models' projections stay far below 16384): made
+  // again only when the clip needs a larger scale.
+  if (align_half_scale_ != 1.0f)
+    for (int j = 0; j < frames_; ++j)
+      for (int i = 0; i < stride_; ++i)
+        align_half_[static_cast<size_t>(j) * stride_ + i] = detail::float_to_half(row(j)[i] / align_half_scale_);
   if (kind_ == ReferenceKind::kClip && frames_ > kSearchFrames) {
     search_grid_ = (frames_ + kSearchFrames - 1) / kSearchFrames;
     const int rows = (frames_ - 1) / search_grid_ + 1;

@@ -117,7 +117,7 @@ class Reference {
   LargeArray<float> score_scale_;   // frames x kScoreRows: each row's step
   LargeArray<float> static_rows_;   // frames x stride: the static rows in float
   LargeArray<float> poses_;         // frames x kPoseFloats
-  LargeArray<uint16_t> align_half_;  // frames x stride, by finish()
+  LargeArray<uint16_t> align_half_;  // frames x stride
   float align_half_scale_ = 1.0f;
   int search_grid_ = 1;
   std::vector<uint16_t> search_half_;  // every search_grid_-th half row (search_grid_ > 1 only)
