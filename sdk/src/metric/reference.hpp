@@ -62,8 +62,9 @@ class Reference {
   // offline DTW and the build read it) and as the aligner's half rows below.
   static constexpr int kScoreRows = 2 * kParts;
   // p (kProjectionRows x stride floats: a student frame's Metric::part_projections) minus frame
-  // j's part and joint-position rows, as decoded; row kStaticRow and the padding are left as
-  // they are. What the scorer does every frame: allocation-free.
+  // j's part and joint-position rows, as decoded, each difference within 0.51 steps taken as 0
+  // (the teacher's own pose is at distance 0); row kStaticRow and the padding are left as they
+  // are. What the scorer does every frame: allocation-free.
   void subtract_projection(int j, float* p) const;
   // Frame j's projection as kept, decoded (kProjectionRows x stride floats, padding 0). For tests
   // and diagnostics.
