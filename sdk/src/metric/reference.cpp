@@ -155,11 +155,7 @@ void Reference::subtract_projection(int j, float* p) const {
     // float roundings of decoding and subtracting: 0.51 steps) is taken as none, so a student in
     // the teacher's very pose is at distance 0 and scores 100 exactly, as with float rows; a
     // difference's error is then at most 1.01 steps (the test's bound, test_scorer.cpp HeldRows).
-    const float s = step[r], none = 0.51f * s;
-    for (int c = 0; c < rank_; ++c) {
-      const float d = row[c] - s * static_cast<float>(qr[c]);
-      row[c] = std::fabs(d) <= none ? 0.0f : d;
-    }
+    detail::subtract_rows16(row, qr, step[r], rank_);
   }
 }
 
