@@ -30,7 +30,7 @@
 #include "common/error.hpp"
 #include "common/text.hpp"
 #include "io/file.hpp"
-#include "metric/huge_pages.hpp"
+#include "metric/loading.hpp"
 
 namespace kata {
 namespace {
@@ -449,7 +449,7 @@ class Parser {
     while (mid < s_.size() && s_[mid] != '\n') ++mid;
     std::vector<double> second;
     long long rows2 = -1;
-    auto later = std::async(std::launch::async, [&] {
+    auto later = start_beside([&] {
       second.reserve((s_.size() - mid) / 2 + 1);
       advise_huge_pages(second.data(), second.capacity() * sizeof(double));
       rows2 = rows_quietly(s_.data() + mid, s_.data() + s_.size(), cc, second);
@@ -588,7 +588,7 @@ BvhClip load_bvh(const std::string& path) {
   BoundedFile file(path, kMaxBvhBytes, "BVH file");
   const size_t n = static_cast<size_t>(file.size());
   // Not a std::string: that would be zero-filled, then read into; this buffer is written once,
-  // by read(), on huge pages (a long teacher's text runs to 60 MB and more; huge_pages.hpp).
+  // by read(), on huge pages (a long teacher's text runs to 60 MB and more; loading.hpp).
   const std::unique_ptr<char[]> text(new char[n]);
   advise_huge_pages(text.get(), n);
   file.read_exact(text.get(), n);

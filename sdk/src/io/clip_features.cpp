@@ -4,6 +4,7 @@
 #include <future>
 
 #include "io/name_map.hpp"
+#include "metric/loading.hpp"
 
 #include "common/error.hpp"
 #include "common/text.hpp"
@@ -62,7 +63,7 @@ void clip_features_in_chunks(const BvhClip& clip, const GpdMap& map, gpd::Stenci
     if (i % kBlock == 0) {
       if (b == 0) make_block(0, &block[0]);
       else next.get();
-      if ((b + 1) * kBlock < frames) next = std::async(std::launch::async, make_block, b + 1, &block[(b + 1) % 2]);
+      if ((b + 1) * kBlock < frames) next = start_beside([&make_block, &block, b] { make_block(b + 1, &block[(b + 1) % 2]); });
     }
     const float* p = block[b % 2].data() + static_cast<size_t>(i % kBlock) * per_frame;
     std::copy(p, p + per_frame, o);

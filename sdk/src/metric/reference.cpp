@@ -59,7 +59,7 @@ Reference::Reference(std::shared_ptr<const Metric> metric, const FeatureChunks& 
       std::vector<float>& copy = buffer[chunk++ % 2];
       copy.assign(data, data + static_cast<size_t>(count) * gpd::kDims);
       const int first = done;
-      pending = std::async(std::launch::async, [this, &copy, first, count] { add(copy.data(), first, count); });
+      pending = start_beside([this, &copy, first, count] { add(copy.data(), first, count); });
       done += count;
     });
   } catch (...) {

@@ -13,7 +13,7 @@
 #include <memory>
 #include <vector>
 
-#include "metric/huge_pages.hpp"
+#include "metric/loading.hpp"
 #include "metric/metric.hpp"
 #include "metric/pose_error.hpp"
 
@@ -113,7 +113,7 @@ class Reference {
   double step_cost_ = 0.0;
   double spread_ = 0.0;
   int rank_ = 0;
-  // Filled by add() (possibly on another thread: the first touch of their pages, huge_pages.hpp).
+  // Filled by add() (possibly on another thread: the first touch of their pages, loading.hpp).
   LargeArray<int16_t> score_rows_;  // frames x kScoreRows x rank: the part, then the joint rows
   LargeArray<float> score_scale_;   // frames x kScoreRows: each row's step
   LargeArray<float> static_rows_;   // frames x stride: the static rows in float

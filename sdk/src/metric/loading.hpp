@@ -1,5 +1,6 @@
-// Transparent huge pages for the large arrays a long teacher is loaded into (issue 36): its BVH
-// text and motion, its Reference's rows. Each first touch of a 4 KB page costs a page fault;
+// What loading a long teacher (issue 36) is built from: work started beside the calling thread,
+// and transparent huge pages for the large arrays it is loaded into (its BVH text and motion, its
+// Reference's rows). Each first touch of a 4 KB page costs a page fault;
 // filling 200 MB that way took 600-750 ms on the 2-core VM the figures come from (about 12 us a
 // fault, docs/performance.md), against 18 ms with 2 MB pages, and made up a third of a long
 // teacher's load. (Here and not in common/ because only these loaders use it.)
@@ -7,13 +8,27 @@
 
 #include <cstddef>
 #include <cstdint>
+#include <future>
 #include <memory>
+#include <system_error>
+#include <utility>
 
 #if defined(__linux__)
 #include <sys/mman.h>
 #endif
 
 namespace kata {
+
+// f() started on a thread of its own; where no thread can be started (a process at its thread
+// limit), left to run in the caller's get() instead: the same result, only not beside the caller.
+template <class F>
+std::future<void> start_beside(F&& f) {
+  try {
+    return std::async(std::launch::async, std::forward<F>(f));
+  } catch (const std::system_error&) {
+    return std::async(std::launch::deferred, std::forward<F>(f));
+  }
+}
 
 // Advises the kernel to back the 2 MB-aligned part of [p, p + bytes) with huge pages. Call it
 // before the memory is first written (after reserve(), before resize()): pages already touched
