@@ -104,7 +104,7 @@ void Reference::add(const float* features, int first, int count) {
       throw Error(ErrorKind::kInvalidArgument, "reference: NaN/Inf in the features of frame " +
                                                    std::to_string(first + static_cast<int>(i / gpd::kDims)));
   // kBatch frames a pass over W (metric.hpp: equal to part_projections bit for bit, each W row
-  // loaded once for all of them): what loading a long teacher spends most of its time on.
+  // loaded once for all of them): the projections were a fifth of a long teacher's load.
   constexpr int kBatch = detail::kBatch;
   const size_t frame_floats = static_cast<size_t>(kProjectionRows) * stride_;
   Metric::Workspace ws[kBatch];
@@ -154,7 +154,7 @@ void Reference::subtract_projection(int j, float* p) const {
     // A difference within the rows' rounding (half a step, plus 2^-23 of the row's largest for the
     // float roundings of decoding and subtracting: 0.51 steps) is taken as none, so a student in
     // the teacher's very pose is at distance 0 and scores 100 exactly, as with float rows; a
-    // difference's error is then at most 1.01 steps (the test's bound, test_scorer.cpp HeldRows).
+    // difference's error is then at most 1.02 steps (test_scorer.cpp HeldRows).
     detail::subtract_rows16(row, qr, step[r], rank_);
   }
 }

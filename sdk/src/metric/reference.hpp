@@ -53,8 +53,8 @@ class Reference {
   double spread() const { return spread_; }
   const Metric& metric() const { return *metric_; }
   // What a frame's projection keeps (issue 36: <= 2 KB a teacher frame; docs/model/alignment.md,
-  // "Long teachers"). The scorer reads the kParts part rows and the kParts joint-position rows
-  // (kScoreRows): each is kept as rank 16-bit integers with one float scale (the row's largest
+  // "Two kilobytes a teacher frame"). The scorer reads the kParts part rows and the kParts joint
+  // rows (kScoreRows): each is kept as rank 16-bit integers with one float step (the row's largest
   // |value| / 32767), so a value is within half a step, 2^-16 of its row's largest, of the
   // projection's float; the same scheme as W's (kernels.hpp), and the error is absolute, which
   // is what the differences the scorer takes care about (half precision would be 2^-12 of each
