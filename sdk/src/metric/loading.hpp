@@ -1,9 +1,9 @@
 // What loading a long teacher (issue 36) is built from: work started beside the calling thread,
 // and transparent huge pages for the large arrays it is loaded into (its BVH text and motion, its
-// Reference's rows). Each first touch of a 4 KB page costs a page fault;
-// filling 200 MB that way took 600-750 ms on the 2-core VM the figures come from (about 12 us a
-// fault, docs/performance.md), against 18 ms with 2 MB pages, and made up a third of a long
-// teacher's load. (Here and not in common/ because only these loaders use it.)
+// Reference's rows). Each first touch of a 4 KB page costs a page fault; filling 200 MB that way
+// took 600-750 ms on the 2-core VM the figures come from (about 12 us a fault,
+// docs/model/alignment.md "Loading"), against 18 ms with 2 MB pages, and made up a third of a
+// long teacher's load. (Here and not in common/ because only these loaders use it.)
 #pragma once
 
 #include <cstddef>
