@@ -7,11 +7,15 @@
 
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
+#include <functional>
 #include <map>
 #include <memory>
 #include <thread>
 #include <string>
 #include <vector>
+
+#include <unistd.h>
 
 #include "io/bvh.hpp"
 #include "io/clip_features.hpp"
@@ -199,6 +203,45 @@ void Align_DistancePass(benchmark::State& state) {
   }
 }
 BENCHMARK(Align_DistancePass);
+
+// Loading a long teacher from its file (issue 36 item 3: under a second per 10 minutes of
+// teacher): load_bvh, then its Reference from features made and projected chunk by chunk, as
+// `kata score`, `kata coach` and `kata serve` load one. The teacher is 05_18 repeated (16x: 4
+// minutes, 29,264 frames; 64x: 16 minutes), written once to a temporary file. Real time: the
+// loading uses a second thread.
+void Load_LongTeacher(benchmark::State& state) {
+  const int times = static_cast<int>(state.range(0));
+  const auto metric = std::make_shared<const metric::Metric>(
+      metric::load_model(std::string(KATA_DATA_DIR) + "/../models/default.kata"));
+  BvhClip clip = load_bvh(std::string(KATA_DATA_DIR) + "/cmu/05_18.bvh");
+  const std::vector<double> once(clip.motion.begin(), clip.motion.end());
+  for (int k = 1; k < times; ++k) clip.motion.insert(clip.motion.end(), once.begin(), once.end());
+  const std::string path = (std::filesystem::temp_directory_path() /
+                            ("kata_bench_teacher_" + std::to_string(::getpid()) + "_" + std::to_string(times) + ".bvh"))
+                               .string();
+  write_bvh(path, clip);
+  int frames = 0;
+  double seconds = 0.0;  // wall, summed over the iterations
+  for (auto _ : state) {
+    const auto start = std::chrono::steady_clock::now();
+    const BvhClip t = load_bvh(path);
+    const GpdMap map = make_gpd_map(t.skeleton, preset_joint_names("cmu"));
+    frames = t.frame_count() - 1;
+    const metric::Reference ref(
+        metric,
+        [&](const std::function<void(const float*, int)>& sink) {
+          clip_features_in_chunks(t, map, metric->stencil(), 1, 1024, sink);
+        },
+        frames, t.frame_time);
+    benchmark::DoNotOptimize(ref.step_cost());
+    seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  }
+  std::filesystem::remove(path);
+  state.counters["teacher_minutes"] = frames / 120.0 / 60.0;
+  // The issue's measure: wall seconds per 10 minutes of teacher (target < 1).
+  state.counters["s_per_10_minutes"] = seconds / static_cast<double>(state.iterations()) / (frames / 120.0 / 600.0);
+}
+BENCHMARK(Load_LongTeacher)->ArgName("teacher_x")->Arg(16)->Arg(64)->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(3);
 
 }  // namespace
 }  // namespace kata

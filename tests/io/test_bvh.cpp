@@ -5,11 +5,15 @@
 
 #include "support/temp_paths.hpp"
 
+#include <algorithm>
+#include <charconv>
 #include <cstdint>
+#include <cstring>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <random>
 #include <sstream>
 
 #include <Eigen/Geometry>
@@ -479,6 +483,111 @@ TEST(BvhErrors, TruncationAndCorruptionNeverCrash) {
 }
 
 // The longest developer clip loads whole (its load time is measured in kata_bench, BM_LoadBvh*).
+// Motion values are read by a fast path for plain decimals (bvh.cpp plain_decimal) and by
+// from_chars otherwise: every value, of every shape a file may hold (digit and decimal counts
+// around the fast path's limits, signs, a bare leading or trailing point, exponents, mantissas
+// above 2^53, negative zero), is from_chars' own bit for bit.
+TEST(BvhParse, MotionValuesAreFromCharsBitForBit) {
+  std::mt19937_64 rng(36);
+  auto digits = [&](int n) {
+    std::string d;
+    for (int i = 0; i < n; ++i) d += static_cast<char>('0' + rng() % 10);
+    return d;
+  };
+  std::vector<std::string> values = {"0", "-0", "-0.0", "0.", ".5", "-.25", "5.", "+3.5", "1e5", "-2.5E-3",
+                                     "9007199254740992", "9007199254740993", "18446744073709551616",
+                                     "1234567890123456789", "0.0000000000000000000001", "0.00000000000000000000001",
+                                     "123456789.123456789", "-179.99999999999997", "1.7976931348623157e308"};
+  for (int i = 0; i < 6000; ++i) {
+    const int before = static_cast<int>(rng() % 21), after = static_cast<int>(rng() % 26);
+    std::string v = (rng() % 2 ? "-" : "") + digits(before);
+    if (after > 0 || before == 0) v += "." + digits(std::max(after, 1));
+    if (rng() % 50 == 0) v += "e" + std::to_string(static_cast<int>(rng() % 40) - 20);
+    values.push_back(v);
+  }
+  while (values.size() % 6 != 0) values.push_back("1");
+  std::string text = "HIERARCHY\nROOT R\n{\n OFFSET 0 0 0\n CHANNELS 6 Xposition Yposition Zposition Zrotation "
+                     "Xrotation Yrotation\n End Site\n {\n OFFSET 0 1 0\n }\n}\nMOTION\nFrames: " +
+                     std::to_string(values.size() / 6) + "\nFrame Time: 0.5\n";
+  for (size_t i = 0; i < values.size(); ++i) text += values[i] + (i % 6 == 5 ? "\n" : " ");
+  const BvhClip c = kata::parse_bvh(text, "values.bvh");
+  ASSERT_EQ(c.motion.size(), values.size());
+  for (size_t i = 0; i < values.size(); ++i) {
+    const std::string& v = values[i];
+    const char* b = v.data() + (v[0] == '+' ? 1 : 0);
+    double want = 0.0;
+    ASSERT_EQ(std::from_chars(b, v.data() + v.size(), want).ec, std::errc()) << v;
+    uint64_t got_bits = 0, want_bits = 0;
+    std::memcpy(&got_bits, &c.motion[i], sizeof got_bits);
+    std::memcpy(&want_bits, &want, sizeof want_bits);
+    ASSERT_EQ(got_bits, want_bits) << v << ": " << c.motion[i] << " vs " << want;
+  }
+}
+
+// A motion block of over 2^20 values is read in two halves on two threads (bvh.cpp
+// parse_motion_in_halves): the clip is the one the row-by-row parse makes of a short file with
+// the same rows, and a fault anywhere in either half (a bad value, a short or long row, a row
+// missing or one too many) is reported exactly as the row-by-row parse reports it, at its line.
+TEST(BvhParse, LongMotionReadInHalvesIsTheSequentialParse) {
+  const std::string text = read_text(cmu("02_01.bvh"));
+  const size_t motion_at = text.find("Frame Time:");
+  const size_t rows_at = text.find('\n', motion_at) + 1;
+  const std::string header = text.substr(0, text.find("Frames:"));
+  const std::vector<std::string> rows = split_lines(text.substr(rows_at));
+  const BvhClip one = kata::parse_bvh(text, "02_01.bvh");
+  const int copies = 40;  // 40 x 344 frames x 96 channels = 1.3 million values
+  std::vector<std::string> lines;
+  for (int c = 0; c < copies; ++c)
+    for (int f = 0; f < one.frame_count(); ++f) lines.push_back(rows[static_cast<size_t>(f)]);
+  const int header_lines = static_cast<int>(std::count(header.begin(), header.end(), '\n')) + 2;
+  auto make = [&](const std::vector<std::string>& body, size_t frames) {
+    std::string t = header + "Frames: " + std::to_string(frames) + "\n" + text.substr(motion_at, rows_at - motion_at);
+    for (const std::string& l : body) t += l + "\n";
+    return t;
+  };
+  const BvhClip long_clip = kata::parse_bvh(make(lines, lines.size()), "long.bvh");
+  ASSERT_EQ(long_clip.frame_count(), copies * one.frame_count());
+  ASSERT_GT(long_clip.motion.size(), size_t{1} << 20);
+  for (int c = 0; c < copies; ++c)
+    ASSERT_TRUE(std::equal(one.motion.begin(), one.motion.end(),
+                           long_clip.motion.begin() + static_cast<long>(c) * static_cast<long>(one.motion.size())))
+        << "copy " << c;
+  // A blank line anywhere is skipped, as row by row.
+  std::vector<std::string> blank = lines;
+  blank.insert(blank.begin() + static_cast<long>(blank.size() * 3 / 4), "  \t");
+  EXPECT_EQ(kata::parse_bvh(make(blank, lines.size()), "blank.bvh").motion, long_clip.motion);
+  struct Case {
+    const char* what;
+    std::vector<std::string> body;
+    size_t frames;
+    int line;  // 1-based line of the report
+    const char* says;
+  };
+  const size_t late = lines.size() * 3 / 4, early = lines.size() / 4;
+  std::vector<Case> cases;
+  auto with = [&](size_t at, const std::string& row) {
+    std::vector<std::string> b = lines;
+    b[at] = row;
+    return b;
+  };
+  cases.push_back({"bad value late", with(late, lines[late] + "x"), lines.size(), static_cast<int>(late) + header_lines + 1, "non-numeric value"});
+  cases.push_back({"bad value early", with(early, "1 2 zz" + lines[early]), lines.size(), static_cast<int>(early) + header_lines + 1, "non-numeric value"});
+  cases.push_back({"short row late", with(late, "1 2 3"), lines.size(), static_cast<int>(late) + header_lines + 1, "has 3 values"});
+  cases.push_back({"long row early", with(early, lines[early] + " 7"), lines.size(), static_cast<int>(early) + header_lines + 1, "has more than 96"});
+  cases.push_back({"one row too many", lines, lines.size() - 1, static_cast<int>(lines.size()) + header_lines, "more motion rows"});
+  cases.push_back({"one row missing", lines, lines.size() + 1, static_cast<int>(lines.size()) + header_lines, "truncated MOTION block"});
+  for (const Case& c : cases) {
+    try {
+      (void)kata::parse_bvh(make(c.body, c.frames), "long.bvh");
+      ADD_FAILURE() << c.what << ": accepted";
+    } catch (const Error& e) {
+      const std::string m = e.what();
+      EXPECT_NE(m.find("long.bvh:" + std::to_string(c.line) + ":"), std::string::npos) << c.what << ": " << m;
+      EXPECT_NE(m.find(c.says), std::string::npos) << c.what << ": " << m;
+    }
+  }
+}
+
 TEST(BvhLoad, LongCmuClipLoadsWhole) {
   const fs::path p = shared_data() / "cmu" / "01_06.bvh";
   if (!fs::exists(p)) GTEST_SKIP() << p << " not present";

@@ -289,5 +289,34 @@ TEST(Kernels, HalfRowAlignmentDistancesMatchThePlainFormula) {
       }
 }
 
+// The scorer's subtraction of a teacher's 16-bit row: the dispatched kernel equals the baseline
+// bit for bit, both equal row - step * q in float (one rounding each), and a result within 0.51
+// steps is 0, including values placed on either side of that edge.
+TEST(Kernels, SixteenBitRowSubtractionMatchesThePlainFormula) {
+  std::srand(36);
+  for (int n : {1, 7, 8, 50, 61}) {
+    for (float step : {0.0f, 1e-5f, 3.0e-4f}) {
+      std::vector<int16_t> q(static_cast<size_t>(n));
+      std::vector<float> row(static_cast<size_t>(n));
+      for (int c = 0; c < n; ++c) {
+        q[static_cast<size_t>(c)] = static_cast<int16_t>(std::rand() % 65535 - 32767);
+        const float decoded = step * static_cast<float>(q[static_cast<size_t>(c)]);
+        // Near the decoded value (within a few steps, some on the 0.51-step edge) or anywhere.
+        const float near[] = {0.0f, 0.5f, 0.51f, 0.52f, -0.51f, -2.0f};
+        row[static_cast<size_t>(c)] = c % 3 == 2 ? (static_cast<float>(std::rand()) / RAND_MAX - 0.5f)
+                                                 : decoded + near[std::rand() % 6] * step;
+      }
+      std::vector<float> fast(row), base(row);
+      metric::detail::subtract_rows16(fast.data(), q.data(), step, n);
+      metric::detail::base::subtract_rows16(base.data(), q.data(), step, n);
+      for (int c = 0; c < n; ++c) {
+        ASSERT_EQ(fast[static_cast<size_t>(c)], base[static_cast<size_t>(c)]) << n << " " << c;
+        const float d = row[static_cast<size_t>(c)] - step * static_cast<float>(q[static_cast<size_t>(c)]);
+        ASSERT_EQ(base[static_cast<size_t>(c)], std::fabs(d) <= 0.51f * step ? 0.0f : d) << n << " " << c;
+      }
+    }
+  }
+}
+
 }  // namespace
 }  // namespace kata

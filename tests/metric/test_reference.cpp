@@ -37,9 +37,11 @@ void expect_identical(const metric::Reference& a, const metric::Reference& b) {
   EXPECT_EQ(a.alignment_half_scale(), b.alignment_half_scale());
   ASSERT_EQ(a.search_grid(), b.search_grid());
   ASSERT_EQ(a.search_rows(), b.search_rows());
+  std::vector<float> pa(metric::kProjectionRows * stride), pb(pa.size());
   for (int j = 0; j < a.frames(); ++j) {
-    ASSERT_EQ(0, std::memcmp(a.part_projection(j), b.part_projection(j), metric::kProjectionRows * stride * sizeof(float)))
-        << "frame " << j;
+    a.projection(j, pa.data());
+    b.projection(j, pb.data());
+    ASSERT_EQ(0, std::memcmp(pa.data(), pb.data(), pa.size() * sizeof(float))) << "frame " << j;
     ASSERT_EQ(0, std::memcmp(a.alignment_rows_half(j), b.alignment_rows_half(j), stride * sizeof(uint16_t))) << j;
     ASSERT_EQ(0, std::memcmp(a.pose(j), b.pose(j), metric::kPoseFloats * sizeof(float))) << j;
   }
@@ -104,6 +106,68 @@ TEST(Reference, StreamedClipOfTheWrongLengthIsRefused) {
   EXPECT_THROW((void)metric::Reference(metric, chunks(3), 4, 1.0 / 120), Error);
   EXPECT_THROW((void)metric::Reference(metric, chunks(5), 4, 1.0 / 120), Error);
   EXPECT_NO_THROW((void)metric::Reference(metric, chunks(4), 4, 1.0 / 120));
+}
+
+// A NaN in a later chunk is refused as in the one-shot constructor, naming its frame, though the
+// chunk is projected on another thread (reference.cpp); so is one in the last chunk.
+TEST(Reference, NaNInAStreamedChunkIsRefused) {
+  const auto metric = test::test_metric();
+  const std::vector<float>& clip = test::clip_rows("02_01.bvh");
+  const int frames = static_cast<int>(clip.size() / gpd::kDims);
+  for (const int bad : {150, frames - 1}) {
+    std::vector<float> all(clip);
+    all[static_cast<size_t>(bad) * gpd::kDims + 7] = std::nanf("");
+    try {
+      const metric::Reference r(
+          metric,
+          [&](const std::function<void(const float*, int)>& sink) {
+            for (int at = 0; at < frames; at += 100)
+              sink(all.data() + static_cast<size_t>(at) * gpd::kDims, std::min(100, frames - at));
+          },
+          frames, 1.0 / 120);
+      ADD_FAILURE() << "frame " << bad << ": accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.kind(), ErrorKind::kInvalidArgument);
+      EXPECT_NE(std::string(e.what()).find("frame " + std::to_string(bad)), std::string::npos) << e.what();
+    }
+  }
+}
+
+// What a Reference keeps (issue 36): the part and joint-position rows within half a step (the
+// row's largest |value| / 32767) of the float projection, the static row as it is, and at most
+// 2 KB a teacher frame.
+TEST(Reference, KeptRowsAreWithinTheirRoundingAndTwoKilobytesAFrame) {
+  const auto metric = test::test_metric();
+  const std::vector<float>& clip = test::clip_rows("05_02.bvh");
+  const int frames = static_cast<int>(clip.size() / gpd::kDims);
+  const metric::Reference ref(metric, clip.data(), frames, 1.0 / 120);
+  const int stride = metric->stride(), rank = metric->rank();
+  metric::Metric::Workspace ws = metric->make_workspace();
+  std::vector<float> want(static_cast<size_t>(metric::kProjectionRows) * stride), kept(want.size());
+  double worst_steps = 0.0;
+  for (int j = 0; j < frames; ++j) {
+    metric->part_projections(clip.data() + static_cast<size_t>(j) * gpd::kDims, ws, want.data());
+    ref.projection(j, kept.data());
+    for (int r = 0; r < metric::kProjectionRows; ++r) {
+      const float* w = want.data() + static_cast<size_t>(r) * stride;
+      const float* k = kept.data() + static_cast<size_t>(r) * stride;
+      float largest = 0.0f;
+      for (int c = 0; c < rank; ++c) largest = std::max(largest, std::fabs(w[c]));
+      for (int c = 0; c < stride; ++c) {
+        if (c >= rank) {
+          ASSERT_EQ(k[c], 0.0f) << "padding, frame " << j << " row " << r;
+        } else if (r == metric::kStaticRow) {
+          ASSERT_EQ(k[c], w[c]) << "static row, frame " << j << " column " << c;  // kept in float
+        } else {
+          const double steps = std::fabs(static_cast<double>(k[c]) - w[c]) / (largest / 32767.0);
+          ASSERT_LE(steps, 0.501) << "frame " << j << " row " << r << " column " << c;
+          worst_steps = std::max(worst_steps, steps);
+        }
+      }
+    }
+  }
+  EXPECT_GT(worst_steps, 0.3);  // the rows are rounded (not kept in float), by up to half a step
+  EXPECT_LE(ref.memory_bytes(), static_cast<size_t>(frames) * 2048);
 }
 
 }  // namespace

@@ -21,6 +21,37 @@ namespace {
 using metric::kParts;
 using Vec = Eigen::VectorXd;
 
+// What the Reference's 16-bit rows may move a score row by (reference.hpp): each kept value is
+// within half its row's step (the row's largest |value| / 32767) of the projection's float, plus
+// the float roundings of decoding it and subtracting it (2^-23 of the row's largest at most, 0.4 %
+// of a step), and a difference within 0.51 steps is taken as 0: at most 1.02 steps in all. The
+// teacher's float projection of pose y, row by row.
+struct HeldRows {
+  double step[metric::kProjectionRows] = {};  // per row; 0 for the static row (not kept this way)
+  int rank = 0;
+  // Largest change of u = sum of the part rows (its Euclidean norm), and of part row q's norm.
+  double u_bound() const {
+    double per_column = 0.0;
+    for (int q = 0; q < kParts; ++q) per_column += 1.02 * step[q];
+    return std::sqrt(static_cast<double>(rank)) * per_column;
+  }
+  double row_bound(int r) const { return std::sqrt(static_cast<double>(rank)) * 1.02 * step[r]; }
+};
+HeldRows held_rows(const metric::Metric& m, const float* y) {
+  metric::Metric::Workspace ws = m.make_workspace();
+  std::vector<float> p(static_cast<size_t>(metric::kProjectionRows) * m.stride());
+  m.part_projections(y, ws, p.data());
+  HeldRows h;
+  h.rank = m.rank();
+  for (int r = 0; r < metric::kProjectionRows; ++r) {
+    if (r == metric::kStaticRow) continue;
+    float largest = 0.0f;
+    for (int c = 0; c < m.rank(); ++c) largest = std::max(largest, std::fabs(p[static_cast<size_t>(r) * m.stride() + c]));
+    h.step[r] = largest / 32767.0;
+  }
+  return h;
+}
+
 // d and the five parts vs the dense quadratic form e^T W W^T e, with M formed explicitly.
 TEST(Scorer, DistanceAndPartsMatchDenseQuadraticForm) {
   const metric::Model& model = test::test_model();
@@ -55,7 +86,9 @@ TEST(Scorer, DistanceAndPartsMatchDenseQuadraticForm) {
     const double d = std::sqrt(d2);
     SCOPED_TRACE(std::string(p.teacher) + ":" + std::to_string(p.tf) + " vs " + p.student + ":" + std::to_string(p.sf) +
                  " d=" + std::to_string(d));
-    EXPECT_NEAR(r.distance, d, 1e-5 * d);
+    // The float path's rounding (1e-5 of d, as before the 16-bit rows) plus the rows' bound.
+    const HeldRows rows = held_rows(*metric, y);
+    EXPECT_NEAR(r.distance, d, 1e-5 * d + rows.u_bound());
     EXPECT_NEAR(r.model_score, 100.0 / (1.0 + (d / model.delta_star) * (d / model.delta_star)), 1e-3);
     // The coaching total: never above the model's map nor the worst part (scorer.hpp).
     float worst = 100.0f;
@@ -68,13 +101,25 @@ TEST(Scorer, DistanceAndPartsMatchDenseQuadraticForm) {
       for (int q = 0; q < kParts; ++q)
         if (parts[i] & (1 << q)) dense_parts[q] += e[i] * me[i] / count;
     }
-    double sum = 0.0;
+    // part q = u . D_q: held rows move it by at most |du| |D_q| + |u| |dD_q| + |du| |dD_q|, with
+    // u and D_q = W^T (share_q o e) from the held W.
+    const Vec u = wh.transpose() * e;
+    double sum = 0.0, sum_bound = 0.0;
     for (int q = 0; q < kParts; ++q) {
-      EXPECT_NEAR(r.parts[q], dense_parts[q], 2e-5 * d2) << metric::part_name(q);
+      Vec share_e = Vec::Zero(gpd::kDims);
+      for (int i = 0; i < gpd::kDims; ++i)
+        if (parts[i] & (1 << q)) share_e[i] = e[i] / __builtin_popcount(parts[i]);
+      const double dq = (wh.transpose() * share_e).norm();
+      const double bound = rows.u_bound() * dq + u.norm() * rows.row_bound(q) + rows.u_bound() * rows.row_bound(q);
+      EXPECT_NEAR(r.parts[q], dense_parts[q], 2e-5 * d2 + bound) << metric::part_name(q);
       sum += r.parts[q];
+      sum_bound += bound;
     }
     const double d2_held = (wh.transpose() * e).squaredNorm();
-    EXPECT_NEAR(sum, d2_held, 1e-5 * d2_held);
+    EXPECT_NEAR(sum, d2_held, 1e-5 * d2_held + sum_bound);
+    // The bound itself is small beside the distances that matter: under 1 % of delta*, the
+    // distance that scores 50.
+    EXPECT_LT(rows.u_bound(), 0.01 * model.delta_star);
   }
 }
 
@@ -84,9 +129,11 @@ TEST(Scorer, IdenticalPoseScoresHundred) {
     const float* x = test::clip_row("02_01.bvh", f);
     metric::Scorer scorer(std::make_shared<const metric::Reference>(metric, x));
     const metric::ScoreRecord& r = scorer.score(x, 1.0);
+    // Exactly, though the teacher's rows are 16-bit (differences within their rounding are 0).
     EXPECT_EQ(r.distance, 0.0f);
     EXPECT_EQ(r.score, 100.0f);
     for (float part : r.parts) EXPECT_EQ(part, 0.0f);
+    for (float part : r.part_distance) EXPECT_EQ(part, 0.0f);
     EXPECT_EQ(r.matched, 0);
   }
 }

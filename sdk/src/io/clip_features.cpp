@@ -1,6 +1,10 @@
 #include "io/clip_features.hpp"
 
+#include <algorithm>
+#include <future>
+
 #include "io/name_map.hpp"
+#include "metric/loading.hpp"
 
 #include "common/error.hpp"
 #include "common/text.hpp"
@@ -33,13 +37,36 @@ void check_first(const BvhClip& clip, int first) {
 void clip_features_in_chunks(const BvhClip& clip, const GpdMap& map, gpd::Stencil stencil, int first,
                              int chunk_frames, const FeatureSink& sink) {
   check_first(clip, first);
-  const int n = clip.skeleton.joint_count();
-  Eigen::MatrixX3d world(n, 3);
-  // Frame by frame exactly as clip_positions makes them (the same floats, so the same features).
+  const int n = clip.skeleton.joint_count(), frames = clip.frame_count() - first;
+  const size_t per_frame = 3 * static_cast<size_t>(n);
+  // Frames [b * kBlock, ...) made exactly as clip_positions makes them (the same floats, so the
+  // same features), a block at a time on a second thread while the stream (sequential: it carries
+  // state from frame to frame) takes the block before: the forward kinematics were a fifth of a
+  // long teacher's load, on the one thread the stream runs on (issue 36). Two buffers: block b
+  // goes to buffer b % 2 once block b - 1 (the stream's current one, in the other) is complete.
+  constexpr int kBlock = 1024;
+  std::vector<float> block[2];
+  auto make_block = [&clip, first, frames, n, per_frame](int b, std::vector<float>* out) {
+    Eigen::MatrixX3d world(n, 3);
+    const int begin = b * kBlock, end = std::min(frames, begin + kBlock);
+    out->resize(static_cast<size_t>(end - begin) * per_frame);
+    float* o = out->data();
+    for (int i = begin; i < end; ++i) {
+      world_positions(clip, first + i, world);
+      for (int j = 0; j < n; ++j)
+        for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(world(j, k));
+    }
+  };
+  std::future<void> next;  // block (i / kBlock) + 1, under way
   auto positions = [&](int i, float* o) {
-    world_positions(clip, first + i, world);
-    for (int j = 0; j < n; ++j)
-      for (int k = 0; k < 3; ++k) *o++ = static_cast<float>(world(j, k));
+    const int b = i / kBlock;
+    if (i % kBlock == 0) {
+      if (b == 0) make_block(0, &block[0]);
+      else next.get();
+      if ((b + 1) * kBlock < frames) next = start_beside([&make_block, &block, b] { make_block(b + 1, &block[(b + 1) % 2]); });
+    }
+    const float* p = block[b % 2].data() + static_cast<size_t>(i % kBlock) * per_frame;
+    std::copy(p, p + per_frame, o);
   };
   try {
     features_in_chunks(stream_config_for(clip.skeleton, map, stencil), positions, clip.frame_count() - first,

@@ -72,6 +72,11 @@ void alignment_step_range(const double* prev, double* cur, const float* c, int a
   base::alignment_step_range(prev, cur, c, a, b, lo, hi, pk, k_max, jump, loop);
 }
 
+void subtract_rows16(float* row, const int16_t* q, float step, int n) {
+  if (cpu_has_avx2()) return avx2::subtract_rows16(row, q, step, n);
+  base::subtract_rows16(row, q, step, n);
+}
+
 int alignment_rebase(double* cur, int a, int b) {
   if (cpu_has_avx2()) return avx2::alignment_rebase(cur, a, b);
   return base::alignment_rebase(cur, a, b);

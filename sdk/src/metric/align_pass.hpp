@@ -35,7 +35,14 @@ int alignment_rebase(double* cur, int a, int b);
 void alignment_step_range(const double* prev, double* cur, const float* c, int a, int b, int lo, int hi,
                           const double* pk, int k_max, double jump, bool loop);
 
+// The scorer's subtraction of a teacher's 16-bit row (Reference::subtract_projection): row[c] -=
+// step * q[c] for c < n, a result within 0.51 steps taken as 0 (why: reference.cpp). Separate
+// multiply and subtract: equal bit for bit on every CPU. Dispatches (AVX2 converts and compares
+// 8 values an instruction where the baseline does 4: 0.15 us of a 6.4 us score otherwise).
+void subtract_rows16(float* row, const int16_t* q, float step, int n);
+
 namespace base {
+void subtract_rows16(float* row, const int16_t* q, float step, int n);
 void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out);
 int alignment_step(const double* prev, double* cur, const float* c, int a, int b, const double* pk, int k_max,
                    double jump, bool loop);
@@ -44,6 +51,7 @@ void alignment_step_range(const double* prev, double* cur, const float* c, int a
                           const double* pk, int k_max, double jump, bool loop);
 }
 namespace avx2 {
+void subtract_rows16(float* row, const int16_t* q, float step, int n);
 void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out);
 int alignment_step(const double* prev, double* cur, const float* c, int a, int b, const double* pk, int k_max,
                    double jump, bool loop);

@@ -54,6 +54,7 @@ void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m
 #else  // not an x86 build: the dispatcher never calls this.
 
 namespace kata::metric::detail::avx2 {
+void subtract_rows16(float* row, const int16_t* q, float step, int n) { base::subtract_rows16(row, q, step, n); }
 void alignment_distances_half(const float* s_scaled, const uint16_t* rows, int m, int stride, float scale, float* out) {
   base::alignment_distances_half(s_scaled, rows, m, stride, scale, out);
 }

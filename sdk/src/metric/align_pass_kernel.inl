@@ -1,6 +1,6 @@
-// The alignment's per-frame loops (align_pass.hpp), written once as plain loops and compiled in
-// each instruction set's translation unit (align_pass.cpp, align_pass_avx2.cpp), where they
-// vectorise over teacher frames. Only exact operations (min) and additions in a fixed order, no
+// The alignment's per-frame loops (align_pass.hpp), and the scorer's subtraction of a teacher's
+// 16-bit rows, written once as plain loops and compiled in each instruction set's translation
+// unit (align_pass.cpp, align_pass_avx2.cpp), where they vectorise. Only exact operations (min) and additions in a fixed order, no
 // fused multiply-adds (align_pass_avx2.cpp is built with -ffp-contract=off): every CPU gives the
 // same costs bit for bit. Included inside the implementation's namespace.
 
@@ -38,4 +38,12 @@ void alignment_step_range(const double* prev, double* cur, const float* c, int a
       for (int j = lo; j <= std::min(hi, a + k - 1); ++j) cur[j] = std::min(cur[j], prev[j - k + n] + p);
   }
   for (int j = lo; j <= hi; ++j) cur[j] += c[j];
+}
+
+void subtract_rows16(float* row, const int16_t* q, float step, int n) {
+  const float none = 0.51f * step;
+  for (int c = 0; c < n; ++c) {
+    const float d = row[c] - step * static_cast<float>(q[c]);
+    row[c] = d <= none && d >= -none ? 0.0f : d;  // (no library call in an AVX2 unit)
+  }
 }

@@ -13,6 +13,7 @@
 #include <memory>
 #include <vector>
 
+#include "metric/loading.hpp"
 #include "metric/metric.hpp"
 #include "metric/pose_error.hpp"
 
@@ -51,16 +52,32 @@ class Reference {
   // alignment's re-localisation margin (align.hpp).
   double spread() const { return spread_; }
   const Metric& metric() const { return *metric_; }
-  // Projection of frame j: kProjectionRows x stride floats (Metric::part_projections).
-  const float* part_projection(int j) const {
-    return rows_.data() + static_cast<size_t>(j) * kProjectionRows * stride_;
-  }
-  // The static-blocks projection of frame j (stride floats): what the alignment compares, row
-  // kParts of the frame's projection (no copy: the live pass streams the half rows below).
-  const float* alignment_projection(int j) const { return part_projection(j) + static_cast<size_t>(kParts) * stride_; }
-  // The same rows in IEEE half precision, each value divided by alignment_half_scale() (a power
-  // of two keeping every value within +-16384, so none overflows): what the live aligner streams
-  // every frame (align_pass.hpp), half the bytes of the float rows. Relative rounding 2^-11.
+  // What a frame's projection keeps (issue 36: <= 2 KB a teacher frame; docs/model/alignment.md,
+  // "Two kilobytes a teacher frame"). The scorer reads the kParts part rows and the kParts joint
+  // rows (kScoreRows): each is kept as rank 16-bit integers with one float step (the row's largest
+  // |value| / 32767), so a value is within half a step, 2^-16 of its row's largest, of the
+  // projection's float; the same scheme as W's (kernels.hpp), and the error is absolute, which
+  // is what the differences the scorer takes care about (half precision would be 2^-12 of each
+  // value: 16x coarser on a row's large values). The static row (kStaticRow) is kept in float (the
+  // offline DTW and the build read it) and as the aligner's half rows below.
+  static constexpr int kScoreRows = 2 * kParts;
+  // p (kProjectionRows x stride floats: a student frame's Metric::part_projections) minus frame
+  // j's part and joint-position rows, as decoded, each difference within 0.51 steps taken as 0
+  // (the teacher's own pose is at distance 0); row kStaticRow and the padding are left as they
+  // are. What the scorer does every frame: allocation-free.
+  void subtract_projection(int j, float* p) const;
+  // Frame j's projection as kept, decoded (kProjectionRows x stride floats, padding 0). For tests
+  // and diagnostics.
+  void projection(int j, float* out) const;
+  // The static-blocks projection of frame j (stride floats, row kStaticRow of its projection, in
+  // float): what `--align dtw` compares (align_dtw.hpp) and the build's statistics (step cost,
+  // spread, the half scale). Kept whole although the live aligner streams the half rows below:
+  // the offline DTW's path turns on near ties (a held pose), and from the half rows it moved the
+  // default lesson's matches on 8 % of its frames; 224 B a frame (rank 50) keeps it exact.
+  const float* alignment_projection(int j) const { return static_rows_.data() + static_cast<size_t>(j) * stride_; }
+  // The static-blocks rows in IEEE half precision, each value divided by alignment_half_scale()
+  // (a power of two keeping every value within +-16384, so none overflows): what the live aligner
+  // streams every frame (align_pass.hpp). Relative rounding 2^-11.
   const uint16_t* alignment_rows_half(int j) const { return align_half_.data() + static_cast<size_t>(j) * stride_; }
   float alignment_half_scale() const { return align_half_scale_; }
   // The re-localisation grid (issue 36): a clip longer than kSearchFrames is searched on every
@@ -74,6 +91,8 @@ class Reference {
   const uint16_t* search_rows_half(int i) const {
     return search_grid_ > 1 ? search_half_.data() + static_cast<size_t>(i) * stride_ : alignment_rows_half(i);
   }
+  // Bytes this Reference holds (its arrays' capacity; issue 36's budget is 2 KB a teacher frame).
+  size_t memory_bytes() const;
   // Frame j's joints in the body's frames (pose_error.hpp pose_frames: kPoseFloats floats), from
   // which the scorer takes each part's angle and offset to the student's.
   const float* pose(int j) const { return poses_.data() + static_cast<size_t>(j) * kPoseFloats; }
@@ -81,9 +100,10 @@ class Reference {
  private:
   void check_clip(int frames, double frame_time) const;
   void begin();
-  // Frames [first, first + count): their projections and poses.
+  // Frames [first, first + count): their projections (kept as above) and poses. Calls for
+  // disjoint frames may run on different threads at once.
   void add(const float* features, int first, int count);
-  // What needs the whole clip, from the projections only (the features are gone by then).
+  // What needs the whole clip, from the float static rows (the features are gone by then).
   void finish();
 
   std::shared_ptr<const Metric> metric_;
@@ -92,9 +112,13 @@ class Reference {
   double frame_time_ = 0.0;
   double step_cost_ = 0.0;
   double spread_ = 0.0;
-  AlignedFloats rows_;
-  std::vector<uint16_t> align_half_;
-  std::vector<float> poses_;  // frames x kPoseFloats
+  int rank_ = 0;
+  // Filled by add() (possibly on another thread: the first touch of their pages, loading.hpp).
+  LargeArray<int16_t> score_rows_;  // frames x kScoreRows x rank: the part, then the joint rows
+  LargeArray<float> score_scale_;   // frames x kScoreRows: each row's step
+  LargeArray<float> static_rows_;   // frames x stride: the static rows in float
+  LargeArray<float> poses_;         // frames x kPoseFloats
+  LargeArray<uint16_t> align_half_;  // frames x stride
   float align_half_scale_ = 1.0f;
   int search_grid_ = 1;
   std::vector<uint16_t> search_half_;  // every search_grid_-th half row (search_grid_ > 1 only)

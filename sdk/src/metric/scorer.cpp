@@ -121,10 +121,10 @@ void Scorer::finish(const float* x, double t, int matched) {
   // e-projections per part: D_p = P_p(x) - P_p(y_j); u = sum_p D_p; part p = u . D_p (the split
   // of d^2). The part's distance is its joint-position row's: J_p(x) - J_p(y_j), the part's own
   // joints only (metric.hpp kJointRows: a shared dimension would credit a part that did not move).
-  const float* py = ref.part_projection(j);
-  for (int i = 0; i < kParts * stride; ++i) p[i] -= py[i];
+  // (The teacher's rows as the Reference keeps them: 16-bit, within 2^-16 of each row's largest;
+  // a difference within that rounding is 0, reference.hpp subtract_projection.)
+  ref.subtract_projection(j, p);
   const size_t joint_rows = static_cast<size_t>(kJointRows) * stride;
-  for (size_t i = joint_rows; i < joint_rows + static_cast<size_t>(kParts) * stride; ++i) p[i] -= py[i];
   float* u = u_.data();
   sum_parts(p, stride, u);
   const double d2 = detail::dot(u, u, stride);
