@@ -215,9 +215,9 @@ int run_subscriber(const Options& o) {
   // same thing). defined_here: false for a definition that does not count towards "ready" (NATS:
   // not yet from the shard that will hold the stream's partition once the shards have settled).
   auto on_message = [&](const uint8_t* data, size_t n, int64_t t, bool defined_here) {
-    last_message = std::chrono::steady_clock::now();
     if (!kata_mode) {
       if (n < 24) return;
+      last_message = std::chrono::steady_clock::now();
       int64_t sent;
       std::memcpy(&sent, data + 16, 8);
       total.push_back(t - sent);
@@ -236,6 +236,9 @@ int run_subscriber(const Options& o) {
       }
     }
     if (kind != kata::transport::MessageKind::kResult) return;
+    // Only results count as traffic: shards that publish themselves (--transport nats's ZeroMQ
+    // phase) re-send their streams' definitions every second until they are stopped.
+    last_message = std::chrono::steady_clock::now();
     const auto& r = decoder.result();
     if (first_received == 0) first_received = t;
     // The soak judge's own test: a latency that grows by this much per second of the run.
@@ -253,7 +256,7 @@ int run_subscriber(const Options& o) {
     bytes += static_cast<uint64_t>(n);
     any = true;
   };
-  // Done after 1.5 s without a message once results flowed (the publisher has finished).
+  // Done after 1.5 s without a result once results flowed (the publisher has finished).
   auto finished = [&] {
     const auto now = std::chrono::steady_clock::now();
     return now > hard_deadline || (any && now - last_message > std::chrono::milliseconds(1500));
