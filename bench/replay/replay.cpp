@@ -106,6 +106,7 @@ struct Options {
   bool ingest = false;          // the frames come from a sender process over ZeroMQ through Ingest
   int result_batch = 8;         // RuntimeConfig::result_batch
   std::string sender;           // internal: the sender process (PUSH to this endpoint)
+  int nats_servers = 3;         // --transport nats: servers in the cluster (1: no route hop, R1 leases)
 };
 
 int64_t now_ns() { return kata::pipeline::now_ns(); }
@@ -961,7 +962,8 @@ json run_sharded(const Options& o, const Clips& c, int streams, double* message_
 // deployment: stream s goes to shard s mod N over its own PUSH -> PULL (tcp loopback), each shard
 // publishes on its own PUB, the subscriber connects to all N. NATS, across hosts' deployment: a
 // 3-server cluster started here on loopback (nats_cluster.hpp, JetStream in memory, the partition
-// mapping), the source publishes on n0, shard k connects to server k mod 3, the subscriber to n1;
+// mapping; --nats-servers), the source publishes on n0, shard k connects to server k mod 3, the
+// subscriber to n1;
 // shards own partitions by lease. CPU per process is read from /proc over the paced seconds only
 // (model and teacher loads, the cluster's start and the lease settling excluded).
 #ifdef KATA_HAVE_NATS
@@ -989,7 +991,7 @@ json run_shard_processes(const Options& o, const Clips& c, int streams, bool ove
   namespace kn = kata::transport::nats;
   std::unique_ptr<kata::test::NatsCluster> cluster;
   if (over_nats) {
-    cluster = std::make_unique<kata::test::NatsCluster>(dir, 3);
+    cluster = std::make_unique<kata::test::NatsCluster>(dir, o.nats_servers);
     if (!cluster->problem().empty()) throw Error(ErrorKind::kIo, "replay: the NATS cluster: " + cluster->problem());
   }
   std::vector<pid_t> shards;
@@ -1007,7 +1009,7 @@ json run_shard_processes(const Options& o, const Clips& c, int streams, bool ove
     std::ofstream f(config);
     if (over_nats) {
       f << "[transport]\nkind = \"nats\"\nservers = [\"" << cluster->url(k % cluster->size()) << "\"]\nshard = \"replay-"
-        << k << "\"\n[ingest]\n";
+        << k << "\"\nlease_replicas = " << std::min(3, o.nats_servers) << "\n[ingest]\n";
     } else {
       ingest_endpoints.push_back("tcp://127.0.0.1:" + std::to_string(kata::test::free_port()));
       result_endpoints.push_back("tcp://127.0.0.1:" + std::to_string(kata::test::free_port()));
@@ -1066,7 +1068,7 @@ json run_shard_processes(const Options& o, const Clips& c, int streams, bool ove
     }
   };
   std::string subscriber_endpoint;
-  if (over_nats) subscriber_endpoint = cluster->url(1);
+  if (over_nats) subscriber_endpoint = cluster->url(1 % cluster->size());
   for (const auto& e : result_endpoints) subscriber_endpoint += (subscriber_endpoint.empty() ? "" : ",") + e;
   // Definitions until every stream is open on the shard that keeps it and announced to the
   // subscriber (each shard loads the model and teacher first; on NATS the shards share the
@@ -1136,7 +1138,8 @@ json run_shard_processes(const Options& o, const Clips& c, int streams, bool ove
   for (size_t i = 0; i < servers.size(); ++i)
     per_process["nats-server n" + std::to_string(i)] = 100.0 * (server_cpu1[i] - server_cpu0[i]) / wall;
   j["cpu_percent_of_one_core_by_process"] = per_process;
-  j["path"] = over_nats ? "source -> NATS n0 -> (route) -> N kata serve (partition leases) -> NATS -> subscriber on n1"
+  j["path"] = over_nats ? "source -> NATS n0 -> (route) -> N kata serve on n<k mod servers> (partition leases) -> NATS -> "
+                          "subscriber on n1 (" + std::to_string(o.nats_servers) + " servers)"
                         : "source -> N x (PUSH -> kata serve PULL ingest -> PUB) -> one SUB on all N (tcp loopback)";
   for (void* p : pushes) zmq_close(p);
   if (context != nullptr) zmq_ctx_term(context);
@@ -1158,6 +1161,7 @@ json run_nats_comparison(const Options& o, const Clips& c, int streams) {
   j["seconds"] = o.seconds;
   j["shards"] = o.shards;
   j["workers"] = o.workers;
+  j["nats_servers"] = o.nats_servers;
   j["zmq"] = run_shard_processes(o, c, streams, false);
   j["nats"] = run_shard_processes(o, c, streams, true);
   j["bare_zmq"] = run_bare(o, streams, static_cast<size_t>(j["nats"]["mean_message_bytes"].get<double>() + 0.5));
@@ -1560,6 +1564,10 @@ void setup(CLI::App& app) {
   cmd->add_flag("--ingest", o->ingest,
                 "the frames come from a sender process over ZeroMQ (PUSH -> the runtime's PULL Ingest, verifier and "
                 "checksum), as kata send does, instead of the in-process push; latency from the frame's send");
+  cmd->add_option("--nats-servers", o->nats_servers,
+                  "with --transport nats: servers in the cluster (1: no route between servers, leases not replicated)")
+      ->check(CLI::Range(1, 5))
+      ->capture_default_str();
   cmd->add_option("--subscriber", o->subscriber)->group("");  // internal: the subscriber process
   cmd->add_option("--sender", o->sender)->group("");          // internal: the sender process (--ingest)
   cmd->add_option("--mode", o->mode)->group("");
