@@ -1098,6 +1098,13 @@ json run_shard_processes(const Options& o, const Clips& c, int streams, bool ove
     return v;
   };
   const std::vector<double> shard_cpu0 = cpu_of(shards), server_cpu0 = cpu_of(servers);
+  // Where each server's log stood when the measured seconds began (their warnings are read from here).
+  std::vector<uintmax_t> log_offsets;
+  for (size_t i = 0; i < servers.size(); ++i) {
+    std::error_code ec;
+    const uintmax_t size = std::filesystem::file_size(dir + "/" + kata::test::NatsCluster::name(static_cast<int>(i)) + ".log", ec);
+    log_offsets.push_back(ec ? 0 : size);
+  }
   const int64_t ticks = static_cast<int64_t>(o.seconds * o.rate);
   std::vector<int64_t> last_stamp(static_cast<size_t>(streams), 0);
   const double cpu0 = cpu_seconds();
@@ -1123,6 +1130,21 @@ json run_shard_processes(const Options& o, const Clips& c, int streams, bool ove
   const std::vector<double> shard_cpu1 = cpu_of(shards), server_cpu1 = cpu_of(servers);
   json j = finish_child(child);
   const uint64_t sent = static_cast<uint64_t>(ticks) * static_cast<uint64_t>(streams);
+  // The servers' warnings and errors from the measured seconds until the subscriber's end (slow
+  // consumers, long read loops, raft elections; not the start-up's or the shutdown's route
+  // noise): what a stall in the figures may come from.
+  if (over_nats) {
+    json warnings = json::array();
+    for (size_t i = 0; i < log_offsets.size(); ++i) {
+      std::ifstream log(dir + "/" + kata::test::NatsCluster::name(static_cast<int>(i)) + ".log");
+      log.seekg(static_cast<std::streamoff>(log_offsets[i]));
+      for (std::string entry; std::getline(log, entry);)
+        if ((entry.find("[WRN]") != std::string::npos || entry.find("[ERR]") != std::string::npos) && warnings.size() < 20)
+          warnings.push_back(kata::test::NatsCluster::name(static_cast<int>(i)) + ": " + entry);
+    }
+    j["nats_server_warnings"] = warnings;
+  }
+
   j["sent"] = sent;
   j["refused_by_the_source"] = refused;
   j["lost"] = static_cast<int64_t>(sent) - j["received"].get<int64_t>();
@@ -1216,6 +1238,8 @@ void print_nats_comparison(const json& r) {
     }
     std::printf("        CPU %% of one core: %s; subscriber %.2f CPU s\n", cpu.c_str(),
                 k["subscriber_cpu_seconds"].get<double>());
+    if (k.contains("nats_server_warnings"))
+      for (const auto& w : k["nats_server_warnings"]) std::printf("        %s\n", w.get<std::string>().c_str());
   }
   std::printf("  bare ZeroMQ (one hop, same sizes and pacing): %.0f / %.0f us\n",
               r["bare_zmq"]["latency"]["p50_us"].get<double>(), r["bare_zmq"]["latency"]["p99_us"].get<double>());
