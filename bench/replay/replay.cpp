@@ -1613,7 +1613,8 @@ void setup(CLI::App& app) {
   cmd->add_flag("--capture-is-send", o->capture_is_send)->group("");
   cmd->add_option("--shards", o->shards,
                   "run the kata phase through two kata proxy processes (frames, results) and this many kata serve "
-                  "shards (ipc endpoints in a temporary directory); latency from the frame's send")
+                  "shards (ipc endpoints in a temporary directory); latency from the frame's send. With --transport "
+                  "nats: this many kata serve shards over ZeroMQ directly, then over NATS")
       ->capture_default_str();
   cmd->callback([o] {
     // The defaults are the checkout's paths; from elsewhere the copies under build/share/kata.
