@@ -98,7 +98,7 @@ void BM_RuntimePacedPush(benchmark::State& state) {
   d.stream_id = 1;
   d.revision = 1;
   d.skeleton = s.student;
-  d.preset = "cmu";
+  d.layout = "cmu";
   kata::runtime::StreamSetup setup;
   setup.pipeline = s.config;
   setup.teacher = s.teacher;

@@ -104,8 +104,8 @@ def main():
         kind = body[4:8]
         if kind == b"KSKL":
             d = SkeletonDefinition.GetRootAs(body, 0)
-            print("stream %d: skeleton of %d joints (preset %s)" % (d.StreamId(), d.JointNamesLength(),
-                  (d.Preset() or b"").decode()), flush=True)
+            print("stream %d: skeleton of %d joints (layout %s)" % (d.StreamId(), d.JointNamesLength(),
+                  (d.Layout() or b"").decode()), flush=True)
         elif kind == b"KRES":
             r = Result.GetRootAs(body, 0)
             age_us = (received_ns - r.ArrivalTime().Nanoseconds()) / 1000.0

@@ -35,7 +35,7 @@ int main(int argc, char** argv) {
   kata_clip_skeleton(clip, &skeleton);
 
   kata_stream_desc_init(&desc);
-  desc.preset = argc > 2 ? argv[2] : "cmu";
+  desc.layout = argc > 2 ? argv[2] : "cmu";
   desc.stencil = KATA_STENCIL_BACKWARD; /* derivatives at the newest frame: no added latency */
   if (kata_stream_open(ctx, skeleton, &desc, &stream) != KATA_OK) return fail("open", kata_context_last_error(ctx));
   printf("body height H = %.3f (file units)\n", kata_stream_body_height(stream));
@@ -57,7 +57,7 @@ int main(int argc, char** argv) {
     }
   }
   free(positions);
-  kata_stream_close(stream);
+  kata_stream_destroy(stream);
   kata_skeleton_destroy(skeleton);
   kata_clip_destroy(clip);
   kata_context_destroy(ctx);

@@ -64,7 +64,7 @@ times = {name: [] for name in runs}
 for rep in range(args.repetitions):
     order = list(runs) if rep % 2 == 0 else list(reversed(list(runs)))
     for name in order:
-        stream = ctx.open_stream(skeleton, preset="cmu")
+        stream = ctx.open_stream(skeleton, layout="cmu")
         times[name].append(runs[name](stream) / frames * 1e6)
         stream.close()
 median = {name: statistics.median(v) for name, v in times.items()}

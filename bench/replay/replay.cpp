@@ -553,7 +553,7 @@ int run_sender(const Options& o) {
         d.stream_id = static_cast<uint64_t>(s);
         d.revision = 1;
         d.skeleton = clips[static_cast<size_t>(s) % clips.size()].skeleton;
-        d.preset = "cmu";
+        d.layout = "cmu";
         d.frame_rate = static_cast<float>(o.rate);
         const auto m = encoder.skeleton(d);
         zmq_send(push, m.data, m.size, 0);
@@ -658,7 +658,7 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
     d.revision = 1;
     const size_t clip = static_cast<size_t>(s) % c.clips.size();
     d.skeleton = c.clips[clip].skeleton;
-    d.preset = "cmu";
+    d.layout = "cmu";
     d.frame_rate = static_cast<float>(o.rate);
     runtime.open_stream(d, setup_for(c, clip));
   }
@@ -887,7 +887,7 @@ json run_sharded(const Options& o, const Clips& c, int streams, double* message_
       d.stream_id = static_cast<uint64_t>(s);
       d.revision = 1;
       d.skeleton = c.clips[static_cast<size_t>(s) % c.clips.size()].skeleton;
-      d.preset = "cmu";
+      d.layout = "cmu";
       d.frame_rate = static_cast<float>(o.rate);
       const auto m = encoder.skeleton(d);
       zmq_send(pub, m.data, m.size, ZMQ_DONTWAIT);

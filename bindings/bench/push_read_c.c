@@ -54,7 +54,7 @@ int main(int argc, char** argv) {
   for (uint32_t f = 0; f < clip_frames; ++f) CHECK(kata_clip_positions(clip, f, xyz + (size_t)f * 3 * joints, 3 * joints));
   kata_stream_desc desc;
   kata_stream_desc_init(&desc);
-  desc.preset = "cmu";
+  desc.layout = "cmu";
   CHECK(kata_stream_open(ctx, skel, &desc, &stream));
 
   kata_result_record* results = calloc(chunk, sizeof *results);
@@ -86,7 +86,7 @@ int main(int argc, char** argv) {
   qsort(single, (size_t)reps, sizeof(double), cmp_double);
   qsort(chunked, (size_t)reps, sizeof(double), cmp_double);
   printf("single %.1f\nchunked %.1f\n", single[reps / 2], chunked[reps / 2]);
-  kata_stream_close(stream);
+  kata_stream_destroy(stream);
   kata_skeleton_destroy(skel);
   kata_clip_destroy(clip);
   kata_context_destroy(ctx);

@@ -44,7 +44,7 @@ namespace Kata
     public struct StreamDesc
     {
         public uint StructSize;
-        public IntPtr Preset;          // const char*: set by Context.OpenStream from a string
+        public IntPtr Layout;          // const char*: set by Context.OpenStream from a string
         public IntPtr NameMapPath;     // const char*
         public Stencil Stencil;
         public UpAxis UpAxis;
@@ -60,7 +60,7 @@ namespace Kata
     public struct RetargetDesc
     {
         public uint StructSize;
-        public IntPtr Preset;          // const char*
+        public IntPtr JointSet;        // const char*
         public double GradientTolerance;
         public uint MaxIterations;
         public int WarmStart;
@@ -89,12 +89,11 @@ namespace Kata
         public IntPtr Positions;       // const float*
         public uint Frames;
         public double FrameTime;
-        public IntPtr Preset;          // const char*
+        public IntPtr Layout;          // const char*
         public uint FirstFrame;
         public int PoseFrame;
         public int Ghost;
         public IntPtr Retarget;        // const kata_retarget_desc*
-        // since 1.0
         public IntPtr Features;        // const float*: Frames x Gpd.Dims
         public IntPtr Joints;          // const float*: the 16 GPD joints x 3, one held pose
         public double BodyHeight;
@@ -211,10 +210,9 @@ namespace Kata
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_clip_skeleton(ClipHandle clip, out SkeletonHandle skeleton);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_clip_positions(ClipHandle clip, uint frame, [Out] float[] xyz, UIntPtr capacity);
 
-        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_stream_desc_init(ref StreamDesc desc);
-        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_preset_name(uint i);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_stream_desc_init_sized(ref StreamDesc desc, uint structSize);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_open(ContextHandle ctx, SkeletonHandle skeleton, ref StreamDesc desc, out StreamHandle stream);
-        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_stream_close(IntPtr stream);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_stream_destroy(IntPtr stream);
         [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_stream_last_error(StreamHandle stream);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_push(StreamHandle stream, double timestamp, float[] xyz, uint jointCount);
         [DllImport(Lib, CallingConvention = CC, EntryPoint = "kata_stream_push")]
@@ -229,30 +227,13 @@ namespace Kata
 
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_model_load(ContextHandle ctx, byte[] path, out ModelHandle model);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_model_load_memory(ContextHandle ctx, byte[] data, UIntPtr size, out ModelHandle model);
-        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_model_free(IntPtr model);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_model_destroy(IntPtr model);
         [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_model_rank(ModelHandle model);
         [DllImport(Lib, CallingConvention = CC)] public static extern double kata_model_delta_star(ModelHandle model);
         [DllImport(Lib, CallingConvention = CC)] public static extern Stencil kata_model_stencil(ModelHandle model);
         [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_model_metadata(ModelHandle model, byte[] key);
 
-        [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
-        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_set_reference_pose(StreamHandle stream, ModelHandle model, float[] features, UIntPtr count);
-        [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
-        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_set_reference_joints(StreamHandle stream, ModelHandle model, float[] joints, UIntPtr count, double bodyHeight);
-        [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
-        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_set_reference_clip(StreamHandle stream, ModelHandle model, float[] features, uint frames, double frameTime);
-        [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
-        [DllImport(Lib, CallingConvention = CC)]
-        public static extern Status kata_stream_set_reference_bvh(StreamHandle stream, ModelHandle model, ClipHandle clip, byte[] preset,
-                                                                  uint firstFrame, int poseFrame);
-        [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
-        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_clear_reference(StreamHandle stream);
-        [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
-        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_restart_reference(StreamHandle stream);
-        [Obsolete("kata.h: deprecated since 1.0, removed in 2.0 (kata_stream_attach_teacher)")]
-        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_score(StreamHandle stream, ref ResultRecord record);
-
-        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_retarget_desc_init(ref RetargetDesc desc);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_retarget_desc_init_sized(ref RetargetDesc desc, uint structSize);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_retargeter_create(ContextHandle ctx, SkeletonHandle student, ref RetargetDesc desc, out RetargeterHandle r);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_retargeter_create_for_stream(ContextHandle ctx, StreamHandle student, ref RetargetDesc desc, out RetargeterHandle r);
         [DllImport(Lib, CallingConvention = CC)] public static extern void kata_retargeter_destroy(IntPtr r);
@@ -266,7 +247,7 @@ namespace Kata
         public static extern Status kata_retargeter_place(RetargeterHandle r, float[] student, uint studentJointCount, [In, Out] float[] ghost, UIntPtr capacity);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_retargeter_reset(RetargeterHandle r);
 
-        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_teacher_desc_init(ref TeacherDesc desc);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_teacher_desc_init_sized(ref TeacherDesc desc, uint structSize);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_attach_teacher(StreamHandle stream, ref TeacherDesc desc);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_detach_teacher(StreamHandle stream);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_restart_teacher(StreamHandle stream);
@@ -379,8 +360,8 @@ namespace Kata
     public sealed class ContextHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_context_destroy(h); } }
     public sealed class SkeletonHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_skeleton_destroy(h); } }
     public sealed class ClipHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_clip_destroy(h); } }
-    public sealed class StreamHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_stream_close(h); } }
-    public sealed class ModelHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_model_free(h); } }
+    public sealed class StreamHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_stream_destroy(h); } }
+    public sealed class ModelHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_model_destroy(h); } }
     public sealed class RetargeterHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_retargeter_destroy(h); } }
 
     // ---- objects ------------------------------------------------------------------------------------------
@@ -462,14 +443,14 @@ namespace Kata
         }
 
         // kata_retargeter_create with kata_retarget_desc_init's defaults and the given joint set ("cmu", "gpd").
-        public Retargeter CreateRetargeter(Skeleton student, string preset = "cmu")
+        public Retargeter CreateRetargeter(Skeleton student, string jointSet = "cmu")
         {
             RetargetDesc d = new RetargetDesc();
-            Native.kata_retarget_desc_init(ref d);
-            GCHandle pin = GCHandle.Alloc(Native.Utf8(preset), GCHandleType.Pinned);
+            Native.kata_retarget_desc_init_sized(ref d, (uint)Marshal.SizeOf(typeof(RetargetDesc)));
+            GCHandle pin = GCHandle.Alloc(Native.Utf8(jointSet), GCHandleType.Pinned);
             try
             {
-                d.Preset = pin.AddrOfPinnedObject();
+                d.JointSet = pin.AddrOfPinnedObject();
                 RetargeterHandle h;
                 Status s = Native.kata_retargeter_create(Handle, student.Handle, ref d, out h);
                 return new Retargeter(Check(s, h, "kata_retargeter_create"));
@@ -481,22 +462,22 @@ namespace Kata
         public static StreamDesc DefaultStreamDesc()
         {
             StreamDesc d = new StreamDesc();
-            Native.kata_stream_desc_init(ref d);
+            Native.kata_stream_desc_init_sized(ref d, (uint)Marshal.SizeOf(typeof(StreamDesc)));
             if (d.StructSize != Marshal.SizeOf(typeof(StreamDesc)))
                 throw new KataVersionException("kata_stream_desc is " + d.StructSize + " bytes in the library, " +
                                                Marshal.SizeOf(typeof(StreamDesc)) + " in this binding");
             return d;
         }
 
-        // kata_stream_open; desc's Preset/NameMapPath are replaced by the strings given here.
-        public Stream OpenStream(Skeleton skeleton, string preset, StreamDesc desc, string nameMapPath = null)
+        // kata_stream_open; desc's Layout/NameMapPath are replaced by the strings given here.
+        public Stream OpenStream(Skeleton skeleton, string layout, StreamDesc desc, string nameMapPath = null)
         {
-            GCHandle presetPin = default(GCHandle), mapPin = default(GCHandle);
+            GCHandle layoutPin = default(GCHandle), mapPin = default(GCHandle);
             try
             {
-                byte[] p = Native.Utf8(nameMapPath == null ? preset : null), m = Native.Utf8(nameMapPath);
-                if (p != null) { presetPin = GCHandle.Alloc(p, GCHandleType.Pinned); desc.Preset = presetPin.AddrOfPinnedObject(); }
-                else desc.Preset = IntPtr.Zero;
+                byte[] p = Native.Utf8(nameMapPath == null ? layout : null), m = Native.Utf8(nameMapPath);
+                if (p != null) { layoutPin = GCHandle.Alloc(p, GCHandleType.Pinned); desc.Layout = layoutPin.AddrOfPinnedObject(); }
+                else desc.Layout = IntPtr.Zero;
                 if (m != null) { mapPin = GCHandle.Alloc(m, GCHandleType.Pinned); desc.NameMapPath = mapPin.AddrOfPinnedObject(); }
                 else desc.NameMapPath = IntPtr.Zero;
                 StreamHandle h;
@@ -505,12 +486,12 @@ namespace Kata
             }
             finally
             {
-                if (presetPin.IsAllocated) presetPin.Free();
+                if (layoutPin.IsAllocated) layoutPin.Free();
                 if (mapPin.IsAllocated) mapPin.Free();
             }
         }
 
-        public Stream OpenStream(Skeleton skeleton, string preset = "cmu") { return OpenStream(skeleton, preset, DefaultStreamDesc()); }
+        public Stream OpenStream(Skeleton skeleton, string layout = "cmu") { return OpenStream(skeleton, layout, DefaultStreamDesc()); }
     }
 
     public sealed class Skeleton : IDisposable
@@ -613,24 +594,6 @@ namespace Kata
             return true;
         }
 
-        // Deprecated since 1.0 (removed in 2.0, not before 2027-06-01): AttachTeacher(model, clip, firstFrame, false, preset, poseFrame).
-        [Obsolete("since 1.0, removed in 2.0: AttachTeacher(model, clip, firstFrame, ghost: false, preset, poseFrame)")]
-        public void SetReferenceBvh(Model model, Clip clip, string preset = "cmu", uint firstFrame = 0, int poseFrame = -1)
-        {
-            AttachTeacher(model, clip, firstFrame, false, preset, poseFrame);
-        }
-
-        // Deprecated since 1.0 (removed in 2.0): ReadNewest. kata_stream_score: false before the first vector.
-        [Obsolete("since 1.0, removed in 2.0: ReadNewest(batch)")]
-        public bool Score(ref ResultRecord record)
-        {
-            record.StructSize = (uint)Marshal.SizeOf(typeof(ResultRecord));
-            Status s = Native.kata_stream_score(Handle, ref record);
-            if (s == Status.NoData) return false;
-            if (s != Status.Ok) Throw(s, "kata_stream_score");
-            return true;
-        }
-
         // kata_stream_attach_teacher with GPD features (frames x Gpd.Dims, frameTime apart; poseFrame >= 0: that
         // vector alone). Scores only: a teacher given as features has no ghost.
         public void AttachTeacherFeatures(Model model, float[] features, double frameTime, int poseFrame = -1)
@@ -650,7 +613,7 @@ namespace Kata
         void AttachPinned(Model model, float[] data, uint frames, double frameTime, int poseFrame, bool joints, double bodyHeight)
         {
             TeacherDesc d = new TeacherDesc();
-            Native.kata_teacher_desc_init(ref d);
+            Native.kata_teacher_desc_init_sized(ref d, (uint)Marshal.SizeOf(typeof(TeacherDesc)));
             GCHandle pin = GCHandle.Alloc(data, GCHandleType.Pinned);
             bool modelRef = false;
             try
@@ -692,11 +655,11 @@ namespace Kata
         }
 
         // kata_stream_attach_teacher with a recorded clip (ghost: 1 to make ghosts).
-        public void AttachTeacher(Model model, Clip clip, uint firstFrame = 0, bool ghost = true, string preset = null, int poseFrame = -1)
+        public void AttachTeacher(Model model, Clip clip, uint firstFrame = 0, bool ghost = true, string layout = null, int poseFrame = -1)
         {
             TeacherDesc d = new TeacherDesc();
-            Native.kata_teacher_desc_init(ref d);
-            GCHandle presetPin = default(GCHandle);
+            Native.kata_teacher_desc_init_sized(ref d, (uint)Marshal.SizeOf(typeof(TeacherDesc)));
+            GCHandle layoutPin = default(GCHandle);
             bool modelRef = false, clipRef = false;
             try
             {
@@ -708,13 +671,13 @@ namespace Kata
                 d.FirstFrame = firstFrame;
                 d.PoseFrame = poseFrame;
                 d.Ghost = ghost ? 1 : 0;
-                if (preset != null) { presetPin = GCHandle.Alloc(Native.Utf8(preset), GCHandleType.Pinned); d.Preset = presetPin.AddrOfPinnedObject(); }
+                if (layout != null) { layoutPin = GCHandle.Alloc(Native.Utf8(layout), GCHandleType.Pinned); d.Layout = layoutPin.AddrOfPinnedObject(); }
                 Status s = Native.kata_stream_attach_teacher(Handle, ref d);
                 if (s != Status.Ok) Throw(s, "kata_stream_attach_teacher");
             }
             finally
             {
-                if (presetPin.IsAllocated) presetPin.Free();
+                if (layoutPin.IsAllocated) layoutPin.Free();
                 if (clipRef) clip.Handle.DangerousRelease();
                 if (modelRef) model.Handle.DangerousRelease();
             }

@@ -29,7 +29,7 @@ REPO = os.path.normpath(os.path.join(HERE, "..", ".."))
 
 
 def _version():
-    header = os.environ.get("KATA_HEADER", os.path.join(REPO, "sdk", "include", "kata", "kata.h"))
+    header = os.environ.get("KATA_HEADER", os.path.join(REPO, "sdk", "include", "kata", "core.h"))
     with open(header, encoding="utf-8") as f:
         text = f.read()
     parts = [re.search(r"#define KATA_VERSION_%s (\d+)" % k, text) for k in ("MAJOR", "MINOR", "PATCH")]

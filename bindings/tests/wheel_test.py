@@ -20,7 +20,7 @@ src = os.path.join(work, "src")
 shutil.copytree(os.path.join(source, "bindings", "python"), src,
                 ignore=shutil.ignore_patterns("build", "dist", "*.egg-info", "__pycache__", "tests"))
 env = dict(os.environ, KATA_LIBRARY=libkata, KATA_PYTHON_FB=fb_dir,
-           KATA_HEADER=os.path.join(source, "sdk", "include", "kata", "kata.h"),
+           KATA_HEADER=os.path.join(source, "sdk", "include", "kata", "core.h"),
            KATA_MODEL=os.path.join(source, "models", "default.kata"), PIP_NO_INDEX="1",
            PIP_DISABLE_PIP_VERSION_CHECK="1")
 dist = os.path.join(work, "dist")

@@ -74,7 +74,7 @@ def main():
             # The "cmu" layout's joint list: names and parents only, a bare live source.
             with ctx.create_layout("cmu") as student, ctx.load_model(model_path) as model, \
                     ctx.load_clip(teacher_path) as teacher, \
-                    ctx.open_stream(student, preset="cmu", stencil=model.stencil, result_capacity=4 * a.chunk) as s:
+                    ctx.open_stream(student, layout="cmu", stencil=model.stencil, result_capacity=4 * a.chunk) as s:
                 s.attach_teacher(model, clip=teacher, first_frame=1, ghost=False)
                 buf = s.result_buffer(4 * a.chunk)
                 xyz = np.ascontiguousarray(landmarks[:, :, :3])

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cmath>
 #include <cstdarg>
 #include <chrono>
 #include <csignal>
@@ -28,6 +29,7 @@
 #include "command.hpp"
 #include "common/error.hpp"
 #include "metric/cue.hpp"
+#include "metric/scorer.hpp"
 #include "skeleton/skeleton.hpp"
 
 namespace {
@@ -89,6 +91,13 @@ class TerminalView {
       if (!scored(f)) continue;
       score_sum_ += f.score, ++scored_;
       if (f.latency_ns > 0) latencies_.push_back(f.latency_ns / 1e6);
+      // The part scores as the scorer averages them before it names the part to fix and its cue
+      // (exponentially over the frames' own time steps, time constant FeedbackOptions'
+      // smoothing_time), so the line's lowest part is the part named. This frame's scores beside
+      // a held, averaged cue disagreed for up to a second ("l.arm 99 | fix: left_arm").
+      const double keep = parts_time_ < 0.0 ? 0.0 : std::exp(-(f.time - parts_time_) / kata::metric::FeedbackOptions{}.smoothing_time);
+      for (int p = 0; p < kata::metric::kParts; ++p) parts_[p] = f.part_scores[p] + keep * (parts_[p] - f.part_scores[p]);
+      parts_time_ = f.time;
     }
     sorted_ = latencies_;  // reserved at the lesson's length: no allocation
     std::sort(sorted_.begin(), sorted_.end());
@@ -100,7 +109,7 @@ class TerminalView {
     if (r && scored(*r)) {
       append_line(line, sizeof line, at, " | score %3.0f (mean %4.1f) |", r->score, score_sum_ / std::max(scored_, 1));
       static const char* const kShort[kata::metric::kParts] = {"torso", "l.arm", "r.arm", "l.leg", "r.leg"};
-      for (int p = 0; p < kata::metric::kParts; ++p) append_line(line, sizeof line, at, " %s %3.0f", kShort[p], r->part_scores[p]);
+      for (int p = 0; p < kata::metric::kParts; ++p) append_line(line, sizeof line, at, " %s %3.0f", kShort[p], parts_[p]);
       append_line(line, sizeof line, at, " | fix: %-10s", r->part_to_fix >= 0 ? kata::metric::part_name(r->part_to_fix) : "-");
       // The correction cue ("left knee: bend 30 deg more"), padded so a shorter one overwrites it.
       char cue[64];
@@ -125,6 +134,8 @@ class TerminalView {
   size_t latency_count_ = 0;  // frames taken into the running figures
   double score_sum_ = 0.0;
   int scored_ = 0;
+  double parts_[kata::metric::kParts] = {};  // part scores averaged as the scorer does (update)
+  double parts_time_ = -1.0;                  // the newest frame taken into parts_, -1: none yet
   std::vector<double> latencies_, sorted_;
 };
 
@@ -327,7 +338,7 @@ void setup(CLI::App& app) {
   cmd->add_option("--duration", a->duration, "webcam: stop after this many seconds (default: at Ctrl-C)");
   cmd->add_option("--student", a->lesson.student, "student BVH clip (default data/cmu/05_19_on_02.bvh)")->check(CLI::ExistingFile);
   cmd->add_option("--model", a->lesson.model, ".kata model (default models/default.kata)")->check(CLI::ExistingFile);
-  cmd->add_option("--preset", a->lesson.preset, "skeleton preset of both clips (default cmu)");
+  cmd->add_option("--layout,--preset", a->lesson.preset, "layout of both clips (default cmu; --preset: its name before 1.0)");
   cmd->add_option("--first-frame", a->lesson.first_frame, "first frame of each clip (default 1: skips CMU's T-pose)");
   cmd->add_option("--speed", a->lesson.speed, "playback rate, 1 = real time (default 1)");
   cmd->add_option("--window", a->lesson.window, "alignment window, teacher seconds (default 0.5)");

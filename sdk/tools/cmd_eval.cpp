@@ -389,7 +389,7 @@ void setup(CLI::App& app) {
   cmd->add_option("--title", a->title, "report title");
   cmd->add_flag("!--no-plot", a->plot, "do not link the figures (docs/model/plot_eval.py draws them from the CSV)");
   cmd->add_option("--stencil", a->stencil, "backward | central")->check(CLI::IsMember({"backward", "central"}));
-  cmd->add_option("--preset", a->preset, "skeleton preset");
+  cmd->add_option("--layout,--preset", a->preset, "layout of the clips (default cmu; --preset: its name before 1.0)");
   cmd->add_option("--threads", a->threads, "threads");
   cmd->add_flag("--retrieval", a->retrieval, "also run the paper's section 6 pose retrieval (k-means centres per subject, "
                                              "precision at s = 5, 10, 20 by motion type)");

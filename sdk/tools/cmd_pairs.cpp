@@ -117,7 +117,7 @@ void setup(CLI::App& app) {
   cmd->add_option("--split-every", a->split_every, "clip split: every N-th clip (sorted) is 'val'");
   cmd->add_option("--split-part", a->split_part, "train | val | all")->check(CLI::IsMember({"train", "val", "all"}));
   cmd->add_option("--stencil", a->stencil, "backward | central")->check(CLI::IsMember({"backward", "central"}));
-  cmd->add_option("--preset", a->preset, "skeleton preset");
+  cmd->add_option("--layout,--preset", a->preset, "layout of the clips (default cmu; --preset: its name before 1.0)");
   cmd->add_option("--threads", a->threads, "threads for feature computation");
   cmd->callback([a] { run_pairs(*a); });
 }

@@ -282,7 +282,7 @@ void run_send(const Options& o) {
   kata::transport::SkeletonDefinition d;
   d.revision = 1;
   d.skeleton = clip.skeleton;
-  d.preset = o.preset;
+  d.layout = o.preset;
   d.frame_rate = static_cast<float>(1.0 / clip.frame_time);
 
   if (o.transport == "nats") return run_send_nats(o, clip, positions, frames, available, d, practice, setting);
@@ -418,7 +418,7 @@ void setup(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--socket", o->socket, "push or pub")->capture_default_str();
   cmd->add_option("--stream-id", o->stream_id, "the stream id")->capture_default_str();
-  cmd->add_option("--preset", o->preset, "GPD joint map named in the skeleton definition")->capture_default_str();
+  cmd->add_option("--layout,--preset", o->preset, "layout named in the skeleton definition (--preset: its name before 1.0)")->capture_default_str();
   cmd->add_option("--speed", o->speed, "times the recorded rate")->capture_default_str();
   cmd->add_option("--first-frame", o->first_frame, "first clip frame (1 skips the CMU T-pose)")->capture_default_str();
   cmd->add_option("--frames", o->frames, "frames per loop (0: to the clip's end)")->capture_default_str();

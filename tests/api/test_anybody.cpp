@@ -142,7 +142,7 @@ struct Handles {
         << kata_context_last_error(ctx);
   }
   ~Handles() {
-    kata_model_free(model);
+    kata_model_destroy(model);
     kata_skeleton_destroy(mp);
     kata_context_destroy(ctx);
   }
@@ -150,7 +150,7 @@ struct Handles {
   kata_stream open_mediapipe(int smoothing) const {
     kata_stream_desc d;
     kata_stream_desc_init(&d);
-    d.preset = "mediapipe";
+    d.layout = "mediapipe";
     d.stencil = kata_model_stencil(model);
     kata_stream s = nullptr;
     EXPECT_EQ(kata_stream_open(ctx, mp, &d, &s), KATA_OK) << kata_context_last_error(ctx);
@@ -181,7 +181,7 @@ RunResult run(kata_stream s, kata_model model, kata_clip teacher, const std::vec
     kata_teacher_desc_init(&t);
     t.model = model;
     t.clip = teacher;
-    t.preset = "cmu";
+    t.layout = "cmu";
     t.first_frame = 1;
     t.ghost = 0;
     EXPECT_EQ(kata_stream_attach_teacher(s, &t), KATA_OK) << kata_stream_last_error(s);
@@ -241,7 +241,7 @@ TEST(AnyBody, MediaPipeLandmarksMatchTheDocumentedSynthesisAndScoreAgainstTheBvh
   ASSERT_EQ(kata_skeleton_create_layout(h.ctx, "gpd", &gpd), KATA_OK);
   kata_stream_desc d;
   kata_stream_desc_init(&d);
-  d.preset = "gpd";
+  d.layout = "gpd";
   d.stencil = kata_model_stencil(h.model);
   kata_stream ref = nullptr;
   ASSERT_EQ(kata_stream_open(h.ctx, gpd, &d, &ref), KATA_OK) << kata_context_last_error(h.ctx);
@@ -297,8 +297,8 @@ TEST(AnyBody, MediaPipeLandmarksMatchTheDocumentedSynthesisAndScoreAgainstTheBvh
   // "similar" (d < delta*), so the shipped calibrated map scores it ~100.
   EXPECT_LT(dist, 0.5 * delta_star);
   EXPECT_GE(m, 95.0);
-  kata_stream_close(s);
-  kata_stream_close(ref);
+  kata_stream_destroy(s);
+  kata_stream_destroy(ref);
   kata_skeleton_destroy(gpd);
 }
 
@@ -368,7 +368,7 @@ TEST(AnyBody, NoiseAndDroppedJointsHoldTrackAndSmoothingCutsJitter) {
   EXPECT_GT(jitter_raw / jitter_smooth, 3.0);
   // Scores are reported, not asserted: with 1 cm noise and 10% drops they fall well below the clean
   // run (figures in the closing note).
-  for (kata_stream s : {s_clean, s_raw, s_smooth, s_drop}) kata_stream_close(s);
+  for (kata_stream s : {s_clean, s_raw, s_smooth, s_drop}) kata_stream_destroy(s);
 }
 
 TEST(AnyBody, BoneLengthsFromSixtyNoisyFramesWithinTwoPercent) {
@@ -417,7 +417,7 @@ TEST(AnyBody, BoneLengthsFromSixtyNoisyFramesWithinTwoPercent) {
       EXPECT_GT(spread[j], 0.0);
       EXPECT_LT(spread[j], 0.05);
     }
-    kata_stream_close(s);
+    kata_stream_destroy(s);
   }
   bias /= static_cast<double>(errors.size());
   double sum2 = 0;
@@ -503,7 +503,7 @@ TEST(AnyBody, CmuTeacherRetargetedOntoAMediaPipeStudentOfAnotherSubject) {
   EXPECT_LT(mean_angle, 10.0);
   EXPECT_LT(worst_place, 1e-4);
   kata_retargeter_destroy(rt);
-  kata_stream_close(s);
+  kata_stream_destroy(s);
 }
 
 TEST(AnyBody, NameMapFromMemoryAndVendorLayouts) {
@@ -518,7 +518,7 @@ TEST(AnyBody, NameMapFromMemoryAndVendorLayouts) {
                     "\"RKnee\":\"RKnee\",\"RFoot\":\"RFoot\"}";
   kata_stream s = nullptr;
   ASSERT_EQ(kata_stream_open_name_map(h.ctx, gpd, &d, json, &s), KATA_OK) << kata_context_last_error(h.ctx);
-  kata_stream_close(s);
+  kata_stream_destroy(s);
   EXPECT_EQ(kata_stream_open_name_map(h.ctx, gpd, &d, "Hip = Hip\nChest = Nope\n", &s), KATA_E_PARSE);
   EXPECT_NE(std::string(kata_context_last_error(h.ctx)).find("<name map>:"), std::string::npos)
       << kata_context_last_error(h.ctx);
@@ -528,9 +528,9 @@ TEST(AnyBody, NameMapFromMemoryAndVendorLayouts) {
     kata_skeleton v = nullptr;
     ASSERT_EQ(kata_skeleton_create_layout(h.ctx, vendor, &v), KATA_OK) << vendor;
     kata_stream_desc_init(&d);
-    d.preset = vendor;
+    d.layout = vendor;
     ASSERT_EQ(kata_stream_open(h.ctx, v, &d, &s), KATA_OK) << kata_context_last_error(h.ctx);
-    kata_stream_close(s);
+    kata_stream_destroy(s);
     kata_skeleton_destroy(v);
   }
   kata_skeleton none = nullptr;
@@ -559,7 +559,7 @@ TEST(AnyBody, AJointMissingPastMaxHoldLosesTrackingAndTheStreamRecovers) {
   conf[15] = 1.0f;
   ASSERT_EQ(kata_stream_push_confidence(s, f * dt, to_mediapipe(clip, f).data(), conf.data(), kLandmarks), KATA_OK);
   EXPECT_EQ(kata_stream_feature_count(s), before + 1);
-  kata_stream_close(s);
+  kata_stream_destroy(s);
 }
 
 

@@ -56,7 +56,7 @@ TEST(CApi, NoAllocationPerFrame) {
   for (kata_stencil stencil : {KATA_STENCIL_BACKWARD, KATA_STENCIL_CENTRAL}) {
     kata_stream_desc desc;
     kata_stream_desc_init(&desc);
-    desc.preset = "cmu";
+    desc.layout = "cmu";
     desc.stencil = stencil;
     kata_stream s = nullptr;
     ASSERT_EQ(kata_stream_open(c.ctx, c.skel, &desc, &s), KATA_OK);
@@ -73,7 +73,7 @@ TEST(CApi, NoAllocationPerFrame) {
     kata_stream_features(s, f.data(), f.size(), &t, &idx);
     EXPECT_EQ(kata::test::allocations() - before, 0);
     EXPECT_EQ(idx, static_cast<int64_t>(c.frames.size()) - 1);
-    kata_stream_close(s);
+    kata_stream_destroy(s);
   }
 }
 
@@ -81,7 +81,7 @@ TEST(CApi, ZUpInputGivesTheSameFeatures) {
   Clip c;
   kata_stream_desc desc;
   kata_stream_desc_init(&desc);
-  desc.preset = "cmu";
+  desc.layout = "cmu";
   kata_stream y = nullptr, z = nullptr;
   ASSERT_EQ(kata_stream_open(c.ctx, c.skel, &desc, &y), KATA_OK);
   desc.up_axis = KATA_UP_Z;
@@ -98,8 +98,8 @@ TEST(CApi, ZUpInputGivesTheSameFeatures) {
   ASSERT_EQ(a.size(), b.size());
   for (size_t i = 0; i < a.size(); ++i)
     for (int d = 0; d < KATA_GPD_DIMS; ++d) ASSERT_EQ(a[i][d], b[i][d]) << "frame " << i << " dim " << d;
-  kata_stream_close(y);
-  kata_stream_close(z);
+  kata_stream_destroy(y);
+  kata_stream_destroy(z);
 }
 
 TEST(CApi, UserSkeletonWithNameMapAndNoRestPoseCalibratesHeight) {
@@ -141,12 +141,12 @@ TEST(CApi, UserSkeletonWithNameMapAndNoRestPoseCalibratesHeight) {
   // Bones are rigid in mocap: the median lengths give (nearly) the rest-pose height.
   kata_stream_desc rest_desc;
   kata_stream_desc_init(&rest_desc);
-  rest_desc.preset = "cmu";
+  rest_desc.layout = "cmu";
   kata_stream r = nullptr;
   ASSERT_EQ(kata_stream_open(c.ctx, c.skel, &rest_desc, &r), KATA_OK);
   EXPECT_NEAR(kata_stream_body_height(s), kata_stream_body_height(r), 1e-3 * kata_stream_body_height(r));
-  kata_stream_close(r);
-  kata_stream_close(s);
+  kata_stream_destroy(r);
+  kata_stream_destroy(s);
 
   // A map naming a joint the skeleton lacks is refused with its name.
   {
@@ -180,13 +180,13 @@ TEST(CApi, BadSkeletonsAndArgumentsAreRefused) {
   ASSERT_EQ(kata_skeleton_create(ctx, 3, names, parents, nullptr, &s), KATA_OK);
   kata_stream_desc desc;
   kata_stream_desc_init(&desc);
-  desc.preset = "cmu";
+  desc.layout = "cmu";
   kata_stream st = nullptr;
   EXPECT_EQ(kata_stream_open(ctx, s, &desc, &st), KATA_E_NOT_FOUND) << "the cmu joints are missing";
   desc.struct_size = 4;
   EXPECT_EQ(kata_stream_open(ctx, s, &desc, &st), KATA_E_INVALID_ARGUMENT);
-  EXPECT_NE(kata_preset_name(0), nullptr);
-  EXPECT_EQ(std::string(kata_preset_name(0)), "cmu");
+  EXPECT_NE(kata_layout_name(0), nullptr);
+  EXPECT_EQ(std::string(kata_layout_name(0)), "cmu");
   kata_skeleton_destroy(s);
   kata_context_destroy(ctx);
 }

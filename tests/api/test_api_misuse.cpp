@@ -1,7 +1,5 @@
 // C ABI misuse and hostile input (issue 12): every reproducer of a non-finite output, an
 // INTERNAL status or an unbounded read is a test here, through libkata only.
-// Also the deprecated 0.x reference calls (kept as wrappers until 2.0): they must behave as in 0.2.
-#define KATA_ALLOW_DEPRECATED
 #include <gtest/gtest.h>
 
 #include <fcntl.h>
@@ -20,6 +18,7 @@
 #include <vector>
 
 #include "kata/kata.h"
+#include "support/capi_teacher.hpp"
 #include "support/temp_paths.hpp"
 
 namespace {
@@ -83,7 +82,7 @@ struct Fixture {
   kata_stream open(double body_height = 0.0, kata_skeleton on = nullptr) const {
     kata_stream_desc d;
     kata_stream_desc_init(&d);
-    d.preset = "cmu";
+    d.layout = "cmu";
     d.body_height = body_height;
     kata_stream s = nullptr;
     EXPECT_EQ(kata_stream_open(ctx, on ? on : skel, &d, &s), KATA_OK) << kata_context_last_error(ctx);
@@ -119,7 +118,7 @@ TEST(Misuse, GlitchedCoordinateIsRefusedNamingTheJointAndLaterFramesStayFinite) 
       expect_finite_features(s);
     }
     EXPECT_EQ(kata_stream_feature_count(s), static_cast<int64_t>(c.frames.size()) - 1);
-    kata_stream_close(s);
+    kata_stream_destroy(s);
   }
 }
 
@@ -144,7 +143,7 @@ TEST(Misuse, GlitchWhileCalibratingIsRefused) {
     expect_finite_features(s);
   }
   EXPECT_GT(kata_stream_body_height(s), 0.0);
-  kata_stream_close(s);
+  kata_stream_destroy(s);
   kata_skeleton_destroy(bare);
 }
 
@@ -162,14 +161,14 @@ TEST(Misuse, TimeStepBelowTheMinimumIsRefused) {
     ASSERT_EQ(kata_stream_push(s, KATA_MIN_TIME_STEP * static_cast<double>(i), c.frames[i].data(), c.joints), KATA_OK);
     expect_finite_features(s);
   }
-  kata_stream_close(s);
+  kata_stream_destroy(s);
 }
 
 TEST(Misuse, BodyHeightOutsideItsRangeIsRefused) {
   Fixture c;
   kata_stream_desc d;
   kata_stream_desc_init(&d);
-  d.preset = "cmu";
+  d.layout = "cmu";
   kata_stream s = nullptr;
   for (const double h : {1.4e-315, 1e-300, 0.5 * KATA_MIN_BODY_HEIGHT, -1.0, -0.0 - 1e-9, std::nan(""),
                          HUGE_VAL, 2 * KATA_MAX_COORDINATE}) {
@@ -183,14 +182,14 @@ TEST(Misuse, BodyHeightOutsideItsRangeIsRefused) {
   ASSERT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_OK);
   EXPECT_EQ(kata_stream_push(s, 0.0, c.frames[0].data(), c.joints), KATA_E_INVALID_ARGUMENT);
   EXPECT_EQ(kata_stream_feature_count(s), 0);
-  kata_stream_close(s);
+  kata_stream_destroy(s);
 }
 
 TEST(Misuse, CountsBeyondTheirRangeAreRefusedWithoutOverflow) {
   Fixture c;
   kata_stream_desc d;
   kata_stream_desc_init(&d);
-  d.preset = "cmu";
+  d.layout = "cmu";
   kata_skeleton bare = nullptr;
   const char* names[] = {"a"};
   const int32_t parents[] = {-1};
@@ -211,7 +210,7 @@ TEST(Misuse, CountsBeyondTheirRangeAreRefusedWithoutOverflow) {
     EXPECT_TRUE(contains(kata_context_last_error(c.ctx), "calibration_frames")) << kata_context_last_error(c.ctx);
   }
   kata_stream_desc_init(&d);
-  d.preset = "cmu";
+  d.layout = "cmu";
   for (const uint32_t history : {3u, static_cast<uint32_t>(KATA_MAX_HISTORY) + 1, static_cast<uint32_t>(INT_MAX), UINT32_MAX}) {
     d.history_capacity = history;
     EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_INVALID_ARGUMENT) << history;
@@ -290,7 +289,7 @@ TEST(Misuse, PresetAndNameMapTogetherAreRefused) {
   Fixture c;
   kata_stream_desc d;
   kata_stream_desc_init(&d);
-  d.preset = "cmu";
+  d.layout = "cmu";
   d.name_map_path = "/nonexistent/map.json";
   kata_stream s = nullptr;
   EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_INVALID_ARGUMENT);
@@ -306,7 +305,7 @@ TEST(Misuse, DescriptorStructSizeFromTheReleasedSizeUp) {
   // A newer caller's struct below: this library's, then 64 bytes of fields it does not know.
   kata_stream_desc d;
   kata_stream_desc_init(&d);
-  d.preset = "cmu";
+  d.layout = "cmu";
   kata_stream s = nullptr;
   // 1.0's struct ends with keep_features (a caller's sizeof adds tail padding).
   for (const uint32_t size : {0u, 4u, static_cast<uint32_t>(offsetof(kata_stream_desc, keep_features) + 3)}) {
@@ -322,7 +321,7 @@ TEST(Misuse, DescriptorStructSizeFromTheReleasedSizeUp) {
     for (const uint32_t size : {static_cast<uint32_t>(sizeof d), static_cast<uint32_t>(sizeof d) + 64}) {
       nd->struct_size = size;
       ASSERT_EQ(kata_stream_open(c.ctx, c.skel, nd, &s), KATA_OK) << size << kata_context_last_error(c.ctx);
-      kata_stream_close(s);
+      kata_stream_destroy(s);
     }
   }
   kata_model model = nullptr;
@@ -345,8 +344,8 @@ TEST(Misuse, DescriptorStructSizeFromTheReleasedSizeUp) {
   }
   t.struct_size = sizeof t;
   EXPECT_EQ(kata_stream_attach_teacher(live, &t), KATA_OK) << kata_stream_last_error(live);
-  kata_stream_close(live);
-  kata_model_free(model);
+  kata_stream_destroy(live);
+  kata_model_destroy(model);
   kata_retarget_desc r;
   kata_retarget_desc_init(&r);
   kata_retargeter rt = nullptr;
@@ -452,11 +451,10 @@ TEST(Misuse, DescInitWritesOnlyTheCallersStruct) {
               sizeof(kata_stream_desc), "stream");
   check_newer([](void* p, uint32_t n) { kata_retarget_desc_init_sized(static_cast<kata_retarget_desc*>(p), n); },
               sizeof(kata_retarget_desc), "retarget");
-  // The unsized entry point (the symbol programs built before the sized init call) writes 1.0's
-  // struct: 112 bytes of a runtime desc, never more.
-  std::vector<unsigned char> v10 = guarded(112);
-  (kata_runtime_desc_init)(reinterpret_cast<kata_runtime_desc*>(v10.data()));
-  EXPECT_TRUE(guard_intact(v10, 112));
+  // The macro kata_runtime_desc_init passes the caller's own sizeof, and nothing past it is written.
+  std::vector<unsigned char> v10 = guarded(sizeof(kata_runtime_desc));
+  kata_runtime_desc_init(reinterpret_cast<kata_runtime_desc*>(v10.data()));
+  EXPECT_TRUE(guard_intact(v10, sizeof(kata_runtime_desc)));
   kata_runtime_desc_init_sized(nullptr, 64);  // NULL: nothing
 }
 
@@ -489,8 +487,8 @@ TEST(Misuse, PushManyStopsAtTheFirstRefusedFrameWithItsIndex) {
   for (uint32_t i = 21; i < n; ++i) ASSERT_EQ(kata_stream_push(one, times[i], c.frames[i].data(), c.joints), KATA_OK);
   EXPECT_EQ(kata_stream_results_pending(one), kata_stream_results_pending(many));
   EXPECT_EQ(kata_stream_push_many(many, nullptr, nullptr, nullptr, c.joints, 0, &pushed, nullptr), KATA_OK);
-  kata_stream_close(one);
-  kata_stream_close(many);
+  kata_stream_destroy(one);
+  kata_stream_destroy(many);
 }
 
 TEST(Misuse, EnumFieldsOutsideTheirValuesAreRefused) {
@@ -500,7 +498,7 @@ TEST(Misuse, EnumFieldsOutsideTheirValuesAreRefused) {
     for (int field = 0; field < 2; ++field) {
       kata_stream_desc d;
       kata_stream_desc_init(&d);
-      d.preset = "cmu";
+      d.layout = "cmu";
       // Written as the integer a C caller (or a corrupt struct) may hold.
       std::memcpy(field == 0 ? static_cast<void*>(&d.stencil) : static_cast<void*>(&d.up_axis), &raw, sizeof raw);
       EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_INVALID_ARGUMENT) << field << " " << raw;
@@ -518,11 +516,11 @@ TEST(Misuse, StringsAreBoundedInAndOut) {
   kata_stream_desc_init(&d);
   kata_stream s = nullptr;
   const std::string long_name(1 << 20, 'x');
-  d.preset = long_name.c_str();
+  d.layout = long_name.c_str();
   EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_INVALID_ARGUMENT)
       << "no terminator within KATA_MAX_STRING_BYTES";
   const std::string long_but_bounded(KATA_MAX_STRING_BYTES - 1, 'y');
-  d.preset = long_but_bounded.c_str();
+  d.layout = long_but_bounded.c_str();
   EXPECT_EQ(kata_stream_open(c.ctx, c.skel, &d, &s), KATA_E_NOT_FOUND);
   EXPECT_LT(std::strlen(kata_context_last_error(c.ctx)), 600u) << "the message quotes the name cut short";
   // A path of 1 MB in a message is cut too.
@@ -539,10 +537,10 @@ TEST(Misuse, PoseFrameBelowMinusOneIsRefused) {
       << kata_context_last_error(c.ctx);
   kata_stream s = c.open();
   for (const int32_t frame : {-2, -100, INT32_MIN}) {
-    EXPECT_EQ(kata_stream_set_reference_bvh(s, model, c.clip, "cmu", 1, frame), KATA_E_INVALID_ARGUMENT) << frame;
+    EXPECT_EQ(kata::test::attach_clip(s, model, c.clip, 1, frame), KATA_E_INVALID_ARGUMENT) << frame;
     EXPECT_TRUE(contains(kata_stream_last_error(s), "below -1")) << kata_stream_last_error(s);
   }
-  EXPECT_EQ(kata_stream_set_reference_bvh(s, model, c.clip, "cmu", 1, -1), KATA_OK) << kata_stream_last_error(s);
+  EXPECT_EQ(kata::test::attach_clip(s, model, c.clip, 1), KATA_OK) << kata_stream_last_error(s);
   // Scores stay finite through a glitch.
   for (size_t i = 0; i < c.frames.size(); ++i) {
     std::vector<float> p = c.frames[i];
@@ -550,16 +548,16 @@ TEST(Misuse, PoseFrameBelowMinusOneIsRefused) {
     kata_stream_push(s, static_cast<double>(i) / 30.0, p.data(), c.joints);
     kata_result_record r;
     r.struct_size = sizeof r;
-    if (kata_stream_score(s, &r) == KATA_OK) {
+    if (kata::test::read_newest(s, &r) == KATA_OK) {
       EXPECT_TRUE(std::isfinite(r.distance) && std::isfinite(r.score));
       for (float part : r.parts) EXPECT_TRUE(std::isfinite(part));
     }
   }
   kata_result_record r;
   r.struct_size = 0;
-  EXPECT_EQ(kata_stream_score(s, &r), KATA_E_INVALID_ARGUMENT);
-  kata_stream_close(s);
-  kata_model_free(model);
+  EXPECT_EQ(kata::test::read_newest(s, &r), KATA_E_INVALID_ARGUMENT);
+  kata_stream_destroy(s);
+  kata_model_destroy(model);
 }
 
 TEST(Misuse, NullHandlesAndPointersAreRefused) {
@@ -584,9 +582,9 @@ TEST(Misuse, NullHandlesAndPointersAreRefused) {
   EXPECT_EQ(kata_stream_flush(nullptr), KATA_E_NULL_POINTER);
   EXPECT_EQ(kata_stream_reset(nullptr), KATA_E_NULL_POINTER);
   EXPECT_EQ(kata_stream_features(nullptr, buf, KATA_GPD_DIMS, nullptr, nullptr), KATA_E_NULL_POINTER);
-  EXPECT_EQ(kata_stream_score(nullptr, nullptr), KATA_E_NULL_POINTER);
-  EXPECT_EQ(kata_stream_set_reference_pose(nullptr, nullptr, buf, 1), KATA_E_NULL_POINTER);
-  EXPECT_EQ(kata_stream_set_reference_bvh(nullptr, nullptr, nullptr, "cmu", 0, -1), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_read_newest(nullptr, nullptr, nullptr, 0, nullptr, 0), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_attach_teacher(nullptr, nullptr), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata::test::attach_clip(nullptr, nullptr, nullptr, 0), KATA_E_NULL_POINTER);
   EXPECT_EQ(kata_clip_positions(nullptr, 0, buf, 3), KATA_E_NULL_POINTER);
   EXPECT_EQ(kata_clip_skeleton(nullptr, &skel), KATA_E_NULL_POINTER);
   EXPECT_EQ(kata_retargeter_create(c.ctx, nullptr, nullptr, &rt), KATA_E_NULL_POINTER);
@@ -604,18 +602,19 @@ TEST(Misuse, NullHandlesAndPointersAreRefused) {
   EXPECT_EQ(kata_model_rank(nullptr), 0u);
   EXPECT_EQ(kata_model_metadata(nullptr, "date"), nullptr);
   EXPECT_EQ(kata_retargeter_joint_count(nullptr), 0u);
-  kata_stream_close(nullptr);
+  kata_stream_destroy(nullptr);
   kata_clip_destroy(nullptr);
   kata_skeleton_destroy(nullptr);
-  kata_model_free(nullptr);
+  kata_model_destroy(nullptr);
   kata_retargeter_destroy(nullptr);
   kata_context_destroy(nullptr);
   // Pointer arguments of a live stream.
   kata_stream live = c.open();
   EXPECT_EQ(kata_stream_push(live, 0.0, nullptr, c.joints), KATA_E_NULL_POINTER);
   EXPECT_EQ(kata_stream_features(live, nullptr, KATA_GPD_DIMS, nullptr, nullptr), KATA_E_NULL_POINTER);
-  EXPECT_EQ(kata_stream_score(live, nullptr), KATA_E_NULL_POINTER);
-  kata_stream_close(live);
+  EXPECT_EQ(kata_stream_read_newest(live, nullptr, nullptr, 0, nullptr, 0), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_stream_attach_teacher(live, nullptr), KATA_E_NULL_POINTER);
+  kata_stream_destroy(live);
 }
 
 TEST(Misuse, ShortBuffersAndWrongJointCountsChangeNothing) {
@@ -645,7 +644,7 @@ TEST(Misuse, ShortBuffersAndWrongJointCountsChangeNothing) {
   EXPECT_EQ(kata_retargeter_solve(rt, p.data(), c.joints, ghost.data(), ghost.size(), nullptr), KATA_OK)
       << kata_retargeter_last_error(rt);
   kata_retargeter_destroy(rt);
-  kata_stream_close(s);
+  kata_stream_destroy(s);
 }
 
 }  // namespace

@@ -50,9 +50,9 @@ int main(void) {
   CHECK(kata_skeleton_joint_parent(skel, 0) == -1);
 
   kata_stream_desc_init(&desc);
-  desc.preset = "no-such-preset";
+  desc.layout = "no-such-preset";
   CHECK(kata_stream_open(ctx, skel, &desc, &stream) == KATA_E_NOT_FOUND);
-  desc.preset = "cmu";
+  desc.layout = "cmu";
   CHECK(kata_stream_open(ctx, skel, &desc, &stream) == KATA_OK);
   kata_skeleton_destroy(skel); /* the stream keeps its own copy */
   CHECK(kata_stream_body_height(stream) > 20.0 && kata_stream_body_height(stream) < 40.0);
@@ -87,11 +87,11 @@ int main(void) {
   CHECK(kata_clip_positions(clip, 0, positions, 3) == KATA_E_BUFFER_TOO_SMALL);
 
   free(positions);
-  kata_stream_close(stream);
+  kata_stream_destroy(stream);
   kata_clip_destroy(clip);
   kata_context_destroy(ctx);
   /* NULL handles are ignored or refused, never a crash. */
-  kata_stream_close(NULL);
+  kata_stream_destroy(NULL);
   CHECK(kata_stream_push(NULL, 0.0, NULL, 0) == KATA_E_NULL_POINTER);
   CHECK(kata_stream_features(NULL, features, KATA_GPD_DIMS, NULL, NULL) == KATA_E_NULL_POINTER);
 

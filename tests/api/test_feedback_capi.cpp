@@ -1,8 +1,6 @@
 // The C ABI's score calibration and feedback (kata.h "Score calibration and feedback"), through
 // libkata only: the shipped coaching model's stored map, a per-stream override, the documented
 // default of a model file without a calibration, and the tracking-lost state on zeroed frames.
-// Also the deprecated 0.x reference calls (kept as wrappers until 2.0): they must behave as in 0.2.
-#define KATA_ALLOW_DEPRECATED
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -13,6 +11,7 @@
 #include <vector>
 
 #include "kata/kata.h"
+#include "support/capi_teacher.hpp"
 
 namespace kata {
 namespace {
@@ -46,7 +45,7 @@ TEST(FeedbackCApi, ModelWithoutCalibrationReadsTheDefault) {
   cal.struct_size = 8;
   EXPECT_EQ(kata_model_calibration(m, &cal), KATA_E_INVALID_ARGUMENT);
   EXPECT_EQ(kata_model_calibration(nullptr, &cal), KATA_E_NULL_POINTER);
-  kata_model_free(m);
+  kata_model_destroy(m);
   kata_context_destroy(ctx);
 }
 
@@ -70,11 +69,11 @@ TEST(FeedbackCApi, StatesPartScoresAndOverride) {
   EXPECT_GT(cal.good_score, 0.0);
   kata_stream_desc d;
   kata_stream_desc_init(&d);
-  d.preset = "cmu";
+  d.layout = "cmu";
   kata_stream s = nullptr;
   ASSERT_EQ(kata_stream_open(ctx, skel, &d, &s), KATA_OK);
   EXPECT_EQ(kata_stream_set_calibration(s, &cal), KATA_E_STATE);
-  ASSERT_EQ(kata_stream_set_reference_bvh(s, m, clip, "cmu", 1, 60), KATA_OK) << kata_stream_last_error(s);
+  ASSERT_EQ(kata::test::attach_clip(s, m, clip, 1, 60), KATA_OK) << kata_stream_last_error(s);
   const int n = static_cast<int>(kata_skeleton_joint_count(skel));
   std::vector<float> p(3 * static_cast<size_t>(n));
   kata_result_record r{};
@@ -85,7 +84,7 @@ TEST(FeedbackCApi, StatesPartScoresAndOverride) {
     const bool zeroed = f >= 100 && f < 110;
     if (zeroed) std::fill(p.begin(), p.end(), 0.0f);
     ASSERT_EQ(kata_stream_push(s, f / 120.0, p.data(), static_cast<uint32_t>(n)), KATA_OK) << kata_stream_last_error(s);
-    if (kata_stream_score(s, &r) != KATA_OK) continue;
+    if (kata::test::read_newest(s, &r) != KATA_OK) continue;
     // The correction cue (kata.h): present iff a part is named, one of that part's joints (the
     // GPD joint -> part grouping of kata_body_part), an action, finite degrees and a phrase.
     EXPECT_EQ(r.cue_joint >= 0, r.part_to_fix >= 0) << f;
@@ -124,7 +123,7 @@ TEST(FeedbackCApi, StatesPartScoresAndOverride) {
   ASSERT_EQ(kata_stream_set_calibration(s, &mine), KATA_OK) << kata_stream_last_error(s);
   ASSERT_EQ(kata_clip_positions(clip, 200, p.data(), p.size()), KATA_OK);
   ASSERT_EQ(kata_stream_push(s, 200 / 120.0, p.data(), static_cast<uint32_t>(n)), KATA_OK);
-  ASSERT_EQ(kata_stream_score(s, &r), KATA_OK);
+  ASSERT_EQ(kata::test::read_newest(s, &r), KATA_OK);
   EXPECT_NEAR(r.score, coaching_total(r, 4.0 * cal.d50, 1.0), 1e-3);
   mine.slope = -1.0;
   EXPECT_EQ(kata_stream_set_calibration(s, &mine), KATA_E_INVALID_ARGUMENT);
@@ -132,16 +131,19 @@ TEST(FeedbackCApi, StatesPartScoresAndOverride) {
   ASSERT_EQ(kata_stream_set_calibration(s, nullptr), KATA_OK);  // back to the model's
   ASSERT_EQ(kata_clip_positions(clip, 201, p.data(), p.size()), KATA_OK);
   ASSERT_EQ(kata_stream_push(s, 201 / 120.0, p.data(), static_cast<uint32_t>(n)), KATA_OK);
-  ASSERT_EQ(kata_stream_score(s, &r), KATA_OK);
+  ASSERT_EQ(kata::test::read_newest(s, &r), KATA_OK);
   EXPECT_NEAR(r.score, coaching_total(r, cal.d50, cal.slope), 1e-3);
   // An old caller's smaller struct receives only the fields it knows.
   kata_result_record small{};
   small.struct_size = offsetof(kata_result_record, part_scores);
   small.part_to_fix = 12345;
-  ASSERT_EQ(kata_stream_score(s, &small), KATA_OK);
+  ASSERT_EQ(kata_clip_positions(clip, 202, p.data(), p.size()), KATA_OK);
+  ASSERT_EQ(kata_stream_push(s, 202 / 120.0, p.data(), static_cast<uint32_t>(n)), KATA_OK);
+  ASSERT_EQ(kata::test::read_newest(s, &small), KATA_OK);
+  EXPECT_EQ(small.frame_index, r.frame_index + 1);
   EXPECT_EQ(small.part_to_fix, 12345);
-  kata_stream_close(s);
-  kata_model_free(m);
+  kata_stream_destroy(s);
+  kata_model_destroy(m);
   kata_skeleton_destroy(skel);
   kata_clip_destroy(clip);
   kata_context_destroy(ctx);

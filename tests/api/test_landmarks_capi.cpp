@@ -23,7 +23,7 @@ TEST(LandmarksCapi, FiveChannelsInMillisecondsEqualConfidenceInSeconds) {
   const uint32_t n = kata_skeleton_joint_count(skel);
   kata_stream_desc d;
   kata_stream_desc_init(&d);
-  d.preset = "cmu";
+  d.layout = "cmu";
   kata_stream a = nullptr, b = nullptr;
   ASSERT_EQ(kata_stream_open(ctx, skel, &d, &a), KATA_OK) << kata_context_last_error(ctx);
   ASSERT_EQ(kata_stream_open(ctx, skel, &d, &b), KATA_OK);
@@ -65,8 +65,8 @@ TEST(LandmarksCapi, FiveChannelsInMillisecondsEqualConfidenceInSeconds) {
   EXPECT_EQ(kata_stream_push_landmarks(b, 1e6, KATA_TIME_MILLISECONDS, five.data(), n - 1, 5), KATA_E_WRONG_JOINT_COUNT);
   EXPECT_EQ(kata_stream_push_landmarks(b, 1e6, KATA_TIME_MILLISECONDS, nullptr, n, 5), KATA_E_NULL_POINTER);
 
-  kata_stream_close(a);
-  kata_stream_close(b);
+  kata_stream_destroy(a);
+  kata_stream_destroy(b);
   kata_skeleton_destroy(skel);
   kata_clip_destroy(clip);
   kata_context_destroy(ctx);

@@ -101,11 +101,11 @@ double fk_error(kata_retargeter rt, kata_skeleton skel, const std::vector<float>
 double body_height(kata_context ctx, kata_skeleton skel, const char* preset) {
   kata_stream_desc d;
   kata_stream_desc_init(&d);
-  d.preset = preset;
+  d.layout = preset;
   kata_stream s = nullptr;
   EXPECT_EQ(kata_stream_open(ctx, skel, &d, &s), KATA_OK) << kata_context_last_error(ctx);
   const double h = kata_stream_body_height(s);
-  kata_stream_close(s);
+  kata_stream_destroy(s);
   return h;
 }
 
@@ -200,7 +200,7 @@ TEST(LocalRotations, GameRigWithBranchingHipsAndChestIsReproducedExactlyWhenReac
   kata_stream s = nullptr;
   ASSERT_EQ(kata_stream_open_name_map(ctx, skel, &d, map, &s), KATA_OK) << kata_context_last_error(ctx);
   const double height = kata_stream_body_height(s);
-  kata_stream_close(s);
+  kata_stream_destroy(s);
 
   // Reachable ghosts: the rig's own FK of random local rotations (up to 60 degrees per joint) and
   // a random root position. The solver must find rotations putting every joint back, including

@@ -1,7 +1,5 @@
 // The C ABI's "Models and scoring" section, driven through kata.h (libkata.so) only; the stand-in
 // model files are made at build time by kata_make_test_models (tests/support).
-// Also the deprecated 0.x reference calls (kept as wrappers until 2.0): they must behave as in 0.2.
-#define KATA_ALLOW_DEPRECATED
 #include <gtest/gtest.h>
 
 #include "support/temp_paths.hpp"
@@ -16,6 +14,7 @@
 
 #include "kata/kata.h"
 #include "support/alloc_counter.hpp"
+#include "support/capi_teacher.hpp"
 
 namespace kata {
 namespace {
@@ -49,7 +48,7 @@ struct MetricCapi : ::testing::Test {
   kata_stream open(kata_stencil stencil = KATA_STENCIL_BACKWARD) {
     kata_stream_desc d;
     kata_stream_desc_init(&d);
-    d.preset = "cmu";
+    d.layout = "cmu";
     d.stencil = stencil;
     kata_stream s = nullptr;
     EXPECT_EQ(kata_stream_open(ctx, skel, &d, &s), KATA_OK) << kata_context_last_error(ctx);
@@ -75,8 +74,8 @@ TEST_F(MetricCapi, LoadsAModelAndReportsIt) {
   EXPECT_STREQ(kata_model_metadata(m, "layout"), "gpd-v1");
   EXPECT_NE(std::string(kata_model_metadata(m, "data")).find("NOT LEARNED"), std::string::npos);
   EXPECT_EQ(kata_model_metadata(m, "nonsense"), nullptr);
-  kata_model_free(m);
-  kata_model_free(nullptr);
+  kata_model_destroy(m);
+  kata_model_destroy(nullptr);
   EXPECT_EQ(kata_model_rank(nullptr), 0u);
 }
 
@@ -101,21 +100,21 @@ TEST_F(MetricCapi, LoadsFromAnUnalignedBuffer) {
   kata_model m = nullptr;
   ASSERT_EQ(kata_model_load_memory(ctx, shifted.data() + 3, buf.size(), &m), KATA_OK) << kata_context_last_error(ctx);
   EXPECT_EQ(kata_model_rank(m), 2u);
-  kata_model_free(m);
+  kata_model_destroy(m);
 }
 
-// The teacher clip as reference and the same clip pushed live: every frame matches its own
+// The teacher clip (scores only) and the same clip pushed live: every frame matches its own
 // teacher frame with distance 0, and reading scores allocates nothing.
-TEST_F(MetricCapi, FollowsAClipReferenceFrameByFrame) {
+TEST_F(MetricCapi, FollowsAClipTeacherFrameByFrame) {
   kata_model m = nullptr;
   ASSERT_EQ(kata_model_load(ctx, path.c_str(), &m), KATA_OK);
   kata_stream s = open();
   kata_result_record r{};
   r.struct_size = sizeof r;
-  EXPECT_EQ(kata_stream_score(s, &r), KATA_E_STATE);
-  ASSERT_EQ(kata_stream_set_reference_bvh(s, m, clip, "cmu", 1, -1), KATA_OK) << kata_stream_last_error(s);
-  kata_model_free(m);  // the stream keeps what it needs
-  EXPECT_EQ(kata_stream_score(s, &r), KATA_NO_DATA);
+  EXPECT_EQ(kata_stream_restart_teacher(s), KATA_E_STATE);  // no teacher yet
+  ASSERT_EQ(kata::test::attach_clip(s, m, clip, 1), KATA_OK) << kata_stream_last_error(s);
+  kata_model_destroy(m);  // the stream keeps what it needs
+  EXPECT_EQ(kata::test::read_newest(s, &r), KATA_NO_DATA);
   const double dt = kata_clip_frame_time(clip);
   const uint32_t frames = kata_clip_frame_count(clip);
   std::vector<std::vector<float>> pos;
@@ -123,7 +122,8 @@ TEST_F(MetricCapi, FollowsAClipReferenceFrameByFrame) {
   kata::test::arm_alloc_counter();
   for (uint32_t f = 1; f < frames; ++f) {
     ASSERT_EQ(kata_stream_push(s, (f - 1) * dt, pos[f - 1].data(), kata_skeleton_joint_count(skel)), KATA_OK);
-    ASSERT_EQ(kata_stream_score(s, &r), KATA_OK) << kata_stream_last_error(s);
+    ASSERT_EQ(kata::test::read_newest(s, &r), KATA_OK) << kata_stream_last_error(s);
+    ASSERT_EQ(r.scored, 1);
     ASSERT_EQ(r.frame_index, static_cast<int64_t>(f - 1));
     ASSERT_EQ(r.matched_teacher_frame, static_cast<int32_t>(f - 1));
     ASSERT_DOUBLE_EQ(r.matched_teacher_time, (f - 1) * dt);  // where the student is in the routine
@@ -133,10 +133,14 @@ TEST_F(MetricCapi, FollowsAClipReferenceFrameByFrame) {
   if (kata::test::kAllocCounting) {
     EXPECT_EQ(kata::test::disarm_alloc_counter(), 0);
   }
-  EXPECT_EQ(kata_stream_restart_reference(s), KATA_OK);
-  EXPECT_EQ(kata_stream_clear_reference(s), KATA_OK);
-  EXPECT_EQ(kata_stream_score(s, &r), KATA_E_STATE);
-  kata_stream_close(s);
+  EXPECT_EQ(kata_stream_restart_teacher(s), KATA_OK);
+  EXPECT_EQ(kata_stream_detach_teacher(s), KATA_OK);
+  EXPECT_EQ(kata_stream_restart_teacher(s), KATA_E_STATE);
+  ASSERT_EQ(kata_stream_push(s, frames * dt, pos.back().data(), kata_skeleton_joint_count(skel)), KATA_OK);
+  ASSERT_EQ(kata::test::read_newest(s, &r), KATA_OK);
+  EXPECT_EQ(r.scored, 0);  // detached: results are not scored
+  EXPECT_EQ(r.matched_teacher_frame, -1);
+  kata_stream_destroy(s);
 }
 
 // Practice: a looped section of the clip. The whole clip pushed live is matched only inside the
@@ -147,7 +151,7 @@ TEST_F(MetricCapi, PracticeSectionLoopsAPartOfTheClip) {
   ASSERT_EQ(kata_model_load(ctx, path.c_str(), &m), KATA_OK);
   kata_stream s = open();
   EXPECT_EQ(kata_stream_set_practice_section(s, 0, -1, 0), KATA_E_STATE);
-  ASSERT_EQ(kata_stream_set_reference_bvh(s, m, clip, "cmu", 1, -1), KATA_OK) << kata_stream_last_error(s);
+  ASSERT_EQ(kata::test::attach_clip(s, m, clip, 1), KATA_OK) << kata_stream_last_error(s);
   const uint32_t frames = kata_clip_frame_count(clip);
   EXPECT_EQ(kata_stream_set_practice_section(s, 50, static_cast<int32_t>(frames), 1), KATA_E_INVALID_ARGUMENT);
   EXPECT_NE(std::string(kata_stream_last_error(s)).find("practice section"), std::string::npos) << kata_stream_last_error(s);
@@ -159,17 +163,17 @@ TEST_F(MetricCapi, PracticeSectionLoopsAPartOfTheClip) {
   int exact = 0;
   for (uint32_t f = 1; f < frames; ++f) {
     ASSERT_EQ(kata_stream_push(s, (f - 1) * dt, positions(f).data(), kata_skeleton_joint_count(skel)), KATA_OK);
-    ASSERT_EQ(kata_stream_score(s, &r), KATA_OK) << kata_stream_last_error(s);
+    ASSERT_EQ(kata::test::read_newest(s, &r), KATA_OK) << kata_stream_last_error(s);
     ASSERT_GE(r.matched_teacher_frame, 40) << f;
     ASSERT_LE(r.matched_teacher_frame, 140) << f;
     if (f - 1 >= 50 && f - 1 <= 140 && r.matched_teacher_frame == static_cast<int32_t>(f - 1)) ++exact;
   }
   EXPECT_GE(exact, 85);  // of the 91 frames 50..140 (the first frames of the section settle)
-  kata_stream_close(s);
-  kata_model_free(m);
+  kata_stream_destroy(s);
+  kata_model_destroy(m);
 }
 
-TEST_F(MetricCapi, PoseReferenceFromFeaturesScoresOtherFramesLower) {
+TEST_F(MetricCapi, PoseTeacherFromFeaturesScoresOtherFramesLower) {
   kata_model m = nullptr;
   ASSERT_EQ(kata_model_load(ctx, path.c_str(), &m), KATA_OK);
   kata_stream teacher = open(), student = open();
@@ -177,13 +181,12 @@ TEST_F(MetricCapi, PoseReferenceFromFeaturesScoresOtherFramesLower) {
   std::vector<float> feats(KATA_GPD_DIMS);
   for (uint32_t f = 1; f <= 60; ++f) ASSERT_EQ(kata_stream_push(teacher, f * dt, positions(f).data(), kata_skeleton_joint_count(skel)), KATA_OK);
   ASSERT_EQ(kata_stream_features(teacher, feats.data(), feats.size(), nullptr, nullptr), KATA_OK);
-  EXPECT_EQ(kata_stream_set_reference_pose(student, m, feats.data(), 100), KATA_E_INVALID_ARGUMENT);
-  ASSERT_EQ(kata_stream_set_reference_pose(student, m, feats.data(), feats.size()), KATA_OK) << kata_stream_last_error(student);
+  ASSERT_EQ(kata::test::attach_features(student, m, feats.data(), 1), KATA_OK) << kata_stream_last_error(student);
   kata_result_record r{};
   r.struct_size = sizeof r;
   for (uint32_t f = 1; f <= 60; ++f) {
     ASSERT_EQ(kata_stream_push(student, f * dt, positions(f).data(), kata_skeleton_joint_count(skel)), KATA_OK);
-    ASSERT_EQ(kata_stream_score(student, &r), KATA_OK);
+    ASSERT_EQ(kata::test::read_newest(student, &r), KATA_OK);
     float sum = 0.0f;
     for (float p : r.parts) sum += p;
     EXPECT_NEAR(sum, r.distance * r.distance, 1e-5f * (1e-6f + r.distance * r.distance));
@@ -191,11 +194,11 @@ TEST_F(MetricCapi, PoseReferenceFromFeaturesScoresOtherFramesLower) {
       EXPECT_LT(r.score, 100.0f);
     }
   }
-  EXPECT_EQ(r.distance, 0.0f);  // frame 60 is the reference pose itself
+  EXPECT_EQ(r.distance, 0.0f);  // frame 60 is the teacher's pose itself
   EXPECT_EQ(r.matched_teacher_frame, 0);
-  kata_stream_close(teacher);
-  kata_stream_close(student);
-  kata_model_free(m);
+  kata_stream_destroy(teacher);
+  kata_stream_destroy(student);
+  kata_model_destroy(m);
 }
 
 TEST_F(MetricCapi, RefusesAStreamWithAnotherStencil) {
@@ -203,10 +206,10 @@ TEST_F(MetricCapi, RefusesAStreamWithAnotherStencil) {
   ASSERT_EQ(kata_model_load(ctx, path.c_str(), &m), KATA_OK);
   kata_stream s = open(KATA_STENCIL_CENTRAL);
   std::vector<float> feats(KATA_GPD_DIMS, 0.5f);
-  EXPECT_EQ(kata_stream_set_reference_pose(s, m, feats.data(), feats.size()), KATA_E_INVALID_ARGUMENT);
+  EXPECT_EQ(kata::test::attach_features(s, m, feats.data(), 1), KATA_E_INVALID_ARGUMENT);
   EXPECT_NE(std::string(kata_stream_last_error(s)).find("stencil"), std::string::npos);
-  kata_stream_close(s);
-  kata_model_free(m);
+  kata_stream_destroy(s);
+  kata_model_destroy(m);
 }
 
 }  // namespace

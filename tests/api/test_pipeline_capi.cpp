@@ -1,8 +1,6 @@
 // The pipeline section of kata.h through the shipped libkata only: a teacher attached in one call,
-// results drained at a quarter of the push rate, each equal to what the older per-call API and a
-// separately created retargeter give for the same frames.
-// Also the deprecated 0.x reference calls (kept as wrappers until 2.0): they must behave as in 0.2.
-#define KATA_ALLOW_DEPRECATED
+// results drained at a quarter of the push rate, each equal to what a score-only stream read after
+// every push and a separately created retargeter give for the same frames.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -11,6 +9,7 @@
 #include <vector>
 
 #include "kata/kata.h"
+#include "support/capi_teacher.hpp"
 #include "support/alloc_counter.hpp"
 
 namespace {
@@ -31,13 +30,13 @@ struct PipelineCapi : ::testing::Test {
     kata_skeleton_destroy(skel);
     kata_clip_destroy(student);
     kata_clip_destroy(teacher);
-    kata_model_free(model);
+    kata_model_destroy(model);
     kata_context_destroy(ctx);
   }
   kata_stream open(uint32_t capacity = 64) {
     kata_stream_desc d;
     kata_stream_desc_init(&d);
-    d.preset = "cmu";
+    d.layout = "cmu";
     d.stencil = kata_model_stencil(model);
     d.result_capacity = capacity;
     kata_stream s = nullptr;
@@ -67,9 +66,9 @@ TEST_F(PipelineCapi, EveryFrameScoredAndGhostedWhenReadAtAQuarterOfThePushRate) 
   const uint32_t g = kata_stream_ghost_joint_count(s);
   ASSERT_EQ(g, 21u);  // CMU: the joints that carry a bone
 
-  // The same frames through the 0.1 calls: a stream scored after every push.
+  // The same frames through a score-only stream (no ghost) read after every push.
   kata_stream legacy = open();
-  ASSERT_EQ(kata_stream_set_reference_bvh(legacy, model, teacher, "cmu", 1, -1), KATA_OK);
+  ASSERT_EQ(kata::test::attach_clip(legacy, model, teacher, 1), KATA_OK) << kata_stream_last_error(legacy);
 
   std::vector<kata_result_record> results(64);
   
@@ -95,7 +94,7 @@ TEST_F(PipelineCapi, EveryFrameScoredAndGhostedWhenReadAtAQuarterOfThePushRate) 
     ASSERT_EQ(kata_stream_push(legacy, t, p.data(), joints), KATA_OK);
     kata_result_record r;
     r.struct_size = sizeof r;
-    ASSERT_EQ(kata_stream_score(legacy, &r), KATA_OK);
+    ASSERT_EQ(kata::test::read_newest(legacy, &r), KATA_OK);
     want.push_back(r);
     if (i % 4 == 3) drain();
   }
@@ -133,8 +132,8 @@ TEST_F(PipelineCapi, EveryFrameScoredAndGhostedWhenReadAtAQuarterOfThePushRate) 
   // CMU units: a body is ~30 units tall; 1e-5 of that.
   EXPECT_LE(worst, 1e-5 * kata_stream_body_height(s));
   kata_retargeter_destroy(rt);
-  kata_stream_close(legacy);
-  kata_stream_close(s);
+  kata_stream_destroy(legacy);
+  kata_stream_destroy(s);
 }
 
 TEST_F(PipelineCapi, OverflowIsCountedAndReadsRefuseShortBuffers) {
@@ -158,7 +157,7 @@ TEST_F(PipelineCapi, OverflowIsCountedAndReadsRefuseShortBuffers) {
   EXPECT_EQ(r[3].result_sequence, 9u);
   EXPECT_EQ(r[0].scored, 0);  // no teacher: features only
   EXPECT_EQ(r[0].matched_teacher_frame, -1);
-  kata_stream_close(s);
+  kata_stream_destroy(s);
 }
 
 TEST_F(PipelineCapi, AttachRefusesWhatCannotWorkAndKeepsTheOldTeacher) {
@@ -171,9 +170,9 @@ TEST_F(PipelineCapi, AttachRefusesWhatCannotWorkAndKeepsTheOldTeacher) {
   EXPECT_NE(std::string(kata_stream_last_error(s)).find("no teacher motion"), std::string::npos);
   td.clip = teacher;
   td.first_frame = 1;
-  td.preset = "no-such-preset";
+  td.layout = "no-such-preset";
   EXPECT_EQ(kata_stream_attach_teacher(s, &td), KATA_E_NOT_FOUND);
-  td.preset = nullptr;
+  td.layout = nullptr;
   td.pose_frame = -2;
   EXPECT_EQ(kata_stream_attach_teacher(s, &td), KATA_E_INVALID_ARGUMENT);
   td.pose_frame = -1;
@@ -181,7 +180,7 @@ TEST_F(PipelineCapi, AttachRefusesWhatCannotWorkAndKeepsTheOldTeacher) {
   td.first_frame = 100000;
   EXPECT_EQ(kata_stream_attach_teacher(s, &td), KATA_E_INVALID_ARGUMENT);
   EXPECT_EQ(kata_stream_ghost_joint_count(s), 21u);  // the attached teacher stays
-  kata_stream_close(s);
+  kata_stream_destroy(s);
 }
 
 TEST_F(PipelineCapi, PushAndReadAllocateNothing) {
@@ -207,7 +206,7 @@ TEST_F(PipelineCapi, PushAndReadAllocateNothing) {
               KATA_OK);
   }
   EXPECT_EQ(kata::test::allocations() - before, 0);
-  kata_stream_close(s);
+  kata_stream_destroy(s);
 }
 
 }  // namespace

@@ -141,7 +141,7 @@ TEST_F(RetargetCapi, GpdPresetGivesSixteenJointsWithTheStudentsLengths) {
   load(ctx_, "07_01.bvh", &student);
   kata_retarget_desc desc;
   kata_retarget_desc_init(&desc);
-  desc.preset = "gpd";
+  desc.joint_set = "gpd";
   kata_retargeter rt = nullptr;
   ASSERT_EQ(kata_retargeter_create_for_stream(ctx_, nullptr, &desc, &rt), KATA_E_NULL_POINTER);
   ASSERT_EQ(kata_retargeter_create(ctx_, student.skeleton, &desc, &rt), KATA_OK) << kata_context_last_error(ctx_);
@@ -164,7 +164,7 @@ TEST_F(RetargetCapi, ErrorsAreStatusesWithMessages) {
   kata_retargeter rt = nullptr;
   kata_retarget_desc desc;
   kata_retarget_desc_init(&desc);
-  desc.preset = "nope";
+  desc.joint_set = "nope";
   EXPECT_EQ(kata_retargeter_create(ctx_, student.skeleton, &desc, &rt), KATA_E_NOT_FOUND);
   EXPECT_NE(std::string(kata_context_last_error(ctx_)).find("nope"), std::string::npos);
   EXPECT_EQ(rt, nullptr);

@@ -27,7 +27,7 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
   ASSERT_EQ(kata_clip_skeleton(student, &skel), KATA_OK);
   kata_stream_desc sd;
   kata_stream_desc_init(&sd);
-  sd.preset = "cmu";
+  sd.layout = "cmu";
   sd.stencil = kata_model_stencil(model);
   kata_stream stream = nullptr;
   ASSERT_EQ(kata_stream_open(ctx, skel, &sd, &stream), KATA_OK) << kata_context_last_error(ctx);
@@ -160,10 +160,86 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
   sub.reset();
   zmq_ctx_term(zctx);
   kata_runtime_destroy(runtime);
-  kata_model_free(model);
+  kata_model_destroy(model);
   kata_skeleton_destroy(skel);
   kata_clip_destroy(student);
   kata_clip_destroy(teacher);
+  kata_context_destroy(ctx);
+}
+
+// kata_runtime_push_confidence: the confidences travel with the frame to the worker, which gates
+// joints as kata_stream_push_confidence does. Ten frames with every joint at confidence 0 are
+// accepted without features (no result, not counted as refused); the runtime publishes exactly as
+// many results as a stream fed the same frames directly computes feature vectors.
+TEST(runtime_capi, PushWithConfidencesGatesJointsAsAStreamDoes) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_clip clip = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &clip), KATA_OK);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(clip, &skel), KATA_OK);
+  kata_stream_desc sd;
+  kata_stream_desc_init(&sd);
+  sd.layout = "cmu";
+  kata_stream direct = nullptr, handed = nullptr;
+  ASSERT_EQ(kata_stream_open(ctx, skel, &sd, &direct), KATA_OK) << kata_context_last_error(ctx);
+  ASSERT_EQ(kata_stream_open(ctx, skel, &sd, &handed), KATA_OK) << kata_context_last_error(ctx);
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.publish_endpoints = "tcp://127.0.0.1:*";
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  ASSERT_EQ(kata_runtime_add_stream(runtime, 9, &handed, nullptr, 0), KATA_OK) << kata_context_last_error(ctx);
+  void* zctx = zmq_ctx_new();
+  auto sub = std::make_unique<kata::test::ZmqSubscriber>(zctx, kata_runtime_publish_endpoint(runtime), 100000,
+                                                         "0000000000000009", 1 << 16);
+  ASSERT_TRUE(sub->connected());
+  const char* buffer = reinterpret_cast<const char*>(sub->data());
+  bool joined = false;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while (!joined && std::chrono::steady_clock::now() < deadline) {
+    const int n = sub->receive(100);
+    joined = n > 24 && std::memcmp(buffer + 20, "KSKL", 4) == 0;
+  }
+  ASSERT_TRUE(joined);
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  std::vector<float> p(3 * joints), confident(joints, 1.0f), unseen(joints, 0.0f);
+  const int frames = 80;
+  int lost = 0;
+  for (int i = 0; i < frames; ++i) {
+    ASSERT_EQ(kata_clip_positions(clip, static_cast<uint32_t>(1 + i), p.data(), p.size()), KATA_OK);
+    const float* c = (i >= 30 && i < 40) ? unseen.data() : (i % 2 ? confident.data() : nullptr);
+    const kata_status st = kata_stream_push_confidence(direct, i / 120.0, p.data(), c, joints);
+    ASSERT_TRUE(st == KATA_OK || st == KATA_TRACKING_LOST) << kata_stream_last_error(direct);
+    lost += st == KATA_TRACKING_LOST;
+    ASSERT_EQ(kata_runtime_push_confidence(runtime, 9, static_cast<uint64_t>(i), i / 120.0, p.data(), c, joints),
+              KATA_OK);
+  }
+  EXPECT_EQ(lost, 10);
+  EXPECT_EQ(kata_runtime_push_confidence(runtime, 9, 99, 1.0, nullptr, confident.data(), joints), KATA_E_NULL_POINTER);
+  const int64_t want = kata_stream_feature_count(direct);
+  ASSERT_GT(want, 0);
+  ASSERT_LT(want, frames - 10 + 1);
+  ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);
+  int64_t results = 0;
+  for (;;) {
+    const int n = sub->receive(500);
+    if (n <= 0) break;
+    if (n > 24 && std::memcmp(buffer + 20, "KRES", 4) == 0) ++results;
+  }
+  EXPECT_EQ(results, want);
+  kata_runtime_counters c;
+  c.struct_size = sizeof c;
+  ASSERT_EQ(kata_runtime_get_counters(runtime, &c), KATA_OK);
+  EXPECT_EQ(c.frames_in, static_cast<uint64_t>(frames));
+  EXPECT_EQ(c.refused, 0u);
+  EXPECT_EQ(c.results, static_cast<uint64_t>(want));
+  sub.reset();
+  zmq_ctx_term(zctx);
+  kata_runtime_destroy(runtime);
+  kata_stream_destroy(direct);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(clip);
   kata_context_destroy(ctx);
 }
 
@@ -227,7 +303,7 @@ std::string definition_of(kata_context ctx, kata_stream stream, const char* pres
     sub.reset();
     zmq_ctx_term(zctx);
   } else {
-    kata_stream_close(stream);
+    kata_stream_destroy(stream);
   }
   kata_runtime_destroy(runtime);
   return definition;
@@ -250,7 +326,7 @@ TEST(runtime_capi, AddStreamAnnouncesTheStreamsOwnLayout) {
   ASSERT_EQ(kata_skeleton_create_layout(ctx, "gpd", &gpd), KATA_OK);
   kata_stream_desc d;
   kata_stream_desc_init(&d);
-  d.preset = "mediapipe";
+  d.layout = "mediapipe";
   for (const char* preset : {static_cast<const char*>(nullptr), "mediapipe"}) {
     kata_stream s = nullptr;
     ASSERT_EQ(kata_stream_open(ctx, mp, &d, &s), KATA_OK) << kata_context_last_error(ctx);
@@ -308,7 +384,7 @@ TEST(runtime_capi, QueueFullAndNoClipTeacherAreTheirOwnCodes) {
   ASSERT_EQ(kata_clip_skeleton(clip, &skel), KATA_OK);
   kata_stream_desc sd;
   kata_stream_desc_init(&sd);
-  sd.preset = "cmu";
+  sd.layout = "cmu";
   kata_stream stream = nullptr;
   ASSERT_EQ(kata_stream_open(ctx, skel, &sd, &stream), KATA_OK) << kata_context_last_error(ctx);
   kata_runtime_desc rd;

@@ -26,13 +26,13 @@ struct TeacherCapi : ::testing::Test {
   void TearDown() override {
     kata_skeleton_destroy(skel);
     kata_clip_destroy(clip);
-    kata_model_free(model);
+    kata_model_destroy(model);
     kata_context_destroy(ctx);
   }
   kata_stream open(kata_skeleton on, const char* preset, double body_height = 0.0) {
     kata_stream_desc d;
     kata_stream_desc_init(&d);
-    d.preset = preset;
+    d.layout = preset;
     d.stencil = kata_model_stencil(model);
     d.body_height = body_height;
     d.result_capacity = 256;
@@ -85,7 +85,7 @@ TEST_F(TeacherCapi, AStreamComparedWithItsOwnFeaturesIsAtDistanceZeroFrameForFra
     ASSERT_EQ(kata_stream_features(t, f.data(), f.size(), nullptr, nullptr), KATA_OK);
     features.insert(features.end(), f.begin(), f.end());
   }
-  kata_stream_close(t);
+  kata_stream_destroy(t);
   const uint32_t vectors = static_cast<uint32_t>(features.size() / KATA_GPD_DIMS);
   ASSERT_GT(vectors, kFrames - 4);
 
@@ -139,7 +139,7 @@ TEST_F(TeacherCapi, AStreamComparedWithItsOwnFeaturesIsAtDistanceZeroFrameForFra
     farthest = std::fmax(farthest, sc[k].distance);
   }
   EXPECT_GT(farthest, 0.01f);
-  kata_stream_close(s);
+  kata_stream_destroy(s);
 }
 
 TEST_F(TeacherCapi, AHeldPoseGivenAsTheSixteenGpdJointsMatchesAStudentHoldingIt) {
@@ -193,7 +193,7 @@ TEST_F(TeacherCapi, AHeldPoseGivenAsTheSixteenGpdJointsMatchesAStudentHoldingIt)
   for (int i = 20; i < 40; ++i) ASSERT_EQ(kata_stream_push(s, i / 30.0, other.data(), KATA_GPD_JOINTS), KATA_OK);
   ASSERT_EQ(kata_stream_read_newest(s, &r, nullptr, 0, nullptr, 0), KATA_OK);
   EXPECT_GT(sc.distance, 1e-2f);
-  kata_stream_close(s);
+  kata_stream_destroy(s);
 }
 
 TEST_F(TeacherCapi, TheNewestResultIsTheLastEntryOfADrain) {
@@ -252,8 +252,8 @@ TEST_F(TeacherCapi, TheNewestResultIsTheLastEntryOfADrain) {
     EXPECT_EQ(kata_stream_results_dropped(b), 0u);
     EXPECT_EQ(kata_stream_read_newest(b, &r, nullptr, 0, nullptr, 0), KATA_NO_DATA);
   }
-  kata_stream_close(a);
-  kata_stream_close(b);
+  kata_stream_destroy(a);
+  kata_stream_destroy(b);
   kata_skeleton_destroy(student);
   kata_clip_destroy(sclip);
 }
@@ -297,7 +297,7 @@ TEST_F(TeacherCapi, RestartMatchesFromTheStartAndDetachStopsScoring) {
   EXPECT_EQ(sc.distance, 0.0f);
   EXPECT_EQ(kata_stream_restart_teacher(s), KATA_E_STATE);
   EXPECT_EQ(kata_stream_detach_teacher(s), KATA_OK) << "without a teacher too";
-  kata_stream_close(s);
+  kata_stream_destroy(s);
 }
 
 TEST_F(TeacherCapi, DescSizesMotionsAndNullsAreChecked) {
@@ -332,7 +332,7 @@ TEST_F(TeacherCapi, DescSizesMotionsAndNullsAreChecked) {
   EXPECT_EQ(kata_stream_read_newest(s, nullptr, nullptr, 0, nullptr, 0), KATA_E_NULL_POINTER);
   EXPECT_EQ(kata_stream_detach_teacher(nullptr), KATA_E_NULL_POINTER);
   EXPECT_EQ(kata_stream_restart_teacher(nullptr), KATA_E_NULL_POINTER);
-  kata_stream_close(s);
+  kata_stream_destroy(s);
 }
 
 }  // namespace

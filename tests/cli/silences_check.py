@@ -3,7 +3,7 @@
 - kata send to an endpoint where nobody listens fails naming that, instead of "sent" and exit 0;
 - kata send (push) into a serve whose ingest is left at its default kind (sub): both sides say the
   socket kinds cannot talk, naming the config's kind and what to write;
-- a skeleton that does not fit its preset: serve says why the definition was refused and counts
+- a skeleton that does not fit its layout: serve says why the definition was refused and counts
   the drops by cause; kata send says how many frames a peer took;
 - a serve nobody sends to says so after 10 s;
 - kata send slower than recorded (--speed 0.5) with the clip's capture times says, before it
@@ -63,14 +63,14 @@ with tempfile.TemporaryDirectory(prefix="kata_silences_") as tmp:
            '--socket push, needs kind = "pull"' % sub_config in err, err
     assert "handshakes refused)" in err, err
 
-    # 3. The right kinds, a skeleton that does not fit its preset: the reason, drops by cause.
+    # 3. The right kinds, a skeleton that does not fit its layout: the reason, drops by cause.
     pull, _, pull_in = serve(tmp, "pull", "pull")
     r = send(pull_in, "--preset", "mediapipe", "--stream-id", "4")
     assert r.returncode == 0, r.stderr
     assert "kata send: 60 of 60 frames (1 stream(s) from 4) taken by a peer at " + pull_in in r.stderr, r.stderr
     time.sleep(2.5)
     err = stop(pull)
-    assert "stream 4's skeleton definition (preset 'mediapipe') refused: layout mediapipe: skeleton has no landmark " \
+    assert "stream 4's skeleton definition (layout 'mediapipe') refused: layout mediapipe: skeleton has no landmark " \
            "'nose'" in err, err
     status = [l for l in err.splitlines() if l.startswith("streams ")]
     assert any("| drops 61 (definitions refused 1, unknown stream 60) |" in l for l in status), status[-3:]

@@ -211,7 +211,7 @@ def _():
                        env=dict(env, PIP_NO_INDEX="1", PIP_DISABLE_PIP_VERSION_CHECK="1",
                                 KATA_LIBRARY=os.path.join(build, "lib", "libkata.so"),
                                 KATA_PYTHON_FB=os.path.join(build, "python", "kata", "fb"),
-                                KATA_HEADER=os.path.join(source, "sdk", "include", "kata", "kata.h"),
+                                KATA_HEADER=os.path.join(source, "sdk", "include", "kata", "core.h"),
                                 KATA_MODEL=os.path.join(source, "models", "default.kata")))
     assert r.returncode == 0, r.stderr
     assert sorted(os.listdir(src)) == before, sorted(set(os.listdir(src)) - set(before))

@@ -64,7 +64,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const uint8_t mode = in.get<uint8_t>();
   kata_stream_desc desc;
   kata_stream_desc_init(&desc);
-  desc.preset = "cmu";
+  desc.layout = "cmu";
   const int32_t stencil = in.get<int32_t>(), up = in.get<int32_t>();
   std::memcpy(&desc.stencil, &stencil, sizeof stencil);  // any integer, as a C caller may pass
   std::memcpy(&desc.up_axis, &up, sizeof up);
@@ -127,6 +127,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   check(kata_stream_flush(s) != KATA_E_INTERNAL);
   if (kata_stream_features(s, features, KATA_GPD_DIMS, nullptr, nullptr) == KATA_OK)
     for (float f : features) check(std::isfinite(f));
-  kata_stream_close(s);
+  kata_stream_destroy(s);
   return 0;
 }

@@ -40,7 +40,7 @@ int main(int argc, char** argv) {
   d.stream_id = 7;
   d.revision = 1;
   d.skeleton = clip.skeleton;
-  d.preset = "cmu";
+  d.layout = "cmu";
   d.frame_rate = static_cast<float>(1.0 / clip.frame_time);
   const int64_t dt = static_cast<int64_t>(clip.frame_time * 1e9);
   auto frame = [&](uint64_t id, uint64_t seq, int f) {

@@ -58,7 +58,7 @@ struct Clip {
     d.stream_id = id;
     d.revision = 1;
     d.skeleton = clip.skeleton;
-    d.preset = "cmu";
+    d.layout = "cmu";
     return d;
   }
 };

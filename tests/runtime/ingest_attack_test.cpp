@@ -55,7 +55,7 @@ struct Clip {
     d.stream_id = id;
     d.revision = revision;
     d.skeleton = clip.skeleton;
-    d.preset = "cmu";
+    d.layout = "cmu";
     return d;
   }
 };

@@ -16,7 +16,7 @@ TEST(runtime_layouts, MediaPipeDefinitionUsesTheLayoutsAxesSmoothingAndSynthesis
   kata::transport::SkeletonDefinition d;
   d.stream_id = 3;
   d.skeleton = kata::layout_skeleton("mediapipe");
-  d.preset = "mediapipe";
+  d.layout = "mediapipe";
   d.up_axis = kata::UpAxis::kY;  // what the wire says; the layout fixes the camera axes
   const kata::runtime::StreamSetup setup = kata::runtime::setup_from_definition(d);
   const kata::StreamConfig& c = setup.pipeline.stream;
@@ -53,7 +53,7 @@ TEST(runtime_layouts, MediaPipeDefinitionUsesTheLayoutsAxesSmoothingAndSynthesis
   // A preset that names joints only keeps the wire's axes and no smoothing.
   kata::transport::SkeletonDefinition named = d;
   named.skeleton = kata::layout_skeleton("gpd");
-  named.preset = "gpd";
+  named.layout = "gpd";
   named.up_axis = kata::UpAxis::kZ;
   const kata::runtime::StreamSetup plain = kata::runtime::setup_from_definition(named);
   EXPECT_EQ(plain.pipeline.stream.up_axis, kata::UpAxis::kZ);

@@ -61,7 +61,7 @@ struct Fixture {
     d.stream_id = id;
     d.revision = 1;
     d.skeleton = student.skeleton;
-    d.preset = "cmu";
+    d.layout = "cmu";
     d.frame_rate = static_cast<float>(1.0 / student.frame_time);
     return d;
   }
@@ -137,7 +137,7 @@ TEST_P(runtime_end_to_end, EveryFrameOutInOrderEqualToTheInProcessPipeline) {
       if (sub.next(decoder, 100) == transport::MessageKind::kSkeleton) {
         const SkeletonDefinition d = decoder.skeleton();
         EXPECT_EQ(d.skeleton.names, fx.student.skeleton.names);
-        EXPECT_EQ(d.preset, "cmu");
+        EXPECT_EQ(d.layout, "cmu");
         ++definitions[d.stream_id];
       }
     ASSERT_EQ(definitions.size(), 2u) << "a late subscriber must get every skeleton definition";

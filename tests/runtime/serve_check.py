@@ -42,7 +42,7 @@ with tempfile.TemporaryDirectory(prefix="kata_serve_test_") as tmp:
         assert sub.returncode == 0, out
         scores = [l for l in out.splitlines() if ": score " in l]
         assert len(scores) == 20, out
-        assert "skeleton of 31 joints (preset cmu)" in out, out
+        assert "skeleton of 31 joints (layout cmu)" in out, out
         cout, _ = csub.communicate(timeout=60)
         assert csub.returncode == 0, cout
         cscores = [l for l in cout.splitlines() if ": score " in l]

@@ -28,7 +28,7 @@ SkeletonDefinition three_joint_definition(uint64_t stream_id, uint32_t revision 
   d.skeleton.parents = {-1, 0, 1};
   d.skeleton.offsets = {Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, 0.5, 0), Eigen::Vector3d(0, 0.3, 0.1)};
   d.skeleton.has_rest_pose = true;
-  d.preset = "";
+  d.layout = "";
   d.metres_per_unit = 1.0f;
   d.frame_rate = 120.0f;
   return d;

@@ -210,9 +210,10 @@ static class KataTests
 
     static void StructSizesMatchTheLibrary()
     {
-        StreamDesc sd = new StreamDesc(); Native.kata_stream_desc_init(ref sd);
-        RetargetDesc rd = new RetargetDesc(); Native.kata_retarget_desc_init(ref rd);
-        TeacherDesc td = new TeacherDesc(); Native.kata_teacher_desc_init(ref td);
+        // The library sets struct_size to the smaller of the binding's size and its own: equal when they agree.
+        StreamDesc sd = new StreamDesc(); Native.kata_stream_desc_init_sized(ref sd, (uint)System.Runtime.InteropServices.Marshal.SizeOf(typeof(StreamDesc)));
+        RetargetDesc rd = new RetargetDesc(); Native.kata_retarget_desc_init_sized(ref rd, (uint)System.Runtime.InteropServices.Marshal.SizeOf(typeof(RetargetDesc)));
+        TeacherDesc td = new TeacherDesc(); Native.kata_teacher_desc_init_sized(ref td, (uint)System.Runtime.InteropServices.Marshal.SizeOf(typeof(TeacherDesc)));
         Check(sd.StructSize == System.Runtime.InteropServices.Marshal.SizeOf(typeof(StreamDesc)), "sizeof kata_stream_desc " + sd.StructSize);
         Check(rd.StructSize == System.Runtime.InteropServices.Marshal.SizeOf(typeof(RetargetDesc)), "sizeof kata_retarget_desc " + rd.StructSize);
         Check(td.StructSize == System.Runtime.InteropServices.Marshal.SizeOf(typeof(TeacherDesc)), "sizeof kata_teacher_desc " + td.StructSize);

@@ -5,7 +5,7 @@ teacher's pose retargeted onto the student (the "ghost"), from Python over libka
     teacher = kata.find_data("data/cmu/05_18.bvh")          # a clip kata installs
     with kata.Context() as ctx, ctx.load_model(kata.default_model_path()) as model, \\
          ctx.load_clip(teacher) as clip, clip.skeleton() as skeleton, \\
-         ctx.open_stream(skeleton, preset="cmu", stencil=model.stencil) as stream:
+         ctx.open_stream(skeleton, layout="cmu", stencil=model.stencil) as stream:
         stream.attach_teacher(model, clip=clip, first_frame=1)
         frames = clip.all_positions(1)                       # (n, joints, 3) float32
         r = stream.push_and_read(1 + np.arange(len(frames)) * clip.frame_time, frames)
@@ -29,7 +29,7 @@ import os
 
 from .errors import KataError, ResultsDroppedError, ResultsDroppedWarning, Status
 from .objects import (GPD_DIMS, GPD_JOINTS, BodyPart, Clip, Context, CueAction, Model, ScoreState, Skeleton, Stencil, UpAxis,
-                      default_model_path, find_data, library_path, presets, version)
+                      default_model_path, find_data, library_path, layouts, version)
 from .stream import (DROP_POLICIES, RESULT_DTYPE, ResultBuffer, Results,
                      ScoreRecord, Stream, cue_text, detect_time_units, gpd_joint_name)
 from .retarget import Retargeter
@@ -42,7 +42,7 @@ __version__ = "%d.%d.%d" % version
 __all__ = ["Context", "Skeleton", "Clip", "Model", "Stream", "Retargeter", "Runtime", "Subscriber",
            "Results", "ResultBuffer", "ScoreRecord", "ResultMessage", "PracticeSection",
            "KataError", "ResultsDroppedWarning", "ResultsDroppedError", "Status", "Stencil", "UpAxis", "ScoreState",
-           "BodyPart", "CueAction", "cue_text", "gpd_joint_name", "read_message", "shard_of", "detect_time_units", "default_model_path", "find_data", "presets",
+           "BodyPart", "CueAction", "cue_text", "gpd_joint_name", "read_message", "shard_of", "detect_time_units", "default_model_path", "find_data", "layouts",
            "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "DROP_POLICIES"]
 
 # kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the

@@ -91,7 +91,7 @@ version = _check_version()
 # ---- structs (layouts as in kata.h; struct_size is set from ctypes.sizeof) ----------------------
 
 class StreamDesc(ctypes.Structure):
-    _fields_ = [("struct_size", ctypes.c_uint32), ("preset", ctypes.c_char_p), ("name_map_path", ctypes.c_char_p),
+    _fields_ = [("struct_size", ctypes.c_uint32), ("layout", ctypes.c_char_p), ("name_map_path", ctypes.c_char_p),
                 ("stencil", ctypes.c_int), ("up_axis", ctypes.c_int), ("max_gap", ctypes.c_double),
                 ("history_capacity", ctypes.c_uint32), ("body_height", ctypes.c_double),
                 ("calibration_frames", ctypes.c_uint32), ("result_capacity", ctypes.c_uint32),
@@ -99,7 +99,7 @@ class StreamDesc(ctypes.Structure):
 
 
 class RetargetDesc(ctypes.Structure):
-    _fields_ = [("struct_size", ctypes.c_uint32), ("preset", ctypes.c_char_p), ("gradient_tolerance", ctypes.c_double),
+    _fields_ = [("struct_size", ctypes.c_uint32), ("joint_set", ctypes.c_char_p), ("gradient_tolerance", ctypes.c_double),
                 ("max_iterations", ctypes.c_uint32), ("warm_start", ctypes.c_int32),
                 ("restore_bone_lengths", ctypes.c_int32)]
 
@@ -113,10 +113,9 @@ class RetargetInfo(ctypes.Structure):
 class TeacherDesc(ctypes.Structure):
     _fields_ = [("struct_size", ctypes.c_uint32), ("model", ctypes.c_void_p), ("clip", ctypes.c_void_p),
                 ("skeleton", ctypes.c_void_p), ("positions", ctypes.c_void_p), ("frames", ctypes.c_uint32),
-                ("frame_time", ctypes.c_double), ("preset", ctypes.c_char_p), ("first_frame", ctypes.c_uint32),
+                ("frame_time", ctypes.c_double), ("layout", ctypes.c_char_p), ("first_frame", ctypes.c_uint32),
                 ("pose_frame", ctypes.c_int32), ("ghost", ctypes.c_int32),
                 ("retarget", ctypes.POINTER(RetargetDesc)),
-                # since 1.0
                 ("features", ctypes.c_void_p), ("joints", ctypes.c_void_p), ("body_height", ctypes.c_double)]
 
 
@@ -191,11 +190,9 @@ _SIGNATURES = {
     "kata_clip_frame_time": (_d, [_p]),
     "kata_clip_skeleton": (_st, [_p, _pp]),
     "kata_clip_positions": (_st, [_p, _u32, _p, _sz]),
-    "kata_stream_desc_init": (None, [ctypes.POINTER(StreamDesc)]),
     "kata_stream_desc_init_sized": (None, [ctypes.POINTER(StreamDesc), _u32]),
-    "kata_preset_name": (_s, [_u32]),
     "kata_stream_open": (_st, [_p, _p, ctypes.POINTER(StreamDesc), _pp]),
-    "kata_stream_close": (None, [_p]),
+    "kata_stream_destroy": (None, [_p]),
     "kata_stream_last_error": (_s, [_p]),
     "kata_stream_push": (_st, [_p, _d, _p, _u32]),
     "kata_stream_push_many": (_st, [_p, _p, _p, _p, _u32, _u32, ctypes.POINTER(_u32), ctypes.POINTER(_u32)]),
@@ -208,19 +205,11 @@ _SIGNATURES = {
     "kata_stream_body_height": (_d, [_p]),
     "kata_model_load": (_st, [_p, _s, _pp]),
     "kata_model_load_memory": (_st, [_p, _p, _sz, _pp]),
-    "kata_model_free": (None, [_p]),
+    "kata_model_destroy": (None, [_p]),
     "kata_model_rank": (_u32, [_p]),
     "kata_model_delta_star": (_d, [_p]),
     "kata_model_stencil": (_st, [_p]),
     "kata_model_metadata": (_s, [_p, _s]),
-    "kata_stream_set_reference_pose": (_st, [_p, _p, _p, _sz]),
-    "kata_stream_set_reference_joints": (_st, [_p, _p, _p, _sz, _d]),
-    "kata_stream_set_reference_clip": (_st, [_p, _p, _p, _u32, _d]),
-    "kata_stream_set_reference_bvh": (_st, [_p, _p, _p, _s, _u32, _i32]),
-    "kata_stream_clear_reference": (_st, [_p]),
-    "kata_stream_restart_reference": (_st, [_p]),
-    "kata_stream_score": (_st, [_p, ctypes.POINTER(ResultRecord)]),
-    "kata_retarget_desc_init": (None, [ctypes.POINTER(RetargetDesc)]),
     "kata_retarget_desc_init_sized": (None, [ctypes.POINTER(RetargetDesc), _u32]),
     "kata_retargeter_create": (_st, [_p, _p, ctypes.POINTER(RetargetDesc), _pp]),
     "kata_retargeter_create_for_stream": (_st, [_p, _p, ctypes.POINTER(RetargetDesc), _pp]),
@@ -231,7 +220,6 @@ _SIGNATURES = {
     "kata_retargeter_solve": (_st, [_p, _p, _u32, _p, _sz, ctypes.POINTER(RetargetInfo)]),
     "kata_retargeter_place": (_st, [_p, _p, _u32, _p, _sz]),
     "kata_retargeter_reset": (_st, [_p]),
-    "kata_teacher_desc_init": (None, [ctypes.POINTER(TeacherDesc)]),
     "kata_teacher_desc_init_sized": (None, [ctypes.POINTER(TeacherDesc), _u32]),
     "kata_stream_attach_teacher": (_st, [_p, ctypes.POINTER(TeacherDesc)]),
     "kata_stream_detach_teacher": (_st, [_p]),
@@ -259,12 +247,12 @@ _SIGNATURES = {
     "kata_message_read_result": (_st, [_p, _sz, ctypes.POINTER(ResultRecord)]),
     "kata_shard_of": (_u32, [_u64, _u32]),
     # the runtime
-    "kata_runtime_desc_init": (None, [ctypes.POINTER(RuntimeDesc)]),
     "kata_runtime_desc_init_sized": (None, [ctypes.POINTER(RuntimeDesc), _u32]),
     "kata_runtime_create": (_st, [_p, ctypes.POINTER(RuntimeDesc), _pp]),
     "kata_runtime_destroy": (None, [_p]),
     "kata_runtime_add_stream": (_st, [_p, _u64, _pp, _s, _i32]),
     "kata_runtime_push": (_st, [_p, _u64, _u64, _d, _p, _u32]),
+    "kata_runtime_push_confidence": (_st, [_p, _u64, _u64, _d, _p, _p, _u32]),
     "kata_runtime_stop": (_st, [_p]),
     "kata_runtime_set_practice": (_st, [_p, _u64, _u32, _d, _i32, _d, _d]),
     "kata_runtime_get_counters": (_st, [_p, ctypes.POINTER(RuntimeCounters)]),

@@ -13,11 +13,6 @@ def _text(b: Optional[bytes]) -> Optional[str]:
     return b.decode("utf-8") if b is not None else None
 
 
-def _deprecated(old: str, new: str) -> None:
-    warnings.warn("kata.Stream.%s is deprecated since 1.0 and goes in 2.0: use %s" % (old, new),
-                  DeprecationWarning, stacklevel=3)
-
-
 def _utf8(s: Any) -> Optional[bytes]:
     return None if s is None else (s if isinstance(s, bytes) else str(s).encode("utf-8"))
 

@@ -116,22 +116,22 @@ class Scores:
 class Scorer:
     """A MediaPipe stream with a teacher attached: push landmarks (live or a recording), read
     scores. teacher: a BVH path or a kata.Clip; model: a .kata path (default: the shipped one);
-    first_frame: the teacher's first frame (1 skips a CMU clip's T-pose); teacher_preset: the
+    first_frame: the teacher's first frame (1 skips a CMU clip's T-pose); teacher_layout: the
     teacher's layout ("cmu"). Owns its context; close() or a with block releases it. One thread
     at a time."""
 
     def __init__(self, teacher: Union[str, "os.PathLike[str]", kata.Clip], model: Optional[str] = None,
-                 first_frame: int = 0, teacher_preset: str = "cmu", smoothing: bool = True,
+                 first_frame: int = 0, teacher_layout: str = "cmu", smoothing: bool = True,
                  result_capacity: int = 1024, time_units: str = "ms") -> None:
         self._ctx = kata.Context()
         self._model = self._ctx.load_model(model or kata.default_model_path())
         clip = teacher if isinstance(teacher, kata.Clip) else self._ctx.load_clip(os.fspath(teacher))
         with self._ctx.create_layout("mediapipe") as skeleton:
-            self.stream = self._ctx.open_stream(skeleton, preset="mediapipe", stencil=self._model.stencil,
+            self.stream = self._ctx.open_stream(skeleton, layout="mediapipe", stencil=self._model.stencil,
                                                 result_capacity=result_capacity)
         if not smoothing:
             self.stream.set_smoothing(False)
-        self.stream.attach_teacher(self._model, clip=clip, preset=teacher_preset, first_frame=first_frame,
+        self.stream.attach_teacher(self._model, clip=clip, layout=teacher_layout, first_frame=first_frame,
                                    ghost=False)
         if clip is not teacher:
             clip.close()
@@ -218,9 +218,9 @@ class Scorer:
 
 
 def score(landmarks: Any, timestamps: Any, teacher: Union[str, "os.PathLike[str]"], model: Optional[str] = None,
-          first_frame: int = 0, teacher_preset: str = "cmu", time_units: str = "auto") -> Scores:
+          first_frame: int = 0, teacher_layout: str = "cmu", time_units: str = "auto") -> Scores:
     """Scores a MediaPipe recording (see the module) against a BVH teacher: a Scorer, every frame
     pushed, every result read. time_units: "auto" (inferred from the steps), "ms" or "s"."""
-    with Scorer(teacher, model, first_frame=first_frame, teacher_preset=teacher_preset) as s:
+    with Scorer(teacher, model, first_frame=first_frame, teacher_layout=teacher_layout) as s:
         s.push_many(landmarks, timestamps, time_units)
         return s.read()

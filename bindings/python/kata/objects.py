@@ -18,7 +18,7 @@ if TYPE_CHECKING:
     from .stream import Stream
 
 __all__ = ["Context", "Skeleton", "Clip", "Model", "Stencil", "UpAxis", "ScoreState", "BodyPart", "CueAction",
-           "default_model_path", "find_data", "presets", "version", "library_path", "GPD_DIMS", "GPD_JOINTS"]
+           "default_model_path", "find_data", "layouts", "version", "library_path", "GPD_DIMS", "GPD_JOINTS"]
 
 GPD_DIMS = _n.GPD_DIMS
 GPD_JOINTS = _n.GPD_JOINTS
@@ -104,9 +104,9 @@ def default_model_path() -> str:
     return find_data(os.path.join("models", "default.kata"))
 
 
-def presets() -> List[str]:
-    """Names of the built-in layouts (kata_layout_name): every joint-map preset ("cmu", ...), then
-    "mediapipe". Each is a valid open_stream(preset=...); create_layout makes the skeleton of
+def layouts() -> List[str]:
+    """Names of the built-in layouts (kata_layout_name): every joint-name map ("cmu", ...), then
+    "mediapipe". Each is a valid open_stream(layout=...); create_layout makes the skeleton of
     "mediapipe", "gpd", "azure-kinect" and "xsens"."""
     out: List[str] = []
     i = 0
@@ -231,14 +231,14 @@ class Context(_Handle):
         data = bytes(data)
         return self._make(Model, "kata_model_load_memory", _n.model_load_memory, data, len(data))
 
-    def open_stream(self, skeleton: "Skeleton", preset: Optional[str] = "cmu", name_map: Optional[str] = None,
+    def open_stream(self, skeleton: "Skeleton", layout: Optional[str] = "cmu", name_map: Optional[str] = None,
                     stencil: Optional[int] = None, up_axis: Optional[int] = None, max_gap: Optional[float] = None,
                     history_capacity: Optional[int] = None, body_height: Optional[float] = None,
                     calibration_frames: Optional[int] = None, result_capacity: Optional[int] = None,
                     keep_features: Optional[bool] = None, name_map_text: Optional[str] = None,
                     on_drop: Optional[str] = None) -> "Stream":
         """kata_stream_open with a kata_stream_desc: arguments left None keep kata_stream_desc_init's
-        defaults. Give a preset name (a layout, see presets()), name_map (a file path) or
+        defaults. Give a layout name (see layouts()), name_map (a file path) or
         name_map_text (the contents of a name-map file; kata_stream_open_name_map), only one.
         up_axis: UpAxis (ignored for "mediapipe", which is always camera axes). max_gap: seconds.
         body_height: input units, 0 = estimated. result_capacity: results kept until read (64).
@@ -250,7 +250,7 @@ class Context(_Handle):
         if d.struct_size != ctypes.sizeof(_n.StreamDesc):
             raise ImportError("kata_stream_desc layout differs from this binding's (%d vs %d bytes)"
                               % (d.struct_size, ctypes.sizeof(_n.StreamDesc)))
-        d.preset = None if (name_map is not None or name_map_text is not None) else _utf8(preset)
+        d.layout = None if (name_map is not None or name_map_text is not None) else _utf8(layout)
         d.name_map_path = _utf8(name_map)
         for field, value in (("stencil", stencil), ("up_axis", up_axis), ("max_gap", max_gap),
                              ("history_capacity", history_capacity), ("body_height", body_height),
@@ -294,7 +294,7 @@ class Context(_Handle):
         return self._make(_runtime.Runtime, "kata_runtime_create", _n.runtime_create, ctypes.byref(d))
 
     def create_retargeter(self, student: "Skeleton", **options: Any) -> "Retargeter":
-        """kata_retargeter_create: student is a Skeleton with rest offsets. options: preset ("cmu" or
+        """kata_retargeter_create: student is a Skeleton with rest offsets. options: joint_set ("cmu" or
         "gpd"), gradient_tolerance, max_iterations, warm_start, restore_bone_lengths."""
         from . import retarget as _retarget  # retarget.py builds on this module
         d = _retarget._retarget_desc(options)
@@ -403,7 +403,7 @@ class Clip(_Handle):
 
 class Model(_Handle):
     """A loaded, verified scoring model (kata_model); shareable by any number of streams."""
-    _release = _n.model_free
+    _release = _n.model_destroy
 
     @property
     def rank(self) -> int:

@@ -16,9 +16,9 @@ def _retarget_desc(options: Dict[str, Any]) -> "_n.RetargetDesc":
     d = _n.RetargetDesc()
     _n.retarget_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
     for key, value in options.items():
-        if key not in ("preset", "gradient_tolerance", "max_iterations", "warm_start", "restore_bone_lengths"):
+        if key not in ("joint_set", "gradient_tolerance", "max_iterations", "warm_start", "restore_bone_lengths"):
             raise TypeError("unknown retarget option %r" % key)
-        setattr(d, key, _utf8(value) if key == "preset" else (int(value) if key != "gradient_tolerance" else value))
+        setattr(d, key, _utf8(value) if key == "joint_set" else (int(value) if key != "gradient_tolerance" else value))
     return d
 
 

@@ -22,14 +22,14 @@ class Runtime(_Handle):
         return _text(_n.context_last_error(self._context.handle if self._context is not None else None))
 
     @_typed
-    def add_stream(self, stream_id: int, stream: "Stream", preset: Optional[str] = None,
+    def add_stream(self, stream_id: int, stream: "Stream", layout: Optional[str] = None,
                    publish_features: bool = False) -> None:
         """kata_runtime_add_stream: hands `stream` to the runtime under stream_id; the runtime owns
         it afterwards (the Stream object is closed here without freeing it). The published
         skeleton definition names the layout the stream was opened with (a built-in layout or its
-        name map); preset: None, or that same layout's name (another is refused). [any thread]"""
+        name map); layout: None, or that same layout's name (another is refused). [any thread]"""
         h = ctypes.c_void_p(stream.handle)
-        status = _n.runtime_add_stream(self.handle, stream_id, ctypes.byref(h), _utf8(preset),
+        status = _n.runtime_add_stream(self.handle, stream_id, ctypes.byref(h), _utf8(layout),
                                        1 if publish_features else 0)
         if status:
             raise KataError(status, self._context_error(), "kata_runtime_add_stream")
@@ -39,15 +39,24 @@ class Runtime(_Handle):
         self._joints = getattr(self, "_joints", {})
         self._joints[stream_id] = stream._joints
 
-    def push(self, stream_id: int, sequence: int, capture_time: float, positions: Any) -> None:
+    def push(self, stream_id: int, sequence: int, capture_time: float, positions: Any,
+             confidences: Any = None) -> None:
         """kata_runtime_push: queues one frame (capture_time seconds, increasing; positions
-        (joints, 3) float32). KataError E_NOT_FOUND (no such stream), E_QUEUE_FULL (dropped and
-        counted), E_STOPPED (stop has begun). Never blocks, never allocates in C. [any thread]"""
+        (joints, 3) float32); with confidences (joints floats, e.g. MediaPipe's visibility)
+        kata_runtime_push_confidence. KataError E_NOT_FOUND (no such stream), E_QUEUE_FULL (dropped
+        and counted), E_STOPPED (stop has begun). Never blocks, never allocates in C. [any thread]"""
         a = positions
         if type(a) is not np.ndarray or a.dtype != np.float32 or not a.flags.c_contiguous:
             a = _positions_f32(a)
         try:
-            status = _n.runtime_push(self.handle, stream_id, sequence, capture_time, _address(a), a.size // 3)
+            if confidences is None:
+                status = _n.runtime_push(self.handle, stream_id, sequence, capture_time, _address(a), a.size // 3)
+            else:
+                c = np.ascontiguousarray(confidences, dtype=np.float32)
+                if c.size != a.size // 3:
+                    raise ValueError("confidences holds %d values for %d joints" % (c.size, a.size // 3))
+                status = _n.runtime_push_confidence(self.handle, stream_id, sequence, capture_time, _address(a),
+                                                    _address(c), a.size // 3)
         except ctypes.ArgumentError as e:
             raise _type_error(Runtime.push, (self, stream_id, sequence, capture_time, positions), {}, e) from None
         if status:

@@ -7,7 +7,7 @@ from typing import Any, List, NoReturn, Optional, Sequence, Tuple
 import numpy as np
 
 from . import _native as _n
-from ._util import _address, _deprecated, _positions_f32, _text, _time_units_code, _type_error, _typed, _utf8
+from ._util import _address, _positions_f32, _text, _time_units_code, _type_error, _typed, _utf8
 from .errors import KataError, ResultsDroppedError, ResultsDroppedWarning, Status
 from .objects import GPD_DIMS, GPD_JOINTS, Clip, Model, Skeleton, _Handle
 from .retarget import _retarget_desc
@@ -135,7 +135,7 @@ class Results:
 class Stream(_Handle):
     """A live pose stream (kata_stream): frames in, features / scores / ghosts out. Used by one
     thread at a time (kata.h)."""
-    _release = _n.stream_close
+    _release = _n.stream_destroy
     _joints = 0
     _result_capacity = 64  # set by Context.open_stream from the descriptor
     _dropped_seen = 0      # results_dropped at the previous read
@@ -324,7 +324,7 @@ class Stream(_Handle):
     # -- the teacher: what the stream is compared with --
     @_typed
     def attach_teacher(self, model: Model, clip: Optional[Clip] = None, skeleton: Optional[Skeleton] = None,
-                       positions: Any = None, frame_time: Optional[float] = None, preset: Optional[str] = None,
+                       positions: Any = None, frame_time: Optional[float] = None, layout: Optional[str] = None,
                        first_frame: int = 0, pose_frame: int = -1, ghost: Optional[bool] = None, features: Any = None,
                        joints: Any = None, body_height: float = 0.0, **retarget: Any) -> None:
         """kata_stream_attach_teacher: score against (and ghost from) a teacher given as one of
@@ -332,7 +332,7 @@ class Stream(_Handle):
         (frames, 1683) + frame_time; or joints, one held pose of the 16 GPD joints (16, 3) with its
         body_height. pose_frame >= first_frame: that frame only, as a single pose. ghost: default
         True for a clip or positions (features and joints have none to make). retarget: the ghost
-        solver's options (preset "cmu"/"gpd", gradient_tolerance, max_iterations, warm_start,
+        solver's options (joint_set "cmu"/"gpd", gradient_tolerance, max_iterations, warm_start,
         restore_bone_lengths)."""
         d = _n.TeacherDesc()
         _n.teacher_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
@@ -364,7 +364,7 @@ class Stream(_Handle):
             d.body_height = body_height
         if frame_time is not None:
             d.frame_time = frame_time
-        d.preset = _utf8(preset)
+        d.layout = _utf8(layout)
         d.first_frame = first_frame
         d.pose_frame = pose_frame
         if ghost is None:
@@ -389,52 +389,6 @@ class Stream(_Handle):
         status = _n.stream_restart_teacher(self.handle)
         if status:
             self._raise(status, "kata_stream_restart_teacher")
-
-    # -- deprecated since 1.0 (removed in 2.0, not before 2027-06-01): the 0.x reference calls --
-    def set_reference_pose(self, model: Model, features: Any) -> None:
-        """Deprecated: attach_teacher(model, features=f, pose_frame=0)."""
-        _deprecated("set_reference_pose", "attach_teacher(model, features=..., pose_frame=0)")
-        self.attach_teacher(model, features=np.asarray(features).reshape(1, GPD_DIMS), pose_frame=0)
-
-    def set_reference_joints(self, model: Model, joints: Any, body_height: float) -> None:
-        """Deprecated: attach_teacher(model, joints=j, body_height=h)."""
-        _deprecated("set_reference_joints", "attach_teacher(model, joints=..., body_height=...)")
-        self.attach_teacher(model, joints=joints, body_height=body_height)
-
-    def set_reference_clip(self, model: Model, features: Any, frame_time: float) -> None:
-        """Deprecated: attach_teacher(model, features=f, frame_time=t)."""
-        _deprecated("set_reference_clip", "attach_teacher(model, features=..., frame_time=...)")
-        self.attach_teacher(model, features=features, frame_time=frame_time)
-
-    def set_reference_bvh(self, model: Model, clip: Clip, preset: str = "cmu", first_frame: int = 0,
-                          pose_frame: int = -1) -> None:
-        """Deprecated: attach_teacher(model, clip=c, ..., ghost=False)."""
-        _deprecated("set_reference_bvh", "attach_teacher(model, clip=..., ghost=False)")
-        self.attach_teacher(model, clip=clip, preset=preset, first_frame=first_frame, pose_frame=pose_frame,
-                            ghost=False)
-
-    def clear_reference(self) -> None:
-        """Deprecated: detach_teacher()."""
-        _deprecated("clear_reference", "detach_teacher()")
-        self.detach_teacher()
-
-    def restart_reference(self) -> None:
-        """Deprecated: restart_teacher()."""
-        _deprecated("restart_reference", "restart_teacher()")
-        self.restart_teacher()
-
-    def score(self) -> Optional[ScoreRecord]:
-        """Deprecated: read_newest() (or read_results() for every frame). The newest frame's
-        ScoreRecord (read or not), or None before the first vector (kata_stream_score)."""
-        _deprecated("score", "read_newest()")
-        rec = _n.ResultRecord()
-        rec.struct_size = ctypes.sizeof(rec)
-        status = _n.stream_score(self.handle, ctypes.byref(rec))
-        if status == Status.NO_DATA:
-            return None
-        if status:
-            self._raise(status, "kata_stream_score")
-        return ScoreRecord(rec)
 
     # -- results --
     @property

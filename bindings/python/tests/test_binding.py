@@ -28,7 +28,7 @@ def test_features_equal_the_cli_npy_exactly(cli, data, tmp_path, stencil):
         positions = clip.all_positions()
         assert positions.shape == (clip.frame_count, sk.joint_count, 3)
         # Every vector kept in the result ring until read: capacity for the whole clip.
-        with ctx.open_stream(sk, preset="cmu", stencil=kata.Stencil[stencil.upper()], keep_features=True,
+        with ctx.open_stream(sk, layout="cmu", stencil=kata.Stencil[stencil.upper()], keep_features=True,
                              result_capacity=clip.frame_count) as s:
             s.push_many(np.arange(clip.frame_count) * clip.frame_time, positions)
             s.flush()
@@ -98,7 +98,7 @@ def test_scores_equal_the_cli_csv(cli, data, model_path, tmp_path):
             ctx.load_clip(student) as sclip, sclip.skeleton() as sk:
         first = 1
         positions = sclip.all_positions(first)
-        with ctx.open_stream(sk, preset="cmu", stencil=model.stencil, result_capacity=len(positions)) as s:
+        with ctx.open_stream(sk, layout="cmu", stencil=model.stencil, result_capacity=len(positions)) as s:
             s.attach_teacher(model, clip=tclip, first_frame=first, ghost=False)
             s.push_many(np.arange(len(positions)) * sclip.frame_time, positions)
             r = s.read_results()
@@ -155,31 +155,6 @@ def test_a_teacher_given_as_its_own_features_is_at_distance_zero(data, model_pat
         assert len(r) == len(feats)
         assert (r.results["matched_teacher_frame"] == np.arange(len(feats))).all()
         assert (r.scores["distance"] < 1e-4).all()
-
-
-def test_the_deprecated_reference_calls_warn_and_still_score(data, model_path):
-    with kata.Context() as ctx, ctx.load_model(model_path) as model, ctx.load_clip(os.path.join(data, "02_01.bvh")) as clip, \
-            clip.skeleton() as sk, ctx.open_stream(sk) as s:
-        with pytest.deprecated_call(), pytest.raises(kata.KataError) as e:
-            s.score()
-        assert e.value.status == kata.Status.E_STATE
-        with pytest.deprecated_call():
-            s.set_reference_bvh(model, clip, "cmu", first_frame=1)
-        for i in range(1, 6):
-            s.push(i * clip.frame_time, clip.positions(i))
-        with pytest.deprecated_call():
-            rec = s.score()
-        ring = s.read_results()
-        assert rec.frame_index == ring.results["frame_index"][-1]
-        assert rec.score == ring.scores["score"][-1] and rec.parts == tuple(ring.scores["parts"][-1])
-        assert 0.0 <= rec.score <= 100.0
-        assert s.ghost_joint_count == 0
-        with pytest.deprecated_call():
-            s.restart_reference()
-        with pytest.deprecated_call():
-            s.clear_reference()
-        with pytest.deprecated_call(), pytest.raises(kata.KataError):
-            s.score()
 
 
 def test_a_bad_model_file_raises_with_the_c_message(cli, tmp_path):
@@ -264,7 +239,7 @@ def test_retargeter_matches_the_stream_ghost_joint_set(data):
             with pytest.raises(kata.KataError) as e:
                 r.solve(t.positions(10)[:3])
             assert e.value.status == kata.Status.E_WRONG_JOINT_COUNT
-        with ctx.create_retargeter(student, preset="gpd") as r:
+        with ctx.create_retargeter(student, joint_set="gpd") as r:
             assert r.joint_count == 16
 
 

@@ -22,7 +22,7 @@ def test_the_cue_equals_the_cli_csv(cli, data, model_path, tmp_path):
     with kata.Context() as ctx, ctx.load_model(model_path) as model, ctx.load_clip(teacher) as tclip, \
             ctx.load_clip(student) as sclip, sclip.skeleton() as sk:
         positions = sclip.all_positions(1)
-        with ctx.open_stream(sk, preset="cmu", stencil=model.stencil, result_capacity=len(positions)) as s:
+        with ctx.open_stream(sk, layout="cmu", stencil=model.stencil, result_capacity=len(positions)) as s:
             s.attach_teacher(model, clip=tclip, first_frame=1, ghost=False)
             s.push_many(np.arange(len(positions)) * sclip.frame_time, positions)
             r = s.read_results()

@@ -14,8 +14,8 @@ def cmu(ctx, data, name="07_01.bvh"):
     return ctx.load_clip(os.path.join(data, name))
 
 
-def test_presets_and_layouts_include_mediapipe_and_y_down():
-    names = kata.presets()
+def test_layouts_include_mediapipe_and_y_down():
+    names = kata.layouts()
     assert "cmu" in names and "mediapipe" in names and "gpd" in names
     assert kata.UpAxis.Y_DOWN == 2 and kata.Status.TRACKING_LOST == 15
     with kata.Context() as ctx, ctx.create_layout("mediapipe") as mp, ctx.create_layout("gpd") as gpd:

@@ -55,9 +55,9 @@ typedef struct kata_plugin_host {
   void* host_data;               /* pass back to every call */
   /* Announces a stream (sources, before its first frame): joint names and parents (parents[0]
    * = -1, parents[i] < i), rest offsets (joint_count x 3 floats, or NULL when unknown), the GPD
-   * joint map preset ("cmu", ...). 0 on success, else a kata_status value. [main] or [plugin] */
+   * layout ("cmu", ...: kata_layout_name). 0 on success, else a kata_status value. [main] or [plugin] */
   int32_t (*open_stream)(void* host_data, uint64_t stream_id, uint32_t joint_count, const char* const* names,
-                         const int32_t* parents, const float* rest_offsets, const char* preset);
+                         const int32_t* parents, const float* rest_offsets, const char* layout);
   /* Queues one frame of an announced stream (joint_count x 3 floats, copied). Never blocks; a
    * full queue drops the frame (counted) and returns a non-zero kata_status. [plugin] */
   int32_t (*push_frame)(void* host_data, uint64_t stream_id, uint64_t sequence, double capture_time,

@@ -86,24 +86,24 @@ int32_t enum_bits(const Enum& e) {
 // Unsigned counts beyond int range become INT_MAX (refused by the core's range checks).
 int clamp_count(uint32_t v) { return static_cast<int>(std::min<uint32_t>(v, INT_MAX)); }
 
-// The stream's layout: a built-in layout or preset by name (desc.preset), a name-map file
+// The stream's layout: a built-in layout by name (desc.layout), a name-map file
 // (desc.name_map_path) or a name map's text (kata_stream_open_name_map, which wins). Strings are
-// read bounded; a preset and a file together are contradictory and refused.
+// read bounded; a layout and a file together are contradictory and refused.
 kata::Layout resolve_map(const kata::Skeleton& skeleton, const kata_stream_desc& desc, const char* name_map_text) {
-  if (name_map_text) {  // kata.h: the text is used instead of desc.preset and desc.name_map_path
+  if (name_map_text) {  // kata.h: the text is used instead of desc.layout and desc.name_map_path
     kata::Layout layout;
     layout.map = kata::make_gpd_map(skeleton, kata::parse_name_map(name_map_text, "<name map>"));
     return layout;
   }
-  const std::string preset = kata::c_string(desc.preset, "desc.preset");
+  const std::string layout_name = kata::c_string(desc.layout, "desc.layout");
   const std::string path = kata::c_string(desc.name_map_path, "desc.name_map_path");
-  if (!preset.empty() && !path.empty())
-    throw kata::Error(kata::ErrorKind::kInvalidArgument, "stream: give a preset or a name-map file, not both (preset '" +
-                                                             kata::bounded(preset) + "', name map " +
+  if (!layout_name.empty() && !path.empty())
+    throw kata::Error(kata::ErrorKind::kInvalidArgument, "stream: give a layout or a name-map file, not both (layout '" +
+                                                             kata::bounded(layout_name) + "', name map " +
                                                              kata::bounded(path) + ")");
-  if (!preset.empty()) return kata::resolve_layout(skeleton, preset);
+  if (!layout_name.empty()) return kata::resolve_layout(skeleton, layout_name);
   kata::Layout layout;
-  layout.map = kata::resolve_gpd_map(skeleton, preset, path);  // the file, or the "give a preset" refusal
+  layout.map = kata::resolve_gpd_map(skeleton, layout_name, path);  // the file, or the "give a layout" refusal
   return layout;
 }
 
@@ -115,7 +115,7 @@ kata_stream_desc stream_desc_defaults() {
   kata_stream_desc d;
   std::memset(&d, 0, sizeof d);
   d.struct_size = sizeof d;
-  d.preset = nullptr;
+  d.layout = nullptr;
   d.name_map_path = nullptr;
   d.stencil = KATA_STENCIL_BACKWARD;
   d.up_axis = KATA_UP_Y;
@@ -321,10 +321,6 @@ KATA_API void kata_stream_desc_init_sized(kata_stream_desc* desc, uint32_t struc
 }
 
 // In parentheses: kata.h's macro of the same name is not expanded here.
-KATA_API void (kata_stream_desc_init)(kata_stream_desc* desc) {
-  kata::capi::init_sized(desc, kStreamDescSize10, stream_desc_defaults());
-}
-
 KATA_API const char* kata_layout_name(uint32_t i) {
   try {
     static const std::vector<std::string> names = kata::layout_names();  // built once, kept for the process
@@ -346,15 +342,6 @@ KATA_API kata_status kata_skeleton_create_layout(kata_context context, const cha
     *out = new kata_skeleton_s{kata::layout_skeleton(layout)};
     return KATA_OK;
   });
-}
-
-KATA_API const char* kata_preset_name(uint32_t i) {
-  try {
-    static const std::vector<std::string> names = kata::preset_names();  // built once, kept for the process
-    return i < names.size() ? names[i].c_str() : nullptr;
-  } catch (...) {
-    return nullptr;
-  }
 }
 
 static kata_status open_stream(kata_context context, kata_skeleton skeleton, const kata_stream_desc* desc,
@@ -393,8 +380,8 @@ static kata_status open_stream(kata_context context, kata_skeleton skeleton, con
     pc.result_capacity = static_cast<int>(std::min<uint32_t>(desc->result_capacity, 1u << 20));
     pc.keep_features = desc->keep_features != 0;
     auto opened = std::make_unique<kata_stream_s>(pc);
-    if (!name_map_text && desc->preset && desc->preset[0]) {
-      opened->layout_name = kata::c_string(desc->preset, "desc.preset");
+    if (!name_map_text && desc->layout && desc->layout[0]) {
+      opened->layout_name = kata::c_string(desc->layout, "desc.layout");
     } else {
       for (int g = 0; g < kata::kGpdJoints; ++g) {
         const int source = layout.map.source[static_cast<size_t>(g)];
@@ -446,7 +433,7 @@ KATA_API kata_status kata_stream_set_smoothing(kata_stream stream, int32_t enabl
   });
 }
 
-KATA_API void kata_stream_close(kata_stream stream) { delete stream; }
+KATA_API void kata_stream_destroy(kata_stream stream) { delete stream; }
 
 KATA_API const char* kata_stream_last_error(kata_stream stream) { return stream ? stream->error : ""; }
 

@@ -1,7 +1,5 @@
 // C shims for models and scoring (kata.h section "Models and scoring"): a kata_model holds the
-// compiled metric (shared, immutable). The deprecated 0.x reference calls are thin wrappers over
-// the teacher (kata::capi::attach_teacher with no ghost): their own argument checks and messages,
-// then the one path kata_stream_attach_teacher takes.
+// compiled metric (shared, immutable).
 #include <algorithm>
 #include <cmath>
 #include <cstring>
@@ -32,24 +30,6 @@ kata_status make_model(kata::metric::Model model, kata_model* out) {
   return KATA_OK;
 }
 
-// A score-only teacher desc for the wrappers below.
-kata_teacher_desc score_only(kata_model model) {
-  kata_teacher_desc d;
-  kata_teacher_desc_init(&d);
-  d.model = model;
-  d.ghost = 0;
-  return d;
-}
-
-kata_status check_pair(kata_stream stream, kata_model model) {
-  if (!model) return refuse(stream, KATA_E_NULL_POINTER, "set reference: model is NULL");
-  if (stream->pipeline.stream().config().stencil != model->metric->stencil())
-    return refuse(stream, KATA_E_INVALID_ARGUMENT,
-                  "set reference: the stream's stencil differs from the one the model was trained with "
-                  "(kata_model_stencil); open the stream with the model's stencil");
-  return KATA_OK;
-}
-
 }  // namespace
 
 extern "C" {
@@ -75,7 +55,7 @@ KATA_API kata_status kata_model_load_memory(kata_context context, const void* da
       [&] { return make_model(kata::metric::parse_model(static_cast<const uint8_t*>(data), size), out); });
 }
 
-KATA_API void kata_model_free(kata_model model) { delete model; }
+KATA_API void kata_model_destroy(kata_model model) { delete model; }
 
 KATA_API uint32_t kata_model_rank(kata_model model) {
   return model ? static_cast<uint32_t>(model->metric->rank()) : 0u;
@@ -97,70 +77,6 @@ KATA_API const char* kata_model_metadata(kata_model model, const char* key) {
   return nullptr;
 }
 
-KATA_API kata_status kata_stream_set_reference_pose(kata_stream stream, kata_model model, const float* features,
-                                                    size_t count) {
-  if (!stream) return KATA_E_NULL_POINTER;
-  if (!features) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_set_reference_pose: features is NULL");
-  if (count != static_cast<size_t>(KATA_GPD_DIMS))
-    return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_set_reference_pose: count must be KATA_GPD_DIMS");
-  if (kata_status s = check_pair(stream, model); s != KATA_OK) return s;
-  kata_teacher_desc d = score_only(model);
-  d.features = features;
-  d.frames = 1;
-  d.pose_frame = 0;
-  return kata::capi::attach_teacher(stream, &d, "kata_stream_set_reference_pose");
-}
-
-KATA_API kata_status kata_stream_set_reference_joints(kata_stream stream, kata_model model, const float* joints,
-                                                      size_t count, double body_height) {
-  if (!stream) return KATA_E_NULL_POINTER;
-  if (!joints) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_set_reference_joints: joints is NULL");
-  if (count != static_cast<size_t>(3 * KATA_GPD_JOINTS))
-    return refuse(stream, KATA_E_INVALID_ARGUMENT,
-                  "kata_stream_set_reference_joints: count must be 3 x KATA_GPD_JOINTS floats");
-  if (kata_status s = check_pair(stream, model); s != KATA_OK) return s;
-  kata_teacher_desc d = score_only(model);
-  d.joints = joints;
-  d.frames = 1;
-  d.body_height = body_height;
-  return kata::capi::attach_teacher(stream, &d, "kata_stream_set_reference_joints");
-}
-
-KATA_API kata_status kata_stream_set_reference_clip(kata_stream stream, kata_model model, const float* features,
-                                                    uint32_t frames, double frame_time) {
-  if (!stream) return KATA_E_NULL_POINTER;
-  if (!features) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_set_reference_clip: features is NULL");
-  if (frames == 0 || frames > (1u << 24))
-    return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_set_reference_clip: frames must be in 1..2^24");
-  if (kata_status s = check_pair(stream, model); s != KATA_OK) return s;
-  kata_teacher_desc d = score_only(model);
-  d.features = features;
-  d.frames = frames;
-  d.frame_time = frame_time;
-  return kata::capi::attach_teacher(stream, &d, "kata_stream_set_reference_clip");
-}
-
-KATA_API kata_status kata_stream_set_reference_bvh(kata_stream stream, kata_model model, kata_clip clip,
-                                                   const char* preset, uint32_t first_frame, int32_t pose_frame) {
-  if (!stream) return KATA_E_NULL_POINTER;
-  if (!clip || !preset) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_set_reference_bvh: clip and preset must not be NULL");
-  if (kata_status s = check_pair(stream, model); s != KATA_OK) return s;
-  kata_teacher_desc d = score_only(model);
-  d.clip = clip;
-  d.preset = preset;
-  d.first_frame = first_frame;
-  d.pose_frame = pose_frame;
-  return kata::capi::attach_teacher(stream, &d, "kata_stream_set_reference_bvh");
-}
-
-KATA_API kata_status kata_stream_clear_reference(kata_stream stream) { return kata_stream_detach_teacher(stream); }
-
-KATA_API kata_status kata_stream_restart_reference(kata_stream stream) {
-  if (stream && !stream->pipeline.has_teacher())
-    return refuse(stream, KATA_E_STATE, "kata_stream_restart_reference: no reference is set");
-  return kata_stream_restart_teacher(stream);
-}
-
 KATA_API kata_status kata_stream_set_practice_section(kata_stream stream, int32_t first_frame, int32_t last_frame,
                                                       int32_t loop) {
   if (!stream) return KATA_E_NULL_POINTER;
@@ -172,27 +88,6 @@ KATA_API kata_status kata_stream_set_practice_section(kata_stream stream, int32_
     scorer->set_section(first_frame, last_frame, loop != 0);
     return KATA_OK;
   });
-}
-
-KATA_API kata_status kata_stream_score(kata_stream stream, kata_result_record* out) {
-  if (!stream) return KATA_E_NULL_POINTER;
-  if (!out) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_score: out is NULL");
-  if (out->struct_size < sizeof(uint32_t))
-    return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_score: out->struct_size is not set");
-  kata::pipeline::Pipeline& p = stream->pipeline;
-  if (!p.has_teacher()) return refuse(stream, KATA_E_STATE, "kata_stream_score: no reference is set on this stream");
-  const kata::pipeline::Result* r = p.score_newest();
-  if (!r) return KATA_NO_DATA;
-  // Finite for finite features and a verified model; checked so a bug never hands out a NaN.
-  bool finite = std::isfinite(r->score.distance) && std::isfinite(r->score.score);
-  for (int q = 0; q < KATA_PART_COUNT; ++q) finite = finite && std::isfinite(r->score.parts[q]);
-  if (!finite)
-    return refuse(stream, KATA_E_INTERNAL,
-                  "kata_stream_score: internal error: the score is not finite; the record was withheld (please report)");
-  kata_result_record k;
-  kata::pipeline::fill_record(*r, 0u, &k);
-  kata::pipeline::copy_record_out(k, out->struct_size, out);
-  return KATA_OK;
 }
 
 KATA_API kata_status kata_model_calibration(kata_model model, kata_score_calibration* out) {

@@ -69,8 +69,8 @@ std::shared_ptr<const kata::pipeline::Teacher> make_feature_teacher(const kata_t
 // The teacher's joint positions and skeleton from the desc (a clip, or frames given in memory).
 std::shared_ptr<const kata::pipeline::Teacher> make_teacher(const kata_teacher_desc& d, kata::gpd::Stencil stencil,
                                                             const char* call) {
-  std::string preset = kata::c_string(d.preset, "kata_teacher_desc.preset");  // bounded read
-  if (preset.empty()) preset = "cmu";
+  std::string layout = kata::c_string(d.layout, "kata_teacher_desc.layout");  // bounded read
+  if (layout.empty()) layout = "cmu";
   if (d.features || d.joints) return make_feature_teacher(d, call);
   kata::Skeleton skeleton;
   std::vector<float> positions;
@@ -95,7 +95,7 @@ std::shared_ptr<const kata::pipeline::Teacher> make_teacher(const kata_teacher_d
     frame_time = d.frame_time;
   }
   const int pose = pose_index(d, frames, call);
-  const kata::GpdMap map = kata::make_gpd_map(skeleton, kata::preset_joint_names(preset));
+  const kata::GpdMap map = kata::make_gpd_map(skeleton, kata::preset_joint_names(layout));
   kata::StreamConfig config = kata::stream_config_for(skeleton, map, stencil);
   return kata::pipeline::Teacher::from_positions(d.model->metric, skeleton, config, positions.data(), frames,
                                                  frame_time, pose);
@@ -150,10 +150,6 @@ KATA_API void kata_teacher_desc_init_sized(kata_teacher_desc* desc, uint32_t str
 }
 
 // In parentheses: kata.h's macro of the same name is not expanded here.
-KATA_API void (kata_teacher_desc_init)(kata_teacher_desc* desc) {
-  kata::capi::init_sized(desc, kTeacherDescSize10, teacher_desc_defaults());
-}
-
 KATA_API kata_status kata_stream_attach_teacher(kata_stream stream, const kata_teacher_desc* desc) {
   if (!stream) return KATA_E_NULL_POINTER;
   if (!desc) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_attach_teacher: desc is NULL");

@@ -18,7 +18,7 @@
 #include "retarget/retargeter.hpp"
 
 struct kata_retargeter_s {
-  // Same layout: the joint set of a preset on the student skeleton.
+  // Same layout: a joint set ("cmu", "gpd") on the student skeleton.
   kata_retargeter_s(const kata::Skeleton& student, const kata::retarget::JointSelection& sel,
                     const kata::retarget::RetargetOptions& options)
       : selection(sel),
@@ -78,8 +78,8 @@ kata_retarget_desc effective_desc(const kata_retarget_desc* desc) {
   if (desc && !kata::capi::read_sized(desc, defaults, kata::capi::kRetargetDesc10, &d))
     throw kata::Error(kata::ErrorKind::kInvalidArgument,
                       "retargeter: desc->struct_size is below 1.0's kata_retarget_desc (call kata_retarget_desc_init)");
-  if (!d.preset || !d.preset[0]) d.preset = "cmu";
-  (void)kata::c_string(d.preset, "desc->preset");  // refuses a preset without a terminator in bounds
+  if (!d.joint_set || !d.joint_set[0]) d.joint_set = "cmu";
+  (void)kata::c_string(d.joint_set, "desc->joint_set");  // refuses a name without a terminator in bounds
   if (!(d.gradient_tolerance > 0.0) || !std::isfinite(d.gradient_tolerance) || d.max_iterations == 0) {
     throw kata::Error(kata::ErrorKind::kInvalidArgument, "retargeter: gradient_tolerance and max_iterations must be positive");
   }
@@ -141,7 +141,7 @@ kata_status create(const kata::Skeleton& student, const kata_retarget_desc* desc
                       "kata_retargeter_create_for_stream estimates them from a stream)");
   }
   const kata::retarget::RetargetOptions o = options_of(d);
-  const auto sel = kata::retarget::select_joints(student, student, d.preset);
+  const auto sel = kata::retarget::select_joints(student, student, d.joint_set);
   auto rt = std::make_unique<kata_retargeter_s>(student, sel, o);
   rt->enable_rotations(student);
   *out = rt.release();
@@ -165,7 +165,7 @@ kata::retarget::RetargetOptions retarget_options(const kata_retarget_desc* desc,
   o.solver.max_iterations = static_cast<int>(std::min<uint32_t>(d.max_iterations, 1u << 30));
   o.warm_start = d.warm_start != 0;
   o.restore_bone_lengths = d.restore_bone_lengths != 0;
-  *joint_set = d.preset;
+  *joint_set = d.joint_set;
   return o;
 }
 
@@ -177,7 +177,7 @@ kata_retarget_desc retarget_desc_defaults() {
   kata_retarget_desc d;
   std::memset(&d, 0, sizeof d);
   d.struct_size = sizeof d;
-  d.preset = "cmu";
+  d.joint_set = "cmu";
   d.gradient_tolerance = 3e-5;
   d.max_iterations = 200;
   d.warm_start = 1;
@@ -197,10 +197,6 @@ KATA_API void kata_retarget_desc_init_sized(kata_retarget_desc* desc, uint32_t s
 }
 
 // In parentheses: kata.h's macro of the same name is not expanded here.
-KATA_API void (kata_retarget_desc_init)(kata_retarget_desc* desc) {
-  kata::capi::init_sized(desc, kRetargetDescSize10, retarget_desc_defaults());
-}
-
 KATA_API kata_status kata_retargeter_create(kata_context context, kata_skeleton student,
                                             const kata_retarget_desc* desc, kata_retargeter* out) {
   const kata::capi::ContextScope scope(context);

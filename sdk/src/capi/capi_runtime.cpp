@@ -57,10 +57,6 @@ KATA_API void kata_runtime_desc_init_sized(kata_runtime_desc* desc, uint32_t str
 }
 
 // In parentheses: kata.h's macro of the same name is not expanded here.
-KATA_API void (kata_runtime_desc_init)(kata_runtime_desc* desc) {
-  kata::capi::init_sized(desc, kRuntimeDescSize10, runtime_desc_defaults());
-}
-
 KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtime_desc* desc, kata_runtime* out) {
   const kata::capi::ContextScope scope(context);
   if (!context || !out) return KATA_E_NULL_POINTER;
@@ -124,7 +120,7 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
 KATA_API void kata_runtime_destroy(kata_runtime runtime) { delete runtime; }
 
 KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
-                                             const char* preset, int32_t publish_features) {
+                                             const char* layout, int32_t publish_features) {
   if (!runtime || !stream || !*stream) return KATA_E_NULL_POINTER;
   const kata::capi::ContextScope scope(runtime->context);
   return kata::capi::guarded_context([&] {
@@ -134,14 +130,14 @@ KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stre
     d.revision = 1;
     d.skeleton = s->pipeline.student();
     // The stream's own layout, so subscribers and shards rebuild the map it was opened with;
-    // a preset that names another layout contradicts the stream and is refused.
-    if (preset && preset[0] && (s->name_map.size() || s->layout_name != kata::c_string(preset, "preset")))
+    // a layout that names another contradicts the stream and is refused.
+    if (layout && layout[0] && (s->name_map.size() || s->layout_name != kata::c_string(layout, "layout")))
       throw kata::Error(kata::ErrorKind::kInvalidArgument,
-                        "kata_runtime_add_stream: preset '" + kata::bounded(kata::c_string(preset, "preset")) +
+                        "kata_runtime_add_stream: layout '" + kata::bounded(kata::c_string(layout, "layout")) +
                             "' is not the layout the stream was opened with (" +
                             (s->name_map.empty() ? "'" + s->layout_name + "'" : std::string("a name map")) +
                             "); pass NULL to announce the stream's own");
-    d.preset = s->layout_name;
+    d.layout = s->layout_name;
     d.name_map = s->name_map;
     d.up_axis = s->pipeline.stream().config().up_axis;
     // The runtime owns the stream from here; it closes it when it is done with the pipeline.
@@ -158,6 +154,15 @@ KATA_API kata_status kata_runtime_push(kata_runtime runtime, uint64_t stream_id,
   if (joint_count > (1u << 20)) return KATA_E_WRONG_JOINT_COUNT;
   return kata::capi::to_status(runtime->runtime->push(stream_id, sequence, capture_time, positions,
                                                       static_cast<int>(joint_count)));
+}
+
+KATA_API kata_status kata_runtime_push_confidence(kata_runtime runtime, uint64_t stream_id, uint64_t sequence,
+                                                  double capture_time, const float* positions,
+                                                  const float* confidences, uint32_t joint_count) {
+  if (!runtime || !positions) return KATA_E_NULL_POINTER;
+  if (joint_count > (1u << 20)) return KATA_E_WRONG_JOINT_COUNT;
+  return kata::capi::to_status(runtime->runtime->push(stream_id, sequence, capture_time, positions,
+                                                      static_cast<int>(joint_count), false, confidences));
 }
 
 KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t stream_id, uint32_t revision,

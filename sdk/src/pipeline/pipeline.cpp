@@ -233,17 +233,6 @@ const metric::ScoreRecord& Pipeline::score_frame(int64_t frame, double t) {
   return scorer_->score(stream_.vector_of(frame), t);
 }
 
-const Result* Pipeline::score_newest() {
-  if (!written_ || !scorer_) return nullptr;
-  Result& r = results_[slot(written_ - 1)];
-  if (!r.scored) {
-    r.score = score_frame(r.frame_index, r.capture_time);
-    r.scored = true;
-    r.matched_frame = r.score.matched;
-  }
-  return &r;
-}
-
 const Result* Pipeline::newest() const { return written_ ? &results_[slot(written_ - 1)] : nullptr; }
 
 const float* Pipeline::newest_ghost() const {

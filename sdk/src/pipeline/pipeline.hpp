@@ -137,9 +137,6 @@ class Pipeline {
   size_t pending() const { return static_cast<size_t>(written_ - read_); }
   // Results overwritten before they were read, since construction.
   uint64_t dropped() const { return dropped_; }
-  // The newest result, scored now if it was emitted before the teacher was attached (no ghost
-  // then); null before the first or without a teacher. Allocation-free.
-  const Result* score_newest();
   // The newest result (read or not), or null before the first; its ghost / features.
   const Result* newest() const;
   const float* newest_ghost() const;

@@ -11,7 +11,7 @@ namespace kata::runtime {
 namespace {
 
 int32_t host_open_stream(void* data, uint64_t stream_id, uint32_t joint_count, const char* const* names,
-                         const int32_t* parents, const float* rest_offsets, const char* preset) {
+                         const int32_t* parents, const float* rest_offsets, const char* layout) {
   auto* target = static_cast<PluginHostTarget*>(data);
   if (!target->runtime) return static_cast<int32_t>(Status::kState);
   if (!names || !parents || joint_count == 0) return static_cast<int32_t>(Status::kNullPointer);
@@ -29,7 +29,7 @@ int32_t host_open_stream(void* data, uint64_t stream_id, uint32_t joint_count, c
     }
     d.skeleton.has_rest_pose = rest_offsets != nullptr;
     d.skeleton.validate();
-    d.preset = preset && preset[0] ? preset : "cmu";
+    d.layout = layout && layout[0] ? layout : "cmu";
     target->runtime->open_announced(d);
     return 0;
   } catch (const Error&) {

@@ -37,7 +37,7 @@ StreamSetup setup_from_definition(const transport::SkeletonDefinition& d) {
     for (int i = 0; i < kGpdJoints; ++i) names[static_cast<size_t>(i)] = d.name_map[static_cast<size_t>(i)];
     layout.map = make_gpd_map(d.skeleton, names);
   } else {
-    layout = resolve_layout(d.skeleton, d.preset.empty() ? "cmu" : d.preset);
+    layout = resolve_layout(d.skeleton, d.layout.empty() ? "cmu" : d.layout);
   }
   const GpdMap& map = layout.map;
   StreamConfig stream;
@@ -112,7 +112,7 @@ namespace {
 bool same_shape(const transport::SkeletonDefinition& a, const transport::SkeletonDefinition& b) {
   return a.skeleton.names == b.skeleton.names && a.skeleton.parents == b.skeleton.parents &&
          a.skeleton.has_rest_pose == b.skeleton.has_rest_pose && a.skeleton.offsets == b.skeleton.offsets &&
-         a.preset == b.preset && a.name_map == b.name_map && a.up_axis == b.up_axis;
+         a.layout == b.layout && a.name_map == b.name_map && a.up_axis == b.up_axis;
 }
 }  // namespace
 

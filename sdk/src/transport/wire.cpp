@@ -144,7 +144,7 @@ Bytes Encoder::skeleton(const SkeletonDefinition& d) {
       v.emplace_back(static_cast<float>(o.x()), static_cast<float>(o.y()), static_cast<float>(o.z()));
     offsets = b.CreateVectorOfStructs(v);
   }
-  const auto preset = b.CreateString(d.preset);
+  const auto layout = b.CreateString(d.layout);
   flatbuffers::Offset<flatbuffers::Vector<flatbuffers::Offset<flatbuffers::String>>> name_map;
   if (!d.name_map.empty()) name_map = b.CreateVectorOfStrings(d.name_map);
   fb::SkeletonDefinitionBuilder k(b);
@@ -156,7 +156,7 @@ Bytes Encoder::skeleton(const SkeletonDefinition& d) {
   if (s.has_rest_pose) k.add_rest_offsets(offsets);
   k.add_metres_per_unit(d.metres_per_unit);
   k.add_up_axis(d.up_axis == UpAxis::kZ ? fb::UpAxis::Z : fb::UpAxis::Y);
-  k.add_preset(preset);
+  k.add_layout(layout);
   if (!d.name_map.empty()) k.add_name_map(name_map);
   k.add_frame_rate(d.frame_rate);
   if (d.closed) k.add_closed(true);
@@ -540,7 +540,7 @@ SkeletonDefinition Decoder::skeleton() const {
     d.skeleton.offsets.assign(names->size(), Eigen::Vector3d::Zero());
   }
   d.skeleton.validate();
-  if (k->preset()) d.preset = k->preset()->str();
+  if (k->layout()) d.layout = k->layout()->str();
   if (const auto* m = k->name_map()) {
     if (m->size() != static_cast<flatbuffers::uoffset_t>(kGpdJoints))
       throw Error(ErrorKind::kInvalidArgument, "skeleton definition: name_map must hold 16 names");

@@ -45,7 +45,7 @@ struct SkeletonDefinition {
   uint64_t stream_id = 0;
   uint32_t revision = 0;
   Skeleton skeleton;           // has_rest_pose when rest offsets were sent
-  std::string preset;          // a built-in preset name, or empty when name_map is used
+  std::string layout;          // a built-in layout's name, or empty when name_map is used
   std::vector<std::string> name_map;  // 16 names in GPD joint order, or empty
   UpAxis up_axis = UpAxis::kY;
   float metres_per_unit = 0.0f;  // 0 = unknown

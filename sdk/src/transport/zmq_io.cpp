@@ -168,16 +168,16 @@ void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t n
         else accepted = handlers_.on_revision ? handlers_.on_revision(definition) : false;
       } catch (const Error& e) {
         accepted = false;
-        // Why, once per stream (the first 64 streams): a skeleton that does not fit its preset
+        // Why, once per stream (the first 64 streams): a skeleton that does not fit its layout
         // would otherwise show only as dropped frames.
         if (log_refusals_ && logged_definition_refusals_.size() < 64 &&
             std::find(logged_definition_refusals_.begin(), logged_definition_refusals_.end(), id) ==
                 logged_definition_refusals_.end()) {
           logged_definition_refusals_.push_back(id);
           std::fprintf(stderr,
-                       "\nkata ingest: stream %llu's skeleton definition (preset '%s') refused: %s; its frames are "
+                       "\nkata ingest: stream %llu's skeleton definition (layout '%s') refused: %s; its frames are "
                        "dropped (counted as unknown stream) until a definition is accepted; not logged again\n",
-                       static_cast<unsigned long long>(id), bounded(definition.preset).c_str(), e.what());
+                       static_cast<unsigned long long>(id), bounded(definition.layout).c_str(), e.what());
         }
       }
       if (!accepted) {

@@ -58,7 +58,7 @@ transport::SkeletonDefinition definition(uint64_t id, const BvhClip& clip, const
   d.stream_id = id;
   d.revision = 1;
   d.skeleton = clip.skeleton;
-  d.preset = preset;
+  d.layout = preset;
   d.frame_rate = static_cast<float>(1.0 / clip.frame_time);
   return d;
 }

@@ -220,7 +220,7 @@ struct WebcamCoach::Impl {
     d.stream_id = kStudentStream;
     d.revision = 1;
     d.skeleton = student;
-    d.preset = "mediapipe";
+    d.layout = "mediapipe";
     d.metres_per_unit = 1.0f;
     runtime->adopt_stream(d, student_pipeline.get(), [](pipeline::Pipeline* p) { delete p; }, false);
     student_pipeline.release();

@@ -1,0 +1,213 @@
+/* kata/runtime.h: tasks 5 and 6, run many streams and read messages: a runtime with its workers
+ * and ZeroMQ in and out, shards, and reading a published result in C.
+ *
+ * Part of the C ABI; include "kata/kata.h" (all of it) or this header alone: it includes what it
+ * needs. kata.h states the conventions every function here follows. */
+#ifndef KATA_RUNTIME_H
+#define KATA_RUNTIME_H
+
+#include "result.h"
+#include "stream.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ##############################################################################################
+ * Task 5 - run many streams: a runtime, its workers and ZeroMQ in and out
+ *
+ * kata_runtime_desc rd;  kata_runtime rt;  kata_runtime_desc_init(&rd);
+ * rd.publish_endpoints = "tcp://127.0.0.1:5555";  kata_runtime_create(ctx, &rd, &rt);
+ * kata_runtime_add_stream(rt, 42, &s, "cmu", 0);         -- the runtime owns s now (s = NULL)
+ * kata_runtime_push(rt, 42, sequence, t, xyz, joints);   -- any thread, never blocks
+ * kata_runtime_stop(rt);  kata_runtime_destroy(rt);
+ * ############################################################################################ */
+
+/* ==== Runtime: many streams, ZeroMQ in and out ============================================ */
+/* (section: runtime)
+ * A runtime owns many streams and publishes every result as a FlatBuffers message
+ * (schemas/result.fbs, installed in share/kata/schemas) on a ZeroMQ PUB socket, topic = the
+ * stream id as 16 lowercase hex digits; each stream's skeleton definition (schemas/skeleton.fbs)
+ * is published when it opens, when a subscriber joins and every skeleton_resend_seconds. It can
+ * also read frames (schemas/frame.fbs) from a ZeroMQ SUB or PULL socket: a stream is created from
+ * its skeleton definition; malformed, unknown-stream and out-of-order messages are counted and
+ * dropped.
+ * Threads: kata_runtime_push may be called from any thread (one producer per stream keeps that
+ * stream's order); it copies the frame into the bounded, lock-free queue of the worker that owns
+ * the stream (workers = threads; stream id modulo workers), so no lock is shared between
+ * streams. Each worker runs its streams' pipelines; one I/O thread owns every socket (ZeroMQ
+ * sockets are not thread-safe) and sends without ever blocking. A full queue drops and counts.
+ * Clock: capture_time is the caller's (seconds); arrival, computed and published times in the
+ * messages are CLOCK_MONOTONIC nanoseconds, comparable between processes on one host.
+ * Memory: create and add_stream allocate; push never does. */
+
+/* Many streams, ZeroMQ in and out (above). */
+typedef struct kata_runtime_s* kata_runtime;
+
+/* How a runtime is built. Fill with kata_runtime_desc_init, then change fields. */
+typedef struct kata_runtime_desc {
+  uint32_t struct_size;             /* sizeof(kata_runtime_desc) */
+  uint32_t workers;                 /* worker threads (>= 1). Default 2 */
+  uint32_t max_streams;             /* streams the runtime can hold. Default 1024 */
+  uint32_t max_joints;              /* largest skeleton pushed. Default 128 */
+  uint32_t queue_capacity;          /* frames (and results) queued per worker. Default 4096 */
+  /* Comma-separated endpoints the publisher binds ("tcp://127.0.0.1:5555,ipc:///tmp/k.sock";
+   * port "*" picks a free one, see kata_runtime_publish_endpoint). NULL or "": no publisher. */
+  const char* publish_endpoints;
+  int32_t send_hwm;                 /* ZMQ_SNDHWM per subscriber. Default 10000 */
+  /* Comma-separated ingest endpoints: connected, or bound with a "bind:" prefix. NULL: none. */
+  const char* ingest_endpoints;
+  int32_t ingest_pull;              /* 1: a PULL socket; 0 (default): SUB to every topic */
+  uint32_t max_message_bytes;       /* larger ingest messages are dropped. Default 1 MiB */
+  double skeleton_resend_seconds;   /* periodic re-send of skeleton definitions. Default 1 */
+  /* ---- who may send what (docs/deploy.md, docs/runtime.md) ----
+   * CURVE: key_file is this runtime's key pair (the .secret file of `kata keygen`); with it the
+   * publisher and a bound ingest are CURVE servers that admit only the public keys in
+   * client_keys_dir (*.pub files); a connecting ingest is a client of ingest_server_key_file
+   * (the stage's .pub). NULL: no CURVE (then bind to this host only). */
+  const char* key_file;               /* this runtime's .secret key file, or NULL */
+  const char* client_keys_dir;        /* directory of the admitted clients' .pub files, or NULL */
+  const char* ingest_server_key_file; /* a connecting ingest's server .pub file, or NULL */
+  uint32_t max_streams_per_sender;  /* streams one ingest sender may define. Default 64 */
+  uint32_t max_connections;         /* ingest connections held at once (0: no limit). Default 256 */
+  double max_frame_age_seconds;     /* older ingest frames are dropped (0: never). Default 0.25 */
+  double idle_stream_seconds;       /* ingest streams without traffic are closed (0: never). Default 300 */
+} kata_runtime_desc;
+
+/* Counters since the runtime was created (sums over streams). */
+typedef struct kata_runtime_counters {
+  uint32_t struct_size;             /* set by the caller: sizeof(kata_runtime_counters) */
+  uint32_t streams;                 /* streams open */
+  uint64_t frames_in;               /* frames queued */
+  uint64_t queue_full;              /* frames dropped: a worker queue was full */
+  uint64_t refused;                 /* frames a pipeline refused (kata_stream_push's reasons) */
+  uint64_t results;                 /* results computed */
+  uint64_t results_dropped;         /* results lost inside the runtime (rings, queues) */
+  uint64_t published;               /* results handed to ZeroMQ */
+  uint64_t ingest_received;         /* ingest messages read */
+  uint64_t ingest_dropped;          /* ingest messages refused (malformed, unknown stream, ...) */
+  uint64_t ingest_sequence_gaps;    /* frames missing between accepted ingest frames */
+  uint64_t ingest_restarts;         /* sources that restarted (sequence back to 0) */
+  /* the causes inside ingest_dropped that an attack or a misconfigured sender shows */
+  uint64_t ingest_not_owner;        /* messages for a stream another sender owns */
+  uint64_t ingest_refused_limit;    /* definitions beyond a streams limit */
+  uint64_t ingest_out_of_window;    /* sequence numbers far beyond the last one */
+  uint64_t ingest_stale;            /* frames older than max_frame_age_seconds */
+  uint64_t closed_streams;          /* streams closed (by their owner, idle, a new skeleton) */
+  /* with practice messages (schemas/practice.fbs, docs/runtime.md): applied, and the
+   * causes of those refused (inside ingest_dropped; another sender's are in ingest_not_owner) */
+  uint64_t ingest_practices;              /* practice settings applied */
+  uint64_t ingest_practice_bad_values;    /* a time not finite or negative, an empty loop, both */
+  uint64_t ingest_practice_outside_clip;  /* outside the stream's teacher clip */
+  uint64_t ingest_practice_no_clip;       /* for a stream without a clip teacher */
+  uint64_t ingest_practice_queue_full;    /* the stream's worker queue was full */
+} kata_runtime_counters;
+
+/* Fills the first struct_size bytes of desc with the defaults above and sets desc->struct_size
+ * to the smaller of struct_size and sizeof(kata_runtime_desc): nothing past the caller's own struct is
+ * written, so a caller built against an older kata.h (a smaller struct) is safe with a
+ * newer library, which then reads only that much (the later fields keep their defaults).
+ * struct_size below 4 writes nothing. Bindings that declare the struct themselves (ctypes,
+ * P/Invoke) pass their own size. [any thread] */
+KATA_API void kata_runtime_desc_init_sized(kata_runtime_desc* desc, uint32_t struct_size);
+/* Fills *desc with the defaults for the caller's own struct: kata_runtime_desc_init_sized(desc, sizeof *desc). */
+#define kata_runtime_desc_init(desc) kata_runtime_desc_init_sized((desc), (uint32_t)sizeof *(desc))
+/* Creates a runtime: binds / connects its sockets and starts its threads. Errors (an endpoint
+ * that cannot be bound, bad values) are reported on the context. [any thread] */
+KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtime_desc* desc, kata_runtime* out);
+/* Stops (kata_runtime_stop) and frees the runtime and every stream it owns. NULL is ignored.
+ * Results published but not yet delivered to connected subscribers still go out: this waits for
+ * them at most 2 s (a stalled subscriber loses what it had not taken). [any thread but the
+ * runtime's own] */
+KATA_API void kata_runtime_destroy(kata_runtime runtime);
+/* Hands an open stream (kata_stream_open, teacher attached or not) to the runtime under
+ * stream_id; on success the runtime owns it and *stream is set to NULL (do not close it).
+ * The published skeleton definition announces the layout the stream was opened with (its built-in
+ * layout, or its name map's 16 joint names), so subscribers and shards map it as the stream does.
+ * layout: NULL, or the name of that same layout (another is refused: KATA_E_INVALID_ARGUMENT).
+ * publish_features: 1 puts each result's features in its message (the stream needs
+ * desc.keep_features). KATA_E_INVALID_ARGUMENT for a used id or a full runtime. [any thread] */
+KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
+                                             const char* layout, int32_t publish_features);
+/* Queues one frame of a stream: the source's sequence number, capture time in seconds (must
+ * increase), positions (joint_count x 3 floats). KATA_E_NOT_FOUND (no such stream),
+ * KATA_E_WRONG_JOINT_COUNT (more than max_joints), KATA_E_QUEUE_FULL (the worker's queue is full:
+ * dropped and counted), KATA_E_STOPPED (kata_runtime_stop has begun: not taken, counted).
+ * Values are checked by the worker (bad frames counted as refused).
+ * Never blocks, never allocates. [any thread] */
+KATA_API kata_status kata_runtime_push(kata_runtime runtime, uint64_t stream_id, uint64_t sequence,
+                                       double capture_time, const float* positions, uint32_t joint_count);
+/* kata_runtime_push with a confidence per joint (joint_count floats, e.g. MediaPipe's visibility;
+ * NULL = all confident), copied with the frame: the worker pushes it as kata_stream_push_confidence
+ * does (a joint below the stream's confidence gate is held; too many missing: the result says
+ * KATA_SCORE_TRACKING_LOST). Statuses as kata_runtime_push. Never blocks, never allocates. [any thread] */
+KATA_API kata_status kata_runtime_push_confidence(kata_runtime runtime, uint64_t stream_id, uint64_t sequence,
+                                                  double capture_time, const float* positions,
+                                                  const float* confidences, uint32_t joint_count);
+/* Practice (as a practice message from an ingest stream's source does,
+ * schemas/practice.fbs): from the frames pushed after this call on, the stream follows its clip
+ * teacher from teacher_start seconds (0: the teacher's first frame), or with loop != 0 only the
+ * section loop_start..loop_end seconds, looped (teacher_start then 0). Times are teacher seconds
+ * from the teacher's first frame, as kata_result_record.matched_teacher_time; each is rounded to
+ * the nearest teacher frame. Queued in order with the frames pushed before it from the same
+ * thread; every result from then on says it (kata_result_record.practice_*, practice_revision =
+ * revision: give each change its own). KATA_E_NOT_FOUND (no such stream), KATA_E_INVALID_ARGUMENT
+ * (a time not finite, negative or outside the clip, an empty loop, a start and a loop),
+ * KATA_E_NO_CLIP_TEACHER (the stream has no clip teacher), KATA_E_QUEUE_FULL (its worker queue is
+ * full, or stop has begun: send it again); the reason in kata_context_last_error. Nothing changes on a refusal. Never blocks.
+ * [any thread] */
+KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t stream_id, uint32_t revision,
+                                               double teacher_start, int32_t loop, double loop_start,
+                                               double loop_end);
+/* Finishes every queued frame, flushes every stream, publishes every result, stops the threads
+ * and closes the sockets. Idempotent. [any thread but the runtime's own]
+ * A kata_runtime_push racing stop on another thread is either taken (it returns KATA_OK and its
+ * result is published before stop returns) or refused (it returns KATA_E_STOPPED); never lost.
+ * Every push after stop began returns KATA_E_STOPPED. */
+KATA_API kata_status kata_runtime_stop(kata_runtime runtime);
+/* Copies the counters (out->struct_size: 1.0's size or more, see Versions). [any thread] */
+KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtime_counters* out);
+/* The endpoint the publisher bound last, resolved (a "tcp://127.0.0.1:*" shows its port), or
+ * "" without a publisher; valid while the runtime lives. [any thread] */
+KATA_API const char* kata_runtime_publish_endpoint(kata_runtime runtime);
+/* Likewise for the ingest socket. [any thread] */
+KATA_API const char* kata_runtime_ingest_endpoint(kata_runtime runtime);
+
+/* ---- Shards (docs/deploy.md) ----
+ * Several `kata serve` processes split the streams: with [shard] count = N, index = i in its
+ * config, a shard scores exactly the streams for which kata_shard_of(stream_id, N) == i and drops
+ * the others' messages (counted). The hash is stable (never changes between versions):
+ *   h = 14695981039346656037 (FNV-1a 64 offset basis)
+ *   for byte b in the stream id's 8 bytes, least significant first: h ^= b; h *= 1099511628211
+ *   shard = h mod N  (0 when N is 0 or 1)
+ * so a producer in any language computes which shard owns a stream. [any thread] */
+KATA_API uint32_t kata_shard_of(uint64_t stream_id, uint32_t shard_count);
+
+/* ##############################################################################################
+ * Task 6 - read messages: a subscriber of a runtime's results, in C
+ *
+ * -- a ZeroMQ SUB socket connected to kata_runtime_publish_endpoint(rt), subscribed to ""
+ * int n = zmq_recv(sub, buffer, sizeof buffer, 0);
+ * kata_result_record msg;  msg.struct_size = sizeof msg;
+ * if (kata_message_read_result(buffer, (size_t)n, &msg) == KATA_OK)
+ *   draw(msg.stream_id, msg.score, msg.ghost, msg.ghost_joint_count);
+ * ############################################################################################ */
+
+/* ---- Reading published messages (for subscribers in C; no FlatBuffers library needed) ---- */
+
+/* A result message reads into one kata_result_record (kata/result.h); a message from a runtime
+ * older than a field leaves it at its default (part_to_fix -1, matched_teacher_time -1, the rest 0). */
+
+/* Reads one ZeroMQ message of a kata runtime (16-byte topic + FlatBuffer, schemas/result.fbs):
+ * the FlatBuffers verifier checks it first. KATA_OK: *out holds the result (as much as
+ * out->struct_size holds); KATA_NO_DATA: a valid kata message that is not a result (a skeleton
+ * definition, a frame, stats, a practice setting: the runtime publishes stats on the results'
+ * socket); KATA_E_PARSE: refused (truncated, corrupt, unknown). Allocates once per thread
+ * (a scratch buffer for misaligned messages). [any thread] */
+KATA_API kata_status kata_message_read_result(const void* message, size_t size, kata_result_record* out);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* KATA_RUNTIME_H */
