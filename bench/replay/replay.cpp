@@ -1062,7 +1062,7 @@ json run_shard_processes(const Options& o, const Clips& c, int streams, bool ove
       d.stream_id = static_cast<uint64_t>(s);
       d.revision = 1;
       d.skeleton = c.clips[static_cast<size_t>(s) % c.clips.size()].skeleton;
-      d.preset = "cmu";
+      d.layout = "cmu";
       d.frame_rate = static_cast<float>(o.rate);
       send(d.stream_id, encoder.skeleton(d));
     }
