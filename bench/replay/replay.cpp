@@ -14,6 +14,11 @@
 // windows' p50 and p99 are within --p50-growth (1.15) and --p99-growth (1.25) x the first windows'
 // (medians over --judge-windows windows at each end; 0: reported, not judged).
 //
+// --transport nats --shards N (issue 38): N `kata serve` shards over ZeroMQ (one host's
+// deployment) and then over a NATS cluster this process starts on loopback (across hosts'), the
+// same source and subscriber, then bare ZeroMQ: latency per hop (send -> arrival -> computed ->
+// published -> received) and CPU per process, and what NATS adds at p50 / p99 (run_shard_processes).
+//
 // The subscriber is this executable again (`kata-replay --subscriber ENDPOINT --mode kata|bare`),
 // spawned per phase; it prints "ready" once subscribed and one JSON line of latencies at the end.
 #include <fcntl.h>
@@ -39,6 +44,9 @@
 #include <thread>
 #include <vector>
 
+#include <iterator>
+#include <sstream>
+
 #include <nlohmann/json.hpp>
 
 #include "command.hpp"
@@ -50,6 +58,15 @@
 #include "pipeline/pipeline.hpp"
 #include "runtime/runtime.hpp"
 #include "transport/wire.hpp"
+
+#ifdef KATA_HAVE_NATS
+#include <nats/nats.h>
+
+#include "nats_cluster.hpp"
+#include "transport/nats/connection.hpp"
+#include "transport/nats/partition.hpp"
+#include "transport/nats/results.hpp"
+#endif
 
 extern char** environ;
 
@@ -89,6 +106,7 @@ struct Options {
   bool ingest = false;          // the frames come from a sender process over ZeroMQ through Ingest
   int result_batch = 8;         // RuntimeConfig::result_batch
   std::string sender;           // internal: the sender process (PUSH to this endpoint)
+  int nats_servers = 3;         // --transport nats: servers in the cluster (1: no route hop, R1 leases)
 };
 
 int64_t now_ns() { return kata::pipeline::now_ns(); }
@@ -158,14 +176,23 @@ json summary(const std::vector<int64_t>& ns) {
 // ---- the subscriber process -------------------------------------------------------------------
 
 int run_subscriber(const Options& o) {
-  void* context = zmq_ctx_new();
-  void* sub = zmq_socket(context, ZMQ_SUB);
-  int hwm = 1 << 20;  // the subscriber keeps up or is measured as late; it never drops on purpose
-  zmq_setsockopt(sub, ZMQ_RCVHWM, &hwm, sizeof hwm);
-  zmq_setsockopt(sub, ZMQ_SUBSCRIBE, "", 0);
-  if (zmq_connect(sub, o.subscriber.c_str()) != 0) {
-    std::fprintf(stderr, "subscriber: cannot connect %s: %s\n", o.subscriber.c_str(), zmq_strerror(zmq_errno()));
-    return 1;
+  // ZeroMQ: one SUB socket connected to every endpoint of the comma-separated list (one per shard
+  // when the shards publish themselves). NATS (an endpoint nats://...): the results' subjects.
+  const bool over_nats = o.subscriber.rfind("nats://", 0) == 0;
+  void* context = nullptr;
+  void* sub = nullptr;
+  if (!over_nats) {
+    context = zmq_ctx_new();
+    sub = zmq_socket(context, ZMQ_SUB);
+    int hwm = 1 << 20;  // the subscriber keeps up or is measured as late; it never drops on purpose
+    zmq_setsockopt(sub, ZMQ_RCVHWM, &hwm, sizeof hwm);
+    zmq_setsockopt(sub, ZMQ_SUBSCRIBE, "", 0);
+    std::stringstream list(o.subscriber);
+    for (std::string endpoint; std::getline(list, endpoint, ',');)
+      if (zmq_connect(sub, endpoint.c_str()) != 0) {
+        std::fprintf(stderr, "subscriber: cannot connect %s: %s\n", endpoint.c_str(), zmq_strerror(zmq_errno()));
+        return 1;
+      }
   }
   const bool kata_mode = o.mode == "kata";
   if (!kata_mode) std::printf("ready\n"), std::fflush(stdout);  // the bare publisher sees the join itself
@@ -185,54 +212,117 @@ int run_subscriber(const Options& o) {
   const auto hard_deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(o.deadline);
   auto last_message = std::chrono::steady_clock::now();
   bool any = false;
-  for (;;) {
-    zmq_pollitem_t item{sub, 0, ZMQ_POLLIN, 0};
-    zmq_poll(&item, 1, 100);
-    const auto now = std::chrono::steady_clock::now();
-    if (now > hard_deadline) break;
-    // Done after 1.5 s without a message once results flowed (the publisher has finished).
-    if (any && now - last_message > std::chrono::milliseconds(1500)) break;
-    for (;;) {
-      const int n = zmq_recv(sub, buffer.data(), buffer.size(), ZMQ_DONTWAIT);
-      if (n < 0) break;
-      const int64_t t = now_ns();  // before any decoding: both modes time the same thing
+  // One message received at t (steady clock, taken before any decoding: every path times the
+  // same thing). defined_here: false for a definition that does not count towards "ready" (NATS:
+  // not yet from the shard that will hold the stream's partition once the shards have settled).
+  auto on_message = [&](const uint8_t* data, size_t n, int64_t t, bool defined_here) {
+    if (!kata_mode) {
+      if (n < 24) return;
       last_message = std::chrono::steady_clock::now();
-      if (!kata_mode) {
-        if (n < 24) continue;
-        int64_t sent;
-        std::memcpy(&sent, buffer.data() + 16, 8);
-        total.push_back(t - sent);
-        ++received;
-        bytes += static_cast<uint64_t>(n);
-        any = true;
-        continue;
-      }
-      const auto kind = decoder.decode(buffer.data(), static_cast<size_t>(n));
-      if (kind == kata::transport::MessageKind::kSkeleton && !ready) {
-        defined.insert(decoder.stream_id());
-        if (static_cast<int>(defined.size()) >= o.expect_definitions) {
-          ready = true;
-          std::printf("ready\n");
-          std::fflush(stdout);
-        }
-      }
-      if (kind != kata::transport::MessageKind::kResult) continue;
-      const auto& r = decoder.result();
-      if (first_received == 0) first_received = t;
-      // The soak judge's own test: a latency that grows by this much per second of the run.
-      const int64_t injected = static_cast<int64_t>(o.inject_growth_us_per_s * 1e-6 * static_cast<double>(t - first_received));
-      // Shards: from the source's send (capture_ns, same clock) to here, the proxies included.
-      const int64_t capture_ns = std::llround(r.capture_time * 1e9);
-      total.push_back(t - (o.capture_is_send ? capture_ns : r.arrival_ns) + injected);
-      if (o.capture_is_send) source_to_arrival.push_back(r.arrival_ns - capture_ns);
-      if (o.window > 0) received_at.push_back(t);
-      queue_compute.push_back(r.computed_ns - r.arrival_ns);
-      publish.push_back(r.published_ns - r.computed_ns);
-      transport.push_back(t - r.published_ns);
-      ++received_by_stream[r.stream_id];
+      int64_t sent;
+      std::memcpy(&sent, data + 16, 8);
+      total.push_back(t - sent);
       ++received;
       bytes += static_cast<uint64_t>(n);
       any = true;
+      return;
+    }
+    const auto kind = decoder.decode(data, n);
+    if (kind == kata::transport::MessageKind::kSkeleton && !ready && defined_here) {
+      defined.insert(decoder.stream_id());
+      if (static_cast<int>(defined.size()) >= o.expect_definitions) {
+        ready = true;
+        std::printf("ready\n");
+        std::fflush(stdout);
+      }
+    }
+    if (kind != kata::transport::MessageKind::kResult) return;
+    // Only results count as traffic: shards that publish themselves (--transport nats's ZeroMQ
+    // phase) re-send their streams' definitions every second until they are stopped.
+    last_message = std::chrono::steady_clock::now();
+    const auto& r = decoder.result();
+    if (first_received == 0) first_received = t;
+    // The soak judge's own test: a latency that grows by this much per second of the run.
+    const int64_t injected = static_cast<int64_t>(o.inject_growth_us_per_s * 1e-6 * static_cast<double>(t - first_received));
+    // Shards: from the source's send (capture_ns, same clock) to here, the proxies included.
+    const int64_t capture_ns = std::llround(r.capture_time * 1e9);
+    total.push_back(t - (o.capture_is_send ? capture_ns : r.arrival_ns) + injected);
+    if (o.capture_is_send) source_to_arrival.push_back(r.arrival_ns - capture_ns);
+    if (o.window > 0) received_at.push_back(t);
+    queue_compute.push_back(r.computed_ns - r.arrival_ns);
+    publish.push_back(r.published_ns - r.computed_ns);
+    transport.push_back(t - r.published_ns);
+    ++received_by_stream[r.stream_id];
+    ++received;
+    bytes += static_cast<uint64_t>(n);
+    any = true;
+  };
+  // Done after 1.5 s without a result once results flowed (the publisher has finished).
+  auto finished = [&] {
+    const auto now = std::chrono::steady_clock::now();
+    return now > hard_deadline || (any && now - last_message > std::chrono::milliseconds(1500));
+  };
+  json nats_report;
+  if (over_nats) {
+#ifdef KATA_HAVE_NATS
+    namespace kn = kata::transport::nats;
+    kn::ConnectionOptions co;
+    std::stringstream list(o.subscriber);
+    for (std::string url; std::getline(list, url, ',');) co.servers.push_back(url);
+    co.randomize = false;
+    co.name = "kata-replay-subscriber";
+    kn::Connection connection(co);
+    natsSubscription* nsub = nullptr;
+    if (natsConnection_SubscribeSync(&nsub, connection.get(), kn::all_results_subject("kata").c_str()) != NATS_OK) {
+      std::fprintf(stderr, "subscriber: cannot subscribe: %s\n", kn::last_error().c_str());
+      return 1;
+    }
+    natsSubscription_SetPendingLimits(nsub, -1, -1);  // never dropped by the client: late is measured
+    connection.flush(2000);
+    // The shards are named replay-0 .. replay-<shards - 1> (run_shard_processes): a stream counts as
+    // announced once its definition came from the shard rendezvous hashing gives its partition,
+    // i.e. once the shards have shared the partitions out among all of them.
+    std::vector<std::string> names;
+    for (int k = 0; k < o.shards; ++k) names.push_back("replay-" + std::to_string(k));
+    kn::EpochFilter epochs;
+    uint64_t stale = 0;
+    while (!finished()) {
+      natsMsg* msg = nullptr;
+      // A synchronous subscription: libnats' reader thread queues the message, this thread takes
+      // it (one hand-off, as a ZeroMQ SUB socket's I/O thread to its reader).
+      if (natsSubscription_NextMsg(&msg, nsub, 100) != NATS_OK) continue;
+      const int64_t t = now_ns();
+      uint64_t id = 0, epoch = 0;
+      const char* owner = nullptr;
+      if (kn::parse_result_subject("kata", natsMsg_GetSubject(msg), &id, &epoch, &owner)) {
+        if (epochs.accept(id, epoch)) {
+          const bool settled = names.empty() ||
+                               owner == names[static_cast<size_t>(kn::rendezvous_owner(names, kn::partition_of(id, kn::kDefaultPartitions)))];
+          on_message(reinterpret_cast<const uint8_t*>(natsMsg_GetData(msg)),
+                     static_cast<size_t>(natsMsg_GetDataLength(msg)), t, settled);
+        } else {
+          ++stale;
+        }
+      }
+      natsMsg_Destroy(msg);
+    }
+    int64_t dropped = 0;
+    natsSubscription_GetDropped(nsub, &dropped);
+    natsSubscription_Destroy(nsub);
+    nats_report = {{"stale_epoch", stale}, {"handovers", epochs.handovers()}, {"client_dropped", dropped}};
+#else
+    std::fprintf(stderr, "subscriber: this kata-replay was built without NATS (libnats-dev)\n");
+    return 1;
+#endif
+  } else {
+    while (!finished()) {
+      zmq_pollitem_t item{sub, 0, ZMQ_POLLIN, 0};
+      zmq_poll(&item, 1, 100);
+      for (;;) {
+        const int n = zmq_recv(sub, buffer.data(), buffer.size(), ZMQ_DONTWAIT);
+        if (n < 0) break;
+        on_message(buffer.data(), static_cast<size_t>(n), now_ns(), true);
+      }
     }
   }
   json j;
@@ -248,6 +338,7 @@ int run_subscriber(const Options& o) {
     j["stages"]["published_to_received"] = summary(transport);
   }
   j["subscriber_cpu_seconds"] = cpu_seconds() - cpu0;
+  if (over_nats) j["nats"] = nats_report;
   if (o.window > 0 && !received_at.empty()) {
     // Latency per window of receive time, from the first result on.
     const int64_t window_ns = static_cast<int64_t>(o.window * 1e9);
@@ -277,8 +368,8 @@ int run_subscriber(const Options& o) {
   }
   std::printf("%s\n", j.dump().c_str());
   std::fflush(stdout);
-  zmq_close(sub);
-  zmq_ctx_term(context);
+  if (sub != nullptr) zmq_close(sub);
+  if (context != nullptr) zmq_ctx_term(context);
   return 0;
 }
 
@@ -291,7 +382,7 @@ struct Child {
 
 Child spawn_subscriber(const std::string& endpoint, const std::string& mode, double deadline, int64_t expect_results,
                        double window = 0.0, int expect_definitions = 1, bool capture_is_send = false,
-                       double inject_growth_us_per_s = 0.0) {
+                       double inject_growth_us_per_s = 0.0, int nats_shards = 0) {
   int pipe_fds[2];
   if (pipe(pipe_fds) != 0) throw Error(ErrorKind::kIo, "replay: pipe failed");
   posix_spawn_file_actions_t actions;
@@ -304,6 +395,8 @@ Child spawn_subscriber(const std::string& endpoint, const std::string& mode, dou
                                    std::to_string(expect_definitions), "--expect-results", std::to_string(expect_results),
                                    "--inject-growth-us-per-s", std::to_string(inject_growth_us_per_s)};
   if (capture_is_send) args.push_back("--capture-is-send");
+  // NATS: a stream counts as announced once its definition came from the shard of these that keeps it.
+  if (nats_shards > 0) args.insert(args.end(), {"--shards", std::to_string(nats_shards)});
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -861,6 +954,306 @@ json run_sharded(const Options& o, const Clips& c, int streams, double* message_
   return j;
 }
 
+// ---- --transport nats --shards N: the same N kata serve shards over ZeroMQ and over NATS --------
+//
+// Both phases: a source in this process sends every stream's frames paced at --rate, each stamped
+// with its send time (capture_ns, CLOCK_MONOTONIC); N `kata serve` processes score them (the same
+// config but for the transport); one subscriber process receives every result. ZeroMQ, one host's
+// deployment: stream s goes to shard s mod N over its own PUSH -> PULL (tcp loopback), each shard
+// publishes on its own PUB, the subscriber connects to all N. NATS, across hosts' deployment: a
+// 3-server cluster started here on loopback (nats_cluster.hpp, JetStream in memory, the partition
+// mapping; --nats-servers), the source publishes on n0, shard k connects to server k mod 3, the
+// subscriber to n1;
+// shards own partitions by lease. CPU per process is read from /proc over the paced seconds only
+// (model and teacher loads, the cluster's start and the lease settling excluded).
+#ifdef KATA_HAVE_NATS
+
+// utime + stime of a process (s), from /proc/PID/stat (clock ticks); 0 when it is gone.
+double process_cpu_seconds(pid_t pid) {
+  std::ifstream f("/proc/" + std::to_string(pid) + "/stat");
+  const std::string text((std::istreambuf_iterator<char>(f)), std::istreambuf_iterator<char>());
+  const size_t close = text.rfind(')');  // the command name may hold spaces: fields follow its ')'
+  if (close == std::string::npos) return 0.0;
+  std::istringstream rest(text.substr(close + 2));
+  std::string skip;
+  for (int field = 3; field <= 13; ++field) rest >> skip;  // state .. cmajflt
+  double utime = 0.0, stime = 0.0;
+  rest >> utime >> stime;
+  return (utime + stime) / static_cast<double>(sysconf(_SC_CLK_TCK));
+}
+
+json run_shard_processes(const Options& o, const Clips& c, int streams, bool over_nats) {
+  static int run = 0;
+  const std::string dir = "/tmp/kata_replay_" + std::to_string(getpid()) + "_" + (over_nats ? "nats" : "zmq") + "_" +
+                          std::to_string(run++);
+  std::filesystem::remove_all(dir);
+  std::filesystem::create_directories(dir);
+  namespace kn = kata::transport::nats;
+  std::unique_ptr<kata::test::NatsCluster> cluster;
+  if (over_nats) {
+    cluster = std::make_unique<kata::test::NatsCluster>(dir, o.nats_servers);
+    if (!cluster->problem().empty()) throw Error(ErrorKind::kIo, "replay: the NATS cluster: " + cluster->problem());
+  }
+  std::vector<pid_t> shards;
+  std::vector<std::string> ingest_endpoints, result_endpoints;
+  // Every child is stopped and reaped however this function ends (a throw included).
+  struct Reaper {
+    std::vector<pid_t>* pids;
+    ~Reaper() {
+      for (pid_t p : *pids) kill(p, SIGINT);
+      for (pid_t p : *pids) waitpid(p, nullptr, 0);
+    }
+  } reaper{&shards};
+  for (int k = 0; k < o.shards; ++k) {
+    const std::string config = dir + "/shard" + std::to_string(k) + ".toml";
+    std::ofstream f(config);
+    if (over_nats) {
+      f << "[transport]\nkind = \"nats\"\nservers = [\"" << cluster->url(k % cluster->size()) << "\"]\nshard = \"replay-"
+        << k << "\"\nlease_replicas = " << std::min(3, o.nats_servers) << "\n[ingest]\n";
+    } else {
+      ingest_endpoints.push_back("tcp://127.0.0.1:" + std::to_string(kata::test::free_port()));
+      result_endpoints.push_back("tcp://127.0.0.1:" + std::to_string(kata::test::free_port()));
+      f << "[ingest]\nendpoints = [\"bind:" << ingest_endpoints.back() << "\"]\nkind = \"pull\"\n";
+    }
+    // One sender reaches each shard's ingest (the source's PUSH, or the NATS bridge): all its streams.
+    f << "max_streams_per_sender = " << std::max(streams, 64) << "\n";
+    if (!over_nats) f << "[publish]\nendpoints = [\"" << result_endpoints.back() << "\"]\nsend_hwm = 1000000\n";
+    f << "[runtime]\nworkers = " << o.workers << "\nmax_streams = " << std::max(streams, 1) << "\n"
+      << "[scoring]\nmodel = \"" << absolute(o.model) << "\"\nteacher = \"" << absolute(o.data_dir + "/" + o.teacher)
+      << "\"\nfirst_frame = 1\nghost = true\n[status]\ninterval_seconds = 3600\n";
+    f.close();
+    shards.push_back(spawn_logged({"kata", "serve", "--config", config}, dir + "/shard" + std::to_string(k) + ".log"));
+  }
+  kata::transport::Encoder encoder;
+  void* context = nullptr;
+  std::vector<void*> pushes;  // ZeroMQ: one per shard
+  std::unique_ptr<kn::Connection> source;
+  std::string subject = "kata.in.";
+  const size_t head = subject.size();
+  if (over_nats) {
+    kn::ConnectionOptions co;
+    co.servers = {cluster->url(0)};
+    co.name = "kata-replay-source";
+    source = std::make_unique<kn::Connection>(co);
+  }
+  if (!over_nats) {
+    context = zmq_ctx_new();
+    for (const auto& endpoint : ingest_endpoints) {
+      void* push = zmq_socket(context, ZMQ_PUSH);
+      int hwm = 1000000, linger = 0;
+      zmq_setsockopt(push, ZMQ_SNDHWM, &hwm, sizeof hwm);
+      zmq_setsockopt(push, ZMQ_LINGER, &linger, sizeof linger);
+      if (zmq_connect(push, endpoint.c_str()) != 0) throw Error(ErrorKind::kIo, "replay: cannot connect " + endpoint);
+      pushes.push_back(push);
+    }
+  }
+  uint64_t refused = 0;
+  auto send = [&](uint64_t stream, const kata::transport::Bytes& m) {
+    if (over_nats) {
+      subject.replace(head, std::string::npos, reinterpret_cast<const char*>(m.data), kata::transport::kTopicBytes);
+      refused += !source->publish(subject, m.data, m.size);
+      return;
+    }
+    refused += zmq_send(pushes[stream % pushes.size()], m.data, m.size, ZMQ_DONTWAIT) < 0;
+  };
+  auto send_definitions = [&] {
+    for (int s = 0; s < streams; ++s) {
+      kata::transport::SkeletonDefinition d;
+      d.stream_id = static_cast<uint64_t>(s);
+      d.revision = 1;
+      d.skeleton = c.clips[static_cast<size_t>(s) % c.clips.size()].skeleton;
+      d.layout = "cmu";
+      d.frame_rate = static_cast<float>(o.rate);
+      send(d.stream_id, encoder.skeleton(d));
+    }
+  };
+  std::string subscriber_endpoint;
+  if (over_nats) subscriber_endpoint = cluster->url(1 % cluster->size());
+  for (const auto& e : result_endpoints) subscriber_endpoint += (subscriber_endpoint.empty() ? "" : ",") + e;
+  // Definitions until every stream is open on the shard that keeps it and announced to the
+  // subscriber (each shard loads the model and teacher first; on NATS the shards share the
+  // partitions out meanwhile; bounded by the subscriber's own deadline).
+  Child child = spawn_subscriber(subscriber_endpoint, "kata", o.seconds + 60.0,
+                                 static_cast<int64_t>(o.seconds * o.rate) * streams, 0.0, streams, true, 0.0,
+                                 over_nats ? o.shards : 0);
+  std::string line;
+  {
+    std::atomic<bool> ready{false};
+    std::thread announcer([&] {
+      while (!ready.load()) {
+        send_definitions();
+        std::this_thread::sleep_for(std::chrono::milliseconds(200));
+      }
+    });
+    line = read_line(child.out);
+    ready.store(true);
+    announcer.join();
+  }
+  if (line != "ready") throw Error(ErrorKind::kIo, "replay: the shards never announced every stream (logs in " + dir + ")");
+  std::vector<pid_t> servers;
+  for (int i = 0; cluster && i < cluster->size(); ++i) servers.push_back(cluster->pid(i));
+  auto cpu_of = [](const std::vector<pid_t>& pids) {
+    std::vector<double> v;
+    for (pid_t p : pids) v.push_back(process_cpu_seconds(p));
+    return v;
+  };
+  const std::vector<double> shard_cpu0 = cpu_of(shards), server_cpu0 = cpu_of(servers);
+  // Where each server's log stood when the measured seconds began (their warnings are read from here).
+  std::vector<uintmax_t> log_offsets;
+  for (size_t i = 0; i < servers.size(); ++i) {
+    std::error_code ec;
+    const uintmax_t size = std::filesystem::file_size(dir + "/" + kata::test::NatsCluster::name(static_cast<int>(i)) + ".log", ec);
+    log_offsets.push_back(ec ? 0 : size);
+  }
+  const int64_t ticks = static_cast<int64_t>(o.seconds * o.rate);
+  std::vector<int64_t> last_stamp(static_cast<size_t>(streams), 0);
+  const double cpu0 = cpu_seconds();
+  const auto wall0 = std::chrono::steady_clock::now();
+  paced(o, ticks, [&](int64_t t) {
+    for (int s = 0; s < streams; ++s) {
+      const size_t clip = static_cast<size_t>(s) % c.clips.size();
+      const int joints = c.clips[clip].skeleton.joint_count();
+      const int frames = static_cast<int>(c.positions[clip].size() / (3 * static_cast<size_t>(joints)));
+      const int f = static_cast<int>((t + s) % frames);
+      const float* xyz = c.positions[clip].data() + static_cast<size_t>(f) * 3 * static_cast<size_t>(joints);
+      // As run_sender: never closer than 20 us to the stream's previous frame (the pacer catching
+      // up after a stall would stamp a stream's frames microseconds apart, which the pipeline
+      // refuses, kMinTimeStep). The clamp acts only then. (A 240 Hz run without it lost 25 frames
+      // in its ZeroMQ phase, none refused by the source; this is the likely cause, not a proven one.)
+      const int64_t stamp = std::max(now_ns(), last_stamp[static_cast<size_t>(s)] + 20'000);
+      last_stamp[static_cast<size_t>(s)] = stamp;
+      send(static_cast<uint64_t>(s), encoder.frame(static_cast<uint64_t>(s), static_cast<uint64_t>(t), stamp, xyz, joints));
+    }
+  });
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - wall0).count();
+  const double cpu = cpu_seconds() - cpu0;
+  const std::vector<double> shard_cpu1 = cpu_of(shards), server_cpu1 = cpu_of(servers);
+  json j = finish_child(child);
+  const uint64_t sent = static_cast<uint64_t>(ticks) * static_cast<uint64_t>(streams);
+  // The servers' warnings and errors from the measured seconds until the subscriber's end (slow
+  // consumers, long read loops, raft elections; not the start-up's or the shutdown's route
+  // noise): what a stall in the figures may come from.
+  if (over_nats) {
+    json warnings = json::array();
+    for (size_t i = 0; i < log_offsets.size(); ++i) {
+      std::ifstream log(dir + "/" + kata::test::NatsCluster::name(static_cast<int>(i)) + ".log");
+      log.seekg(static_cast<std::streamoff>(log_offsets[i]));
+      for (std::string entry; std::getline(log, entry);)
+        if ((entry.find("[WRN]") != std::string::npos || entry.find("[ERR]") != std::string::npos) && warnings.size() < 20)
+          warnings.push_back(kata::test::NatsCluster::name(static_cast<int>(i)) + ": " + entry);
+    }
+    j["nats_server_warnings"] = warnings;
+  }
+
+  j["sent"] = sent;
+  j["refused_by_the_source"] = refused;
+  j["lost"] = static_cast<int64_t>(sent) - j["received"].get<int64_t>();
+  j["runtime_drops"] = 0;  // counted inside the shards (their logs); lost covers every hop
+  // Streams that got no result, or not every frame's (one each, none twice).
+  int short_streams = 0;
+  for (int s = 0; s < streams; ++s) {
+    const std::string key = std::to_string(s);
+    const uint64_t got = j.contains("received_by_stream") && j["received_by_stream"].contains(key)
+                             ? j["received_by_stream"][key].get<uint64_t>() : 0;
+    short_streams += got != static_cast<uint64_t>(ticks);
+  }
+  j["streams_not_complete"] = short_streams;
+  j["shards"] = o.shards;
+  j["wall_seconds_sending"] = wall;
+  json per_process = json::object();
+  per_process["source (this process)"] = 100.0 * cpu / wall;
+  for (size_t k = 0; k < shards.size(); ++k)
+    per_process["kata serve " + std::to_string(k)] = 100.0 * (shard_cpu1[k] - shard_cpu0[k]) / wall;
+  for (size_t i = 0; i < servers.size(); ++i)
+    per_process["nats-server n" + std::to_string(i)] = 100.0 * (server_cpu1[i] - server_cpu0[i]) / wall;
+  j["cpu_percent_of_one_core_by_process"] = per_process;
+  j["path"] = over_nats ? "source -> NATS n0 -> (route) -> N kata serve on n<k mod servers> (partition leases) -> NATS -> "
+                          "subscriber on n1 (" + std::to_string(o.nats_servers) + " servers)"
+                        : "source -> N x (PUSH -> kata serve PULL ingest -> PUB) -> one SUB on all N (tcp loopback)";
+  for (void* p : pushes) zmq_close(p);
+  if (context != nullptr) zmq_ctx_term(context);
+  // The shards stop (Reaper) before the cluster goes: a shard gives its leases back on SIGINT.
+  for (pid_t p : shards) kill(p, SIGINT);
+  for (pid_t p : shards) waitpid(p, nullptr, 0);
+  shards.clear();
+  source.reset();
+  cluster.reset();
+  // A run that lost results keeps the shards' and servers' logs (their counters by cause).
+  if (j["lost"].get<int64_t>() != 0 || short_streams != 0)
+    j["logs"] = dir;
+  else
+    std::filesystem::remove_all(dir);
+  return j;
+}
+
+// --transport nats: ZeroMQ's shards, NATS's shards, bare ZeroMQ, in that order in one run.
+json run_nats_comparison(const Options& o, const Clips& c, int streams) {
+  json j;
+  j["streams"] = streams;
+  j["rate_hz"] = o.rate;
+  j["seconds"] = o.seconds;
+  j["shards"] = o.shards;
+  j["workers"] = o.workers;
+  j["nats_servers"] = o.nats_servers;
+  j["zmq"] = run_shard_processes(o, c, streams, false);
+  j["nats"] = run_shard_processes(o, c, streams, true);
+  j["bare_zmq"] = run_bare(o, streams, static_cast<size_t>(j["nats"]["mean_message_bytes"].get<double>() + 0.5));
+  json added = json::object();
+  for (const char* q : {"p50_us", "p99_us"}) added[q] = j["nats"]["latency"][q].get<double>() - j["zmq"]["latency"][q].get<double>();
+  j["nats_added_us"] = added;
+  json hops = json::object();
+  for (const auto& [stage, v] : j["nats"]["stages"].items())
+    for (const char* q : {"p50_us", "p99_us"})
+      hops[stage][q] = v[q].get<double>() - j["zmq"]["stages"][stage][q].get<double>();
+  j["nats_added_by_hop_us"] = hops;
+  j["nats_added_p50_target_us"] = 300.0;
+  j["nats_added_p50_met"] = added["p50_us"].get<double>() <= 300.0;
+  return j;
+}
+
+void print_nats_comparison(const json& r) {
+  std::printf("%d streams x %.0f Hz for %.0f s, %d kata serve shards x %d workers | p50 / p99 / max (us), send -> received\n",
+              r["streams"].get<int>(), r["rate_hz"].get<double>(), r["seconds"].get<double>(), r["shards"].get<int>(),
+              r["workers"].get<int>());
+  for (const char* path : {"zmq", "nats"}) {
+    const json& k = r[path];
+    const json& st = k["stages"];
+    auto pq = [&](const json& v) {
+      char b[64];
+      std::snprintf(b, sizeof b, "%.0f / %.0f", v["p50_us"].get<double>(), v["p99_us"].get<double>());
+      return std::string(b);
+    };
+    std::printf("  %-4s  total %.0f / %.0f / %.0f | lost %lld, streams incomplete %d | hops: send->arrival %s, "
+                "arrival->computed %s, computed->published %s, published->received %s\n",
+                path, k["latency"]["p50_us"].get<double>(), k["latency"]["p99_us"].get<double>(),
+                k["latency"]["max_us"].get<double>(), static_cast<long long>(k["lost"].get<int64_t>()),
+                k["streams_not_complete"].get<int>(), pq(st["source_to_arrival"]).c_str(),
+                pq(st["arrival_to_computed"]).c_str(), pq(st["computed_to_published"]).c_str(),
+                pq(st["published_to_received"]).c_str());
+    std::string cpu;
+    for (const auto& [name, v] : k["cpu_percent_of_one_core_by_process"].items()) {
+      char b[96];
+      std::snprintf(b, sizeof b, "%s%s %.1f", cpu.empty() ? "" : ", ", name.c_str(), v.get<double>());
+      cpu += b;
+    }
+    std::printf("        CPU %% of one core: %s; subscriber %.2f CPU s\n", cpu.c_str(),
+                k["subscriber_cpu_seconds"].get<double>());
+    if (k.contains("nats_server_warnings"))
+      for (const auto& w : k["nats_server_warnings"]) std::printf("        %s\n", w.get<std::string>().c_str());
+  }
+  std::printf("  bare ZeroMQ (one hop, same sizes and pacing): %.0f / %.0f us\n",
+              r["bare_zmq"]["latency"]["p50_us"].get<double>(), r["bare_zmq"]["latency"]["p99_us"].get<double>());
+  const json& h = r["nats_added_by_hop_us"];
+  std::printf("  NATS added: p50 %+.0f us, p99 %+.0f us (target p50 <= 300 us: %s); by hop p50 / p99: send->arrival %+.0f / %+.0f, "
+              "published->received %+.0f / %+.0f\n",
+              r["nats_added_us"]["p50_us"].get<double>(), r["nats_added_us"]["p99_us"].get<double>(),
+              r["nats_added_p50_met"].get<bool>() ? "met" : "MISSED", h["source_to_arrival"]["p50_us"].get<double>(),
+              h["source_to_arrival"]["p99_us"].get<double>(), h["published_to_received"]["p50_us"].get<double>(),
+              h["published_to_received"]["p99_us"].get<double>());
+  std::fflush(stdout);
+}
+#endif  // KATA_HAVE_NATS
+
 json run_once(const Options& o, const Clips& c, int streams) {
   double bytes = 0.0;
   json kata_result = o.shards > 0 ? run_sharded(o, c, streams, &bytes) : run_kata(o, c, streams, &bytes);
@@ -1058,7 +1451,13 @@ void run_replay(const Options& o) {
     if (code != 0) throw CLI::RuntimeError(code);
     return;
   }
-  if (o.transport != "tcp" && o.transport != "ipc") throw Error(ErrorKind::kInvalidArgument, "replay: --transport tcp|ipc");
+  if (o.transport != "tcp" && o.transport != "ipc" && o.transport != "nats")
+    throw Error(ErrorKind::kInvalidArgument, "replay: --transport tcp|ipc|nats");
+  if (o.transport == "nats" && (o.shards < 1 || o.find_max || o.soak || o.ingest))
+    throw Error(ErrorKind::kInvalidArgument, "replay: --transport nats needs --shards N, without --find-max, --soak, --ingest");
+#ifndef KATA_HAVE_NATS
+  if (o.transport == "nats") throw Error(ErrorKind::kInvalidArgument, "replay: this kata-replay was built without NATS (libnats-dev)");
+#endif
   if (o.ingest && o.shards > 0) throw Error(ErrorKind::kInvalidArgument, "replay: --ingest and --shards exclude each other");
   if (o.streams < 1 || !(o.rate > 0) || !(o.seconds > 0) || o.seconds > (o.soak ? 86400 : 600))
     throw Error(ErrorKind::kInvalidArgument, "replay: --streams >= 1, --rate > 0, 0 < --seconds <= 600 (soak: 86400)");
@@ -1067,6 +1466,11 @@ void run_replay(const Options& o) {
   json report;
   if (o.soak) {
     report = run_soak(o, clips);
+#ifdef KATA_HAVE_NATS
+  } else if (o.transport == "nats") {
+    report = run_nats_comparison(o, clips, o.streams);
+    print_nats_comparison(report);
+#endif
   } else if (!o.find_max) {
     report = run_once(o, clips, o.streams);
     print_line(report);
@@ -1143,6 +1547,15 @@ void run_replay(const Options& o) {
     if (!f) throw Error(ErrorKind::kIo, "replay: cannot write " + o.out);
     f << report.dump(2) << "\n";
   }
+  // NATS: every frame sent scored and received once, from its partition's holder of the newest
+  // tenure (the run is the smoke test's criterion too: ctest runtime_nats_replay). The latency
+  // target is reported, not judged: a loaded machine misses it without anything being wrong.
+  if (o.transport == "nats") {
+    const json& n = report["nats"];
+    if (n["lost"].get<int64_t>() != 0 || n["streams_not_complete"].get<int>() != 0 || n["refused_by_the_source"].get<uint64_t>() != 0 ||
+        n["nats"]["stale_epoch"].get<uint64_t>() != 0 || n["nats"]["client_dropped"].get<int64_t>() != 0)
+      throw Error(ErrorKind::kIo, "replay: the NATS path lost or repeated results: " + n.dump().substr(0, 600));
+  }
   if (o.soak && !report["pass"].get<bool>())
     throw Error(ErrorKind::kInvalidArgument, "replay: the soak failed its criteria (nothing lost, RSS within 1 %, p50 and p99 within --p50-growth and --p99-growth x)");
 }
@@ -1154,7 +1567,10 @@ void setup(CLI::App& app) {
   cmd->add_option("--streams", o->streams, "streams K (with --find-max: the first K tried)")->capture_default_str();
   cmd->add_option("--seconds", o->seconds, "seconds per phase (each run: a kata and a bare phase)")->capture_default_str();
   cmd->add_option("--rate", o->rate, "frames per second per stream")->capture_default_str();
-  cmd->add_option("--transport", o->transport, "tcp or ipc")->capture_default_str();
+  cmd->add_option("--transport", o->transport,
+                  "tcp or ipc (ZeroMQ), or nats: with --shards N, N kata serve shards over ZeroMQ and then over a "
+                  "3-server NATS cluster started on loopback, latency per hop and CPU per process side by side")
+      ->capture_default_str();
   cmd->add_option("--out", o->out, "report JSON");
   cmd->add_flag("--find-max", o->find_max,
                 "find the most streams with nothing lost and kata p99 <= --p99-bound-us (without it: <= 1.25 x the "
@@ -1183,6 +1599,10 @@ void setup(CLI::App& app) {
   cmd->add_flag("--ingest", o->ingest,
                 "the frames come from a sender process over ZeroMQ (PUSH -> the runtime's PULL Ingest, verifier and "
                 "checksum), as kata send does, instead of the in-process push; latency from the frame's send");
+  cmd->add_option("--nats-servers", o->nats_servers,
+                  "with --transport nats: servers in the cluster (1: no route between servers, leases not replicated)")
+      ->check(CLI::Range(1, 5))
+      ->capture_default_str();
   cmd->add_option("--subscriber", o->subscriber)->group("");  // internal: the subscriber process
   cmd->add_option("--sender", o->sender)->group("");          // internal: the sender process (--ingest)
   cmd->add_option("--mode", o->mode)->group("");
@@ -1193,7 +1613,8 @@ void setup(CLI::App& app) {
   cmd->add_flag("--capture-is-send", o->capture_is_send)->group("");
   cmd->add_option("--shards", o->shards,
                   "run the kata phase through two kata proxy processes (frames, results) and this many kata serve "
-                  "shards (ipc endpoints in a temporary directory); latency from the frame's send")
+                  "shards (ipc endpoints in a temporary directory); latency from the frame's send. With --transport "
+                  "nats: this many kata serve shards over ZeroMQ directly, then over NATS")
       ->capture_default_str();
   cmd->callback([o] {
     // The defaults are the checkout's paths; from elsewhere the copies under build/share/kata.

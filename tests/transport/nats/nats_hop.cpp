@@ -5,7 +5,11 @@
 // as a shard on another server of the cluster), each stamping arrival with the steady clock. It
 // prints p50 / p99 / max of publish -> delivery per path, beside the same messages over a ZeroMQ
 // PUB -> SUB pair on loopback TCP in the same run (kata's one-host transport; a receiving thread
-// of its own, as NATS's delivery thread). A measurement tool, not a test.
+// of its own, as NATS's delivery thread), and a third NATS subscriber on n0 that hands each
+// message on as a `kata serve` shard does (serve_bridge.cpp: from libnats' delivery thread over
+// an ipc PUSH to a PULL in another ZeroMQ context, read by a thread of its own as the runtime's
+// ingest reads), stamped where the PULL reader gets it: the bridge's share of a frame's hop. A
+// measurement tool, not a test.
 //   kata_nats_hop [--rate 1000] [--seconds 10]
 #include <nats/nats.h>
 #include <zmq.h>
@@ -59,6 +63,12 @@ double percentile(std::vector<int64_t> v, double q) {
   return static_cast<double>(v[std::min(v.size() - 1, static_cast<size_t>(q * static_cast<double>(v.size())))]) / 1e3;
 }
 
+// The shard's bridge: the message's bytes on to the ingest's socket, as ServeBridge::on_message.
+void on_bridge_msg(natsConnection*, natsSubscription*, natsMsg* msg, void* push) {
+  zmq_send(push, natsMsg_GetData(msg), static_cast<size_t>(natsMsg_GetDataLength(msg)), ZMQ_DONTWAIT);
+  natsMsg_Destroy(msg);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -87,6 +97,37 @@ int main(int argc, char** argv) {
       natsSubscription *s1 = nullptr, *s2 = nullptr;
       natsConnection_Subscribe(&s1, same->get(), "kata.in.*.*", on_msg, &same_path);
       natsConnection_Subscribe(&s2, other->get(), "kata.in.*.*", on_msg, &other_path);
+      // The bridge: PUSH (its own context, hwm 100000, as the shard's) -> ipc -> PULL (another
+      // context, as the runtime's ingest has), read by a thread of its own.
+      auto bridged = connect(0);
+      void* push_ctx = zmq_ctx_new();
+      void* pull_ctx = zmq_ctx_new();
+      void* bpush = zmq_socket(push_ctx, ZMQ_PUSH);
+      void* bpull = zmq_socket(pull_ctx, ZMQ_PULL);
+      const int bridge_hwm = 100000;
+      zmq_setsockopt(bpush, ZMQ_SNDHWM, &bridge_hwm, sizeof bridge_hwm);
+      const std::string bridge_endpoint = "ipc://" + (dir / "bridge.sock").string();
+      zmq_bind(bpull, bridge_endpoint.c_str());
+      zmq_connect(bpush, bridge_endpoint.c_str());
+      Path bridge_path;
+      std::atomic<bool> bstop{false};
+      std::thread breader([&] {
+        int timeout = 100;
+        zmq_setsockopt(bpull, ZMQ_RCVTIMEO, &timeout, sizeof timeout);
+        uint8_t buffer[4096];
+        while (!bstop.load()) {
+          const int n = zmq_recv(bpull, buffer, sizeof buffer, 0);
+          if (n < static_cast<int>(kata::transport::kTopicBytes + 8)) continue;
+          const int64_t now = steady_ns();
+          int64_t sent = 0;
+          std::memcpy(&sent, buffer + kata::transport::kTopicBytes, 8);
+          std::lock_guard<std::mutex> lock(bridge_path.mutex);
+          bridge_path.latency_ns.push_back(now - sent);
+        }
+      });
+      natsSubscription* s3 = nullptr;
+      natsConnection_Subscribe(&s3, bridged->get(), "kata.in.*.*", on_bridge_msg, bpush);
+      bridged->flush(2000);
       same->flush(2000);
       other->flush(2000);
       // The ZeroMQ pair: PUB bound on an ephemeral port, SUB connected, read by its own thread.
@@ -146,14 +187,25 @@ int main(int argc, char** argv) {
       zmq_ctx_term(zctx);
       natsSubscription_Destroy(s1);
       natsSubscription_Destroy(s2);
+      natsSubscription_Unsubscribe(s3);  // no callback sends on bpush after the 500 ms of quiet above
+      natsSubscription_Destroy(s3);
+      bstop.store(true);
+      breader.join();
+      zmq_setsockopt(bpush, ZMQ_LINGER, &linger, sizeof linger);
+      zmq_setsockopt(bpull, ZMQ_LINGER, &linger, sizeof linger);
+      zmq_close(bpush);
+      zmq_close(bpull);
+      zmq_ctx_term(push_ctx);
+      zmq_ctx_term(pull_ctx);
       std::printf("NATS hop, %zu-byte frame messages at %.0f/s for %.0f s (publish -> delivery, steady clock):\n",
                   message.size(), rate, seconds);
-      for (auto* p : {&zmq_path, &same_path, &other_path}) {
+      for (auto* p : {&zmq_path, &same_path, &other_path, &bridge_path}) {
         std::lock_guard<std::mutex> lock(p->mutex);
-        std::printf("  %-40s %6zu received  p50 %7.1f us  p99 %7.1f us  max %8.1f us\n",
-                    p == &zmq_path    ? "ZeroMQ PUB -> SUB (tcp, loopback):"
-                    : p == &same_path ? "NATS, subscriber on the same server:"
-                                      : "NATS, subscriber one route away:",
+        std::printf("  %-52s %6zu received  p50 %7.1f us  p99 %7.1f us  max %8.1f us\n",
+                    p == &zmq_path     ? "ZeroMQ PUB -> SUB (tcp, loopback):"
+                    : p == &same_path  ? "NATS, subscriber on the same server:"
+                    : p == &other_path ? "NATS, subscriber one route away:"
+                                       : "NATS same server + a shard's bridge (ipc PUSH -> PULL):",
                     p->latency_ns.size(), percentile(p->latency_ns, 0.5), percentile(p->latency_ns, 0.99),
                     percentile(p->latency_ns, 1.0));
       }

@@ -7,6 +7,7 @@
 #include <filesystem>
 
 #include "common/error.hpp"
+#include "pipeline/pipeline.hpp"
 
 namespace kata::transport::nats {
 
@@ -29,7 +30,12 @@ runtime::Sink ServeBridge::sink() {
   s.on_result = [this](const ResultFields& fields) {
     Shard* shard = live_shard_.load(std::memory_order_acquire);
     if (shard == nullptr) return;
-    const Bytes bytes = encoder_->result(fields);
+    // The runtime stamps published_ns only for its own ZeroMQ publisher (none here): stamped as it
+    // does, just before the encoding, so that a result's computed -> published -> received split
+    // means the same on both transports (kata replay --transport nats reports it).
+    ResultFields stamped = fields;
+    stamped.published_ns = pipeline::now_ns();
+    const Bytes bytes = encoder_->result(stamped);
     shard->publish_result(fields.stream_id, bytes.data, bytes.size);
   };
   return s;

@@ -1,8 +1,12 @@
-// A NATS cluster for one test process: `servers` nats-server processes (Debian's nats-server)
+// A NATS cluster for one process: `servers` nats-server processes (Debian's nats-server)
 // on loopback, each with its own free ports, JetStream in memory, full-mesh routes, and the
 // partition subject mapping of kata's NATS transport (partition.hpp) in every server's config, as
 // docs/deploy.md deploys it. Started by the constructor (it returns once JetStream answers),
 // stopped by the destructor; kill() stops one server with SIGKILL.
+//
+// Shared by the NATS tests (tests/transport/nats) and kata-replay's `--transport nats` (which
+// starts its own cluster on loopback): the library kata_nats_cluster (bench/replay/CMakeLists.txt),
+// here because kata-replay is built with or without the tests.
 #pragma once
 
 #include <sys/types.h>
@@ -14,8 +18,8 @@ namespace kata::test {
 
 class NatsCluster {
  public:
-  // dir: an empty directory of the test's own (configs, logs, JetStream store directories).
-  // Fails the test (gtest fatal assertion via the returned ok()) when nats-server is missing.
+  // dir: an empty directory of the caller's own (configs, logs, JetStream store directories).
+  // problem() says why not when nats-server is missing or a server did not come up.
   NatsCluster(const std::string& dir, int servers = 3, uint32_t partitions = 64, const std::string& prefix = "kata");
   ~NatsCluster();
   NatsCluster(const NatsCluster&) = delete;
@@ -29,6 +33,8 @@ class NatsCluster {
   std::vector<std::string> urls() const;
   // Server i's name (n0, n1, ...), as JetStream reports stream leaders.
   static std::string name(int i) { return "n" + std::to_string(i); }
+  // Server i's process id (-1 once killed), e.g. to read its CPU time from /proc.
+  pid_t pid(int i) const { return pids_[static_cast<size_t>(i)]; }
   // SIGKILL server i and reap it.
   void kill(int i);
   // The last lines of server i's log (for failure messages).
