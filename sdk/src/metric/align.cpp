@@ -52,7 +52,7 @@ Aligner::Aligner(std::shared_ptr<const Reference> reference, AlignmentOptions op
   search_.cur.assign(static_cast<size_t>(search_b_) + 1, 0.0);
   search_c_.assign(static_cast<size_t>(search_b_) + 1, 0.0f);
   if (windowed_) {
-    decimation_ = std::clamp((search_b_ - search_a_ + 1 + 255) / 256, 4, 30);
+    decimation_ = std::clamp((search_b_ - search_a_ + 1 + 255) / 256, 4, kMaxDecimation);
     search_row_.assign(stride, 0.0f);
     search_pk_.assign(static_cast<size_t>(span_) + 1, 0.0);
     window_.prev.assign(static_cast<size_t>(window_size_), 0.0);

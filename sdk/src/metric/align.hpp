@@ -27,7 +27,7 @@
 // behind the match, two ahead) is not compared whole every frame. The match is followed by the
 // same dynamic programme over the window only (frames entering it start from a jump), and the
 // relocation search, the same programme over the whole section, runs on every R-th student frame
-// (R = ceil(frames / 256) within 4..30: the search's student rate is 120 / R Hz at 120 Hz), its
+// (R = ceil(frames / 256) within 4..8: the search's student rate is 120 / R Hz at 120 Hz), its
 // distance pass and its step spread over the R frames (one slice of the section per frame), its
 // costs, jump and open-begin prior 1/R of the frame rate's (one distance per R frames); when the
 // search moves to a place outside the window (a re-localisation at its rate, judged at the
@@ -37,15 +37,22 @@
 // take the whole-section programme every frame, as before (docs/performance.md, issue 23,
 // "cold4", has the figures).
 //
-// Long teachers (issue 36): R stops at 30 (the search must see the student at 4 Hz or more to
-// find a skip within 1.5 s), so past 7,680 frames (64 s at 120 Hz) the search would read more
-// rows per frame the longer the teacher. A section longer than Reference::kSearchFrames is
+// R stops at 8 (the search sees the student at 15 Hz or more): at 15 and 30 (8 and 4 Hz) it followed
+// a real student's dance too coarsely and moved the window to wrong places: the default lesson's
+// student (05_19 on 05_18) scored 70.7 and 68.7 instead of 76.2 (the whole-section pass: 76.4),
+// and 70.5 against the teacher repeated 4 times, 64.8 at 80 times, where R had reached 30
+// (tests/metric/test_relocate.cpp, ARealStudentScoresAsAgainstTheClipWhenTheTeacherIsRepeated).
+//
+// Long teachers (issue 36): past 2,048 frames (17 s at 120 Hz) the search reads more than 256 rows
+// per frame, the more the longer the teacher. A section longer than Reference::kSearchFrames is
 // searched on a grid instead: every M-th teacher frame, M = ceil(frames / kSearchFrames), the
 // programme's steps counted in grid frames (M teacher frames each: a step of k grid frames is
 // k M teacher frames, the band span / M grid frames). The search only chooses where the window
 // goes; the window then follows at the teacher's full rate, so the match is as fine as before.
-// A frame reads the window's rows and at most 7,680 / 30 = 256 of the grid's: the same for a
-// 20-minute teacher as for a 64-second one (docs/model/alignment.md has the figures).
+// A frame reads the window's rows and at most 7,680 / 8 = 960 of the grid's: the same for a
+// 20-minute teacher as for a 64-second one (docs/model/alignment.md has the figures). (A coarser
+// grid reads fewer: kSearchFrames 2,048 scored the 20-minute lesson 75.7 instead of 76.3, with a
+// grid step of 0.6 s; 1,024, a step of 1.2 s, 55.3.)
 // Threads: an Aligner belongs to one stream, used by one thread at a time.
 #pragma once
 
@@ -174,6 +181,7 @@ class Aligner {
   std::vector<float> search_c_;     // its distances (section frames), filled slice by slice
   // Windowed sections only:
   bool windowed_ = false;
+  static constexpr int kMaxDecimation = 8;  // R's cap ("Cost per frame": 15 and 30 lost the student)
   int decimation_ = 1;              // R: the search's student frames are every R-th
   int phase_ = 0;                   // this frame's slice of the search's pass (0..R-1)
   std::vector<float> search_row_;   // the search's student row (scaled), kept for its R slices
