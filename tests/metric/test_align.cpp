@@ -303,7 +303,7 @@ TEST(Kernels, SixteenBitRowSubtractionMatchesThePlainFormula) {
         const float decoded = step * static_cast<float>(q[static_cast<size_t>(c)]);
         // Near the decoded value (within a few steps, some on the 0.51-step edge) or anywhere.
         const float near[] = {0.0f, 0.5f, 0.51f, 0.52f, -0.51f, -2.0f};
-        row[static_cast<size_t>(c)] = c % 3 == 2 ? (static_cast<float>(std::rand()) / RAND_MAX - 0.5f)
+        row[static_cast<size_t>(c)] = c % 3 == 2 ? (static_cast<float>(std::rand()) / static_cast<float>(RAND_MAX) - 0.5f)
                                                  : decoded + near[std::rand() % 6] * step;
       }
       std::vector<float> fast(row), base(row);
