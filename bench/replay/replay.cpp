@@ -435,6 +435,15 @@ struct Clips {
   std::vector<std::vector<float>> positions;
   std::shared_ptr<const kata::pipeline::Teacher> teacher;
   std::shared_ptr<const kata::metric::Metric> metric;
+  // Stream s's frame at tick t (its clip is s mod the clips, offset by s so streams differ):
+  // joint positions, and *joints their count.
+  const float* frame(int s, int64_t t, int* joints) const {
+    const size_t clip = static_cast<size_t>(s) % clips.size();
+    *joints = clips[clip].skeleton.joint_count();
+    const size_t per_frame = 3 * static_cast<size_t>(*joints);
+    const int64_t frames = static_cast<int64_t>(positions[clip].size() / per_frame);
+    return positions[clip].data() + static_cast<size_t>((t + s) % frames) * per_frame;
+  }
 };
 
 Clips load_clips(const Options& o) {
@@ -704,11 +713,8 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
   if (!o.ingest) paced(o, ticks, [&](int64_t t) {
     if (o.soak && t % ticks_per_second == 0) rss_mib.push_back(resident_mib());
     for (int s = 0; s < streams; ++s) {
-      const size_t clip = static_cast<size_t>(s) % c.clips.size();
-      const int joints = c.clips[clip].skeleton.joint_count();
-      const int frames = static_cast<int>(c.positions[clip].size() / (3 * static_cast<size_t>(joints)));
-      const int f = static_cast<int>((t + s) % frames);
-      const float* xyz = c.positions[clip].data() + static_cast<size_t>(f) * 3 * static_cast<size_t>(joints);
+      int joints = 0;
+      const float* xyz = c.frame(s, t, &joints);
       ++sent_by_stream[static_cast<size_t>(s)];
       if (runtime.push(static_cast<uint64_t>(s), static_cast<uint64_t>(t), static_cast<double>(t) / o.rate, xyz,
                        joints) == kata::Status::kOk)
@@ -914,11 +920,8 @@ json run_sharded(const Options& o, const Clips& c, int streams, double* message_
   const auto wall0 = std::chrono::steady_clock::now();
   paced(o, ticks, [&](int64_t t) {
     for (int s = 0; s < streams; ++s) {
-      const size_t clip = static_cast<size_t>(s) % c.clips.size();
-      const int joints = c.clips[clip].skeleton.joint_count();
-      const int frames = static_cast<int>(c.positions[clip].size() / (3 * static_cast<size_t>(joints)));
-      const int f = static_cast<int>((t + s) % frames);
-      const float* xyz = c.positions[clip].data() + static_cast<size_t>(f) * 3 * static_cast<size_t>(joints);
+      int joints = 0;
+      const float* xyz = c.frame(s, t, &joints);
       const auto m = encoder.frame(static_cast<uint64_t>(s), static_cast<uint64_t>(t), now_ns(), xyz, joints);
       if (zmq_send(pub, m.data, m.size, ZMQ_DONTWAIT) >= 0) ++sent;
     }
@@ -1111,11 +1114,8 @@ json run_shard_processes(const Options& o, const Clips& c, int streams, bool ove
   const auto wall0 = std::chrono::steady_clock::now();
   paced(o, ticks, [&](int64_t t) {
     for (int s = 0; s < streams; ++s) {
-      const size_t clip = static_cast<size_t>(s) % c.clips.size();
-      const int joints = c.clips[clip].skeleton.joint_count();
-      const int frames = static_cast<int>(c.positions[clip].size() / (3 * static_cast<size_t>(joints)));
-      const int f = static_cast<int>((t + s) % frames);
-      const float* xyz = c.positions[clip].data() + static_cast<size_t>(f) * 3 * static_cast<size_t>(joints);
+      int joints = 0;
+      const float* xyz = c.frame(s, t, &joints);
       // As run_sender: never closer than 20 us to the stream's previous frame (the pacer catching
       // up after a stall would stamp a stream's frames microseconds apart, which the pipeline
       // refuses, kMinTimeStep). The clamp acts only then. (A 240 Hz run without it lost 25 frames
