@@ -398,6 +398,24 @@ std::string scoring_config() {
          "/cmu/05_18.bvh\"\nghost = true\n";
 }
 
+// The holder of each partition as the lease bucket says now ("" given back or never claimed, "?"
+// the bucket could not be read): the servers' own view, not a shard's.
+std::vector<std::string> bucket_holders(kn::Connection& connection, const std::string& bucket) {
+  std::vector<std::string> out(kPartitions, "?");
+  kvStore* kv = nullptr;
+  if (js_KeyValue(&kv, connection.jetstream(), bucket.c_str()) != NATS_OK) return out;
+  for (uint32_t p = 0; p < kPartitions; ++p) {
+    kvEntry* entry = nullptr;
+    const natsStatus s = kvStore_Get(&entry, kv, ("p." + std::to_string(p)).c_str());
+    if (s == NATS_NOT_FOUND) out[p] = "";
+    if (s != NATS_OK || entry == nullptr) continue;
+    out[p].assign(static_cast<const char*>(kvEntry_Value(entry)), static_cast<size_t>(kvEntry_ValueLen(entry)));
+    kvEntry_Destroy(entry);
+  }
+  kvStore_Destroy(kv);
+  return out;
+}
+
 // kata serve x 3 with [transport] kind = "nats" and kata send --transport nats, 96 streams at 60 Hz
 // for a second, scored against a teacher with the ghost: every stream's results come back on NATS
 // once each, in order, from the shard rendezvous hashing gives the stream's partition, with its
@@ -477,7 +495,17 @@ TEST(NatsCluster, ServeShardsMatchOneProcess) {
   ASSERT_EQ(natsConnection_SubscribeSync(&sub, consumer.get(), "kata.out.>"), NATS_OK);
   natsSubscription_SetPendingLimits(sub, -1, -1);
   ASSERT_TRUE(consumer.flush(2000));
-  std::this_thread::sleep_for(std::chrono::milliseconds(2000));  // the shards share the partitions out
+  // The frames start once the shards have shared the partitions out (the bucket shows every
+  // partition at its rendezvous holder), not after a fixed sleep: a shard that starts late under
+  // load (CI's sanitizer builds beside) would otherwise see its streams' first frames go to
+  // another holder, or to none.
+  const auto balanced = [&] {
+    const auto holders = bucket_holders(consumer, "kata_leases");
+    for (uint32_t p = 0; p < kPartitions; ++p)
+      if (holders[p] != names[static_cast<size_t>(kn::rendezvous_owner(names, p))]) return false;
+    return true;
+  };
+  ASSERT_TRUE(wait_for(balanced, 20000)) << "the three shards never held their rendezvous partitions";
   const std::string command = std::string(KATA_CLI) + " send --transport nats --nats-server " + cluster.url(1) + send_args;
   const pid_t sender = spawn({"/bin/sh", "-c", command}, dir.file("nats-send.log"));
   Children send_process{{sender}};
@@ -536,23 +564,6 @@ TEST(NatsCluster, ServeShardsMatchOneProcess) {
   }
 }
 
-// The holder of each partition as the lease bucket says now ("" given back or never claimed, "?"
-// the bucket could not be read): the servers' own view, not a shard's.
-std::vector<std::string> bucket_holders(kn::Connection& connection, const std::string& bucket) {
-  std::vector<std::string> out(kPartitions, "?");
-  kvStore* kv = nullptr;
-  if (js_KeyValue(&kv, connection.jetstream(), bucket.c_str()) != NATS_OK) return out;
-  for (uint32_t p = 0; p < kPartitions; ++p) {
-    kvEntry* entry = nullptr;
-    const natsStatus s = kvStore_Get(&entry, kv, ("p." + std::to_string(p)).c_str());
-    if (s == NATS_NOT_FOUND) out[p] = "";
-    if (s != NATS_OK || entry == nullptr) continue;
-    out[p].assign(static_cast<const char*>(kvEntry_Value(entry)), static_cast<size_t>(kvEntry_ValueLen(entry)));
-    kvEntry_Destroy(entry);
-  }
-  kvStore_Destroy(kv);
-  return out;
-}
 
 // kill -9 of one kata serve shard while frames flow (issue 38's failover test with scoring): three
 // shards score 24 streams at 60 Hz fed by kata send over NATS; once every stream's results flow
