@@ -267,17 +267,18 @@ double capture_time(const Options& o, const Clip& clip, uint64_t sequence) {
   return static_cast<double>(sequence) * clip.frame_time;
 }
 
-// Plays the frames through `send` (one message's bytes) with the definitions re-sent on time:
-// the pacing both transports share. Returns the frames sent.
-template <typename Send>
-uint64_t play(const Options& o, const Clip& clip, int frames, Writer& w, bool practice, Send send) {
+// Plays the frames through send(message, is_frame) with the definitions re-sent on time: the
+// pacing both transports share. tick() runs once per frame time, before that time's frames.
+// Returns the frames sent.
+template <typename Send, typename Tick>
+uint64_t play(const Options& o, const Clip& clip, int frames, Writer& w, bool practice, Send send, Tick tick) {
   auto send_definitions = [&] {
     for (int k = 0; k < o.streams; ++k) {
       w.definition.stream_id = o.stream_id + static_cast<uint64_t>(k);
-      send(w.skeleton());
+      send(w.skeleton(), false);
       if (practice && !w.definition.closed) {
         w.practice.stream_id = w.definition.stream_id;
-        send(w.practice_setting());
+        send(w.practice_setting(), false);
       }
     }
   };
@@ -306,10 +307,11 @@ uint64_t play(const Options& o, const Clip& clip, int frames, Writer& w, bool pr
       }
       w.frame.sequence = sequence;
       w.frame.capture_time = capture_time(o, clip, sequence);
+      tick();
       for (int k = 0; k < o.streams; ++k) {
         w.frame.stream_id = o.stream_id + static_cast<uint64_t>(k);
         w.frame.positions = clip.frame((f + k) % clip.available);
-        send(w.frame_message());
+        send(w.frame_message(), true);
         ++sent;
       }
     }
@@ -333,10 +335,13 @@ void run_send_nats(const Options& o, const Clip& clip, int frames, Writer& w, bo
   std::string subject = o.nats_prefix + ".in.";
   const size_t head = subject.size();
   uint64_t refused = 0;
-  const uint64_t sent = play(o, clip, frames, w, practice, [&](Message m) {
-    subject.replace(head, std::string::npos, reinterpret_cast<const char*>(m.data), kTopicBytes);
-    if (!connection.publish(subject, m.data, m.size)) ++refused;
-  });
+  const uint64_t sent = play(
+      o, clip, frames, w, practice,
+      [&](Message m, bool) {
+        subject.replace(head, std::string::npos, reinterpret_cast<const char*>(m.data), kTopicBytes);
+        if (!connection.publish(subject, m.data, m.size)) ++refused;
+      },
+      [] {});
   const bool flushed = connection.flush(5000);
   std::fprintf(stderr, "kata send: %llu frames (%d stream(s) from %llu) published on NATS at %s%s%s\n",
                static_cast<unsigned long long>(sent), o.streams, static_cast<unsigned long long>(o.stream_id),
@@ -447,55 +452,17 @@ void run_send(const Options& o) {
       fail("the peer took nothing more for 5 s (" + std::string(zmq_strerror(zmq_errno())) + ") after " +
            std::to_string(taken) + " frame(s); " + watch->why_nobody(o, bind));
   };
-  auto send_definitions = [&] {
-    for (int k = 0; k < o.streams; ++k) {
-      w.definition.stream_id = o.stream_id + static_cast<uint64_t>(k);
-      send(w.skeleton());
-      if (practice && !w.definition.closed) {
-        w.practice.stream_id = w.definition.stream_id;
-        send(w.practice_setting());
-      }
-    }
-  };
-  const auto interval = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-      std::chrono::duration<double>(o.definition_interval));
-  send_definitions();
-  if (o.warmup > 0) {
-    const auto warm_end = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                                  std::chrono::duration<double>(o.warmup));
-    while (std::chrono::steady_clock::now() < warm_end) {
-      std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(interval, warm_end - std::chrono::steady_clock::now()));
-      send_definitions();
-    }
-  }
-  const auto start = std::chrono::steady_clock::now();
-  auto next_definition = start + interval;
-  const double period = clip.frame_time / o.speed;
-  uint64_t sequence = 0;
-  for (int loop = 0; loop < o.loops; ++loop)
-    for (int f = 0; f < frames; ++f, ++sequence) {
-      const auto due = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                   std::chrono::duration<double>(period * static_cast<double>(sequence)));
-      std::this_thread::sleep_until(due);
-      if (std::chrono::steady_clock::now() >= next_definition) {
-        send_definitions();
-        next_definition += interval;
-      }
-      w.frame.sequence = sequence;
-      w.frame.capture_time = capture_time(o, clip, sequence);
-      watch->poll();
-      const bool someone = watch->ready();  // pub: a frame sent with no subscriber is dropped by ZeroMQ
-      for (int k = 0; k < o.streams; ++k) {
-        w.frame.stream_id = o.stream_id + static_cast<uint64_t>(k);
-        w.frame.positions = clip.frame((f + k) % available);
-        send(w.frame_message());
-        ++(pub && !someone ? not_taken : taken);
-      }
-    }
-  if (o.close) {
-    w.definition.closed = 1;
-    send_definitions();
-  }
+  bool someone = false;  // pub: a frame sent with no subscriber is dropped by ZeroMQ
+  play(
+      o, clip, frames, w, practice,
+      [&](Message m, bool frame) {
+        send(m);
+        if (frame) ++(pub && !someone ? not_taken : taken);
+      },
+      [&] {
+        watch->poll();
+        someone = watch->ready();
+      });
   const int connections = watch->connections();
   watch.reset();
   zmq_close(socket);
