@@ -116,7 +116,6 @@ struct Message {
   const uint8_t* data = nullptr;
   size_t size = 0;
 };
-constexpr size_t kTopicBytes = 16;  // the stream id as 16 lowercase hex digits (kata/runtime.h)
 
 // The sender's messages, written by libkata's public writers into one buffer that grows to the
 // largest message. The definition, practice setting and frame fields are set by the caller.
@@ -332,6 +331,7 @@ void run_send_nats(const Options& o, const Clip& clip, int frames, Writer& w, bo
   co.credentials_file = o.nats_creds;
   co.name = "kata-send";
   kn::Connection connection(co);
+  constexpr size_t kTopicBytes = 16;  // a message's first bytes: the stream id as 16 hex digits (kata/runtime.h)
   std::string subject = o.nats_prefix + ".in.";
   const size_t head = subject.size();
   uint64_t refused = 0;
