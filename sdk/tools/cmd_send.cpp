@@ -13,6 +13,9 @@
 // stream's on its own subject `<prefix>.in.<stream id as 16 hex digits>`, which the servers'
 // mapping puts in the stream's partition; --nats-server (repeatable) and --nats-creds say where and
 // as whom.
+// A client of the public C ABI (kata.h) for what any third-party sender needs: the clip is read
+// with kata_clip_* and every message is written by kata_message_write_* (kata/runtime.h). The
+// sockets (ZeroMQ, CURVE, NATS) are this tool's own transport, not libkata's.
 #include <zmq.h>
 
 #include <atomic>
@@ -25,13 +28,10 @@
 #include <vector>
 
 #include "command.hpp"
-#include "common/error.hpp"
+#include "common/error.hpp"  // kata::Error: how a CLI command reports a failure (command.hpp)
 #include "data_files.hpp"
-#include "io/bvh.hpp"
-#include "io/clip_features.hpp"
-#include "transport/curve.hpp"
-#include "transport/wire.hpp"
-#include "transport/zmq_io.hpp"
+#include "kata/kata.h"
+#include "transport/curve.hpp"  // CURVE key files as kata keygen writes them and kata serve reads them
 #ifdef KATA_HAVE_NATS
 #include "transport/nats/connection.hpp"
 #include "transport/nats/partition.hpp"
@@ -63,6 +63,109 @@ struct Options {
   std::string nats_creds, nats_prefix = "kata";
 };
 
+// A clip as the sender plays it, read through the C ABI: its frames from --first-frame on as
+// positions (joints x 3 floats each, file units), and the skeleton its definition announces.
+class Clip {
+ public:
+  Clip(const std::string& path, int first_frame) {
+    kata_context context = nullptr;
+    kata_clip clip = nullptr;
+    kata_skeleton skeleton = nullptr;
+    if (kata_context_create(&context) != KATA_OK) throw Error(ErrorKind::kIo, "send: cannot create a kata context");
+    context_.reset(context);
+    if (kata_clip_load_bvh(context, path.c_str(), &clip) != KATA_OK) fail(ErrorKind::kIo);
+    clip_.reset(clip);
+    if (kata_clip_skeleton(clip, &skeleton) != KATA_OK) fail(ErrorKind::kIo);
+    skeleton_.reset(skeleton);
+    frame_time = kata_clip_frame_time(clip);
+    joints = kata_skeleton_joint_count(skeleton);
+    const int count = static_cast<int>(kata_clip_frame_count(clip));
+    if (first_frame < 0 || first_frame > count)
+      throw Error(ErrorKind::kInvalidArgument, path + ": first frame " + std::to_string(first_frame) +
+                                                   " out of range (the clip has " + std::to_string(count) +
+                                                   " frames; --first-frame takes 0.." + std::to_string(count) + ")");
+    available = count - first_frame;
+    const size_t stride = 3 * static_cast<size_t>(joints);
+    positions.resize(static_cast<size_t>(available) * stride);
+    for (int f = 0; f < available; ++f)
+      if (kata_clip_positions(clip, static_cast<uint32_t>(first_frame + f), positions.data() + static_cast<size_t>(f) * stride,
+                              stride) != KATA_OK)
+        fail(ErrorKind::kInvalidArgument);
+  }
+
+  kata_context context() const { return context_.get(); }
+  kata_skeleton skeleton() const { return skeleton_.get(); }
+  // Frame f (0 = --first-frame) of the clip.
+  const float* frame(int f) const { return positions.data() + static_cast<size_t>(f) * 3 * joints; }
+
+  double frame_time = 0.0;  // seconds between frames
+  uint32_t joints = 0;
+  int available = 0;        // frames from --first-frame to the clip's end
+  std::vector<float> positions;
+
+ private:
+  [[noreturn]] void fail(ErrorKind kind) const { throw Error(kind, kata_context_last_error(context_.get())); }
+  // Released in reverse order: the skeleton and clip before their context.
+  std::unique_ptr<kata_context_s, void (*)(kata_context)> context_{nullptr, kata_context_destroy};
+  std::unique_ptr<kata_clip_s, void (*)(kata_clip)> clip_{nullptr, kata_clip_destroy};
+  std::unique_ptr<kata_skeleton_s, void (*)(kata_skeleton)> skeleton_{nullptr, kata_skeleton_destroy};
+};
+
+// One message's bytes (16-byte topic + FlatBuffer); valid until the writer's next call.
+struct Message {
+  const uint8_t* data = nullptr;
+  size_t size = 0;
+};
+
+// The sender's messages, written by libkata's public writers into one buffer that grows to the
+// largest message. The definition, practice setting and frame fields are set by the caller.
+class Writer {
+ public:
+  explicit Writer(const Clip& clip) : context_(clip.context()), buffer_(4096) {
+    kata_skeleton_message_init(&definition);
+    kata_practice_message_init(&practice);
+    kata_frame_message_init(&frame);
+    definition.skeleton = clip.skeleton();
+    frame.joint_count = clip.joints;
+  }
+  Message skeleton() { return write(kata_message_write_skeleton, definition); }
+  Message practice_setting() { return write(kata_message_write_practice, practice); }
+  Message frame_message() { return write(kata_message_write_frame, frame); }
+  // Why the last write was refused.
+  const char* last_error() const { return kata_context_last_error(context_); }
+
+  kata_skeleton_message definition;
+  kata_practice_message practice;
+  kata_frame_message frame;
+
+ private:
+  template <typename M>
+  Message write(kata_status (*writer)(const M*, void*, size_t, size_t*), const M& message) {
+    size_t size = 0;
+    kata_status status = writer(&message, buffer_.data(), buffer_.size(), &size);
+    if (status == KATA_E_BUFFER_TOO_SMALL) {
+      buffer_.resize(size);
+      status = writer(&message, buffer_.data(), buffer_.size(), &size);
+    }
+    if (status != KATA_OK) throw Error(ErrorKind::kInvalidArgument, std::string("send: ") + last_error());
+    return Message{buffer_.data(), size};
+  }
+  kata_context context_;
+  std::vector<uint8_t> buffer_;
+};
+
+// One event of a socket monitor (zmq_socket_monitor): two parts, (uint16 event, uint32 value) and
+// the endpoint. False when none is waiting.
+bool read_socket_event(void* monitor, uint16_t* kind, uint32_t* value) {
+  uint8_t event[6];
+  if (zmq_recv(monitor, event, sizeof event, ZMQ_DONTWAIT) < 0) return false;
+  char endpoint[256];
+  zmq_recv(monitor, endpoint, sizeof endpoint, 0);
+  std::memcpy(kind, event, 2);
+  std::memcpy(value, event + 2, 4);
+  return true;
+}
+
 // The sender's peers, from its socket's connection events (and, for pub, from the subscriptions
 // its XPUB socket hands up): whether someone takes the frames now, and if nobody ever did, why.
 class PeerWatch {
@@ -92,7 +195,7 @@ class PeerWatch {
   void poll() {
     uint16_t kind;
     uint32_t value;
-    while (kata::transport::read_socket_event(monitor_, &kind, &value)) {
+    while (read_socket_event(monitor_, &kind, &value)) {
       if (kind == ZMQ_EVENT_CONNECTED || kind == ZMQ_EVENT_ACCEPTED) {
         ++connections_;
         ++handshaking_;
@@ -154,20 +257,27 @@ class PeerWatch {
   bool refused_auth_ = false;
 };
 
-// Plays the frames through `send` (one message's bytes) with the definitions re-sent on time:
-// the pacing both transports share. Returns the frames sent.
-template <typename Send>
-uint64_t play(const Options& o, const kata::BvhClip& clip, const std::vector<float>& positions, int frames, int available,
-              kata::transport::SkeletonDefinition& d, bool practice, kata::transport::PracticeSetting& setting, Send send) {
-  kata::transport::Encoder encoder;
-  const int joints = clip.skeleton.joint_count();
+// The capture time of the frame with this sequence number, seconds: the clip's time, continuing
+// over loops (the source's clock), or this host's steady clock (--live-clock).
+double capture_time(const Options& o, const Clip& clip, uint64_t sequence) {
+  if (o.live_clock)
+    return static_cast<double>(std::chrono::duration_cast<std::chrono::nanoseconds>(
+                                   std::chrono::steady_clock::now().time_since_epoch()).count()) * 1e-9;
+  return static_cast<double>(sequence) * clip.frame_time;
+}
+
+// Plays the frames through send(message, is_frame) with the definitions re-sent on time: the
+// pacing both transports share. tick() runs once per frame time, before that time's frames.
+// Returns the frames sent.
+template <typename Send, typename Tick>
+uint64_t play(const Options& o, const Clip& clip, int frames, Writer& w, bool practice, Send send, Tick tick) {
   auto send_definitions = [&] {
     for (int k = 0; k < o.streams; ++k) {
-      d.stream_id = o.stream_id + static_cast<uint64_t>(k);
-      send(encoder.skeleton(d));
-      if (practice && !d.closed) {
-        setting.stream_id = d.stream_id;
-        send(encoder.practice(setting));
+      w.definition.stream_id = o.stream_id + static_cast<uint64_t>(k);
+      send(w.skeleton(), false);
+      if (practice && !w.definition.closed) {
+        w.practice.stream_id = w.definition.stream_id;
+        send(w.practice_setting(), false);
       }
     }
   };
@@ -194,19 +304,18 @@ uint64_t play(const Options& o, const kata::BvhClip& clip, const std::vector<flo
         send_definitions();
         next_definition += interval;
       }
-      const int64_t capture_ns =
-          o.live_clock ? std::chrono::duration_cast<std::chrono::nanoseconds>(
-                             std::chrono::steady_clock::now().time_since_epoch()).count()
-                       : static_cast<int64_t>(static_cast<double>(sequence) * clip.frame_time * 1e9);
+      w.frame.sequence = sequence;
+      w.frame.capture_time = capture_time(o, clip, sequence);
+      tick();
       for (int k = 0; k < o.streams; ++k) {
-        const int frame = (f + k) % available;
-        send(encoder.frame(o.stream_id + static_cast<uint64_t>(k), sequence, capture_ns,
-                           positions.data() + static_cast<size_t>(frame) * 3 * static_cast<size_t>(joints), joints));
+        w.frame.stream_id = o.stream_id + static_cast<uint64_t>(k);
+        w.frame.positions = clip.frame((f + k) % clip.available);
+        send(w.frame_message(), true);
         ++sent;
       }
     }
   if (o.close) {
-    d.closed = true;
+    w.definition.closed = 1;
     send_definitions();
   }
   return sent;
@@ -214,9 +323,7 @@ uint64_t play(const Options& o, const kata::BvhClip& clip, const std::vector<flo
 
 // --transport nats: every message on its stream's ingest subject (the topic, its first 16 bytes,
 // names the stream). NATS says nothing of who listens: the run ends saying what was published.
-void run_send_nats(const Options& o, const kata::BvhClip& clip, const std::vector<float>& positions, int frames,
-                   int available, kata::transport::SkeletonDefinition& d, bool practice,
-                   kata::transport::PracticeSetting& setting) {
+void run_send_nats(const Options& o, const Clip& clip, int frames, Writer& w, bool practice) {
 #ifdef KATA_HAVE_NATS
   namespace kn = kata::transport::nats;
   kn::ConnectionOptions co;
@@ -224,13 +331,17 @@ void run_send_nats(const Options& o, const kata::BvhClip& clip, const std::vecto
   co.credentials_file = o.nats_creds;
   co.name = "kata-send";
   kn::Connection connection(co);
+  constexpr size_t kTopicBytes = 16;  // a message's first bytes: the stream id as 16 hex digits (kata/runtime.h)
   std::string subject = o.nats_prefix + ".in.";
   const size_t head = subject.size();
   uint64_t refused = 0;
-  const uint64_t sent = play(o, clip, positions, frames, available, d, practice, setting, [&](kata::transport::Bytes m) {
-    subject.replace(head, std::string::npos, reinterpret_cast<const char*>(m.data), kata::transport::kTopicBytes);
-    if (!connection.publish(subject, m.data, m.size)) ++refused;
-  });
+  const uint64_t sent = play(
+      o, clip, frames, w, practice,
+      [&](Message m, bool) {
+        subject.replace(head, std::string::npos, reinterpret_cast<const char*>(m.data), kTopicBytes);
+        if (!connection.publish(subject, m.data, m.size)) ++refused;
+      },
+      [] {});
   const bool flushed = connection.flush(5000);
   std::fprintf(stderr, "kata send: %llu frames (%d stream(s) from %llu) published on NATS at %s%s%s\n",
                static_cast<unsigned long long>(sent), o.streams, static_cast<unsigned long long>(o.stream_id),
@@ -238,16 +349,14 @@ void run_send_nats(const Options& o, const kata::BvhClip& clip, const std::vecto
                flushed ? "" : "; the server did not confirm the last of them");
   if (sent == 0 || refused == sent) throw kata::Error(kata::ErrorKind::kIo, "send: nothing was published on NATS");
 #else
-  (void)o, (void)clip, (void)positions, (void)frames, (void)available, (void)d, (void)practice, (void)setting;
+  (void)o, (void)clip, (void)frames, (void)w, (void)practice;
   throw kata::Error(kata::ErrorKind::kInvalidArgument, "send: this kata was built without NATS (libnats-dev)");
 #endif
 }
 
 void run_send(const Options& o) {
-  const kata::BvhClip clip = kata::load_bvh(o.bvh);
-  const auto positions = kata::clip_positions(clip, o.first_frame);
-  const int joints = clip.skeleton.joint_count();
-  const int available = clip.frame_count() - o.first_frame;
+  const Clip clip(o.bvh, o.first_frame);
+  const int available = clip.available;
   const int frames = o.frames > 0 ? std::min(o.frames, available) : available;
   if (frames < 1 || !(o.speed > 0) || o.loops < 1)
     throw Error(ErrorKind::kInvalidArgument, "send: no frames to send (--first-frame, --frames, --speed > 0, --loops >= 1)");
@@ -264,28 +373,32 @@ void run_send(const Options& o) {
                  "max_frame_age_ms = 250) drops every frame after %.2f s; --live-clock stamps this host's time "
                  "(the motion slowed down), or set max_frame_age_ms = 0 in the receiver's [ingest]\n",
                  o.speed, 1.0 - o.speed, 0.25 / (1.0 - o.speed));
-  // The practice setting, checked here as the server's verifier would (the clip's bounds are the server's).
+  Writer w(clip);
+  // The practice setting, checked here as the server's verifier would (the clip's bounds are the
+  // server's): the writer refuses what no clip allows.
   const bool practice = o.teacher_start >= 0.0 || !o.loop.empty();
-  kata::transport::PracticeSetting setting;
-  setting.revision = 1;
-  if (o.teacher_start >= 0.0) setting.teacher_start = o.teacher_start;
+  w.practice.revision = 1;
+  if (o.teacher_start >= 0.0) w.practice.teacher_start = o.teacher_start;
   if (!o.loop.empty()) {
-    setting.loop = true;
-    setting.loop_start = o.loop[0];
-    setting.loop_end = o.loop[1];
+    w.practice.loop = 1;
+    w.practice.loop_start = o.loop[0];
+    w.practice.loop_end = o.loop[1];
   }
   if (practice) {
-    char why[192];
-    if (kata::transport::practice_values_problem(setting, why, sizeof why))
-      throw Error(ErrorKind::kInvalidArgument, std::string("send: --teacher-start / --loop: ") + why);
+    size_t size = 0;
+    if (kata_message_write_practice(&w.practice, nullptr, 0, &size) != KATA_E_BUFFER_TOO_SMALL) {
+      std::string why = w.last_error();
+      const std::string call = "kata_message_write_practice: ";
+      if (why.rfind(call, 0) == 0) why.erase(0, call.size());
+      throw Error(ErrorKind::kInvalidArgument, "send: --teacher-start / --loop: " + why);
+    }
   }
-  kata::transport::SkeletonDefinition d;
-  d.revision = 1;
-  d.skeleton = clip.skeleton;
-  d.layout = o.preset;
-  d.frame_rate = static_cast<float>(1.0 / clip.frame_time);
+  w.definition.revision = 1;
+  w.definition.layout = o.preset.c_str();
+  w.definition.frame_rate = static_cast<float>(1.0 / clip.frame_time);
+  w.skeleton();  // a definition the writer refuses (--layout "") is refused before any socket opens
 
-  if (o.transport == "nats") return run_send_nats(o, clip, positions, frames, available, d, practice, setting);
+  if (o.transport == "nats") return run_send_nats(o, clip, frames, w, practice);
   void* context = zmq_ctx_new();
   // pub is an XPUB socket (a PUB to its peers) so that the subscriptions tell who listens; a PUSH
   // queues only on connections whose handshake is done (ZMQ_IMMEDIATE), so a frame it takes went
@@ -310,7 +423,6 @@ void run_send(const Options& o) {
   const std::string endpoint = bind ? o.endpoint.substr(5) : o.endpoint;
   if ((bind ? zmq_bind(socket, endpoint.c_str()) : zmq_connect(socket, endpoint.c_str())) != 0)
     throw Error(ErrorKind::kIo, "send: cannot use " + o.endpoint + ": " + zmq_strerror(zmq_errno()));
-  kata::transport::Encoder encoder;
   auto fail = [&](const std::string& what) {
     watch.reset();
     zmq_close(socket);
@@ -335,63 +447,22 @@ void run_send(const Options& o) {
   const int send_timeout_ms = 5000;
   zmq_setsockopt(socket, ZMQ_SNDTIMEO, &send_timeout_ms, sizeof send_timeout_ms);
   uint64_t taken = 0, not_taken = 0;  // frames (not definitions) a peer took / sent with nobody there
-  auto send = [&](kata::transport::Bytes m) {
+  auto send = [&](Message m) {
     if (zmq_send(socket, m.data, m.size, 0) < 0)
       fail("the peer took nothing more for 5 s (" + std::string(zmq_strerror(zmq_errno())) + ") after " +
            std::to_string(taken) + " frame(s); " + watch->why_nobody(o, bind));
   };
-  auto send_definitions = [&] {
-    for (int k = 0; k < o.streams; ++k) {
-      d.stream_id = o.stream_id + static_cast<uint64_t>(k);
-      send(encoder.skeleton(d));
-      if (practice && !d.closed) {
-        setting.stream_id = d.stream_id;
-        send(encoder.practice(setting));
-      }
-    }
-  };
-  const auto interval = std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-      std::chrono::duration<double>(o.definition_interval));
-  send_definitions();
-  if (o.warmup > 0) {
-    const auto warm_end = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                                                  std::chrono::duration<double>(o.warmup));
-    while (std::chrono::steady_clock::now() < warm_end) {
-      std::this_thread::sleep_for(std::min<std::chrono::steady_clock::duration>(interval, warm_end - std::chrono::steady_clock::now()));
-      send_definitions();
-    }
-  }
-  const auto start = std::chrono::steady_clock::now();
-  auto next_definition = start + interval;
-  const double period = clip.frame_time / o.speed;
-  uint64_t sequence = 0;
-  for (int loop = 0; loop < o.loops; ++loop)
-    for (int f = 0; f < frames; ++f, ++sequence) {
-      const auto due = start + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                                   std::chrono::duration<double>(period * static_cast<double>(sequence)));
-      std::this_thread::sleep_until(due);
-      if (std::chrono::steady_clock::now() >= next_definition) {
-        send_definitions();
-        next_definition += interval;
-      }
-      // Capture time: the clip's time, continuing over loops (the source's clock), or this host's.
-      const int64_t capture_ns =
-          o.live_clock ? std::chrono::duration_cast<std::chrono::nanoseconds>(
-                             std::chrono::steady_clock::now().time_since_epoch()).count()
-                       : static_cast<int64_t>(static_cast<double>(sequence) * clip.frame_time * 1e9);
-      watch->poll();
-      const bool someone = watch->ready();  // pub: a frame sent with no subscriber is dropped by ZeroMQ
-      for (int k = 0; k < o.streams; ++k) {
-        const int frame = (f + k) % available;
-        send(encoder.frame(o.stream_id + static_cast<uint64_t>(k), sequence, capture_ns,
-                           positions.data() + static_cast<size_t>(frame) * 3 * static_cast<size_t>(joints), joints));
-        ++(pub && !someone ? not_taken : taken);
-      }
-    }
-  if (o.close) {
-    d.closed = true;
-    send_definitions();
-  }
+  bool someone = false;  // pub: a frame sent with no subscriber is dropped by ZeroMQ
+  play(
+      o, clip, frames, w, practice,
+      [&](Message m, bool frame) {
+        send(m);
+        if (frame) ++(pub && !someone ? not_taken : taken);
+      },
+      [&] {
+        watch->poll();
+        someone = watch->ready();
+      });
   const int connections = watch->connections();
   watch.reset();
   zmq_close(socket);

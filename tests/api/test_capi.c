@@ -86,6 +86,40 @@ int main(void) {
   CHECK(kata_clip_positions(clip, frames, positions, 3 * joints) == KATA_E_INVALID_ARGUMENT);
   CHECK(kata_clip_positions(clip, 0, positions, 3) == KATA_E_BUFFER_TOO_SMALL);
 
+  /* A source in C (since 1.1): the clip's skeleton definition and a frame as ingest messages, the
+   * size asked first; the result reader takes them for valid kata messages that are no result. */
+  {
+    static unsigned char message[1 << 16];
+    kata_skeleton_message definition;
+    kata_frame_message frame;
+    kata_skeleton clip_skeleton = NULL;
+    size_t size = 0, needed = 0;
+    kata_result_record record;
+    record.struct_size = sizeof record;
+    CHECK(kata_clip_skeleton(clip, &clip_skeleton) == KATA_OK);
+    kata_skeleton_message_init(&definition);
+    definition.stream_id = 42;
+    definition.skeleton = clip_skeleton;
+    definition.layout = "cmu";
+    CHECK(kata_message_write_skeleton(&definition, NULL, 0, &needed) == KATA_E_BUFFER_TOO_SMALL);
+    CHECK(kata_message_write_skeleton(&definition, message, sizeof message, &size) == KATA_OK);
+    CHECK(size == needed && memcmp(message, "000000000000002a", 16) == 0 && memcmp(message + 20, "KSKL", 4) == 0);
+    CHECK(kata_message_read_result(message, size, &record) == KATA_NO_DATA);
+    kata_frame_message_init(&frame);
+    frame.stream_id = 42;
+    frame.sequence = 1;
+    frame.capture_time = kata_clip_frame_time(clip);
+    frame.positions = positions;
+    frame.joint_count = joints;
+    CHECK(kata_message_write_frame(&frame, message, sizeof message, &size) == KATA_OK);
+    CHECK(memcmp(message + 20, "KFRM", 4) == 0 && size > 12 * joints);
+    CHECK(kata_message_read_result(message, size, &record) == KATA_NO_DATA);
+    positions[4] = (float)NAN;
+    CHECK(kata_message_write_frame(&frame, message, sizeof message, &size) == KATA_E_NON_FINITE && size == 0);
+    CHECK(strstr(kata_context_last_error(ctx), "joint 1") != NULL);
+    kata_skeleton_destroy(clip_skeleton);
+  }
+
   free(positions);
   kata_stream_destroy(stream);
   kata_clip_destroy(clip);

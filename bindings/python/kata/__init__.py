@@ -13,7 +13,8 @@ teacher's pose retargeted onto the student (the "ghost"), from Python over libka
 
 Modules (all re-exported here): errors (Status, KataError, the dropped-results warning),
 objects (Context, Skeleton, Clip, Model, the enums, find_data), stream (Stream, Results),
-retarget (Retargeter), messages (Subscriber, read_message), runtime (Runtime), mediapipe
+retarget (Retargeter), messages (Subscriber, read_message, write_skeleton / write_frame /
+write_practice), runtime (Runtime), mediapipe
 (MediaPipe Pose recordings and live feeds scored against a BVH teacher); _native holds every
 ctypes declaration. The C header kata.h is the manual: units, ownership and thread rules are its.
 
@@ -33,7 +34,8 @@ from .objects import (GPD_DIMS, GPD_JOINTS, BodyPart, Clip, Context, CueAction, 
 from .stream import (DROP_POLICIES, RESULT_DTYPE, ResultBuffer, Results,
                      ScoreRecord, Stream, cue_text, detect_time_units, gpd_joint_name)
 from .retarget import Retargeter
-from .messages import PracticeSection, ResultMessage, Subscriber, read_message
+from .messages import (PracticeSection, ResultMessage, Subscriber, read_message, write_frame, write_practice,
+                       write_skeleton)
 from .runtime import Runtime, shard_of
 
 #: The loaded libkata's version as "MAJOR.MINOR.PATCH" (the package is versioned with it).
@@ -42,7 +44,8 @@ __version__ = "%d.%d.%d" % version
 __all__ = ["Context", "Skeleton", "Clip", "Model", "Stream", "Retargeter", "Runtime", "Subscriber",
            "Results", "ResultBuffer", "ScoreRecord", "ResultMessage", "PracticeSection",
            "KataError", "ResultsDroppedWarning", "ResultsDroppedError", "Status", "Stencil", "UpAxis", "ScoreState",
-           "BodyPart", "CueAction", "cue_text", "gpd_joint_name", "read_message", "shard_of", "detect_time_units", "default_model_path", "find_data", "layouts",
+           "BodyPart", "CueAction", "cue_text", "gpd_joint_name", "read_message", "write_skeleton", "write_frame",
+           "write_practice", "shard_of", "detect_time_units", "default_model_path", "find_data", "layouts",
            "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "DROP_POLICIES"]
 
 # kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the

@@ -166,6 +166,28 @@ class RuntimeCounters(ctypes.Structure):
                                              "ingest_practice_no_clip", "ingest_practice_queue_full")]
 
 
+class SkeletonMessage(ctypes.Structure):
+    """kata_skeleton_message (since 1.1): a stream's skeleton definition for kata_message_write_skeleton."""
+    _fields_ = [("struct_size", ctypes.c_uint32), ("revision", ctypes.c_uint32), ("stream_id", ctypes.c_uint64),
+                ("skeleton", ctypes.c_void_p), ("layout", ctypes.c_char_p), ("name_map", ctypes.POINTER(ctypes.c_char_p)),
+                ("up_axis", ctypes.c_int), ("metres_per_unit", ctypes.c_float), ("frame_rate", ctypes.c_float),
+                ("closed", ctypes.c_int32)]
+
+
+class FrameMessage(ctypes.Structure):
+    """kata_frame_message (since 1.1): one frame for kata_message_write_frame."""
+    _fields_ = [("struct_size", ctypes.c_uint32), ("joint_count", ctypes.c_uint32), ("stream_id", ctypes.c_uint64),
+                ("sequence", ctypes.c_uint64), ("capture_time", ctypes.c_double), ("positions", ctypes.c_void_p),
+                ("confidences", ctypes.c_void_p)]
+
+
+class PracticeMessage(ctypes.Structure):
+    """kata_practice_message (since 1.1): a practice setting for kata_message_write_practice."""
+    _fields_ = [("struct_size", ctypes.c_uint32), ("revision", ctypes.c_uint32), ("stream_id", ctypes.c_uint64),
+                ("teacher_start", ctypes.c_double), ("loop", ctypes.c_int32), ("loop_start", ctypes.c_double),
+                ("loop_end", ctypes.c_double)]
+
+
 # ---- functions -------------------------------------------------------------------------------------
 
 _u32, _i32, _i64, _u64 = ctypes.c_uint32, ctypes.c_int32, ctypes.c_int64, ctypes.c_uint64
@@ -245,6 +267,13 @@ _SIGNATURES = {
     "kata_retargeter_local_rotations": (_st, [_p, _p, _sz, _p, _sz, _p, _p, _sz, ctypes.POINTER(_d)]),
     # messages
     "kata_message_read_result": (_st, [_p, _sz, ctypes.POINTER(ResultRecord)]),
+    # since 1.1: the ingest message writers
+    "kata_skeleton_message_init_sized": (None, [ctypes.POINTER(SkeletonMessage), _u32]),
+    "kata_frame_message_init_sized": (None, [ctypes.POINTER(FrameMessage), _u32]),
+    "kata_practice_message_init_sized": (None, [ctypes.POINTER(PracticeMessage), _u32]),
+    "kata_message_write_skeleton": (_st, [ctypes.POINTER(SkeletonMessage), _p, _sz, ctypes.POINTER(_sz)]),
+    "kata_message_write_frame": (_st, [ctypes.POINTER(FrameMessage), _p, _sz, ctypes.POINTER(_sz)]),
+    "kata_message_write_practice": (_st, [ctypes.POINTER(PracticeMessage), _p, _sz, ctypes.POINTER(_sz)]),
     "kata_shard_of": (_u32, [_u64, _u32]),
     # the runtime
     "kata_runtime_desc_init_sized": (None, [ctypes.POINTER(RuntimeDesc), _u32]),

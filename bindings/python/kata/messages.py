@@ -1,15 +1,18 @@
 """Messages: a subscriber of a runtime's (or `kata serve`'s) results, decoded by the C library's
-verifier (kata_message_read_result)."""
+verifier (kata_message_read_result); and the messages a source sends to a runtime's ingest, written
+by the C library's writers (kata_message_write_*, since 1.1)."""
 import ctypes
 import time
-from typing import Any, NamedTuple, Optional
+from typing import Any, Callable, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
 from . import _native as _n
+from ._util import _address, _positions_f32, _typed, _utf8
 from .errors import KataError, Status
 
-__all__ = ["Subscriber", "ResultMessage", "PracticeSection", "read_message"]
+__all__ = ["Subscriber", "ResultMessage", "PracticeSection", "read_message", "write_skeleton", "write_frame",
+           "write_practice"]
 
 
 class PracticeSection(NamedTuple):
@@ -153,3 +156,79 @@ class Subscriber:
 
     def __exit__(self, *exc: Any) -> None:
         self.close()
+
+
+# ---- writing ingest messages (kata/runtime.h "Writing ingest messages") --------------------------
+
+def _write(write: Callable[..., int], message: Any, call: str) -> bytes:
+    """One writer call: the size, then the bytes (16-byte topic + FlatBuffer)."""
+    size = ctypes.c_size_t(0)
+    status = write(ctypes.byref(message), None, 0, ctypes.byref(size))
+    if status == Status.E_BUFFER_TOO_SMALL:
+        buffer = ctypes.create_string_buffer(size.value)
+        status = write(ctypes.byref(message), buffer, size.value, ctypes.byref(size))
+        if status == Status.OK:
+            return buffer.raw[:size.value]
+    raise KataError(status, (_n.context_last_error(None) or b"").decode(), call)
+
+
+@_typed
+def write_skeleton(stream_id: int, skeleton: Any, layout: Optional[str] = None,
+                   name_map: Optional[Sequence[str]] = None, revision: int = 1, up_axis: int = 0,
+                   metres_per_unit: float = 0.0, frame_rate: float = 0.0, closed: bool = False) -> bytes:
+    """kata_message_write_skeleton: a stream's skeleton definition message (send it first and again
+    every second or so). skeleton: a Skeleton; layout: a built-in layout's name, or name_map: the
+    16 joint names read as the GPD joints (one of the two); up_axis: UpAxis.Y or UpAxis.Z;
+    metres_per_unit, frame_rate: 0 unknown; closed: the source ends the stream. KataError on a
+    refusal. [any thread]"""
+    m = _n.SkeletonMessage()
+    _n.skeleton_message_init_sized(ctypes.byref(m), ctypes.sizeof(m))
+    m.stream_id, m.revision, m.skeleton = stream_id, revision, skeleton.handle
+    m.layout = _utf8(layout)
+    names = None
+    if name_map is not None:
+        names = (ctypes.c_char_p * len(name_map))(*[_utf8(n) for n in name_map])
+        if len(name_map) != 16:
+            raise ValueError("name_map holds the 16 GPD joints' names, not %d" % len(name_map))
+        m.name_map = ctypes.cast(names, ctypes.POINTER(ctypes.c_char_p))
+    m.up_axis, m.metres_per_unit, m.frame_rate, m.closed = int(up_axis), metres_per_unit, frame_rate, int(bool(closed))
+    return _write(_n.message_write_skeleton, m, "kata_message_write_skeleton")
+
+
+@_typed
+def write_frame(stream_id: int, sequence: int, capture_time: float, positions: Any,
+                confidences: Any = None) -> bytes:
+    """kata_message_write_frame: one frame message. positions: (joints, 3) floats in the skeleton
+    definition's joint order and units, all finite; confidences: joints floats in [0, 1] (NaN:
+    missing), or None; capture_time: seconds on the source's clock. KataError on a refusal
+    (E_NON_FINITE for a NaN or infinite coordinate). [any thread]"""
+    p = _positions_f32(positions)
+    if p.size % 3:
+        raise ValueError("positions hold joints x 3 floats, not %d floats" % p.size)
+    m = _n.FrameMessage()
+    _n.frame_message_init_sized(ctypes.byref(m), ctypes.sizeof(m))
+    m.stream_id, m.sequence, m.capture_time = stream_id, sequence, capture_time
+    m.joint_count = p.size // 3
+    m.positions = _address(p) if p.size else None
+    c = None
+    if confidences is not None:
+        c = np.ascontiguousarray(confidences, dtype=np.float32)
+        if c.size != m.joint_count:
+            raise ValueError("confidences hold one float per joint (%d), not %d" % (m.joint_count, c.size))
+        m.confidences = _address(c)
+    return _write(_n.message_write_frame, m, "kata_message_write_frame")
+
+
+@_typed
+def write_practice(stream_id: int, revision: int = 1, teacher_start: float = 0.0,
+                   loop: Optional[Tuple[float, float]] = None) -> bytes:
+    """kata_message_write_practice: a stream's practice setting message (Runtime.set_practice, sent
+    by the stream's source): the lesson from teacher_start seconds, or loop = (start, end) seconds
+    looped; revision: 1 and up, a new one per change. KataError (E_INVALID_ARGUMENT) for what no
+    clip allows. [any thread]"""
+    m = _n.PracticeMessage()
+    _n.practice_message_init_sized(ctypes.byref(m), ctypes.sizeof(m))
+    m.stream_id, m.revision, m.teacher_start = stream_id, revision, teacher_start
+    if loop is not None:
+        m.loop, m.loop_start, m.loop_end = 1, loop[0], loop[1]
+    return _write(_n.message_write_practice, m, "kata_message_write_practice")

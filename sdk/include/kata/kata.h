@@ -9,7 +9,7 @@
  *   kata/teacher.h   tasks 2 and 3, attach a teacher and read results: models, scores, the cue
  *   kata/result.h    the one result record every reader fills
  *   kata/retarget.h  task 4, retarget: a teacher's posture on a student's body
- *   kata/runtime.h   tasks 5 and 6, run many streams (ZeroMQ in and out) and read messages
+ *   kata/runtime.h   tasks 5 to 7, run many streams (ZeroMQ in and out), read and write messages
  *   kata/kata_plugin.h (not included here) the plugin ABI of a runtime's sinks
  *
  * Conventions (they hold for every function below unless it says otherwise):
@@ -49,6 +49,6 @@
 #include "stream.h"   /* kata_skeleton, kata_clip, kata_stream */
 #include "retarget.h" /* kata_retarget_desc, kata_retargeter */
 #include "teacher.h"  /* kata_model, kata_teacher_desc, reading results */
-#include "runtime.h"  /* kata_runtime, kata_message_read_result */
+#include "runtime.h"  /* kata_runtime, kata_message_read_result, kata_message_write_* */
 
 #endif /* KATA_KATA_H */

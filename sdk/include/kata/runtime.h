@@ -1,5 +1,6 @@
-/* kata/runtime.h: tasks 5 and 6, run many streams and read messages: a runtime with its workers
- * and ZeroMQ in and out, shards, and reading a published result in C.
+/* kata/runtime.h: tasks 5 to 7, run many streams, read and write messages: a runtime with its
+ * workers and ZeroMQ in and out, shards, reading a published result in C and writing the messages
+ * a source sends to a runtime's ingest.
  *
  * Part of the C ABI; include "kata/kata.h" (all of it) or this header alone: it includes what it
  * needs. kata.h states the conventions every function here follows. */
@@ -205,6 +206,126 @@ KATA_API uint32_t kata_shard_of(uint64_t stream_id, uint32_t shard_count);
  * socket); KATA_E_PARSE: refused (truncated, corrupt, unknown). Allocates once per thread
  * (a scratch buffer for misaligned messages). [any thread] */
 KATA_API kata_status kata_message_read_result(const void* message, size_t size, kata_result_record* out);
+
+/* ##############################################################################################
+ * Task 7 - write messages: a source of frames for a runtime's ingest, in C (kata send is one)
+ *
+ * kata_skeleton_message d;  kata_skeleton_message_init(&d);
+ * d.stream_id = 42;  d.skeleton = skel;  d.layout = "cmu";
+ * kata_message_write_skeleton(&d, buffer, sizeof buffer, &n);  zmq_send(push, buffer, n, 0);
+ * kata_frame_message f;  kata_frame_message_init(&f);
+ * f.stream_id = 42;  f.sequence = i;  f.capture_time = t;  f.positions = xyz;  f.joint_count = joints;
+ * kata_message_write_frame(&f, buffer, sizeof buffer, &n);  zmq_send(push, buffer, n, 0);
+ * ############################################################################################ */
+
+/* ---- Writing ingest messages (for sources in C: a mocap stage, a game engine; since 1.1) ----
+ * Each writer encodes one message of a runtime's ingest (docs/runtime.md) with the codec the
+ * runtime reads: the 16-byte topic (the stream id as 16 lowercase hex digits) followed by the
+ * FlatBuffer (schemas/skeleton.fbs, frame.fbs, practice.fbs); send it as one ZeroMQ message (or one
+ * NATS message on the stream's ingest subject). A source sends a stream's skeleton message first
+ * and again every second or so (a receiver that starts later learns it then), then its frames.
+ * Buffers: each writer fills the caller's buffer of `capacity` bytes and sets *size: KATA_OK with
+ * *size = the bytes written; KATA_E_BUFFER_TOO_SMALL with *size = the bytes the message needs and
+ * nothing written (buffer NULL with capacity 0 asks the size). A refused message writes nothing,
+ * sets *size to 0 and says why in kata_context_last_error (these calls take no context: any
+ * context of the calling thread shows it). KATA_E_NULL_POINTER: the message or size is NULL, or
+ * buffer is NULL with a capacity. The message structs start with struct_size (see Versions; their
+ * first size is 1.1's): fill them with their _init macro, then set the fields.
+ * Memory: each thread keeps one encoder, grown to the largest message it wrote; a writer allocates
+ * only when a message is larger than any before on its thread. [any thread] */
+
+/* A stream's skeleton definition (schemas/skeleton.fbs). Fill with kata_skeleton_message_init. */
+typedef struct kata_skeleton_message {
+  uint32_t struct_size;          /* sizeof(kata_skeleton_message) */
+  uint32_t revision;             /* +1 on every change of the definition (the receiver restarts the
+                                    stream with it); a re-send keeps it. Default 1 */
+  uint64_t stream_id;            /* the stream (chosen by the source, unique per session) */
+  kata_skeleton skeleton;        /* joint names and parents, and rest offsets when it has them (sent
+                                    as floats); read during the call only. At most 32767 joints */
+  /* A built-in layout's name ("cmu", ...: kata_layout_name; not checked here, the receiver judges
+   * it), or NULL and name_map. One of the two is required. */
+  const char* layout;
+  /* KATA_GPD_JOINTS joint names of the skeleton read as the 16 GPD joints (spec GPD v1 order,
+   * kata/stream.h "Layouts"), or NULL and layout. */
+  const char* const* name_map;
+  kata_up_axis up_axis;          /* KATA_UP_Y (default) or KATA_UP_Z: the message carries no other */
+  float metres_per_unit;         /* units of positions and offsets: 1 metres, 0.01 centimetres; 0
+                                    (default) unknown */
+  float frame_rate;              /* the source's nominal rate in Hz (informational); 0 (default) unknown */
+  int32_t closed;                /* 1: the source ends the stream (the receiver closes it and
+                                    forgets its owner); 0 (default) */
+} kata_skeleton_message;
+
+/* One frame of a stream (schemas/frame.fbs, its checksum filled in). Fill with kata_frame_message_init. */
+typedef struct kata_frame_message {
+  uint32_t struct_size;          /* sizeof(kata_frame_message) */
+  uint32_t joint_count;          /* joints in positions: the skeleton message's (1..1048576) */
+  uint64_t stream_id;            /* the stream of an earlier skeleton message */
+  uint64_t sequence;             /* +1 per frame from 0; a return to 0 says the source restarted */
+  double capture_time;           /* seconds on the source's clock, increasing, within +-9.2e9;
+                                    carried as whole nanoseconds (rounded), as a result's */
+  /* joint_count x 3 floats, x, y, z interleaved, in the skeleton message's joint order and units;
+   * every one finite (a joint the source lost goes with confidence 0 at any finite place). */
+  const float* positions;
+  /* joint_count confidences in [0, 1] (MediaPipe's visibility; NaN: the joint is missing, as in
+   * kata_stream_push_confidence), or NULL (default): every joint confident. */
+  const float* confidences;
+} kata_frame_message;
+
+/* A stream's practice setting (schemas/practice.fbs): what kata_runtime_set_practice does, sent
+ * by the stream's own source. Neither a start nor a loop: the whole teacher clip. Fill with
+ * kata_practice_message_init. */
+typedef struct kata_practice_message {
+  uint32_t struct_size;          /* sizeof(kata_practice_message) */
+  uint32_t revision;             /* echoed by every result under it (practice_revision): 1 and up, a
+                                    new one per change; a re-send of the one in force changes
+                                    nothing. Default 1 */
+  uint64_t stream_id;            /* the stream */
+  double teacher_start;          /* the lesson starts at this teacher time, seconds from the
+                                    teacher's first frame (as matched_teacher_time). Default 0 */
+  int32_t loop;                  /* 1: loop the section loop_start..loop_end (teacher_start then 0).
+                                    Default 0 */
+  double loop_start;             /* the section's first teacher time, seconds (with loop) */
+  double loop_end;               /* the section's last teacher time, seconds, after loop_start (with loop) */
+} kata_practice_message;
+
+/* Fills the first struct_size bytes of message with the defaults above and sets
+ * message->struct_size to the smaller of struct_size and sizeof(kata_skeleton_message), as
+ * kata_runtime_desc_init_sized does. [any thread] */
+KATA_API void kata_skeleton_message_init_sized(kata_skeleton_message* message, uint32_t struct_size);
+/* Fills *message with the defaults for the caller's own struct. */
+#define kata_skeleton_message_init(message) kata_skeleton_message_init_sized((message), (uint32_t)sizeof *(message))
+/* As kata_skeleton_message_init_sized, for a frame message. [any thread] */
+KATA_API void kata_frame_message_init_sized(kata_frame_message* message, uint32_t struct_size);
+/* Fills *message with the defaults for the caller's own struct. */
+#define kata_frame_message_init(message) kata_frame_message_init_sized((message), (uint32_t)sizeof *(message))
+/* As kata_skeleton_message_init_sized, for a practice message. [any thread] */
+KATA_API void kata_practice_message_init_sized(kata_practice_message* message, uint32_t struct_size);
+/* Fills *message with the defaults for the caller's own struct. */
+#define kata_practice_message_init(message) kata_practice_message_init_sized((message), (uint32_t)sizeof *(message))
+
+/* Writes a skeleton definition message (buffers: see above). KATA_E_NULL_POINTER also for no
+ * skeleton; KATA_E_INVALID_ARGUMENT for a struct_size below the struct's first, a layout and a
+ * name map both or neither, a name map entry NULL or empty, an up
+ * axis other than KATA_UP_Y / KATA_UP_Z, a negative metres_per_unit or frame_rate, closed other
+ * than 0 or 1, more than 32767 joints; KATA_E_NON_FINITE for a NaN or infinite metres_per_unit,
+ * frame_rate or rest offset. [any thread] */
+KATA_API kata_status kata_message_write_skeleton(const kata_skeleton_message* message, void* buffer, size_t capacity,
+                                                 size_t* size);
+/* Writes a frame message (buffers: see above). KATA_E_NULL_POINTER also for no positions;
+ * KATA_E_INVALID_ARGUMENT for a struct_size below the struct's first; KATA_E_WRONG_JOINT_COUNT
+ * for joint_count 0 or above 1048576; KATA_E_NON_FINITE for a NaN or infinite coordinate or
+ * capture_time, or an infinite confidence (the message names the joint); KATA_E_INVALID_ARGUMENT
+ * also for a capture_time beyond +-9.2e9 s. Does not allocate once
+ * its thread has written a message as large. [any thread] */
+KATA_API kata_status kata_message_write_frame(const kata_frame_message* message, void* buffer, size_t capacity,
+                                              size_t* size);
+/* Writes a practice message (buffers: see above). KATA_E_INVALID_ARGUMENT for a struct_size below
+ * the struct's first, loop other than 0 or 1, and what a runtime refuses whatever its clip: a time
+ * not finite or negative, loop_end not after loop_start, a teacher_start with a loop (the runtime
+ * judges the times against the stream's teacher clip). [any thread] */
+KATA_API kata_status kata_message_write_practice(const kata_practice_message* message, void* buffer, size_t capacity,
+                                                 size_t* size);
 
 #ifdef __cplusplus
 }

@@ -59,6 +59,10 @@ inline constexpr uint32_t kRuntimeDesc10 = KATA_CAPI_END_OF(kata_runtime_desc, i
 inline constexpr uint32_t kScoreCalibration10 = KATA_CAPI_END_OF(kata_score_calibration, good_score);
 inline constexpr uint32_t kRuntimeCounters10 = KATA_CAPI_END_OF(kata_runtime_counters, ingest_practice_queue_full);
 inline constexpr uint32_t kRetargetInfo10 = KATA_CAPI_END_OF(kata_retarget_info, max_bone_error);
+// The structs 1.1 added, as 1.1 released them (the same rule from their first release on).
+inline constexpr uint32_t kSkeletonMessage11 = KATA_CAPI_END_OF(kata_skeleton_message, closed);
+inline constexpr uint32_t kFrameMessage11 = KATA_CAPI_END_OF(kata_frame_message, confidences);
+inline constexpr uint32_t kPracticeMessage11 = KATA_CAPI_END_OF(kata_practice_message, loop_end);
 
 // Context errors are kept per context and per thread (kata.h: "the last failed call made on this
 // context from the calling thread"). A call made on a context, or on an object that knows its
