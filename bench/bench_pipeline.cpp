@@ -24,6 +24,7 @@
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <malloc.h>
 #include <thread>
 #include <memory>
 #include <string>
@@ -311,6 +312,47 @@ BENCHMARK(BM_PipelinePushPacedLesson)
     ->UseManualTime()
     ->Iterations(240)
     ->Unit(benchmark::kMicrosecond);
+
+// A burst over K streams, as the live runtime's worker sees it (issue 39): K pipelines of the same
+// teacher, each fed its own place in the student clip, pushed one frame each in turn, hot (no
+// sleep). Against K = 1 this is what a stream's own state costs when K-1 other streams ran since
+// its last frame: the per-stream working set (stream history, aligner, scorer, ghost, result ring)
+// that no longer fits the caches. Counters: us_per_frame (thread CPU), heap_kb_per_stream (what one
+// pipeline holds on the heap once warmed up, from mallinfo2: the most a frame could touch).
+void BM_PipelinePushStreams(benchmark::State& state) {
+  const Setup& s = Setup::get(false);
+  const int k = static_cast<int>(state.range(0));
+  const size_t heap_before = mallinfo2().uordblks;
+  std::vector<std::unique_ptr<kata::pipeline::Pipeline>> streams;
+  std::vector<kata::pipeline::Result> out(256);
+  for (int j = 0; j < k; ++j) {
+    streams.push_back(std::make_unique<kata::pipeline::Pipeline>(s.config));
+    streams.back()->set_teacher(s.teacher, teacher_options(false));
+  }
+  const int stride = std::max(1, s.frame_count / k);
+  int64_t i = 0;
+  for (; i < 120; ++i)
+    for (int j = 0; j < k; ++j) {
+      streams[static_cast<size_t>(j)]->push(static_cast<double>(i) * s.frame_time, s.frame(static_cast<int>(i) + j * stride), s.joints);
+      if (streams[static_cast<size_t>(j)]->pending() >= 128) streams[static_cast<size_t>(j)]->read(out.data(), nullptr, nullptr, out.size());
+    }
+  const double heap_per_stream = static_cast<double>(mallinfo2().uordblks - heap_before) / k;
+  const double t0 = thread_cpu_seconds();
+  int64_t frames = 0;
+  for (auto _ : state) {
+    for (int j = 0; j < k; ++j) {
+      kata::pipeline::Pipeline& p = *streams[static_cast<size_t>(j)];
+      p.push(static_cast<double>(i) * s.frame_time, s.frame(static_cast<int>(i) + j * stride), s.joints);
+      if (p.pending() >= 128) p.read(out.data(), nullptr, nullptr, out.size());
+    }
+    frames += k;
+    ++i;
+  }
+  state.counters["us_per_frame"] = 1e6 * (thread_cpu_seconds() - t0) / static_cast<double>(std::max<int64_t>(frames, 1));
+  state.counters["heap_kb_per_stream"] = heap_per_stream / 1024.0;
+  state.SetItemsProcessed(frames);
+}
+BENCHMARK(BM_PipelinePushStreams)->ArgName("streams")->Arg(1)->Arg(4)->Arg(16)->Arg(64)->Arg(256)->Unit(benchmark::kMillisecond);
 
 void BM_PipelineVsStages(benchmark::State& state) {
   const Setup& s = Setup::get();
