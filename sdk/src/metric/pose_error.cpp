@@ -115,6 +115,33 @@ void part_error(const float* s, const float* t, PartError& out) {
 
 bool bone_direction(const float* pose, int c, double* d) { return bone(pose, c, d); }
 
+void bone_directions(const float* pose, float* dirs) {
+  for (int c = 1; c < gpd::kJoints; ++c) {
+    double d[3];
+    bone(pose, c, d);  // zeroed when degenerate
+    for (int k = 0; k < 3; ++k) dirs[3 * (c - 1) + k] = static_cast<float>(d[k]);
+  }
+}
+
+double trimmed_pose_distance(const float* s, const float* t, double* rest) {
+  double part[kParts] = {};
+  for (int c = 1; c < gpd::kJoints; ++c) {
+    const float* a = s + 3 * (c - 1);
+    double b[3];
+    if ((a[0] == 0.0f && a[1] == 0.0f && a[2] == 0.0f) || !bone(t, c, b)) continue;
+    const double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
+    part[joint_part(c)] += dx * dx + dy * dy + dz * dz;
+  }
+  double sum = 0.0, worst = 0.0;
+  for (double v : part) {
+    sum += v;
+    worst = std::max(worst, v);
+  }
+  const double others = sum - worst;
+  if (rest) *rest = others;
+  return others + std::min(worst, kTrimmedCap * others);
+}
+
 double angle_score(double degrees) {
   const double a = std::max(0.0, degrees) / kAngle50;
   return 100.0 / (1.0 + std::pow(a, kAngleSlope));
