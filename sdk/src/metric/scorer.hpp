@@ -41,7 +41,8 @@ struct ScoreRecord {
   float score = 0.0f;         // the coaching total: min(model_score, min over parts of part_scores), 0..100
   float model_score = 0.0f;   // calibrated_score(d, d50, slope) of the scorer's calibration, 0..100
   float parts[kParts] = {};   // split of d^2 (sums to d^2), in Part order
-  int32_t matched = 0;        // matched reference frame (0 for a pose reference)
+  int32_t matched = 0;        // matched reference frame (0 for a pose reference): online, the
+                              // alignment's match re-matched (AlignmentOptions::rematch_time)
   // Per part p: its distance d_p = |W^T (jc_p o (x'' - y''))|, the difference of the part's own
   // joint positions (block Jc: its joints' local-frame coordinates; the hip height for the
   // torso) seen through W (metric.hpp kJointRows); reported, no longer scored.
