@@ -43,6 +43,7 @@ struct ScoreArgs {
   int teacher_start = -1;        // practice: the lesson starts at this teacher clip frame
   std::vector<int> loop;         // practice: loop teacher clip frames A..B
   double relocate_time = kata::metric::AlignmentOptions{}.relocate_time;
+  double rematch_time = kata::metric::AlignmentOptions{}.rematch_time;
 };
 
 // Seconds for a message: 0.25, 0.0083, 12.5.
@@ -139,6 +140,7 @@ void run_score(const ScoreArgs& a) {
   metric::AlignmentOptions options;
   options.window = a.window;
   options.relocate_time = a.relocate_time;
+  options.rematch_time = a.rematch_time;
   auto to_row = [&](int clip_frame, const char* flag) {
     if (clip_frame < a.first || clip_frame - a.first >= teacher_frames)
       throw Error(ErrorKind::kInvalidArgument, std::string(flag) + " " + std::to_string(clip_frame) + " is outside " +
@@ -314,6 +316,10 @@ void setup(CLI::App& app) {
   cmd->add_option("--relocate-time", args->relocate_time,
                   "online alignment: re-localisation margin, seconds (default 0.2); 0: follow the band only, never "
                   "move elsewhere (issue 3's aligner)")
+      ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--rematch-time", args->rematch_time,
+                  "online alignment: score each frame against the teacher frame within this many seconds of the "
+                  "alignment's match where every part but the worst agrees best (default 0.05); 0: the match itself")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--loop", args->loop, "practice: loop teacher clip frames A..B (two numbers: A B)")->expected(2);
   cmd->add_option("--out", args->out, "output CSV")->required();

@@ -6,9 +6,14 @@
 // nine limb and spine joints' 15-degree totals within 25 points of each other per clip, left and
 // right within 15 points at 30 degrees; and the turned joint's part is the part to fix on >= 70 %
 // of the scored frames at 30 degrees. Asserted with each student frame matched to its own teacher
-// frame (the score is under test; the online alignment may settle a few frames off, where a knee
-// in a walk is nearer the bent one: the table prints both, docs/model/scores.md discusses it). Three shipped clips of different motions (walk 02_01, dance
-// 05_18, run 09_01), 2 s of each. Prints the table (joint x angle x clip) of docs/model/scores.md.
+// frame (the score is under test), and with the online alignment a lesson uses (its re-match,
+// AlignmentOptions::rematch_time, puts a frame that the whole-pose alignment pulled a few frames
+// off, to where the teacher's knee is nearer the bent one, back where the rest of the body agrees):
+// there 45 degrees -> <= 50 on the walk and the run, <= 60 on the dance (whose alignment settles
+// farther off than the re-match reaches: docs/model/scores.md "The re-match"), and the turned
+// joint's part named on >= 70 % at +-30 on all three. Three shipped clips of different motions
+// (walk 02_01, dance 05_18, run 09_01), 3 s of each. Prints the table (joint x angle x clip) of
+// docs/model/scores.md.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -128,6 +133,14 @@ TEST(Balance, EveryJointCountsAlikeLeftAndRight) {
       for (int a : {45, -45}) EXPECT_LE(got[key(k, a)].total, k == kNeck ? 70.0 : 50.0) << name << " " << kTurns[k].joint << " " << a;
       for (int a : {15, -15}) EXPECT_GE(got[key(k, a)].total, 60.0) << name << " " << kTurns[k].joint << " " << a;
       for (int a : {30, -30}) EXPECT_GE(got[key(k, a)].named, 0.70) << name << " " << kTurns[k].joint << " " << a;
+      // The online alignment (before the re-match: 45 degrees scored 50-64 for the knees of the walk
+      // and the run, and the left knee of the run was named on 6 % of frames at +30).
+      const bool dance = std::string(name) == "05_18.bvh";
+      for (int a : {45, -45})
+        EXPECT_LE(online[key(k, a)].total, k == kNeck ? 70.0 : dance ? 60.0 : 50.0)
+            << "online " << name << " " << kTurns[k].joint << " " << a;
+      for (int a : {30, -30})
+        EXPECT_GE(online[key(k, a)].named, 0.70) << "online " << name << " " << kTurns[k].joint << " " << a;
     }
     for (int a : {15, -15}) {
       double lo = 100.0, hi = 0.0;
@@ -172,7 +185,8 @@ CueResult cue_turn(const std::shared_ptr<const metric::Reference>& ref, const Bv
 
 // Every one of the ten joints turned by +-30 degrees: its cue names it on >= 70 % of the scored
 // frames, with a median angle of 30 +- 8 degrees (each student frame matched to its own teacher
-// frame, as above; the online alignment's figures are printed beside them).
+// frame, as above; with the online alignment the share on every clip, the angle on the walk and
+// the run).
 TEST(Balance, TheCueNamesTheTurnedJoint) {
   const auto metric = std::make_shared<const metric::Metric>(
       metric::load_model(std::string(KATA_SOURCE_DIR) + "/models/default.kata"));
@@ -197,6 +211,12 @@ TEST(Balance, TheCueNamesTheTurnedJoint) {
       for (int i = 0; i < 2; ++i) {
         EXPECT_GE(got[i].named, 0.70) << name << " " << kTurns[k].joint << (i ? " -30" : " +30");
         EXPECT_NEAR(got[i].median, 30.0, 8.0) << name << " " << kTurns[k].joint << (i ? " -30" : " +30");
+        // The online alignment with its re-match: named alike; the angle too on the walk and the run
+        // (the dance's left knee at -30 reads 21 deg where its alignment settles off).
+        EXPECT_GE(online[i].named, 0.70) << "online " << name << " " << kTurns[k].joint << (i ? " -30" : " +30");
+        if (std::string(name) != "05_18.bvh") {
+          EXPECT_NEAR(online[i].median, 30.0, 8.0) << "online " << name << " " << kTurns[k].joint << (i ? " -30" : " +30");
+        }
       }
     }
   }

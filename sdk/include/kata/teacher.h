@@ -35,7 +35,10 @@ extern "C" {
  * teacher is one pose, or a clip that the stream follows with an online alignment: each frame is
  * matched to the best teacher frame just ahead of the last match, and the match moves anywhere in
  * the clip when the student is clearly elsewhere (joined late, skipped ahead or back); a student
- * who pauses holds the teacher (docs/model/alignment.md).
+ * who pauses holds the teacher (docs/model/alignment.md). The frame scored (matched_teacher_frame)
+ * is the teacher frame within 0.05 s of that match where the body but its worst part agrees best,
+ * so a joint held wrong throughout is not absorbed by the match (docs/model/scores.md "The
+ * re-match").
  * Memory: loading a model and attaching a teacher allocate; scoring never does.
  * Threads: a model is immutable and may be shared by any number of streams and threads; a
  * stream keeps what it needs from the model, which may be freed while streams still use it. */

@@ -14,9 +14,10 @@ Aligner::Aligner(std::shared_ptr<const Reference> reference, AlignmentOptions op
     : reference_(std::move(reference)), options_(options) {
   if (!reference_) throw Error(ErrorKind::kInvalidArgument, "scorer: null reference");
   if (!(options_.window > 0.0) || !(options_.max_rate > 0.0) || !(options_.step_penalty >= 0.0) || !(options_.hold_penalty >= 0.0) ||
-      !(options_.relocate_time >= 0.0) || !std::isfinite(options_.relocate_time))
+      !(options_.relocate_time >= 0.0) || !std::isfinite(options_.relocate_time) || !(options_.rematch_time >= 0.0) ||
+      !std::isfinite(options_.rematch_time))
     throw Error(ErrorKind::kInvalidArgument,
-                "scorer: alignment window and max rate must be > 0, step penalty and relocate time >= 0");
+                "scorer: alignment window and max rate must be > 0, step penalty, relocate and re-match times >= 0");
   if (reference_->kind() != ReferenceKind::kClip) return;
   const int frames = reference_->frames();
   const int last = options_.last_frame < 0 ? frames - 1 : options_.last_frame;

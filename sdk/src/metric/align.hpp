@@ -101,6 +101,16 @@ struct AlignmentOptions {
   // "Cost per frame"); false: the whole section every frame, as before cold4 (the reference the
   // windowed aligner is tested against).
   bool windowed = true;
+  // The re-match (Scorer, not the Aligner): the student frame is scored against the teacher frame
+  // within +-rematch_time seconds of the alignment's match with the smallest trimmed pose distance
+  // (pose_error.hpp: the worst part counts at most twice the rest of the body), taken only where
+  // the rest of the body agrees (Scorer::kRematchAgreement). The alignment compares whole poses, so
+  // a joint held wrong throughout pulls its match to where the teacher's joint is nearer the
+  // student's (a knee bent 45 deg in a walk went 2-5 frames off, to where the teacher's knee bends
+  // more, and scored 55 instead of 43); the re-match puts the frame back where the rest of the body
+  // agrees, so the error stays in the score. 0: the alignment's match. docs/model/scores.md
+  // "The re-match" has the figures.
+  double rematch_time = 0.05;
 };
 
 // Follows one student stream along a clip reference. Allocates at construction only.

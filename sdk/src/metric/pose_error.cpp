@@ -127,6 +127,41 @@ void part_error(const float* s, const float* t, PartError& out) {
 
 bool bone_direction(const float* pose, int c, double* d) { return bone(pose, c, d); }
 
+void bone_directions(const float* pose, float* dirs) {
+  for (int c = 1; c < gpd::kJoints; ++c) {
+    double d[3];
+    bone(pose, c, d);  // zeroed when degenerate
+    for (int k = 0; k < 3; ++k) dirs[3 * (c - 1) + k] = static_cast<float>(d[k]);
+  }
+}
+
+double trimmed_pose_distance(const float* s, const float* t, double* rest) {
+  // In float, one square root a bone (the re-match ranks 13 teacher frames a student frame):
+  // |s - t/|t||^2 = 2 - 2 s.t / |t| for a unit s.
+  static constexpr float kOrigin[3] = {0.0f, 0.0f, 0.0f};
+  static constexpr int kBonePart[gpd::kJoints] = {0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 3, 3, 3, 4, 4, 4};
+  float part[kParts] = {};
+  for (int c = 1; c < gpd::kJoints; ++c) {
+    const float* a = s + 3 * (c - 1);
+    const float* e = framed(t, c);
+    const float* o = in_chest_frame(c) && kParent[c] == kNeck ? kOrigin : framed(t, kParent[c]);
+    const float b0 = e[0] - o[0], b1 = e[1] - o[1], b2 = e[2] - o[2];
+    const float n2 = b0 * b0 + b1 * b1 + b2 * b2;
+    const float dot = a[0] * b0 + a[1] * b1 + a[2] * b2;
+    // A degenerate bone on either side (s zeroed, t too short) counts 0.
+    if (!(n2 > 1e-18f) || (a[0] == 0.0f && a[1] == 0.0f && a[2] == 0.0f)) continue;
+    part[kBonePart[c]] += 2.0f - 2.0f * dot / std::sqrt(n2);
+  }
+  double sum = 0.0, worst = 0.0;
+  for (double v : part) {
+    sum += v;
+    worst = std::max(worst, v);
+  }
+  const double others = sum - worst;
+  if (rest) *rest = others;
+  return others + std::min(worst, kTrimmedCap * others);
+}
+
 double angle_score(double degrees) {
   const double a = std::max(0.0, degrees) / kAngle50;
   return 100.0 / (1.0 + std::pow(a, kAngleSlope));

@@ -66,6 +66,21 @@ void part_error(const float* student_pose, const float* teacher_pose, PartError&
 // zeroed) for a degenerate bone. Allocation-free.
 bool bone_direction(const float* pose, int c, double* d);
 
+// The 15 bones' unit directions of a pose (bone_direction; 3 floats per bone, bone c at 3 (c - 1),
+// a degenerate bone zero). Allocation-free.
+void bone_directions(const float* pose, float* dirs);
+
+// The trimmed pose distance of a student (its bone_directions) to a teacher pose, a robust
+// distance that a joint held wrong throughout does not dominate: per part the sum over its bones
+// of |s_c - t_c|^2 (unit directions: 2 - 2 cos of the bone angle; a degenerate bone on either side
+// counts 0); the parts but the worst summed (`rest`, if not null, gets it), plus the worst part
+// capped at kTrimmedCap times that rest. Where the rest of the body agrees exactly (a copy with one
+// joint turned, at its own frame) the distance is 0 whatever the worst part; where the parts
+// differ alike (another person's style) it is their plain sum. Scorer's re-match ranks teacher
+// frames by it (AlignmentOptions::rematch_time). Allocation-free.
+constexpr double kTrimmedCap = 2.0;
+double trimmed_pose_distance(const float* student_dirs, const float* teacher_pose, double* rest = nullptr);
+
 // The per-part coaching score of a part angle (degrees): 100 / (1 + (a / kAngle50)^kAngleSlope).
 double angle_score(double degrees);
 

@@ -40,6 +40,37 @@ Scorer::Scorer(std::shared_ptr<const Reference> reference, AlignmentOptions opti
   ws_ = m.make_workspace();
   p_ = AlignedFloats(static_cast<size_t>(kProjectionRows) * m.stride());
   u_ = AlignedFloats(static_cast<size_t>(m.stride()));
+  if (reference_->kind() == ReferenceKind::kClip)
+    rematch_frames_ = static_cast<int>(std::lround(options.rematch_time / reference_->frame_time()));
+  rematch_rest_max_ = 12.0 * (2.0 - 2.0 * std::cos(kRematchAgreement * (3.14159265358979323846 / 180.0)));
+}
+
+int Scorer::rematch(int j) {
+  const Reference& ref = *reference_;
+  // The frames within reach, inside the section and, while the alignment moves on (not back: a
+  // re-localisation or a restart), not before the last re-matched frame: the ghost never steps
+  // back when the alignment does not.
+  const int lo = std::max(aligner_.first(), std::max(j - rematch_frames_, j >= last_aligned_ ? last_rematched_ : -1));
+  const int hi = std::min(aligner_.last(), j + rematch_frames_);
+  int best = -1;
+  double best_cost = 0.0, best_rest = 0.0;
+  // Outward from j, so that of equal costs the nearest frame wins.
+  for (int k = 0; k <= rematch_frames_; ++k)
+    for (int side : {-1, 1}) {
+      const int i = j + side * k;
+      if (i < lo || i > hi || (k == 0 && side > 0)) continue;
+      double rest = 0.0;
+      const double cost = trimmed_pose_distance(bones_, ref.pose(i), &rest);
+      if (best < 0 || cost < best_cost) best_cost = cost, best_rest = rest, best = i;
+    }
+  // Only where the rest of the body agrees (its 12 bones within kRematchAgreement degrees on
+  // average, as 2 - 2 cos): elsewhere (another motion, another person's style) the frame that fits
+  // best nearby is not known to be the right one, and the alignment's match stands (or the last
+  // re-matched frame, if the match is behind it).
+  const int out = best >= 0 && best_rest <= rematch_rest_max_ ? best : std::max(j, lo);
+  last_aligned_ = j;
+  last_rematched_ = out;
+  return out;
 }
 
 void Scorer::reset() {
@@ -47,6 +78,7 @@ void Scorer::reset() {
   count_ = 0;
   at_end_since_ = -1.0;
   candidate_ = shown_ = cue_candidate_ = cue_shown_ = -1;
+  last_aligned_ = last_rematched_ = -1;
   smoothed_time_ = -1.0;
   record_ = ScoreRecord{};
 }
@@ -57,6 +89,7 @@ void Scorer::set_section(int first, int last, bool loop) {
   o.last_frame = last;
   o.loop = loop;
   aligner_ = Aligner(reference_, o);  // throws before anything changes
+  last_aligned_ = last_rematched_ = -1;
   at_end_since_ = -1.0;
 }
 
@@ -75,7 +108,7 @@ const ScoreRecord& Scorer::score_lost(double t) {
   for (int q = 0; q < kParts; ++q)
     record_.parts[q] = record_.part_distance[q] = record_.part_scores[q] = record_.part_degrees[q] =
         record_.part_offset[q] = 0.0f;
-  record_.matched = aligner_.match();
+  record_.matched = aligned_ = aligner_.match();
   record_.matched_time = record_.matched * reference_->frame_time();
   record_.state = ScoreState::kTrackingLost;
   // The cue is withdrawn at once: nothing about the pose is known.
@@ -117,7 +150,13 @@ void Scorer::finish(const float* x, double t, int matched) {
   const Metric& m = ref.metric();
   const int stride = m.stride();
   float* p = p_.data();
-  const int j = matched >= 0 ? matched : aligner_.align(p + static_cast<size_t>(kParts) * stride, t);
+  aligned_ = matched >= 0 ? matched : aligner_.align(p + static_cast<size_t>(kParts) * stride, t);
+  pose_frames(x, pose_);
+  int j = aligned_;
+  if (matched < 0 && rematch_frames_ > 0) {
+    bone_directions(pose_, bones_);
+    j = rematch(j);
+  }
   // e-projections per part: D_p = P_p(x) - P_p(y_j); u = sum_p D_p; part p = u . D_p (the split
   // of d^2). The part's distance is its joint-position row's: J_p(x) - J_p(y_j), the part's own
   // joints only (metric.hpp kJointRows: a shared dimension would credit a part that did not move).
@@ -130,7 +169,6 @@ void Scorer::finish(const float* x, double t, int matched) {
   const double d2 = detail::dot(u, u, stride);
   const ScoreCalibration& c = calibration_;
   // The parts' joint angles against the matched teacher frame, and their scores (pose_error.hpp).
-  pose_frames(x, pose_);
   part_error(pose_, ref.pose(j), error_);
   bone_cue(pose_, ref.pose(j), cue_);
   double worst = 100.0;
@@ -163,7 +201,7 @@ void Scorer::finish(const float* x, double t, int matched) {
 void Scorer::feedback(double t) {
   const Reference& ref = *reference_;
   ScoreState state = ScoreState::kScoring;
-  if (ref.kind() == ReferenceKind::kClip && !aligner_.options().loop && record_.matched == aligner_.last()) {
+  if (ref.kind() == ReferenceKind::kClip && !aligner_.options().loop && aligned_ == aligner_.last()) {
     if (at_end_since_ < 0.0) at_end_since_ = t;
     if (t - at_end_since_ >= feedback_.finished_time && ref.frames() > 1) state = ScoreState::kTeacherFinished;
   } else {

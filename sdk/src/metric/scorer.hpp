@@ -41,7 +41,8 @@ struct ScoreRecord {
   float score = 0.0f;         // the coaching total: min(model_score, min over parts of part_scores), 0..100
   float model_score = 0.0f;   // calibrated_score(d, d50, slope) of the scorer's calibration, 0..100
   float parts[kParts] = {};   // split of d^2 (sums to d^2), in Part order
-  int32_t matched = 0;        // matched reference frame (0 for a pose reference)
+  int32_t matched = 0;        // matched reference frame (0 for a pose reference): online, the
+                              // alignment's match re-matched (AlignmentOptions::rematch_time)
   // Per part p: its distance d_p = |W^T (jc_p o (x'' - y''))|, the difference of the part's own
   // joint positions (block Jc: its joints' local-frame coordinates; the hip height for the
   // torso) seen through W (metric.hpp kJointRows); reported, no longer scored.
@@ -140,6 +141,18 @@ class Scorer {
  private:
   void finish(const float* x, double t, int matched = -1);  // matched >= 0: that frame, not the alignment's
   void feedback(double t);
+  // The re-match of the alignment's match j (AlignmentOptions::rematch_time): the frame within
+  // +-rematch_time of j, inside the section, with the smallest trimmed pose distance to this
+  // frame's student pose (bones_); ties go to the frame nearest j; never before the last
+  // re-matched frame while the alignment moves on. Allocation-free.
+  // Taken only where the rest of the body agrees: trimmed_pose_distance's rest (12 bones) within
+  // 12 (2 - 2 cos kRematchAgreement), i.e. its bones kRematchAgreement degrees off on average (as
+  // a mean of 2 - 2 cos); otherwise j. 12 degrees (docs/model/scores.md "The re-match"): 8-12 left
+  // every different-motion pairing of coaching.py unchanged and raised the same-motion ones (walk
+  // 66.6 -> 67.8, run 58.3 -> 59.7); 15 raised dance vs walk by 1.2, no limit (every frame) by 3.7.
+  // Allocation-free.
+  int rematch(int j);
+  static constexpr double kRematchAgreement = 12.0;
   // The part to fix of a kScoring frame at time t, from this frame's part scores and total: the
   // one decision (candidate, averaging and hysteresis) that the cue follows.
   void update_part_to_fix(double t);
@@ -156,6 +169,11 @@ class Scorer {
   AlignedFloats u_;                 // stride: u = W^T (x'' - y'')
   float pose_[kPoseFloats] = {};    // this frame's student pose in the body's frames (pose_error.hpp)
   PartError error_ = {};            // this frame's per-part angles and offsets
+  float bones_[3 * kBones] = {};    // this frame's student bone directions (the re-match's)
+  int rematch_frames_ = 0;          // the re-match's reach, teacher frames each way
+  double rematch_rest_max_ = 0.0;   // the largest rest distance a re-match is taken at
+  int aligned_ = 0;                 // this frame's alignment match (before the re-match)
+  int last_aligned_ = -1, last_rematched_ = -1;  // the last re-match's input and output (-1: none)
   double smoothed_offset_[kParts] = {};  // part offsets averaged like the part scores (the ranking)
   int64_t count_ = 0;
   double start_time_ = 0.0;         // time of the first frame since construction or reset
