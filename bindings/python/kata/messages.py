@@ -2,6 +2,7 @@
 verifier (kata_message_read_result); and the messages a source sends to a runtime's ingest, written
 by the C library's writers (kata_message_write_*, since 1.1)."""
 import ctypes
+import os
 import time
 from typing import Any, Callable, NamedTuple, Optional, Sequence, Tuple
 
@@ -36,11 +37,13 @@ class ResultMessage:
     was computed under; None without a clip teacher or from an older runtime), and the correction
     cue (present iff part_to_fix >= 0): cue_joint (the GPD joint to move, e.g. "LKnee"; "" for
     none), cue_degrees (the angle at it, degrees; 0 for none), cue_action (CueAction or -1) and
-    cue (the phrase, "left knee: bend 30 deg more"; "" for none)."""
+    cue (the phrase, "left knee: bend 30 deg more"; "" for none). Over NATS also owner (the kata
+    serve shard that computed it) and epoch (its lease tenure of the stream's partition); "" and 0
+    over ZeroMQ."""
     __slots__ = ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_time", "arrival_ns",
                  "computed_ns", "published_ns", "scored", "matched_teacher_frame", "matched_teacher_time",
                  "distance", "score", "parts", "part_scores", "part_to_fix", "state", "ghost", "practice",
-                 "cue_joint", "cue_degrees", "cue_action", "cue")
+                 "cue_joint", "cue_degrees", "cue_action", "cue", "owner", "epoch")
     stream_id: int
     result_sequence: int
     frame_sequence: int
@@ -60,6 +63,8 @@ class ResultMessage:
     cue_degrees: float
     cue_action: int
     cue: str
+    owner: str
+    epoch: int
 
     def __init__(self, m: "_n.ResultRecord") -> None:
         for name in ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_time", "arrival_ns",
@@ -72,6 +77,9 @@ class ResultMessage:
         self.parts = tuple(m.parts)
         self.part_scores = tuple(m.part_scores)
         _set_cue(self, m)
+        # Over NATS (Subscriber on nats:// URLs): the shard that computed it and its lease tenure,
+        # from the result's subject; "" and 0 over ZeroMQ.
+        self.owner, self.epoch = "", 0
         # The C ghost pointer is valid only until this thread's next call: copied now.
         self.ghost = (np.ctypeslib.as_array(ctypes.cast(m.ghost, ctypes.POINTER(ctypes.c_float)),
                                             shape=(m.ghost_joint_count, 3)).copy()
@@ -108,18 +116,170 @@ def read_message(message: bytes) -> Optional[ResultMessage]:
     return ResultMessage(m)
 
 
+class _Nats:
+    """The NATS side of Subscriber: Debian's libnats (libnats3.4, the C client kata serve uses),
+    called through ctypes, so no Python NATS package is needed. Results arrive on
+    `<prefix>.out.<topic>.<epoch>.<owner>` (docs/deploy.md); one subscription, read synchronously."""
+    # natsStatus values (nats/status.h of libnats 3.4; the enum has kept its order since 1.x).
+    OK, SLOW_CONSUMER, TIMEOUT = 0, 20, 26
+    _lib: Any = None
+
+    @classmethod
+    def library(cls) -> Any:
+        if cls._lib is None:
+            import ctypes.util
+            names = [n for n in (os.environ.get("KATA_NATS_LIBRARY"), ctypes.util.find_library("nats"), "libnats.so.3.4",
+                                 "libnats.so") if n]
+            errors = []
+            for name in names:
+                try:
+                    lib = ctypes.CDLL(name)
+                    break
+                except OSError as e:
+                    errors.append(str(e))
+            else:
+                raise KataError(Status.E_NOT_FOUND, "a nats:// subscriber needs libnats (Debian: apt-get install "
+                                "libnats3.4): " + "; ".join(errors), "Subscriber")
+            vp, pp, c_int, c_char_p = ctypes.c_void_p, ctypes.POINTER(ctypes.c_void_p), ctypes.c_int, ctypes.c_char_p
+            for name, res, args in (("natsOptions_Create", c_int, [pp]), ("natsOptions_Destroy", None, [vp]),
+                                    ("natsOptions_SetServers", c_int, [vp, ctypes.POINTER(c_char_p), c_int]),
+                                    ("natsOptions_SetUserCredentialsFromFiles", c_int, [vp, c_char_p, c_char_p]),
+                                    ("natsOptions_SetMaxReconnect", c_int, [vp, c_int]),
+                                    ("natsOptions_SetReconnectWait", c_int, [vp, ctypes.c_int64]),
+                                    ("natsConnection_Connect", c_int, [pp, vp]),
+                                    ("natsConnection_FlushTimeout", c_int, [vp, ctypes.c_int64]),
+                                    ("natsConnection_Destroy", None, [vp]),
+                                    ("natsConnection_SubscribeSync", c_int, [pp, vp, c_char_p]),
+                                    ("natsSubscription_SetPendingLimits", c_int, [vp, c_int, c_int]),
+                                    ("natsSubscription_NextMsg", c_int, [pp, vp, ctypes.c_int64]),
+                                    ("natsSubscription_Destroy", None, [vp]),
+                                    ("natsMsg_GetSubject", c_char_p, [vp]), ("natsMsg_GetData", vp, [vp]),
+                                    ("natsMsg_GetDataLength", c_int, [vp]), ("natsMsg_Destroy", None, [vp]),
+                                    ("natsStatus_GetText", c_char_p, [c_int])):
+                f = getattr(lib, name)
+                f.restype, f.argtypes = res, args
+            cls._lib = lib
+        return cls._lib
+
+    def __init__(self, servers: Sequence[str], subject: str, credentials: Optional[str], pending: int) -> None:
+        self.lib = lib = self.library()
+        self.options, self.connection, self.subscription = (ctypes.c_void_p(), ctypes.c_void_p(), ctypes.c_void_p())
+        try:
+            self.check(lib.natsOptions_Create(ctypes.byref(self.options)), "natsOptions_Create")
+            urls = (ctypes.c_char_p * len(servers))(*[u.encode() for u in servers])
+            self.check(lib.natsOptions_SetServers(self.options, urls, len(servers)), "natsOptions_SetServers")
+            if credentials:
+                self.check(lib.natsOptions_SetUserCredentialsFromFiles(self.options, credentials.encode(), None),
+                           "natsOptions_SetUserCredentialsFromFiles")
+            # Reconnect for as long as it takes, as the shards do: a server restart is an outage, not an end.
+            self.check(lib.natsOptions_SetMaxReconnect(self.options, -1), "natsOptions_SetMaxReconnect")
+            self.check(lib.natsOptions_SetReconnectWait(self.options, 100), "natsOptions_SetReconnectWait")
+            self.check(lib.natsConnection_Connect(ctypes.byref(self.connection), self.options),
+                       "natsConnection_Connect to " + ", ".join(servers))
+            self.check(lib.natsConnection_SubscribeSync(ctypes.byref(self.subscription), self.connection,
+                                                        subject.encode()), "natsConnection_SubscribeSync")
+            self.check(lib.natsSubscription_SetPendingLimits(self.subscription, pending, -1),
+                       "natsSubscription_SetPendingLimits")
+            # The server has the subscription before the constructor returns: nothing published
+            # after it is missed.
+            self.check(lib.natsConnection_FlushTimeout(self.connection, 5000), "natsConnection_FlushTimeout")
+        except BaseException:
+            self.close()
+            raise
+
+    def check(self, status: int, call: str) -> None:
+        if status != self.OK:
+            text = self.lib.natsStatus_GetText(status)
+            raise KataError(Status.E_IO, "%s: %s" % (call, text.decode() if text else status), "Subscriber")
+
+    def next(self, timeout_ms: int) -> Tuple[int, Optional[Tuple[str, bytes]]]:
+        """(status, (subject, data)) of the next message; status TIMEOUT or SLOW_CONSUMER with None."""
+        msg = ctypes.c_void_p()
+        status = self.lib.natsSubscription_NextMsg(ctypes.byref(msg), self.subscription, max(1, timeout_ms))
+        if status != self.OK:
+            if status not in (self.TIMEOUT, self.SLOW_CONSUMER):
+                self.check(status, "natsSubscription_NextMsg")
+            return status, None
+        try:
+            subject = (self.lib.natsMsg_GetSubject(msg) or b"").decode("ascii", "replace")
+            data = ctypes.string_at(self.lib.natsMsg_GetData(msg), self.lib.natsMsg_GetDataLength(msg))
+        finally:
+            self.lib.natsMsg_Destroy(msg)
+        return status, (subject, data)
+
+    def close(self) -> None:
+        lib = self.lib
+        if self.subscription:
+            lib.natsSubscription_Destroy(self.subscription)
+            self.subscription = ctypes.c_void_p()
+        if self.connection:
+            lib.natsConnection_Destroy(self.connection)
+            self.connection = ctypes.c_void_p()
+        if self.options:
+            lib.natsOptions_Destroy(self.options)
+            self.options = ctypes.c_void_p()
+
+
+def _parse_result_subject(prefix: str, subject: str) -> Optional[Tuple[int, int, str]]:
+    """`<prefix>.out.<16 hex digits>.<epoch>.<owner>` -> (stream id, epoch, owner); None otherwise
+    (sdk/src/transport/nats/results.cpp parse_result_subject)."""
+    head = prefix + ".out."
+    if not subject.startswith(head):
+        return None
+    parts = subject[len(head):].split(".", 2)
+    if len(parts) != 3 or len(parts[0]) != 16 or not parts[2]:
+        return None
+    topic, epoch, owner = parts
+    if any(c not in "0123456789abcdef" for c in topic) or not epoch.isdigit() or len(epoch) > 19:
+        return None
+    return int(topic, 16), int(epoch), owner
+
+
+def _is_nats(endpoint: Any) -> bool:
+    first = endpoint if isinstance(endpoint, str) else (endpoint[0] if endpoint else "")
+    return isinstance(first, str) and first.startswith(("nats://", "tls://"))
+
+
 class Subscriber:
-    """A ZeroMQ SUB socket on a runtime's publish endpoint (Debian's python3-zmq), decoding result
-    messages with kata_message_read_result. stream: only that stream id (its topic), or all.
-    Valid non-result messages (skeleton definitions, stats, practice settings) and refused messages are counted (skipped, refused), never returned.
+    """The results of a runtime, `kata serve`, or kata serve shards over NATS, decoded with
+    kata_message_read_result. stream: only that stream id, or all. Valid non-result messages
+    (skeleton definitions, stats, practice settings) and refused messages are counted (skipped,
+    refused), never returned.
+
+    ZeroMQ (Debian's python3-zmq): endpoint is a publish endpoint ("tcp://127.0.0.1:5556"); a SUB
+    socket with the stream's topic as its prefix.
 
         with kata.Subscriber("tcp://127.0.0.1:5556") as sub:
             msg = sub.receive(timeout=1.0)   # a ResultMessage, or None after 1 s without one
 
-    One thread at a time (ZeroMQ sockets are not thread-safe)."""
+    NATS (Debian's libnats3.4, through ctypes): endpoint is a server URL or a list of them
+    ("nats://host:4222", "tls://..."), one cluster; subject_prefix is the shards' [transport]
+    subject_prefix ("kata"), credentials a .creds file. Results come from whichever shard holds
+    the stream's partition; each message carries its owner and epoch (ResultMessage.owner,
+    .epoch), and a result from a former holder that arrives after a newer holder's is dropped
+    (counted in stale; handovers counts the moves seen), as docs/deploy.md asks of every
+    subscriber. Messages the client library dropped because this reader fell behind are counted
+    in dropped (a result_sequence gap shows where).
 
-    def __init__(self, endpoint: str, stream: Optional[int] = None, receive_hwm: int = 100000) -> None:
-        import zmq  # python3-zmq: only a subscriber needs it
+    One thread at a time."""
+
+    def __init__(self, endpoint: Any, stream: Optional[int] = None, receive_hwm: int = 100000,
+                 subject_prefix: str = "kata", credentials: Optional[str] = None) -> None:
+        self.skipped = 0  #: valid messages that are not results (skeleton definitions, stats, practice settings)
+        self.refused = 0  #: messages the verifier refused (or, over NATS, on a subject that is not a result's)
+        self.stale = 0  #: NATS: results of a former holder after a newer holder's (dropped)
+        self.handovers = 0  #: NATS: a stream's results seen moving to a newer holder
+        self.dropped = 0  #: NATS: times the client library dropped messages for this slow reader
+        self._nats: Optional[_Nats] = None
+        self._socket: Any = None
+        if _is_nats(endpoint):
+            servers = [endpoint] if isinstance(endpoint, str) else list(endpoint)
+            self._prefix = subject_prefix
+            self._newest: dict = {}  # stream id -> newest epoch seen (bounded below)
+            subject = "%s.out.%s" % (subject_prefix, ">" if stream is None else "%016x.>" % stream)
+            self._nats = _Nats(servers, subject, credentials, receive_hwm)
+            return
+        import zmq  # python3-zmq: only a ZeroMQ subscriber needs it
         self._zmq = zmq
         self._socket = zmq.Context.instance().socket(zmq.SUB)
         self._socket.setsockopt(zmq.LINGER, 0)
@@ -128,28 +288,71 @@ class Subscriber:
         self._socket.connect(endpoint)
         self._poller = zmq.Poller()
         self._poller.register(self._socket, zmq.POLLIN)
-        self.skipped = 0  #: valid messages that are not results (skeleton definitions, stats, practice settings)
-        self.refused = 0  #: messages the verifier refused
+
+    def _decode(self, data: bytes) -> Optional[ResultMessage]:
+        try:
+            m = read_message(data)
+        except KataError:
+            self.refused += 1
+            return None
+        if m is None:
+            self.skipped += 1
+        return m
+
+    def _accept_epoch(self, stream_id: int, epoch: int) -> bool:
+        newest = self._newest.get(stream_id)
+        if newest is None:
+            if len(self._newest) < 65536:  # bounded, as the C++ EpochFilter: beyond it, not remembered
+                self._newest[stream_id] = epoch
+            return True
+        if epoch < newest:
+            self.stale += 1
+            return False
+        if epoch > newest:
+            self.handovers += 1
+            self._newest[stream_id] = epoch
+        return True
 
     def receive(self, timeout: Optional[float] = None) -> Optional[ResultMessage]:
         """The next result message; None when none arrives within timeout seconds (None: wait)."""
         deadline = None if timeout is None else time.monotonic() + timeout
         while True:
             wait = None if deadline is None else max(0.0, deadline - time.monotonic())
+            if self._nats is not None:
+                status, got = self._nats.next(1000 if wait is None else int(wait * 1000))
+                if got is None:
+                    self.dropped += status == _Nats.SLOW_CONSUMER
+                    if status == _Nats.TIMEOUT and deadline is not None and time.monotonic() >= deadline:
+                        return None
+                    continue
+                subject, data = got
+                where = _parse_result_subject(self._prefix, subject)
+                if where is None:
+                    self.refused += 1
+                    continue
+                m = self._decode(data)
+                if m is None:
+                    continue
+                if m.stream_id != where[0]:  # the subject and the message disagree: not a shard's
+                    self.refused += 1
+                    continue
+                if not self._accept_epoch(where[0], where[1]):
+                    continue
+                m.epoch, m.owner = where[1], where[2]
+                return m
             if not self._poller.poll(None if wait is None else int(wait * 1000)):
                 return None
-            try:
-                m = read_message(self._socket.recv())
-            except KataError:
-                self.refused += 1
-                continue
-            if m is None:
-                self.skipped += 1
-                continue
-            return m
+            m = self._decode(self._socket.recv())
+            if m is not None:
+                return m
 
     def close(self) -> None:
-        self._socket.close(0)
+        if self._nats is not None:
+            self._nats.close()
+            self._nats = None
+        if self._socket is not None:
+            self._socket.close(0)
+            self._socket = None
 
     def __enter__(self) -> "Subscriber":
         return self
