@@ -49,10 +49,15 @@
 // programme's steps counted in grid frames (M teacher frames each: a step of k grid frames is
 // k M teacher frames, the band span / M grid frames). The search only chooses where the window
 // goes; the window then follows at the teacher's full rate, so the match is as fine as before.
-// A frame reads the window's rows and at most 7,680 / 8 = 960 of the grid's: the same for a
-// 20-minute teacher as for a 64-second one (docs/model/alignment.md has the figures). (A coarser
-// grid reads fewer: kSearchFrames 2,048 scored the 20-minute lesson 75.7 instead of 76.3, with a
-// grid step of 0.6 s; 1,024, a step of 1.2 s, 55.3.)
+// A frame reads the window's rows and at most 4,096 / 8 = 512 of the grid's: the same for a
+// 20-minute teacher as for a 34-second one (docs/model/alignment.md has the figures). kSearchFrames
+// was 7,680 (960 rows, a long teacher's alignment 2.2x the clip's: 860 KB of grid rows, more than
+// L2, where the clip's 4,723 rows read 590); at 4,096 the grid is 459 KB, 1.3x the clip's cost, and
+// the real student scores 75.4-75.5 against the lesson repeated 4, 16 and 80 times as against the
+// clip (grid steps of 2, 8 and 36 teacher frames: 17-300 ms). (A coarser grid loses the student:
+// kSearchFrames 2,048 scored the 20-minute lesson 75.7 instead of 76.3, with a grid step of 0.6 s;
+// 1,024, a step of 1.2 s, 55.3.) A teacher longer than 60 x 4,096 frames (34 minutes at 120 Hz)
+// has a grid step wider than the window's 0.5 s band.
 // Threads: an Aligner belongs to one stream, used by one thread at a time.
 #pragma once
 
