@@ -169,7 +169,7 @@ void LeaseManager::run() {
   int64_t next = steady_ns();
   while (!stop_.load()) {
     tick(steady_ns());
-    next += options_.renew_ms * kMs;
+    next += options_.renew_ms * kMs / 2;
     const int64_t now = steady_ns();
     if (next < now) next = now;  // a slow tick (servers out of reach) does not make a burst
     std::unique_lock<std::mutex> lock(wait_mutex_);
@@ -187,14 +187,20 @@ void LeaseManager::run() {
 
 void LeaseManager::tick(int64_t) {
   // Membership first, so that a joining shard is visible to the others before it claims anything.
-  uint64_t rev = 0;
-  bool reachable = kvStore_PutString(&rev, kv_, ("m." + options_.member).c_str(), options_.member.c_str()) == NATS_OK;
-  member_revision_before_ = member_revision_;
-  member_revision_ = reachable ? rev : 0;
+  // Writes (membership, renewals) every other tick, i.e. every renew_ms; the bucket is looked at
+  // every tick (renew_ms / 2), so a stale lease is taken over within half a period of going stale.
+  const bool writes = (ticks_++ % 2) == 0;
+  bool reachable = reachable_;
+  if (writes) {
+    uint64_t rev = 0;
+    reachable = kvStore_PutString(&rev, kv_, ("m." + options_.member).c_str(), options_.member.c_str()) == NATS_OK;
+    member_revision_before_ = member_revision_;
+    member_revision_ = reachable ? rev : 0;
+  }
   for (uint32_t p = 0; p < options_.partitions; ++p) {
     Slot& s = slots_[p];
     if (!s.held.load(std::memory_order_relaxed)) continue;
-    if (reachable) reachable = renew(p);
+    if (writes && reachable) reachable = renew(p);
     if (!s.held.load(std::memory_order_relaxed)) continue;
     if (!s.paused && s.last_ok_ns + (options_.ttl_ms - options_.guard_ms) * kMs <= steady_ns()) {
       s.paused = true;
@@ -202,6 +208,7 @@ void LeaseManager::tick(int64_t) {
       emit(LeaseEvent::Kind::kPaused, p, s.epoch.load(), 0);
     }
   }
+  if (writes) reachable_ = reachable;
   const int64_t now = steady_ns();
   if (!reachable || !read_bucket(now)) {
     // What was seen before the bucket went out of reach proves nothing about renewals meanwhile.

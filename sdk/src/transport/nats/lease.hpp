@@ -9,7 +9,7 @@
 //                  (refused once another claim was made), given back with update-by-revision to
 //                  an empty value.
 // Each shard watches the whole bucket with one long-lived KV watcher (one JetStream consumer),
-// drained every renew_ms, and notes, per key, when it first saw the key's current revision (its
+// drained every renew_ms / 2 (writes: every renew_ms), and notes, per key, when it first saw the key's current revision (its
 // own steady clock). The watcher must deliver the shard's own membership write of the previous
 // tick, or it is dropped and made anew (with every observation). A key whose revision has not changed for ttl_ms
 // of that shard's observation is stale: a stale member is gone, a stale lease may be taken over.
@@ -68,7 +68,7 @@ struct LeaseOptions {
   int replicas = 3;
   bool memory_storage = true;
   // Lease lifetime, renewal period, and the margin kept before a lease could be taken over
-  // (milliseconds). A killed shard's partitions are held again after about ttl_ms + 2 renew_ms; a
+  // (milliseconds). A killed shard's partitions are held again after about ttl_ms + renew_ms / 2; a
   // holder that cannot renew publishes until ttl_ms - guard_ms after its last renewal.
   int64_t ttl_ms = 3000;
   int64_t renew_ms = 500;
@@ -167,6 +167,8 @@ class LeaseManager {
   std::map<std::string, Seen> seen_;  // by key [lease thread]
   kvWatcher* watcher_ = nullptr;      // the bucket's one watcher [lease thread]
   bool watch_ready_ = false;          // its initial values are all in [lease thread]
+  uint64_t ticks_ = 0;                // even ticks write (membership, renewals) [lease thread]
+  bool reachable_ = true;             // the last writes reached the bucket [lease thread]
   uint64_t member_revision_ = 0, member_revision_before_ = 0;  // our membership writes, this tick and the last [lease thread]
   mutable std::mutex mutex_;  // members_ and counters_ (copied out by other threads)
   std::vector<std::string> members_;
