@@ -290,7 +290,9 @@ void run_serve(const std::string& file, const std::string& counters_path) {
     so.lease.bucket = n.lease_bucket;
     so.lease.partitions = n.partitions;
     so.lease.ttl_ms = n.lease_ttl_ms;
-    so.lease.renew_ms = std::max<int64_t>(50, n.lease_ttl_ms / 12);
+    // Renewed every ttl / 6: ttl - guard holds 4.5 periods, so three renewals in a row may fail
+    // before publishing pauses; a killed shard's leases are held again after about ttl + renew / 2.
+    so.lease.renew_ms = std::max<int64_t>(50, n.lease_ttl_ms / 6);
     so.lease.guard_ms = n.lease_ttl_ms / 4;
     so.lease.replicas = n.lease_replicas;
     so.prefix = n.subject_prefix;

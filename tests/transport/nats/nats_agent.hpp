@@ -16,7 +16,7 @@ struct AgentOptions {
   std::vector<std::string> servers;  // tried in this order
   std::string member, bucket, log_file, prefix = "kata";
   uint32_t partitions = 64;
-  int64_t ttl_ms = 3000, renew_ms = 250, guard_ms = 750;
+  int64_t ttl_ms = 3000, renew_ms = 500, guard_ms = 750;  // kata serve's (ttl / 6, ttl / 4)
 };
 
 // argv for running the agent from the test executable (argv[0] = /proc/self/exe's target).

@@ -108,6 +108,7 @@ LeaseManager::LeaseManager(Connection& connection, LeaseOptions options, Handler
 
 LeaseManager::~LeaseManager() {
   stop(true);
+  drop_watcher();
   if (kv_ != nullptr) kvStore_Destroy(kv_);
 }
 
@@ -168,7 +169,7 @@ void LeaseManager::run() {
   int64_t next = steady_ns();
   while (!stop_.load()) {
     tick(steady_ns());
-    next += options_.renew_ms * kMs;
+    next += options_.renew_ms * kMs / 2;
     const int64_t now = steady_ns();
     if (next < now) next = now;  // a slow tick (servers out of reach) does not make a burst
     std::unique_lock<std::mutex> lock(wait_mutex_);
@@ -186,12 +187,20 @@ void LeaseManager::run() {
 
 void LeaseManager::tick(int64_t) {
   // Membership first, so that a joining shard is visible to the others before it claims anything.
-  uint64_t rev = 0;
-  bool reachable = kvStore_PutString(&rev, kv_, ("m." + options_.member).c_str(), options_.member.c_str()) == NATS_OK;
+  // Writes (membership, renewals) every other tick, i.e. every renew_ms; the bucket is looked at
+  // every tick (renew_ms / 2), so a stale lease is taken over within half a period of going stale.
+  const bool writes = (ticks_++ % 2) == 0;
+  bool reachable = reachable_;
+  if (writes) {
+    uint64_t rev = 0;
+    reachable = kvStore_PutString(&rev, kv_, ("m." + options_.member).c_str(), options_.member.c_str()) == NATS_OK;
+    member_revision_before_ = member_revision_;
+    member_revision_ = reachable ? rev : 0;
+  }
   for (uint32_t p = 0; p < options_.partitions; ++p) {
     Slot& s = slots_[p];
     if (!s.held.load(std::memory_order_relaxed)) continue;
-    if (reachable) reachable = renew(p);
+    if (writes && reachable) reachable = renew(p);
     if (!s.held.load(std::memory_order_relaxed)) continue;
     if (!s.paused && s.last_ok_ns + (options_.ttl_ms - options_.guard_ms) * kMs <= steady_ns()) {
       s.paused = true;
@@ -199,10 +208,11 @@ void LeaseManager::tick(int64_t) {
       emit(LeaseEvent::Kind::kPaused, p, s.epoch.load(), 0);
     }
   }
+  if (writes) reachable_ = reachable;
   const int64_t now = steady_ns();
   if (!reachable || !read_bucket(now)) {
     // What was seen before the bucket went out of reach proves nothing about renewals meanwhile.
-    seen_.clear();
+    drop_watcher();
     if (!reachable) {
       std::lock_guard<std::mutex> lock(mutex_);
       ++counters_.reads_failed;
@@ -301,6 +311,13 @@ bool LeaseManager::claim(uint32_t p, const Seen* seen, int64_t) {
   const natsStatus status = seen == nullptr ? kvStore_CreateString(&rev, kv_, k.c_str(), options_.member.c_str())
                                             : kvStore_UpdateString(&rev, kv_, k.c_str(), options_.member.c_str(), seen->revision);
   if (status != NATS_OK) {
+    // Refused by revision while the watcher still shows that revision: the key is gone (the
+    // bucket's MaxAge collected a given-back lease; no delete is delivered for that). Forget it,
+    // so the next tick claims with create; a newer value, if any, comes through the watcher.
+    if (seen != nullptr && refused_by_servers(status, last_error())) {
+      const auto it = seen_.find(k);
+      if (it != seen_.end() && it->second.revision == seen->revision) seen_.erase(it);
+    }
     std::lock_guard<std::mutex> lock(mutex_);
     ++counters_.claims_refused;
     return false;
@@ -340,43 +357,69 @@ void LeaseManager::lose(uint32_t p) {
   emit(LeaseEvent::Kind::kLost, p, s.epoch.load(), 0);
 }
 
-bool LeaseManager::read_bucket(int64_t now) {
-  kvWatchOptions o;
-  kvWatchOptions_Init(&o);
-  o.IgnoreDeletes = true;
-  kvWatcher* watcher = nullptr;
-  if (kvStore_WatchAll(&watcher, kv_, &o) != NATS_OK) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    ++counters_.reads_failed;
-    return false;
+void LeaseManager::drop_watcher() {
+  if (watcher_ != nullptr) kvWatcher_Destroy(watcher_);
+  watcher_ = nullptr;
+  watch_ready_ = false;
+  seen_.clear();
+}
+
+bool LeaseManager::read_bucket(int64_t) {
+  // One watcher for the shard's life (a JetStream consumer): it delivers every key's current value
+  // once, then each change as it is written; each tick drains what arrived. A key's since_ns is
+  // when a drain first found its revision, no earlier than the write (the safety rule above).
+  if (watcher_ == nullptr) {
+    kvWatchOptions o;
+    kvWatchOptions_Init(&o);  // deletes included: a deleted membership or lease leaves seen_
+    if (kvStore_WatchAll(&watcher_, kv_, &o) != NATS_OK) {
+      watcher_ = nullptr;
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++counters_.reads_failed;
+      return false;
+    }
+    seen_.clear();
+    watch_ready_ = false;
   }
-  std::map<std::string, Seen> next;
-  bool ok = true;
   for (;;) {
     kvEntry* entry = nullptr;
-    if (kvWatcher_Next(&entry, watcher, options_.ttl_ms / 2) != NATS_OK) {
-      ok = false;
-      break;
+    // Until the initial values are all in, wait for them; then take only what has arrived.
+    const natsStatus status = kvWatcher_Next(&entry, watcher_, watch_ready_ ? 1 : options_.ttl_ms / 2);
+    if (status == NATS_TIMEOUT && watch_ready_) break;
+    if (status != NATS_OK) {
+      drop_watcher();
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++counters_.reads_failed;
+      return false;
     }
-    if (entry == nullptr) break;  // every current value is read
+    if (entry == nullptr) {  // every initial value is in
+      watch_ready_ = true;
+      continue;
+    }
     const char* k = kvEntry_Key(entry);
-    if (k != nullptr && kvEntry_Operation(entry) == kvOp_Put) {
-      Seen seen;
-      seen.revision = kvEntry_Revision(entry);
-      seen.value.assign(static_cast<const char*>(kvEntry_Value(entry)), static_cast<size_t>(kvEntry_ValueLen(entry)));
-      const auto before = seen_.find(k);
-      seen.since_ns = before != seen_.end() && before->second.revision == seen.revision ? before->second.since_ns : now;
-      next.emplace(k, std::move(seen));
+    if (k != nullptr) {
+      const uint64_t revision = kvEntry_Revision(entry);
+      const auto it = seen_.find(k);
+      if (kvEntry_Operation(entry) != kvOp_Put) {
+        if (it != seen_.end() && it->second.revision < revision) seen_.erase(it);
+      } else if (it == seen_.end() || it->second.revision < revision) {
+        Seen& seen = seen_[k];
+        seen.revision = revision;
+        seen.since_ns = steady_ns();
+        seen.value.assign(static_cast<const char*>(kvEntry_Value(entry)), static_cast<size_t>(kvEntry_ValueLen(entry)));
+      }
     }
     kvEntry_Destroy(entry);
   }
-  kvWatcher_Destroy(watcher);
-  if (!ok) {
+  // The watcher proves itself live with this shard's own membership: the write of the previous
+  // tick (a whole period ago) must have come through. A watcher that fell behind or stopped (its
+  // consumer lost with a server) would show stale keys that are not: start over.
+  const auto self = seen_.find("m." + options_.member);
+  if (member_revision_before_ != 0 && (self == seen_.end() || self->second.revision < member_revision_before_)) {
+    drop_watcher();
     std::lock_guard<std::mutex> lock(mutex_);
     ++counters_.reads_failed;
     return false;
   }
-  seen_ = std::move(next);
   return true;
 }
 

@@ -8,8 +8,10 @@
 //                  of a given-back or stale value, renewed with update-by-revision every renew_ms
 //                  (refused once another claim was made), given back with update-by-revision to
 //                  an empty value.
-// Every renew_ms each shard reads the whole bucket and notes, per key, when it first saw the
-// key's current revision (its own steady clock). A key whose revision has not changed for ttl_ms
+// Each shard watches the whole bucket with one long-lived KV watcher (one JetStream consumer),
+// drained every renew_ms / 2 (writes: every renew_ms), and notes, per key, when it first saw the key's current revision (its
+// own steady clock). The watcher must deliver the shard's own membership write of the previous
+// tick, or it is dropped and made anew (with every observation). A key whose revision has not changed for ttl_ms
 // of that shard's observation is stale: a stale member is gone, a stale lease may be taken over.
 // Each shard wants the partitions rendezvous hashing over the live members gives it
 // (partition.hpp): it claims those free or stale and gives back those another live member should
@@ -53,6 +55,7 @@
 #include "transport/nats/partition.hpp"
 
 typedef struct __kvStore kvStore;
+typedef struct __kvWatcher kvWatcher;
 
 namespace kata::transport::nats {
 
@@ -65,10 +68,10 @@ struct LeaseOptions {
   int replicas = 3;
   bool memory_storage = true;
   // Lease lifetime, renewal period, and the margin kept before a lease could be taken over
-  // (milliseconds). A killed shard's partitions are held again after about ttl_ms + 2 renew_ms; a
+  // (milliseconds). A killed shard's partitions are held again after about ttl_ms + renew_ms / 2; a
   // holder that cannot renew publishes until ttl_ms - guard_ms after its last renewal.
   int64_t ttl_ms = 3000;
-  int64_t renew_ms = 250;
+  int64_t renew_ms = 500;
   int64_t guard_ms = 750;
   // The bucket's MaxAge when this shard creates it: forgets the keys of shards long gone.
   int64_t bucket_ttl_ms = 60000;
@@ -151,7 +154,8 @@ class LeaseManager {
   bool claim(uint32_t p, const Seen* seen, int64_t now);
   void give_back(uint32_t p);
   void lose(uint32_t p);
-  bool read_bucket(int64_t now);
+  bool read_bucket(int64_t now);  // drains the watcher into seen_; false: start over (seen_ cleared)
+  void drop_watcher();
   void emit(LeaseEvent::Kind kind, uint32_t p, uint64_t epoch, int64_t valid_until);
   std::string key(uint32_t p) const { return "p." + std::to_string(p); }
 
@@ -161,6 +165,11 @@ class LeaseManager {
   kvStore* kv_ = nullptr;
   std::unique_ptr<Slot[]> slots_;
   std::map<std::string, Seen> seen_;  // by key [lease thread]
+  kvWatcher* watcher_ = nullptr;      // the bucket's one watcher [lease thread]
+  bool watch_ready_ = false;          // its initial values are all in [lease thread]
+  uint64_t ticks_ = 0;                // even ticks write (membership, renewals) [lease thread]
+  bool reachable_ = true;             // the last writes reached the bucket [lease thread]
+  uint64_t member_revision_ = 0, member_revision_before_ = 0;  // our membership writes, this tick and the last [lease thread]
   mutable std::mutex mutex_;  // members_ and counters_ (copied out by other threads)
   std::vector<std::string> members_;
   LeaseCounters counters_;
