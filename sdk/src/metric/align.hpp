@@ -51,8 +51,8 @@
 // goes; the window then follows at the teacher's full rate, so the match is as fine as before.
 // A frame reads the window's rows and at most 4,096 / 8 = 512 of the grid's: the same for a
 // 20-minute teacher as for a 34-second one (docs/model/alignment.md has the figures). kSearchFrames
-// was 7,680 (960 rows, a long teacher's alignment 2.2x the clip's: 860 KB of grid rows, more than
-// L2, where the clip's 4,723 rows read 590); at 4,096 the grid is 459 KB, 1.3x the clip's cost, and
+// was 7,680 (960 rows, a long teacher's alignment 2.2x the lesson clip's: 860 KB of grid rows, more
+// than L2, where the 1,829-frame clip reads 229); at 4,096 the grid is 459 KB, 1.3x the clip's, and
 // the real student scores 75.4-75.5 against the lesson repeated 4, 16 and 80 times as against the
 // clip (grid steps of 2, 8 and 36 teacher frames: 17-300 ms). (A coarser grid loses the student:
 // kSearchFrames 2,048 scored the 20-minute lesson 75.7 instead of 76.3, with a grid step of 0.6 s;
