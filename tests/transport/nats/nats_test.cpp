@@ -416,6 +416,14 @@ std::vector<std::string> bucket_holders(kn::Connection& connection, const std::s
   return out;
 }
 
+// Whether the lease bucket shows every partition at its rendezvous holder among `names`.
+bool at_rendezvous_holders(kn::Connection& connection, const std::vector<std::string>& names) {
+  const auto holders = bucket_holders(connection, "kata_leases");
+  for (uint32_t p = 0; p < kPartitions; ++p)
+    if (holders[p] != names[static_cast<size_t>(kn::rendezvous_owner(names, p))]) return false;
+  return true;
+}
+
 // kata serve x 3 with [transport] kind = "nats" and kata send --transport nats, 96 streams at 60 Hz
 // for a second, scored against a teacher with the ghost: every stream's results come back on NATS
 // once each, in order, from the shard rendezvous hashing gives the stream's partition, with its
@@ -499,12 +507,7 @@ TEST(NatsCluster, ServeShardsMatchOneProcess) {
   // partition at its rendezvous holder), not after a fixed sleep: a shard that starts late under
   // load (CI's sanitizer builds beside) would otherwise see its streams' first frames go to
   // another holder, or to none.
-  const auto balanced = [&] {
-    const auto holders = bucket_holders(consumer, "kata_leases");
-    for (uint32_t p = 0; p < kPartitions; ++p)
-      if (holders[p] != names[static_cast<size_t>(kn::rendezvous_owner(names, p))]) return false;
-    return true;
-  };
+  const auto balanced = [&] { return at_rendezvous_holders(consumer, names); };
   ASSERT_TRUE(wait_for(balanced, 20000)) << "the three shards never held their rendezvous partitions";
   const std::string command = std::string(KATA_CLI) + " send --transport nats --nats-server " + cluster.url(1) + send_args;
   const pid_t sender = spawn({"/bin/sh", "-c", command}, dir.file("nats-send.log"));
@@ -603,12 +606,7 @@ TEST(NatsCluster, ServeShardKilledStreamsResume) {
   kn::Connection consumer(co);
   // The frames start once the shards have shared the partitions out (the bucket shows every
   // partition at its rendezvous holder): a gap before the kill would be a start-up move, not this test's.
-  const auto balanced = [&] {
-    const auto holders = bucket_holders(consumer, "kata_leases");
-    for (uint32_t p = 0; p < kPartitions; ++p)
-      if (holders[p] != names[static_cast<size_t>(kn::rendezvous_owner(names, p))]) return false;
-    return true;
-  };
+  const auto balanced = [&] { return at_rendezvous_holders(consumer, names); };
   ASSERT_TRUE(wait_for(balanced, 20000)) << "the three shards never held their rendezvous partitions";
   natsSubscription* sub = nullptr;
   ASSERT_EQ(natsConnection_SubscribeSync(&sub, consumer.get(), "kata.out.>"), NATS_OK);
