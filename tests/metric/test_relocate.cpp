@@ -324,7 +324,7 @@ TEST_F(Relocate, LoopedSectionFollowsEveryRepetition) {
 }
 
 // Long teachers (issue 36): the same students against the clip repeated 16 times (29,264
-// frames, 4 minutes: the search on a grid of every 8th frame, align.hpp "Long teachers"). Every
+// frames, 4 minutes: the search on a grid of every 9th frame, align.hpp "Long teachers"). Every
 // copy is the same motion, so the match is judged by its place in the clip (frame mod the
 // clip's length), with the same criterion as above: found within 1.5 s of each event.
 TEST_F(Relocate, SixteenTimesLongerTeacher) {
@@ -363,7 +363,7 @@ TEST_F(Relocate, SixteenTimesLongerTeacher) {
            {0.0, hold_at / kFps, (hold_at + hold) / kFps});
   run_long("16x tempo 0.5x", 2 * (clip - 1), [](int f) { return f * 0.5; }, {0.0});
   run_long("16x tempo 1.9x", static_cast<int>((clip - 1) / 1.9), [](int f) { return f * 1.9; }, {0.0});
-  // A practice loop over six copies (10,974 frames, itself on a grid of every 2nd frame): the
+  // A practice loop over six copies (10,974 frames, itself on a grid of every 4th frame): the
   // student plays the clip twice; the match stays in the section and follows both.
   metric::AlignmentOptions o;
   o.first_frame = 3 * clip;

@@ -49,14 +49,16 @@
 // programme's steps counted in grid frames (M teacher frames each: a step of k grid frames is
 // k M teacher frames, the band span / M grid frames). The search only chooses where the window
 // goes; the window then follows at the teacher's full rate, so the match is as fine as before.
-// A frame reads the window's rows and at most 4,096 / 8 = 512 of the grid's: the same for a
-// 20-minute teacher as for a 34-second one (docs/model/alignment.md has the figures). kSearchFrames
+// A frame reads the window's rows and at most 3,584 / 8 = 448 of the grid's: the same for a
+// 20-minute teacher as for a 30-second one (docs/model/alignment.md has the figures). kSearchFrames
 // was 7,680 (960 rows, a long teacher's alignment 2.2x the lesson clip's: 860 KB of grid rows, more
-// than L2, where the 1,829-frame clip reads 229); at 4,096 the grid is 459 KB, 1.3x the clip's, and
-// the real student scores 75.4-75.5 against the lesson repeated 4, 16 and 80 times as against the
-// clip (grid steps of 2, 8 and 36 teacher frames: 17-300 ms). (A coarser grid loses the student:
+// than L2, where the 1,829-frame clip reads 229), then 4,096 (512 rows: 1.30x at 16x, 1.35x at
+// 64x, over issue 36's 1.3x); at 3,584 the grid is 402 KB and 16x / 64x cost 1.2x / 1.25x the clip's
+// (the cost per frame is about 1.8 us + 2.6 ns a grid row on this machine), and the real student
+// scores 75.4-75.5 against the lesson repeated 4, 16 and 80 times as against the clip (grid steps
+// of 3, 9 and 41 teacher frames: 25-340 ms), as with 4,096. (A coarser grid loses the student:
 // kSearchFrames 2,048 scored the 20-minute lesson 75.7 instead of 76.3, with a grid step of 0.6 s;
-// 1,024, a step of 1.2 s, 55.3.) A teacher longer than 60 x 4,096 frames (34 minutes at 120 Hz)
+// 1,024, a step of 1.2 s, 55.3.) A teacher longer than 60 x 3,584 frames (30 minutes at 120 Hz)
 // has a grid step wider than the window's 0.5 s band.
 // Threads: an Aligner belongs to one stream, used by one thread at a time.
 #pragma once

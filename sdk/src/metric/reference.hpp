@@ -82,10 +82,10 @@ class Reference {
   float alignment_half_scale() const { return align_half_scale_; }
   // The re-localisation grid (issue 36): a clip longer than kSearchFrames is searched on every
   // M-th frame only, M = ceil(frames / kSearchFrames) (1 otherwise), so the aligner's search over
-  // a 20-minute teacher reads what it reads over a 34-second one (align.hpp, "Long teachers").
+  // a 20-minute teacher reads what it reads over a 30-second one (align.hpp, "Long teachers").
   // search_rows_half(i) is the half row of frame i * M, contiguous (frames / M rows): built once
   // here, shared by every aligner following this reference.
-  static constexpr int kSearchFrames = 4096;
+  static constexpr int kSearchFrames = 3584;
   int search_grid() const { return search_grid_; }
   int search_rows() const { return search_grid_ > 1 ? static_cast<int>(search_half_.size() / static_cast<size_t>(stride_)) : frames_; }
   const uint16_t* search_rows_half(int i) const {
