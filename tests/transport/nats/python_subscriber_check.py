@@ -6,10 +6,13 @@ directory); kata.Subscriber("tcp://...") and kata.Subscriber("nats://...") each 
 once, in order, and the two runs' results are equal value for value (the same pipeline on the
 same frames). Over NATS each result names its shard and a lease epoch, nothing is stale or refused,
 and the skeleton definitions on the results' subjects are counted as skipped.
-Arguments: the kata CLI, the source directory. ctest sets KATA_LIBRARY and PYTHONPATH."""
-import ctypes, json, os, shutil, signal, subprocess, sys, tempfile, time
+samples/c_subscriber.c (built with libnats) reads one stream over NATS in the same run: the same
+frames and scores as Python's, each line naming the shard and its epoch.
+Arguments: the kata CLI, the source directory, the C sample subscriber. ctest sets KATA_LIBRARY
+and PYTHONPATH."""
+import ctypes, json, os, re, shutil, signal, subprocess, sys, tempfile, time
 
-kata, source = sys.argv[1:3]
+kata, source, c_subscriber = sys.argv[1:4]
 sys.path.insert(0, os.path.join(source, "tests", "support"))
 from ports import free_port  # noqa: E402
 import kata as kpy  # noqa: E402
@@ -129,6 +132,13 @@ with tempfile.TemporaryDirectory(prefix="kata_py_nats_") as tmp:
                 time.sleep(0.1)
         lib.natsConnection_Destroy(nc)
         assert held >= 64, ("the shard never held the partitions", held, open(log).read())
+        c_log = os.path.join(tmp, "c_subscriber.log")
+        csub = subprocess.Popen([c_subscriber, url, str(FIRST_ID + 2), str(FRAMES)], stdout=subprocess.PIPE,
+                                stderr=open(c_log, "w"), text=True)
+        deadline = time.monotonic() + 20
+        while "subscribed to" not in open(c_log).read() and time.monotonic() < deadline:
+            assert csub.poll() is None, open(c_log).read()
+            time.sleep(0.05)
         with kpy.Subscriber(url) as sub, kpy.Subscriber([url], stream=FIRST_ID + 1) as one:
             subprocess.run([kata, "send", "--transport", "nats", "--nats-server", url] + send_args, check=True,
                            timeout=60, stderr=subprocess.DEVNULL)
@@ -142,6 +152,8 @@ with tempfile.TemporaryDirectory(prefix="kata_py_nats_") as tmp:
                     break
                 only.append(m)
             assert [m.stream_id for m in only] == [FIRST_ID + 1] * FRAMES, [m.stream_id for m in only][:5]
+        c_lines = csub.communicate(timeout=60)[0].splitlines()
+        assert csub.returncode == 0, (csub.returncode, open(c_log).read())
     finally:
         if shard is not None:
             stop(shard, log)
@@ -153,4 +165,12 @@ with tempfile.TemporaryDirectory(prefix="kata_py_nats_") as tmp:
         assert len({m.epoch for m in results}) == 1 and results[0].epoch > 0, (sid, {m.epoch for m in results})
         assert [fingerprint(m) for m in results] == [fingerprint(m) for m in over_zmq[sid]], sid
     assert [fingerprint(m) for m in only] == [fingerprint(m) for m in over_nats[FIRST_ID + 1]]
+    # The C sample: "stream S frame F: score X (...) ..., fix P (shard O, epoch E)", one line a result.
+    pattern = re.compile(r"^stream (\d+) frame (\d+): score (-?[\d.]+) .* \(shard (\S+), epoch (\d+)\)$")
+    parsed = [pattern.match(line) for line in c_lines]
+    assert len(parsed) == FRAMES and all(parsed), c_lines[:3]
+    mine = over_nats[FIRST_ID + 2]
+    assert [(int(p.group(1)), int(p.group(2)), p.group(3), p.group(4), int(p.group(5))) for p in parsed] == \
+        [(m.stream_id, m.frame_sequence, "%.1f" % (m.score if m.scored else 0.0), m.owner, m.epoch) for m in mine], \
+        (c_lines[:3], [(m.frame_sequence, m.score) for m in mine[:3]])
 print("python subscriber over ZeroMQ and NATS ok")
