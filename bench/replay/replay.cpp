@@ -57,6 +57,7 @@
 #include "io/model_file.hpp"
 #include "pipeline/pipeline.hpp"
 #include "runtime/runtime.hpp"
+#include "transport/curve.hpp"
 #include "transport/wire.hpp"
 
 #ifdef KATA_HAVE_NATS
@@ -107,7 +108,44 @@ struct Options {
   int result_batch = 8;         // RuntimeConfig::result_batch
   std::string sender;           // internal: the sender process (PUSH to this endpoint)
   int nats_servers = 3;         // --transport nats: servers in the cluster (1: no route hop, R1 leases)
+  bool curve = false;           // CURVE on every socket of both phases (issue 39 item 2)
 };
+
+// --curve: the run's keys, made once per run and handed to the sender and subscriber processes in
+// the environment (they inherit it): the server's pair (the runtime's ingest and publisher, the bare
+// publisher) and one client pair (the sender, the subscribers), the client on the allow-list.
+constexpr const char* kCurveServerEnv = "KATA_REPLAY_CURVE_SERVER";  // the server's public key
+constexpr const char* kCurvePublicEnv = "KATA_REPLAY_CURVE_PUBLIC";  // the client's pair
+constexpr const char* kCurveSecretEnv = "KATA_REPLAY_CURVE_SECRET";
+struct CurveKeys {
+  kata::transport::KeyPair server, client;
+};
+const CurveKeys& curve_keys() {
+  static const CurveKeys keys = [] {
+    CurveKeys k{kata::transport::generate_key_pair(), kata::transport::generate_key_pair()};
+    setenv(kCurveServerEnv, k.server.public_key.c_str(), 1);
+    setenv(kCurvePublicEnv, k.client.public_key.c_str(), 1);
+    setenv(kCurveSecretEnv, k.client.secret_key.c_str(), 1);
+    return k;
+  }();
+  return keys;
+}
+kata::transport::CurveOptions curve_server() {
+  kata::transport::CurveOptions c;
+  c.own = curve_keys().server;
+  c.allowed_clients = {curve_keys().client.public_key};
+  return c;
+}
+// A sender's or subscriber's socket, before it connects: a CURVE client when the parent set keys.
+void curve_client(void* socket) {
+  const char* server = std::getenv(kCurveServerEnv);
+  if (!server) return;
+  kata::transport::CurveOptions c;
+  c.remote_server = server;
+  c.own.public_key = std::getenv(kCurvePublicEnv) ? std::getenv(kCurvePublicEnv) : "";
+  c.own.secret_key = std::getenv(kCurveSecretEnv) ? std::getenv(kCurveSecretEnv) : "";
+  kata::transport::apply_curve(socket, c);
+}
 
 int64_t now_ns() { return kata::pipeline::now_ns(); }
 
@@ -187,6 +225,7 @@ int run_subscriber(const Options& o) {
     int hwm = 1 << 20;  // the subscriber keeps up or is measured as late; it never drops on purpose
     zmq_setsockopt(sub, ZMQ_RCVHWM, &hwm, sizeof hwm);
     zmq_setsockopt(sub, ZMQ_SUBSCRIBE, "", 0);
+    curve_client(sub);
     std::stringstream list(o.subscriber);
     for (std::string endpoint; std::getline(list, endpoint, ',');)
       if (zmq_connect(sub, endpoint.c_str()) != 0) {
@@ -549,6 +588,7 @@ int run_sender(const Options& o) {
   int hwm = 1 << 20, linger = 5000;
   zmq_setsockopt(push, ZMQ_SNDHWM, &hwm, sizeof hwm);
   zmq_setsockopt(push, ZMQ_LINGER, &linger, sizeof linger);
+  curve_client(push);
   if (zmq_connect(push, o.sender.c_str()) != 0) {
     std::fprintf(stderr, "sender: cannot connect %s: %s\n", o.sender.c_str(), zmq_strerror(zmq_errno()));
     return 1;
@@ -652,6 +692,10 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
   config.publish.send_hwm = 100000;
   config.skeleton_resend_seconds = 1.0;
   config.idle.kind = o.idle == "park" ? kata::runtime::IdleStrategy::Kind::kPark : kata::runtime::IdleStrategy::Kind::kBackoff;
+  if (o.curve) {
+    config.publish.security.curve = curve_server();
+    config.ingest.security.curve = curve_server();
+  }
   if (o.ingest) {
     config.ingest.endpoints = {"bind:" + endpoint_for(o, "ingest")};
     config.ingest.kind = kata::transport::IngestKind::kPull;
@@ -792,6 +836,12 @@ json run_bare(const Options& o, int streams, size_t message_bytes) {
   int hwm = 100000, linger = 0;
   zmq_setsockopt(pub, ZMQ_SNDHWM, &hwm, sizeof hwm);
   zmq_setsockopt(pub, ZMQ_LINGER, &linger, sizeof linger);
+  // --curve: the bare publisher is a CURVE server as the runtime's is (its own ZAP handler).
+  std::unique_ptr<kata::transport::ZapHandler> zap;
+  if (o.curve) {
+    zap = std::make_unique<kata::transport::ZapHandler>(context, std::vector<std::string>{curve_keys().client.public_key});
+    kata::transport::apply_curve(pub, curve_server());
+  }
   const std::string bind = endpoint_for(o, "bare");
   if (zmq_bind(pub, bind.c_str()) != 0) throw Error(ErrorKind::kIo, "replay: cannot bind " + bind);
   char endpoint[256];
@@ -829,6 +879,7 @@ json run_bare(const Options& o, int streams, size_t message_bytes) {
   if (j.contains("subscriber_cpu_seconds") && j["received"].get<int64_t>() > 0)
     j["subscriber_cpu_us_per_message"] = 1e6 * j["subscriber_cpu_seconds"].get<double>() / j["received"].get<double>();
   zmq_close(pub);
+  zap.reset();  // its socket closes before the context terminates
   zmq_ctx_term(context);
   return j;
 }
@@ -1266,6 +1317,7 @@ json run_once(const Options& o, const Clips& c, int streams) {
   j["workers"] = o.workers;
   j["result_batch"] = o.result_batch;
   j["idle"] = o.idle;
+  j["curve"] = o.curve;
   j["kata"] = kata_result;
   j["bare_zmq"] = bare;
   const double bare_p99 = bare["latency"]["p99_us"].get<double>();
@@ -1299,9 +1351,9 @@ bool passes(const Options& o, const json& r) {
 
 void print_line(const json& r) {
   const json& st = r["kata"]["stages"];
-  std::printf("streams %4d  kata p50 %8.1f us p99 %9.1f us lost %lld | bare p50 %8.1f us p99 %9.1f us lost %lld | "
+  std::printf("streams %4d%s  kata p50 %8.1f us p99 %9.1f us lost %lld | bare p50 %8.1f us p99 %9.1f us lost %lld | "
               "p99 / bare %.2f | burst bound %.1f us (bare p99 + %d x push %.1f us / %d workers), p99 / bound %.2f\n",
-              r["streams"].get<int>(), r["kata"]["latency"]["p50_us"].get<double>(),
+              r["streams"].get<int>(), r.value("curve", false) ? " (CURVE)" : "", r["kata"]["latency"]["p50_us"].get<double>(),
               r["kata"]["latency"]["p99_us"].get<double>(), static_cast<long long>(r["kata"]["lost"].get<int64_t>()),
               r["bare_zmq"]["latency"]["p50_us"].get<double>(), r["bare_zmq"]["latency"]["p99_us"].get<double>(),
               static_cast<long long>(r["bare_zmq"]["lost"].get<int64_t>()), r["p99_ratio_kata_over_bare"].get<double>(),
@@ -1455,6 +1507,8 @@ void run_replay(const Options& o) {
     throw Error(ErrorKind::kInvalidArgument, "replay: --transport tcp|ipc|nats");
   if (o.transport == "nats" && (o.shards < 1 || o.find_max || o.soak || o.ingest))
     throw Error(ErrorKind::kInvalidArgument, "replay: --transport nats needs --shards N, without --find-max, --soak, --ingest");
+  if (o.curve && (o.transport == "nats" || o.shards > 0))
+    throw Error(ErrorKind::kInvalidArgument, "replay: --curve is for the runtime's own sockets (tcp or ipc, no --shards)");
 #ifndef KATA_HAVE_NATS
   if (o.transport == "nats") throw Error(ErrorKind::kInvalidArgument, "replay: this kata-replay was built without NATS (libnats-dev)");
 #endif
@@ -1603,6 +1657,9 @@ void setup(CLI::App& app) {
                   "with --transport nats: servers in the cluster (1: no route between servers, leases not replicated)")
       ->check(CLI::Range(1, 5))
       ->capture_default_str();
+  cmd->add_flag("--curve", o->curve,
+                "CURVE on every socket (the runtime's ingest and publisher, the sender, the subscribers, the bare "
+                "publisher), with keys made for the run: what encryption and authentication cost (tcp / ipc only)");
   cmd->add_option("--subscriber", o->subscriber)->group("");  // internal: the subscriber process
   cmd->add_option("--sender", o->sender)->group("");          // internal: the sender process (--ingest)
   cmd->add_option("--mode", o->mode)->group("");
