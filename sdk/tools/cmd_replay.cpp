@@ -17,6 +17,7 @@ namespace {
 void setup(CLI::App& app) {
   auto* cmd = app.add_subcommand("replay", "measure the live runtime against bare ZeroMQ (runs kata-replay, built in bench/)");
   cmd->prefix_command();  // every argument goes to kata-replay as it is
+  cmd->set_help_flag();   // --help too: kata-replay's help lists its options (this one had only -h)
   cmd->callback([cmd] {
     const std::filesystem::path tool =
         std::filesystem::read_symlink("/proc/self/exe").parent_path() / "kata-replay";
