@@ -266,8 +266,9 @@ void run_serve(const std::string& file, const std::string& counters_path) {
     if (loaded->is_sink()) config.runtime.sinks.push_back(instance->sink());
     (loaded->is_source() ? sources : sinks).push_back(std::move(instance));
   }
-  // [transport] kind = "nats": the bridge's private socket feeds the runtime's ingest, its sink
-  // publishes the results (declared before the runtime: it outlives the runtime's last result).
+  // [transport] kind = "nats": the bridge hands every message to the runtime's direct ingest
+  // (Runtime::offer), its sink publishes the results (declared before the runtime: it outlives the
+  // runtime's last result; stopped before the runtime is destroyed, below).
 #ifdef KATA_HAVE_NATS
   std::unique_ptr<kata::transport::nats::ServeBridge> nats;
   if (config.nats.enabled) {
@@ -298,9 +299,7 @@ void run_serve(const std::string& file, const std::string& counters_path) {
     so.prefix = n.subject_prefix;
     so.max_message_bytes = config.runtime.ingest.max_message_bytes;
     nats = std::make_unique<kata::transport::nats::ServeBridge>(so);
-    config.runtime.ingest.endpoints = {"bind:" + nats->ingest_endpoint()};
-    config.runtime.ingest.kind = kata::transport::IngestKind::kPull;
-    config.runtime.sinks.push_back(nats->sink());
+    nats->configure(config.runtime);
   }
 #else
   if (config.nats.enabled)
@@ -309,8 +308,16 @@ void run_serve(const std::string& file, const std::string& counters_path) {
   kata::runtime::Runtime runtime(config.runtime);
   target->runtime = &runtime;
 #ifdef KATA_HAVE_NATS
+  // Whichever way this scope ends, libnats' delivery thread stops calling runtime.offer before
+  // the runtime is destroyed (the normal end stops the bridge after runtime.stop(), below).
+  struct StopBridge {
+    kata::transport::nats::ServeBridge* bridge;
+    ~StopBridge() {
+      if (bridge) bridge->stop();
+    }
+  } stop_bridge{nats.get()};
   if (nats) {
-    nats->start();
+    nats->start(runtime);
     std::fprintf(stderr, "kata serve: NATS shard %s on %s (subjects %s.in.<stream>, results %s.out.<stream>.<epoch>.<shard>)\n",
                  nats->shard()->options().lease.member.c_str(),
                  const_cast<kata::transport::nats::Shard*>(nats->shard())->connection().connected_url().c_str(),

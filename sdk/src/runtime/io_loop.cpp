@@ -1,8 +1,9 @@
-// The I/O thread (runtime.hpp, "threads"): it owns the ingest socket. It reads the ingest, sends
-// skeleton definitions (on a subscriber's join and periodically) and stats, retires closed
-// streams, and sleeps in zmq_poll beside an eventfd (stop, opened streams) and the publisher's
-// descriptor (subscriptions). Results are sent by the workers (flush_results): the publisher
-// belongs to whichever thread holds its token.
+// The I/O thread (runtime.hpp, "threads"): it owns the ingest (its socket, or a direct ingest's
+// ring: the ring's read side is this thread's, its write side offer()'s one producer). It reads
+// the ingest, sends skeleton definitions (on a subscriber's join and periodically) and stats,
+// retires closed streams, and sleeps in zmq_poll beside an eventfd (stop, opened streams), the
+// direct ring's eventfd and the publisher's descriptor (subscriptions). Results are sent by the
+// workers (flush_results): the publisher belongs to whichever thread holds its token.
 #include "runtime/runtime_internal.hpp"
 
 #include "pipeline/record.hpp"
@@ -185,6 +186,24 @@ bool Runtime::drain_results(transport::Encoder& encoder) {
   return any;
 }
 
+void Runtime::drain_direct(int max) {
+  // The eventfd first, then the ring: a message pushed after this read wakes the next poll.
+  uint64_t value;
+  (void)!read(direct_fd_, &value, sizeof value);
+  const uint8_t* data = nullptr;
+  size_t size = 0;
+  int n = 0;
+  for (; (max < 0 || n < max) && direct_ring_->front(&data, &size); ++n) {
+    ingest_->receive(data, size);
+    direct_ring_->pop();
+  }
+  // Left for the next turn (a burst beyond max): the next poll must not sleep on it.
+  if (!direct_ring_->empty()) {
+    const uint64_t one = 1;
+    (void)!write(direct_fd_, &one, sizeof one);
+  }
+}
+
 void Runtime::io_loop() {
   transport::Encoder encoder;
   using clock = std::chrono::steady_clock;
@@ -202,7 +221,10 @@ void Runtime::io_loop() {
     const int publisher_item = publisher_ ? n : -1;
     if (publisher_) items[n++] = zmq_pollitem_t{nullptr, publisher_fd, ZMQ_POLLIN, 0};
     const int ingest_item = ingest_ ? n : -1;
-    if (ingest_) items[n++] = zmq_pollitem_t{ingest_->socket(), 0, ZMQ_POLLIN, 0};
+    if (direct_ring_)
+      items[n++] = zmq_pollitem_t{nullptr, direct_fd_, ZMQ_POLLIN, 0};
+    else if (ingest_)
+      items[n++] = zmq_pollitem_t{ingest_->socket(), 0, ZMQ_POLLIN, 0};
     const auto wait = std::chrono::duration_cast<std::chrono::milliseconds>(next_resend - clock::now()).count();
     zmq_poll(items, n, static_cast<long>(std::max<long long>(0, std::min<long long>(wait, 100))));
 
@@ -221,10 +243,21 @@ void Runtime::io_loop() {
       release_publisher();
     }
     if (retiring_count_.load(std::memory_order_acquire) > 0) retire_closed(encoder);
-    if (ingest_stop_requested_.load(std::memory_order_acquire)) {
+    if (ingest_stop_requested_.load(std::memory_order_seq_cst)) {
+      if (direct_ring_ && !ingest_stopped_.load(std::memory_order_relaxed)) {
+        // Every message offer() took is handled before the workers' queues close (offer refuses
+        // from now on; one already inside finishes its push first): none is left uncounted.
+        while (offering_.load(std::memory_order_seq_cst)) std::this_thread::yield();
+        drain_direct(-1);
+      }
       ingest_stopped_.store(true, std::memory_order_release);
     } else if (ingest_item >= 0 && (items[ingest_item].revents & ZMQ_POLLIN)) {
-      ingest_->poll(256);
+      if (direct_ring_) {
+        ingest_->housekeeping();
+        drain_direct(256);
+      } else {
+        ingest_->poll(256);
+      }
     } else if (ingest_) {
       ingest_->housekeeping();  // connection events and idle expiry, also while no frame comes
     }

@@ -35,7 +35,8 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
     publisher_ = std::make_unique<transport::Publisher>(*context_, config_.publish);
     publish_endpoint_ = publisher_->endpoint();
   }
-  if (!config_.ingest.endpoints.empty()) {
+  const bool direct = config_.ingest.kind == transport::IngestKind::kDirect;
+  if (!config_.ingest.endpoints.empty() || direct) {
     transport::Ingest::Handlers handlers;
     handlers.on_skeleton = [this](const transport::SkeletonDefinition& d) {
       if (find(d.stream_id)) return false;
@@ -68,6 +69,13 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
     };
     ingest_ = std::make_unique<transport::Ingest>(*context_, config_.ingest, std::move(handlers));
     ingest_endpoint_ = ingest_->endpoint();
+  }
+  if (direct) {
+    // Room for two messages of the limit at least (MessageRing::max_message is half the ring).
+    direct_ring_ = std::make_unique<transport::MessageRing>(
+        std::max(config_.ingest.direct_queue_bytes, 2 * (config_.ingest.max_message_bytes + 64)));
+    direct_fd_ = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+    if (direct_fd_ < 0) throw Error(ErrorKind::kIo, std::string("runtime: eventfd: ") + std::strerror(errno));
   }
 
   wake_io_fd_ = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
@@ -112,13 +120,34 @@ Runtime::~Runtime() {
   // Here, not in stop(): a push that claimed its cell before stop() closed the queue may still
   // be posting (the worker has finished its frame, the post only wakes nobody).
   for (auto& w : workers_) sem_destroy(&w->wake);
+  if (direct_fd_ >= 0) close(direct_fd_);
+}
+
+bool Runtime::offer(const void* data, size_t size) {
+  if (!direct_ring_) return false;
+  // Dekker against stop(): either the I/O thread sees offering_ and waits for this push before
+  // its last drain, or this sees ingest_stop_requested_ and refuses (the caller counts it).
+  offering_.store(true, std::memory_order_seq_cst);
+  if (ingest_stop_requested_.load(std::memory_order_seq_cst)) {
+    offering_.store(false, std::memory_order_release);
+    return false;
+  }
+  const bool taken = direct_ring_->push(data, size);
+  offering_.store(false, std::memory_order_release);
+  if (taken) {
+    // Every message: a write is ~1 us here, and a wake-up skipped on a guess of whether the I/O
+    // thread is awake would leave a frame waiting for its 100 ms poll timeout.
+    const uint64_t one = 1;
+    (void)!write(direct_fd_, &one, sizeof one);
+  }
+  return taken;
 }
 
 void Runtime::stop() {
   if (stopped_.exchange(true)) return;
   if (ingest_ && io_thread_.joinable()) {
     // No frame is ingested once the workers may have looked at their queues for the last time.
-    ingest_stop_requested_.store(true, std::memory_order_release);
+    ingest_stop_requested_.store(true, std::memory_order_seq_cst);  // seq_cst: offer()'s Dekker
     const uint64_t one = 1;
     while (!ingest_stopped_.load(std::memory_order_acquire)) {
       (void)!write(wake_io_fd_, &one, sizeof one);

@@ -14,7 +14,12 @@
 //       RuntimeConfig::result_batch frames or as soon as no frame waits, if it can take the
 //       publisher's token; if another thread holds it, that thread sends these results before it
 //       lets go (flush_results). A full ring drops the result and counts it.
-//   the I/O thread -> owns the ingest socket: it reads frames and definitions, sees subscribers
+//   a transport's own thread (a NATS shard's delivery thread) -> offer(message bytes): copied
+//       into a bounded single-producer ring (transport/message_ring.hpp, allocated once) and the
+//       I/O thread woken by an eventfd; the I/O thread hands each to the ingest (the same
+//       verifier, limits, table and counters as a socket's). No local socket, no ZeroMQ I/O
+//       threads between them: one wake-up, where the ipc PUSH -> PULL it replaced took three.
+//   the I/O thread -> owns the ingest (socket or ring): it reads frames and definitions, sees subscribers
 //       join (the publisher's ZMQ_FD, polled as a plain descriptor), re-sends skeleton definitions
 //       on join and periodically, sends stats and retires closed streams, taking the token for
 //       every use of the publisher.
@@ -42,6 +47,7 @@
 
 #include "common/status.hpp"
 #include "pipeline/pipeline.hpp"
+#include "transport/message_ring.hpp"
 #include "transport/wire.hpp"
 #include "transport/zmq_io.hpp"
 
@@ -229,6 +235,15 @@ class Runtime {
   // alignment's rows there: a change of setting, not a per-frame cost).
   transport::TableVerdict set_practice(const transport::PracticeSetting& practice, std::string* why = nullptr);
 
+  // Hands one ingest message (the ZeroMQ wire bytes: topic + FlatBuffer, wire.hpp) to a direct
+  // ingest (RuntimeConfig::ingest.kind = kDirect): copied into the ring the I/O thread reads, and
+  // judged there as a socket's message is (malformed ones counted by cause, never touching another
+  // stream). [one thread at a time: the producer; it must stop calling before the runtime is
+  // destroyed, stop() may run meanwhile] Never blocks, never allocates. False when not taken: no
+  // direct ingest, the ring is full (the I/O thread fell behind), or stop() has begun; the caller
+  // counts it (a message taken is handled before stop() returns: counted in the ingest's counters).
+  bool offer(const void* data, size_t size);
+
   // Lets workers finish every queued frame, flushes every pipeline, sends every result, then
   // stops the threads and closes the sockets (idempotent). [any thread but a runtime thread]
   // A push racing it is either taken (kOk; its result is sent before stop returns) or refused
@@ -319,6 +334,15 @@ class Runtime {
   // thread (starting it is the full memory barrier ZeroMQ asks for when a socket changes thread).
   std::unique_ptr<transport::Publisher> publisher_;
   std::unique_ptr<transport::Ingest> ingest_;
+  // A direct ingest's ring (offer) and the eventfd that wakes the I/O thread for it; both live
+  // until the destructor, so a producer racing stop() never touches a freed ring or a closed fd.
+  std::unique_ptr<transport::MessageRing> direct_ring_;
+  int direct_fd_ = -1;
+  // The producer is inside offer(): stop()'s I/O thread waits for it to leave before its last
+  // drain of the ring (seq_cst against ingest_stop_requested_), so no message is left behind.
+  alignas(64) std::atomic<bool> offering_{false};
+  // Drains the ring into the ingest (at most max messages; all of them when max < 0). [I/O thread]
+  void drain_direct(int max);
 };
 
 }  // namespace kata::runtime

@@ -37,13 +37,16 @@ bool read_socket_event(void* monitor, uint16_t* kind, uint32_t* value) {
 Ingest::Ingest(Context& context, const IngestOptions& options, Handlers handlers)
     : decoder_(options.max_message_bytes, options.require_checksum), handlers_(std::move(handlers)),
       table_(options.limits) {
-  if (options.endpoints.empty()) throw Error(ErrorKind::kInvalidArgument, "ingest: no endpoint");
+  const bool direct = options.kind == IngestKind::kDirect;
+  if (direct != options.endpoints.empty())
+    throw Error(ErrorKind::kInvalidArgument, direct ? "ingest: a direct ingest has no endpoint" : "ingest: no endpoint");
   if (options.shard_count > 1 && options.shard_index >= options.shard_count)
     throw Error(ErrorKind::kInvalidArgument, "ingest: shard index must be below the shard count");
   shard_count_ = options.shard_count;
   shard_index_ = options.shard_index;
   max_connections_ = options.max_connections;
   log_refusals_ = options.log_refusals;
+  if (direct) return;  // no socket, no connections: receive() takes its messages
   socket_ = zmq_socket(context.get(), options.kind == IngestKind::kSub ? ZMQ_SUB : ZMQ_PULL);
   if (!socket_) throw Error(ErrorKind::kIo, "ZeroMQ: cannot create an ingest socket: " + zmq_reason());
   try {
@@ -96,9 +99,10 @@ Ingest::Ingest(Context& context, const IngestOptions& options, Handlers handlers
   }
 }
 
-std::string Ingest::endpoint() const { return last_endpoint(socket_); }
+std::string Ingest::endpoint() const { return socket_ ? last_endpoint(socket_) : std::string("direct"); }
 
 Ingest::~Ingest() {
+  if (socket_ == nullptr) return;  // kDirect
   zmq_socket_monitor(socket_, nullptr, 0);
   zmq_close(monitor_);
   zmq_close(socket_);

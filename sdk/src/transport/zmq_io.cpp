@@ -62,6 +62,7 @@ void Ingest::reset() {
 
 int Ingest::poll(int max_messages) {
   housekeeping();
+  if (socket_ == nullptr) return 0;  // kDirect: receive() takes its messages
   int count = 0;
   zmq_msg_t message;
   zmq_msg_init(&message);
@@ -97,6 +98,11 @@ int Ingest::poll(int max_messages) {
   }
   zmq_msg_close(&message);
   return count;
+}
+
+void Ingest::receive(const void* data, size_t size) {
+  ++counters_.received;
+  handle(data, size, kLocalSender, steady_now_ns());
 }
 
 void Ingest::handle_practice(SenderToken sender, int64_t now_ns) {

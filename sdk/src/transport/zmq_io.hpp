@@ -86,7 +86,7 @@ class Publisher {
   // for every subscribe (prefix empty = every topic). Returns how many were read.
   int poll_joins(const std::function<void(const uint8_t* prefix, size_t size)>& on_join);
   // The socket, for zmq_poll (POLLIN = subscription messages).
-  void* socket() const { return socket_; }
+  void* socket() const { return socket_; }  // null for kDirect
   // ZMQ_FD: a plain descriptor another thread may poll while the socket's owner of the moment
   // sends (edge-triggered: after it fires, poll_joins reads until nothing is left).
   int descriptor() const;
@@ -104,7 +104,12 @@ class Publisher {
   uint64_t sent_ = 0, failed_ = 0;
 };
 
-enum class IngestKind { kSub, kPull };
+// kDirect: no socket. Messages are handed in by another thread of the process (a NATS shard's
+// delivery thread: Runtime::offer copies them into a ring the ingest's thread reads, then
+// Ingest::receive), so they reach the same verifier, limits, table and counters as a socket's
+// without a local hop. They all count as one sender's (kLocalSender): who may publish on a
+// stream's subject is the transport's business (NATS account permissions).
+enum class IngestKind { kSub, kPull, kDirect };
 
 // Reads one event of a zmq_socket_monitor PAIR socket without blocking: its kind (ZMQ_EVENT_*)
 // and value (a descriptor, an error or a status, by kind). False when none is waiting.
@@ -112,9 +117,14 @@ bool read_socket_event(void* monitor, uint16_t* kind, uint32_t* value);
 
 struct IngestOptions {
   // Endpoints; "bind:" before an endpoint binds it, otherwise it is connected (a SUB connects
-  // to a mocap stage's PUB; a PULL usually binds so several senders can push to it).
+  // to a mocap stage's PUB; a PULL usually binds so several senders can push to it). None for
+  // kDirect.
   std::vector<std::string> endpoints;
   IngestKind kind = IngestKind::kSub;
+  // kDirect: bytes of the ring messages wait in for the ingest's thread (allocated once; a
+  // message that finds no room is refused to its sender, who counts it). 4 MiB holds ~4,000
+  // frames of 33 joints, seconds of 16 streams x 60 Hz; raised to hold 2 messages of the limit.
+  size_t direct_queue_bytes = 4 << 20;
   // Largest message accepted; larger ones are counted as oversized and dropped.
   size_t max_message_bytes = 1 << 20;
   // ZMQ_RCVHWM.
@@ -229,13 +239,16 @@ class Ingest {
   // (steady clock; counted the same way; the fuzz target drives the ingest's whole path through
   // it). [the ingest's thread]
   void handle(const void* data, size_t size, SenderToken sender = kLocalSender, int64_t now_ns = -1);
+  // A message of a kDirect ingest (handed in, not read from a socket): counted as received and
+  // handled as a socket's message from kLocalSender, now. [the ingest's thread]
+  void receive(const void* data, size_t size);
   // Connection events (the connection limit, orphaned streams) and idle expiry; poll() calls it,
   // and the owner of the socket calls it at least every 100 ms. [the ingest's thread]
   void housekeeping(int64_t now_ns = -1);
   // Forgets every stream, sender and counter: the state of a new ingest, without a new socket
   // (the fuzz target runs each input on a fresh state). [the ingest's thread]
   void reset();
-  void* socket() const { return socket_; }
+  void* socket() const { return socket_; }  // null for kDirect
   // The last endpoint bound or connected, resolved (a "bind:tcp://127.0.0.1:*" reports its port).
   std::string endpoint() const;
   const IngestCounters& counters() const { return counters_; }

@@ -8,8 +8,11 @@
 // of its own, as NATS's delivery thread), and a third NATS subscriber on n0 that hands each
 // message on as a `kata serve` shard does (serve_bridge.cpp: from libnats' delivery thread over
 // an ipc PUSH to a PULL in another ZeroMQ context, read by a thread of its own as the runtime's
-// ingest reads), stamped where the PULL reader gets it: the bridge's share of a frame's hop. A
-// measurement tool, not a test.
+// ingest reads), stamped where the PULL reader gets it: the bridge's share of a frame's hop until
+// issue 38's follow-up. A fourth subscriber on n0 hands each message on as the shard does now
+// (Runtime::offer: copied into a MessageRing, an eventfd written; a thread of its own sleeping in
+// zmq_poll on that eventfd, as the runtime's I/O thread, drains the ring), stamped where that
+// reader gets it. A measurement tool, not a test.
 //   kata_nats_hop [--rate 1000] [--seconds 10]
 #include <nats/nats.h>
 #include <zmq.h>
@@ -26,11 +29,13 @@
 #include <thread>
 #include <vector>
 
+#include <sys/eventfd.h>
 #include <unistd.h>
 
 #include "nats_cluster.hpp"
 #include "transport/nats/connection.hpp"
 #include "transport/nats/partition.hpp"
+#include "transport/message_ring.hpp"
 #include "transport/wire.hpp"
 
 namespace {
@@ -66,6 +71,21 @@ double percentile(std::vector<int64_t> v, double q) {
 // The shard's bridge: the message's bytes on to the ingest's socket, as ServeBridge::on_message.
 void on_bridge_msg(natsConnection*, natsSubscription*, natsMsg* msg, void* push) {
   zmq_send(push, natsMsg_GetData(msg), static_cast<size_t>(natsMsg_GetDataLength(msg)), ZMQ_DONTWAIT);
+  natsMsg_Destroy(msg);
+}
+
+// The shard's path now: the message's bytes into the runtime's ring, its I/O thread woken
+// (Runtime::offer).
+struct Direct {
+  kata::transport::MessageRing ring{4 << 20};
+  int fd = eventfd(0, EFD_NONBLOCK | EFD_CLOEXEC);
+};
+void on_direct_msg(natsConnection*, natsSubscription*, natsMsg* msg, void* closure) {
+  auto* d = static_cast<Direct*>(closure);
+  if (d->ring.push(natsMsg_GetData(msg), static_cast<size_t>(natsMsg_GetDataLength(msg)))) {
+    const uint64_t one = 1;
+    (void)!write(d->fd, &one, sizeof one);
+  }
   natsMsg_Destroy(msg);
 }
 
@@ -125,6 +145,33 @@ int main(int argc, char** argv) {
           bridge_path.latency_ns.push_back(now - sent);
         }
       });
+      auto directed = connect(0);
+      Direct direct;
+      Path direct_path;
+      std::atomic<bool> dstop{false};
+      std::thread dreader([&] {
+        while (!dstop.load()) {
+          zmq_pollitem_t item{nullptr, direct.fd, ZMQ_POLLIN, 0};
+          zmq_poll(&item, 1, 100);
+          uint64_t value;
+          (void)!read(direct.fd, &value, sizeof value);
+          const uint8_t* data = nullptr;
+          size_t size = 0;
+          while (direct.ring.front(&data, &size)) {
+            if (size >= kata::transport::kTopicBytes + 8) {
+              const int64_t now = steady_ns();
+              int64_t sent = 0;
+              std::memcpy(&sent, data + kata::transport::kTopicBytes, 8);
+              std::lock_guard<std::mutex> lock(direct_path.mutex);
+              direct_path.latency_ns.push_back(now - sent);
+            }
+            direct.ring.pop();
+          }
+        }
+      });
+      natsSubscription* s4 = nullptr;
+      natsConnection_Subscribe(&s4, directed->get(), "kata.in.*.*", on_direct_msg, &direct);
+      directed->flush(2000);
       natsSubscription* s3 = nullptr;
       natsConnection_Subscribe(&s3, bridged->get(), "kata.in.*.*", on_bridge_msg, bpush);
       bridged->flush(2000);
@@ -191,6 +238,11 @@ int main(int argc, char** argv) {
       natsSubscription_Destroy(s3);
       bstop.store(true);
       breader.join();
+      natsSubscription_Unsubscribe(s4);
+      natsSubscription_Destroy(s4);
+      dstop.store(true);
+      dreader.join();
+      close(direct.fd);
       zmq_setsockopt(bpush, ZMQ_LINGER, &linger, sizeof linger);
       zmq_setsockopt(bpull, ZMQ_LINGER, &linger, sizeof linger);
       zmq_close(bpush);
@@ -199,13 +251,14 @@ int main(int argc, char** argv) {
       zmq_ctx_term(pull_ctx);
       std::printf("NATS hop, %zu-byte frame messages at %.0f/s for %.0f s (publish -> delivery, steady clock):\n",
                   message.size(), rate, seconds);
-      for (auto* p : {&zmq_path, &same_path, &other_path, &bridge_path}) {
+      for (auto* p : {&zmq_path, &same_path, &other_path, &bridge_path, &direct_path}) {
         std::lock_guard<std::mutex> lock(p->mutex);
         std::printf("  %-52s %6zu received  p50 %7.1f us  p99 %7.1f us  max %8.1f us\n",
                     p == &zmq_path     ? "ZeroMQ PUB -> SUB (tcp, loopback):"
                     : p == &same_path  ? "NATS, subscriber on the same server:"
                     : p == &other_path ? "NATS, subscriber one route away:"
-                                       : "NATS same server + a shard's bridge (ipc PUSH -> PULL):",
+                    : p == &bridge_path ? "NATS same server + the former ipc bridge (PUSH -> PULL):"
+                                        : "NATS same server + the shard's ring (Runtime::offer):",
                     p->latency_ns.size(), percentile(p->latency_ns, 0.5), percentile(p->latency_ns, 0.99),
                     percentile(p->latency_ns, 1.0));
       }

@@ -568,6 +568,93 @@ TEST(NatsCluster, ServeShardsMatchOneProcess) {
 }
 
 
+// kata serve over NATS hands its messages to the runtime's direct ingest (Runtime::offer), not
+// over a private ipc socket: hostile messages on streams' subjects (each with its subject's topic,
+// so the shard hands them on) are counted by cause in the ingest and never disturb the stream kata
+// send feeds beside them, which keeps every result; and no socket directory is made in TMPDIR
+// (until the direct ingest the bridge's socket lived in a kata-nats-* directory there).
+TEST(NatsCluster, ServeDirectIngestCountsHostileMessagesByCause) {
+  TempDir dir;
+  NatsCluster cluster(dir.path().string(), 3);
+  ASSERT_EQ(cluster.problem(), "");
+  const std::string tmp = dir.file("tmp");
+  std::filesystem::create_directories(tmp);
+  const std::string config = dir.file("solo.toml");
+  std::ofstream(config) << "[transport]\nkind = \"nats\"\nservers = [\"" << cluster.url(0)
+                        << "\"]\nshard = \"solo\"\n[ingest]\nmax_frame_age_ms = 0\n" << scoring_config();
+  Children children;
+  children.pids.push_back(spawn({"/bin/sh", "-c", "TMPDIR=" + tmp + " exec " KATA_CLI " serve --config " + config},
+                                dir.file("solo.log")));
+  kn::ConnectionOptions co;
+  co.servers = cluster.urls();
+  kn::Connection consumer(co);
+  natsSubscription* sub = nullptr;
+  ASSERT_EQ(natsConnection_SubscribeSync(&sub, consumer.get(), "kata.out.>"), NATS_OK);
+  natsSubscription_SetPendingLimits(sub, -1, -1);
+  ASSERT_TRUE(consumer.flush(2000));
+  ASSERT_TRUE(wait_for([&] { return at_rendezvous_holders(consumer, {"solo"}); }, 20000))
+      << "the shard never held every partition";
+  for (const auto& entry : std::filesystem::directory_iterator(tmp))
+    EXPECT_NE(entry.path().filename().string().rfind("kata-nats-", 0), 0u) << "a socket directory: " << entry.path();
+  // Hostile: a topic-correct start and junk, on the real stream's subject and on another's.
+  const uint64_t real = 500, other = 777;
+  int hostile = 0;
+  auto attack = [&] {
+    for (uint64_t id : {real, other}) {
+      char message[64];
+      transport::write_topic(id, message);
+      std::memset(message + transport::kTopicBytes, 0x5A, sizeof message - transport::kTopicBytes);
+      ASSERT_TRUE(consumer.publish(kn::ingest_subject("kata", id), message, sizeof message));
+      ++hostile;
+    }
+  };
+  for (int i = 0; i < 10; ++i) attack();
+  const int frames = 60;
+  const std::string command = std::string(KATA_CLI) + " send --transport nats --nats-server " + cluster.url(1) +
+                              " --bvh " KATA_DATA_DIR "/cmu/05_18.bvh --streams 1 --stream-id 500 --frames " +
+                              std::to_string(frames) + " --warmup 0.5";
+  const pid_t sender = spawn({"/bin/sh", "-c", command}, dir.file("send.log"));
+  Children send_process{{sender}};
+  for (int i = 0; i < 10; ++i) {  // while the real frames flow
+    attack();
+    std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  }
+  ASSERT_TRUE(consumer.flush(2000));
+  transport::Decoder decoder;
+  std::vector<uint64_t> sequences;
+  const int64_t deadline = steady_ns() + 60'000 * kMs;
+  while (static_cast<int>(sequences.size()) < frames && steady_ns() < deadline) {
+    natsMsg* msg = nullptr;
+    if (natsSubscription_NextMsg(&msg, sub, 3000) != NATS_OK) break;
+    if (decoder.decode(natsMsg_GetData(msg), static_cast<size_t>(natsMsg_GetDataLength(msg))) ==
+        transport::MessageKind::kResult) {
+      EXPECT_EQ(decoder.result().stream_id, real);
+      sequences.push_back(decoder.result().frame_sequence);
+    }
+    natsMsg_Destroy(msg);
+  }
+  natsSubscription_Destroy(sub);
+  int status = -1;
+  ::waitpid(sender, &status, 0);
+  send_process.pids.clear();
+  EXPECT_EQ(status, 0) << "kata send (NATS)";
+  std::vector<uint64_t> want(frames);
+  for (int i = 0; i < frames; ++i) want[static_cast<size_t>(i)] = static_cast<uint64_t>(i);
+  EXPECT_EQ(sequences, want) << "the real stream: every result once, in order";
+  ::kill(children.pids[0], SIGTERM);
+  int exit_status = -1;
+  ::waitpid(children.pids[0], &exit_status, 0);
+  children.pids.clear();
+  EXPECT_TRUE(WIFEXITED(exit_status) && WEXITSTATUS(exit_status) == 0) << "kata serve exited with " << exit_status;
+  std::ifstream log(dir.file("solo.log"));
+  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  // Every hostile message reached the ingest and was counted as malformed, nothing else refused.
+  const std::string dropped = "+ " + std::to_string(hostile) + " dropped (not owner 0, limit 0, window 0, stale 0, malformed " +
+                              std::to_string(hostile) + ", unknown stream 0,";
+  EXPECT_NE(text.find(dropped), std::string::npos) << "want '" << dropped << "' in:\n" << text;
+  EXPECT_NE(text.find(" 0 not taken by the ingest"), std::string::npos) << text;
+}
+
 // kill -9 of one kata serve shard while frames flow (issue 38's failover test with scoring): three
 // shards score 24 streams at 60 Hz fed by kata send over NATS; once every stream's results flow
 // from its partition's holder, the shard holding the most of them is killed. Its partitions are

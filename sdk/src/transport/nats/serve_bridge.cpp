@@ -1,28 +1,20 @@
 #include "transport/nats/serve_bridge.hpp"
 
-#include <zmq.h>
-
-#include <cstdlib>
 #include <cstring>
-#include <filesystem>
 
 #include "common/error.hpp"
 #include "pipeline/pipeline.hpp"
 
 namespace kata::transport::nats {
 
-ServeBridge::ServeBridge(ShardOptions options) : options_(std::move(options)), encoder_(std::make_unique<Encoder>()) {
-  std::string pattern = (std::filesystem::temp_directory_path() / "kata-nats-XXXXXX").string();
-  if (::mkdtemp(pattern.data()) == nullptr) throw Error(ErrorKind::kIo, "serve: cannot make a private socket directory in " +
-                                                                          std::filesystem::temp_directory_path().string());
-  directory_ = pattern;  // mkdtemp makes it 0700: no other user can reach the socket inside
-  socket_path_ = directory_ + "/ingest.sock";
-}
+ServeBridge::ServeBridge(ShardOptions options) : options_(std::move(options)), encoder_(std::make_unique<Encoder>()) {}
 
-ServeBridge::~ServeBridge() {
-  stop();
-  std::error_code ec;
-  std::filesystem::remove_all(directory_, ec);
+ServeBridge::~ServeBridge() { stop(); }
+
+void ServeBridge::configure(runtime::RuntimeConfig& config) {
+  config.ingest.endpoints.clear();
+  config.ingest.kind = IngestKind::kDirect;
+  config.sinks.push_back(sink());
 }
 
 runtime::Sink ServeBridge::sink() {
@@ -41,17 +33,8 @@ runtime::Sink ServeBridge::sink() {
   return s;
 }
 
-void ServeBridge::start() {
-  context_ = zmq_ctx_new();
-  push_ = zmq_socket(context_, ZMQ_PUSH);
-  // A deep queue: the runtime's ingest reads in batches; beyond this the bridge drops (counted)
-  // rather than block libnats' delivery thread.
-  const int hwm = 100000, linger = 0;
-  zmq_setsockopt(push_, ZMQ_SNDHWM, &hwm, sizeof hwm);
-  zmq_setsockopt(push_, ZMQ_LINGER, &linger, sizeof linger);
-  if (zmq_connect(push_, ingest_endpoint().c_str()) != 0)
-    throw Error(ErrorKind::kIo, "serve: cannot connect to the ingest at " + ingest_endpoint() + ": " +
-                                    zmq_strerror(zmq_errno()));
+void ServeBridge::start(runtime::Runtime& runtime) {
+  runtime_ = &runtime;  // before the Shard exists: its lease thread subscribes after this
   Shard::Handlers h;
   h.on_message = [this](const void* data, size_t size) { on_message(data, size); };
   shard_ = std::make_unique<Shard>(options_, h);
@@ -62,19 +45,18 @@ void ServeBridge::on_message(const void* data, size_t size) {
   // A skeleton definition is also a consumer's: forwarded to the stream's result subject.
   if (size >= kTopicBytes + 8 && std::memcmp(static_cast<const char*>(data) + kTopicBytes + 4, "KSKL", 4) == 0) {
     uint64_t id = 0;
-    if (parse_topic(static_cast<const uint8_t*>(data), &id)) shard_->publish_definition(id, data, size);
+    // live_shard_, not shard_: the first delivery may come before start() has stored shard_.
+    Shard* shard = live_shard_.load(std::memory_order_acquire);
+    if (shard != nullptr && parse_topic(static_cast<const uint8_t*>(data), &id)) shard->publish_definition(id, data, size);
   }
-  if (zmq_send(push_, data, size, ZMQ_DONTWAIT) < 0) bridge_dropped_.fetch_add(1, std::memory_order_relaxed);
+  // Into the runtime's ring; its I/O thread verifies, counts and scores it (runtime.hpp, offer).
+  if (!runtime_->offer(data, size)) bridge_dropped_.fetch_add(1, std::memory_order_relaxed);
 }
 
 void ServeBridge::stop() {
   live_shard_.store(nullptr, std::memory_order_release);
-  if (shard_) shard_->stop(true);
+  if (shard_) shard_->stop(true);  // returns after the last delivery: nothing reaches runtime_ after
   shard_.reset();
-  if (push_ != nullptr) zmq_close(push_);
-  push_ = nullptr;
-  if (context_ != nullptr) zmq_ctx_term(context_);
-  context_ = nullptr;
 }
 
 }  // namespace kata::transport::nats

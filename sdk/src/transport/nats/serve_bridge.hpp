@@ -1,13 +1,17 @@
 // `kata serve` over NATS ([transport] kind = "nats"; docs/deploy.md): a Shard (shard.hpp) whose
 // messages reach the runtime's own ingest, and whose results leave through a runtime Sink.
 //
-// The runtime's ingest is the one ZeroMQ uses, unchanged (the same verifier, size limit, stream
-// table, counters by cause, revisions and closes): the bridge binds it to a private local socket
-// (ipc:// in a directory only this user may enter) and pushes every message of a held partition
-// into it from libnats' delivery thread, in order. All of them come from that one sender, so the
-// ingest's per-sender ownership says nothing here: who may publish on a stream's subject is the
-// NATS account's permissions' business. The cost is one local hop (a PUSH -> PULL over ipc, tens
-// of microseconds) that a runtime taking messages from any thread would not need.
+// The runtime's ingest is the one ZeroMQ uses (the same verifier, size limit, stream table,
+// counters by cause, revisions and closes), made socketless (transport::IngestKind::kDirect):
+// libnats' delivery thread hands each message of a held partition, in order, to Runtime::offer,
+// which copies it into a bounded single-producer ring (allocated once) and wakes the runtime's
+// I/O thread, the ingest's one owner, through an eventfd. Until issue 38's follow-up the bridge
+// pushed every message over a private ipc PUSH -> PULL socket instead: two ZeroMQ I/O threads and
+// three wake-ups per message (~150 us at p50 of the frames' hop, more in bursts); the ring needs
+// one. All messages come from the one producer, so the ingest's per-sender ownership says nothing
+// here (they count as kLocalSender): who may publish on a stream's subject is the NATS account's
+// permissions' business. A message the ring cannot take (the I/O thread fell behind, or the
+// runtime is stopping) is counted in bridge_dropped().
 //
 // Results: the sink encodes each one (the same FlatBuffers Result as ZeroMQ's) and publishes it on
 // the stream's result subject under this shard's lease epoch, or drops it (counted) when the
@@ -18,8 +22,10 @@
 // idle_stream_seconds closes it (or its partition comes back and it goes on). The new holder
 // opens it from its next skeleton definition.
 //
-// Thread rules: construct, start(), stop() and destroy on one thread; sink() is called by the
-// runtime (one thread at a time).
+// Thread rules: construct, configure(), start(), stop() and destroy on one thread; the runtime
+// given to start() must outlive stop() (stop() returns after libnats' last delivery, so no call
+// into the runtime follows it). on_message runs on libnats' delivery thread (one: shard.hpp), the
+// ring's one producer. sink() is called by the runtime (one thread at a time).
 #pragma once
 
 #include <memory>
@@ -32,32 +38,32 @@ namespace kata::transport::nats {
 
 class ServeBridge {
  public:
-  // Makes the private socket's directory; nothing is connected yet. Throws kata::Error(kIo).
   explicit ServeBridge(ShardOptions options);
-  // stop(), then removes the socket's directory.
+  // stop().
   ~ServeBridge();
   ServeBridge(const ServeBridge&) = delete;
   ServeBridge& operator=(const ServeBridge&) = delete;
 
-  // The endpoint the runtime's ingest binds ("bind:" + this), a PULL ingest.
-  std::string ingest_endpoint() const { return "ipc://" + socket_path_; }
-  // The sink that publishes results (to RuntimeConfig::sinks before the runtime is made).
+  // Before the runtime is made: its ingest becomes a direct one (no endpoint, no socket) and this
+  // bridge's sink is added to its sinks.
+  void configure(runtime::RuntimeConfig& config);
+  // The sink that publishes results (configure() adds it).
   runtime::Sink sink();
-  // Connects to the ingest and to NATS, and starts taking partitions. Throws kata::Error.
-  void start();
-  // Gives every partition back (the others take them at once) and disconnects. Idempotent.
+  // Connects to NATS and starts taking partitions; their messages go to runtime.offer(). Throws
+  // kata::Error.
+  void start(runtime::Runtime& runtime);
+  // Gives every partition back (the others take them at once) and disconnects; after it returns
+  // nothing reaches the runtime. Idempotent.
   void stop();
 
   const Shard* shard() const { return shard_.get(); }
-  // Messages the local socket would not take (its queue full: the runtime fell behind).
+  // Messages the runtime's ring would not take (full: the runtime fell behind; or it was stopping).
   uint64_t bridge_dropped() const { return bridge_dropped_.load(std::memory_order_relaxed); }
 
  private:
   void on_message(const void* data, size_t size);
   ShardOptions options_;
-  std::string directory_, socket_path_;
-  void* context_ = nullptr;
-  void* push_ = nullptr;  // [libnats' delivery thread] after start()
+  runtime::Runtime* runtime_ = nullptr;  // set by start() before the first subscription exists
   std::unique_ptr<Shard> shard_;
   std::atomic<Shard*> live_shard_{nullptr};  // for the sink: null before start and after stop
   std::unique_ptr<Encoder> encoder_;          // [the sink's thread]
