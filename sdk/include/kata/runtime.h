@@ -270,6 +270,11 @@ typedef struct kata_frame_message {
   /* joint_count confidences in [0, 1] (MediaPipe's visibility; NaN: the joint is missing, as in
    * kata_stream_push_confidence), or NULL (default): every joint confident. */
   const float* confidences;
+  /* joint_count presences in [0, 1] (MediaPipe's second landmark channel: the likelihood the joint
+   * is in the image at all; NaN: missing), or NULL (default): none sent. The receiver scores a
+   * joint by the smaller of its confidence and presence (schemas/frame.fbs "presence"); the
+   * checksum covers them. Since 1.1's first writer (a caller's struct without it sends none). */
+  const float* presences;
 } kata_frame_message;
 
 /* A stream's practice setting (schemas/practice.fbs): what kata_runtime_set_practice does, sent
