@@ -174,6 +174,105 @@ TEST(runtime_capi, StreamHandedToARuntimePublishesEveryResult) {
   kata_context_destroy(ctx);
 }
 
+// kata_runtime_desc.on_result (1.1): the callback receives every result of a stream handed to a
+// runtime, in order, with its ghost, equal to what the same stream computes on its own from the
+// same frames (a second stream with the same teacher, read with kata_stream_read_results).
+struct Received {
+  std::vector<kata_result_record> records;
+  std::vector<float> ghosts;
+  uint32_t size = 0;
+};
+void receive(void* user, const kata_result_record* r) {
+  auto* got = static_cast<Received*>(user);
+  got->size = r->struct_size;
+  got->records.push_back(*r);
+  got->records.back().ghost = nullptr;  // valid only during the call: its floats are copied
+  if (r->ghost) got->ghosts.insert(got->ghosts.end(), r->ghost, r->ghost + 3 * r->ghost_joint_count);
+}
+
+TEST(runtime_capi, OnResultGetsEveryRecordAsTheStreamComputesIt) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_clip student = nullptr, teacher = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &student), KATA_OK);
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_01.bvh", &teacher), KATA_OK);
+  kata_model model = nullptr;
+  ASSERT_EQ(kata_model_load(ctx, KATA_SOURCE_DIR "/models/default.kata", &model), KATA_OK) << kata_context_last_error(ctx);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(student, &skel), KATA_OK);
+  auto open = [&]() {
+    kata_stream_desc sd;
+    kata_stream_desc_init(&sd);
+    sd.layout = "cmu";
+    sd.stencil = kata_model_stencil(model);
+    sd.result_capacity = 256;
+    kata_stream s = nullptr;
+    EXPECT_EQ(kata_stream_open(ctx, skel, &sd, &s), KATA_OK) << kata_context_last_error(ctx);
+    kata_teacher_desc td;
+    kata_teacher_desc_init(&td);
+    td.model = model;
+    td.clip = teacher;
+    td.first_frame = 1;
+    EXPECT_EQ(kata_stream_attach_teacher(s, &td), KATA_OK) << kata_stream_last_error(s);
+    return s;
+  };
+  kata_stream alone = open(), handed = open();
+  Received got;
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  EXPECT_EQ(rd.on_result, nullptr);
+  EXPECT_EQ(rd.on_result_user, nullptr);
+  rd.workers = 1;
+  rd.on_result = receive;
+  rd.on_result_user = &got;
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  ASSERT_EQ(kata_runtime_add_stream(runtime, 9, &handed, "cmu", 0), KATA_OK) << kata_context_last_error(ctx);
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  std::vector<float> p(3 * joints);
+  const int frames = 80;
+  for (int i = 0; i < frames; ++i) {
+    ASSERT_EQ(kata_clip_positions(student, static_cast<uint32_t>(1 + i), p.data(), p.size()), KATA_OK);
+    ASSERT_EQ(kata_runtime_push(runtime, 9, static_cast<uint64_t>(i), i / 120.0, p.data(), joints), KATA_OK);
+    ASSERT_EQ(kata_stream_push(alone, i / 120.0, p.data(), joints), KATA_OK);
+  }
+  ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);  // every queued frame's result delivered first
+  const uint32_t g = kata_stream_ghost_joint_count(alone);
+  ASSERT_GT(g, 0u);
+  const uint32_t pending = kata_stream_results_pending(alone);
+  std::vector<kata_result_record> expected(pending);
+  expected[0].struct_size = sizeof expected[0];
+  std::vector<float> ghosts(static_cast<size_t>(pending) * 3 * g);
+  uint32_t n = 0;
+  ASSERT_EQ(kata_stream_read_results(alone, expected.data(), ghosts.data(), ghosts.size(), nullptr, 0, pending, &n), KATA_OK);
+  ASSERT_EQ(got.records.size(), static_cast<size_t>(n));
+  EXPECT_EQ(got.size, sizeof(kata_result_record));
+  ASSERT_EQ(got.ghosts.size(), ghosts.size());
+  for (uint32_t i = 0; i < n; ++i) {
+    const kata_result_record& r = got.records[i];
+    EXPECT_EQ(r.stream_id, 9u);
+    EXPECT_EQ(r.frame_sequence, static_cast<uint64_t>(expected[i].frame_index)) << i;
+    EXPECT_EQ(r.scored, expected[i].scored) << i;
+    EXPECT_EQ(r.state, expected[i].state) << i;
+    EXPECT_EQ(r.score, expected[i].score) << i;
+    EXPECT_EQ(r.matched_teacher_frame, expected[i].matched_teacher_frame) << i;
+    EXPECT_EQ(r.part_to_fix, expected[i].part_to_fix) << i;
+    EXPECT_EQ(r.ghost_joint_count, g) << i;
+  }
+  for (size_t k = 0; k < ghosts.size(); ++k) EXPECT_EQ(got.ghosts[k], ghosts[k]) << k;
+  kata_runtime_counters c;
+  c.struct_size = sizeof c;
+  ASSERT_EQ(kata_runtime_get_counters(runtime, &c), KATA_OK);
+  EXPECT_EQ(c.results, static_cast<uint64_t>(n));
+  kata_runtime_destroy(runtime);
+  kata_stream_destroy(alone);
+  kata_model_destroy(model);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(student);
+  kata_clip_destroy(teacher);
+  kata_context_destroy(ctx);
+}
+
 // kata_runtime_push_confidence: the confidences travel with the frame to the worker, which gates
 // joints as kata_stream_push_confidence does. Ten frames with every joint at confidence 0 are
 // accepted without features (no result, not counted as refused); the runtime publishes exactly as

@@ -5,6 +5,7 @@
 // on every frame, matched frame for frame; the newest result is the last one a drain returns.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstddef>
 #include <cstring>
@@ -333,6 +334,75 @@ TEST_F(TeacherCapi, DescSizesMotionsAndNullsAreChecked) {
   EXPECT_EQ(kata_stream_detach_teacher(nullptr), KATA_E_NULL_POINTER);
   EXPECT_EQ(kata_stream_restart_teacher(nullptr), KATA_E_NULL_POINTER);
   kata_stream_destroy(s);
+}
+
+// The ghost across layouts (1.1, kata_teacher_desc.ghost_across): the pipeline's ghost equals what
+// kata_retargeter_create_across + solve + place make of the same teacher frames in the same order
+// (the warm start included), independently of the pipeline: the matched frames are the ones the
+// results name, the student frames the ones the results' frame_index name. Student CMU 07_01 on
+// its own skeleton (other bone lengths), teacher 02_01.
+TEST_F(TeacherCapi, TheGhostAcrossLayoutsIsTheAcrossRetargetersOfTheMatchedFrames) {
+  kata_clip student_clip = nullptr;
+  kata_skeleton student = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &student_clip), KATA_OK);
+  ASSERT_EQ(kata_clip_skeleton(student_clip, &student), KATA_OK);
+  const uint32_t sj = kata_skeleton_joint_count(student);
+  kata_stream s = open(student, "cmu");
+  kata_teacher_desc d = desc();
+  d.clip = clip;
+  d.first_frame = kFirst;
+  d.ghost_across = 1;
+  ASSERT_EQ(kata_stream_attach_teacher(s, &d), KATA_OK) << kata_stream_last_error(s);
+  ASSERT_EQ(kata_stream_ghost_joint_count(s), static_cast<uint32_t>(KATA_GPD_JOINTS));
+  std::vector<float> student_frames;
+  for (uint32_t f = kFirst; f < kFirst + kFrames; ++f) {
+    std::vector<float> p(3 * static_cast<size_t>(sj));
+    ASSERT_EQ(kata_clip_positions(student_clip, f, p.data(), p.size()), KATA_OK);
+    student_frames.insert(student_frames.end(), p.begin(), p.end());
+    ASSERT_EQ(kata_stream_push(s, (f - kFirst) / 120.0, p.data(), sj), KATA_OK) << kata_stream_last_error(s);
+  }
+  const uint32_t pending = kata_stream_results_pending(s);
+  ASSERT_GT(pending, 10u);
+  std::vector<kata_result_record> r(pending);
+  r[0].struct_size = sizeof r[0];
+  std::vector<float> ghosts(static_cast<size_t>(pending) * 3 * KATA_GPD_JOINTS);
+  uint32_t n = 0;
+  ASSERT_EQ(kata_stream_read_results(s, r.data(), ghosts.data(), ghosts.size(), nullptr, 0, pending, &n), KATA_OK);
+  ASSERT_EQ(n, pending);
+
+  kata_retargeter rt = nullptr;
+  ASSERT_EQ(kata_retargeter_create_across(ctx, s, skel, "cmu", KATA_UP_Y, nullptr, &rt), KATA_OK)
+      << kata_context_last_error(ctx);
+  ASSERT_EQ(kata_retargeter_joint_count(rt), static_cast<uint32_t>(KATA_GPD_JOINTS));
+  for (uint32_t g = 0; g < KATA_GPD_JOINTS; ++g)
+    EXPECT_EQ(kata_stream_ghost_joint_source(s, g), kata_retargeter_joint_source(rt, g)) << g;
+  double largest = 0.0;
+  for (uint32_t i = 0; i < n; ++i) {
+    ASSERT_EQ(r[i].ghost_joint_count, static_cast<uint32_t>(KATA_GPD_JOINTS)) << i;
+    ASSERT_GE(r[i].matched_teacher_frame, 0) << i;
+    float expected[3 * KATA_GPD_JOINTS];
+    const std::vector<float> t = frame(kFirst + static_cast<uint32_t>(r[i].matched_teacher_frame));
+    ASSERT_EQ(kata_retargeter_solve(rt, t.data(), joints, expected, 3 * KATA_GPD_JOINTS, nullptr), KATA_OK);
+    ASSERT_EQ(kata_retargeter_place(rt, student_frames.data() + static_cast<size_t>(r[i].frame_index) * 3 * sj, sj,
+                                    expected, 3 * KATA_GPD_JOINTS),
+              KATA_OK);
+    for (int k = 0; k < 3 * KATA_GPD_JOINTS; ++k) {
+      const float got = ghosts[static_cast<size_t>(i) * 3 * KATA_GPD_JOINTS + static_cast<size_t>(k)];
+      largest = std::max(largest, static_cast<double>(std::fabs(got - expected[k])));
+    }
+  }
+  EXPECT_LT(largest, 1e-4) << "the pipeline's ghost differs from the across retargeter's";
+  // ghost_across needs ghost = 1; values other than 0 and 1 are refused.
+  d.ghost = 0;
+  EXPECT_EQ(kata_stream_attach_teacher(s, &d), KATA_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::strstr(kata_stream_last_error(s), "ghost_across"), nullptr) << kata_stream_last_error(s);
+  d.ghost = 1;
+  d.ghost_across = 2;
+  EXPECT_EQ(kata_stream_attach_teacher(s, &d), KATA_E_INVALID_ARGUMENT);
+  kata_retargeter_destroy(rt);
+  kata_stream_destroy(s);
+  kata_skeleton_destroy(student);
+  kata_clip_destroy(student_clip);
 }
 
 }  // namespace

@@ -10,7 +10,8 @@ photograph, the wall and the door with nobody in it, is the camera with no perso
 
   1. With the person: MediaPipe Pose (lite, WebAssembly on the CPU: --disable-gpu, so WebGL is
      SwiftShader's) finds the 33 landmarks, the page sends them, kata's results arrive, the state
-     goes from calibrating to scored, the ghost comes with the scores, no console error; the
+     goes from calibrating to scored, the ghost comes with the scores (once 60 frames have
+     measured the student's bones), no console error; the
      page reloaded mid-lesson continues it (its frames are taken, none refused).
   2. The page adds nothing but transport: the landmarks kata received (--record-student, .npy +
      .times.npy) read back by `kata score` from the file give, frame by frame, the scores the page
@@ -155,7 +156,12 @@ def main():
         states = h["states"]
         assert "calibrating" in states and "scored" in states, f"states seen: {states}"
         assert states.index("calibrating") < states.index("scored"), f"states seen: {states}"
-        assert any(e["ghost"] for e in h["events"] if e.get("score") is not None), "no ghost came with the scores"
+        # The ghost is the pipeline's, across layouts (the CMU teacher on the MediaPipe student's
+        # bones): it comes once the stream has measured the student's bones (60 frames with the
+        # whole body), then with every score.
+        wait_for("a ghost with the scores (after 60 frames measure the bones)",
+                 lambda: any(e["ghost"] for e in (hook() or {}).get("events", []) if e.get("score") is not None), 240)
+        h = hook()
         errors = severe(driver)
         assert not errors, f"console errors: {errors}"
         time.sleep(1.0)

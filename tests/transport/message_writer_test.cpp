@@ -200,6 +200,14 @@ TEST(runtime_message_writer, FrameIsTheEncodersBytesAndDecodesToItsValues) {
   const std::vector<uint8_t> plain = written(kata_message_write_frame, m);
   m.confidences = confidence.data();
   const std::vector<uint8_t> confident = written(kata_message_write_frame, m);
+  // With presences (1.1): the encoder's bytes with both channels; the decoder's confidence is the
+  // smaller of the two per joint (schemas/frame.fbs), checked against values computed here.
+  std::vector<float> presence(joints);
+  for (int j = 0; j < joints; ++j) presence[static_cast<size_t>(j)] = 1.0f - static_cast<float>(j) / (2 * joints);
+  EXPECT_EQ(m.presences, nullptr);
+  m.presences = presence.data();
+  const std::vector<uint8_t> present = written(kata_message_write_frame, m);
+  m.presences = nullptr;
 
   const int64_t capture_ns = static_cast<int64_t>(std::round(m.capture_time * 1e9));
   Encoder encoder;
@@ -222,6 +230,19 @@ TEST(runtime_message_writer, FrameIsTheEncodersBytesAndDecodesToItsValues) {
     else EXPECT_EQ(f.confidence[j], confidence[static_cast<size_t>(j)]) << j;
   ASSERT_EQ(decoder.decode(plain.data(), plain.size()), MessageKind::kFrame);
   EXPECT_EQ(decoder.frame().confidence, nullptr);
+  {
+    const int64_t ns = static_cast<int64_t>(std::round(m.capture_time * 1e9));
+    EXPECT_EQ(present, bytes_of(Encoder().frame(0xfeedu, 1234567, ns, xyz.data(), joints, confidence.data(), presence.data())));
+    ASSERT_EQ(decoder.decode(present.data(), present.size()), MessageKind::kFrame)
+        << kata::transport::decode_error_name(decoder.error());
+    ASSERT_NE(decoder.frame().confidence, nullptr);
+    for (int j = 0; j < joints; ++j) {
+      const float c = confidence[static_cast<size_t>(j)], p = presence[static_cast<size_t>(j)];
+      if (j == 4) EXPECT_TRUE(std::isnan(decoder.frame().confidence[j]));
+      else EXPECT_EQ(decoder.frame().confidence[j], std::min(c, p)) << j;
+    }
+    EXPECT_NE(present, confident) << "the presence channel is on the wire";
+  }
 
   kata_result_record r;
   r.struct_size = sizeof r;
@@ -289,6 +310,11 @@ TEST(runtime_message_writer, NonFiniteFramesAreRefused) {
   m.confidences = confidence;
   EXPECT_EQ(kata_message_write_frame(&m, buffer.data(), buffer.size(), &size), KATA_E_NON_FINITE);
   m.confidences = nullptr;
+  m.presences = confidence;  // an infinite presence: refused as a confidence is
+  EXPECT_EQ(kata_message_write_frame(&m, buffer.data(), buffer.size(), &size), KATA_E_NON_FINITE);
+  EXPECT_NE(std::string(kata_context_last_error(context)).find("infinite presence"), std::string::npos)
+      << kata_context_last_error(context);
+  m.presences = nullptr;
   m.joint_count = 0;
   EXPECT_EQ(kata_message_write_frame(&m, buffer.data(), buffer.size(), &size), KATA_E_WRONG_JOINT_COUNT);
   m.joint_count = 3;

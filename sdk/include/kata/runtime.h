@@ -45,6 +45,17 @@ extern "C" {
 /* Many streams, ZeroMQ in and out (above). */
 typedef struct kata_runtime_s* kata_runtime;
 
+/* A consumer of every result inside the process (1.1; kata_runtime_desc.on_result): an app that
+ * runs the runtime and draws or records its results itself (kata coach) needs no subscriber of
+ * its own publisher. Called by the runtime thread that holds the publisher (a worker or the I/O
+ * thread: one call at a time; each stream's results in order), after the result was published,
+ * with the runtime's own record: result->struct_size is this library's sizeof(kata_result_record)
+ * (a caller built against an older kata.h reads the fields it knows), stream_id and
+ * published_ns are set, and result->ghost (ghost_joint_count x 3 floats, or NULL) and the record
+ * are valid only during the call: copy what is kept. It must return quickly and must not call
+ * kata_runtime_* on its runtime (stop and destroy wait for it). `user` is on_result_user. */
+typedef void (*kata_result_callback)(void* user, const kata_result_record* result);
+
 /* How a runtime is built. Fill with kata_runtime_desc_init, then change fields. */
 typedef struct kata_runtime_desc {
   uint32_t struct_size;             /* sizeof(kata_runtime_desc) */
@@ -73,6 +84,9 @@ typedef struct kata_runtime_desc {
   uint32_t max_connections;         /* ingest connections held at once (0: no limit). Default 256 */
   double max_frame_age_seconds;     /* older ingest frames are dropped (0: never). Default 0.25 */
   double idle_stream_seconds;       /* ingest streams without traffic are closed (0: never). Default 300 */
+  /* ---- 1.1 ---- */
+  kata_result_callback on_result;   /* every result, in the process (above), or NULL (default) */
+  void* on_result_user;             /* passed to on_result as is. Default NULL */
 } kata_runtime_desc;
 
 /* Counters since the runtime was created (sums over streams). */
@@ -270,6 +284,11 @@ typedef struct kata_frame_message {
   /* joint_count confidences in [0, 1] (MediaPipe's visibility; NaN: the joint is missing, as in
    * kata_stream_push_confidence), or NULL (default): every joint confident. */
   const float* confidences;
+  /* joint_count presences in [0, 1] (MediaPipe's second landmark channel: the likelihood the joint
+   * is in the image at all; NaN: missing), or NULL (default): none sent. The receiver scores a
+   * joint by the smaller of its confidence and presence (schemas/frame.fbs "presence"); the
+   * checksum covers them. Since 1.1's first writer (a caller's struct without it sends none). */
+  const float* presences;
 } kata_frame_message;
 
 /* A stream's practice setting (schemas/practice.fbs): what kata_runtime_set_practice does, sent

@@ -131,6 +131,19 @@ typedef struct kata_teacher_desc {
    * units. (A moving teacher of 16 GPD joints: positions on kata_skeleton_create_layout "gpd".) */
   const float* joints;
   double body_height;        /* the joints' body height, in their units */
+  /* ---- 1.1 ---- */
+  /* 1: the ghost across layouts, for a teacher of one layout and a student stream of another (a
+   * CMU clip, a MediaPipe webcam student): the teacher's frames read through `layout`, the
+   * student's through the stream's own layout, retargeted on the 16 GPD joints both map and
+   * placed over the student, as kata_retargeter_create_across + kata_retargeter_place do. The
+   * ghost is then 16 joints in GPD order (kata_stream_ghost_joint_count 16), in the student
+   * stream's axes and units; kata_stream_ghost_joint_source gives the student joint each stands
+   * for (-1 for one its layout synthesises). The student's bone lengths come from its rest pose,
+   * or else from the stream's estimate: results carry no ghost (has_ghost 0) until
+   * kata_stream_bone_lengths has them, and the solver is then built once (one allocation, in
+   * that push). Needs ghost = 1 and a teacher given as a clip or positions; desc->retarget's
+   * joint_set is ignored. 0 (default): the ghost on the student's own joints, as in 1.0. */
+  int32_t ghost_across;
 } kata_teacher_desc;
 
 /* Fills the first struct_size bytes of desc with the defaults above and sets desc->struct_size

@@ -175,13 +175,16 @@ KATA_API kata_status kata_message_write_frame(const kata_frame_message* message,
     if (m.confidences && std::isinf(m.confidences[j]))
       return refuse(KATA_E_NON_FINITE, size,
                     std::string(call) + ": joint " + std::to_string(j) + " has an infinite confidence");
+    if (m.presences && std::isinf(m.presences[j]))
+      return refuse(KATA_E_NON_FINITE, size,
+                    std::string(call) + ": joint " + std::to_string(j) + " has an infinite presence");
   }
   return kata::capi::guarded_context([&] {
     // The capture time as the wire's nanoseconds, rounded (as a result record's: wire.cpp).
     const int64_t capture_ns = static_cast<int64_t>(std::round(m.capture_time * 1e9));
     return deliver(call,
                    thread_encoder().frame(m.stream_id, m.sequence, capture_ns, m.positions,
-                                          static_cast<int>(m.joint_count), m.confidences),
+                                          static_cast<int>(m.joint_count), m.confidences, m.presences),
                    buffer, capacity, size);
   });
 }

@@ -67,8 +67,11 @@ std::shared_ptr<const kata::pipeline::Teacher> make_feature_teacher(const kata_t
 }
 
 // The teacher's joint positions and skeleton from the desc (a clip, or frames given in memory).
+// ghost_side, when not null, receives how the teacher's frames are read for a ghost across layouts
+// (its layout's map, the axes its features are read in, its joint count).
 std::shared_ptr<const kata::pipeline::Teacher> make_teacher(const kata_teacher_desc& d, kata::gpd::Stencil stencil,
-                                                            const char* call) {
+                                                            const char* call,
+                                                            kata::retarget::MappedSide* ghost_side = nullptr) {
   std::string layout = kata::c_string(d.layout, "kata_teacher_desc.layout");  // bounded read
   if (layout.empty()) layout = "cmu";
   if (d.features || d.joints) return make_feature_teacher(d, call);
@@ -97,6 +100,7 @@ std::shared_ptr<const kata::pipeline::Teacher> make_teacher(const kata_teacher_d
   const int pose = pose_index(d, frames, call);
   const kata::GpdMap map = kata::make_gpd_map(skeleton, kata::preset_joint_names(layout));
   kata::StreamConfig config = kata::stream_config_for(skeleton, map, stencil);
+  if (ghost_side) *ghost_side = {map, config.up_axis, skeleton.joint_count()};
   return kata::pipeline::Teacher::from_positions(d.model->metric, skeleton, config, positions.data(), frames,
                                                  frame_time, pose);
 }
@@ -117,10 +121,17 @@ kata_status attach_teacher(kata_stream stream, const kata_teacher_desc* desc, co
     if (options.ghost && (d.features || d.joints))
       invalid(call, "a teacher given as features or GPD joints has no joint positions to make a ghost from "
                     "(set desc->ghost = 0, or give the teacher as a clip or positions)");
-    if (options.ghost && !stream->pipeline.student().has_rest_pose)
+    // Across layouts the stream's bone-length estimate stands in for a rest pose (the pipeline
+    // makes the ghost once it is ready).
+    options.ghost_across = options.ghost && d.ghost_across != 0;
+    if (d.ghost_across != 0 && d.ghost_across != 1) invalid(call, "ghost_across must be 0 or 1");
+    if (d.ghost_across && !options.ghost) invalid(call, "ghost_across = 1 needs ghost = 1");
+    if (options.ghost && !options.ghost_across && !stream->pipeline.student().has_rest_pose)
       invalid(call, "a ghost needs the student's bone lengths, and the stream's skeleton has no rest offsets "
-                    "(set desc->ghost = 0 for scores only)");
-    stream->pipeline.set_teacher(make_teacher(d, stream->pipeline.stream().config().stencil, call), options);
+                    "(set desc->ghost = 0 for scores only, or ghost_across = 1 for the 16 GPD joints from the "
+                    "stream's estimate)");
+    stream->pipeline.set_teacher(
+        make_teacher(d, stream->pipeline.stream().config().stencil, call, &options.ghost_teacher), options);
     return KATA_OK;
   });
 }

@@ -83,6 +83,16 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
     config.ingest.kind = d.ingest_pull ? kata::transport::IngestKind::kPull : kata::transport::IngestKind::kSub;
     config.ingest.max_message_bytes = d.max_message_bytes;
     config.skeleton_resend_seconds = d.skeleton_resend_seconds;
+    // The published record is a kata_result_record (transport::ResultFields derives from it): the
+    // callback gets it as is, no translation and no copy on the live path.
+    if (d.on_result) {
+      const kata_result_callback callback = d.on_result;
+      void* const user = d.on_result_user;
+      config.sinks.push_back({[callback, user](const kata::transport::ResultFields& f) {
+                                callback(user, static_cast<const kata_result_record*>(&f));
+                              },
+                              {}});
+    }
     if (d.max_streams_per_sender < 1 || !(d.max_frame_age_seconds >= 0.0) || !(d.idle_stream_seconds >= 0.0) ||
         d.max_frame_age_seconds > 3600.0 || d.idle_stream_seconds > 1e7)
       throw kata::Error(kata::ErrorKind::kInvalidArgument,

@@ -77,8 +77,10 @@ Pipeline::Pipeline(const PipelineConfig& config) : config_(config), stream_(conf
   const size_t input_floats = 3 * static_cast<size_t>(config_.stream.input_joints);
   student_ring_.assign(static_cast<size_t>(history_) * input_floats, 0.0f);
   results_.assign(static_cast<size_t>(capacity_), Result{});
-  ghost_stride_ = static_cast<int>(input_floats);  // no joint set has more joints than the student
-  ghost_ring_.assign(static_cast<size_t>(capacity_) * input_floats, 0.0f);
+  // No joint set has more joints than the student; the ghost across layouts has the 16 GPD joints
+  // whatever the student's count.
+  ghost_stride_ = static_cast<int>(std::max(input_floats, static_cast<size_t>(3 * kGpdJoints)));
+  ghost_ring_.assign(static_cast<size_t>(capacity_) * static_cast<size_t>(ghost_stride_), 0.0f);
   if (config_.keep_features) feature_ring_.assign(static_cast<size_t>(capacity_) * gpd::kDims, 0.0f);
 }
 
@@ -92,7 +94,21 @@ void Pipeline::set_teacher(std::shared_ptr<const Teacher> teacher, const Teacher
   auto scorer = std::make_unique<metric::Scorer>(teacher->reference, options.alignment);
   std::unique_ptr<retarget::Retargeter> retargeter;
   retarget::JointSelection selection;
-  if (options.ghost && teacher->has_positions() && config_.student.has_rest_pose) {
+  const bool across = options.ghost && options.ghost_across && teacher->has_positions();
+  if (across) {
+    if (options.ghost_teacher.joints != teacher->joint_count())
+      throw Error(ErrorKind::kInvalidArgument, "pipeline: the ghost's teacher side has " +
+                                                   std::to_string(options.ghost_teacher.joints) + " joints, the teacher " +
+                                                   std::to_string(teacher->joint_count()));
+    // The ghost's joints are the 16 GPD joints; each stands for the student joint its layout maps
+    // there (-1: a joint the layout synthesises).
+    selection.preset = "gpd";
+    for (int g = 0; g < kGpdJoints; ++g) {
+      selection.names.emplace_back(kGpdJointNames[static_cast<size_t>(g)]);
+      selection.parents.push_back(kGpdParents[static_cast<size_t>(g)]);
+      selection.source.push_back(config_.stream.map.source[static_cast<size_t>(g)]);
+    }
+  } else if (options.ghost && teacher->has_positions() && config_.student.has_rest_pose) {
     selection = retarget::select_joints(teacher->skeleton, config_.student, options.ghost_joints);
     retargeter = std::make_unique<retarget::Retargeter>(
         selection.parents, retarget::selected_rest_lengths(config_.student, selection), options.retarget,
@@ -107,12 +123,33 @@ void Pipeline::set_teacher(std::shared_ptr<const Teacher> teacher, const Teacher
   retargeter_ = std::move(retargeter);
   selection_ = std::move(selection);
   ghost_joints_ = static_cast<int>(n);
+  across_ = across;
+  across_teacher_ = options.ghost_teacher;
+  across_options_ = options.retarget;
+  mapped_.reset();
+  if (across_ && config_.student.has_rest_pose) make_mapped();
+}
+
+bool Pipeline::make_mapped() {
+  if (mapped_) return true;
+  std::array<double, kGpdJoints> lengths{};
+  if (config_.student.has_rest_pose)
+    lengths = retarget::gpd_rest_lengths(config_.student, config_.stream.map);
+  else if (!stream_.bone_lengths(lengths.data(), nullptr))
+    return false;
+  for (int g = 1; g < kGpdJoints; ++g)
+    if (!(lengths[static_cast<size_t>(g)] > 0.0)) return false;  // a degenerate estimate: no ghost yet
+  const retarget::MappedSide student{config_.stream.map, config_.stream.up_axis, config_.stream.input_joints};
+  mapped_ = std::make_unique<retarget::MappedRetargeter>(across_teacher_, student, lengths, across_options_);
+  return true;
 }
 
 void Pipeline::clear_teacher() {
   teacher_.reset();
   scorer_.reset();
   retargeter_.reset();
+  mapped_.reset();
+  across_ = false;
   selection_ = {};
   ghost_joints_ = 0;
 }
@@ -120,6 +157,7 @@ void Pipeline::clear_teacher() {
 void Pipeline::restart_teacher() {
   if (scorer_) scorer_->reset();
   if (retargeter_) retargeter_->reset();
+  if (mapped_) mapped_->reset();
 }
 
 Status Pipeline::push(double capture_time, const float* xyz, const float* confidence, int joint_count,
@@ -203,6 +241,12 @@ void Pipeline::produce(int64_t frame, int64_t arrival_ns) {
       retargeter_->retarget(teacher_pose_.data(), ghost_pose_.data());
       retarget::place_over_student(ghost_joints_, student_pose_.data(), ghost_pose_.data());
       for (int i = 0; i < 3 * ghost_joints_; ++i) ghost[i] = static_cast<float>(ghost_pose_[static_cast<size_t>(i)]);
+      r.has_ghost = true;
+    } else if (across_ && make_mapped()) {
+      const float* s = student_ring_.data() + static_cast<size_t>(frame % history_) * 3 *
+                                                  static_cast<size_t>(config_.stream.input_joints);
+      mapped_->retarget(teacher_->frame_positions(r.matched_frame), ghost);
+      mapped_->place(s, ghost);
       r.has_ghost = true;
     }
   }

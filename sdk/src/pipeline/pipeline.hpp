@@ -30,6 +30,7 @@
 #include "common/status.hpp"
 #include "metric/scorer.hpp"
 #include "retarget/joint_set.hpp"
+#include "retarget/mapped.hpp"
 #include "retarget/retargeter.hpp"
 #include "skeleton/skeleton.hpp"
 #include "stream/stream.hpp"
@@ -81,6 +82,14 @@ struct TeacherOptions {
   bool ghost = true;                  // retarget the matched teacher frame (needs positions + rest pose)
   std::string ghost_joints = "cmu";   // retarget joint set (retarget/joint_set.hpp)
   retarget::RetargetOptions retarget;
+  // The ghost across layouts (a CMU teacher, a MediaPipe student): the teacher's frames read
+  // through ghost_teacher (its layout's map and axes), the student's through the stream's own,
+  // retargeted on the 16 GPD joints both map (retarget::MappedRetargeter) and placed over the
+  // student: 16 joints, GPD order, the student's axes and units. ghost_joints is then unused. The
+  // student's bone lengths come from its rest pose, or else from the stream's estimate: no ghost
+  // until Stream::bone_lengths has them (a webcam student has no rest pose).
+  bool ghost_across = false;
+  retarget::MappedSide ghost_teacher;
 };
 
 // One emitted feature vector's result.
@@ -110,7 +119,7 @@ class Pipeline {
   // Restarts the alignment (next frame matched from the clip's start) and the ghost's warm start.
   void restart_teacher();
   bool has_teacher() const { return teacher_ != nullptr; }
-  bool has_ghost() const { return retargeter_ != nullptr; }
+  bool has_ghost() const { return retargeter_ != nullptr || across_; }
   // The teacher's scorer (null without a teacher), e.g. to override its calibration.
   metric::Scorer* scorer() { return scorer_.get(); }
 
@@ -173,6 +182,14 @@ class Pipeline {
   int ghost_joints_ = 0;
   std::vector<double> teacher_pose_, ghost_pose_, student_pose_;  // ghost joints x 3
   std::vector<float> student_ring_;      // history x input joints x 3: raw frames, for placing ghosts
+  // The ghost across layouts (TeacherOptions::ghost_across): mapped_ is built in set_teacher from
+  // the student's rest pose, or once, on the first result after the stream's bone-length estimate
+  // is ready (one allocation per teacher, not per frame: the lengths are not known before).
+  bool across_ = false;
+  retarget::MappedSide across_teacher_;
+  retarget::RetargetOptions across_options_;
+  std::unique_ptr<retarget::MappedRetargeter> mapped_;
+  bool make_mapped();  // builds mapped_ when the student's lengths are known; false before
 
   // Result ring.
   std::vector<Result> results_;

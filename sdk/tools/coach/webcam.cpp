@@ -54,15 +54,6 @@ const char* state_text(int32_t state) {
   return "tracking lost";
 }
 
-struct V3 {
-  double x = 0, y = 0, z = 0;
-};
-V3 at(const float* p, int j) { return {p[3 * j], p[3 * j + 1], p[3 * j + 2]}; }
-double dist(V3 a, V3 b) { return std::sqrt((a.x - b.x) * (a.x - b.x) + (a.y - b.y) * (a.y - b.y) + (a.z - b.z) * (a.z - b.z)); }
-
-// GPD joints used by the ghost's placement (spec order): 0 Hip, 3 Neck, 10 LHip, 13 RHip.
-constexpr int kHip = 0, kNeck = 3, kLHip = 10, kRHip = 13;
-
 std::string html_text(const std::string& s) {
   std::string out;
   for (char c : s.substr(0, 64)) out += c == '<' ? "&lt;" : c == '>' ? "&gt;" : c == '&' ? "&amp;" : std::string(1, c);
@@ -103,7 +94,7 @@ struct WebcamCoach::Impl {
   bool recording_teacher = false;
   std::shared_ptr<const metric::Metric> metric;
   Layout student_layout;
-  std::vector<float> teacher_gpd;  // teacher frames x 16 x 3, Y up, teacher units
+  retarget::MappedSide ghost_teacher;  // how the ghost reads the teacher's frames (its layout's map, axes)
   int teacher_frames = 0;
   double teacher_frame_time = 0.0;
   std::unique_ptr<runtime::Runtime> runtime;
@@ -174,10 +165,7 @@ struct WebcamCoach::Impl {
     teacher_frame_time = frame_time;
     const auto ref = pipeline::Teacher::from_positions(metric, skeleton, config, positions.data(), count, frame_time,
                                                        -1, std::ref(progress));
-    teacher_gpd.resize(static_cast<size_t>(count) * 3 * kGpdJoints);
-    for (int f = 0; f < count; ++f)
-      map_to_gpd(map, bvh ? config.up_axis : axes, positions.data() + static_cast<size_t>(f) * 3 * skeleton.joint_count(),
-                 teacher_gpd.data() + static_cast<size_t>(f) * 3 * kGpdJoints);
+    ghost_teacher = {map, bvh ? config.up_axis : axes, skeleton.joint_count()};
     teacher_ref = ref;
   }
   std::shared_ptr<const pipeline::Teacher> teacher_ref;
@@ -203,6 +191,11 @@ struct WebcamCoach::Impl {
     if (teacher_ref) {
       pipeline::TeacherOptions options;
       options.alignment.window = settings.window;
+      // The ghost across layouts (the teacher's layout onto the page's MediaPipe student), made by
+      // the pipeline once the stream has estimated the student's bone lengths: 16 GPD joints in
+      // MediaPipe's world axes, as the page draws them.
+      options.ghost_across = true;
+      options.ghost_teacher = ghost_teacher;
       student_pipeline->set_teacher(teacher_ref, options);
     }
     frames.reserve(30 * 60 * 10);  // ten minutes at 30 Hz before the first growth
@@ -224,34 +217,6 @@ struct WebcamCoach::Impl {
     d.metres_per_unit = 1.0f;
     runtime->adopt_stream(d, student_pipeline.get(), [](pipeline::Pipeline* p) { delete p; }, false);
     student_pipeline.release();
-  }
-
-  // The ghost for a result: teacher frame `matched`'s GPD joints, turned to face the student's way
-  // (the hips' direction in the floor plane), scaled by the student's Hip-Neck length over the
-  // teacher's, stood on the student's Hip; out in MediaPipe world axes (x right, y down, z away).
-  bool ghost_of(int matched, const WebcamFrame& f, float* out) const {
-    if (matched < 0 || matched >= teacher_frames || f.landmarks != kWebcamLandmarks) return false;
-    float xyz[3 * kWebcamLandmarks], s[3 * kGpdJoints];
-    for (int j = 0; j < kWebcamLandmarks; ++j)
-      for (int k = 0; k < 3; ++k) xyz[3 * j + k] = f.values[kWebcamChannels * j + k];
-    map_to_gpd(student_layout.map, student_layout.axes, xyz, s);  // Y up, metres
-    const float* t = teacher_gpd.data() + static_cast<size_t>(matched) * 3 * kGpdJoints;
-    const double ts = dist(at(t, kHip), at(t, kNeck)), ss = dist(at(s, kHip), at(s, kNeck));
-    if (!(ts > 0) || !(ss > 0) || !std::isfinite(ss)) return false;
-    auto yaw = [](const float* p) {
-      return std::atan2(p[3 * kLHip + 2] - p[3 * kRHip + 2], p[3 * kLHip] - p[3 * kRHip]);
-    };
-    const double turn = yaw(s) - yaw(t), c = std::cos(turn), sn = std::sin(turn), scale = ss / ts;
-    const V3 th = at(t, kHip), sh = at(s, kHip);
-    for (int g = 0; g < kGpdJoints; ++g) {
-      const V3 p = at(t, g);
-      const double dx = p.x - th.x, dy = p.y - th.y, dz = p.z - th.z;
-      // Rotation about Y taking the teacher's hip direction (atan2(z, x)) onto the student's.
-      const double rx = c * dx - sn * dz, rz = sn * dx + c * dz;
-      const double x = sh.x + scale * rx, y = sh.y + scale * dy, z = sh.z + scale * rz;
-      out[3 * g] = static_cast<float>(x), out[3 * g + 1] = static_cast<float>(-y), out[3 * g + 2] = static_cast<float>(-z);
-    }
-    return true;
   }
 
   void emit(std::string json) {
@@ -302,8 +267,8 @@ struct WebcamCoach::Impl {
       metric::cue_text(f.cue_joint, f.cue_degrees, f.cue_action, cue, sizeof cue);
       e["cue"] = cue;
       e["matched"] = f.matched_teacher_frame;
-      float ghost[3 * kGpdJoints];
-      if (ghost_of(f.matched_teacher_frame, r.frame, ghost)) e["ghost"] = std::vector<float>(ghost, ghost + 3 * kGpdJoints);
+      if (f.ghost && f.ghost_joint_count == static_cast<uint32_t>(kGpdJoints))
+        e["ghost"] = std::vector<float>(f.ghost, f.ghost + 3 * kGpdJoints);
     }
     timeline.push_back({seq, r.frame.capture_ms * 1e-3 - first_time, state, f.scored ? f.score : 0.0f});
     emit(e.dump());
