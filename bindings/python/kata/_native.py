@@ -116,7 +116,8 @@ class TeacherDesc(ctypes.Structure):
                 ("frame_time", ctypes.c_double), ("layout", ctypes.c_char_p), ("first_frame", ctypes.c_uint32),
                 ("pose_frame", ctypes.c_int32), ("ghost", ctypes.c_int32),
                 ("retarget", ctypes.POINTER(RetargetDesc)),
-                ("features", ctypes.c_void_p), ("joints", ctypes.c_void_p), ("body_height", ctypes.c_double)]
+                ("features", ctypes.c_void_p), ("joints", ctypes.c_void_p), ("body_height", ctypes.c_double),
+                ("ghost_across", ctypes.c_int32)]  # 1.1
 
 
 class ResultRecord(ctypes.Structure):
@@ -178,7 +179,7 @@ class FrameMessage(ctypes.Structure):
     """kata_frame_message (since 1.1): one frame for kata_message_write_frame."""
     _fields_ = [("struct_size", ctypes.c_uint32), ("joint_count", ctypes.c_uint32), ("stream_id", ctypes.c_uint64),
                 ("sequence", ctypes.c_uint64), ("capture_time", ctypes.c_double), ("positions", ctypes.c_void_p),
-                ("confidences", ctypes.c_void_p)]
+                ("confidences", ctypes.c_void_p), ("presences", ctypes.c_void_p)]
 
 
 class PracticeMessage(ctypes.Structure):

@@ -400,11 +400,13 @@ def write_skeleton(stream_id: int, skeleton: Any, layout: Optional[str] = None,
 
 @_typed
 def write_frame(stream_id: int, sequence: int, capture_time: float, positions: Any,
-                confidences: Any = None) -> bytes:
+                confidences: Any = None, presences: Any = None) -> bytes:
     """kata_message_write_frame: one frame message. positions: (joints, 3) floats in the skeleton
     definition's joint order and units, all finite; confidences: joints floats in [0, 1] (NaN:
-    missing), or None; capture_time: seconds on the source's clock. KataError on a refusal
-    (E_NON_FINITE for a NaN or infinite coordinate). [any thread]"""
+    missing), or None; presences: MediaPipe's second landmark channel, joints floats in [0, 1], or
+    None (the stream reads each joint's confidence as the smaller of the two); capture_time: seconds
+    on the source's clock. KataError on a refusal (E_NON_FINITE for a NaN or infinite coordinate).
+    [any thread]"""
     p = _positions_f32(positions)
     if p.size % 3:
         raise ValueError("positions hold joints x 3 floats, not %d floats" % p.size)
@@ -419,6 +421,12 @@ def write_frame(stream_id: int, sequence: int, capture_time: float, positions: A
         if c.size != m.joint_count:
             raise ValueError("confidences hold one float per joint (%d), not %d" % (m.joint_count, c.size))
         m.confidences = _address(c)
+    q = None
+    if presences is not None:
+        q = np.ascontiguousarray(presences, dtype=np.float32)
+        if q.size != m.joint_count:
+            raise ValueError("presences hold one float per joint (%d), not %d" % (m.joint_count, q.size))
+        m.presences = _address(q)
     return _write(_n.message_write_frame, m, "kata_message_write_frame")
 
 

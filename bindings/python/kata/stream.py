@@ -326,14 +326,17 @@ class Stream(_Handle):
     def attach_teacher(self, model: Model, clip: Optional[Clip] = None, skeleton: Optional[Skeleton] = None,
                        positions: Any = None, frame_time: Optional[float] = None, layout: Optional[str] = None,
                        first_frame: int = 0, pose_frame: int = -1, ghost: Optional[bool] = None, features: Any = None,
-                       joints: Any = None, body_height: float = 0.0, **retarget: Any) -> None:
+                       joints: Any = None, body_height: float = 0.0, ghost_across: bool = False,
+                       **retarget: Any) -> None:
         """kata_stream_attach_teacher: score against (and ghost from) a teacher given as one of
         a Clip; a Skeleton + positions (frames, joints, 3) + frame_time; GPD features
         (frames, 1683) + frame_time; or joints, one held pose of the 16 GPD joints (16, 3) with its
         body_height. pose_frame >= first_frame: that frame only, as a single pose. ghost: default
         True for a clip or positions (features and joints have none to make). retarget: the ghost
         solver's options (joint_set "cmu"/"gpd", gradient_tolerance, max_iterations, warm_start,
-        restore_bone_lengths)."""
+        restore_bone_lengths). ghost_across: the ghost across layouts (a CMU clip teacher, a
+        MediaPipe student): 16 GPD joints in the student's axes and units, once the stream has
+        measured the student's bones (kata_teacher_desc.ghost_across, 1.1)."""
         d = _n.TeacherDesc()
         _n.teacher_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
         d.model = model.handle
@@ -370,6 +373,7 @@ class Stream(_Handle):
         if ghost is None:
             ghost = features is None and joints is None
         d.ghost = 1 if ghost else 0
+        d.ghost_across = 1 if ghost_across else 0
         rdesc = _retarget_desc(retarget) if retarget else None
         if rdesc is not None:
             d.retarget = ctypes.pointer(rdesc)

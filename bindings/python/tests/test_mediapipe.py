@@ -135,3 +135,30 @@ def test_the_readme_example_runs_as_printed(recording, repo, tmp_path):
     assert p.returncode == 0, p.stderr
     expected = kata.mediapipe.score(four, timestamps_ms, os.path.join(repo, "data", "cmu", "02_01.bvh"), first_frame=1)
     assert "mean score %.1f over %d frames" % (expected.mean_score, len(expected.scored)) in p.stdout
+
+
+def test_ghost_across_layouts_on_a_mediapipe_student(recording, data, model_path):
+    """attach_teacher(ghost_across=True): a CMU clip teacher and a MediaPipe student get the
+    pipeline's ghost across layouts (kata_teacher_desc.ghost_across, 1.1): 16 GPD joints in the
+    student's camera axes, from when the stream has measured the student's bones; finite, and
+    near the student's own landmarks (the student is the teacher's own motion)."""
+    landmarks, timestamps_ms = recording
+    n = 240
+    with kata.Context() as ctx, ctx.load_model(model_path) as model, \
+            ctx.load_clip(os.path.join(data, "07_01.bvh")) as clip, ctx.create_layout("mediapipe") as sk, \
+            ctx.open_stream(sk, layout="mediapipe") as s:
+        s.attach_teacher(model, clip, layout="cmu", first_frame=1, ghost_across=True)
+        assert s.ghost_joint_count == 16
+        r = s.push_and_read(timestamps_ms[:n] / 1000.0, landmarks[:n])
+        has = r.results["ghost_joint_count"] > 0
+        assert 0 < has.sum() < len(has) and not has[0] and has[-1]  # none until the bones are measured
+        g = r.ghosts[has]
+        assert np.isfinite(g).all()
+        # The ghost lands on the student's own landmarks (the same motion): its hips (GPD LHip 10,
+        # RHip 13; landmarks 23, 24) within 5 cm at the median (measured 0.8-0.9 cm), its left foot
+        # and hand (GPD 12, 6; landmarks 27, 15) within 10 cm (4.6 and 3.1 cm).
+        frames = r.results["frame_index"][has]
+        for gpd, lm, within in ((10, 23, 0.05), (13, 24, 0.05), (12, 27, 0.10), (6, 15, 0.10)):
+            assert np.median(np.linalg.norm(g[:, gpd] - landmarks[frames, lm], axis=1)) < within, gpd
+        with pytest.raises(kata.KataError):
+            s.attach_teacher(model, clip, layout="cmu", first_frame=1, ghost=False, ghost_across=True)

@@ -33,6 +33,13 @@ def test_written_messages_read_back_with_the_schema_readers(data):
                        dtype=np.float32)
         np.testing.assert_array_equal(xyz, p)
         np.testing.assert_array_equal(f.ConfidenceAsNumpy(), conf)
+        assert f.PresenceIsNone()
+        presence = conf[::-1].copy()
+        f = Frame.GetRootAs(kata.write_frame(0x2a, 8, 1.5, p, conf, presences=presence)[16:], 0)
+        np.testing.assert_array_equal(f.ConfidenceAsNumpy(), conf)
+        np.testing.assert_array_equal(f.PresenceAsNumpy(), presence)
+        with pytest.raises(ValueError):
+            kata.write_frame(0x2a, 9, 1.6, p, conf, presences=presence[:-1])
 
     m = kata.write_practice(0x2a, revision=2, loop=(1.0, 2.5))
     q = Practice.GetRootAs(m[16:], 0)
