@@ -86,9 +86,15 @@ def geometry(t, s, a, b):
 def model_key():
     """The per-pair CSVs depend on the model's W and maps and on the scorer that wrote them: cached
     under the model file's and the kata binary's size and mtime (a rebuilt scorer with the same
-    model must not reuse the old CSVs)."""
+    model must not reuse the old CSVs), and the shared library's beside it (../lib/libkata.so: the
+    scorer lives there, and a rebuilt library does not relink the binary)."""
     st, sk = os.stat(MODEL), os.stat(KATA)
-    return "%d_%d_%d_%d" % (st.st_size, int(st.st_mtime), sk.st_size, int(sk.st_mtime))
+    key = "%d_%d_%d_%d" % (st.st_size, int(st.st_mtime), sk.st_size, int(sk.st_mtime))
+    lib = os.path.join(os.path.dirname(os.path.abspath(KATA)), "..", "lib", "libkata.so")
+    if os.path.exists(lib):
+        sl = os.stat(lib)  # follows the symlink to the built file
+        key += "_%d_%d" % (sl.st_size, int(sl.st_mtime))
+    return key
 
 
 def score_pair(t, s):
