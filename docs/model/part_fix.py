@@ -22,9 +22,10 @@ joints of the distance between student and teacher joint in the local frame (blo
 1..15 relative to the hip, yaw removed, body heights; the hip itself by its height), the issue's
 "local-frame MJD". Its two largest parts are "geometry's top 2".
 
-The model's part to fix over a pair: the part with the lowest mean part score over the scoring
-frames (the lesson report's lowest part). Also printed: the part that is the lowest on the most
-frames (the per-frame cue before its hysteresis).
+The model's part to fix over a pair (issue 34): the part the scorer names (part_to_fix, after its
+averaging, ranking and hold) on the most scoring frames; the lowest mean part score when none is
+named. Also printed: the part that is the lowest on the most frames (the per-frame lowest part
+score, before averaging and hold). docs/model/part_fix_rules.py replays other rules on the same CSVs.
 
 fit: each part's distance d_p = |W^T (jc_p o e)| (scores.md) is put in body heights of joint
 displacement by one factor a_p, fitted by least squares through the origin of the per-frame

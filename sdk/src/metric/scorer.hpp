@@ -53,7 +53,7 @@ struct ScoreRecord {
   float part_distance[kParts] = {};
   // Per part p (pose_error.hpp PartError): its angle, degrees (the largest angle between a
   // student bone of the part and the teacher's, each in the body's frame it hangs from), the GPD
-  // joint (1..15) at the end of that bone, its offset (mean joint distance in those frames, body
+  // joint (1..15) at the end of that bone, its offset (mean joint distance in the local frame, body
   // heights) and its score angle_score(degrees), 0..100.
   float part_degrees[kParts] = {};
   int32_t part_joint[kParts] = {};
