@@ -22,9 +22,10 @@ joints of the distance between student and teacher joint in the local frame (blo
 1..15 relative to the hip, yaw removed, body heights; the hip itself by its height), the issue's
 "local-frame MJD". Its two largest parts are "geometry's top 2".
 
-The model's part to fix over a pair: the part with the lowest mean part score over the scoring
-frames (the lesson report's lowest part). Also printed: the part that is the lowest on the most
-frames (the per-frame cue before its hysteresis).
+The model's part to fix over a pair (issue 34): the part the scorer names (part_to_fix, after its
+averaging, ranking and hold) on the most scoring frames; the lowest mean part score when none is
+named. Also printed: the part that is the lowest on the most frames (the per-frame lowest part
+score, before averaging and hold). docs/model/part_fix_rules.py replays other rules on the same CSVs.
 
 fit: each part's distance d_p = |W^T (jc_p o e)| (scores.md) is put in body heights of joint
 displacement by one factor a_p, fitted by least squares through the origin of the per-frame
@@ -86,9 +87,15 @@ def geometry(t, s, a, b):
 def model_key():
     """The per-pair CSVs depend on the model's W and maps and on the scorer that wrote them: cached
     under the model file's and the kata binary's size and mtime (a rebuilt scorer with the same
-    model must not reuse the old CSVs)."""
+    model must not reuse the old CSVs), and the shared library's beside it (../lib/libkata.so: the
+    scorer lives there, and a rebuilt library does not relink the binary)."""
     st, sk = os.stat(MODEL), os.stat(KATA)
-    return "%d_%d_%d_%d" % (st.st_size, int(st.st_mtime), sk.st_size, int(sk.st_mtime))
+    key = "%d_%d_%d_%d" % (st.st_size, int(st.st_mtime), sk.st_size, int(sk.st_mtime))
+    lib = os.path.join(os.path.dirname(os.path.abspath(KATA)), "..", "lib", "libkata.so")
+    if os.path.exists(lib):
+        sl = os.stat(lib)  # follows the symlink to the built file
+        key += "_%d_%d" % (sl.st_size, int(sl.st_mtime))
+    return key
 
 
 def score_pair(t, s):

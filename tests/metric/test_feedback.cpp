@@ -143,6 +143,20 @@ TEST(Feedback, IdenticalPoseScoresHundredOnEveryPartAndNamesNoPart) {
   }
 }
 
+// The ranking of the part to fix (scorer.cpp update_part_to_fix), from averaged part scores and
+// offsets: the lowest averaged part (equal ones by the larger offset), unless a part below `good`
+// whose averaged score is within kOffsetBand points of it has a larger averaged offset.
+int ranked_part(const std::vector<double>& average, const std::vector<double>& offset, double good) {
+  int lowest = 0;
+  for (int q = 1; q < kParts; ++q)
+    if (average[q] < average[lowest] || (average[q] == average[lowest] && offset[q] > offset[lowest])) lowest = q;
+  int best = lowest;
+  for (int q = 0; q < kParts; ++q)
+    if (q != lowest && average[q] < good && average[q] <= average[lowest] + metric::kOffsetBand && offset[q] > offset[best])
+      best = q;
+  return best;
+}
+
 // Another subject's walk against a teacher pose, with good_score 100 so a part is always
 // proposed: the part shown changes only to a part that has been the lowest of the averaged part
 // scores for hold_time, and follows a part that stays lowest that long. The average is recomputed
@@ -166,15 +180,11 @@ void check_part_to_fix_holds(double smoothing_time) {
   for (int f = 0; f < test::clip_frames("07_01.bvh"); ++f) {
     const metric::ScoreRecord& r = scorer.score(test::clip_row("07_01.bvh", f), f * dt);
     const double keep = f == 0 || smoothing_time == 0.0 ? 0.0 : std::exp(-dt / smoothing_time);
-    // The ranking (scorer.cpp update_part_to_fix): the lowest averaged part score, equal scores
-    // by the largest averaged part offset.
     for (int q = 0; q < kParts; ++q) {
       average[q] = keep * average[q] + (1.0 - keep) * r.part_scores[q];
       offset[q] = keep * offset[q] + (1.0 - keep) * r.part_offset[q];
     }
-    int low = 0;
-    for (int q = 1; q < kParts; ++q)
-      if (average[q] < average[low] || (average[q] == average[low] && offset[q] > offset[low])) low = q;
+    const int low = ranked_part(average, offset, c.good_score);
     lowest_changes += !lowest.empty() && lowest.back() != low;
     lowest.push_back(low);
     const int hold_frames = static_cast<int>(std::ceil(fb.hold_time / dt - 1e-9));
@@ -246,15 +256,12 @@ TEST(Feedback, APartIsNamedWhileItOrTheTotalIsBelowGood) {
                        (1.0 - keep) * (q < kParts ? r.part_scores[q] : r.score);
         for (int q = 0; q < kParts; ++q)
           offset[q] = keep * offset[q] + (1.0 - keep) * r.part_offset[q];
-        // The ranking (scorer.cpp): the lowest averaged part, equal ones by the largest
-        // averaged offset.
-        int lowest = 0;
+        int lowest = 0;  // the gate reads the lowest averaged part
         for (int q = 1; q < kParts; ++q)
-          if (average[q] < average[lowest] || (average[q] == average[lowest] && offset[q] > offset[lowest]))
-            lowest = q;
+          if (average[q] < average[lowest]) lowest = q;
         const bool part_poor = average[lowest] < good,
                    total_poor = average[kParts] < good;
-        const int low = lowest;
+        const int low = ranked_part(average, offset, good);
         by_part_only += part_poor && !total_poor;
         by_total_only += total_poor && !part_poor;
         by_neither += !part_poor && !total_poor;

@@ -185,8 +185,9 @@ KATA_API kata_status kata_stream_restart_teacher(kata_stream stream);
  * calibration uses d50 = delta*, slope 2, good_score 75; the part maps d50_p, slope_p of the
  * struct below are kept for old readers and no longer read by the scorer.
  * part_to_fix (averaged over 0.5 s): while the lowest part score's average or the total's is
- * below good_score, the part with the lowest averaged score (equal scores: the one whose joints are
- * farthest from the teacher's, each in its own frame); named at once when nothing is named; another part (or none) replaces a named one only after
+ * below good_score, the part with the lowest averaged score, unless a part below good_score within
+ * 20 points of it has its joints farther from the teacher's (averaged local-frame mean joint distance;
+ * equal scores rank the same way); named at once when nothing is named; another part (or none) replaces a named one only after
  * holding for 0.5 s, so cues do not flicker.
  * The correction cue (cue_joint, cue_degrees, cue_action; present iff part_to_fix >= 0) says what
  * to change in that part, as a coach does: "left knee: bend 30 deg more". cue_joint is the joint

@@ -90,8 +90,9 @@ void part_error(const float* s, const float* t, PartError& out) {
         sum += std::fabs(static_cast<double>(s[kHipHeight]) - static_cast<double>(t[kHipHeight]));
         continue;
       }
-      const float* a = framed(s, j);
-      const float* b = framed(t, j);
+      // The local frame for every joint (pose[3 j]), geometry's own measure (part_fix.py).
+      const float* a = s + 3 * j;
+      const float* b = t + 3 * j;
       const double dx = a[0] - b[0], dy = a[1] - b[1], dz = a[2] - b[2];
       sum += std::sqrt(dx * dx + dy * dy + dz * dz);
     }

@@ -52,11 +52,12 @@ struct PartError {
   // at the end of that bone (the bone's parent joint is the one to move).
   float degrees[kParts];
   int32_t joint[kParts];
-  // Offset, body heights: the mean over the part's joints of the student-teacher distance, each
-  // joint in its frame (the torso's hip by its height, chest and neck in the local frame, the
-  // head and arms in the chest frame from the neck, the legs in the local frame). The part to fix
-  // is ranked by it: over real pairs it follows the local-frame mean joint distance (geometry's
-  // ranking), and a bent spine moves the torso's joints, not the arms it carries.
+  // Offset, body heights: the mean over the part's joints of the student-teacher distance, every
+  // joint in the local frame (the torso's hip by its height): the local-frame mean joint distance
+  // that docs/model/part_fix.py calls geometry. The part to fix ranks by it among the parts below
+  // good within kOffsetBand points of the lowest part score (scorer.cpp update_part_to_fix). Until
+  // 2026-12-04 the head and arms were read in the chest frame here, so that a bent spine did not
+  // move the arms it carries; the band now keeps an arm at 100 out instead.
   float offset[kParts];
 };
 void part_error(const float* student_pose, const float* teacher_pose, PartError& out);

@@ -34,6 +34,10 @@ enum class ScoreState : int32_t {
 // low whatever the joints' angles); each part score is the map of the part's joint angle
 // (pose_error.hpp: the largest angle between a student bone and the teacher's, in the body's
 // frames), the same map for every part, so the same bend costs the same at every joint, left or right.
+// The part to fix ranks by offset among the parts below good_score within this many points of the
+// lowest averaged part score (scorer.cpp update_part_to_fix; docs/model/scores.md "The part to fix").
+constexpr double kOffsetBand = 20.0;
+
 struct ScoreRecord {
   double time = 0.0;          // timestamp of the scored frame, seconds (stream clock)
   int64_t frame = -1;         // count of frames scored before this one by this Scorer
@@ -49,7 +53,7 @@ struct ScoreRecord {
   float part_distance[kParts] = {};
   // Per part p (pose_error.hpp PartError): its angle, degrees (the largest angle between a
   // student bone of the part and the teacher's, each in the body's frame it hangs from), the GPD
-  // joint (1..15) at the end of that bone, its offset (mean joint distance in those frames, body
+  // joint (1..15) at the end of that bone, its offset (mean joint distance in the local frame, body
   // heights) and its score angle_score(degrees), 0..100.
   float part_degrees[kParts] = {};
   int32_t part_joint[kParts] = {};
@@ -58,8 +62,9 @@ struct ScoreRecord {
   // The part to fix (Part index), -1 for none: Scorer::update_part_to_fix (scorer.cpp), the one
   // place it is decided. With part scores and offsets averaged over
   // FeedbackOptions::smoothing_time: while the lowest averaged part score (or the averaged total)
-  // is below the calibration's good_score in kScoring, the candidate is the part with the largest
-  // averaged offset; named at once when no part is named; another part replaces it, or "none"
+  // is below the calibration's good_score in kScoring, the candidate is, among the lowest averaged
+  // part and the parts below good_score within kOffsetBand points of it, the one with the largest
+  // averaged offset (local-frame mean joint distance); named at once when no part is named; another part replaces it, or "none"
   // clears it, only after holding for FeedbackOptions::hold_time seconds (hysteresis).
   int32_t part_to_fix = -1;
   // The correction cue (cue.hpp), present iff part_to_fix >= 0: the GPD joint to move (0..15,
