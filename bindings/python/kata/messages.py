@@ -415,19 +415,22 @@ def write_frame(stream_id: int, sequence: int, capture_time: float, positions: A
     m.stream_id, m.sequence, m.capture_time = stream_id, sequence, capture_time
     m.joint_count = p.size // 3
     m.positions = _address(p) if p.size else None
-    c = None
-    if confidences is not None:
-        c = np.ascontiguousarray(confidences, dtype=np.float32)
-        if c.size != m.joint_count:
-            raise ValueError("confidences hold one float per joint (%d), not %d" % (m.joint_count, c.size))
-        m.confidences = _address(c)
-    q = None
-    if presences is not None:
-        q = np.ascontiguousarray(presences, dtype=np.float32)
-        if q.size != m.joint_count:
-            raise ValueError("presences hold one float per joint (%d), not %d" % (m.joint_count, q.size))
-        m.presences = _address(q)
+    # Each per-joint channel is kept alive (c, q) until the call has copied it.
+    c = _per_joint(confidences, m.joint_count, "confidences")
+    m.confidences = None if c is None else _address(c)
+    q = _per_joint(presences, m.joint_count, "presences")
+    m.presences = None if q is None else _address(q)
     return _write(_n.message_write_frame, m, "kata_message_write_frame")
+
+
+def _per_joint(values: Any, joints: int, what: str) -> Optional[np.ndarray]:
+    """One float32 a joint (a frame's confidences or presences), or None when not given."""
+    if values is None:
+        return None
+    v = np.ascontiguousarray(values, dtype=np.float32)
+    if v.size != joints:
+        raise ValueError("%s hold one float per joint (%d), not %d" % (what, joints, v.size))
+    return v
 
 
 @_typed
