@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 #include <zmq.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstddef>
 #include <cstring>
 #include <memory>
@@ -270,6 +272,70 @@ TEST(runtime_capi, OnResultGetsEveryRecordAsTheStreamComputesIt) {
   kata_skeleton_destroy(skel);
   kata_clip_destroy(student);
   kata_clip_destroy(teacher);
+  kata_context_destroy(ctx);
+}
+
+// kata_runtime_latency_percentile (1.1): the runtime's arrival -> published histogram, read back as
+// the documented percentile of the records' own published_ns - arrival_ns (on_result sees every
+// published record), computed here from those.
+TEST(runtime_capi, LatencyPercentileIsTheDocumentedBucketEdgeOfThePublishedRecords) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_clip clip = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &clip), KATA_OK);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(clip, &skel), KATA_OK);
+  kata_stream_desc sd;
+  kata_stream_desc_init(&sd);
+  sd.layout = "cmu";
+  kata_stream s = nullptr;
+  ASSERT_EQ(kata_stream_open(ctx, skel, &sd, &s), KATA_OK) << kata_context_last_error(ctx);
+  Received got;
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.workers = 1;
+  rd.publish_endpoints = "tcp://127.0.0.1:*";
+  rd.on_result = receive;
+  rd.on_result_user = &got;
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  EXPECT_EQ(kata_runtime_latency_percentile(runtime, 0.5), 0.0);  // nothing published yet
+  ASSERT_EQ(kata_runtime_add_stream(runtime, 3, &s, "cmu", 0), KATA_OK) << kata_context_last_error(ctx);
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  std::vector<float> p(3 * joints);
+  for (int i = 0; i < 120; ++i) {
+    ASSERT_EQ(kata_clip_positions(clip, static_cast<uint32_t>(1 + i), p.data(), p.size()), KATA_OK);
+    ASSERT_EQ(kata_runtime_push(runtime, 3, static_cast<uint64_t>(i), i / 120.0, p.data(), joints), KATA_OK);
+  }
+  ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);
+  ASSERT_GT(got.records.size(), 100u);
+  std::vector<uint64_t> histogram(288, 0);
+  for (const kata_result_record& r : got.records) {
+    ASSERT_GT(r.published_ns, 0) << "published";
+    const int64_t ns = r.published_ns - r.arrival_ns;
+    const int b = ns < 1 ? 0 : std::min(287, std::max(0, static_cast<int>(8.0 * std::log2(static_cast<double>(ns)))));
+    ++histogram[static_cast<size_t>(b)];
+  }
+  for (double q : {0.0, 0.25, 0.5, 0.9, 0.99, 1.0}) {
+    uint64_t seen = 0;
+    double expected = 0.0;
+    for (size_t i = 0; i < histogram.size(); ++i) {
+      seen += histogram[i];
+      if (static_cast<double>(seen) >= q * static_cast<double>(got.records.size())) {
+        expected = std::exp2(static_cast<double>(i + 1) / 8.0);
+        break;
+      }
+    }
+    EXPECT_EQ(kata_runtime_latency_percentile(runtime, q), expected) << q;
+  }
+  EXPECT_LE(kata_runtime_latency_percentile(runtime, 0.5), kata_runtime_latency_percentile(runtime, 0.99));
+  EXPECT_EQ(kata_runtime_latency_percentile(runtime, -0.1), 0.0);
+  EXPECT_EQ(kata_runtime_latency_percentile(runtime, 1.5), 0.0);
+  EXPECT_EQ(kata_runtime_latency_percentile(runtime, std::nan("")), 0.0);
+  EXPECT_EQ(kata_runtime_latency_percentile(nullptr, 0.5), 0.0);
+  kata_runtime_destroy(runtime);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(clip);
   kata_context_destroy(ctx);
 }
 

@@ -187,6 +187,14 @@ KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtim
 KATA_API const char* kata_runtime_publish_endpoint(kata_runtime runtime);
 /* Likewise for the ingest socket. [any thread] */
 KATA_API const char* kata_runtime_ingest_endpoint(kata_runtime runtime);
+/* The latency from a frame's arrival to its result's hand-over to ZeroMQ (arrival_ns to
+ * published_ns of kata_result_record), over every result the runtime published so far, all
+ * streams: the value in nanoseconds below which a fraction q (0..1) of them lies. The runtime
+ * counts them in a histogram whose bucket i holds [2^(i/8), 2^((i+1)/8)) ns (9 % wide; i < 288,
+ * the last also holding anything longer); the answer is the upper edge of the bucket where the
+ * running count first reaches q x the total. 0 before the first published result, without a
+ * publisher, for NULL or for q outside 0..1 or NaN. Does not allocate. Since 1.1. [any thread] */
+KATA_API double kata_runtime_latency_percentile(kata_runtime runtime, double q);
 
 /* ---- Shards (docs/deploy.md) ----
  * Several `kata serve` processes split the streams: with [shard] count = N, index = i in its

@@ -254,6 +254,12 @@ KATA_API const char* kata_runtime_ingest_endpoint(kata_runtime runtime) {
   return runtime ? runtime->runtime->ingest_endpoint_cstr() : "";
 }
 
+KATA_API double kata_runtime_latency_percentile(kata_runtime runtime, double q) {
+  if (!runtime || !(q >= 0.0 && q <= 1.0)) return 0.0;
+  const kata::runtime::RuntimeCounters c = runtime->runtime->counters();
+  return kata::runtime::latency_percentile(c.latency_histogram, q);
+}
+
 KATA_API kata_status kata_message_read_result(const void* message, size_t size, kata_result_record* out) {
   if (!message || !out) return KATA_E_NULL_POINTER;
   if (out->struct_size < sizeof(uint32_t)) return KATA_E_INVALID_ARGUMENT;
