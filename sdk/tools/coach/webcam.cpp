@@ -1,5 +1,7 @@
 #include "coach/webcam.hpp"
 
+#include "runtime/runtime.hpp"  // before httplib.h, whose macros break Eigen
+
 #include "coach/viewer_server.hpp"
 
 #include <algorithm>

@@ -33,8 +33,6 @@
 #include <thread>
 #include <vector>
 
-#include "runtime/runtime.hpp"
-
 namespace httplib {
 class Server;
 }
