@@ -123,7 +123,10 @@ typedef struct kata_teacher_desc {
   const float* positions;    /* frames x joints x 3 floats, or NULL */
   uint32_t frames;           /* frames of positions or features (joints: 1) */
   double frame_time;         /* seconds between frames of positions or features */
-  const char* layout;        /* the teacher's layout (kata_layout_name). NULL: "cmu" */
+  const char* layout;        /* the teacher's layout (kata_layout_name), read as a stream of that
+                                layout reads its frames: its axes and smoothing where it fixes them
+                                ("mediapipe" positions on kata_skeleton_create_layout's skeleton,
+                                since 1.1; 1.0 refused that layout here). NULL: "cmu" */
   uint32_t first_frame;      /* teacher frames first_frame..end (1 skips CMU's T-pose). Default 0 */
   int32_t pose_frame;        /* -1 (default): follow the whole clip; >= first_frame: that frame only */
   int32_t ghost;             /* 1 (default): make a ghost per result (the student skeleton needs rest

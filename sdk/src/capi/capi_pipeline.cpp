@@ -98,8 +98,13 @@ std::shared_ptr<const kata::pipeline::Teacher> make_teacher(const kata_teacher_d
     frame_time = d.frame_time;
   }
   const int pose = pose_index(d, frames, call);
-  const kata::GpdMap map = kata::make_gpd_map(skeleton, kata::preset_joint_names(layout));
+  // The layout as a stream of it reads its frames: a name map, or one that synthesises joints and
+  // fixes its axes and smoothing ("mediapipe": a teacher recorded from a webcam).
+  const kata::Layout resolved = kata::resolve_layout(skeleton, layout);
+  const kata::GpdMap& map = resolved.map;
   kata::StreamConfig config = kata::stream_config_for(skeleton, map, stencil);
+  if (resolved.fixed_axes) config.up_axis = resolved.axes;
+  config.smoothing = resolved.smooth;
   if (ghost_side) *ghost_side = {map, config.up_axis, skeleton.joint_count()};
   kata::pipeline::Teacher::LoadProgress progress;
   if (d.on_progress) {
