@@ -73,6 +73,41 @@ KATA_API kata_status kata_clip_skeleton(kata_clip clip, kata_skeleton* out);
  * KATA_E_BUFFER_TOO_SMALL when capacity < 3 * joint count. Does not allocate. [any thread] */
 KATA_API kata_status kata_clip_positions(kata_clip clip, uint32_t frame, float* out, size_t capacity);
 
+/* ---- Landmark recordings (since 1.1) ----
+ * A landmark array recorded from a layout's source (a webcam's MediaPipe landmarks, `kata coach
+ * --record-teacher`), to give to kata_teacher_desc as skeleton (kata_skeleton_create_layout) +
+ * positions: a NumPy .npy of shape (frames, joints, 3), (frames, joints, 4) (x, y, z, confidence)
+ * or (frames, joints, 5) (MediaPipe's x, y, z, visibility, presence), or a CSV with one row per
+ * frame of joints x 3, 4 or 5 numbers, optionally after a leading timestamp column (a first line
+ * that is not numeric is a header). Timing: the CSV's timestamp column, or for "X.npy" a 1-D
+ * "X.times.npy" beside it; else `fps`. Immutable. */
+typedef struct kata_landmarks_s* kata_landmarks;
+/* Loads a landmark recording of a built-in layout whose joint list kata_skeleton_create_layout
+ * gives ("mediapipe", "gpd", "azure-kinect", "xsens"; the joints in its order). fps: the frame
+ * rate of a recording without timestamps (> 0; ignored with timestamps). time_units: the
+ * timestamps' units, KATA_TIME_SECONDS, KATA_TIME_MILLISECONDS, or -1 to infer them as
+ * kata_time_units_detect does. Errors (KATA_E_IO, KATA_E_PARSE with the file and line,
+ * KATA_E_NOT_FOUND for an unknown layout, KATA_E_INVALID_ARGUMENT for a missing fps, timestamps
+ * that do not increase or ambiguous units) name the file on the context. *out is owned by the
+ * caller. [any thread] */
+KATA_API kata_status kata_landmarks_load(kata_context context, const char* path, const char* layout, double fps,
+                                         int32_t time_units, kata_landmarks* out);
+/* Releases a recording. NULL is ignored. */
+KATA_API void kata_landmarks_destroy(kata_landmarks landmarks);
+/* Frames; 0 for NULL. [any thread] */
+KATA_API uint32_t kata_landmarks_frame_count(kata_landmarks landmarks);
+/* Joints per frame (the layout's); 0 for NULL. [any thread] */
+KATA_API uint32_t kata_landmarks_joint_count(kata_landmarks landmarks);
+/* Seconds between frames: with timestamps their median step (the upper of the middle two for an
+ * even count of steps), else 1 / fps; 0 for NULL. [any thread] */
+KATA_API double kata_landmarks_frame_time(kata_landmarks landmarks);
+/* Frame `frame`'s capture time, seconds from the first frame (frame x frame_time without
+ * timestamps); -1 out of range or for NULL. [any thread] */
+KATA_API double kata_landmarks_capture_time(kata_landmarks landmarks, uint32_t frame);
+/* Every frame's positions, frames x joints x 3 floats (x, y, z as recorded: the layout's units and
+ * axes), owned by the recording (valid until kata_landmarks_destroy); NULL for NULL. [any thread] */
+KATA_API const float* kata_landmarks_positions(kata_landmarks landmarks);
+
 /* ==== Streams ============================================================================= */
 
 /* A live pose stream: frames in, GPD v1 features (and, when set up, scores and ghosts) out. */

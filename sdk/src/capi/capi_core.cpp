@@ -13,6 +13,7 @@
 #include "common/time_units.hpp"
 #include "io/clip_features.hpp"
 #include "io/file.hpp"
+#include "io/motion_source.hpp"
 #include "io/name_map.hpp"
 #include "metric/model.hpp"
 
@@ -265,6 +266,52 @@ KATA_API kata_status kata_clip_load_bvh(kata_context context, const char* path, 
 }
 
 KATA_API void kata_clip_destroy(kata_clip clip) { delete clip; }
+
+KATA_API kata_status kata_landmarks_load(kata_context context, const char* path, const char* layout, double fps,
+                                         int32_t time_units, kata_landmarks* out) {
+  const kata::capi::ContextScope scope(context);
+  if (!out) return KATA_E_NULL_POINTER;
+  *out = nullptr;
+  if (!context || !path || !layout) {
+    set_context_error("kata_landmarks_load: context, path and layout must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  return guarded_context([&] {
+    kata::TimeUnits units = kata::TimeUnits::kAuto;
+    if (time_units == KATA_TIME_SECONDS) units = kata::TimeUnits::kSeconds;
+    else if (time_units == KATA_TIME_MILLISECONDS) units = kata::TimeUnits::kMilliseconds;
+    else if (time_units != -1)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        "kata_landmarks_load: time_units must be KATA_TIME_SECONDS, KATA_TIME_MILLISECONDS or -1");
+    const std::string name = kata::c_string(layout, "layout");
+    if (name.empty()) throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_landmarks_load: give the recording's layout");
+    auto l = std::make_unique<kata_landmarks_s>();
+    l->motion = kata::load_motion(kata::c_string(path, "path"), name, fps, kata::UpAxis::kY, 0, units);
+    *out = l.release();
+    return KATA_OK;
+  });
+}
+
+KATA_API void kata_landmarks_destroy(kata_landmarks landmarks) { delete landmarks; }
+
+KATA_API uint32_t kata_landmarks_frame_count(kata_landmarks landmarks) {
+  return landmarks ? static_cast<uint32_t>(landmarks->motion.frames) : 0u;
+}
+
+KATA_API uint32_t kata_landmarks_joint_count(kata_landmarks landmarks) {
+  return landmarks ? static_cast<uint32_t>(landmarks->motion.skeleton.joint_count()) : 0u;
+}
+
+KATA_API double kata_landmarks_frame_time(kata_landmarks landmarks) { return landmarks ? landmarks->motion.frame_time : 0.0; }
+
+KATA_API double kata_landmarks_capture_time(kata_landmarks landmarks, uint32_t frame) {
+  if (!landmarks || frame >= static_cast<uint32_t>(landmarks->motion.frames)) return -1.0;
+  return landmarks->motion.time_of(static_cast<int>(frame));
+}
+
+KATA_API const float* kata_landmarks_positions(kata_landmarks landmarks) {
+  return landmarks ? landmarks->motion.xyz.data() : nullptr;
+}
 
 KATA_API uint32_t kata_clip_frame_count(kata_clip clip) {
   return clip ? static_cast<uint32_t>(clip->clip.frame_count()) : 0u;

@@ -19,6 +19,7 @@
 #include "common/error.hpp"
 #include "common/status.hpp"
 #include "io/bvh.hpp"
+#include "io/motion_source.hpp"
 #include "kata/kata.h"
 #include "skeleton/skeleton.hpp"
 #include "metric/model.hpp"
@@ -147,6 +148,11 @@ struct kata_skeleton_s {
 
 struct kata_clip_s {
   kata::BvhClip clip;
+};
+
+// A landmark recording (kata_landmarks_load): the CLI's motion source, held whole.
+struct kata_landmarks_s {
+  kata::MotionSource motion;
 };
 
 struct kata_model_s {

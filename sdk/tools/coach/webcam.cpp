@@ -13,7 +13,6 @@
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
-#include "coach/landmark_teacher.hpp"
 #include "coach/lesson.hpp"  // part_name, fail
 #include "io/npy.hpp"        // write_npy: the recordings' file format
 #include "kata/kata.h"
@@ -152,7 +151,7 @@ struct WebcamCoach::Impl {
     td.layout = layout.c_str();
     kata_clip clip = nullptr;
     kata_skeleton skeleton = nullptr;
-    LandmarkTeacher landmarks;
+    kata_landmarks landmarks = nullptr;
     kata_status status = KATA_OK;
     if (bvh) {
       check(kata_clip_load_bvh(context, path.c_str(), &clip));
@@ -166,18 +165,28 @@ struct WebcamCoach::Impl {
       teacher_frames = count - settings.first_frame;
       teacher_frame_time = kata_clip_frame_time(clip);
     } else {
-      landmarks = load_landmark_teacher(path, layout, settings.time_units);
-      check(kata_skeleton_create_layout(context, layout.c_str(), &skeleton));
+      // A landmark recording (--record-teacher's .npy and .times.npy, or a CSV): its timestamps
+      // in seconds unless --time-units says otherwise (a slow page's ~1 s steps would read as ms).
+      const int32_t units = settings.time_units == "ms" ? KATA_TIME_MILLISECONDS
+                            : settings.time_units == "auto" ? -1
+                                                            : KATA_TIME_SECONDS;
+      check(kata_landmarks_load(context, path.c_str(), layout.c_str(), 0.0, units, &landmarks));
+      const kata_status made = kata_skeleton_create_layout(context, layout.c_str(), &skeleton);
+      if (made != KATA_OK) {
+        kata_landmarks_destroy(landmarks);
+        check(made);
+      }
       td.skeleton = skeleton;
-      td.positions = landmarks.xyz.data();
-      td.frames = static_cast<uint32_t>(landmarks.frames);
-      td.frame_time = landmarks.frame_time;
-      teacher_frames = landmarks.frames;
-      teacher_frame_time = landmarks.frame_time;
+      td.positions = kata_landmarks_positions(landmarks);
+      td.frames = kata_landmarks_frame_count(landmarks);
+      td.frame_time = kata_landmarks_frame_time(landmarks);
+      teacher_frames = static_cast<int>(td.frames);
+      teacher_frame_time = td.frame_time;
     }
     status = kata_stream_attach_teacher(student_stream, &td);
     const std::string why = status == KATA_OK ? "" : kata_stream_last_error(student_stream);
     kata_clip_destroy(clip);  // the stream keeps what it needs
+    kata_landmarks_destroy(landmarks);
     kata_skeleton_destroy(skeleton);
     if (status != KATA_OK) fail(path + ": " + why);
   }
