@@ -24,6 +24,7 @@
 #include "pipeline/pipeline.hpp"
 #include "runtime/runtime.hpp"
 #include "support/accounting.hpp"
+#include "support/alloc_counter.hpp"
 #include "transport/wire.hpp"
 #include "transport/zmq_io.hpp"
 
@@ -338,6 +339,62 @@ TEST(runtime_frame_batch, HostileBatchesAreCountedByCauseAndOtherFramesKeepTheir
   for (uint64_t k = 30; k < 33; ++k) expected.push_back(k);  // beside the NaN, then the pair sent twice
   for (uint64_t k = 33; k < 63; ++k) expected.push_back(k);
   EXPECT_EQ(a_sequences, expected);
+}
+
+// The ingest's batch path (decode each frame, judge it, push it) and the workers allocate nothing
+// per frame: batches handed to a direct ingest (no socket: libzmq mallocs every message it reads),
+// results to a sink.
+TEST(runtime_alloc, IngestedBatchesAllocateNothingPerFrame) {
+  if (!test::kAllocCounting) GTEST_SKIP() << "allocation counting is off under AddressSanitizer";
+  RuntimeConfig config;
+  config.workers = 2;
+  config.ingest.kind = transport::IngestKind::kDirect;
+  config.ingest.limits.max_frame_age_ns = 0;
+  config.configure_stream = [](const SkeletonDefinition& d) {
+    StreamSetup s = setup_from_definition(d);
+    s.pipeline.stream.stencil = lesson().metric->stencil();
+    s.teacher = lesson().teacher;
+    s.teacher_options.ghost = true;
+    return s;
+  };
+  std::map<uint64_t, test::StreamTally> tally;  // every node made before the runtime runs
+  for (uint64_t s = 0; s < kStreams; ++s) tally[kFirstStream + s];
+  Sink sink;  // on a runtime thread: read after stop (joined)
+  sink.on_result = [&tally](const ResultFields& r) { ++tally.at(r.stream_id).received; };
+  config.sinks.push_back(sink);
+  Runtime runtime(config);
+  Encoder encoder;
+  for (uint64_t s = 0; s < kStreams; ++s) {
+    const transport::Bytes m = encoder.skeleton(lesson().definition(kFirstStream + s));
+    ASSERT_TRUE(runtime.offer(m.data, m.size));
+  }
+  const auto end = Clock::now() + std::chrono::seconds(30);
+  while (runtime.counters().streams < kStreams && Clock::now() < end) std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  ASSERT_EQ(runtime.counters().streams, static_cast<uint64_t>(kStreams));
+  std::vector<Encoder::BatchFrame> tick(kStreams);
+  auto send_and_wait = [&](uint64_t first, uint64_t count) {
+    for (uint64_t t = first; t < first + count; ++t) {
+      for (uint64_t s = 0; s < kStreams; ++s) {
+        tick[s] = batch_frame(kFirstStream + s, t);
+        ++tally[kFirstStream + s].sent;
+      }
+      const transport::Bytes m = encoder.frame_batch(tick.data(), tick.size());
+      if (!runtime.offer(m.data, m.size)) return false;
+    }
+    const uint64_t want = kStreams * (first + count);
+    for (int tries = 0; tries < 4000 && runtime.counters().total.results < want; ++tries)
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    return runtime.counters().total.results == want;
+  };
+  ASSERT_TRUE(send_and_wait(0, 20));  // warm-up: first-frame paths, the encoder's buffers
+  const long before = test::allocations();
+  const bool done = send_and_wait(20, 100);
+  const long allocated = test::allocations() - before;
+  ASSERT_TRUE(done);
+  EXPECT_EQ(allocated, 0) << "the batch path allocated";
+  runtime.stop();
+  EXPECT_EQ(runtime.counters().ingest.batches, 120u);
+  EXPECT_TRUE(test::every_frame_accounted(runtime, tally, test::Delivery::kSinks));
 }
 
 }  // namespace
