@@ -780,6 +780,25 @@ TEST(runtime_wire, FrameBatchRefusalsNameTheirReason) {
 // A batch's frames through the ingest's rules one by one, from the batch's sender: refused frames
 // counted by cause (and on their stream), the others handed on in the batch's order, and the
 // counters adding up with a batch counted as its frames.
+// The stats message carries the batch counters (added with frame batches), so a monitor can
+// balance received against the outcomes.
+TEST(runtime_wire, StatsCarryTheBatchCounters) {
+  Encoder encoder;
+  Decoder decoder;
+  StatsFields f;
+  f.received = 12;
+  f.batches = 3;
+  f.batch_frames = 191;
+  f.frames = 190;
+  const Bytes m = encoder.stats(f);
+  std::vector<uint8_t> copy(m.data, m.data + m.size);
+  ASSERT_EQ(decoder.decode(copy.data(), copy.size()), MessageKind::kStats);
+  const StatsFields back = decoder.stats();
+  EXPECT_EQ(back.batches, 3u);
+  EXPECT_EQ(back.batch_frames, 191u);
+  EXPECT_EQ(back.received, 12u);
+}
+
 TEST(runtime_ingest, BatchFramesAreJudgedOneByOne) {
   Context context;
   IngestOptions options;

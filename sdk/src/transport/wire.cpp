@@ -340,6 +340,8 @@ Bytes Encoder::stats(const StatsFields& f) {
   k.add_practice_outside_clip(f.practice_outside_clip);
   k.add_practice_no_clip(f.practice_no_clip);
   k.add_practice_queue_full(f.practice_queue_full);
+  k.add_batches(f.batches);
+  k.add_batch_frames(f.batch_frames);
   b.Finish(k.Finish(), fb::StatsIdentifier());
   return finish(kStatsStreamId, fb::StatsIdentifier());
 }
@@ -384,6 +386,8 @@ StatsFields Decoder::stats() const {
   f.practice_outside_clip = k->practice_outside_clip();
   f.practice_no_clip = k->practice_no_clip();
   f.practice_queue_full = k->practice_queue_full();
+  f.batches = k->batches();
+  f.batch_frames = k->batch_frames();
   if (const auto* per = k->per_stream())
     for (const fb::StreamStats* p : *per)
       f.per_stream.push_back({p->stream_id(), p->frames_in(), p->queue_full(), p->refused(), p->results(),

@@ -116,6 +116,7 @@ struct StatsFields {
   std::vector<StreamStatsFields> per_stream;
   uint64_t practices = 0, repeated_practices = 0, practice_bad_values = 0, practice_outside_clip = 0, practice_no_clip = 0,
            practice_queue_full = 0;
+  uint64_t batches = 0, batch_frames = 0;
 };
 
 // A view of one message's bytes (topic included); valid until the encoder's next call.
