@@ -97,6 +97,11 @@ namespace Kata
         public IntPtr Features;        // const float*: Frames x Gpd.Dims
         public IntPtr Joints;          // const float*: the 16 GPD joints x 3, one held pose
         public double BodyHeight;
+        // ---- 1.1 ----
+        public int GhostAcross;        // 1: the ghost across layouts (16 GPD joints in the student stream's axes)
+        public double AlignmentWindow; // the alignment's window, teacher seconds (default 0.5)
+        public IntPtr OnProgress;      // kata_progress_callback, or IntPtr.Zero (not set from C#)
+        public IntPtr OnProgressUser;
     }
 
     // kata_result_record (kata/result.h): one result of a stream (or a runtime message), its score included.
@@ -187,6 +192,10 @@ namespace Kata
         [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_version();
         [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_status_string(Status status);
         [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_gpd_joint_name(int joint);
+        [DllImport(Lib, CallingConvention = CC)] public static extern int kata_gpd_joint_part(int joint);
+        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_body_part_name(int part);
+        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_gpd_joint_words(int joint);
+        [DllImport(Lib, CallingConvention = CC)] public static extern int kata_stream_gpd_joint_source(StreamHandle stream, uint gpdJoint);
         [DllImport(Lib, CallingConvention = CC)]
         public static extern UIntPtr kata_cue_text(ref ResultRecord record, byte[] buf, UIntPtr size);
 
@@ -287,6 +296,12 @@ namespace Kata
         public static string StatusName(Status s) { return FromUtf8(kata_status_string(s)); }
         // The GPD joint name of 0..15 ("LKnee"), e.g. of ResultRecord.CueJoint; "" out of range.
         public static string GpdJointName(int joint) { return FromUtf8(kata_gpd_joint_name(joint)) ?? ""; }
+        // The body part (0..4, ResultRecord.PartToFix's numbering) of GPD joint 0..15; -1 out of range.
+        public static int GpdJointPart(int joint) { return kata_gpd_joint_part(joint); }
+        // A body part's name ("left_arm"); "" out of range.
+        public static string BodyPartName(int part) { return FromUtf8(kata_body_part_name(part)) ?? ""; }
+        // GPD joint 0..15 in a cue's words ("left knee"; "" for the end joints and out of range).
+        public static string GpdJointWords(int joint) { return FromUtf8(kata_gpd_joint_words(joint)) ?? ""; }
         // A record's correction cue phrase ("left knee: bend 30 deg more"); "" without one.
         public static string CueText(ResultRecord record)
         {
@@ -655,7 +670,10 @@ namespace Kata
         }
 
         // kata_stream_attach_teacher with a recorded clip (ghost: 1 to make ghosts).
-        public void AttachTeacher(Model model, Clip clip, uint firstFrame = 0, bool ghost = true, string layout = null, int poseFrame = -1)
+        // ghostAcross: the ghost across layouts (a CMU teacher on a MediaPipe student: 16 GPD joints);
+        // alignmentWindow: the alignment's window in teacher seconds (1.1's fields).
+        public void AttachTeacher(Model model, Clip clip, uint firstFrame = 0, bool ghost = true, string layout = null, int poseFrame = -1,
+                                  bool ghostAcross = false, double alignmentWindow = 0.5)
         {
             TeacherDesc d = new TeacherDesc();
             Native.kata_teacher_desc_init_sized(ref d, (uint)Marshal.SizeOf(typeof(TeacherDesc)));
@@ -671,6 +689,8 @@ namespace Kata
                 d.FirstFrame = firstFrame;
                 d.PoseFrame = poseFrame;
                 d.Ghost = ghost ? 1 : 0;
+                d.GhostAcross = ghostAcross ? 1 : 0;
+                d.AlignmentWindow = alignmentWindow;
                 if (layout != null) { layoutPin = GCHandle.Alloc(Native.Utf8(layout), GCHandleType.Pinned); d.Layout = layoutPin.AddrOfPinnedObject(); }
                 Status s = Native.kata_stream_attach_teacher(Handle, ref d);
                 if (s != Status.Ok) Throw(s, "kata_stream_attach_teacher");
@@ -685,6 +705,8 @@ namespace Kata
 
         public uint GhostJointCount { get { return Native.kata_stream_ghost_joint_count(Handle); } }
         public int GhostJointSource(uint i) { return Native.kata_stream_ghost_joint_source(Handle, i); }
+        // The stream skeleton's joint read as GPD joint 0..15 (-1: synthesised by the layout, or out of range).
+        public int GpdJointSource(uint gpdJoint) { return Native.kata_stream_gpd_joint_source(Handle, gpdJoint); }
         public uint ResultsPending { get { return Native.kata_stream_results_pending(Handle); } }
         public ulong ResultsDropped { get { return Native.kata_stream_results_dropped(Handle); } }
 

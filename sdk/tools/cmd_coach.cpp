@@ -6,6 +6,8 @@
 // (server-sent events on localhost) draws the student in 3D with the teacher's ghost over it; at
 // the end a summary is printed and a self-contained HTML report written. --record keeps the
 // lesson in a file, --replay plays a recorded one back into the viewer.
+// A client of the public C ABI (kata.h) only: the lesson (coach/lesson.hpp) drives libkata's
+// runtime; nothing here includes the SDK's private core (the kata_coach target, CMakeLists.txt).
 #include <unistd.h>
 
 #include <algorithm>
@@ -27,10 +29,7 @@
 #include "data_files.hpp"
 #include "coach/webcam.hpp"
 #include "command.hpp"
-#include "common/error.hpp"
-#include "metric/cue.hpp"
-#include "metric/scorer.hpp"
-#include "skeleton/skeleton.hpp"
+#include "kata/kata.h"
 
 namespace {
 
@@ -50,6 +49,10 @@ struct CoachArgs {
   double duration = 0.0;  // seconds; 0: until Ctrl-C
   bool teacher_given = false;
 };
+
+// The time constant the scorer averages part scores over before it names the part to fix
+// (kata/teacher.h "Score calibration and feedback": averaged over 0.5 s).
+constexpr double kFeedbackSmoothingTime = 0.5;
 
 std::atomic<bool> g_interrupted{false};
 void on_interrupt(int) { g_interrupted = true; }
@@ -92,11 +95,10 @@ class TerminalView {
       score_sum_ += f.score, ++scored_;
       if (f.latency_ns > 0) latencies_.push_back(f.latency_ns / 1e6);
       // The part scores as the scorer averages them before it names the part to fix and its cue
-      // (exponentially over the frames' own time steps, time constant FeedbackOptions'
-      // smoothing_time), so the line's lowest part is the part named. This frame's scores beside
+      // (exponentially over the frames' own time steps, time constant kFeedbackSmoothingTime), so the line's lowest part is the part named. This frame's scores beside
       // a held, averaged cue disagreed for up to a second ("l.arm 99 | fix: left_arm").
-      const double keep = parts_time_ < 0.0 ? 0.0 : std::exp(-(f.time - parts_time_) / kata::metric::FeedbackOptions{}.smoothing_time);
-      for (int p = 0; p < kata::metric::kParts; ++p) parts_[p] = f.part_scores[p] + keep * (parts_[p] - f.part_scores[p]);
+      const double keep = parts_time_ < 0.0 ? 0.0 : std::exp(-(f.time - parts_time_) / kFeedbackSmoothingTime);
+      for (int p = 0; p < KATA_PART_COUNT; ++p) parts_[p] = f.part_scores[p] + keep * (parts_[p] - f.part_scores[p]);
       parts_time_ = f.time;
     }
     sorted_ = latencies_;  // reserved at the lesson's length: no allocation
@@ -108,13 +110,12 @@ class TerminalView {
     const FrameRecord* r = shown ? &d.frames[shown - 1] : nullptr;
     if (r && scored(*r)) {
       append_line(line, sizeof line, at, " | score %3.0f (mean %4.1f) |", r->score, score_sum_ / std::max(scored_, 1));
-      static const char* const kShort[kata::metric::kParts] = {"torso", "l.arm", "r.arm", "l.leg", "r.leg"};
-      for (int p = 0; p < kata::metric::kParts; ++p) append_line(line, sizeof line, at, " %s %3.0f", kShort[p], parts_[p]);
-      append_line(line, sizeof line, at, " | fix: %-10s", r->part_to_fix >= 0 ? kata::metric::part_name(r->part_to_fix) : "-");
+      static const char* const kShort[KATA_PART_COUNT] = {"torso", "l.arm", "r.arm", "l.leg", "r.leg"};
+      for (int p = 0; p < KATA_PART_COUNT; ++p) append_line(line, sizeof line, at, " %s %3.0f", kShort[p], parts_[p]);
+      append_line(line, sizeof line, at, " | fix: %-10s", r->part_to_fix >= 0 ? part_name(r->part_to_fix) : "-");
       // The correction cue ("left knee: bend 30 deg more"), padded so a shorter one overwrites it.
       char cue[64];
-      kata::metric::cue_text(r->cue_joint, r->cue_degrees, r->cue_action, cue, sizeof cue);
-      append_line(line, sizeof line, at, " %-32s", cue);
+      append_line(line, sizeof line, at, " %-32s", cue_phrase(*r, cue, sizeof cue));
       if (r->state == FrameState::kTeacherFinished) append_line(line, sizeof line, at, " (teacher finished)");
     } else if (r) {
       append_line(line, sizeof line, at, " | %-16s", state_name(r->state));
@@ -134,7 +135,7 @@ class TerminalView {
   size_t latency_count_ = 0;  // frames taken into the running figures
   double score_sum_ = 0.0;
   int scored_ = 0;
-  double parts_[kata::metric::kParts] = {};  // part scores averaged as the scorer does (update)
+  double parts_[KATA_PART_COUNT] = {};  // part scores averaged as the scorer does (update)
   double parts_time_ = -1.0;                  // the newest frame taken into parts_, -1: none yet
   std::vector<double> latencies_, sorted_;
 };
@@ -149,7 +150,7 @@ void run_webcam(CoachArgs a) {
   a.cam.window = a.lesson.window;
   a.cam.publish = a.lesson.publish;
   if (a.cam.complexity < 0 || a.cam.complexity > 2)
-    throw kata::Error(kata::ErrorKind::kInvalidArgument, "--complexity must be 0 (lite), 1 (full) or 2 (heavy)");
+    fail("--complexity must be 0 (lite), 1 (full) or 2 (heavy)");
   WebcamCoach coach(a.cam, a.viewer_dir.empty() ? kata::cli::share_dir() + "/viewer" : a.viewer_dir, a.host, a.port);
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
@@ -188,7 +189,7 @@ void run_coach(CoachArgs a) {
   a.lesson.student = kata::cli::default_data_file(a.lesson.student);
   if (a.webcam || !a.cam.record_teacher.empty()) return run_webcam(a);
   if (a.headless) a.no_viewer = true;
-  if (!(a.lesson.speed > 0.0)) throw kata::Error(kata::ErrorKind::kInvalidArgument, "--speed must be > 0");
+  if (!(a.lesson.speed > 0.0)) fail("--speed must be > 0");
 
   // The lesson: live (the runtime) or recorded (a file).
   std::unique_ptr<Lesson> live;
@@ -261,38 +262,37 @@ void run_coach(CoachArgs a) {
   const double wall = std::chrono::duration<double>(Clock::now() - start).count();
 
   // Summary.
-  int fix_count[kata::metric::kParts] = {}, scored_frames = 0, named = 0;
-  int cue_count[kata::kGpdJoints] = {};
-  double part_sum[kata::metric::kParts] = {};
+  int fix_count[KATA_PART_COUNT] = {}, scored_frames = 0, named = 0;
+  int cue_count[KATA_GPD_JOINTS] = {};
+  double part_sum[KATA_PART_COUNT] = {};
   for (size_t i = 0; i < done; ++i)
     if (scored(data.frames[i])) {
       ++scored_frames;
-      for (int p = 0; p < kata::metric::kParts; ++p) part_sum[p] += data.frames[i].part_scores[p];
+      for (int p = 0; p < KATA_PART_COUNT; ++p) part_sum[p] += data.frames[i].part_scores[p];
       if (data.frames[i].part_to_fix >= 0) ++fix_count[data.frames[i].part_to_fix], ++named;
-      if (data.frames[i].cue_joint >= 0 && data.frames[i].cue_joint < kata::kGpdJoints) ++cue_count[data.frames[i].cue_joint];
+      if (data.frames[i].cue_joint >= 0 && data.frames[i].cue_joint < KATA_GPD_JOINTS) ++cue_count[data.frames[i].cue_joint];
     }
   int most_cued = 0;
-  for (int j = 1; j < kata::kGpdJoints; ++j)
+  for (int j = 1; j < KATA_GPD_JOINTS; ++j)
     if (cue_count[j] > cue_count[most_cued]) most_cued = j;
   int most = 0;
-  for (int p = 1; p < kata::metric::kParts; ++p)
+  for (int p = 1; p < KATA_PART_COUNT; ++p)
     if (fix_count[p] > fix_count[most]) most = p;
   std::printf("summary: %zu frames in %.2f s (%.0f frames/s), %d scored, mean score %.2f, mean part scores", done, wall,
               done / std::max(wall, 1e-9), scored_frames, data.mean_score());
-  for (int p = 0; p < kata::metric::kParts; ++p)
-    std::printf(" %s %.1f", kata::metric::part_name(p), scored_frames ? part_sum[p] / scored_frames : 0.0);
+  for (int p = 0; p < KATA_PART_COUNT; ++p)
+    std::printf(" %s %.1f", part_name(p), scored_frames ? part_sum[p] / scored_frames : 0.0);
   if (named)
     std::printf(", part to fix most often: %s (%d%% of scored frames), joint to move most often: %s (%d%%)",
-                kata::metric::part_name(most), 100 * fix_count[most] / scored_frames,
-                kata::metric::cue_joint_words(most_cued), 100 * cue_count[most_cued] / scored_frames);
+                part_name(most), 100 * fix_count[most] / scored_frames,
+                kata_gpd_joint_words(most_cued), 100 * cue_count[most_cued] / scored_frames);
   else
     std::printf(", no part to fix");
   if (live) {
     const auto c = live->counters();
     std::printf(", %llu results published (teacher %llu), latency in->published p50 %.0f us p99 %.0f us",
-                static_cast<unsigned long long>(c.total.published), static_cast<unsigned long long>(live->teacher_results()),
-                kata::runtime::latency_percentile(c.latency_histogram, 0.5) / 1e3,
-                kata::runtime::latency_percentile(c.latency_histogram, 0.99) / 1e3);
+                static_cast<unsigned long long>(c.published), static_cast<unsigned long long>(live->teacher_results()),
+                live->latency_percentile(0.5) / 1e3, live->latency_percentile(0.99) / 1e3);
   }
   std::printf("%s\n", g_interrupted ? " (interrupted)" : "");
   if (!a.csv.empty()) write_results_csv(data, a.csv);

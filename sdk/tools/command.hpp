@@ -7,10 +7,12 @@
 
 #include <CLI/CLI.hpp>
 
+#include "failure.hpp"
+
 namespace kata::cli {
 
 // Adds one subcommand (with its flags and callback) to the app. A callback signals failure by
-// throwing kata::Error (printed as "kata <cmd>: message", exit 1) or CLI::RuntimeError(code).
+// throwing kata::Error or Failure (failure.hpp) (printed as "kata: message", exit 1) or CLI::RuntimeError(code).
 using CommandSetup = void (*)(CLI::App& app);
 
 std::vector<CommandSetup>& command_registry();

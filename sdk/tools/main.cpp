@@ -24,6 +24,9 @@ int main(int argc, char** argv) {
   } catch (const kata::Error& e) {
     std::fprintf(stderr, "kata: %s\n", e.what());
     return 1;
+  } catch (const kata::cli::Failure& e) {
+    std::fprintf(stderr, "kata: %s\n", e.what());
+    return 1;
   } catch (const std::exception& e) {
     std::fprintf(stderr, "kata: internal error: %s\n", e.what());
     return 1;

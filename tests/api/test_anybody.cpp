@@ -702,4 +702,51 @@ TEST(AnyBody, AWebcamStudentsTurnedKneeDropsTheScoreAndIsNamed) {
   }
 }
 
+// A MediaPipe teacher given as positions (1.1: the teacher desc's layout read as a stream of it
+// reads frames, its Y-down axes and smoothing included; 1.0 refused "mediapipe" there): a
+// MediaPipe stream of the same landmarks is at distance 0 on every scored frame. Read as Y-up
+// (the teacher upside down) it would not be.
+TEST(AnyBody, AMediaPipeTeacherGivenAsPositionsScoresItsOwnLandmarksAtDistanceZero) {
+  CmuClip clip("02_01.bvh");
+  Handles h;
+  const size_t frames = 240;
+  std::vector<float> positions;
+  for (size_t f = 1; f <= frames; ++f) {
+    const std::vector<float> l = to_mediapipe(clip, f);
+    positions.insert(positions.end(), l.begin(), l.end());
+  }
+  kata_stream s = h.open_mediapipe(-1);
+  kata_teacher_desc t;
+  kata_teacher_desc_init(&t);
+  t.model = h.model;
+  t.skeleton = h.mp;
+  t.positions = positions.data();
+  t.frames = static_cast<uint32_t>(frames);
+  t.frame_time = 1.0 / 120.0;
+  t.layout = "mediapipe";
+  t.ghost = 0;
+  ASSERT_EQ(kata_stream_attach_teacher(s, &t), KATA_OK) << kata_stream_last_error(s);
+  std::vector<kata_result_record> r;
+  for (size_t f = 0; f < frames; ++f) {
+    ASSERT_EQ(kata_stream_push(s, f / 120.0, positions.data() + f * 3 * kLandmarks, kLandmarks), KATA_OK)
+        << kata_stream_last_error(s);
+    kata_result_record one;
+    one.struct_size = sizeof one;
+    uint32_t got = 0;
+    ASSERT_EQ(kata_stream_read_results(s, &one, nullptr, 0, nullptr, 0, 1, &got), KATA_OK);
+    if (got == 1) r.push_back(one);
+  }
+  ASSERT_GT(r.size(), 200u);
+  const size_t n = r.size();
+  int scored = 0;
+  for (size_t i = 0; i < n; ++i) {
+    if (!r[i].scored || r[i].state != KATA_SCORE_SCORING) continue;
+    ++scored;
+    EXPECT_LT(r[i].distance, 1e-5f) << i;
+    EXPECT_GT(r[i].score, 99.0f) << i;
+  }
+  EXPECT_GT(scored, 150);
+  kata_stream_destroy(s);
+}
+
 }  // namespace

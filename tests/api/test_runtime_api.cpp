@@ -3,7 +3,9 @@
 #include <gtest/gtest.h>
 #include <zmq.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <cstddef>
 #include <cstring>
 #include <memory>
@@ -270,6 +272,167 @@ TEST(runtime_capi, OnResultGetsEveryRecordAsTheStreamComputesIt) {
   kata_skeleton_destroy(skel);
   kata_clip_destroy(student);
   kata_clip_destroy(teacher);
+  kata_context_destroy(ctx);
+}
+
+// kata_runtime_latency_percentile (1.1): the runtime's arrival -> published histogram, read back as
+// the documented percentile of the records' own published_ns - arrival_ns (on_result sees every
+// published record), computed here from those.
+TEST(runtime_capi, LatencyPercentileIsTheDocumentedBucketEdgeOfThePublishedRecords) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_clip clip = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &clip), KATA_OK);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(clip, &skel), KATA_OK);
+  kata_stream_desc sd;
+  kata_stream_desc_init(&sd);
+  sd.layout = "cmu";
+  kata_stream s = nullptr;
+  ASSERT_EQ(kata_stream_open(ctx, skel, &sd, &s), KATA_OK) << kata_context_last_error(ctx);
+  Received got;
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.workers = 1;
+  rd.publish_endpoints = "tcp://127.0.0.1:*";
+  rd.on_result = receive;
+  rd.on_result_user = &got;
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  EXPECT_EQ(kata_runtime_latency_percentile(runtime, 0.5), 0.0);  // nothing published yet
+  ASSERT_EQ(kata_runtime_add_stream(runtime, 3, &s, "cmu", 0), KATA_OK) << kata_context_last_error(ctx);
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  std::vector<float> p(3 * joints);
+  for (int i = 0; i < 120; ++i) {
+    ASSERT_EQ(kata_clip_positions(clip, static_cast<uint32_t>(1 + i), p.data(), p.size()), KATA_OK);
+    ASSERT_EQ(kata_runtime_push(runtime, 3, static_cast<uint64_t>(i), i / 120.0, p.data(), joints), KATA_OK);
+  }
+  ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);
+  ASSERT_GT(got.records.size(), 100u);
+  std::vector<uint64_t> histogram(288, 0);
+  for (const kata_result_record& r : got.records) {
+    ASSERT_GT(r.published_ns, 0) << "published";
+    const int64_t ns = r.published_ns - r.arrival_ns;
+    const int b = ns < 1 ? 0 : std::min(287, std::max(0, static_cast<int>(8.0 * std::log2(static_cast<double>(ns)))));
+    ++histogram[static_cast<size_t>(b)];
+  }
+  for (double q : {0.0, 0.25, 0.5, 0.9, 0.99, 1.0}) {
+    uint64_t seen = 0;
+    double expected = 0.0;
+    for (size_t i = 0; i < histogram.size(); ++i) {
+      seen += histogram[i];
+      if (static_cast<double>(seen) >= q * static_cast<double>(got.records.size())) {
+        expected = std::exp2(static_cast<double>(i + 1) / 8.0);
+        break;
+      }
+    }
+    EXPECT_EQ(kata_runtime_latency_percentile(runtime, q), expected) << q;
+  }
+  EXPECT_LE(kata_runtime_latency_percentile(runtime, 0.5), kata_runtime_latency_percentile(runtime, 0.99));
+  EXPECT_EQ(kata_runtime_latency_percentile(runtime, -0.1), 0.0);
+  EXPECT_EQ(kata_runtime_latency_percentile(runtime, 1.5), 0.0);
+  EXPECT_EQ(kata_runtime_latency_percentile(runtime, std::nan("")), 0.0);
+  EXPECT_EQ(kata_runtime_latency_percentile(nullptr, 0.5), 0.0);
+  kata_runtime_destroy(runtime);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(clip);
+  kata_context_destroy(ctx);
+}
+
+// kata_runtime_offer (1.1, kata_runtime_desc.direct_ingest): the messages kata_message_write_*
+// write, handed in by the app's own transport, open the stream and score its frames as a socket
+// would: one result per feature vector a stream fed the same frames directly computes, with the
+// same frame sequences and capture times; a malformed message is taken and counted as dropped.
+TEST(runtime_capi, OfferedMessagesOpenAndFeedAStreamAsASocketsWould) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_clip clip = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &clip), KATA_OK);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(clip, &skel), KATA_OK);
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+
+  // Refusals first: both a direct ingest and sockets; a runtime without one.
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  EXPECT_EQ(rd.direct_ingest, 0);
+  rd.workers = 1;
+  rd.direct_ingest = 1;
+  rd.ingest_endpoints = "tcp://127.0.0.1:1";
+  kata_runtime runtime = nullptr;
+  EXPECT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::strstr(kata_context_last_error(ctx), "direct_ingest"), nullptr) << kata_context_last_error(ctx);
+  rd.ingest_endpoints = nullptr;
+  rd.direct_ingest = 0;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  const char junk[32] = {};
+  EXPECT_EQ(kata_runtime_offer(runtime, junk, sizeof junk), KATA_E_STATE);
+  kata_runtime_destroy(runtime);
+  runtime = nullptr;
+
+  Received got;
+  rd.direct_ingest = 1;
+  rd.max_frame_age_seconds = 0.0;  // the clip's capture times are not this host's clock
+  rd.on_result = receive;
+  rd.on_result_user = &got;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  EXPECT_EQ(kata_runtime_offer(runtime, nullptr, 4), KATA_E_NULL_POINTER);
+  std::vector<unsigned char> buffer(1 << 16);
+  size_t size = 0;
+  kata_skeleton_message sm;
+  kata_skeleton_message_init(&sm);
+  sm.stream_id = 21;
+  sm.skeleton = skel;
+  sm.layout = "cmu";
+  ASSERT_EQ(kata_message_write_skeleton(&sm, buffer.data(), buffer.size(), &size), KATA_OK);
+  ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK);
+  EXPECT_EQ(kata_runtime_offer(runtime, junk, sizeof junk), KATA_OK);  // taken, judged malformed there
+
+  kata_stream_desc sd;
+  kata_stream_desc_init(&sd);
+  sd.layout = "cmu";
+  sd.result_capacity = 256;
+  kata_stream direct = nullptr;
+  ASSERT_EQ(kata_stream_open(ctx, skel, &sd, &direct), KATA_OK) << kata_context_last_error(ctx);
+  std::vector<float> p(3 * joints);
+  const int frames = 90;
+  for (int i = 0; i < frames; ++i) {
+    ASSERT_EQ(kata_clip_positions(clip, static_cast<uint32_t>(1 + i), p.data(), p.size()), KATA_OK);
+    kata_frame_message fm;
+    kata_frame_message_init(&fm);
+    fm.stream_id = 21;
+    fm.sequence = static_cast<uint64_t>(i);
+    fm.capture_time = 10.0 + i / 120.0;
+    fm.positions = p.data();
+    fm.joint_count = joints;
+    ASSERT_EQ(kata_message_write_frame(&fm, buffer.data(), buffer.size(), &size), KATA_OK);
+    ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK) << i;
+    ASSERT_EQ(kata_stream_push(direct, fm.capture_time, p.data(), joints), KATA_OK);
+  }
+  ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);  // every offered message handled first
+  EXPECT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_E_QUEUE_FULL);  // stop has begun
+  const uint32_t pending = kata_stream_results_pending(direct);
+  std::vector<kata_result_record> expected(pending);
+  ASSERT_GT(pending, 60u);
+  expected[0].struct_size = sizeof expected[0];
+  uint32_t n = 0;
+  ASSERT_EQ(kata_stream_read_results(direct, expected.data(), nullptr, 0, nullptr, 0, pending, &n), KATA_OK);
+  ASSERT_EQ(got.records.size(), static_cast<size_t>(n));
+  for (uint32_t i = 0; i < n; ++i) {
+    EXPECT_EQ(got.records[i].stream_id, 21u) << i;
+    EXPECT_EQ(got.records[i].frame_sequence, static_cast<uint64_t>(expected[i].frame_index)) << i;
+    EXPECT_NEAR(got.records[i].capture_time, expected[i].capture_time, 1e-9) << i;
+  }
+  kata_runtime_counters c;
+  c.struct_size = sizeof c;
+  ASSERT_EQ(kata_runtime_get_counters(runtime, &c), KATA_OK);
+  EXPECT_EQ(c.ingest_received, static_cast<uint64_t>(frames + 2));
+  EXPECT_EQ(c.ingest_dropped, 1u);
+  EXPECT_EQ(c.frames_in, static_cast<uint64_t>(frames));
+  kata_runtime_destroy(runtime);
+  kata_stream_destroy(direct);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(clip);
   kata_context_destroy(ctx);
 }
 

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstring>
+#include <string>
 #include <vector>
 
 #include "kata/kata.h"
@@ -403,6 +404,136 @@ TEST_F(TeacherCapi, TheGhostAcrossLayoutsIsTheAcrossRetargetersOfTheMatchedFrame
   kata_stream_destroy(s);
   kata_skeleton_destroy(student);
   kata_clip_destroy(student_clip);
+}
+
+// 1.1's additions for an app that draws and coaches (kata coach): which student joint each GPD
+// joint reads, each GPD joint's body part, the parts' and cue joints' names. The expected values
+// are the documented ones (kata/stream.h "Layouts", kata/result.h's kata_body_part, the cmu
+// layout's joint names read back from the skeleton by name).
+TEST_F(TeacherCapi, GpdJointSourcesPartsAndNamesAreTheDocumentedOnes) {
+  static const char* const kCmu[KATA_GPD_JOINTS] = {"Hips", "Spine1", "Neck1", "Head", "LeftArm", "LeftForeArm",
+                                                    "LeftHand", "RightArm", "RightForeArm", "RightHand",
+                                                    "LeftUpLeg", "LeftLeg", "LeftFoot", "RightUpLeg", "RightLeg",
+                                                    "RightFoot"};
+  kata_stream s = open(skel, "cmu");
+  for (uint32_t g = 0; g < KATA_GPD_JOINTS; ++g) {
+    const int32_t j = kata_stream_gpd_joint_source(s, g);
+    ASSERT_GE(j, 0) << g;
+    EXPECT_STREQ(kata_skeleton_joint_name(skel, static_cast<uint32_t>(j)), kCmu[g]) << g;
+  }
+  EXPECT_EQ(kata_stream_gpd_joint_source(s, KATA_GPD_JOINTS), -1);
+  EXPECT_EQ(kata_stream_gpd_joint_source(nullptr, 0), -1);
+  kata_stream_destroy(s);
+  // MediaPipe: the landmarks in its documented order; the four synthesised joints have none.
+  kata_skeleton mp = nullptr;
+  ASSERT_EQ(kata_skeleton_create_layout(ctx, "mediapipe", &mp), KATA_OK);
+  kata_stream m = open(mp, "mediapipe", 1.7);
+  const int32_t kMediapipe[KATA_GPD_JOINTS] = {-1, -1, -1, -1, 11, 13, 15, 12, 14, 16, 23, 25, 27, 24, 26, 28};
+  for (uint32_t g = 0; g < KATA_GPD_JOINTS; ++g) EXPECT_EQ(kata_stream_gpd_joint_source(m, g), kMediapipe[g]) << g;
+  kata_stream_destroy(m);
+  kata_skeleton_destroy(mp);
+  // Parts: torso and head, then each limb's three joints in GPD order.
+  const int32_t kPart[KATA_GPD_JOINTS] = {0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 3, 3, 3, 4, 4, 4};
+  for (int32_t g = 0; g < KATA_GPD_JOINTS; ++g) EXPECT_EQ(kata_gpd_joint_part(g), kPart[g]) << g;
+  EXPECT_EQ(kata_gpd_joint_part(-1), -1);
+  EXPECT_EQ(kata_gpd_joint_part(KATA_GPD_JOINTS), -1);
+  const char* const kParts[KATA_PART_COUNT] = {"torso_head", "left_arm", "right_arm", "left_leg", "right_leg"};
+  for (int32_t p = 0; p < KATA_PART_COUNT; ++p) EXPECT_STREQ(kata_body_part_name(p), kParts[p]) << p;
+  EXPECT_EQ(kata_body_part_name(-1), nullptr);
+  EXPECT_EQ(kata_body_part_name(KATA_PART_COUNT), nullptr);
+  // A cue joint's words are how kata_cue_text's phrase starts; the end joints have none.
+  for (int32_t g = 0; g < KATA_GPD_JOINTS; ++g) {
+    kata_result_record r;
+    std::memset(&r, 0, sizeof r);
+    r.struct_size = sizeof r;
+    r.part_to_fix = kPart[g];
+    r.cue_joint = g;
+    r.cue_degrees = 30.0f;
+    r.cue_action = KATA_CUE_RAISE;
+    char text[64];
+    kata_cue_text(&r, text, sizeof text);
+    const char* words = kata_gpd_joint_words(g);
+    ASSERT_NE(words, nullptr) << g;
+    const bool end_joint = g == 3 || g == 6 || g == 9 || g == 12 || g == 15;
+    EXPECT_EQ(words[0] == '\0', end_joint) << g;
+    if (!end_joint) {
+      EXPECT_EQ(std::string(text), std::string(words) + ": raise 30 deg") << g;
+    }
+  }
+  EXPECT_STREQ(kata_gpd_joint_words(11), "left knee");
+  EXPECT_EQ(kata_gpd_joint_words(-1), nullptr);
+  EXPECT_EQ(kata_gpd_joint_words(KATA_GPD_JOINTS), nullptr);
+}
+
+// kata_teacher_desc.alignment_window (1.1): 0.5 teacher seconds by default, and for a caller's
+// 1.0-sized struct; another window follows the student differently; out of range is refused.
+// on_progress: called as the teacher's frames are done, ending at the clip's frames from first_frame.
+struct Progress {
+  std::vector<uint32_t> done;
+  uint32_t frames = 0;
+};
+void on_progress(void* user, uint32_t done, uint32_t frames) {
+  auto* p = static_cast<Progress*>(user);
+  p->done.push_back(done);
+  p->frames = frames;
+}
+
+TEST_F(TeacherCapi, AlignmentWindowAndLoadingProgress) {
+  kata_clip other = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_02.bvh", &other), KATA_OK);
+  kata_skeleton other_skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(other, &other_skel), KATA_OK);
+  const uint32_t other_joints = kata_skeleton_joint_count(other_skel);
+  // The matched teacher frames of 02_02's first 200 frames against 02_01 under a desc.
+  auto matches = [&](const kata_teacher_desc& t) {
+    kata_stream s = open(other_skel, "cmu");
+    EXPECT_EQ(kata_stream_attach_teacher(s, &t), KATA_OK) << kata_stream_last_error(s);
+    std::vector<float> p(3 * static_cast<size_t>(other_joints));
+    for (uint32_t f = 1; f <= 200; ++f) {
+      EXPECT_EQ(kata_clip_positions(other, f, p.data(), p.size()), KATA_OK);
+      EXPECT_EQ(kata_stream_push(s, f / 120.0, p.data(), other_joints), KATA_OK);
+    }
+    std::vector<kata_result_record> r;
+    drain(s, &r);
+    kata_stream_destroy(s);
+    std::vector<int32_t> m;
+    for (const auto& x : r) m.push_back(x.matched_teacher_frame);
+    return m;
+  };
+  kata_teacher_desc t = desc();
+  EXPECT_EQ(t.alignment_window, 0.5);
+  EXPECT_EQ(t.on_progress, nullptr);
+  EXPECT_EQ(t.on_progress_user, nullptr);
+  t.clip = clip;
+  t.first_frame = kFirst;
+  Progress progress;
+  t.on_progress = on_progress;
+  t.on_progress_user = &progress;
+  const std::vector<int32_t> by_default = matches(t);
+  ASSERT_GT(by_default.size(), 150u);
+  ASSERT_FALSE(progress.done.empty());
+  EXPECT_EQ(progress.frames, kata_clip_frame_count(clip) - kFirst);
+  EXPECT_EQ(progress.done.back(), progress.frames);
+  EXPECT_TRUE(std::is_sorted(progress.done.begin(), progress.done.end()));
+  // A 1.0 caller's struct (up to body_height) gets the same window.
+  kata_teacher_desc old;
+  kata_teacher_desc_init_sized(&old, static_cast<uint32_t>(offsetof(kata_teacher_desc, body_height) + sizeof(double)));
+  old.model = model;
+  old.clip = clip;
+  old.first_frame = kFirst;
+  EXPECT_EQ(matches(old), by_default);
+  t.on_progress = nullptr;
+  t.alignment_window = 0.05;  // six teacher frames ahead at most without a re-localisation
+  EXPECT_NE(matches(t), by_default);
+  kata_stream s = open(other_skel, "cmu");
+  for (double bad : {0.0, -0.5, 61.0, std::nan("")}) {
+    t.alignment_window = bad;
+    EXPECT_EQ(kata_stream_attach_teacher(s, &t), KATA_E_INVALID_ARGUMENT) << bad;
+    EXPECT_NE(std::strstr(kata_stream_last_error(s), "alignment_window"), nullptr) << kata_stream_last_error(s);
+  }
+  kata_stream_destroy(s);
+  kata_skeleton_destroy(other_skel);
+  kata_clip_destroy(other);
 }
 
 }  // namespace

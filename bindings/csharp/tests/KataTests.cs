@@ -219,7 +219,8 @@ static class KataTests
         Check(td.StructSize == System.Runtime.InteropServices.Marshal.SizeOf(typeof(TeacherDesc)), "sizeof kata_teacher_desc " + td.StructSize);
         Check(sd.HistoryCapacity == 16 && sd.CalibrationFrames == 8 && sd.ResultCapacity == 64 && sd.MaxGap == 0.25,
               "kata_stream_desc defaults read through the struct");
-        Check(td.PoseFrame == -1 && td.Ghost == 1, "kata_teacher_desc defaults read through the struct");
+        Check(td.PoseFrame == -1 && td.Ghost == 1 && td.GhostAcross == 0 && td.AlignmentWindow == 0.5 &&
+              td.OnProgress == IntPtr.Zero, "kata_teacher_desc defaults read through the struct");
         Check(rd.MaxIterations == 200 && rd.WarmStart == 1 && rd.RestoreBoneLengths == 1, "kata_retarget_desc defaults");
     }
 
@@ -268,6 +269,45 @@ static class KataTests
         }
     }
 
+    // 1.1: the ghost across layouts, the alignment window, which joint each GPD joint reads and
+    // each GPD joint's part, against the documented values (kata/result.h, the cmu layout's names).
+    static void OnePointOneTeacherAndJoints(Context ctx, string repo)
+    {
+        string[] cmu = { "Hips", "Spine1", "Neck1", "Head", "LeftArm", "LeftForeArm", "LeftHand", "RightArm", "RightForeArm",
+                         "RightHand", "LeftUpLeg", "LeftLeg", "LeftFoot", "RightUpLeg", "RightLeg", "RightFoot" };
+        int[] part = { 0, 0, 0, 0, 1, 1, 1, 2, 2, 2, 3, 3, 3, 4, 4, 4 };
+        using (Model model = ctx.LoadModel(Path.Combine(repo, "models/default.kata")))
+        using (Clip teacher = ctx.LoadClip(Path.Combine(repo, "data/cmu/02_01.bvh")))
+        using (Clip student = ctx.LoadClip(Path.Combine(repo, "data/cmu/07_01.bvh")))
+        using (Skeleton sk = student.Skeleton())
+        using (Kata.Stream across = ctx.OpenStream(sk))
+        using (Kata.Stream own = ctx.OpenStream(sk))
+        {
+            int wrong = 0;
+            for (uint g = 0; g < 16; ++g)
+            {
+                int j = across.GpdJointSource(g);
+                if (j < 0 || sk.JointName((uint)j) != cmu[g]) ++wrong;
+                if (Native.GpdJointPart((int)g) != part[g]) ++wrong;
+            }
+            Check(wrong == 0, "GpdJointSource / GpdJointPart: " + wrong + " joints differ from the documented ones");
+            Check(across.GpdJointSource(16) == -1 && Native.GpdJointPart(16) == -1, "out of range: -1");
+            Check(Native.BodyPartName(1) == "left_arm" && Native.BodyPartName(5) == "", "BodyPartName");
+            Check(Native.GpdJointWords(11) == "left knee" && Native.GpdJointWords(3) == "", "GpdJointWords");
+            across.AttachTeacher(model, teacher, 1, true, "cmu", -1, true, 0.5);
+            own.AttachTeacher(model, teacher, 1);
+            // Across: the 16 GPD joints, each the student joint its layout maps there; on the student's
+            // own joints: the retargeter's joint set ("cmu": more than the 16).
+            int sources = 0;
+            for (uint g = 0; g < across.GhostJointCount; ++g) if (across.GhostJointSource(g) == across.GpdJointSource(g)) ++sources;
+            Check(across.GhostJointCount == 16 && sources == 16 && own.GhostJointCount > 16,
+                  "ghost across: 16 GPD joints (" + across.GhostJointCount + ", " + sources + " on their GPD sources), own: " +
+                  own.GhostJointCount);
+            try { own.AttachTeacher(model, teacher, 1, true, "cmu", -1, false, 0.0); Check(false, "alignment window 0 was accepted"); }
+            catch (KataException e) { Check(e.Status == Status.InvalidArgument, "alignment window 0: " + e.Message); }
+        }
+    }
+
     static int Main(string[] args)
     {
         if (args.Length == 1 && args[0] == "--expect-wrong-version")
@@ -291,6 +331,7 @@ static class KataTests
             ErrorsCarryTheCMessage(ctx, repo, tmp);
             SkeletonsAndRetargeting(ctx, repo);
             TeacherAsFeaturesAndTheNewestResult(ctx, repo);
+            OnePointOneTeacherAndJoints(ctx, repo);
         }
         HandlesReleasedOnce(repo);
         Console.WriteLine(failures == 0 ? "all C# binding checks passed" : failures + " checks failed");

@@ -87,6 +87,11 @@ typedef struct kata_runtime_desc {
   /* ---- 1.1 ---- */
   kata_result_callback on_result;   /* every result, in the process (above), or NULL (default) */
   void* on_result_user;             /* passed to on_result as is. Default NULL */
+  /* 1: the ingest is fed by the app's own transport through kata_runtime_offer (a NATS client, a
+   * message queue) instead of sockets: ingest_endpoints must then be NULL or "". Its messages are
+   * judged as a socket's are (the sender limits, max_frame_age_seconds, the ingest counters).
+   * 0 (default): sockets, or no ingest. Since 1.1. */
+  int32_t direct_ingest;
 } kata_runtime_desc;
 
 /* Counters since the runtime was created (sums over streams). */
@@ -174,6 +179,18 @@ KATA_API kata_status kata_runtime_push_confidence(kata_runtime runtime, uint64_t
 KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t stream_id, uint32_t revision,
                                                double teacher_start, int32_t loop, double loop_start,
                                                double loop_end);
+/* Hands one ingest message to a runtime created with direct_ingest = 1: the bytes a ZeroMQ
+ * ingest socket would receive (the 16-byte topic and the FlatBuffer, as kata_message_write_*
+ * write them), copied into a ring the runtime's I/O thread reads, in the order offered. The
+ * message is judged there (a malformed, unknown-stream or refused one is counted in
+ * kata_runtime_counters, never seen by another stream). KATA_OK: taken, and handled before
+ * kata_runtime_stop returns; KATA_E_QUEUE_FULL: not taken (the ring, 4 MiB or two messages of
+ * max_message_bytes, is full because the I/O thread fell behind; a message larger than half the
+ * ring; or stop has begun): the caller counts or drops it; KATA_E_STATE: the runtime has no direct
+ * ingest; KATA_E_NULL_POINTER. One thread at a time (the transport's delivery thread), and never
+ * after kata_runtime_destroy has begun: stop the transport first. Never blocks, never allocates.
+ * Since 1.1. */
+KATA_API kata_status kata_runtime_offer(kata_runtime runtime, const void* message, size_t size);
 /* Finishes every queued frame, flushes every stream, publishes every result, stops the threads
  * and closes the sockets. Idempotent. [any thread but the runtime's own]
  * A kata_runtime_push racing stop on another thread is either taken (it returns KATA_OK and its
@@ -187,6 +204,14 @@ KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtim
 KATA_API const char* kata_runtime_publish_endpoint(kata_runtime runtime);
 /* Likewise for the ingest socket. [any thread] */
 KATA_API const char* kata_runtime_ingest_endpoint(kata_runtime runtime);
+/* The latency from a frame's arrival to its result's hand-over to ZeroMQ (arrival_ns to
+ * published_ns of kata_result_record), over every result the runtime published so far, all
+ * streams: the value in nanoseconds below which a fraction q (0..1) of them lies. The runtime
+ * counts them in a histogram whose bucket i holds [2^(i/8), 2^((i+1)/8)) ns (9 % wide; i < 288,
+ * the last also holding anything longer); the answer is the upper edge of the bucket where the
+ * running count first reaches q x the total. 0 before the first published result, without a
+ * publisher, for NULL or for q outside 0..1 or NaN. Does not allocate. Since 1.1. [any thread] */
+KATA_API double kata_runtime_latency_percentile(kata_runtime runtime, double q);
 
 /* ---- Shards (docs/deploy.md) ----
  * Several `kata serve` processes split the streams: with [shard] count = N, index = i in its

@@ -292,6 +292,13 @@ KATA_API kata_status kata_stream_features(kata_stream stream, float* out, size_t
 KATA_API int64_t kata_stream_feature_count(kata_stream stream);
 /* The stream's body height H in input units (0 while calibrating). [stream owner] */
 KATA_API double kata_stream_body_height(kata_stream stream);
+/* The index of the stream skeleton's joint that the stream reads as GPD joint 0..15 (spec GPD v1
+ * order, kata_gpd_joint_name) under its layout or name map; -1 for a GPD joint the layout
+ * synthesises from several joints ("mediapipe"'s Hip, Chest, Neck, Head), for gpd_joint out of
+ * range and for NULL. E.g. an app colours the student's own joints by body part
+ * (kata_gpd_joint_part) or finds which way the body faces from the hips. Since 1.1. Does not
+ * allocate. [stream owner] */
+KATA_API int32_t kata_stream_gpd_joint_source(kata_stream stream, uint32_t gpd_joint);
 
 #ifdef __cplusplus
 }

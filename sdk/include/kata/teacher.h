@@ -97,6 +97,11 @@ KATA_API const char* kata_model_metadata(kata_model model, const char* key);
  * the result was complete. Memory: kata_stream_attach_teacher allocates; pushes and reads never
  * do. Threads: [stream owner] for every call. */
 
+/* A teacher's loading progress (1.1; kata_teacher_desc.on_progress): `done` of `frames` teacher
+ * frames have their features; `user` is on_progress_user. It must not call kata_stream_* on the
+ * stream being attached. */
+typedef void (*kata_progress_callback)(void* user, uint32_t done, uint32_t frames);
+
 /* What a stream is compared with: its teacher. One concept, whatever the teacher is given as:
  *   motion         how it is given                                   a ghost?
  *   a recorded clip   clip (BVH)                                     yes
@@ -118,7 +123,10 @@ typedef struct kata_teacher_desc {
   const float* positions;    /* frames x joints x 3 floats, or NULL */
   uint32_t frames;           /* frames of positions or features (joints: 1) */
   double frame_time;         /* seconds between frames of positions or features */
-  const char* layout;        /* the teacher's layout (kata_layout_name). NULL: "cmu" */
+  const char* layout;        /* the teacher's layout (kata_layout_name), read as a stream of that
+                                layout reads its frames: its axes and smoothing where it fixes them
+                                ("mediapipe" positions on kata_skeleton_create_layout's skeleton,
+                                since 1.1; 1.0 refused that layout here). NULL: "cmu" */
   uint32_t first_frame;      /* teacher frames first_frame..end (1 skips CMU's T-pose). Default 0 */
   int32_t pose_frame;        /* -1 (default): follow the whole clip; >= first_frame: that frame only */
   int32_t ghost;             /* 1 (default): make a ghost per result (the student skeleton needs rest
@@ -144,6 +152,17 @@ typedef struct kata_teacher_desc {
    * that push). Needs ghost = 1 and a teacher given as a clip or positions; desc->retarget's
    * joint_set is ignored. 0 (default): the ghost on the student's own joints, as in 1.0. */
   int32_t ghost_across;
+  /* The online alignment's tracking window, teacher seconds (> 0, at most 60): each frame is
+   * matched within this far ahead of the last match (kata/teacher.h "Models and scoring").
+   * Default 0.5; a clip teacher only (a one-pose teacher ignores it). Since 1.1 (a caller's struct
+   * without it gets 0.5). */
+  double alignment_window;
+  /* Called on the attaching thread as the teacher's features are computed, with the teacher frames
+   * done so far and the teacher's frame count (done = frames on the last call), so an app can say
+   * how far a long teacher's loading is (a 20-minute routine takes seconds). Never called for a
+   * teacher given as features or joints. NULL (default): none. Since 1.1. */
+  kata_progress_callback on_progress;
+  void* on_progress_user;    /* passed to on_progress as is. Default NULL */
 } kata_teacher_desc;
 
 /* Fills the first struct_size bytes of desc with the defaults above and sets desc->struct_size
@@ -206,6 +225,20 @@ KATA_API kata_status kata_stream_restart_teacher(kata_stream stream);
  * spec GPD v1 order), e.g. of a record's cue_joint; NULL out of range. A static string. Does not
  * allocate. [any thread] */
 KATA_API const char* kata_gpd_joint_name(int32_t joint);
+/* The kata_body_part GPD joint 0..15 belongs to (kata/result.h lists each part's joints: the
+ * parts a record's parts and part_scores split the score into), or -1 out of range. Since 1.1.
+ * [any thread] */
+KATA_API int32_t kata_gpd_joint_part(int32_t joint);
+/* The short name of a kata_body_part ("torso_head", "left_arm", "right_arm", "left_leg",
+ * "right_leg"), e.g. of a record's part_to_fix; NULL out of range. A static string. Since 1.1.
+ * [any thread] */
+KATA_API const char* kata_body_part_name(int32_t part);
+/* GPD joint 0..15 in the words kata_cue_text starts its phrase with, lower case ("lower back",
+ * "chest", "neck", "left shoulder", "left elbow", "right shoulder", "right elbow", "left hip",
+ * "left knee", "right hip", "right knee"), e.g. for "joint to move most often: left knee"; "" for
+ * the five end joints (Head, LHand, RHand, LFoot, RFoot), which no cue names (a bone turns about
+ * the joint at its start); NULL out of range. A static string. Since 1.1. [any thread] */
+KATA_API const char* kata_gpd_joint_words(int32_t joint);
 /* The record's correction cue in English into buf ("left knee: bend 30 deg more", "right
  * shoulder: raise 25 deg"; lower-case joint words, whole degrees), "" when it has none (no cue,
  * or a record whose struct_size predates the cue). Writes at most size bytes with the

@@ -578,4 +578,10 @@ KATA_API int64_t kata_stream_feature_count(kata_stream stream) {
 
 KATA_API double kata_stream_body_height(kata_stream stream) { return stream ? stream->pipeline.stream().body_height() : 0.0; }
 
+KATA_API int32_t kata_stream_gpd_joint_source(kata_stream stream, uint32_t gpd_joint) {
+  if (!stream || gpd_joint >= static_cast<uint32_t>(kata::kGpdJoints)) return -1;
+  const int source = stream->pipeline.stream().config().map.source[gpd_joint];
+  return source >= 0 ? source : -1;
+}
+
 }  // extern "C"

@@ -139,6 +139,18 @@ KATA_API const char* kata_gpd_joint_name(int32_t joint) {
   return joint >= 0 && joint < kata::kGpdJoints ? kata::kGpdJointNames[static_cast<size_t>(joint)] : nullptr;
 }
 
+KATA_API int32_t kata_gpd_joint_part(int32_t joint) {
+  return joint >= 0 && joint < kata::kGpdJoints ? kata::metric::joint_part(joint) : -1;
+}
+
+KATA_API const char* kata_body_part_name(int32_t part) {
+  return part >= 0 && part < kata::metric::kParts ? kata::metric::part_name(part) : nullptr;
+}
+
+KATA_API const char* kata_gpd_joint_words(int32_t joint) {
+  return joint >= 0 && joint < kata::kGpdJoints ? kata::metric::cue_joint_words(joint) : nullptr;
+}
+
 KATA_API size_t kata_cue_text(const kata_result_record* record, char* buf, size_t size) {
   if (size > 0 && !buf) return 0;
   const bool has = record && KATA_RESULT_HAS(record, cue_action);

@@ -98,11 +98,24 @@ std::shared_ptr<const kata::pipeline::Teacher> make_teacher(const kata_teacher_d
     frame_time = d.frame_time;
   }
   const int pose = pose_index(d, frames, call);
-  const kata::GpdMap map = kata::make_gpd_map(skeleton, kata::preset_joint_names(layout));
+  // The layout as a stream of it reads its frames: a name map, or one that synthesises joints and
+  // fixes its axes and smoothing ("mediapipe": a teacher recorded from a webcam).
+  const kata::Layout resolved = kata::resolve_layout(skeleton, layout);
+  const kata::GpdMap& map = resolved.map;
   kata::StreamConfig config = kata::stream_config_for(skeleton, map, stencil);
+  if (resolved.fixed_axes) config.up_axis = resolved.axes;
+  config.smoothing = resolved.smooth;
   if (ghost_side) *ghost_side = {map, config.up_axis, skeleton.joint_count()};
+  kata::pipeline::Teacher::LoadProgress progress;
+  if (d.on_progress) {
+    const kata_progress_callback callback = d.on_progress;
+    void* const user = d.on_progress_user;
+    progress = [callback, user](int done, int total) {
+      callback(user, static_cast<uint32_t>(std::max(done, 0)), static_cast<uint32_t>(std::max(total, 0)));
+    };
+  }
   return kata::pipeline::Teacher::from_positions(d.model->metric, skeleton, config, positions.data(), frames,
-                                                 frame_time, pose);
+                                                 frame_time, pose, progress);
 }
 
 }  // namespace
@@ -114,6 +127,10 @@ kata_status attach_teacher(kata_stream stream, const kata_teacher_desc* desc, co
     const kata_teacher_desc d = effective_teacher_desc(desc, call);
     if (!d.model) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_attach_teacher: desc->model is NULL");
     kata::pipeline::TeacherOptions options;
+    // The aligner refuses a window out of range, naming it.
+    if (!(d.alignment_window > 0.0 && d.alignment_window <= 60.0))
+      invalid(call, "alignment_window must be in (0, 60] teacher seconds");
+    options.alignment.window = d.alignment_window;
     options.ghost = d.ghost != 0;
     options.retarget = kata::capi::retarget_options(d.retarget, &options.ghost_joints);
     const int motions = (d.clip ? 1 : 0) + (d.skeleton || d.positions ? 1 : 0) + (d.features ? 1 : 0) + (d.joints ? 1 : 0);
@@ -146,6 +163,7 @@ kata_teacher_desc teacher_desc_defaults() {
   d.struct_size = sizeof d;
   d.pose_frame = -1;
   d.ghost = 1;
+  d.alignment_window = kata::metric::AlignmentOptions{}.window;
   return d;
 }
 // What the unsized init writes, for ever: 1.0's struct (programs built before the sized init

@@ -8,6 +8,7 @@
 struct kata_runtime_s {
   std::unique_ptr<kata::runtime::Runtime> runtime;
   kata_context context = nullptr;  // where the runtime's calls report their errors
+  bool direct_ingest = false;      // fed by kata_runtime_offer
 };
 
 namespace {
@@ -81,6 +82,16 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
     config.publish.send_hwm = d.send_hwm;
     config.ingest.endpoints = split_endpoints(d.ingest_endpoints);
     config.ingest.kind = d.ingest_pull ? kata::transport::IngestKind::kPull : kata::transport::IngestKind::kSub;
+    if (d.direct_ingest != 0 && d.direct_ingest != 1)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_runtime_create: direct_ingest must be 0 or 1");
+    if (d.direct_ingest) {
+      // The app's own transport hands the messages in (kata_runtime_offer): no ingest socket.
+      if (!config.ingest.endpoints.empty())
+        throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                          "kata_runtime_create: direct_ingest takes its messages from kata_runtime_offer, not "
+                          "ingest_endpoints (give one of the two)");
+      config.ingest.kind = kata::transport::IngestKind::kDirect;
+    }
     config.ingest.max_message_bytes = d.max_message_bytes;
     config.skeleton_resend_seconds = d.skeleton_resend_seconds;
     // The published record is a kata_result_record (transport::ResultFields derives from it): the
@@ -122,6 +133,7 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
     auto r = std::make_unique<kata_runtime_s>();
     r->runtime = std::make_unique<kata::runtime::Runtime>(std::move(config));
     r->context = context;
+    r->direct_ingest = d.direct_ingest != 0;
     *out = r.release();
     return KATA_OK;
   });
@@ -252,6 +264,18 @@ KATA_API const char* kata_runtime_publish_endpoint(kata_runtime runtime) {
 
 KATA_API const char* kata_runtime_ingest_endpoint(kata_runtime runtime) {
   return runtime ? runtime->runtime->ingest_endpoint_cstr() : "";
+}
+
+KATA_API kata_status kata_runtime_offer(kata_runtime runtime, const void* message, size_t size) {
+  if (!runtime || !message) return KATA_E_NULL_POINTER;
+  if (!runtime->direct_ingest) return KATA_E_STATE;
+  return runtime->runtime->offer(message, size) ? KATA_OK : KATA_E_QUEUE_FULL;
+}
+
+KATA_API double kata_runtime_latency_percentile(kata_runtime runtime, double q) {
+  if (!runtime || !(q >= 0.0 && q <= 1.0)) return 0.0;
+  const kata::runtime::RuntimeCounters c = runtime->runtime->counters();
+  return kata::runtime::latency_percentile(c.latency_histogram, q);
 }
 
 KATA_API kata_status kata_message_read_result(const void* message, size_t size, kata_result_record* out) {

@@ -1,6 +1,7 @@
 // A coaching lesson: the teacher and the student clips played frame by frame as two live streams
-// through the runtime that `kata serve` runs (kata::runtime::Runtime: a worker thread, an I/O
-// thread, results published over ZeroMQ). The student's stream has the teacher attached (the
+// through a kata runtime (kata/runtime.h: a worker thread, an I/O thread, results published over
+// ZeroMQ), as any app on the public C ABI would: the clips, the model, the streams and the runtime
+// are libkata's handles, nothing of the SDK's private core. The student's stream has the teacher attached (the
 // whole clip, followed by the online alignment, with the model's calibrated score map): every
 // frame is scored (total and per-part), the part to fix named, and the ghost made. The teacher's
 // stream is published beside it (features only) so a subscriber sees both.
@@ -8,8 +9,8 @@
 // This is the one place that drives the runtime for `kata coach`: the viewer, the terminal view,
 // the report and the recording read LessonData and never touch the runtime.
 //
-// Threads: one thread (the caller's) pushes frames; the runtime's I/O thread hands every student
-// result to an in-process sink that writes it into the frame's preallocated record and then marks
+// Threads: one thread (the caller's) pushes frames; the runtime hands every student result to an
+// in-process callback (kata_runtime_desc.on_result) that writes it into the frame's preallocated record and then marks
 // the frame ready (release store). The caller reads a frame's record only once ready(i) is true.
 // Memory: the constructor loads the clips, builds the teacher and reserves every per-frame array;
 // push() and the sink write into reserved storage.
@@ -21,12 +22,12 @@
 #include <string>
 #include <vector>
 
-#include "metric/parts.hpp"
-#include "runtime/runtime.hpp"
+#include "failure.hpp"
+#include "kata/kata.h"
 
 namespace kata::coach {
 
-// What the viewer and report show per frame (the scorer's feedback state, metric::ScoreState):
+// What the viewer and report show per frame (the record's kata_score_state):
 //   calibrating      the stream has just started: no score yet;
 //   tracking         a scored frame;
 //   tracking lost    too few joints tracked in this frame, or the stream refused it (NaN, wrong
@@ -60,8 +61,8 @@ struct FrameRecord {
   FrameState state = FrameState::kCalibrating;
   float score = 0.0f;         // 0-100, the calibrated total score
   float distance = 0.0f;
-  float parts[metric::kParts] = {};        // the split of distance^2 over the five parts
-  float part_scores[metric::kParts] = {};  // each part's calibrated 0-100 score
+  float parts[KATA_PART_COUNT] = {};        // the split of distance^2 over the five parts
+  float part_scores[KATA_PART_COUNT] = {};  // each part's calibrated 0-100 score
   int32_t matched = -1;       // teacher frame matched, counted from first_frame
   double matched_time = -1.0; // where the student is in the routine: the matched frame's time,
                               // seconds from first_frame (-1: not scored, or a recording's frame)
@@ -79,6 +80,12 @@ struct FrameRecord {
 float part_share(const FrameRecord& r, int part);
 // A frame with a score (tracking or teacher finished).
 bool scored(const FrameRecord& r);
+// The record's correction cue in English ("left knee: bend 30 deg more"; "" for none), as
+// kata_cue_text writes it. Returns buf.
+const char* cue_phrase(const FrameRecord& r, char* buf, size_t size);
+// A kata_body_part's name ("left_arm"), "?" out of range.
+const char* part_name(int part);
+using cli::fail;  // the CLI's failure: "kata: message", exit 1
 
 // Everything a lesson produced (also what a recording holds).
 struct LessonData {
@@ -110,9 +117,11 @@ class Lesson {
  public:
   // Loads the model and both clips, builds the teacher (the whole clip from first_frame; the
   // ghost on the student's bones), starts the runtime (publisher bound to settings.publish) and
-  // opens the two streams. Throws kata::Error.
+  // opens the two streams. Throws kata::cli::Failure with libkata's message.
   explicit Lesson(const LessonSettings& settings);
   ~Lesson();
+  Lesson(const Lesson&) = delete;
+  Lesson& operator=(const Lesson&) = delete;
 
   static constexpr uint64_t kTeacherStream = 1, kStudentStream = 2;
 
@@ -131,12 +140,15 @@ class Lesson {
   size_t settle();
   const LessonData& data() const { return data_; }
   // The runtime's endpoint (resolved port) and counters.
-  std::string publish_endpoint() const { return runtime_->publish_endpoint(); }
-  runtime::RuntimeCounters counters() const { return runtime_->counters(); }
+  std::string publish_endpoint() const { return kata_runtime_publish_endpoint(runtime_); }
+  kata_runtime_counters counters() const;
+  // Frame in -> result published, ns, below which a fraction q of every published result lies
+  // (both streams).
+  double latency_percentile(double q) const { return kata_runtime_latency_percentile(runtime_, q); }
   uint64_t teacher_results() const { return teacher_results_.load(std::memory_order_relaxed); }
 
  private:
-  void on_result(const transport::ResultFields& f);  // the runtime's I/O thread
+  static void on_result(void* self, const kata_result_record* r);  // the runtime's thread
 
   LessonData data_;
   std::vector<float> clip_positions_;     // student frames x joints x 3
@@ -148,8 +160,15 @@ class Lesson {
   std::atomic<uint64_t> teacher_results_{0};
   std::atomic<int64_t> newest_ready_{-1};  // the newest frame with a result (results come in order)
   size_t settled_ = 0;
-  std::unique_ptr<runtime::Runtime> runtime_;
+  // libkata's handles, released in reverse order (the runtime first: its callback writes into data_).
+  kata_context context_ = nullptr;
+  kata_model model_ = nullptr;
+  kata_clip teacher_clip_ = nullptr, student_clip_ = nullptr;
+  kata_skeleton teacher_skeleton_ = nullptr, student_skeleton_ = nullptr;
+  kata_stream teacher_stream_ = nullptr, student_stream_ = nullptr;  // until the runtime owns them
+  kata_runtime runtime_ = nullptr;
   bool finished_ = false;
+  void release();
 };
 
 }  // namespace kata::coach

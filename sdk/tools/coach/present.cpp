@@ -13,8 +13,6 @@
 #include <nlohmann/json.hpp>
 
 #include "coach/report_assets.hpp"
-#include "common/error.hpp"
-#include "metric/cue.hpp"
 
 namespace kata::coach {
 namespace {
@@ -22,8 +20,8 @@ namespace {
 namespace mustache = kainjow::mustache;
 
 // Colours of the five parts (lines of the per-part chart) and of the two figures.
-const char* const kPartColour[metric::kParts] = {"#6c5ce7", "#0984e3", "#00b894", "#e17055", "#d63031"};
-const char* const kPartLabel[metric::kParts] = {"torso and head", "left arm", "right arm", "left leg", "right leg"};
+const char* const kPartColour[KATA_PART_COUNT] = {"#6c5ce7", "#0984e3", "#00b894", "#e17055", "#d63031"};
+const char* const kPartLabel[KATA_PART_COUNT] = {"torso and head", "left arm", "right arm", "left leg", "right leg"};
 const char* const kGhostColour = "#f39c12";
 
 void append(std::string& out, const char* fmt, double v) {
@@ -54,8 +52,7 @@ void append_ints(std::string& out, const std::vector<T>& v) {
 // The correction cue's phrase of a frame ("left knee: bend 30 deg more"; "" for none).
 std::string cue_phrase(const FrameRecord& r) {
   char cue[64];
-  metric::cue_text(r.cue_joint, r.cue_degrees, r.cue_action, cue, sizeof cue);
-  return cue;
+  return coach::cue_phrase(r, cue, sizeof cue);
 }
 
 std::string json_string(const std::string& s) {
@@ -156,9 +153,9 @@ nlohmann::json chart_values(const std::vector<double>& values) {
 
 std::string setup_json(const LessonData& d, const std::string& source, const std::string& lesson_id) {
   std::string s = "{\"source\":" + json_string(source) + ",\"lesson\":" + json_string(lesson_id) + ",\"parts\":[";
-  for (int p = 0; p < metric::kParts; ++p) s += std::string(p ? "," : "") + json_string(metric::part_name(p));
+  for (int p = 0; p < KATA_PART_COUNT; ++p) s += std::string(p ? "," : "") + json_string(part_name(p));
   s += "],\"part_labels\":[";
-  for (int p = 0; p < metric::kParts; ++p) s += std::string(p ? "," : "") + json_string(kPartLabel[p]);
+  for (int p = 0; p < KATA_PART_COUNT; ++p) s += std::string(p ? "," : "") + json_string(kPartLabel[p]);
   s += "],\"joints\":" + std::to_string(d.joints) + ",\"parents\":";
   append_ints(s, d.joint_parents);
   s += ",\"joint_part\":";
@@ -190,17 +187,16 @@ std::string frame_json(const LessonData& d, size_t i) {
     s += ",\"score\":";
     append(s, "%.2f", r.score);
     s += ",\"part_scores\":";
-    append_floats(s, r.part_scores, metric::kParts);
+    append_floats(s, r.part_scores, KATA_PART_COUNT);
     s += ",\"shares\":[";
-    for (int p = 0; p < metric::kParts; ++p) {
+    for (int p = 0; p < KATA_PART_COUNT; ++p) {
       if (p) s += ',';
       append(s, "%.3f", part_share(r, p));
     }
     s += "],\"fix\":" + std::to_string(r.part_to_fix) + ",\"matched\":" + std::to_string(r.matched);
     // The correction cue: the GPD joint (-1: none) and the phrase ("" for none).
     char cue[64];
-    metric::cue_text(r.cue_joint, r.cue_degrees, r.cue_action, cue, sizeof cue);
-    s += ",\"cue_joint\":" + std::to_string(r.cue_joint) + ",\"cue\":" + json_string(cue);
+    s += ",\"cue_joint\":" + std::to_string(r.cue_joint) + ",\"cue\":" + json_string(coach::cue_phrase(r, cue, sizeof cue));
     if (r.matched_time >= 0.0) append(s, ",\"matched_time\":%.3f", r.matched_time);
     s += ",\"latency_us\":";
     append(s, "%.1f", r.latency_ns / 1e3);
@@ -240,9 +236,9 @@ void write_report(const LessonData& d, const std::string& path) {
   std::vector<double> time;
   Series total{"#2d3436", "total", {}};
   std::vector<Series> parts;
-  for (int p = 0; p < metric::kParts; ++p) parts.push_back({kPartColour[p], kPartLabel[p], {}});
-  double part_sum[metric::kParts] = {};
-  int fix_count[metric::kParts] = {};
+  for (int p = 0; p < KATA_PART_COUNT; ++p) parts.push_back({kPartColour[p], kPartLabel[p], {}});
+  double part_sum[KATA_PART_COUNT] = {};
+  int fix_count[KATA_PART_COUNT] = {};
   int scored_frames = 0, lost = 0, finished = 0, calibrating = 0, named = 0;
   std::vector<double> latencies;
   for (size_t i = 0; i < static_cast<size_t>(d.pushed); ++i) {
@@ -250,7 +246,7 @@ void write_report(const LessonData& d, const std::string& path) {
     time.push_back(r.time);
     const bool ok = scored(r);
     total.values.push_back(ok ? r.score : NAN);
-    for (int p = 0; p < metric::kParts; ++p) {
+    for (int p = 0; p < KATA_PART_COUNT; ++p) {
       parts[static_cast<size_t>(p)].values.push_back(ok ? r.part_scores[p] : NAN);
       if (ok) part_sum[p] += r.part_scores[p];
     }
@@ -263,12 +259,12 @@ void write_report(const LessonData& d, const std::string& path) {
     finished += r.state == FrameState::kTeacherFinished;
     calibrating += r.state == FrameState::kCalibrating;
   }
-  double part_mean[metric::kParts] = {};
-  for (int p = 0; p < metric::kParts; ++p) part_mean[p] = scored_frames ? part_sum[p] / scored_frames : 0.0;
+  double part_mean[KATA_PART_COUNT] = {};
+  for (int p = 0; p < KATA_PART_COUNT; ++p) part_mean[p] = scored_frames ? part_sum[p] / scored_frames : 0.0;
   const std::vector<size_t> lows = lowest_moments(d);
   const double mean = d.mean_score();
   int most_fixed = 0, weakest = 0;
-  for (int p = 1; p < metric::kParts; ++p) {
+  for (int p = 1; p < KATA_PART_COUNT; ++p) {
     if (fix_count[p] > fix_count[most_fixed]) most_fixed = p;
     if (part_mean[p] < part_mean[weakest]) weakest = p;
   }
@@ -292,7 +288,7 @@ void write_report(const LessonData& d, const std::string& path) {
   page.set("ghost_colour", kGhostColour);
 
   mustache::list part_rows;
-  for (int p = 0; p < metric::kParts; ++p) {
+  for (int p = 0; p < KATA_PART_COUNT; ++p) {
     part_rows.push_back(mustache::object{
         {"label", kPartLabel[p]},
         {"colour", kPartColour[p]},
@@ -334,9 +330,9 @@ void write_report(const LessonData& d, const std::string& path) {
               [&](int j) { return score_colour(r.part_scores[d.joint_part[static_cast<size_t>(j)]]); });
     if (r.has_ghost) add_bones(bones, d.frame_ghost(i), gp, v, 190, root_y, scale, [](int) { return std::string(kGhostColour); });
     mustache::list scores;
-    for (int p = 0; p < metric::kParts; ++p)
+    for (int p = 0; p < KATA_PART_COUNT; ++p)
       scores.push_back(mustache::object{
-          {"label", kPartLabel[p]}, {"score", fixed("%.0f", r.part_scores[p])}, {"last", p + 1 == metric::kParts}});
+          {"label", kPartLabel[p]}, {"score", fixed("%.0f", r.part_scores[p])}, {"last", p + 1 == KATA_PART_COUNT}});
     moments.push_back(mustache::object{{"number", std::to_string(m + 1)},
                                        {"time", fixed("%.2f", r.time)},
                                        {"score", fixed("%.0f", r.score)},
@@ -395,9 +391,9 @@ void write_report(const LessonData& d, const std::string& path) {
     throw std::logic_error("report template (a bug of this build): " + report_template.error_message());
 
   std::ofstream out(path, std::ios::binary);
-  if (!out) throw Error(ErrorKind::kIo, path + ": cannot open for writing");
+  if (!out) fail(path + ": cannot open for writing");
   out << h;
-  if (!out.flush()) throw Error(ErrorKind::kIo, path + ": write failed");
+  if (!out.flush()) fail(path + ": write failed");
 }
 
 }  // namespace kata::coach

@@ -5,10 +5,7 @@
 #include <cstdio>
 #include <map>
 
-#include "common/error.hpp"
 #include "io/npz.hpp"
-#include "metric/cue.hpp"
-#include "skeleton/skeleton.hpp"
 
 namespace kata::coach {
 namespace {
@@ -19,12 +16,12 @@ template <class T>
 std::vector<T> take(const std::map<std::string, NpyArray>& arrays, const std::string& path, const std::string& name,
                     std::vector<size_t> shape) {
   const auto it = arrays.find(name);
-  if (it == arrays.end()) throw Error(ErrorKind::kParse, path + ": no array '" + name + "'");
+  if (it == arrays.end()) fail(path + ": no array '" + name + "'");
   const NpyArray& a = it->second;
   for (size_t k = 0; k < shape.size(); ++k)
     if (shape[k] == 0 && k < a.shape.size()) shape[k] = a.shape[k];  // 0: any length
   if (a.shape != shape)
-    throw Error(ErrorKind::kParse, path + ": array '" + name + "' has shape " + npy_shape_text(a.shape) + ", expected " +
+    fail(path + ": array '" + name + "' has shape " + npy_shape_text(a.shape) + ", expected " +
                                        npy_shape_text(shape));
   return npy_values<T>(a, path + ": array '" + name + "'");
 }
@@ -32,7 +29,7 @@ std::vector<T> take(const std::map<std::string, NpyArray>& arrays, const std::st
 // Every array of a recording, in the order of the file (the list in recording.hpp).
 NpzArrays recording_arrays(const LessonData& d) {
   const size_t F = static_cast<size_t>(d.pushed), J = static_cast<size_t>(d.joints), G = static_cast<size_t>(d.ghost_joints);
-  const size_t K = static_cast<size_t>(metric::kParts);
+  const size_t K = static_cast<size_t>(KATA_PART_COUNT);
   std::vector<double> time(F);
   std::vector<uint8_t> state(F), has_ghost(F);
   std::vector<float> score(F), distance(F), parts(F * K), part_scores(F * K);
@@ -101,8 +98,8 @@ LessonData read_recording(const std::string& path) {
   d.frame_time = numbers[0], d.delta_star = numbers[1], d.settings.speed = numbers[2], d.settings.window = numbers[3];
   d.d50 = numbers[7], d.good_score = numbers[8];
   for (double v : numbers)
-    if (!std::isfinite(v)) throw Error(ErrorKind::kParse, path + ": array 'numbers' holds a non-finite value");
-  if (!(d.frame_time > 0.0)) throw Error(ErrorKind::kParse, path + ": frame_time (numbers[0]) must be > 0");
+    if (!std::isfinite(v)) fail(path + ": array 'numbers' holds a non-finite value");
+  if (!(d.frame_time > 0.0)) fail(path + ": frame_time (numbers[0]) must be > 0");
   d.settings.first_frame = static_cast<int>(numbers[4]), d.teacher_frames = static_cast<int>(numbers[5]);
   const std::vector<int32_t> parents = take<int32_t>(arrays, path, "joint_parents", {0});
   const std::vector<int32_t> sources = take<int32_t>(arrays, path, "ghost_sources", {0});
@@ -118,19 +115,19 @@ LessonData read_recording(const std::string& path) {
   const std::vector<int32_t> hips = take<int32_t>(arrays, path, "hips", {2});
   d.left_hip = hips[0], d.right_hip = hips[1];
   for (size_t j = 0; j < J; ++j)
-    if (parents[j] >= static_cast<int32_t>(j) || (j > 0 && parents[j] < 0) || joint_part[j] < 0 || joint_part[j] >= metric::kParts)
-      throw Error(ErrorKind::kParse, path + ": joint_parents / joint_part is not a skeleton");
+    if (parents[j] >= static_cast<int32_t>(j) || (j > 0 && parents[j] < 0) || joint_part[j] < 0 || joint_part[j] >= KATA_PART_COUNT)
+      fail(path + ": joint_parents / joint_part is not a skeleton");
   for (int32_t s : sources)
-    if (s < 0 || static_cast<size_t>(s) >= J) throw Error(ErrorKind::kParse, path + ": ghost_sources out of range");
-  if (d.left_hip >= static_cast<int>(J) || d.right_hip >= static_cast<int>(J)) throw Error(ErrorKind::kParse, path + ": hips out of range");
+    if (s < 0 || static_cast<size_t>(s) >= J) fail(path + ": ghost_sources out of range");
+  if (d.left_hip >= static_cast<int>(J) || d.right_hip >= static_cast<int>(J)) fail(path + ": hips out of range");
   d.positions = take<float>(arrays, path, "positions", {F, J, 3});
   d.ghosts = take<float>(arrays, path, "ghosts", {F, G, 3});
   const auto state = take<uint8_t>(arrays, path, "state", {F});
   const auto has_ghost = take<uint8_t>(arrays, path, "has_ghost", {F});
   const auto score = take<float>(arrays, path, "score", {F});
   const auto distance = take<float>(arrays, path, "distance", {F});
-  const auto parts = take<float>(arrays, path, "parts", {F, static_cast<size_t>(metric::kParts)});
-  const auto part_scores = take<float>(arrays, path, "part_scores", {F, static_cast<size_t>(metric::kParts)});
+  const auto parts = take<float>(arrays, path, "parts", {F, static_cast<size_t>(KATA_PART_COUNT)});
+  const auto part_scores = take<float>(arrays, path, "part_scores", {F, static_cast<size_t>(KATA_PART_COUNT)});
   const auto fix = take<int32_t>(arrays, path, "part_to_fix", {F});
   const auto matched = take<int32_t>(arrays, path, "matched", {F});
   const auto latency = take<int64_t>(arrays, path, "latency_ns", {F});
@@ -153,37 +150,37 @@ LessonData read_recording(const std::string& path) {
     if (c == '\n') lines.push_back(line), line.clear();
     else line += static_cast<char>(c);
   }
-  if (lines.size() != 4 + J) throw Error(ErrorKind::kParse, path + ": 'text' does not hold 4 settings and the joint names");
+  if (lines.size() != 4 + J) fail(path + ": 'text' does not hold 4 settings and the joint names");
   d.settings.model = lines[0], d.settings.teacher = lines[1], d.settings.student = lines[2], d.settings.preset = lines[3];
   d.joint_names.assign(lines.begin() + 4, lines.end());
   d.frames.resize(F);
   for (size_t i = 0; i < F; ++i) {
     FrameRecord& r = d.frames[i];
-    if (state[i] > 3 || fix[i] < -1 || fix[i] >= metric::kParts)
-      throw Error(ErrorKind::kParse, path + ": frame " + std::to_string(i) + ": state or part_to_fix out of range");
+    if (state[i] > 3 || fix[i] < -1 || fix[i] >= KATA_PART_COUNT)
+      fail(path + ": frame " + std::to_string(i) + ": state or part_to_fix out of range");
     r.frame = static_cast<int64_t>(i), r.time = time[i], r.state = static_cast<FrameState>(state[i]);
     r.score = score[i], r.distance = distance[i], r.part_to_fix = fix[i], r.matched = matched[i];
     r.latency_ns = latency[i], r.has_ghost = has_ghost[i] != 0 && G > 0;
-    if (!std::isfinite(matched_time[i])) throw Error(ErrorKind::kParse, path + ": frame " + std::to_string(i) + ": matched_time is not finite");
+    if (!std::isfinite(matched_time[i])) fail(path + ": frame " + std::to_string(i) + ": matched_time is not finite");
     r.matched_time = matched_time[i];
-    if (cue_joint[i] < -1 || cue_joint[i] >= kGpdJoints || cue_action[i] < -1 || cue_action[i] > 4 ||
+    if (cue_joint[i] < -1 || cue_joint[i] >= KATA_GPD_JOINTS || cue_action[i] < -1 || cue_action[i] > 4 ||
         !(cue_degrees[i] >= 0.0f && cue_degrees[i] <= 180.0f))
-      throw Error(ErrorKind::kParse, path + ": frame " + std::to_string(i) + ": the cue is out of range");
+      fail(path + ": frame " + std::to_string(i) + ": the cue is out of range");
     r.cue_joint = cue_joint[i], r.cue_degrees = cue_degrees[i], r.cue_action = cue_action[i];
-    std::copy(parts.begin() + static_cast<ptrdiff_t>(i * metric::kParts),
-              parts.begin() + static_cast<ptrdiff_t>((i + 1) * metric::kParts), r.parts);
-    std::copy(part_scores.begin() + static_cast<ptrdiff_t>(i * metric::kParts),
-              part_scores.begin() + static_cast<ptrdiff_t>((i + 1) * metric::kParts), r.part_scores);
+    std::copy(parts.begin() + static_cast<ptrdiff_t>(i * KATA_PART_COUNT),
+              parts.begin() + static_cast<ptrdiff_t>((i + 1) * KATA_PART_COUNT), r.parts);
+    std::copy(part_scores.begin() + static_cast<ptrdiff_t>(i * KATA_PART_COUNT),
+              part_scores.begin() + static_cast<ptrdiff_t>((i + 1) * KATA_PART_COUNT), r.part_scores);
   }
   return d;
 }
 
 void write_results_csv(const LessonData& d, const std::string& path) {
   std::FILE* out = std::fopen(path.c_str(), "w");
-  if (!out) throw Error(ErrorKind::kIo, path + ": cannot open for writing");
+  if (!out) fail(path + ": cannot open for writing");
   std::fprintf(out, "frame,time,state,score,distance");
-  for (int p = 0; p < metric::kParts; ++p) std::fprintf(out, ",%s", metric::part_name(p));
-  for (int p = 0; p < metric::kParts; ++p) std::fprintf(out, ",%s_score", metric::part_name(p));
+  for (int p = 0; p < KATA_PART_COUNT; ++p) std::fprintf(out, ",%s", part_name(p));
+  for (int p = 0; p < KATA_PART_COUNT; ++p) std::fprintf(out, ",%s_score", part_name(p));
   std::fprintf(out, ",part_to_fix,matched_teacher_frame,matched_teacher_time,cue_joint,cue_degrees,cue\n");
   for (size_t i = 0; i < static_cast<size_t>(d.pushed); ++i) {
     const FrameRecord& r = d.frames[i];
@@ -192,17 +189,16 @@ void write_results_csv(const LessonData& d, const std::string& path) {
     for (float p : r.parts) std::fprintf(out, ",%.9g", p);
     for (float p : r.part_scores) std::fprintf(out, ",%.9g", p);
     std::fprintf(out, ",%d,%d,%.6f", r.part_to_fix, r.matched, r.matched_time);
-    if (r.cue_joint >= 0 && r.cue_joint < kGpdJoints) {
+    if (r.cue_joint >= 0 && r.cue_joint < KATA_GPD_JOINTS) {
       char cue[64];
-      metric::cue_text(r.cue_joint, r.cue_degrees, r.cue_action, cue, sizeof cue);
-      std::fprintf(out, ",%s,%.2f,%s\n", kGpdJointNames[static_cast<size_t>(r.cue_joint)], r.cue_degrees, cue);
+      std::fprintf(out, ",%s,%.2f,%s\n", kata_gpd_joint_name(r.cue_joint), r.cue_degrees, cue_phrase(r, cue, sizeof cue));
     } else {
       std::fputs(",,,\n", out);
     }
   }
   const bool ok = std::fflush(out) == 0 && !std::ferror(out);
   std::fclose(out);
-  if (!ok) throw Error(ErrorKind::kIo, path + ": write failed");
+  if (!ok) fail(path + ": write failed");
 }
 
 }  // namespace kata::coach

@@ -12,9 +12,12 @@
 
 #include <httplib.h>
 
-#include "common/error.hpp"
+#include "failure.hpp"
+
 
 namespace kata::coach {
+
+using cli::fail;
 
 std::string cannot_listen_message(const char* who, const std::string& host, int port) {
   std::string reason = "the reason is unknown (the port was free when tried again)";
@@ -44,10 +47,10 @@ std::string cannot_listen_message(const char* who, const std::string& host, int 
 ViewerServer::ViewerServer(const std::string& static_dir, const std::string& host, int port)
     : server_(std::make_unique<httplib::Server>()) {
   if (!std::ifstream(static_dir + "/index.html"))
-    throw Error(ErrorKind::kIo, static_dir + "/index.html: the viewer page is missing (build the kata_viewer target, "
+    fail(static_dir + "/index.html: the viewer page is missing (build the kata_viewer target, "
                                              "or give --viewer-dir)");
   if (!server_->set_mount_point("/", static_dir))
-    throw Error(ErrorKind::kIo, static_dir + ": cannot serve this directory");
+    fail(static_dir + ": cannot serve this directory");
   server_->set_file_extension_and_mimetype_mapping("mjs", "text/javascript");
   server_->Get("/status", [this](const httplib::Request&, httplib::Response& res) {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -91,7 +94,7 @@ ViewerServer::ViewerServer(const std::string& static_dir, const std::string& hos
     });
   });
   port_ = port == 0 ? server_->bind_to_any_port(host) : (server_->bind_to_port(host, port) ? port : -1);
-  if (port_ <= 0) throw Error(ErrorKind::kIo, cannot_listen_message("viewer", host, port));
+  if (port_ <= 0) fail(cannot_listen_message("viewer", host, port));
   thread_ = std::thread([this] { server_->listen_after_bind(); });
 }
 

@@ -13,18 +13,11 @@
 #include <httplib.h>
 #include <nlohmann/json.hpp>
 
-#include "common/error.hpp"
-#include "common/time_units.hpp"
-#include "io/bvh.hpp"
-#include "io/clip_features.hpp"
+#include "coach/landmark_teacher.hpp"
+#include "coach/lesson.hpp"  // part_name, fail
+#include "io/npy.hpp"        // write_npy: the recordings' file format
+#include "kata/kata.h"
 #include "load_progress.hpp"
-#include "io/model_file.hpp"
-#include "io/motion_source.hpp"
-#include "io/npy.hpp"
-#include "metric/parts.hpp"
-#include "metric/scorer.hpp"
-#include "pipeline/pipeline.hpp"
-#include "stream/stream.hpp"
 
 namespace kata::coach {
 
@@ -45,13 +38,19 @@ double steady_ms() {
 }
 
 const char* state_text(int32_t state) {
-  switch (static_cast<metric::ScoreState>(state)) {
-    case metric::ScoreState::kScoring: return "tracking";
-    case metric::ScoreState::kCalibrating: return "calibrating";
-    case metric::ScoreState::kTrackingLost: return "tracking lost";
-    case metric::ScoreState::kTeacherFinished: return "teacher finished";
+  switch (state) {
+    case KATA_SCORE_SCORING: return "tracking";
+    case KATA_SCORE_CALIBRATING: return "calibrating";
+    case KATA_SCORE_TRACKING_LOST: return "tracking lost";
+    case KATA_SCORE_TEACHER_FINISHED: return "teacher finished";
+    default: return "tracking lost";
   }
-  return "tracking lost";
+}
+
+// The sidecar timestamps of a landmark .npy, as kata's readers look for them: "X.npy" -> "X.times.npy".
+std::string times_path_of(const std::string& npy_path) {
+  const bool npy = npy_path.size() >= 4 && npy_path.compare(npy_path.size() - 4, 4, ".npy") == 0;
+  return (npy ? npy_path.substr(0, npy_path.size() - 4) : npy_path) + ".times.npy";
 }
 
 std::string html_text(const std::string& s) {
@@ -92,14 +91,17 @@ bool parse_webcam_frame(const std::string& body, WebcamFrame* out, std::string* 
 struct WebcamCoach::Impl {
   WebcamSettings settings;
   bool recording_teacher = false;
-  std::shared_ptr<const metric::Metric> metric;
-  Layout student_layout;
-  retarget::MappedSide ghost_teacher;  // how the ghost reads the teacher's frames (its layout's map, axes)
   int teacher_frames = 0;
   double teacher_frame_time = 0.0;
-  std::unique_ptr<runtime::Runtime> runtime;
+  // libkata's handles (released in reverse order by the destructor: the runtime first, since its
+  // callback writes here).
+  kata_context context = nullptr;
+  kata_model model = nullptr;
+  kata_skeleton student_skeleton = nullptr;
+  kata_stream student_stream = nullptr;  // until the runtime owns it
+  kata_runtime runtime = nullptr;
 
-  mutable std::mutex mutex;  // frames + events (HTTP threads, the runtime's I/O thread)
+  mutable std::mutex mutex;  // frames + events (HTTP threads, the runtime's thread)
   std::condition_variable changed;
   struct Received {
     WebcamFrame frame;
@@ -124,99 +126,109 @@ struct WebcamCoach::Impl {
   httplib::Server server;
   std::thread thread;
 
-  void load_teacher() {
+  void check(kata_status status) const {
+    if (status != KATA_OK) fail(kata_context_last_error(context));
+  }
+
+  // Attaches the teacher (a BVH clip, or a landmark recording) to the student's stream: the whole
+  // motion followed by the online alignment, and the ghost across layouts (the teacher's layout
+  // onto the page's MediaPipe student), made by the pipeline once the stream has estimated the
+  // student's bone lengths: 16 GPD joints in MediaPipe's world axes, as the page draws them.
+  void attach_teacher() {
     const std::string& path = settings.teacher;
     const bool bvh = path.size() > 4 && path.compare(path.size() - 4, 4, ".bvh") == 0;
-    std::shared_ptr<const pipeline::Teacher> teacher;
-    Skeleton skeleton;
-    GpdMap map;
-    UpAxis axes = UpAxis::kY;
-    std::vector<float> positions;
-    double frame_time = 0.0;
-    int count = 0;
-    StreamConfig config;
-    tools::LoadProgress progress(path);  // a line on stderr if loading takes > 1 s (issue 36)
+    tools::LoadProgress progress(path);  // a line on stderr if loading takes > 1 s
+    kata_teacher_desc td;
+    kata_teacher_desc_init(&td);
+    td.model = model;
+    td.ghost = 1;
+    td.ghost_across = 1;
+    td.alignment_window = settings.window;
+    td.on_progress = [](void* user, uint32_t done, uint32_t total) {
+      (*static_cast<tools::LoadProgress*>(user))(static_cast<int>(done), static_cast<int>(total));
+    };
+    td.on_progress_user = &progress;
+    const std::string layout = settings.teacher_layout.empty() ? (bvh ? "cmu" : "mediapipe") : settings.teacher_layout;
+    td.layout = layout.c_str();
+    kata_clip clip = nullptr;
+    kata_skeleton skeleton = nullptr;
+    LandmarkTeacher landmarks;
+    kata_status status = KATA_OK;
     if (bvh) {
-      const BvhClip clip = load_bvh(path);
-      if (settings.first_frame < 0 || settings.first_frame >= clip.frame_count())
-        throw Error(ErrorKind::kInvalidArgument, path + ": --first-frame is past its end");
-      skeleton = clip.skeleton;
-      map = resolve_gpd_map(skeleton, settings.teacher_layout.empty() ? "cmu" : settings.teacher_layout, "");
-      config = stream_config_for(skeleton, map, metric->stencil());
-      positions = clip_positions(clip, settings.first_frame);
-      count = clip.frame_count() - settings.first_frame;
-      frame_time = clip.frame_time;
+      check(kata_clip_load_bvh(context, path.c_str(), &clip));
+      const int count = static_cast<int>(kata_clip_frame_count(clip));
+      if (settings.first_frame < 0 || settings.first_frame >= count) {
+        kata_clip_destroy(clip);
+        fail(path + ": --first-frame is past its end");
+      }
+      td.clip = clip;
+      td.first_frame = static_cast<uint32_t>(settings.first_frame);
+      teacher_frames = count - settings.first_frame;
+      teacher_frame_time = kata_clip_frame_time(clip);
     } else {
-      const MotionSource m = load_motion(path, settings.teacher_layout.empty() ? "mediapipe" : settings.teacher_layout, 0.0,
-                                         UpAxis::kY, 0, parse_time_units(settings.time_units));
-      skeleton = m.skeleton;
-      map = m.layout.map;
-      axes = m.layout.axes;
-      config.map = map;
-      config.input_joints = skeleton.joint_count();
-      config.stencil = metric->stencil();
-      config.up_axis = axes;
-      config.smoothing = m.layout.smooth;
-      positions = m.xyz;
-      count = m.frames;
-      frame_time = m.frame_time;
+      landmarks = load_landmark_teacher(path, layout, settings.time_units);
+      check(kata_skeleton_create_layout(context, layout.c_str(), &skeleton));
+      td.skeleton = skeleton;
+      td.positions = landmarks.xyz.data();
+      td.frames = static_cast<uint32_t>(landmarks.frames);
+      td.frame_time = landmarks.frame_time;
+      teacher_frames = landmarks.frames;
+      teacher_frame_time = landmarks.frame_time;
     }
-    teacher_frames = count;
-    teacher_frame_time = frame_time;
-    const auto ref = pipeline::Teacher::from_positions(metric, skeleton, config, positions.data(), count, frame_time,
-                                                       -1, std::ref(progress));
-    ghost_teacher = {map, bvh ? config.up_axis : axes, skeleton.joint_count()};
-    teacher_ref = ref;
+    status = kata_stream_attach_teacher(student_stream, &td);
+    const std::string why = status == KATA_OK ? "" : kata_stream_last_error(student_stream);
+    kata_clip_destroy(clip);  // the stream keeps what it needs
+    kata_skeleton_destroy(skeleton);
+    if (status != KATA_OK) fail(path + ": " + why);
   }
-  std::shared_ptr<const pipeline::Teacher> teacher_ref;
 
   explicit Impl(const WebcamSettings& s) : settings(s), recording_teacher(!s.record_teacher.empty()) {
-    const Skeleton student = layout_skeleton("mediapipe");
-    student_layout = resolve_layout(student, "mediapipe");
-    // The student's stream as `kata score` / `kata features` read a mediapipe file (motion_features):
-    // the same map, axes, smoothing and stencil, so the page's frames score as the file's do.
-    pipeline::PipelineConfig config;
-    config.stream.map = student_layout.map;
-    config.stream.input_joints = student.joint_count();
-    config.stream.up_axis = student_layout.axes;
-    config.stream.smoothing = student_layout.smooth;
-    config.student = student;
-    config.result_capacity = 64;
-    if (!recording_teacher) {
-      metric = std::make_shared<const metric::Metric>(metric::load_model(settings.model));
-      config.stream.stencil = metric->stencil();
-      load_teacher();
+    try {
+      if (kata_context_create(&context) != KATA_OK) fail("cannot create a kata context");
+      check(kata_skeleton_create_layout(context, "mediapipe", &student_skeleton));
+      // The student's stream as `kata score` / `kata features` read a mediapipe file: the layout's
+      // map, axes and smoothing, and the model's stencil, so the page's frames score as the file's do.
+      kata_stream_desc sd;
+      kata_stream_desc_init(&sd);
+      sd.layout = "mediapipe";
+      sd.result_capacity = 64;
+      if (!recording_teacher) {
+        check(kata_model_load(context, settings.model.c_str(), &model));
+        sd.stencil = kata_model_stencil(model);
+      }
+      check(kata_stream_open(context, student_skeleton, &sd, &student_stream));
+      if (!recording_teacher) attach_teacher();
+      frames.reserve(30 * 60 * 10);  // ten minutes at 30 Hz before the first growth
+      events.reserve(30 * 60 * 10);
+      kata_runtime_desc rd;
+      kata_runtime_desc_init(&rd);
+      rd.workers = 1;
+      rd.max_streams = 1;
+      rd.max_joints = kWebcamLandmarks;
+      rd.queue_capacity = 256;
+      rd.publish_endpoints = settings.publish.c_str();
+      rd.on_result = [](void* self, const kata_result_record* r) { static_cast<Impl*>(self)->on_result(*r); };
+      rd.on_result_user = this;
+      check(kata_runtime_create(context, &rd, &runtime));
+      check(kata_runtime_add_stream(runtime, kStudentStream, &student_stream, "mediapipe", 0));
+    } catch (...) {
+      release();
+      throw;
     }
-    auto student_pipeline = std::make_unique<pipeline::Pipeline>(config);
-    if (teacher_ref) {
-      pipeline::TeacherOptions options;
-      options.alignment.window = settings.window;
-      // The ghost across layouts (the teacher's layout onto the page's MediaPipe student), made by
-      // the pipeline once the stream has estimated the student's bone lengths: 16 GPD joints in
-      // MediaPipe's world axes, as the page draws them.
-      options.ghost_across = true;
-      options.ghost_teacher = ghost_teacher;
-      student_pipeline->set_teacher(teacher_ref, options);
-    }
-    frames.reserve(30 * 60 * 10);  // ten minutes at 30 Hz before the first growth
-    events.reserve(30 * 60 * 10);
-    runtime::RuntimeConfig rc;
-    rc.workers = 1;
-    rc.max_streams = 1;
-    rc.max_joints = kWebcamLandmarks;
-    rc.frame_queue_capacity = 256;
-    rc.result_queue_capacity = 256;
-    rc.publish.endpoints = {settings.publish};
-    rc.sinks.push_back({[this](const transport::ResultFields& f) { on_result(f); }, {}});
-    runtime = std::make_unique<runtime::Runtime>(rc);
-    transport::SkeletonDefinition d;
-    d.stream_id = kStudentStream;
-    d.revision = 1;
-    d.skeleton = student;
-    d.layout = "mediapipe";
-    d.metres_per_unit = 1.0f;
-    runtime->adopt_stream(d, student_pipeline.get(), [](pipeline::Pipeline* p) { delete p; }, false);
-    student_pipeline.release();
+  }
+  ~Impl() { release(); }
+
+  void release() {
+    kata_runtime_destroy(runtime);  // stops first: the callback writes into this
+    runtime = nullptr;
+    kata_stream_destroy(student_stream);
+    student_stream = nullptr;
+    kata_skeleton_destroy(student_skeleton);
+    student_skeleton = nullptr;
+    kata_model_destroy(model);
+    model = nullptr;
+    kata_context_destroy(context);
+    context = nullptr;
   }
 
   void emit(std::string json) {
@@ -242,7 +254,7 @@ struct WebcamCoach::Impl {
     }
   }
 
-  void on_result(const transport::ResultFields& f) {  // the runtime's I/O thread
+  void on_result(const kata_result_record& f) {  // the runtime's thread
     std::lock_guard<std::mutex> lock(mutex);
     const uint64_t seq = f.frame_sequence;
     if (seq >= frames.size()) return;
@@ -262,13 +274,13 @@ struct WebcamCoach::Impl {
     if (f.scored) {
       e["score"] = f.score;
       e["parts"] = std::vector<float>(std::begin(f.part_scores), std::end(f.part_scores));
-      e["fix"] = f.part_to_fix >= 0 ? metric::part_name(f.part_to_fix) : "";
+      e["fix"] = f.part_to_fix >= 0 ? part_name(f.part_to_fix) : "";
       char cue[64];  // the correction cue's phrase, "" for none
-      metric::cue_text(f.cue_joint, f.cue_degrees, f.cue_action, cue, sizeof cue);
+      kata_cue_text(&f, cue, sizeof cue);
       e["cue"] = cue;
       e["matched"] = f.matched_teacher_frame;
-      if (f.ghost && f.ghost_joint_count == static_cast<uint32_t>(kGpdJoints))
-        e["ghost"] = std::vector<float>(f.ghost, f.ghost + 3 * kGpdJoints);
+      if (f.ghost && f.ghost_joint_count == static_cast<uint32_t>(KATA_GPD_JOINTS))
+        e["ghost"] = std::vector<float>(f.ghost, f.ghost + 3 * KATA_GPD_JOINTS);
     }
     timeline.push_back({seq, r.frame.capture_ms * 1e-3 - first_time, state, f.scored ? f.score : 0.0f});
     emit(e.dump());
@@ -317,7 +329,7 @@ struct WebcamCoach::Impl {
         ++pushed;
         timeline.push_back({f.sequence, t - first_time, "recording", 0.0f});
         emit(simple_event(f.sequence, "recording", received));
-      } else if (runtime->push(kStudentStream, f.sequence, t, xyz, kWebcamLandmarks, false, confidence) == Status::kOk) {
+      } else if (kata_runtime_push_confidence(runtime, kStudentStream, f.sequence, t, xyz, confidence, kWebcamLandmarks) == KATA_OK) {
         if (first_time < 0) first_time = t;
         last_time = t;
         r.pushed = true;
@@ -338,7 +350,7 @@ struct WebcamCoach::Impl {
         values.insert(values.end(), r.frame.values, r.frame.values + kWebcamLandmarks * kWebcamChannels);
         times.push_back(r.frame.capture_ms * 1e-3 - first_time);
       }
-    if (times.empty()) throw Error(ErrorKind::kInvalidArgument, path + ": no frame with a person was received: nothing to record");
+    if (times.empty()) fail(path + ": no frame with a person was received: nothing to record");
     write_npy(path, values.data(), {times.size(), static_cast<size_t>(kWebcamLandmarks), static_cast<size_t>(kWebcamChannels)});
     write_npy(times_path_of(path), times.data(), {times.size()});
   }
@@ -348,9 +360,9 @@ WebcamCoach::WebcamCoach(const WebcamSettings& settings, const std::string& stat
     : impl_(std::make_unique<Impl>(settings)) {
   Impl& m = *impl_;
   if (!std::ifstream(static_dir + "/webcam.html") || !std::ifstream(static_dir + "/vendor/mediapipe/pose/pose.js"))
-    throw Error(ErrorKind::kIo, static_dir + ": the webcam page or MediaPipe Pose is missing (build the kata_viewer target, "
+    fail(static_dir + ": the webcam page or MediaPipe Pose is missing (build the kata_viewer target, "
                                              "or give --viewer-dir)");
-  if (!m.server.set_mount_point("/", static_dir)) throw Error(ErrorKind::kIo, static_dir + ": cannot serve this directory");
+  if (!m.server.set_mount_point("/", static_dir)) fail(static_dir + ": cannot serve this directory");
   m.server.set_file_extension_and_mimetype_mapping("wasm", "application/wasm");
   m.server.set_file_extension_and_mimetype_mapping("tflite", "application/octet-stream");
   m.server.set_file_extension_and_mimetype_mapping("binarypb", "application/octet-stream");
@@ -389,8 +401,8 @@ WebcamCoach::WebcamCoach(const WebcamSettings& settings, const std::string& stat
                         {"teacher_frames", i.teacher_frames},
                         {"teacher_frame_time", i.teacher_frame_time},
                         {"complexity", i.settings.complexity},
-                        {"parts", std::vector<std::string>{metric::part_name(0), metric::part_name(1), metric::part_name(2),
-                                                           metric::part_name(3), metric::part_name(4)}}};
+                        {"parts", std::vector<std::string>{part_name(0), part_name(1), part_name(2), part_name(3),
+                                                           part_name(4)}}};
     res.set_content(j.dump(), "application/json");
   });
   m.server.Post("/webcam/frame", [this](const httplib::Request& req, httplib::Response& res) {
@@ -453,7 +465,7 @@ WebcamCoach::WebcamCoach(const WebcamSettings& settings, const std::string& stat
     });
   });
   port_ = port == 0 ? m.server.bind_to_any_port(host) : (m.server.bind_to_port(host, port) ? port : -1);
-  if (port_ <= 0) throw Error(ErrorKind::kIo, cannot_listen_message("webcam", host, port));
+  if (port_ <= 0) fail(cannot_listen_message("webcam", host, port));
   m.thread = std::thread([this] { impl_->server.listen_after_bind(); });
 }
 
@@ -472,7 +484,7 @@ uint64_t WebcamCoach::results() const {
 void WebcamCoach::finish() {
   Impl& m = *impl_;
   if (m.runtime) {
-    m.runtime->stop();  // every pushed frame answered
+    kata_runtime_stop(m.runtime);  // every pushed frame answered
     std::lock_guard<std::mutex> lock(m.mutex);
     m.pass_over(m.frames.size());
   }
@@ -511,7 +523,7 @@ void WebcamCoach::write_report(const std::string& path) const {
   const Impl& m = *impl_;
   std::lock_guard<std::mutex> lock(m.mutex);
   std::ofstream out(path);
-  if (!out) throw Error(ErrorKind::kIo, path + ": cannot open for writing");
+  if (!out) fail(path + ": cannot open for writing");
   out << "<!doctype html><html><head><meta charset=\"utf-8\"><title>kata webcam lesson</title>"
          "<style>body{font:14px sans-serif;margin:2em;max-width:60em}td,th{padding:2px 10px;text-align:right}"
          "svg{background:#f4f4f4}</style></head><body><h1>kata webcam lesson</h1>";

@@ -2,8 +2,8 @@
 //
 // The page (viewer/webcam.html) runs MediaPipe Pose in the browser and POSTs each camera frame's
 // 33 world landmarks with their visibility and its capture time; this side pushes them as a
-// "mediapipe"-layout stream through the same runtime `kata coach` and `kata serve` use
-// (kata::runtime::Runtime, the teacher attached to the stream's pipeline), and sends every result
+// "mediapipe"-layout stream through a kata runtime (kata/runtime.h, the teacher attached to the
+// stream with kata_stream_attach_teacher: the public C ABI only, as the rest of the coach), and sends every result
 // back to the page as a server-sent event, with the ghost: the matched teacher frame's 16 GPD
 // joints turned to face the way the student faces, scaled to the student's spine and stood on
 // the student's hip, in MediaPipe's world axes (the page projects it over the video). A webcam
@@ -20,7 +20,7 @@
 //   GET  /webcam/status   {"frames", "results", "pushed", "not_in_frame", "lost", "refused"}
 //
 // Threads: httplib's pool calls receive() (one mutex orders the pushes of the one stream: the
-// runtime wants one producer per stream); the runtime's I/O thread calls the result sink, which
+// runtime wants one producer per stream); the runtime's thread calls the result callback, which
 // takes the same mutex to read the frame it answers. Neither lock is the runtime's. The HTTP side
 // allocates per request (httplib does); the runtime's live path does not.
 #pragma once
@@ -32,8 +32,6 @@
 #include <string>
 #include <thread>
 #include <vector>
-
-#include "runtime/runtime.hpp"
 
 namespace httplib {
 class Server;
@@ -75,7 +73,7 @@ bool parse_webcam_frame(const std::string& body, WebcamFrame* out, std::string* 
 class WebcamCoach {
  public:
   // Loads the model and the teacher, starts the runtime and the HTTP server on host:port
-  // (port 0: any free one) serving `static_dir`. Throws kata::Error.
+  // (port 0: any free one) serving `static_dir`. Throws kata::cli::Failure.
   WebcamCoach(const WebcamSettings& settings, const std::string& static_dir, const std::string& host, int port);
   ~WebcamCoach();
   WebcamCoach(const WebcamCoach&) = delete;
