@@ -105,6 +105,7 @@ struct Options {
   bool capture_is_send = false; // subscriber: capture_ns is the source's send time (shards mode)
   int shards = 0;               // > 0: the kata phase runs through kata proxy + this many kata serve
   bool ingest = false;          // the frames come from a sender process over ZeroMQ through Ingest
+  bool batch = false;           // --ingest: the sender sends each tick's frames as frame batches
   int result_batch = 8;         // RuntimeConfig::result_batch
   std::string sender;           // internal: the sender process (PUSH to this endpoint)
   int nats_servers = 3;         // --transport nats: servers in the cluster (1: no route hop, R1 leases)
@@ -617,6 +618,8 @@ int run_sender(const Options& o) {
   uint64_t sent = 0;
   const double cpu0 = cpu_seconds();
   std::vector<int64_t> last_stamp(static_cast<size_t>(o.streams), 0);
+  std::vector<kata::transport::Encoder::BatchFrame> batch(o.batch ? static_cast<size_t>(o.streams) : 0);
+  constexpr size_t kBatchChunk = 512;
   if (started) {
     const int64_t ticks = static_cast<int64_t>(o.seconds * o.rate);
     paced_ticks(o, ticks, [&](int64_t t) {
@@ -630,8 +633,20 @@ int run_sender(const Options& o) {
         // a few us apart, which the pipeline refuses (kMinTimeStep). The clamp acts only then.
         const int64_t stamp = std::max(now_ns(), last_stamp[static_cast<size_t>(s)] + 20'000);
         last_stamp[static_cast<size_t>(s)] = stamp;
+        if (o.batch) {  // sent below, with the tick's other frames
+          batch[static_cast<size_t>(s)] = {static_cast<uint64_t>(s), static_cast<uint64_t>(t), stamp, xyz, joints,
+                                           nullptr, nullptr};
+          continue;
+        }
         const auto m = encoder.frame(static_cast<uint64_t>(s), static_cast<uint64_t>(t), stamp, xyz, joints);
         if (zmq_send(push, m.data, m.size, ZMQ_DONTWAIT) >= 0) ++sent;
+      }
+      // --batch: the tick's frames in messages of at most kBatchChunk frames (a stage's one message
+      // per tick; 512 frames of 31 joints are ~230 KB, well inside the ingest's 1 MiB).
+      for (size_t first = 0; o.batch && first < batch.size(); first += kBatchChunk) {
+        const size_t n = std::min(kBatchChunk, batch.size() - first);
+        const auto m = encoder.frame_batch(batch.data() + first, n);
+        if (zmq_send(push, m.data, m.size, ZMQ_DONTWAIT) >= 0) sent += n;
       }
     });
   }
@@ -664,6 +679,7 @@ SenderChild spawn_sender(const Options& o, const std::string& endpoint, int stre
   std::vector<std::string> args = {"kata", "replay", "--sender", endpoint, "--streams", std::to_string(streams),
                                    "--seconds", std::to_string(o.seconds), "--rate", std::to_string(o.rate),
                                    "--data", o.data_dir};
+  if (o.batch) args.push_back("--batch");
   std::vector<char*> argv;
   for (auto& a : args) argv.push_back(a.data());
   argv.push_back(nullptr);
@@ -819,7 +835,8 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
   j["cpu_us_per_frame"] = sent ? 1e6 * cpu / static_cast<double>(sent) : 0.0;
   j["runtime_drops_by_cause"] = by_cause;
   if (o.ingest) {
-    j["path"] = "ingest: a sender process -> ZeroMQ PUSH/PULL -> Ingest (verifier, checksum) -> runtime";
+    j["path"] = o.batch ? "ingest: a sender process -> one frame batch message per tick -> ZeroMQ PUSH/PULL -> Ingest (verifier, checksum per frame) -> runtime"
+                        : "ingest: a sender process -> ZeroMQ PUSH/PULL -> Ingest (verifier, checksum) -> runtime";
     j["sender_cpu_seconds"] = sender_report["sender_cpu_seconds"];
     j["ingest_dropped"] = counters.ingest.dropped_total();
   } else {
@@ -1513,6 +1530,7 @@ void run_replay(const Options& o) {
   if (o.transport == "nats") throw Error(ErrorKind::kInvalidArgument, "replay: this kata-replay was built without NATS (libnats-dev)");
 #endif
   if (o.ingest && o.shards > 0) throw Error(ErrorKind::kInvalidArgument, "replay: --ingest and --shards exclude each other");
+  if (o.batch && !o.ingest) throw Error(ErrorKind::kInvalidArgument, "replay: --batch needs --ingest (the sender process batches)");
   if (o.streams < 1 || !(o.rate > 0) || !(o.seconds > 0) || o.seconds > (o.soak ? 86400 : 600))
     throw Error(ErrorKind::kInvalidArgument, "replay: --streams >= 1, --rate > 0, 0 < --seconds <= 600 (soak: 86400)");
   std::signal(SIGPIPE, SIG_IGN);
@@ -1653,6 +1671,9 @@ void setup(CLI::App& app) {
   cmd->add_flag("--ingest", o->ingest,
                 "the frames come from a sender process over ZeroMQ (PUSH -> the runtime's PULL Ingest, verifier and "
                 "checksum), as kata send does, instead of the in-process push; latency from the frame's send");
+  cmd->add_flag("--batch", o->batch,
+                "with --ingest: the sender sends each tick's frames of all its streams as one frame batch message "
+                "(schemas/frame_batch.fbs) instead of one message per frame, as a mocap stage with many performers can");
   cmd->add_option("--nats-servers", o->nats_servers,
                   "with --transport nats: servers in the cluster (1: no route between servers, leases not replicated)")
       ->check(CLI::Range(1, 5))

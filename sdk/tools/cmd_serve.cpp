@@ -119,11 +119,13 @@ void write_counters(const std::string& path, const kata::runtime::Runtime& runti
   }
   const kata::transport::IngestCounters i = runtime.counters().ingest;
   std::fprintf(f, "},\n \"ingest\": {\"received\": %llu, \"frames\": %llu, \"dropped\": %llu, \"unknown_stream\": %llu, "
-               "\"out_of_order\": %llu, \"sequence_gaps\": %llu, \"other_shard\": %llu}}\n",
+               "\"out_of_order\": %llu, \"sequence_gaps\": %llu, \"other_shard\": %llu, \"batches\": %llu, "
+               "\"batch_frames\": %llu}}\n",
                static_cast<unsigned long long>(i.received), static_cast<unsigned long long>(i.frames),
                static_cast<unsigned long long>(i.dropped_total()), static_cast<unsigned long long>(i.unknown_stream),
                static_cast<unsigned long long>(i.out_of_order), static_cast<unsigned long long>(i.sequence_gaps),
-               static_cast<unsigned long long>(i.other_shard));
+               static_cast<unsigned long long>(i.other_shard), static_cast<unsigned long long>(i.batches),
+               static_cast<unsigned long long>(i.batch_frames));
   if (std::fclose(f) != 0) throw Error(ErrorKind::kIo, "serve: cannot write " + path);
 }
 
@@ -428,12 +430,13 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                static_cast<unsigned long long>(c.ingest.dropped_total()));
   const auto& in = c.ingest;
   std::fprintf(stderr,
-               "kata serve: ingest %llu messages received = %llu frames + %llu definitions + %llu repeated + %llu closes"
+               "kata serve: ingest %llu messages received (%llu frame batches counted as their %llu frames) = %llu frames + %llu definitions + %llu repeated + %llu closes"
                " + %llu practice settings + %llu repeated + %llu other shard + %llu dropped (not owner %llu, limit %llu, window %llu,"
                " stale %llu, malformed %llu, unknown stream %llu, joints %llu, order %llu, refused definitions %llu, results %llu,"
                " practice values %llu, practice outside the clip %llu, practice without a clip %llu, practice queue full %llu); frames: %llu "
                "refused by the pipeline, %llu lost in queues; connections %llu (%llu refused, %llu handshakes refused)\n",
-               static_cast<unsigned long long>(in.received), static_cast<unsigned long long>(in.frames),
+               static_cast<unsigned long long>(in.received), static_cast<unsigned long long>(in.batches),
+               static_cast<unsigned long long>(in.batch_frames), static_cast<unsigned long long>(in.frames),
                static_cast<unsigned long long>(in.skeletons), static_cast<unsigned long long>(in.repeated_skeletons),
                static_cast<unsigned long long>(in.closes), static_cast<unsigned long long>(in.practices),
                static_cast<unsigned long long>(in.repeated_practices), static_cast<unsigned long long>(in.other_shard),

@@ -132,5 +132,32 @@ int main(int argc, char** argv) {
     add(s, frame(7, 12, 12));
     write(out + "/practice-settings", s);
   }
+  {  // frame batches (schemas/frame_batch.fbs): streams 7 and 9 of sender 0 a batch per tick; a batch
+     // from sender 1 with a frame of its own stream 11 beside one of sender 0's stream 7; 7 twice in
+     // one batch (the same sequence, then the next); a batch's frame of a stream never defined
+    std::vector<uint8_t> s;
+    add(s, encoder.skeleton(d));
+    kata::transport::SkeletonDefinition nine = d, eleven = d;
+    nine.stream_id = 9;
+    eleven.stream_id = 11;
+    add(s, encoder.skeleton(nine));
+    add(s, encoder.skeleton(eleven), 1);
+    using Frame = kata::transport::Encoder::BatchFrame;
+    auto at = [&](uint64_t id, uint64_t seq, int f) {
+      return Frame{id, seq, static_cast<int64_t>(seq) * dt,
+                   positions.data() + static_cast<size_t>(f) * 3 * static_cast<size_t>(joints), joints, nullptr, nullptr};
+    };
+    for (int f = 0; f < 4; ++f) {
+      const Frame tick[2] = {at(7, static_cast<uint64_t>(f), f), at(9, static_cast<uint64_t>(f), 10 + f)};
+      add(s, encoder.frame_batch(tick, 2));
+    }
+    const Frame forged[2] = {at(11, 0, 20), at(7, 4, 21)};
+    add(s, encoder.frame_batch(forged, 2), 1);
+    const Frame twice[3] = {at(7, 4, 4), at(7, 4, 4), at(7, 5, 5)};
+    add(s, encoder.frame_batch(twice, 3));
+    const Frame unknown[2] = {at(9, 4, 14), at(12, 0, 0)};
+    add(s, encoder.frame_batch(unknown, 2));
+    write(out + "/frame-batches", s);
+  }
   return 0;
 }

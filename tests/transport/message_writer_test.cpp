@@ -326,6 +326,103 @@ TEST(runtime_message_writer, NonFiniteFramesAreRefused) {
   kata_context_destroy(context);
 }
 
+// A frame batch (schemas/frame_batch.fbs): the encoder's bytes for the same frames, read back by
+// the ingest's decoder frame by frame; the size query; refusals naming the frame, nothing written.
+TEST(runtime_message_writer, FrameBatchIsTheEncodersBytesAndItsRefusals) {
+  constexpr int kFrames = 5, kJoints = 31;
+  std::vector<std::vector<float>> xyz(kFrames, std::vector<float>(3 * kJoints)), confidence(kFrames);
+  std::vector<kata_frame_message> frames(kFrames);
+  std::vector<const kata_frame_message*> pointers;
+  Encoder reference;
+  std::vector<Encoder::BatchFrame> expected;
+  for (int i = 0; i < kFrames; ++i) {
+    for (int k = 0; k < 3 * kJoints; ++k) xyz[i][static_cast<size_t>(k)] = 0.5f * static_cast<float>(k) - static_cast<float>(i);
+    kata_frame_message_init(&frames[i]);
+    frames[i].stream_id = 100 + static_cast<uint64_t>(i % 3);  // stream 100 three times: frames in a row
+    frames[i].sequence = static_cast<uint64_t>(i);
+    frames[i].capture_time = 1712345678.123456789 + 0.01 * i;
+    frames[i].positions = xyz[i].data();
+    frames[i].joint_count = kJoints;
+    if (i == 1) {  // one frame with confidences: each frame keeps its own channels
+      confidence[i].assign(kJoints, 0.75f);
+      frames[i].confidences = confidence[i].data();
+    }
+    pointers.push_back(&frames[i]);
+    expected.push_back({frames[i].stream_id, frames[i].sequence,
+                        static_cast<int64_t>(std::round(frames[i].capture_time * 1e9)), xyz[i].data(), kJoints,
+                        frames[i].confidences, nullptr});
+  }
+  size_t needed = 0;
+  ASSERT_EQ(kata_message_write_frame_batch(pointers.data(), kFrames, nullptr, 0, &needed), KATA_E_BUFFER_TOO_SMALL);
+  std::vector<uint8_t> out(needed + 8, 0xcd);
+  size_t size = 0;
+  EXPECT_EQ(kata_message_write_frame_batch(pointers.data(), kFrames, out.data(), needed - 1, &size),
+            KATA_E_BUFFER_TOO_SMALL);
+  EXPECT_EQ(size, needed);
+  for (uint8_t b : out) ASSERT_EQ(b, 0xcd);
+  ASSERT_EQ(kata_message_write_frame_batch(pointers.data(), kFrames, out.data(), out.size(), &size), KATA_OK)
+      << kata_context_last_error(nullptr);
+  ASSERT_EQ(size, needed);
+  EXPECT_EQ(out[needed], 0xcd);
+  out.resize(size);
+  EXPECT_EQ(out, bytes_of(reference.frame_batch(expected.data(), expected.size())));
+  Decoder decoder(1 << 20, true);
+  ASSERT_EQ(decoder.decode(out.data(), out.size()), MessageKind::kFrameBatch)
+      << kata::transport::decode_error_name(decoder.error());
+  ASSERT_EQ(decoder.batch_size(), static_cast<size_t>(kFrames));
+  for (int i = 0; i < kFrames; ++i) {
+    ASSERT_EQ(decoder.batch_frame(static_cast<size_t>(i)), kata::transport::DecodeError::kNone) << i;
+    const kata::transport::FrameView& f = decoder.frame();
+    EXPECT_EQ(f.stream_id, frames[i].stream_id);
+    EXPECT_EQ(f.sequence, frames[i].sequence);
+    EXPECT_EQ(f.capture_ns, expected[static_cast<size_t>(i)].capture_ns);
+    ASSERT_EQ(f.joints, kJoints);
+    EXPECT_EQ(std::memcmp(f.xyz, xyz[i].data(), sizeof(float) * 3 * kJoints), 0) << i;
+    EXPECT_EQ(f.confidence != nullptr, i == 1);
+  }
+  kata_result_record r;
+  r.struct_size = sizeof r;
+  EXPECT_EQ(kata_message_read_result(out.data(), out.size(), &r), KATA_NO_DATA);
+
+  // Refusals: nothing written, *size 0, the reason names the frame.
+  std::vector<uint8_t> buffer(1 << 16, 0xcd);
+  size = 7;
+  xyz[3][10] = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_EQ(kata_message_write_frame_batch(pointers.data(), kFrames, buffer.data(), buffer.size(), &size),
+            KATA_E_NON_FINITE);
+  EXPECT_EQ(size, 0u);
+  EXPECT_NE(std::string(kata_context_last_error(nullptr)).find("frame 3: joint 3"), std::string::npos)
+      << kata_context_last_error(nullptr);
+  xyz[3][10] = 0.5f * 10 - 3.0f;  // its value again
+  pointers[2] = nullptr;
+  EXPECT_EQ(kata_message_write_frame_batch(pointers.data(), kFrames, buffer.data(), buffer.size(), &size),
+            KATA_E_NULL_POINTER);
+  EXPECT_NE(std::string(kata_context_last_error(nullptr)).find("frame 2"), std::string::npos);
+  pointers[2] = &frames[2];
+  frames[4].struct_size = 8;  // below the struct's first size
+  EXPECT_EQ(kata_message_write_frame_batch(pointers.data(), kFrames, buffer.data(), buffer.size(), &size),
+            KATA_E_INVALID_ARGUMENT);
+  frames[4].struct_size = sizeof frames[4];
+  frames[0].joint_count = 0;
+  EXPECT_EQ(kata_message_write_frame_batch(pointers.data(), kFrames, buffer.data(), buffer.size(), &size),
+            KATA_E_WRONG_JOINT_COUNT);
+  frames[0].joint_count = kJoints;
+  EXPECT_EQ(kata_message_write_frame_batch(pointers.data(), 0, buffer.data(), buffer.size(), &size),
+            KATA_E_INVALID_ARGUMENT);
+  std::vector<const kata_frame_message*> too_many(4097, &frames[0]);
+  EXPECT_EQ(kata_message_write_frame_batch(too_many.data(), too_many.size(), buffer.data(), buffer.size(), &size),
+            KATA_E_INVALID_ARGUMENT);
+  EXPECT_EQ(kata_message_write_frame_batch(nullptr, 1, buffer.data(), buffer.size(), &size), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_message_write_frame_batch(pointers.data(), kFrames, nullptr, 16, &size), KATA_E_NULL_POINTER);
+  EXPECT_EQ(kata_message_write_frame_batch(pointers.data(), kFrames, buffer.data(), buffer.size(), nullptr),
+            KATA_E_NULL_POINTER);
+  EXPECT_EQ(size, 0u);
+  for (uint8_t b : buffer) ASSERT_EQ(b, 0xcd);
+  // After the refusals the same call writes the same bytes again.
+  EXPECT_EQ(kata_message_write_frame_batch(pointers.data(), kFrames, buffer.data(), buffer.size(), &size), KATA_OK);
+  EXPECT_EQ(std::vector<uint8_t>(buffer.begin(), buffer.begin() + static_cast<long>(size)), out);
+}
+
 TEST(runtime_message_writer, PracticeIsTheEncodersBytesAndItsRefusals) {
   kata_practice_message m;
   kata_practice_message_init(&m);

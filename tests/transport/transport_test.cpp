@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "common/error.hpp"
+#include "kata_schemas/frame_batch_generated.h"
 #include "transport/ingest_table.hpp"
 #include "transport/wire.hpp"
 #include "transport/zmq_io.hpp"
@@ -627,6 +628,251 @@ TEST(runtime_shard, IngestKeepsItsShardsStreamsOnly) {
   EXPECT_EQ(skeletons, 2);
   options.shard_index = 3;
   EXPECT_THROW(Ingest(context, options, recording(received, &skeletons)), Error);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Frame batches (schemas/frame_batch.fbs): many streams' frames in one message, each frame read
+// and checked as its own Frame message would be.
+
+// A batch's bytes made with the generated API, so that a test can write what kata's encoder never
+// does (a wrong checksum, another version, no frames, too many).
+struct HandFrame {
+  uint64_t stream_id = 0, sequence = 0;
+  int64_t capture_ns = 0;
+  std::vector<float> xyz;
+  bool good_checksum = true;
+  uint16_t version = 1;
+};
+std::vector<uint8_t> hand_batch(const std::vector<HandFrame>& frames, uint16_t version = 1,
+                                const std::string& topic = "fffffffffffffffe", bool no_frames_field = false) {
+  flatbuffers::FlatBufferBuilder b;
+  std::vector<flatbuffers::Offset<fb::Frame>> tables;
+  for (const HandFrame& f : frames) {
+    const int joints = static_cast<int>(f.xyz.size() / 3);
+    const auto positions = b.CreateVectorOfStructs(reinterpret_cast<const fb::Vec3*>(f.xyz.data()), static_cast<size_t>(joints));
+    fb::FrameBuilder k(b);
+    k.add_schema_version(f.version);
+    k.add_stream_id(f.stream_id);
+    k.add_sequence(f.sequence);
+    const fb::Time t(f.capture_ns);
+    k.add_capture_time(&t);
+    k.add_positions(positions);
+    const uint32_t sum = frame_checksum(f.stream_id, f.sequence, f.capture_ns, f.xyz.data(), joints, nullptr);
+    k.add_checksum(f.good_checksum ? sum : sum ^ 1u);
+    tables.push_back(k.Finish());
+  }
+  const auto v = b.CreateVector(tables);
+  fb::FrameBatchBuilder k(b);
+  k.add_schema_version(version);
+  if (!no_frames_field) k.add_frames(v);
+  b.Finish(k.Finish(), fb::FrameBatchIdentifier());
+  std::vector<uint8_t> m(16 + b.GetSize());
+  std::memcpy(m.data(), topic.data(), 16);
+  std::memcpy(m.data() + 16, b.GetBufferPointer(), b.GetSize());
+  return m;
+}
+
+HandFrame hand_frame(uint64_t id, uint64_t seq, int joints = 3) {
+  HandFrame f;
+  f.stream_id = id;
+  f.sequence = seq;
+  f.capture_ns = static_cast<int64_t>(seq + 1) * 8'333'333;
+  f.xyz = pose(id, seq, joints);
+  return f;
+}
+
+TEST(runtime_wire, FrameBatchCarriesEachFrameAsItsOwnMessageWould) {
+  Encoder encoder;
+  Decoder batch_decoder, single;
+  const auto a = pose(3, 42, 3), b = pose(9, 7, 4), c = pose(3, 43, 3);
+  const float confidence[4] = {1.0f, 0.5f, 0.0f, 0.25f}, presence[3] = {0.6f, 0.9f, NAN};
+  const Encoder::BatchFrame frames[3] = {{3, 42, 1'000'000'007LL, a.data(), 3, nullptr, nullptr},
+                                         {9, 7, 2'000'000'000LL, b.data(), 4, confidence, nullptr},
+                                         {3, 43, 1'008'333'340LL, c.data(), 3, confidence, presence}};
+  const Bytes m = encoder.frame_batch(frames, 3);
+  ASSERT_EQ(std::string(reinterpret_cast<const char*>(m.data), 16), "fffffffffffffffe");
+  std::vector<uint8_t> copy(m.data, m.data + m.size);
+  ASSERT_EQ(batch_decoder.decode(copy.data(), copy.size()), MessageKind::kFrameBatch)
+      << decode_error_name(batch_decoder.error());
+  EXPECT_EQ(batch_decoder.stream_id(), kBatchStreamId);
+  ASSERT_EQ(batch_decoder.batch_size(), 3u);
+  for (size_t i = 0; i < 3; ++i) {
+    const Encoder::BatchFrame& e = frames[i];
+    EXPECT_EQ(batch_decoder.batch_stream_id(i), e.stream_id);
+    ASSERT_EQ(batch_decoder.batch_frame(i), DecodeError::kNone) << i;
+    const FrameView got = batch_decoder.frame();
+    // The same frame sent alone reads back the same values (confidence combined with presence).
+    const Bytes alone = encoder.frame(e.stream_id, e.sequence, e.capture_ns, e.xyz, e.joints, e.confidence, e.presence);
+    std::vector<uint8_t> alone_copy(alone.data, alone.data + alone.size);
+    ASSERT_EQ(single.decode(alone_copy.data(), alone_copy.size()), MessageKind::kFrame);
+    const FrameView& want = single.frame();
+    EXPECT_EQ(got.stream_id, want.stream_id);
+    EXPECT_EQ(got.sequence, want.sequence);
+    EXPECT_EQ(got.capture_ns, e.capture_ns);
+    ASSERT_EQ(got.joints, e.joints);
+    EXPECT_EQ(std::memcmp(got.xyz, e.xyz, sizeof(float) * 3 * static_cast<size_t>(e.joints)), 0);
+    ASSERT_EQ(got.confidence == nullptr, e.confidence == nullptr && e.presence == nullptr);
+    for (int j = 0; got.confidence && j < e.joints; ++j) {
+      const float c_in = e.confidence ? e.confidence[j] : 1.0f, p_in = e.presence ? e.presence[j] : c_in;
+      const float expected = std::isnan(p_in) ? NAN : std::fmin(c_in, p_in);
+      if (std::isnan(expected)) EXPECT_TRUE(std::isnan(got.confidence[j]));
+      else EXPECT_EQ(got.confidence[j], expected) << "frame " << i << " joint " << j;
+      if (std::isnan(expected)) EXPECT_TRUE(std::isnan(want.confidence[j]));
+      else EXPECT_EQ(got.confidence[j], want.confidence[j]);
+    }
+  }
+  // Misaligned as ZeroMQ may hand it over: copied and read the same.
+  std::vector<uint8_t> shifted(copy.size() + 1);
+  std::memcpy(shifted.data() + 1, copy.data(), copy.size());
+  ASSERT_EQ(batch_decoder.decode(shifted.data() + 1, copy.size()), MessageKind::kFrameBatch);
+  ASSERT_EQ(batch_decoder.batch_frame(1), DecodeError::kNone);
+  EXPECT_EQ(batch_decoder.frame().xyz[11], b[11]);
+  // The encoder refuses an empty batch and one beyond the limit.
+  EXPECT_THROW(encoder.frame_batch(frames, 0), Error);
+  std::vector<Encoder::BatchFrame> many(kMaxBatchFrames + 1, frames[0]);
+  EXPECT_THROW(encoder.frame_batch(many.data(), many.size()), Error);
+}
+
+TEST(runtime_wire, FrameBatchRefusalsNameTheirReason) {
+  Decoder decoder(1 << 20);
+  auto kind = [&](const std::vector<uint8_t>& m) { return decoder.decode(m.data(), m.size()); };
+  // A good batch, then the same with one frame's checksum wrong: the batch is read, that frame alone refused.
+  std::vector<HandFrame> frames = {hand_frame(1, 0), hand_frame(2, 0), hand_frame(1, 1)};
+  ASSERT_EQ(kind(hand_batch(frames)), MessageKind::kFrameBatch);
+  frames[1].good_checksum = false;
+  frames[2].version = 2;
+  ASSERT_EQ(kind(hand_batch(frames)), MessageKind::kFrameBatch);
+  EXPECT_EQ(decoder.batch_frame(0), DecodeError::kNone);
+  EXPECT_EQ(decoder.batch_frame(1), DecodeError::kChecksum);
+  EXPECT_EQ(decoder.batch_frame(2), DecodeError::kVersion);
+  EXPECT_EQ(decoder.batch_frame(0), DecodeError::kNone);  // order does not matter: each is read alone
+  EXPECT_EQ(decoder.frame().stream_id, 1u);
+  frames[1].good_checksum = true;
+  frames[2].version = 1;
+  // The whole batch refused, each by its cause.
+  EXPECT_EQ(kind(hand_batch(frames, 2)), MessageKind::kNone);
+  EXPECT_EQ(decoder.error(), DecodeError::kVersion);
+  EXPECT_EQ(kind(hand_batch({})), MessageKind::kNone);
+  EXPECT_EQ(decoder.error(), DecodeError::kMissingField);
+  EXPECT_EQ(kind(hand_batch(frames, 1, "fffffffffffffffe", true)), MessageKind::kNone);
+  EXPECT_EQ(decoder.error(), DecodeError::kMissingField);
+  EXPECT_EQ(kind(hand_batch(frames, 1, "0000000000000001")), MessageKind::kNone);
+  EXPECT_EQ(decoder.error(), DecodeError::kTopicMismatch) << "a batch's topic is 2^64-2";
+  std::vector<uint8_t> truncated = hand_batch(frames);
+  truncated.resize(truncated.size() - 20);
+  EXPECT_EQ(kind(truncated), MessageKind::kNone);
+  EXPECT_EQ(decoder.error(), DecodeError::kVerifier);
+  // Too many frames (4097 one-joint frames fit the byte limit): oversized, not a broken buffer.
+  std::vector<HandFrame> many;
+  for (uint64_t i = 0; i <= kMaxBatchFrames; ++i) many.push_back(hand_frame(i, 0, 1));
+  EXPECT_EQ(kind(hand_batch(many)), MessageKind::kNone);
+  EXPECT_EQ(decoder.error(), DecodeError::kOversized);
+  many.pop_back();
+  ASSERT_EQ(kind(hand_batch(many)), MessageKind::kFrameBatch) << decode_error_name(decoder.error());
+  EXPECT_EQ(decoder.batch_size(), kMaxBatchFrames);
+  // More bytes than the decoder's limit.
+  Decoder small(4096);
+  const std::vector<uint8_t> big = hand_batch(many);
+  EXPECT_EQ(small.decode(big.data(), big.size()), MessageKind::kNone);
+  EXPECT_EQ(small.error(), DecodeError::kOversized);
+}
+
+// A batch's frames through the ingest's rules one by one, from the batch's sender: refused frames
+// counted by cause (and on their stream), the others handed on in the batch's order, and the
+// counters adding up with a batch counted as its frames.
+// The stats message carries the batch counters (added with frame batches), so a monitor can
+// balance received against the outcomes.
+TEST(runtime_wire, StatsCarryTheBatchCounters) {
+  Encoder encoder;
+  Decoder decoder;
+  StatsFields f;
+  f.received = 12;
+  f.batches = 3;
+  f.batch_frames = 191;
+  f.frames = 190;
+  const Bytes m = encoder.stats(f);
+  std::vector<uint8_t> copy(m.data, m.data + m.size);
+  ASSERT_EQ(decoder.decode(copy.data(), copy.size()), MessageKind::kStats);
+  const StatsFields back = decoder.stats();
+  EXPECT_EQ(back.batches, 3u);
+  EXPECT_EQ(back.batch_frames, 191u);
+  EXPECT_EQ(back.received, 12u);
+}
+
+TEST(runtime_ingest, BatchFramesAreJudgedOneByOne) {
+  Context context;
+  IngestOptions options;
+  options.endpoints = {"bind:inproc://batch-ingest-test"};
+  options.limits.max_frame_age_ns = 0;
+  options.log_refusals = false;
+  Received received;
+  int skeletons = 0;
+  Ingest::Handlers handlers = recording(received, &skeletons);
+  std::vector<std::pair<uint64_t, TableVerdict>> refused_on_stream;
+  handlers.on_refused_frame = [&](uint64_t id, TableVerdict v) { refused_on_stream.emplace_back(id, v); };
+  Ingest ingest(context, options, handlers);
+  Encoder encoder;
+  const SenderToken a = connection_sender(1, 0), b = connection_sender(2, 0);
+  auto handle = [&](const std::vector<uint8_t>& m, SenderToken from) { ingest.handle(m.data(), m.size(), from); };
+  auto bytes = [](Bytes m) { return std::vector<uint8_t>(m.data, m.data + m.size); };
+  handle(bytes(encoder.skeleton(three_joint_definition(1))), a);
+  handle(bytes(encoder.skeleton(three_joint_definition(2))), b);
+  std::vector<HandFrame> from_a = {hand_frame(1, 0), hand_frame(1, 1),
+                                   hand_frame(2, 0),      // b's stream: not a's
+                                   hand_frame(1, 1),      // the same sequence again: out of order
+                                   hand_frame(3, 0),      // never defined
+                                   hand_frame(1, 2, 2),   // two joints, the definition has three
+                                   hand_frame(1, 3),      // its checksum wrong (below)
+                                   hand_frame(1, 4)};
+  from_a[6].good_checksum = false;
+  handle(hand_batch(from_a), a);
+  handle(hand_batch({hand_frame(2, 0), hand_frame(2, 1)}), b);
+  handle(hand_batch({hand_frame(1, 5)}, 1, "0000000000000001"), a);  // a batch on a stream's topic: refused whole
+  const IngestCounters& c = ingest.counters();
+  EXPECT_EQ(c.batches, 2u);
+  EXPECT_EQ(c.batch_frames, 10u);
+  EXPECT_EQ(c.frames, 5u);
+  EXPECT_EQ(c.not_owner, 1u);
+  EXPECT_EQ(c.out_of_order, 1u);
+  EXPECT_EQ(c.unknown_stream, 1u);
+  EXPECT_EQ(c.wrong_joint_count, 1u);
+  EXPECT_EQ(c.malformed[static_cast<int>(DecodeError::kChecksum)], 1u);
+  EXPECT_EQ(c.malformed[static_cast<int>(DecodeError::kTopicMismatch)], 1u);
+  EXPECT_EQ(received.streams, (std::vector<uint64_t>{1, 1, 1, 2, 2}));
+  EXPECT_EQ(received.sequences, (std::vector<uint64_t>{0, 1, 4, 0, 1}));
+  EXPECT_EQ(refused_on_stream, (std::vector<std::pair<uint64_t, TableVerdict>>{
+                                   {2, TableVerdict::kNotOwner}, {1, TableVerdict::kOutOfOrder}, {1, TableVerdict::kWrongJoints}}));
+  // handle() is called directly here (received counts socket reads): 2 definitions + 3 batch messages.
+  const uint64_t items = 5 - c.batches + c.batch_frames;
+  EXPECT_EQ(c.frames + c.skeletons + c.repeated_skeletons + c.closes + c.other_shard + c.dropped_total(), items);
+}
+
+// A shard keeps its own streams' frames of a batch (the batch's topic is nobody's shard) and
+// counts the others' as other_shard, one per frame.
+TEST(runtime_shard, BatchFramesOfOtherShardsAreCountedApart) {
+  Context context;
+  IngestOptions options;
+  options.endpoints = {"bind:inproc://shard-batch-test"};
+  options.shard_count = 3;
+  options.shard_index = 1;  // streams 0 and 7; stream 1 is shard 0's; the batch topic's would be 2
+  options.limits.max_frame_age_ns = 0;
+  Received received;
+  int skeletons = 0;
+  Ingest ingest(context, options, recording(received, &skeletons));
+  Encoder encoder;
+  for (uint64_t id : {0, 7}) {
+    const Bytes m = encoder.skeleton(three_joint_definition(id));
+    ingest.handle(m.data, m.size);
+  }
+  for (uint64_t seq = 0; seq < 4; ++seq) {
+    const std::vector<uint8_t> m = hand_batch({hand_frame(0, seq), hand_frame(1, seq), hand_frame(7, seq)});
+    ingest.handle(m.data(), m.size());
+  }
+  const IngestCounters& c = ingest.counters();
+  EXPECT_EQ(c.frames, 8u);
+  EXPECT_EQ(c.other_shard, 4u);
+  EXPECT_EQ(c.dropped_total(), 0u);
+  EXPECT_EQ(received.streams, (std::vector<uint64_t>{0, 7, 0, 7, 0, 7, 0, 7}));
 }
 
 TEST(runtime_publisher, SeesEachJoinWithItsTopicAndNeverBlocks) {

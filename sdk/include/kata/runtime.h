@@ -364,6 +364,21 @@ KATA_API kata_status kata_message_write_skeleton(const kata_skeleton_message* me
  * its thread has written a message as large. [any thread] */
 KATA_API kata_status kata_message_write_frame(const kata_frame_message* message, void* buffer, size_t capacity,
                                               size_t* size);
+/* Writes a frame batch message (schemas/frame_batch.fbs; buffers: see above): the frames of many
+ * streams of one source in one message, for a source that sends a frame of each of its streams
+ * per tick (a mocap stage with many performers, a proxy): the transport's and the runtime's cost
+ * per message is then paid once per tick instead of once per stream. The runtime takes each frame
+ * as if it had come alone, in the array's order (two frames of one stream: in a row), and judges
+ * each alone: a frame it refuses (not the sender's stream, out of order, a wrong joint count, a
+ * bad checksum) is counted by cause and the others go on. Each frame carries its own checksum.
+ * Its topic is "fffffffffffffffe" (stream id 2^64-2, reserved): send it as one ZeroMQ message to
+ * the runtime's ingest. frames: frame_count pointers to frame messages, each filled as for
+ * kata_message_write_frame and refused as it refuses one (the reason names the frame's index);
+ * read during the call only. KATA_E_NULL_POINTER also for frames or one of its pointers NULL;
+ * KATA_E_INVALID_ARGUMENT for frame_count 0 or above 4096. Does not allocate once its thread has
+ * written a batch as large. Since 1.1. [any thread] */
+KATA_API kata_status kata_message_write_frame_batch(const kata_frame_message* const* frames, size_t frame_count,
+                                                    void* buffer, size_t capacity, size_t* size);
 /* Writes a practice message (buffers: see above). KATA_E_INVALID_ARGUMENT for a struct_size below
  * the struct's first, loop other than 0 or 1, and what a runtime refuses whatever its clip: a time
  * not finite or negative, loop_end not after loop_start, a teacher_start with a loop (the runtime

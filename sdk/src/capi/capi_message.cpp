@@ -3,6 +3,7 @@
 // caller's buffer. The bytes are the Encoder's: what kata's senders put on the wire.
 #include <cmath>
 #include <string>
+#include <vector>
 
 #include "capi/capi_internal.hpp"
 #include "common/text.hpp"
@@ -81,6 +82,47 @@ constexpr uint32_t kMaxFrameJoints = 1u << 20;  // as kata_runtime_push
 constexpr uint32_t kMaxSkeletonJoints = 32767;  // parents travel as int16
 constexpr double kMaxCaptureSeconds = 9.2e9;    // int64 nanoseconds hold +-9.22e9 s
 
+// A frame message's values as kata_message_write_frame documents them (NULL pointers, joint
+// count, finite values): KATA_OK, or the refusal with the reason, naming `call`.
+kata_status check_frame(const char* call, const kata_frame_message& m, size_t* size) {
+  if (!m.positions) return refuse(KATA_E_NULL_POINTER, size, std::string(call) + ": no positions");
+  if (m.joint_count < 1 || m.joint_count > kMaxFrameJoints)
+    return refuse(KATA_E_WRONG_JOINT_COUNT, size,
+                  std::string(call) + ": joint_count " + std::to_string(m.joint_count) + " (1..1048576)");
+  if (!std::isfinite(m.capture_time))
+    return refuse(KATA_E_NON_FINITE, size, std::string(call) + ": capture_time is not finite");
+  if (std::fabs(m.capture_time) > kMaxCaptureSeconds)
+    return refuse(KATA_E_INVALID_ARGUMENT, size,
+                  std::string(call) + ": capture_time beyond +-9.2e9 s (the wire's int64 nanoseconds)");
+  for (uint32_t j = 0; j < m.joint_count; ++j) {
+    const float* p = m.positions + 3 * static_cast<size_t>(j);
+    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
+      return refuse(KATA_E_NON_FINITE, size,
+                    std::string(call) + ": joint " + std::to_string(j) + " has a NaN or infinite coordinate");
+    if (m.confidences && std::isinf(m.confidences[j]))
+      return refuse(KATA_E_NON_FINITE, size,
+                    std::string(call) + ": joint " + std::to_string(j) + " has an infinite confidence");
+    if (m.presences && std::isinf(m.presences[j]))
+      return refuse(KATA_E_NON_FINITE, size,
+                    std::string(call) + ": joint " + std::to_string(j) + " has an infinite presence");
+  }
+  return KATA_OK;
+}
+
+// A checked frame message as the encoder takes it: the capture time as the wire's nanoseconds,
+// rounded (as a result record's: wire.cpp).
+kata::transport::Encoder::BatchFrame batch_frame_of(const kata_frame_message& m) {
+  kata::transport::Encoder::BatchFrame f;
+  f.stream_id = m.stream_id;
+  f.sequence = m.sequence;
+  f.capture_ns = static_cast<int64_t>(std::round(m.capture_time * 1e9));
+  f.xyz = m.positions;
+  f.joints = static_cast<int>(m.joint_count);
+  f.confidence = m.confidences;
+  f.presence = m.presences;
+  return f;
+}
+
 }  // namespace
 
 extern "C" {
@@ -158,34 +200,41 @@ KATA_API kata_status kata_message_write_frame(const kata_frame_message* message,
   if (const kata_status s = check_call(call, message, buffer, capacity, size, kata::capi::kFrameMessage11,
                                        frame_message_defaults(), &m))
     return s;
-  if (!m.positions) return refuse(KATA_E_NULL_POINTER, size, std::string(call) + ": no positions");
-  if (m.joint_count < 1 || m.joint_count > kMaxFrameJoints)
-    return refuse(KATA_E_WRONG_JOINT_COUNT, size,
-                  std::string(call) + ": joint_count " + std::to_string(m.joint_count) + " (1..1048576)");
-  if (!std::isfinite(m.capture_time))
-    return refuse(KATA_E_NON_FINITE, size, std::string(call) + ": capture_time is not finite");
-  if (std::fabs(m.capture_time) > kMaxCaptureSeconds)
-    return refuse(KATA_E_INVALID_ARGUMENT, size,
-                  std::string(call) + ": capture_time beyond +-9.2e9 s (the wire's int64 nanoseconds)");
-  for (uint32_t j = 0; j < m.joint_count; ++j) {
-    const float* p = m.positions + 3 * static_cast<size_t>(j);
-    if (!std::isfinite(p[0]) || !std::isfinite(p[1]) || !std::isfinite(p[2]))
-      return refuse(KATA_E_NON_FINITE, size,
-                    std::string(call) + ": joint " + std::to_string(j) + " has a NaN or infinite coordinate");
-    if (m.confidences && std::isinf(m.confidences[j]))
-      return refuse(KATA_E_NON_FINITE, size,
-                    std::string(call) + ": joint " + std::to_string(j) + " has an infinite confidence");
-    if (m.presences && std::isinf(m.presences[j]))
-      return refuse(KATA_E_NON_FINITE, size,
-                    std::string(call) + ": joint " + std::to_string(j) + " has an infinite presence");
-  }
+  if (const kata_status s = check_frame(call, m, size)) return s;
   return kata::capi::guarded_context([&] {
-    // The capture time as the wire's nanoseconds, rounded (as a result record's: wire.cpp).
-    const int64_t capture_ns = static_cast<int64_t>(std::round(m.capture_time * 1e9));
-    return deliver(call,
-                   thread_encoder().frame(m.stream_id, m.sequence, capture_ns, m.positions,
-                                          static_cast<int>(m.joint_count), m.confidences, m.presences),
+    const kata::transport::Encoder::BatchFrame f = batch_frame_of(m);
+    return deliver(call, thread_encoder().frame(f.stream_id, f.sequence, f.capture_ns, f.xyz, f.joints, f.confidence, f.presence),
                    buffer, capacity, size);
+  });
+}
+
+KATA_API kata_status kata_message_write_frame_batch(const kata_frame_message* const* frames, size_t frame_count,
+                                                    void* buffer, size_t capacity, size_t* size) {
+  static const char* const call = "kata_message_write_frame_batch";
+  if (!size) return KATA_E_NULL_POINTER;
+  *size = 0;
+  if (!frames || (!buffer && capacity > 0))
+    return refuse(KATA_E_NULL_POINTER, size, std::string(call) + ": frames and size must not be NULL, nor buffer with a capacity");
+  if (frame_count < 1 || frame_count > kata::transport::kMaxBatchFrames)
+    return refuse(KATA_E_INVALID_ARGUMENT, size,
+                  std::string(call) + ": frame_count " + std::to_string(frame_count) + " (1.." +
+                      std::to_string(kata::transport::kMaxBatchFrames) + ")");
+  return kata::capi::guarded_context([&] {
+    // The thread's list of frames, grown to its largest batch (as its encoder is).
+    thread_local std::vector<kata::transport::Encoder::BatchFrame> batch;
+    batch.resize(frame_count);
+    for (size_t i = 0; i < frame_count; ++i) {
+      const std::string frame_call = std::string(call) + ": frame " + std::to_string(i);
+      kata_frame_message m;
+      if (!frames[i])
+        return refuse(KATA_E_NULL_POINTER, size, frame_call + " is NULL");
+      if (const kata_status s = check_call(frame_call.c_str(), frames[i], buffer, capacity, size,
+                                           kata::capi::kFrameMessage11, frame_message_defaults(), &m))
+        return s;
+      if (const kata_status s = check_frame(frame_call.c_str(), m, size)) return s;
+      batch[i] = batch_frame_of(m);
+    }
+    return deliver(call, thread_encoder().frame_batch(batch.data(), frame_count), buffer, capacity, size);
   });
 }
 

@@ -78,6 +78,8 @@ void Runtime::send_stats(transport::Encoder& encoder) {
   f.practice_outside_clip = in.practice_outside_clip;
   f.practice_no_clip = in.practice_no_clip;
   f.practice_queue_full = in.practice_queue_full;
+  f.batches = in.batches;
+  f.batch_frames = in.batch_frames;
   {
     std::lock_guard<std::mutex> lock(open_mutex_);
     for (const auto& s : streams_) {

@@ -6,8 +6,10 @@
 #include <cstring>
 #include <algorithm>
 #include <climits>
+#include <limits>
 
 #include "common/error.hpp"
+#include "kata_schemas/frame_batch_generated.h"
 #include "kata_schemas/frame_generated.h"
 #include "kata_schemas/practice_generated.h"
 #include "kata_schemas/result_generated.h"
@@ -19,7 +21,8 @@ namespace kata::transport {
 namespace {
 
 constexpr char kHex[] = "0123456789abcdef";
-constexpr uint16_t kFrameVersion = 1, kSkeletonVersion = 1, kResultVersion = 1, kPracticeVersion = 1;
+constexpr uint16_t kFrameVersion = 1, kSkeletonVersion = 1, kResultVersion = 1, kPracticeVersion = 1,
+                   kFrameBatchVersion = 1;
 
 uint32_t fnv1a(uint32_t hash, const void* data, size_t size) {
   const auto* p = static_cast<const uint8_t*>(data);
@@ -93,6 +96,7 @@ uint32_t frame_checksum(uint64_t stream_id, uint64_t sequence, int64_t capture_n
 struct Encoder::Impl {
   flatbuffers::FlatBufferBuilder builder{4096};
   std::vector<uint8_t> message;  // topic + buffer, grown to the largest message, then reused
+  std::vector<flatbuffers::Offset<fb::Frame>> batch_tables;  // a batch's frames, grown to the largest
 };
 
 Encoder::Encoder() : impl_(std::make_unique<Impl>()) {}
@@ -108,10 +112,12 @@ Bytes Encoder::finish(uint64_t stream_id, const char* /*identifier*/) {
   return Bytes{m.data(), kTopicBytes + size};
 }
 
-Bytes Encoder::frame(uint64_t stream_id, uint64_t sequence, int64_t capture_ns, const float* xyz, int joints,
-                     const float* confidence, const float* presence) {
-  auto& b = impl_->builder;
-  b.Clear();
+namespace {
+
+// One Frame table (its checksum filled in), for a Frame message or a batch's frame.
+flatbuffers::Offset<fb::Frame> frame_table(flatbuffers::FlatBufferBuilder& b, uint64_t stream_id, uint64_t sequence,
+                                           int64_t capture_ns, const float* xyz, int joints, const float* confidence,
+                                           const float* presence) {
   const auto positions = vec3_vector(b, xyz, joints);
   flatbuffers::Offset<flatbuffers::Vector<float>> conf, pres;
   if (confidence) conf = b.CreateVector(confidence, static_cast<size_t>(joints));
@@ -126,8 +132,37 @@ Bytes Encoder::frame(uint64_t stream_id, uint64_t sequence, int64_t capture_ns, 
   if (confidence) f.add_confidence(conf);
   if (presence) f.add_presence(pres);
   f.add_checksum(frame_checksum(stream_id, sequence, capture_ns, xyz, joints, confidence, presence));
-  b.Finish(f.Finish(), fb::FrameIdentifier());
+  return f.Finish();
+}
+
+}  // namespace
+
+Bytes Encoder::frame(uint64_t stream_id, uint64_t sequence, int64_t capture_ns, const float* xyz, int joints,
+                     const float* confidence, const float* presence) {
+  auto& b = impl_->builder;
+  b.Clear();
+  b.Finish(frame_table(b, stream_id, sequence, capture_ns, xyz, joints, confidence, presence), fb::FrameIdentifier());
   return finish(stream_id, fb::FrameIdentifier());
+}
+
+Bytes Encoder::frame_batch(const BatchFrame* frames, size_t count) {
+  if (count == 0 || count > kMaxBatchFrames)
+    throw Error(ErrorKind::kInvalidArgument, "frame batch: " + std::to_string(count) + " frames (1.." +
+                                                 std::to_string(kMaxBatchFrames) + ")");
+  auto& b = impl_->builder;
+  b.Clear();
+  auto& tables = impl_->batch_tables;
+  tables.clear();
+  for (size_t i = 0; i < count; ++i) {
+    const BatchFrame& f = frames[i];
+    tables.push_back(frame_table(b, f.stream_id, f.sequence, f.capture_ns, f.xyz, f.joints, f.confidence, f.presence));
+  }
+  const auto frames_v = b.CreateVector(tables.data(), tables.size());
+  fb::FrameBatchBuilder k(b);
+  k.add_schema_version(kFrameBatchVersion);
+  k.add_frames(frames_v);
+  b.Finish(k.Finish(), fb::FrameBatchIdentifier());
+  return finish(kBatchStreamId, fb::FrameBatchIdentifier());
 }
 
 Bytes Encoder::skeleton(const SkeletonDefinition& d) {
@@ -305,6 +340,8 @@ Bytes Encoder::stats(const StatsFields& f) {
   k.add_practice_outside_clip(f.practice_outside_clip);
   k.add_practice_no_clip(f.practice_no_clip);
   k.add_practice_queue_full(f.practice_queue_full);
+  k.add_batches(f.batches);
+  k.add_batch_frames(f.batch_frames);
   b.Finish(k.Finish(), fb::StatsIdentifier());
   return finish(kStatsStreamId, fb::StatsIdentifier());
 }
@@ -349,6 +386,8 @@ StatsFields Decoder::stats() const {
   f.practice_outside_clip = k->practice_outside_clip();
   f.practice_no_clip = k->practice_no_clip();
   f.practice_queue_full = k->practice_queue_full();
+  f.batches = k->batches();
+  f.batch_frames = k->batch_frames();
   if (const auto* per = k->per_stream())
     for (const fb::StreamStats* p : *per)
       f.per_stream.push_back({p->stream_id(), p->frames_in(), p->queue_full(), p->refused(), p->results(),
@@ -387,8 +426,56 @@ MessageKind Decoder::fail(DecodeError error) {
   return MessageKind::kNone;
 }
 
+using BatchFrames = flatbuffers::Vector<flatbuffers::Offset<fb::Frame>>;
+
+uint64_t Decoder::batch_stream_id(size_t i) const {
+  return static_cast<const BatchFrames*>(batch_)->Get(static_cast<flatbuffers::uoffset_t>(i))->stream_id();
+}
+
+DecodeError Decoder::batch_frame(size_t i) {
+  return read_frame(static_cast<const BatchFrames*>(batch_)->Get(static_cast<flatbuffers::uoffset_t>(i)));
+}
+
+DecodeError Decoder::read_frame(const void* table) {
+  const auto* f = static_cast<const fb::Frame*>(table);
+  if (f->schema_version() != kFrameVersion) return DecodeError::kVersion;
+  const auto* positions = f->positions();
+  if (!positions || !f->capture_time()) return DecodeError::kMissingField;
+  frame_.stream_id = f->stream_id();
+  frame_.sequence = f->sequence();
+  frame_.capture_ns = f->capture_time()->nanoseconds();
+  frame_.joints = static_cast<int>(positions->size());
+  frame_.xyz = reinterpret_cast<const float*>(positions->Data());
+  frame_.confidence = nullptr;
+  if (const auto* c = f->confidence()) {
+    if (c->size() != positions->size()) return DecodeError::kMissingField;
+    frame_.confidence = c->data();
+  }
+  const float* presence = nullptr;
+  if (const auto* p = f->presence()) {
+    if (p->size() != positions->size() || p->size() > combined_.size()) return DecodeError::kMissingField;
+    presence = p->data();
+  }
+  if (require_checksum_ || flatbuffers::IsFieldPresent(f, fb::Frame::VT_CHECKSUM)) {
+    if (!flatbuffers::IsFieldPresent(f, fb::Frame::VT_CHECKSUM)) return DecodeError::kMissingField;
+    if (f->checksum() != frame_checksum(frame_.stream_id, frame_.sequence, frame_.capture_ns, frame_.xyz,
+                                        frame_.joints, frame_.confidence, presence))
+      return DecodeError::kChecksum;
+  }
+  if (presence) {  // MediaPipe's two channels: a joint is as confident as the smaller (NaN stays NaN)
+    for (int j = 0; j < frame_.joints; ++j) {
+      const float c = frame_.confidence ? frame_.confidence[j] : 1.0f, q = presence[j];
+      combined_[static_cast<size_t>(j)] = std::isnan(c) || std::isnan(q) ? NAN : std::fmin(c, q);
+    }
+    frame_.confidence = combined_.data();
+  }
+  return DecodeError::kNone;
+}
+
 MessageKind Decoder::decode(const void* data, size_t size) {
   error_ = DecodeError::kNone;
+  batch_ = nullptr;
+  batch_size_ = 0;
   // Topic + root offset + identifier.
   if (size < kTopicBytes + 8) return fail(DecodeError::kTooShort);
   if (size > max_bytes_) return fail(DecodeError::kOversized);
@@ -410,39 +497,29 @@ MessageKind Decoder::decode(const void* data, size_t size) {
   if (flatbuffers::BufferHasIdentifier(payload_, fb::FrameIdentifier())) {
     if (!fb::VerifyFrameBuffer(verifier)) return fail(DecodeError::kVerifier);
     const fb::Frame* f = fb::GetFrame(payload_);
-    if (f->schema_version() != kFrameVersion) return fail(DecodeError::kVersion);
-    if (f->stream_id() != stream_id_) return fail(DecodeError::kTopicMismatch);
-    const auto* positions = f->positions();
-    if (!positions || !f->capture_time()) return fail(DecodeError::kMissingField);
-    frame_.stream_id = f->stream_id();
-    frame_.sequence = f->sequence();
-    frame_.capture_ns = f->capture_time()->nanoseconds();
-    frame_.joints = static_cast<int>(positions->size());
-    frame_.xyz = reinterpret_cast<const float*>(positions->Data());
-    frame_.confidence = nullptr;
-    if (const auto* c = f->confidence()) {
-      if (c->size() != positions->size()) return fail(DecodeError::kMissingField);
-      frame_.confidence = c->data();
+    if (f->schema_version() == kFrameVersion && f->stream_id() != stream_id_) return fail(DecodeError::kTopicMismatch);
+    const DecodeError e = read_frame(f);
+    return e == DecodeError::kNone ? MessageKind::kFrame : fail(e);
+  }
+  if (flatbuffers::BufferHasIdentifier(payload_, fb::FrameBatchIdentifier())) {
+    if (stream_id_ != kBatchStreamId) return fail(DecodeError::kTopicMismatch);
+    // A batch holds a table per frame: the table limit is the frame limit (a larger batch is
+    // refused whole by the verifier, before anything is read).
+    flatbuffers::Verifier::Options batch_options = options;
+    batch_options.max_tables = kMaxBatchFrames + 1;
+    flatbuffers::Verifier batch_verifier(payload_, payload_size_, batch_options);
+    if (!fb::VerifyFrameBatchBuffer(batch_verifier)) {
+      // Too many frames, or broken? Only a refused batch pays for asking (its bytes are bounded).
+      batch_options.max_tables = std::numeric_limits<flatbuffers::uoffset_t>::max();
+      flatbuffers::Verifier unbounded(payload_, payload_size_, batch_options);
+      return fail(fb::VerifyFrameBatchBuffer(unbounded) ? DecodeError::kOversized : DecodeError::kVerifier);
     }
-    const float* presence = nullptr;
-    if (const auto* p = f->presence()) {
-      if (p->size() != positions->size() || p->size() > combined_.size()) return fail(DecodeError::kMissingField);
-      presence = p->data();
-    }
-    if (require_checksum_ || flatbuffers::IsFieldPresent(f, fb::Frame::VT_CHECKSUM)) {
-      if (!flatbuffers::IsFieldPresent(f, fb::Frame::VT_CHECKSUM)) return fail(DecodeError::kMissingField);
-      if (f->checksum() != frame_checksum(frame_.stream_id, frame_.sequence, frame_.capture_ns, frame_.xyz,
-                                          frame_.joints, frame_.confidence, presence))
-        return fail(DecodeError::kChecksum);
-    }
-    if (presence) {  // MediaPipe's two channels: a joint is as confident as the smaller (NaN stays NaN)
-      for (int j = 0; j < frame_.joints; ++j) {
-        const float c = frame_.confidence ? frame_.confidence[j] : 1.0f, q = presence[j];
-        combined_[static_cast<size_t>(j)] = std::isnan(c) || std::isnan(q) ? NAN : std::fmin(c, q);
-      }
-      frame_.confidence = combined_.data();
-    }
-    return MessageKind::kFrame;
+    const fb::FrameBatch* k = fb::GetFrameBatch(payload_);
+    if (k->schema_version() != kFrameBatchVersion) return fail(DecodeError::kVersion);
+    if (!k->frames() || k->frames()->size() == 0) return fail(DecodeError::kMissingField);
+    batch_ = k->frames();
+    batch_size_ = k->frames()->size();
+    return MessageKind::kFrameBatch;
   }
   if (flatbuffers::BufferHasIdentifier(payload_, fb::SkeletonDefinitionIdentifier())) {
     if (!fb::VerifySkeletonDefinitionBuffer(verifier)) return fail(DecodeError::kVerifier);

@@ -25,6 +25,13 @@ namespace kata::transport {
 
 inline constexpr size_t kTopicBytes = 16;
 
+// The topic of a frame batch (schemas/frame_batch.fbs): stream id 2^64-2, which no stream can have
+// (the runtime reserves it), since a batch's frames belong to many streams.
+inline constexpr uint64_t kBatchStreamId = ~0ULL - 1;
+// The most frames one batch may carry (a larger one is refused whole, as the verifier's table
+// limit): a tick of 4096 streams from one source.
+inline constexpr size_t kMaxBatchFrames = 4096;
+
 // Writes the topic of a stream (16 hex digits, no terminator) into out.
 void write_topic(uint64_t stream_id, char* out);
 // Parses a 16-hex-digit topic; false when any byte is not a lowercase hex digit.
@@ -109,6 +116,7 @@ struct StatsFields {
   std::vector<StreamStatsFields> per_stream;
   uint64_t practices = 0, repeated_practices = 0, practice_bad_values = 0, practice_outside_clip = 0, practice_no_clip = 0,
            practice_queue_full = 0;
+  uint64_t batches = 0, batch_frames = 0;
 };
 
 // A view of one message's bytes (topic included); valid until the encoder's next call.
@@ -128,6 +136,18 @@ class Encoder {
   // A Frame message (checksum filled in). confidence may be null.
   Bytes frame(uint64_t stream_id, uint64_t sequence, int64_t capture_ns, const float* xyz, int joints,
               const float* confidence = nullptr, const float* presence = nullptr);
+  // A FrameBatch message (schemas/frame_batch.fbs): frames of many streams, each with its own
+  // checksum, in this order. Grown to the largest batch, then allocation-free. Throws
+  // kata::Error(kInvalidArgument) for no frame or more than kMaxBatchFrames.
+  struct BatchFrame {
+    uint64_t stream_id = 0, sequence = 0;
+    int64_t capture_ns = 0;
+    const float* xyz = nullptr;  // joints x 3
+    int joints = 0;
+    const float* confidence = nullptr;  // joints, or null
+    const float* presence = nullptr;    // joints, or null
+  };
+  Bytes frame_batch(const BatchFrame* frames, size_t count);
   // A SkeletonDefinition message.
   Bytes skeleton(const SkeletonDefinition& definition);
   // A Practice message.
@@ -147,7 +167,7 @@ class Encoder {
 enum class DecodeError {
   kNone = 0,
   kTooShort,           // shorter than a topic plus a FlatBuffer header
-  kOversized,          // larger than the decoder's limit
+  kOversized,          // larger than the decoder's limit (bytes; a batch: frames, kMaxBatchFrames)
   kBadTopic,           // the topic is not 16 lowercase hex digits
   kUnknownIdentifier,  // no kata table's file identifier
   kVerifier,           // the FlatBuffers verifier refused the buffer
@@ -159,7 +179,7 @@ enum class DecodeError {
 };
 const char* decode_error_name(DecodeError error);
 
-enum class MessageKind { kNone, kFrame, kSkeleton, kResult, kStats, kPractice };
+enum class MessageKind { kNone, kFrame, kSkeleton, kResult, kStats, kPractice, kFrameBatch };
 
 // A verified frame; pointers are valid until the decoder's next call.
 struct FrameView {
@@ -192,6 +212,14 @@ class Decoder {
 
   // The verified content of the last decode(), for the kind it returned.
   const FrameView& frame() const { return frame_; }
+  // A kFrameBatch: how many frames it carries (1..kMaxBatchFrames), the stream id of frame i
+  // (read from the verified table, before the frame's own checks: a shard keeps only its own), and
+  // frame i's own checks (version, fields, checksum, as a Frame message's but for the topic):
+  // kNone and frame() holds it until the next decode or batch_frame, else why it is refused.
+  // Allocation-free.
+  size_t batch_size() const { return batch_size_; }
+  uint64_t batch_stream_id(size_t i) const;
+  DecodeError batch_frame(size_t i);
   // Copies the definition out (allocates: skeleton definitions are rare). Throws
   // kata::Error(kInvalidArgument) when the skeleton itself is inconsistent.
   SkeletonDefinition skeleton() const;
@@ -211,6 +239,8 @@ class Decoder {
 
  private:
   MessageKind fail(DecodeError error);
+  // A verified Frame table's own checks into frame_ (the single message's and a batch's frames).
+  DecodeError read_frame(const void* table);
   size_t max_bytes_;
   bool require_checksum_;
   std::vector<uint64_t> scratch_;  // 8-byte aligned
@@ -220,6 +250,8 @@ class Decoder {
   DecodeError error_ = DecodeError::kNone;
   uint64_t stream_id_ = 0;
   FrameView frame_;
+  const void* batch_ = nullptr;  // the verified FrameBatch's frames vector
+  size_t batch_size_ = 0;
   ResultFields result_;
 };
 

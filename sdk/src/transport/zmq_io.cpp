@@ -124,11 +124,53 @@ void Ingest::handle_practice(SenderToken sender, int64_t now_ns) {
   ++counters_.practices;
 }
 
+void Ingest::handle_frame(SenderToken sender, int64_t now_ns) {
+  const FrameView& f = decoder_.frame();
+  bool restarted = false;
+  uint64_t gap = 0;
+  int64_t age_ns = -1;
+  const TableVerdict v =
+      table_.judge_frame(sender, f.stream_id, f.sequence, f.capture_ns, f.joints, now_ns, &restarted, &gap, &age_ns);
+  if (v != TableVerdict::kAccepted) {
+    if (v != TableVerdict::kUnknownStream && handlers_.on_refused_frame) handlers_.on_refused_frame(f.stream_id, v);
+    return refused(sender, v, f.stream_id);
+  }
+  if (restarted) ++counters_.restarts;
+  counters_.sequence_gaps += gap;
+  if (age_ns >= 0) {
+    const int bucket = age_ns < 1 ? 0 : static_cast<int>(8.0 * std::log2(static_cast<double>(age_ns)));
+    ++counters_.age_histogram[std::min(std::max(bucket, 0), IngestCounters::kAgeBuckets - 1)];
+  }
+  ++counters_.frames;
+  if (handlers_.on_frame) handlers_.on_frame(f, restarted);
+}
+
+void Ingest::handle_batch(SenderToken sender, int64_t now_ns) {
+  // Each frame as if it had come alone, in the batch's order, from the batch's sender: its shard,
+  // its own checks (a refused one is counted by cause and the next goes on), then the table's rules.
+  const size_t n = decoder_.batch_size();
+  ++counters_.batches;
+  counters_.batch_frames += n;
+  for (size_t i = 0; i < n; ++i) {
+    if (shard_count_ > 1 && shard_of(decoder_.batch_stream_id(i), shard_count_) != shard_index_) {
+      ++counters_.other_shard;
+      continue;
+    }
+    const DecodeError e = decoder_.batch_frame(i);
+    if (e != DecodeError::kNone) {
+      ++counters_.malformed[static_cast<int>(e)];
+      continue;
+    }
+    handle_frame(sender, now_ns);
+  }
+}
+
 void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t now_ns) {
   if (now_ns < 0) now_ns = steady_now_ns();
   uint64_t topic_stream = 0;
+  // A batch's frames belong to many streams: each is judged by its own shard below.
   if (shard_count_ > 1 && size >= kTopicBytes && parse_topic(static_cast<const uint8_t*>(data), &topic_stream) &&
-      shard_of(topic_stream, shard_count_) != shard_index_) {
+      topic_stream != kBatchStreamId && shard_of(topic_stream, shard_count_) != shard_index_) {
     ++counters_.other_shard;
     return;
   }
@@ -195,27 +237,10 @@ void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t n
       if (!is_new) ++counters_.revisions;
       return;
     }
-    case MessageKind::kFrame: {
-      const FrameView& f = decoder_.frame();
-      bool restarted = false;
-      uint64_t gap = 0;
-      int64_t age_ns = -1;
-      const TableVerdict v =
-          table_.judge_frame(sender, f.stream_id, f.sequence, f.capture_ns, f.joints, now_ns, &restarted, &gap, &age_ns);
-      if (v != TableVerdict::kAccepted) {
-        if (v != TableVerdict::kUnknownStream && handlers_.on_refused_frame) handlers_.on_refused_frame(f.stream_id, v);
-        return refused(sender, v, f.stream_id);
-      }
-      if (restarted) ++counters_.restarts;
-      counters_.sequence_gaps += gap;
-      if (age_ns >= 0) {
-        const int bucket = age_ns < 1 ? 0 : static_cast<int>(8.0 * std::log2(static_cast<double>(age_ns)));
-        ++counters_.age_histogram[std::min(std::max(bucket, 0), IngestCounters::kAgeBuckets - 1)];
-      }
-      ++counters_.frames;
-      if (handlers_.on_frame) handlers_.on_frame(f, restarted);
-      return;
-    }
+    case MessageKind::kFrame:
+      return handle_frame(sender, now_ns);
+    case MessageKind::kFrameBatch:
+      return handle_batch(sender, now_ns);
   }
 }
 

@@ -150,9 +150,13 @@ struct IngestOptions {
 };
 
 // What the ingest counted. Every received message lands in exactly one of frames, skeletons,
-// repeated_skeletons, closes, practices, repeated_practices, other_shard or a drop counter.
+// repeated_skeletons, closes, practices, repeated_practices, other_shard or a drop counter; a
+// frame batch (schemas/frame_batch.fbs) that passed the verifier counts as its frames, each of
+// which lands in exactly one of them: received - batches + batch_frames = the sum (items()).
 struct IngestCounters {
   uint64_t received = 0;       // messages read from the socket
+  uint64_t batches = 0;        // frame batches verified (their frames are judged one by one)
+  uint64_t batch_frames = 0;   // the frames those batches carried
   uint64_t frames = 0;         // frames handed on
   uint64_t skeletons = 0;      // skeleton definitions handed on (new streams and revisions)
   uint64_t repeated_skeletons = 0;  // periodic re-sends of a known revision (not handed on)
@@ -197,6 +201,8 @@ struct IngestCounters {
   uint64_t age_histogram[kAgeBuckets] = {};
   uint64_t malformed_total() const;
   uint64_t dropped_total() const;   // every message refused (repeated skeletons are not refused)
+  // What the outcome counters add up to: messages, a verified batch counted as its frames.
+  uint64_t items() const { return received - batches + batch_frames; }
 };
 
 // A SUB (subscribed to every topic) or PULL socket reading kata frames and skeleton
@@ -255,6 +261,9 @@ class Ingest {
 
  private:
   void refused(SenderToken sender, TableVerdict cause, uint64_t stream_id, const std::string& why = {});
+  // The decoder's current frame (a Frame message's, or a batch's frame i): the table's rules, then on.
+  void handle_frame(SenderToken sender, int64_t now_ns);
+  void handle_batch(SenderToken sender, int64_t now_ns);
   void handle_practice(SenderToken sender, int64_t now_ns);
   std::string describe(SenderToken sender) const;
   void* socket_ = nullptr;

@@ -157,6 +157,77 @@ TEST(NatsPartition, OptionsProblemsAreNamed) {
   EXPECT_FALSE(kn::lease_options_problem(l).empty());
 }
 
+// A given-back lease that nobody claims is collected by the bucket's MaxAge, and the servers send
+// no delete for that: the shard's watcher still shows the empty value at its old revision, so a
+// claim by that revision is refused (the key is gone). The shard must then forget the key and claim
+// with create. Made deterministic with a member that only the test writes ("m.c", no lease
+// manager behind it): the shard gives c its rendezvous partitions, c never claims them, the test
+// keeps c alive until the bucket has collected those keys, then deletes c.
+TEST(NatsCluster, GivenBackLeaseCollectedByMaxAgeIsClaimedWithCreate) {
+  TempDir dir;
+  NatsCluster cluster(dir.path().string(), 1);
+  ASSERT_EQ(cluster.problem(), "");
+  kn::ConnectionOptions co;
+  co.servers = cluster.urls();
+  kn::Connection shard_connection(co);
+  kn::LeaseOptions lo;
+  lo.member = "a";
+  lo.bucket = "lease_maxage";
+  lo.partitions = 8;
+  lo.replicas = 1;
+  lo.ttl_ms = 1000;
+  lo.renew_ms = 300;
+  lo.guard_ms = 250;
+  lo.bucket_ttl_ms = 1000;  // the smallest the options allow: keys unwritten for 1 s are collected
+  ASSERT_EQ(kn::lease_options_problem(lo), "");
+  kn::LeaseManager leases(shard_connection, lo);
+  ASSERT_TRUE(wait_for([&] { return leases.held().size() == lo.partitions; }, 10000));
+
+  const std::vector<std::string> both{"a", "c"};
+  std::vector<uint32_t> to_c, to_a;
+  for (uint32_t p = 0; p < lo.partitions; ++p)
+    (both[static_cast<size_t>(kn::rendezvous_owner(both, p))] == "c" ? to_c : to_a).push_back(p);
+  ASSERT_FALSE(to_c.empty());  // fixed by the hash: 8 partitions, two members
+
+  kn::Connection test_connection(co);
+  kvStore* kv = nullptr;
+  ASSERT_EQ(js_KeyValue(&kv, test_connection.jetstream(), lo.bucket.c_str()), NATS_OK);
+  std::atomic<bool> c_alive{true};
+  std::thread c_member([&] {
+    while (c_alive.load()) {
+      uint64_t rev = 0;
+      kvStore_PutString(&rev, kv, "m.c", "c");
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+  });
+  // The shard sees c and gives c's partitions back (an empty value each).
+  const bool gave_back = wait_for([&] { return leases.held() == to_a; }, 5000);
+  // Kept alive until the bucket has collected every given-back key (written once, then never).
+  bool collected = false;
+  if (gave_back)
+    collected = wait_for([&] {
+      for (uint32_t p : to_c) {
+        kvEntry* e = nullptr;
+        const natsStatus s = kvStore_Get(&e, kv, ("p." + std::to_string(p)).c_str());
+        if (e != nullptr) kvEntry_Destroy(e);
+        if (s != NATS_NOT_FOUND) return false;
+      }
+      return true;
+    }, 5000);
+  const uint64_t refused_before = leases.counters().claims_refused;
+  c_alive.store(false);
+  c_member.join();
+  kvStore_Delete(kv, "m.c");
+  ASSERT_TRUE(gave_back);
+  ASSERT_TRUE(collected);
+  // c is gone: its partitions are the shard's again, although a claim by the seen revision fails.
+  EXPECT_TRUE(wait_for([&] { return leases.held().size() == lo.partitions; }, 5000));
+  EXPECT_GE(leases.counters().claims_refused, refused_before + 1);
+  for (uint32_t p : to_c) EXPECT_TRUE(leases.may_publish(p)) << p;
+  leases.stop();
+  kvStore_Destroy(kv);
+}
+
 // ---------------------------------------------------------------- the servers' mapping
 
 TEST(NatsCluster, ServerMappingMatchesPartitionOf) {
