@@ -34,7 +34,7 @@ from .objects import (GPD_DIMS, GPD_JOINTS, BodyPart, Clip, Context, CueAction, 
 from .stream import (DROP_POLICIES, RESULT_DTYPE, ResultBuffer, Results,
                      ScoreRecord, Stream, cue_text, detect_time_units, gpd_joint_name)
 from .retarget import Retargeter
-from .messages import (PracticeSection, ResultMessage, Subscriber, read_message, write_frame, write_practice,
+from .messages import (PracticeSection, ResultMessage, Subscriber, read_message, write_frame, write_frame_batch, write_practice,
                        write_skeleton)
 from .runtime import Runtime, shard_of
 
@@ -44,7 +44,7 @@ __version__ = "%d.%d.%d" % version
 __all__ = ["Context", "Skeleton", "Clip", "Model", "Stream", "Retargeter", "Runtime", "Subscriber",
            "Results", "ResultBuffer", "ScoreRecord", "ResultMessage", "PracticeSection",
            "KataError", "ResultsDroppedWarning", "ResultsDroppedError", "Status", "Stencil", "UpAxis", "ScoreState",
-           "BodyPart", "CueAction", "cue_text", "gpd_joint_name", "read_message", "write_skeleton", "write_frame",
+           "BodyPart", "CueAction", "cue_text", "gpd_joint_name", "read_message", "write_skeleton", "write_frame", "write_frame_batch",
            "write_practice", "shard_of", "detect_time_units", "default_model_path", "find_data", "layouts",
            "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "DROP_POLICIES"]
 

@@ -274,6 +274,7 @@ _SIGNATURES = {
     "kata_practice_message_init_sized": (None, [ctypes.POINTER(PracticeMessage), _u32]),
     "kata_message_write_skeleton": (_st, [ctypes.POINTER(SkeletonMessage), _p, _sz, ctypes.POINTER(_sz)]),
     "kata_message_write_frame": (_st, [ctypes.POINTER(FrameMessage), _p, _sz, ctypes.POINTER(_sz)]),
+    "kata_message_write_frame_batch": (_st, [ctypes.POINTER(ctypes.POINTER(FrameMessage)), _sz, _p, _sz, ctypes.POINTER(_sz)]),
     "kata_message_write_practice": (_st, [ctypes.POINTER(PracticeMessage), _p, _sz, ctypes.POINTER(_sz)]),
     "kata_shard_of": (_u32, [_u64, _u32]),
     # the runtime

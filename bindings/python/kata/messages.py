@@ -407,6 +407,13 @@ def write_frame(stream_id: int, sequence: int, capture_time: float, positions: A
     None (the stream reads each joint's confidence as the smaller of the two); capture_time: seconds
     on the source's clock. KataError on a refusal (E_NON_FINITE for a NaN or infinite coordinate).
     [any thread]"""
+    m, _kept = _frame_message(stream_id, sequence, capture_time, positions, confidences, presences)
+    return _write(_n.message_write_frame, m, "kata_message_write_frame")
+
+
+def _frame_message(stream_id: int, sequence: int, capture_time: float, positions: Any, confidences: Any,
+                   presences: Any) -> Tuple[Any, list]:
+    """A filled kata_frame_message and the arrays it points into (kept alive until the write)."""
     p = _positions_f32(positions)
     if p.size % 3:
         raise ValueError("positions hold joints x 3 floats, not %d floats" % p.size)
@@ -415,12 +422,40 @@ def write_frame(stream_id: int, sequence: int, capture_time: float, positions: A
     m.stream_id, m.sequence, m.capture_time = stream_id, sequence, capture_time
     m.joint_count = p.size // 3
     m.positions = _address(p) if p.size else None
-    # Each per-joint channel is kept alive (c, q) until the call has copied it.
     c = _per_joint(confidences, m.joint_count, "confidences")
     m.confidences = None if c is None else _address(c)
     q = _per_joint(presences, m.joint_count, "presences")
     m.presences = None if q is None else _address(q)
-    return _write(_n.message_write_frame, m, "kata_message_write_frame")
+    return m, [p, c, q]
+
+
+@_typed
+def write_frame_batch(frames: Sequence[Any]) -> bytes:
+    """kata_message_write_frame_batch (since 1.1): the frames of many streams of one source in one
+    message (a mocap stage's tick), for a runtime's ingest. frames: a sequence of tuples
+    (stream_id, sequence, capture_time, positions[, confidences[, presences]]), each as write_frame
+    takes them; 1 to 4096 of them. The runtime judges each frame alone (a refused one is counted by
+    cause, the others go on). KataError on a refusal (the message names the frame's index).
+    [any thread]"""
+    if len(frames) == 0:
+        raise ValueError("a frame batch holds at least one frame")
+    messages, keep = [], []
+    for f in frames:
+        if not 4 <= len(f) <= 6:
+            raise ValueError("a batch's frame is (stream_id, sequence, capture_time, positions[, confidences"
+                             "[, presences]]), not %d values" % len(f))
+        m, k = _frame_message(*(tuple(f) + (None,) * (6 - len(f))))
+        messages.append(m)
+        keep.append(k)
+    pointers = (ctypes.POINTER(_n.FrameMessage) * len(messages))(*[ctypes.pointer(m) for m in messages])
+    size = ctypes.c_size_t(0)
+    status = _n.message_write_frame_batch(pointers, len(messages), None, 0, ctypes.byref(size))
+    if status == Status.E_BUFFER_TOO_SMALL:
+        buffer = ctypes.create_string_buffer(size.value)
+        status = _n.message_write_frame_batch(pointers, len(messages), buffer, size.value, ctypes.byref(size))
+        if status == Status.OK:
+            return buffer.raw[:size.value]
+    raise KataError(status, (_n.context_last_error(None) or b"").decode(), "kata_message_write_frame_batch")
 
 
 def _per_joint(values: Any, joints: int, what: str) -> Optional[np.ndarray]:

@@ -88,3 +88,61 @@ def test_a_runtime_ingest_scores_written_messages(data):
             c = rt.counters()
     assert c["ingest_dropped"] == 0, c
     assert c["frames_in"] == len(frames) and c["refused"] == 0 and c["results"] > 0, c
+
+
+def test_a_frame_batch_carries_each_frame_as_write_frame_writes_it(data):
+    """kata.write_frame_batch (since 1.1): read back with the schema's FrameBatch reader, every
+    frame's table equal field by field to write_frame's for the same values; a refused frame named
+    by its index; a runtime's ingest fed by batches scores every frame of two streams."""
+    from kata.fb.Frame import Frame
+    from kata.fb.FrameBatch import FrameBatch
+
+    def fields(f):
+        xyz = [(f.Positions(i).X(), f.Positions(i).Y(), f.Positions(i).Z()) for i in range(f.PositionsLength())]
+        return (f.StreamId(), f.Sequence(), f.CaptureTime().Nanoseconds(), f.Checksum(), xyz,
+                None if f.ConfidenceIsNone() else f.ConfidenceAsNumpy().tolist(),
+                None if f.PresenceIsNone() else f.PresenceAsNumpy().tolist())
+
+    with kata.Context() as ctx, ctx.load_clip(os.path.join(data, "07_01.bvh")) as clip, clip.skeleton() as sk:
+        p = clip.all_positions(first=1)[:2]
+        conf = np.linspace(0, 1, sk.joint_count, dtype=np.float32)
+        frames = [(7, 3, 0.5, p[0]), (9, 4, 0.5, p[1], conf), (7, 4, 0.51, p[1], conf, conf[::-1].copy())]
+        m = kata.write_frame_batch(frames)
+        assert m[:16] == b"%016x" % (2**64 - 2) and m[20:24] == b"KFRB"
+        b = FrameBatch.GetRootAs(m[16:], 0)
+        assert b.FramesLength() == len(frames)
+        for i, f in enumerate(frames):
+            alone = Frame.GetRootAs(kata.write_frame(*f)[16:], 0)
+            assert fields(b.Frames(i)) == fields(alone), i
+
+        bad = p[1].copy()
+        bad[2, 0] = np.inf
+        with pytest.raises(kata.KataError) as e:
+            kata.write_frame_batch([(7, 5, 0.6, p[0]), (9, 5, 0.6, bad)])
+        assert e.value.status == kata.Status.E_NON_FINITE and "1" in e.value.message, e.value.message
+        with pytest.raises(ValueError):
+            kata.write_frame_batch([])
+
+        zmq = pytest.importorskip("zmq")
+        positions = clip.all_positions(first=1)[:40]
+        with tempfile.TemporaryDirectory() as tmp:
+            endpoint = "ipc://%s/in" % tmp
+            with ctx.create_runtime(ingest="bind:" + endpoint, ingest_pull=True) as rt:
+                push = zmq.Context.instance().socket(zmq.PUSH)
+                push.setsockopt(zmq.LINGER, 1000)
+                push.connect(endpoint)
+                try:
+                    for s in (11, 12):
+                        push.send(kata.write_skeleton(s, sk, layout="cmu", frame_rate=1.0 / clip.frame_time))
+                    for i, q in enumerate(positions):  # one message a tick, both streams in it
+                        push.send(kata.write_frame_batch([(11, i, i * clip.frame_time, q),
+                                                          (12, i, i * clip.frame_time, q)]))
+                    deadline = time.time() + 20
+                    while rt.counters()["frames_in"] < 2 * len(positions) and time.time() < deadline:
+                        time.sleep(0.05)
+                finally:
+                    push.close()
+                rt.stop()
+                c = rt.counters()
+        assert c["ingest_dropped"] == 0, c
+        assert c["frames_in"] == 2 * len(positions) and c["refused"] == 0 and c["results"] > 0, c
