@@ -1,5 +1,5 @@
-// kata replay: forwards to kata-replay, the live path's measurement tool (bench/replay/; issue 35
-// moved it out of the CLI's binary), built and installed beside this binary; a kata without it
+// kata replay: forwards to kata-replay, the live path's measurement tool (bench/replay/, kept
+// out of the CLI's binary), built and installed beside this binary; a kata without it
 // (a partial copy of bin/) says so instead of measuring.
 #include <unistd.h>
 

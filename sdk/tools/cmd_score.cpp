@@ -76,7 +76,7 @@ void run_score(const ScoreArgs& a) {
     int frames = 0;         // source frames
     std::shared_ptr<const metric::Reference> clip;  // a BVH teacher clip: its Reference, no features
   };
-  // The teacher of a clip score is projected chunk by chunk as it is read (issue 36): its features
+  // The teacher of a clip score is projected chunk by chunk as it is read: its features
   // (6.7 KB a frame, 550 MB for an 11-minute teacher) are never held whole.
   constexpr int kChunkFrames = 1024;
   auto load_side = [&](const std::string& path, const std::string& layout, bool teacher_clip) {
@@ -274,7 +274,7 @@ void setup(CLI::App& app) {
   cmd->add_option("--model", args->model,
                   ".kata model: models/default.kata for coaching (calibrated scores); the transition models only "
                   "rank transition candidates: models/transition.kata within one subject's takes or one kind of "
-                  "motion (leave one subject out, issue 27's protocol: 0.815 vs JCD 0.764), "
+                  "motion (leave one subject out, the independent protocol: 0.815 vs JCD 0.764), "
                   "models/transition-static.kata between clips of different motions (0.836 vs JCD 0.620); "
                   "docs/model/transition.md")
       ->required()
@@ -315,7 +315,7 @@ void setup(CLI::App& app) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--relocate-time", args->relocate_time,
                   "online alignment: re-localisation margin, seconds (default 0.2); 0: follow the band only, never "
-                  "move elsewhere (issue 3's aligner)")
+                  "move elsewhere")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--rematch-time", args->rematch_time,
                   "online alignment: score each frame against the teacher frame within this many seconds of the "

@@ -199,7 +199,7 @@ void run_serve(const std::string& file, const std::string& counters_path) {
   std::map<std::string, std::shared_ptr<const kata::pipeline::Teacher>> teachers;
   auto load_teacher = [&](const TeacherSource& t) {
     if (t.path.empty() || !metric || teachers.count(t.path)) return;
-    kata::tools::LoadProgress progress(t.path);  // a line on stderr if loading takes > 1 s (issue 36)
+    kata::tools::LoadProgress progress(t.path);  // a line on stderr if loading takes > 1 s
     const kata::BvhClip clip = kata::load_bvh(t.path);
     const auto positions = kata::clip_positions(clip, t.first_frame);
     const kata::GpdMap map = kata::make_gpd_map(clip.skeleton, kata::preset_joint_names("cmu"));

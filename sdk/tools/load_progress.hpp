@@ -1,4 +1,4 @@
-// The progress line of a long teacher's loading (issue 36): `kata coach` and `kata serve` say how
+// The progress line of a long teacher's loading: `kata coach` and `kata serve` say how
 // far a teacher's features and projections are when that takes longer than a second, so a
 // 20-minute routine's few seconds of loading is not a silent stall. Short teachers print nothing.
 #pragma once

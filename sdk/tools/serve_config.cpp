@@ -318,7 +318,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
   if (nats) limits.max_streams_per_sender = limits.max_streams;
   // Stale frames are judged by default on a PULL ingest only: behind a frames proxy (SUB) the
   // 3-shard test (tests/runtime/shard_check.py) saw 3,772 of its frames judged stale, not yet
-  // understood (issue 22's closing note); set max_frame_age_ms to judge them there.
+  // understood (docs/deploy.md); set max_frame_age_ms to judge them there.
   if (!ingest.get("max_frame_age_ms") && c.runtime.ingest.kind == kata::transport::IngestKind::kSub)
     limits.max_frame_age_ns = 0;
 

@@ -17,7 +17,7 @@ struct TeacherSource {
   int first_frame = 1;
 };
 
-// Practice (issue 21; kata score --teacher-start / --loop): which teacher clip frames a stream
+// Practice (kata score --teacher-start / --loop): which teacher clip frames a stream
 // follows. Clip frame numbers (as the teacher file counts them, first_frame included); checked
 // against the clip once it is loaded (Practice::where names the setting in a refusal).
 struct Practice {

@@ -99,7 +99,7 @@ static class KataTests
         RunCli(cli, "score --model " + model + " --teacher " + teacher + " --student " + student +
                     " --preset cmu --first-frame 1 --out " + csv);
         string[] lines = File.ReadAllLines(csv);
-        // The first ten columns (issue 10 appends part distances, part scores, part to fix and state).
+        // The first ten columns (then come the part distances, part scores, part to fix and state).
         Check(lines[0].StartsWith("frame,time,distance,score,torso_head,left_arm,right_arm,left_leg,right_leg,matched_teacher_frame,"),
               "score: CSV header " + lines[0]);
         using (Model m = ctx.LoadModel(model))

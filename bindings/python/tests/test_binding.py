@@ -55,7 +55,7 @@ def test_single_push_and_features_match_the_bulk_read(data):
 
 
 def test_mediapipe_shapes_in_milliseconds_give_the_features_of_seconds(data):
-    """Issue 26: five channels (x y z visibility presence) with millisecond timestamps, far from 0,
+    """MediaPipe's five channels (x y z visibility presence) with millisecond timestamps, far from 0,
     give the features of the same frames in seconds with 3 channels (all joints confident), the
     units inferred or stated; steps that fit neither unit are refused."""
     with kata.Context() as ctx, ctx.load_clip(os.path.join(data, "02_01.bvh")) as clip, clip.skeleton() as sk:
@@ -91,7 +91,7 @@ def test_scores_equal_the_cli_csv(cli, data, model_path, tmp_path):
             "--first-frame", "1", "--out", str(out))
     rows = read_csv(out)
     parts = ["torso_head", "left_arm", "right_arm", "left_leg", "right_leg"]
-    # The first ten columns (issue 10 appends part distances, part scores, part to fix and state).
+    # The first ten columns (then come the part distances, part scores, part to fix and state).
     assert list(rows[0].keys())[:10] == ["frame", "time", "distance", "score", *parts, "matched_teacher_frame"]
 
     with kata.Context() as ctx, ctx.load_model(model_path) as model, ctx.load_clip(teacher) as tclip, \

@@ -1,4 +1,4 @@
-"""The correction cue on the Python surfaces (issue 34 item 4), against values computed
+"""The correction cue on the Python surfaces, against values computed
 independently: `kata score`'s CSV columns cue_joint, cue_degrees and cue for the same pair, and the
 C record's own fields."""
 import csv

@@ -1,4 +1,4 @@
-"""What a newcomer relies on (issue 37): no result lost without a count the caller sees, time
+"""What a newcomer relies on (README's example): no result lost without a count the caller sees, time
 units checked or inferred in kata.mediapipe as in the CLI, and a package surface that reads like
 a library (__all__, __version__, plain attributes, type hints, TypeErrors, help led by an
 overview). The expected values come from a stream whose ring holds the whole clip, read once."""

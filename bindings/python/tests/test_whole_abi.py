@@ -1,4 +1,4 @@
-"""The parts of the C ABI added to the binding for issue 25 (layouts, confidence, smoothing, bone
+"""The parts of the C ABI added to the binding for any body (layouts, confidence, smoothing, bone
 lengths, joint offsets, local rotations, the runtime and result messages), each against a value
 computed independently of the call it tests."""
 import os

@@ -192,7 +192,7 @@ KATA_API kata_status kata_stream_restart_teacher(kata_stream stream);
 /* kata_body_part (the five parts of a score breakdown) is in kata/result.h. */
 
 /* ==== Score calibration and feedback ====================================================== */
-/* The score is the coaching total (issue 34; docs/model/scores.md "The coaching total"):
+/* The score is the coaching total (docs/model/scores.md "The coaching total"):
  *     score = min(model_score, the lowest part score)      so  score <= the worst part's score
  * a part at 10 cannot hide in a total of 90. Each part's score is a map of its joint angle: the
  * largest angle between one of the student's bones of that part and the teacher's, each bone read

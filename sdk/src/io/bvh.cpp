@@ -437,8 +437,8 @@ class Parser {
 
   // A long motion block (a long teacher's: 7.9 million values at 11 minutes) is read in two halves
   // on two threads, the second half's rows from the first line break past the middle of the text:
-  // the parse was a fifth of a long teacher's load, on the thread everything else waits for
-  // (issue 36). Only when every line of both halves is blank or a row of channel_count values and
+  // the parse was a fifth of a long teacher's load, on the thread everything else waits for.
+  // Only when every line of both halves is blank or a row of channel_count values and
   // the rows add up to Frames: is the result kept: it is then the values the sequential parse
   // reads, in the same order. Anything else (an error, too few or too many rows) returns false
   // with clip.motion cleared, and the sequential parse that follows names what is wrong.

@@ -42,7 +42,7 @@ void clip_features_in_chunks(const BvhClip& clip, const GpdMap& map, gpd::Stenci
   // Frames [b * kBlock, ...) made exactly as clip_positions makes them (the same floats, so the
   // same features), a block at a time on a second thread while the stream (sequential: it carries
   // state from frame to frame) takes the block before: the forward kinematics were a fifth of a
-  // long teacher's load, on the one thread the stream runs on (issue 36). Two buffers: block b
+  // long teacher's load, on the one thread the stream runs on. Two buffers: block b
   // goes to buffer b % 2 once block b - 1 (the stream's current one, in the other) is complete.
   constexpr int kBlock = 1024;
   std::vector<float> block[2];

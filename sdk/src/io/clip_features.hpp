@@ -19,7 +19,7 @@ namespace kata {
 std::vector<float> clip_features(const BvhClip& clip, const GpdMap& map, gpd::Stencil stencil, int first = 0);
 // The same features in chunks of at most `chunk_frames` (stream.hpp features_in_chunks), each
 // frame's positions made when the stream needs them: neither the clip's positions nor its
-// features are ever held whole (a long teacher's Reference, issue 36).
+// features are ever held whole (a long teacher's Reference).
 void clip_features_in_chunks(const BvhClip& clip, const GpdMap& map, gpd::Stencil stencil, int first,
                              int chunk_frames, const FeatureSink& sink);
 

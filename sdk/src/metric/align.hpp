@@ -12,7 +12,7 @@
 // re-based on their minimum each frame, so they stay within max c + P over any stream.
 //
 // The match m(n) is the cheapest frame of the local band [m(n-1), m(n-1) + window] (the path
-// just ahead, as in issue 3's aligner) unless the cheapest frame of the whole section is cheaper
+// just ahead, as the first, band-only aligner did) unless the cheapest frame of the whole section is cheaper
 // by more than P: then the match moves there (re-localisation). Once moved, the old place must
 // win back the same margin, so repeated moves (a cyclic walk) do not flicker between cycles.
 // After a skip the wrong place's path gains about c_wrong - c_right per frame, so the move comes
@@ -34,7 +34,7 @@
 // window's match), the window is placed there with the search's costs (x R). So a frame reads the
 // window's rows and 1/R of the section's (410 of the default lesson's 1,829 rows) instead of all
 // of them; a skip is found up to 2R frames later than by the whole-section pass. Shorter sections
-// take the whole-section programme every frame, as before (docs/performance.md, issue 23,
+// take the whole-section programme every frame, as before (docs/performance.md,
 // "cold4", has the figures).
 //
 // R stops at 8 (the search sees the student at 15 Hz or more): at 15 and 30 (8 and 4 Hz) it followed
@@ -43,7 +43,7 @@
 // and 70.5 against the teacher repeated 4 times, 64.8 at 80 times, where R had reached 30
 // (tests/metric/test_relocate.cpp, ARealStudentScoresAsAgainstTheClipWhenTheTeacherIsRepeated).
 //
-// Long teachers (issue 36): past 2,048 frames (17 s at 120 Hz) the search reads more than 256 rows
+// Long teachers: past 2,048 frames (17 s at 120 Hz) the search reads more than 256 rows
 // per frame, the more the longer the teacher. A section longer than Reference::kSearchFrames is
 // searched on a grid instead: every M-th teacher frame, M = ceil(frames / kSearchFrames), the
 // programme's steps counted in grid frames (M teacher frames each: a step of k grid frames is
@@ -53,7 +53,7 @@
 // 20-minute teacher as for a 30-second one (docs/model/alignment.md has the figures). kSearchFrames
 // was 7,680 (960 rows, a long teacher's alignment 2.2x the lesson clip's: 860 KB of grid rows, more
 // than L2, where the 1,829-frame clip reads 229), then 4,096 (512 rows: 1.30x at 16x, 1.35x at
-// 64x, over issue 36's 1.3x); at 3,584 the grid is 402 KB and 16x / 64x cost 1.2x / 1.25x the clip's
+// 64x, over the 1.3x allowed); at 3,584 the grid is 402 KB and 16x / 64x cost 1.2x / 1.25x the clip's
 // (the cost per frame is about 1.8 us + 2.6 ns a grid row on this machine), and the real student
 // scores 75.4-75.5 against the lesson repeated 4, 16 and 80 times as against the clip (grid steps
 // of 3, 9 and 41 teacher frames: 25-340 ms), as with 4,096. (A coarser grid loses the student:
@@ -95,7 +95,7 @@ struct AlignmentOptions {
   // Re-localisation margin, seconds: the jump cost P (and the margin a better place elsewhere
   // must win by) is relocate_time / dt_student * Reference::spread, the cost of this long at the
   // distance of two unrelated teacher frames. 0 turns re-localisation off (the match only
-  // follows the band, as issue 3's aligner did). 0.2 s: on the tests' students a skip is found
+  // follows the band, as the first aligner did). 0.2 s: on the tests' students a skip is found
   // 0.2-0.9 s after it (0.3 s: 0.2-1.1 s), and a 20-cycle walk never moves between cycles
   // (tests/metric/test_relocate.cpp).
   double relocate_time = 0.2;

@@ -1,4 +1,4 @@
-// The offline reference alignment (issue 21): a subsequence DTW of a whole student clip against
+// The offline reference alignment (kata score --align dtw): a subsequence DTW of a whole student clip against
 // a teacher clip over the same static-blocks projections the online Aligner compares
 // (reference.hpp), so the two can be judged against each other (kata score --align dtw).
 //

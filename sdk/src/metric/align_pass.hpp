@@ -1,4 +1,4 @@
-// The re-localising alignment's pass over the whole practice section (issue 21): each student
+// The re-localising alignment's pass over the whole practice section (docs/model/alignment.md): each student
 // frame is compared with every teacher frame of the section, the largest per-frame cost of a
 // clip lesson after the ghost (1,829 teacher frames in the default lesson). Kept apart from the
 // scoring kernels: the pass is plain distances over contiguous rows, and its AVX2 form needs

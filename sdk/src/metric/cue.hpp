@@ -1,4 +1,4 @@
-// The correction cue (issue 34 item 4): which joint to move, by how many degrees, and how, in a
+// The correction cue (docs/model/scores.md "The cue"): which joint to move, by how many degrees, and how, in a
 // coach's words ("left knee: bend 30 deg more").
 //
 // The joint to move: pose_error.hpp measures each bone against the teacher's in the frame it is

@@ -24,7 +24,7 @@ constexpr int kBatch = 8;
 // starting at data + rows * c * kChunk. Unpadded rows keep the bytes streamed per frame at
 // exactly rows x rank values, the limit of a memory-bound product.
 //
-// Values are 16-bit integers with one scale per column (issue 23): W[k, c] = data[k, c] *
+// Values are 16-bit integers with one scale per column: W[k, c] = data[k, c] *
 // column_scale[c], the scale max_k |W[k, c]| / 32767, so every weight is within half a step
 // (2^-16 of its column's largest) of the model's float. Half the bytes of float W: the product is
 // bound by the bytes it reads (from L2 when hot, from memory when a paced frame finds the caches

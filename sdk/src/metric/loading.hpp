@@ -1,4 +1,4 @@
-// What loading a long teacher (issue 36) is built from: work started beside the calling thread,
+// What loading a long teacher (docs/model/alignment.md) is built from: work started beside the calling thread,
 // and transparent huge pages for the large arrays it is loaded into (its BVH text and motion, its
 // Reference's rows). Each first touch of a 4 KB page costs a page fault; filling 200 MB that way
 // took 600-750 ms on the 2-core VM the figures come from (about 12 us a fault,

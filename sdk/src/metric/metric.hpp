@@ -1,4 +1,4 @@
-// The compiled metric (spec gpd-v1.md section 6; issue 3): a .kata model folded for scoring, its
+// The compiled metric (spec gpd-v1.md section 6): a .kata model folded for scoring, its
 // score map and the aligned float buffers the kernels work on.
 //
 // Per frame:  x'' = unit((x - min) / (max - min))   (or the block-balanced variant, model.hpp)

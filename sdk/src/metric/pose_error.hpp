@@ -1,4 +1,4 @@
-// Joint-level pose error (issue 34): how far each bone of the student points from the teacher's,
+// Joint-level pose error (docs/model/scores.md "The coaching total"): how far each bone of the student points from the teacher's,
 // in degrees, in the body's own frames, and the per-part coaching score built on it.
 //
 // Why: the learned W was trained to tell motions apart, not to say how far a pose is from the

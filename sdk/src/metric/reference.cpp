@@ -39,7 +39,7 @@ Reference::Reference(std::shared_ptr<const Metric> metric, const FeatureChunks& 
   begin();
   // Each chunk is projected on a second thread while the caller's producer (a Stream: sequential,
   // it carries state from frame to frame) makes the next one: loading a long teacher takes the
-  // longer of the two instead of their sum (issue 36, item 3). Two buffers: chunk k is copied into
+  // longer of the two instead of their sum. Two buffers: chunk k is copied into
   // buffer k % 2 once chunk k - 1's projection (which read the other one) has been waited for, so
   // chunk k - 2's, the last reader of this buffer, is done too. add() writes frames of its own
   // chunk only, so the result does not depend on the threads' timing: bit for bit the one-shot

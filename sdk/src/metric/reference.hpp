@@ -33,7 +33,7 @@ class Reference {
   // The same clip with its features streamed: `features(sink)` calls sink(chunk, n) with the
   // clip's frames in order, n x kDims floats a call, `frames` in all (e.g. features_in_chunks).
   // Each chunk is projected and let go, so loading a long teacher never holds its 6.7 KB a frame
-  // of features (issue 36); the result is bit for bit the one-shot constructor's. Throws
+  // of features (a long teacher's need not be held whole); the result is bit for bit the one-shot constructor's. Throws
   // kInvalidArgument as that does, and when the chunks do not add up to `frames`.
   using FeatureChunks = std::function<void(const std::function<void(const float* features, int count)>& sink)>;
   Reference(std::shared_ptr<const Metric> metric, const FeatureChunks& features, int frames, double frame_time);
@@ -52,7 +52,7 @@ class Reference {
   // alignment's re-localisation margin (align.hpp).
   double spread() const { return spread_; }
   const Metric& metric() const { return *metric_; }
-  // What a frame's projection keeps (issue 36: <= 2 KB a teacher frame; docs/model/alignment.md,
+  // What a frame's projection keeps (<= 2 KB a teacher frame; docs/model/alignment.md,
   // "Two kilobytes a teacher frame"). The scorer reads the kParts part rows and the kParts joint
   // rows (kScoreRows): each is kept as rank 16-bit integers with one float step (the row's largest
   // |value| / 32767), so a value is within half a step, 2^-16 of its row's largest, of the
@@ -80,7 +80,7 @@ class Reference {
   // streams every frame (align_pass.hpp). Relative rounding 2^-11.
   const uint16_t* alignment_rows_half(int j) const { return align_half_.data() + static_cast<size_t>(j) * stride_; }
   float alignment_half_scale() const { return align_half_scale_; }
-  // The re-localisation grid (issue 36): a clip longer than kSearchFrames is searched on every
+  // The re-localisation grid: a clip longer than kSearchFrames is searched on every
   // M-th frame only, M = ceil(frames / kSearchFrames) (1 otherwise), so the aligner's search over
   // a 20-minute teacher reads what it reads over a 30-second one (align.hpp, "Long teachers").
   // search_rows_half(i) is the half row of frame i * M, contiguous (frames / M rows): built once
@@ -91,7 +91,7 @@ class Reference {
   const uint16_t* search_rows_half(int i) const {
     return search_grid_ > 1 ? search_half_.data() + static_cast<size_t>(i) * stride_ : alignment_rows_half(i);
   }
-  // Bytes this Reference holds (its arrays' capacity; issue 36's budget is 2 KB a teacher frame).
+  // Bytes this Reference holds (its arrays' capacity; the budget is 2 KB a teacher frame).
   size_t memory_bytes() const;
   // Frame j's joints in the body's frames (pose_error.hpp pose_frames: kPoseFloats floats), from
   // which the scorer takes each part's angle and offset to the student's.

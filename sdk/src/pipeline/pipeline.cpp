@@ -41,7 +41,7 @@ std::shared_ptr<const Teacher> Teacher::from_positions(std::shared_ptr<const met
     const float* p = positions + static_cast<size_t>(pose_frame) * per_frame;
     teacher->positions.assign(p, p + per_frame);
   } else {
-    // The features are projected chunk by chunk as the stream makes them and let go (issue 36: an
+    // The features are projected chunk by chunk as the stream makes them and let go (an
     // 11-minute teacher's would be 550 MB); the Reference is the one-shot constructor's, bit for bit.
     constexpr int kChunkFrames = 1024;
     int done = 0;

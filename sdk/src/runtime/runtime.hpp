@@ -1,6 +1,6 @@
 // The runtime: many per-stream pipelines, a small worker pool and one I/O thread.
 //
-// Threads and why (issue 39: cost per frame, measured side by side in docs/runtime.md):
+// Threads and why (cost per frame, measured side by side in docs/runtime.md):
 //   producers (any thread; the I/O thread for ZeroMQ ingest) -> push(stream id, frame)
 //       the frame is copied into the bounded queue of its stream's worker (the one with the
 //       fewest streams when the stream opened, so a burst splits evenly): a lock-free
@@ -98,7 +98,7 @@ struct IdleStrategy {
   // little apart find it awake).
   int64_t worker_spin_ns = 5'000;
   int64_t worker_yield_ns = 5'000;
-  // Read by nothing since issue 39 (the workers send their own results, so the I/O thread waits
+  // Read by nothing now (the workers send their own results, so the I/O thread waits
   // for none); kept so that configurations setting them (kata serve's idle_spin_us) still load.
   int64_t io_spin_ns = 300'000;
   int64_t io_yield_ns = 300'000;
@@ -120,7 +120,7 @@ struct RuntimeConfig {
   double skeleton_resend_seconds = 1.0;  // periodic re-send of every skeleton definition
   IdleStrategy idle;                     // how workers and the I/O thread wait for work
   // A worker sends its results after this many frames, or as soon as no frame waits for it
-  // (issue 39: a batch wakes libzmq's I/O thread once and goes out in one write: its CPU per
+  // (a batch wakes libzmq's I/O thread once and goes out in one write: its CPU per
   // frame halved at 64 streams; 1 sends after every frame; docs/runtime.md has the trade).
   // A lone stream never waits: its worker has no next frame, so it sends at once.
   int result_batch = 8;
@@ -138,7 +138,7 @@ struct StreamCounters {
   uint64_t published = 0;         // results handed to ZeroMQ
   uint64_t send_failed = 0;       // results ZeroMQ refused (never blocks)
   uint64_t stopped = 0;           // frames push() refused (kStopped): stop() had begun
-  // Frames of an open stream that ingest dropped before queueing them (issue 22 counts them):
+  // Frames of an open stream that ingest dropped before queueing them, by cause:
   uint64_t stale = 0;             // too old to score (the stream's source fell behind)
   uint64_t unauthorised = 0;      // from a sender the stream does not belong to
   uint64_t out_of_sequence = 0;   // out of order, or far outside the sequence window

@@ -162,7 +162,7 @@ struct Runtime::Worker {
   alignas(64) size_t dequeue_pos = 0;
   std::atomic<size_t> done_pos{0};  // dequeue_pos once the frame's results were handed over
   // Parked in its semaphore (or about to be): a producer posts only then, so a burst of frames
-  // costs one wake-up, not a futex call per frame (issue 39).
+  // costs one wake-up, not a futex call per frame.
   alignas(64) std::atomic<bool> sleeping{false};
   sem_t wake;
   // Results out: single-producer (this worker) / single-consumer (I/O thread) ring.

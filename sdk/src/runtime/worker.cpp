@@ -191,7 +191,7 @@ void Runtime::worker_loop(Worker& w) {
     }
     s.counters.pipeline_dropped.store(p.dropped(), std::memory_order_relaxed);
   };
-  // Results go out from here, right after their frame (issue 39: no hand-off to the I/O thread,
+  // Results go out from here, right after their frame (no hand-off to the I/O thread,
   // no wake-up per result): this worker sends them unless another thread holds the publisher,
   // which then sends them before it lets go.
   auto send_results = [&] {

@@ -81,7 +81,7 @@ std::vector<float> features_of_frames(const StreamConfig& config, const float* p
                                       double frame_time);
 
 // The same features delivered in chunks instead of one matrix, so a long clip's features (6.7 KB
-// a frame) need never be held whole (issue 36: a 20-minute teacher's would be 1.3 GB).
+// a frame) need never be held whole (a 20-minute teacher's would be 1.3 GB).
 // `positions(i, xyz)` writes frame i's config.input_joints x 3 floats to xyz; `sink(features, n)`
 // receives the next n frames' features (n x gpd::kDims, in frame order, n <= chunk_frames; the
 // buffer is reused after it returns). Same values as features_of_frames, same errors.

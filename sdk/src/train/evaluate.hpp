@@ -15,7 +15,7 @@ namespace kata::train {
 // block 1 in the local frame (hip = (0, hip height, 0)) and their velocities from block 9, in body
 // heights and body heights per second; lambda weighs the velocity term.
 double jcd(const float* a, const float* b, bool weighted, double lambda = 1.0);
-// JCD as issue 27's independent protocol defines it: the sum over the 16 joints of the squared
+// JCD as the independent transition protocol (docs/model/transition.md) defines it: the sum over the 16 joints of the squared
 // local-frame position differences (hip at the origin, so the hip adds nothing; no hip height)
 // plus the squared differences of the 15 non-hip joints' velocities (block 9, the first three of
 // each joint's six; no hip-height velocity). Body heights, body heights per second.

@@ -1,4 +1,4 @@
-// The joint form: a transition distance fitted to the transition label itself (issue 27).
+// The joint form: a transition distance fitted to the transition label itself (docs/model/transition.md).
 //
 // A transition pair (pose i of clip a, pose j of clip b) is good when the two motions stay close
 // over the next second: the label is the mean joint distance over that second. What predicts it

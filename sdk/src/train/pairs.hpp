@@ -60,7 +60,7 @@ struct CrossBodyOptions {
   int max_attempts = 200000;
 };
 
-// "Uniform transition" (the independent protocol of issue 27): two different clips a, b drawn
+// "Uniform transition" (the independent protocol of docs/model/transition.md): two different clips a, b drawn
 // uniformly, then frames i in a and j in b each uniformly from 2 <= i < length - future_frames,
 // where length and i count the clip without frame 0 (BVH frame = i + 1); kept only when
 // MJD(L_a[i], L_b[j]) < tau (MJD = the eq. 35 mean joint distance). Label from the future:

@@ -77,10 +77,10 @@ NpzArrays recording_arrays(const LessonData& d) {
       {"hips", npy_array({2}, hips)},
       {"numbers", npy_array({9}, numbers)},
       {"text", npy_array({text.size()}, reinterpret_cast<const uint8_t*>(text.data()))},
-      // Added with the practice modes (issue 21); a recording without them reads as before.
+      // Added with the practice modes; a recording without them reads as before.
       {"matched_time", npy_array({F}, matched_time.data())},
       {"practice", npy_array({3}, practice)},
-      // Added with the correction cue (issue 34 item 4); optional on read.
+      // Added with the correction cue; optional on read.
       {"cue_joint", npy_array({F}, cue_joint.data())},
       {"cue_degrees", npy_array({F}, cue_degrees.data())},
       {"cue_action", npy_array({F}, cue_action.data())},
@@ -131,7 +131,7 @@ LessonData read_recording(const std::string& path) {
   const auto fix = take<int32_t>(arrays, path, "part_to_fix", {F});
   const auto matched = take<int32_t>(arrays, path, "matched", {F});
   const auto latency = take<int64_t>(arrays, path, "latency_ns", {F});
-  // Optional (recordings from before issue 21 have neither): where the student was in the routine,
+  // Optional (recordings from before the practice modes have neither): where the student was in the routine,
   // and the practice section (teacher_start, loop_first, loop_last; -1: unset).
   const auto matched_time =
       arrays.count("matched_time") ? take<double>(arrays, path, "matched_time", {F}) : std::vector<double>(F, -1.0);

@@ -5,7 +5,7 @@
 // counters by cause, revisions and closes), made socketless (transport::IngestKind::kDirect):
 // libnats' delivery thread hands each message of a held partition, in order, to Runtime::offer,
 // which copies it into a bounded single-producer ring (allocated once) and wakes the runtime's
-// I/O thread, the ingest's one owner, through an eventfd. Until issue 38's follow-up the bridge
+// I/O thread, the ingest's one owner, through an eventfd. Before this ring the bridge
 // pushed every message over a private ipc PUSH -> PULL socket instead: two ZeroMQ I/O threads and
 // three wake-ups per message (~150 us at p50 of the frames' hop, more in bursts); the ring needs
 // one. All messages come from the one producer, so the ingest's per-sender ownership says nothing
