@@ -177,12 +177,15 @@ void check_part_to_fix_holds(double smoothing_time) {
   std::vector<int> lowest;
   std::vector<double> average(kParts, 0.0), offset(kParts, 0.0);
   int shown = -1, changes = 0, lowest_changes = 0;
+  double weight = 0.0;
   for (int f = 0; f < test::clip_frames("07_01.bvh"); ++f) {
     const metric::ScoreRecord& r = scorer.score(test::clip_row("07_01.bvh", f), f * dt);
+    // The documented average: exponential, normalised by the weights summed since the start.
     const double keep = f == 0 || smoothing_time == 0.0 ? 0.0 : std::exp(-dt / smoothing_time);
+    weight = 1.0 + keep * weight;
     for (int q = 0; q < kParts; ++q) {
-      average[q] = keep * average[q] + (1.0 - keep) * r.part_scores[q];
-      offset[q] = keep * offset[q] + (1.0 - keep) * r.part_offset[q];
+      average[q] += (r.part_scores[q] - average[q]) / weight;
+      offset[q] += (r.part_offset[q] - offset[q]) / weight;
     }
     const int low = ranked_part(average, offset, c.good_score);
     lowest_changes += !lowest.empty() && lowest.back() != low;
@@ -247,15 +250,17 @@ TEST(Feedback, APartIsNamedWhileItOrTheTotalIsBelowGood) {
       std::vector<double> average(kParts + 1, 0.0); // the parts, then the total
       std::vector<double> offset(kParts, 0.0);       // the parts' offsets (equal scores' ranking)
       std::vector<int> candidate;
+      double weight = 0.0;
       for (int f = 0; f < frames; ++f) {
         const metric::ScoreRecord &r =
             scorer.score(test::clip_row("07_01.bvh", f), f * dt);
+        // Exponential, normalised by the weights summed since the start (scorer.hpp).
         const double keep = f == 0 ? 0.0 : std::exp(-dt / fb.smoothing_time);
+        weight = 1.0 + keep * weight;
         for (int q = 0; q <= kParts; ++q)
-          average[q] = keep * average[q] +
-                       (1.0 - keep) * (q < kParts ? r.part_scores[q] : r.score);
+          average[q] += ((q < kParts ? r.part_scores[q] : r.score) - average[q]) / weight;
         for (int q = 0; q < kParts; ++q)
-          offset[q] = keep * offset[q] + (1.0 - keep) * r.part_offset[q];
+          offset[q] += (r.part_offset[q] - offset[q]) / weight;
         int lowest = 0;  // the gate reads the lowest averaged part
         for (int q = 1; q < kParts; ++q)
           if (average[q] < average[lowest]) lowest = q;

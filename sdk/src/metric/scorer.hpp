@@ -61,7 +61,8 @@ struct ScoreRecord {
   float part_scores[kParts] = {};
   // The part to fix (Part index), -1 for none: Scorer::update_part_to_fix (scorer.cpp), the one
   // place it is decided. With part scores and offsets averaged over
-  // FeedbackOptions::smoothing_time: while the lowest averaged part score (or the averaged total)
+  // FeedbackOptions::smoothing_time (exponentially, normalised by the weights summed since scoring
+  // started): while the lowest averaged part score (or the averaged total)
   // is below the calibration's good_score in kScoring, the candidate is, among the lowest averaged
   // part and the parts below good_score within kOffsetBand points of it, the one with the largest
   // averaged offset (local-frame mean joint distance); named at once when no part is named; another part replaces it, or "none"
@@ -88,7 +89,7 @@ struct FeedbackOptions {
   // is shown, a candidate is named at once.
   double hold_time = 0.5;
   // The part scores the cue compares are averaged exponentially with this time constant,
-  // seconds (0: this frame's alone). A single frame's lowest part changes every few frames
+  // seconds (0: this frame's alone), normalised by the weights summed since scoring started. A single frame's lowest part changes every few frames
   // (joints cross the reference's path); a coach names what has been wrong for a while.
   double smoothing_time = 0.5;
   // Records are kCalibrating for this long after the first frame (and after reset), seconds:
@@ -187,6 +188,7 @@ class Scorer {
   double smoothed_parts_[kParts] = {};  // part scores averaged over smoothing_time (the cue's)
   double smoothed_total_ = 0.0;     // the total averaged the same way
   double smoothed_time_ = -1.0;     // time of the newest frame in smoothed_parts_; -1: none yet
+  double smoothed_weight_ = 0.0;    // the averages' summed weights since scoring (re)started (newest frame 1)
   double candidate_since_ = 0.0;
   int32_t shown_ = -1;              // part to fix reported
   BoneCue cue_ = {};                // this frame's per-bone angles at the joints (cue.hpp)
