@@ -1,4 +1,4 @@
-// Scoring a pose stream against a teacher (spec gpd-v1.md section 6; issue 3): a per-stream
+// Scoring a pose stream against a teacher (spec gpd-v1.md section 6): a per-stream
 // Scorer turns each student feature vector into a distance, a 0-100 score, a per-part breakdown
 // and, for a clip, the matched teacher frame. Its parts live in their own headers, included here:
 // the compiled model (metric.hpp: Metric, score_from_distance), the teacher (reference.hpp:
@@ -28,7 +28,7 @@ enum class ScoreState : int32_t {
 
 // One scored frame.
 //
-// The coaching total (issue 34): score = min(model_score, the lowest part score), so the total is
+// The coaching total (docs/model/scores.md): score = min(model_score, the lowest part score), so the total is
 // never above its worst part (a part at 10 cannot hide in a total of 90). model_score is the
 // model's calibrated map of the learned distance d (it tells motions apart: another motion scores
 // low whatever the joints' angles); each part score is the map of the part's joint angle
