@@ -12,7 +12,8 @@ teacher's pose retargeted onto the student (the "ghost"), from Python over libka
         print(len(r), r.scores["score"].mean())              # every result: nothing dropped
 
 Modules (all re-exported here): errors (Status, KataError, the dropped-results warning),
-objects (Context, Skeleton, Clip, Model, the enums, find_data), stream (Stream, Results),
+objects (Context, Skeleton, Clip, Model, Landmarks, the enums, find_data), stream (Stream, Results,
+gpd_joint_name / gpd_joint_part / body_part_name / gpd_joint_words),
 retarget (Retargeter), messages (Subscriber, read_message, write_skeleton / write_frame /
 write_practice), runtime (Runtime), mediapipe
 (MediaPipe Pose recordings and live feeds scored against a BVH teacher); _native holds every
@@ -29,10 +30,11 @@ it before it is destroyed (kata.h requires that order).
 import os
 
 from .errors import KataError, ResultsDroppedError, ResultsDroppedWarning, Status
-from .objects import (GPD_DIMS, GPD_JOINTS, BodyPart, Clip, Context, CueAction, Model, ScoreState, Skeleton, Stencil, UpAxis,
+from .objects import (GPD_DIMS, GPD_JOINTS, BodyPart, Clip, Context, CueAction, Landmarks, Model, ScoreState, Skeleton, Stencil, UpAxis,
                       default_model_path, find_data, library_path, layouts, version)
 from .stream import (DROP_POLICIES, RESULT_DTYPE, ResultBuffer, Results,
-                     ScoreRecord, Stream, cue_text, detect_time_units, gpd_joint_name)
+                     ScoreRecord, Stream, body_part_name, cue_text, detect_time_units, gpd_joint_name,
+                     gpd_joint_part, gpd_joint_words)
 from .retarget import Retargeter
 from .messages import (PracticeSection, ResultMessage, Subscriber, read_message, write_frame, write_frame_batch, write_practice,
                        write_skeleton)
@@ -41,10 +43,11 @@ from .runtime import Runtime, shard_of
 #: The loaded libkata's version as "MAJOR.MINOR.PATCH" (the package is versioned with it).
 __version__ = "%d.%d.%d" % version
 
-__all__ = ["Context", "Skeleton", "Clip", "Model", "Stream", "Retargeter", "Runtime", "Subscriber",
+__all__ = ["Context", "Skeleton", "Clip", "Model", "Landmarks", "Stream", "Retargeter", "Runtime", "Subscriber",
            "Results", "ResultBuffer", "ScoreRecord", "ResultMessage", "PracticeSection",
            "KataError", "ResultsDroppedWarning", "ResultsDroppedError", "Status", "Stencil", "UpAxis", "ScoreState",
-           "BodyPart", "CueAction", "cue_text", "gpd_joint_name", "read_message", "write_skeleton", "write_frame", "write_frame_batch",
+           "BodyPart", "CueAction", "cue_text", "gpd_joint_name", "gpd_joint_part", "body_part_name",
+           "gpd_joint_words", "read_message", "write_skeleton", "write_frame", "write_frame_batch",
            "write_practice", "shard_of", "detect_time_units", "default_model_path", "find_data", "layouts",
            "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "DROP_POLICIES"]
 

@@ -24,6 +24,9 @@ PART_COUNT = 5
 
 c_float_p = ctypes.POINTER(ctypes.c_float)
 
+#: kata_progress_callback (kata/teacher.h, 1.1): (user, done, frames) as a teacher loads.
+ProgressCallback = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_uint32, ctypes.c_uint32)
+
 
 def _library_file_names() -> List[str]:
     if sys.platform == "win32":
@@ -117,7 +120,9 @@ class TeacherDesc(ctypes.Structure):
                 ("pose_frame", ctypes.c_int32), ("ghost", ctypes.c_int32),
                 ("retarget", ctypes.POINTER(RetargetDesc)),
                 ("features", ctypes.c_void_p), ("joints", ctypes.c_void_p), ("body_height", ctypes.c_double),
-                ("ghost_across", ctypes.c_int32)]  # 1.1
+                # 1.1
+                ("ghost_across", ctypes.c_int32), ("alignment_window", ctypes.c_double),
+                ("on_progress", ProgressCallback), ("on_progress_user", ctypes.c_void_p)]
 
 
 class ResultRecord(ctypes.Structure):
@@ -152,7 +157,10 @@ class RuntimeDesc(ctypes.Structure):
                 ("key_file", ctypes.c_char_p), ("client_keys_dir", ctypes.c_char_p),
                 ("ingest_server_key_file", ctypes.c_char_p), ("max_streams_per_sender", ctypes.c_uint32),
                 ("max_connections", ctypes.c_uint32), ("max_frame_age_seconds", ctypes.c_double),
-                ("idle_stream_seconds", ctypes.c_double)]
+                ("idle_stream_seconds", ctypes.c_double),
+                # 1.1: on_result (a kata_result_callback, left NULL here) and its user, direct_ingest
+                ("on_result", ctypes.c_void_p), ("on_result_user", ctypes.c_void_p),
+                ("direct_ingest", ctypes.c_int32)]
 
 
 class RuntimeCounters(ctypes.Structure):
@@ -292,6 +300,21 @@ _SIGNATURES = {
     # the correction cue
     "kata_gpd_joint_name": (_s, [_i32]),
     "kata_cue_text": (_sz, [ctypes.POINTER(ResultRecord), _p, _sz]),
+    # since 1.1: the vocabulary of joints and parts, a runtime's latency and direct ingest
+    "kata_stream_gpd_joint_source": (_i32, [_p, _u32]),
+    "kata_gpd_joint_part": (_i32, [_i32]),
+    "kata_body_part_name": (_s, [_i32]),
+    "kata_gpd_joint_words": (_s, [_i32]),
+    "kata_runtime_latency_percentile": (_d, [_p, _d]),
+    "kata_runtime_offer": (_st, [_p, _p, _sz]),
+    # since 1.1: landmark recordings
+    "kata_landmarks_load": (_st, [_p, _s, _s, _d, _i32, _pp]),
+    "kata_landmarks_destroy": (None, [_p]),
+    "kata_landmarks_frame_count": (_u32, [_p]),
+    "kata_landmarks_joint_count": (_u32, [_p]),
+    "kata_landmarks_frame_time": (_d, [_p]),
+    "kata_landmarks_capture_time": (_d, [_p, _u32]),
+    "kata_landmarks_positions": (_p, [_p]),
 }
 
 for _name, (_restype, _argtypes) in _SIGNATURES.items():

@@ -17,7 +17,7 @@ if TYPE_CHECKING:
     from .runtime import Runtime
     from .stream import Stream
 
-__all__ = ["Context", "Skeleton", "Clip", "Model", "Stencil", "UpAxis", "ScoreState", "BodyPart", "CueAction",
+__all__ = ["Context", "Skeleton", "Clip", "Model", "Landmarks", "Stencil", "UpAxis", "ScoreState", "BodyPart", "CueAction",
            "default_model_path", "find_data", "layouts", "version", "library_path", "GPD_DIMS", "GPD_JOINTS"]
 
 GPD_DIMS = _n.GPD_DIMS
@@ -231,6 +231,20 @@ class Context(_Handle):
         data = bytes(data)
         return self._make(Model, "kata_model_load_memory", _n.model_load_memory, data, len(data))
 
+    @_typed
+    def load_landmarks(self, path: str, layout: str = "mediapipe", fps: float = 0.0,
+                       time_units: Optional[str] = None) -> "Landmarks":
+        """kata_landmarks_load (1.1): a landmark recording of a built-in layout ("mediapipe", "gpd",
+        "azure-kinect", "xsens"), .npy (frames, joints, 3..5) with its "X.times.npy" beside it, or
+        .csv, read as `kata score` does. fps: the frame rate of a recording without timestamps;
+        time_units: "s", "ms", or None to infer them from the steps (kata_time_units_detect).
+        KataError E_IO, E_PARSE, E_NOT_FOUND (unknown layout), E_INVALID_ARGUMENT. [any thread]"""
+        units = {None: -1, "s": 0, "ms": 1}.get(time_units)
+        if units is None:
+            raise ValueError("time_units must be 's', 'ms' or None, not %r" % (time_units,))
+        return self._make(Landmarks, "kata_landmarks_load", _n.landmarks_load, _utf8(path), _utf8(layout),
+                          fps, units)
+
     def open_stream(self, skeleton: "Skeleton", layout: Optional[str] = "cmu", name_map: Optional[str] = None,
                     stencil: Optional[int] = None, up_axis: Optional[int] = None, max_gap: Optional[float] = None,
                     history_capacity: Optional[int] = None, body_height: Optional[float] = None,
@@ -273,10 +287,14 @@ class Context(_Handle):
                        max_joints: Optional[int] = None, queue_capacity: Optional[int] = None,
                        publish: Optional[str] = None, send_hwm: Optional[int] = None, ingest: Optional[str] = None,
                        ingest_pull: Optional[bool] = None, max_message_bytes: Optional[int] = None,
-                       skeleton_resend_seconds: Optional[float] = None) -> "Runtime":
+                       skeleton_resend_seconds: Optional[float] = None,
+                       max_frame_age_seconds: Optional[float] = None, direct_ingest: bool = False) -> "Runtime":
         """kata_runtime_create: many streams on worker threads, every result published on ZeroMQ.
         publish: comma-separated endpoints to bind ("tcp://127.0.0.1:*" picks a free port: see
         Runtime.publish_endpoint); ingest: endpoints to read frames from ("bind:" prefix binds).
+        max_frame_age_seconds: older ingest frames are dropped (0: never; default 0.25).
+        direct_ingest: the ingest is fed by the app's own transport through Runtime.offer instead
+        of sockets (ingest must then be None; kata_runtime_desc.direct_ingest, 1.1).
         Arguments left None keep kata_runtime_desc_init's defaults. [any thread]"""
         from . import runtime as _runtime  # runtime.py builds on this module
         d = _n.RuntimeDesc()
@@ -284,13 +302,15 @@ class Context(_Handle):
         for field, value in (("workers", workers), ("max_streams", max_streams), ("max_joints", max_joints),
                              ("queue_capacity", queue_capacity), ("send_hwm", send_hwm),
                              ("max_message_bytes", max_message_bytes),
-                             ("skeleton_resend_seconds", skeleton_resend_seconds)):
+                             ("skeleton_resend_seconds", skeleton_resend_seconds),
+                             ("max_frame_age_seconds", max_frame_age_seconds)):
             if value is not None:
                 setattr(d, field, value)
         d.publish_endpoints = _utf8(publish)
         d.ingest_endpoints = _utf8(ingest)
         if ingest_pull is not None:
             d.ingest_pull = 1 if ingest_pull else 0
+        d.direct_ingest = 1 if direct_ingest else 0
         return self._make(_runtime.Runtime, "kata_runtime_create", _n.runtime_create, ctypes.byref(d))
 
     def create_retargeter(self, student: "Skeleton", **options: Any) -> "Retargeter":
@@ -399,6 +419,46 @@ class Clip(_Handle):
             if status:
                 raise KataError(status, "frame %d" % (first + i), "kata_clip_positions")
         return out
+
+
+class Landmarks(_Handle):
+    """A landmark recording (kata_landmarks, 1.1; Context.load_landmarks): frames of a built-in
+    layout's joints with their capture times, e.g. a webcam teacher for Stream.attach_teacher
+    (skeleton = Context.create_layout(layout), positions = .positions, frame_time = .frame_time).
+    Immutable."""
+    _release = _n.landmarks_destroy
+
+    @property
+    def frame_count(self) -> int:
+        return _n.landmarks_frame_count(self.handle)
+
+    @property
+    def joint_count(self) -> int:
+        """Joints per frame (the layout's)."""
+        return _n.landmarks_joint_count(self.handle)
+
+    @property
+    def frame_time(self) -> float:
+        """Seconds between frames: the timestamps' median step (the upper of the middle two for an
+        even count of steps), else 1 / fps."""
+        return _n.landmarks_frame_time(self.handle)
+
+    @property
+    def capture_times(self) -> np.ndarray:
+        """Every frame's capture time, seconds from the first frame (kata_landmarks_capture_time)."""
+        h = self.handle
+        return np.array([_n.landmarks_capture_time(h, i) for i in range(_n.landmarks_frame_count(h))],
+                        dtype=np.float64)
+
+    @property
+    def positions(self) -> np.ndarray:
+        """Every frame's positions, (frames, joints, 3) float32 as recorded (a copy)."""
+        h = self.handle
+        n, j = _n.landmarks_frame_count(h), _n.landmarks_joint_count(h)
+        address = _n.landmarks_positions(h)
+        if not address or n == 0:
+            return np.zeros((n, j, 3), dtype=np.float32)
+        return np.ctypeslib.as_array(ctypes.cast(address, _n.c_float_p), shape=(n, j, 3)).copy()
 
 
 class Model(_Handle):

@@ -77,6 +77,29 @@ class Runtime(_Handle):
         if status:
             raise KataError(status, self._context_error(), "kata_runtime_set_practice")
 
+    def offer(self, message: bytes) -> None:
+        """kata_runtime_offer (1.1): hands one ingest message (bytes as write_skeleton / write_frame
+        / write_frame_batch / write_practice return) to a runtime created with direct_ingest=True,
+        the app's own transport in place of a ZeroMQ socket; judged there as a socket's message is
+        (a malformed one is counted in counters(), not raised here). KataError E_QUEUE_FULL (not
+        taken: the ring is full, the message too large, or stop has begun), E_STATE (no direct
+        ingest). One thread at a time. Never blocks."""
+        if not isinstance(message, (bytes, bytearray, memoryview)):
+            raise TypeError("Runtime.offer takes bytes, not %s" % type(message).__name__)
+        data = bytes(message)
+        status = _n.runtime_offer(self.handle, data, len(data))
+        if status:
+            raise KataError(status, "%d-byte message" % len(data), "kata_runtime_offer")
+
+    @_typed
+    def latency_percentile(self, q: float) -> float:
+        """kata_runtime_latency_percentile (1.1): nanoseconds from a frame's arrival to its result's
+        hand-over to ZeroMQ (a result's arrival_ns to published_ns) below which a fraction q (0..1)
+        of every result published so far lies, from the runtime's histogram (buckets 9 % wide: the
+        upper edge of the bucket). 0 before the first published result, without a publisher, or
+        for q outside 0..1. [any thread]"""
+        return float(_n.runtime_latency_percentile(self.handle, q))
+
     def stop(self) -> None:
         """kata_runtime_stop: finishes every queued frame, publishes every result, stops the threads."""
         status = _n.runtime_stop(self.handle)

@@ -2,7 +2,7 @@
 records results are read into."""
 import ctypes
 import warnings
-from typing import Any, List, NoReturn, Optional, Sequence, Tuple
+from typing import Any, Callable, List, NoReturn, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -12,7 +12,7 @@ from .errors import KataError, ResultsDroppedError, ResultsDroppedWarning, Statu
 from .objects import GPD_DIMS, GPD_JOINTS, Clip, Model, Skeleton, _Handle
 from .retarget import _retarget_desc
 
-__all__ = ["Stream", "ResultBuffer", "Results", "ScoreRecord", "cue_text", "gpd_joint_name", "detect_time_units", "RESULT_DTYPE", "DROP_POLICIES"]
+__all__ = ["Stream", "ResultBuffer", "Results", "ScoreRecord", "cue_text", "gpd_joint_name", "gpd_joint_part", "body_part_name", "gpd_joint_words", "detect_time_units", "RESULT_DTYPE", "DROP_POLICIES"]
 
 #: What read_results does when results were overwritten unread since the previous read (a full
 #: ring): "warn" (ResultsDroppedWarning, the default), "raise" (ResultsDroppedError carrying the
@@ -37,6 +37,26 @@ def gpd_joint_name(joint: int) -> str:
     cue_joint; "" out of range."""
     name = _n.gpd_joint_name(int(joint))
     return name.decode() if name else ""
+
+
+def gpd_joint_part(joint: int) -> int:
+    """The BodyPart GPD joint 0..15 belongs to (kata_gpd_joint_part, 1.1; kata/result.h lists each
+    part's joints), -1 out of range."""
+    return int(_n.gpd_joint_part(int(joint)))
+
+
+def body_part_name(part: int) -> str:
+    """The short name of a BodyPart ("torso_head", "left_arm", "right_arm", "left_leg",
+    "right_leg"; kata_body_part_name, 1.1), e.g. of a result's part_to_fix; "" out of range."""
+    name = _n.body_part_name(int(part))
+    return name.decode() if name else ""
+
+
+def gpd_joint_words(joint: int) -> str:
+    """GPD joint 0..15 in the words cue_text starts its phrase with ("left knee", "lower back";
+    kata_gpd_joint_words, 1.1); "" for the five end joints, which no cue names, and out of range."""
+    words = _n.gpd_joint_words(int(joint))
+    return words.decode() if words else ""
 
 
 def detect_time_units(timestamps: Any) -> str:
@@ -327,7 +347,8 @@ class Stream(_Handle):
                        positions: Any = None, frame_time: Optional[float] = None, layout: Optional[str] = None,
                        first_frame: int = 0, pose_frame: int = -1, ghost: Optional[bool] = None, features: Any = None,
                        joints: Any = None, body_height: float = 0.0, ghost_across: bool = False,
-                       **retarget: Any) -> None:
+                       alignment_window: Optional[float] = None,
+                       on_progress: Optional[Callable[[int, int], None]] = None, **retarget: Any) -> None:
         """kata_stream_attach_teacher: score against (and ghost from) a teacher given as one of
         a Clip; a Skeleton + positions (frames, joints, 3) + frame_time; GPD features
         (frames, 1683) + frame_time; or joints, one held pose of the 16 GPD joints (16, 3) with its
@@ -336,11 +357,15 @@ class Stream(_Handle):
         solver's options (joint_set "cmu"/"gpd", gradient_tolerance, max_iterations, warm_start,
         restore_bone_lengths). ghost_across: the ghost across layouts (a CMU clip teacher, a
         MediaPipe student): 16 GPD joints in the student's axes and units, once the stream has
-        measured the student's bones (kata_teacher_desc.ghost_across, 1.1)."""
+        measured the student's bones (kata_teacher_desc.ghost_across, 1.1). alignment_window: the
+        seconds of teacher ahead of the last match the alignment looks in ((0, 60]; None: 0.5, a clip
+        teacher only; 1.1). on_progress(done, frames): called on this thread as the teacher's
+        features are computed, done == frames on the last call (a long teacher's loading; not for
+        features or joints; 1.1); an exception it raises is printed and ignored (ctypes)."""
         d = _n.TeacherDesc()
         _n.teacher_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
         d.model = model.handle
-        keep = []
+        keep: List[Any] = []
         if clip is not None:
             d.clip = clip.handle
         if skeleton is not None:
@@ -374,6 +399,15 @@ class Stream(_Handle):
             ghost = features is None and joints is None
         d.ghost = 1 if ghost else 0
         d.ghost_across = 1 if ghost_across else 0
+        if alignment_window is not None:
+            d.alignment_window = alignment_window
+        if on_progress is not None:
+            progress = on_progress
+
+            def _progress(user: Optional[int], done: int, frames: int) -> None:
+                progress(int(done), int(frames))
+            d.on_progress = _n.ProgressCallback(_progress)
+            keep.append(d.on_progress)
         rdesc = _retarget_desc(retarget) if retarget else None
         if rdesc is not None:
             d.retarget = ctypes.pointer(rdesc)
@@ -405,6 +439,14 @@ class Stream(_Handle):
         h = self.handle
         return np.array([_n.stream_ghost_joint_source(h, i) for i in range(_n.stream_ghost_joint_count(h))],
                         dtype=np.int32)
+
+    @property
+    def gpd_joint_sources(self) -> np.ndarray:
+        """The stream skeleton's joint read as each of the 16 GPD joints (GPD order,
+        gpd_joint_name), -1 for one the layout synthesises from several joints ("mediapipe"'s Hip,
+        Chest, Neck, Head) (kata_stream_gpd_joint_source, 1.1)."""
+        h = self.handle
+        return np.array([_n.stream_gpd_joint_source(h, i) for i in range(GPD_JOINTS)], dtype=np.int32)
 
     @property
     def results_pending(self) -> int:
