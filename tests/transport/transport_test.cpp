@@ -735,7 +735,12 @@ TEST(runtime_wire, FrameBatchCarriesEachFrameAsItsOwnMessageWould) {
 
 TEST(runtime_wire, FrameBatchRefusalsNameTheirReason) {
   Decoder decoder(1 << 20);
-  auto kind = [&](const std::vector<uint8_t>& m) { return decoder.decode(m.data(), m.size()); };
+  // The decoder reads the message in place: the last one decoded is kept alive here.
+  std::vector<uint8_t> held;
+  auto kind = [&](std::vector<uint8_t> m) {
+    held = std::move(m);
+    return decoder.decode(held.data(), held.size());
+  };
   // A good batch, then the same with one frame's checksum wrong: the batch is read, that frame alone refused.
   std::vector<HandFrame> frames = {hand_frame(1, 0), hand_frame(2, 0), hand_frame(1, 1)};
   ASSERT_EQ(kind(hand_batch(frames)), MessageKind::kFrameBatch);
