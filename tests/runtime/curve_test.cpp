@@ -17,6 +17,7 @@
 #include "io/bvh.hpp"
 #include "io/clip_features.hpp"
 #include "runtime/runtime.hpp"
+#include "support/live_clip.hpp"
 #include "support/temp_paths.hpp"
 #include "transport/curve.hpp"
 #include "transport/wire.hpp"
@@ -48,20 +49,6 @@ void curve_client(void* socket, const KeyPair& own, const std::string& server_pu
   c.remote_server = server_public;
   transport::apply_curve(socket, c);
 }
-
-struct Clip {
-  BvhClip clip = load_bvh(std::string(KATA_DATA_DIR) + "/cmu/07_01.bvh");
-  std::vector<float> positions = clip_positions(clip);
-  int joints() const { return clip.skeleton.joint_count(); }
-  transport::SkeletonDefinition definition(uint64_t id) const {
-    transport::SkeletonDefinition d;
-    d.stream_id = id;
-    d.revision = 1;
-    d.skeleton = clip.skeleton;
-    d.layout = "cmu";
-    return d;
-  }
-};
 
 void* socket_of(void* context, int type) {
   void* s = zmq_socket(context, type);
@@ -130,7 +117,7 @@ TEST(runtime_curve, KeysRoundTripThroughTheirFiles) {
 
 TEST(runtime_curve, OnlyKnownKeysGetInAndOut) {
   Keys keys;
-  const Clip clip;
+  const test::LiveClip clip("07_01", 0);
   RuntimeConfig config;
   config.workers = 2;
   config.publish.endpoints = {"tcp://127.0.0.1:*"};
@@ -170,7 +157,7 @@ TEST(runtime_curve, OnlyKnownKeysGetInAndOut) {
     for (int i = 0; i < frames; ++i) {
       for (auto [s, id] : {std::pair{known, 7}, std::pair{stranger, 8}, std::pair{plain, 9}})
         send(s, encoder.frame(static_cast<uint64_t>(id), static_cast<uint64_t>(i), i * 8'333'333LL,
-                              clip.positions.data() + static_cast<size_t>(1 + i) * 3 * static_cast<size_t>(clip.joints()),
+                              clip.frame(1 + i),
                               clip.joints()));
       std::this_thread::sleep_for(std::chrono::milliseconds(8));
     }

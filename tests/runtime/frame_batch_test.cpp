@@ -23,6 +23,7 @@
 #include "io/model_file.hpp"
 #include "pipeline/pipeline.hpp"
 #include "runtime/runtime.hpp"
+#include "support/live_clip.hpp"
 #include "support/accounting.hpp"
 #include "support/alloc_counter.hpp"
 #include "transport/wire.hpp"
@@ -37,35 +38,13 @@ using transport::ResultFields;
 using transport::SkeletonDefinition;
 
 // The teacher and the students: 05_18 from clip frame 1; stream k follows it from row 7k.
-struct Lesson {
-  BvhClip clip = load_bvh(std::string(KATA_DATA_DIR) + "/cmu/05_18.bvh");
-  std::vector<float> positions = clip_positions(clip, 1);
-  int rows = clip.frame_count() - 1;
-  double ft = clip.frame_time;
-  std::shared_ptr<const metric::Metric> metric =
-      std::make_shared<const metric::Metric>(metric::load_model(std::string(KATA_SOURCE_DIR) + "/models/default.kata"));
-  std::shared_ptr<const pipeline::Teacher> teacher;
-  Lesson() {
-    const GpdMap map = make_gpd_map(clip.skeleton, preset_joint_names("cmu"));
-    teacher = pipeline::Teacher::from_positions(metric, clip.skeleton,
-                                                stream_config_for(clip.skeleton, map, metric->stencil()),
-                                                positions.data(), rows, ft);
-  }
-  int joints() const { return clip.skeleton.joint_count(); }
-  const float* row(int i) const {
-    return positions.data() + static_cast<size_t>(i % rows) * 3 * static_cast<size_t>(joints());
-  }
-  SkeletonDefinition definition(uint64_t id) const {
-    SkeletonDefinition d;
-    d.stream_id = id;
-    d.revision = 1;
-    d.skeleton = clip.skeleton;
-    d.layout = "cmu";
-    return d;
-  }
+struct Lesson : test::LiveClip {
+  std::shared_ptr<const metric::Metric> metric = test::default_metric();
+  std::shared_ptr<const pipeline::Teacher> teacher = test::clip_teacher(metric, "05_18");
+  Lesson() : test::LiveClip("05_18") {}
   // Stream id's frame of sequence `seq`: its row and its capture time (the clip's time).
-  const float* frame(uint64_t id, uint64_t seq) const { return row(static_cast<int>(7 * id + seq)); }
-  int64_t capture_ns(uint64_t seq) const { return static_cast<int64_t>(std::llround((1.0 + seq) * ft * 1e9)); }
+  const float* frame(uint64_t id, uint64_t seq) const { return LiveClip::frame(static_cast<int64_t>(7 * id + seq)); }
+  int64_t capture_ns(uint64_t seq) const { return static_cast<int64_t>(std::llround((1.0 + seq) * frame_time() * 1e9)); }
 };
 
 const Lesson& lesson() {

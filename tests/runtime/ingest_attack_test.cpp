@@ -32,6 +32,7 @@
 #include "io/clip_features.hpp"
 #include "pipeline/pipeline.hpp"
 #include "runtime/runtime.hpp"
+#include "support/live_clip.hpp"
 #include "transport/wire.hpp"
 #include "transport/zmq_io.hpp"
 
@@ -43,25 +44,10 @@ using Clock = std::chrono::steady_clock;
 
 int64_t now_ns() { return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch()).count(); }
 
-struct Clip {
-  BvhClip clip = load_bvh(std::string(KATA_DATA_DIR) + "/cmu/07_01.bvh");
-  std::vector<float> positions = clip_positions(clip);
-  int joints() const { return clip.skeleton.joint_count(); }
-  const float* frame(int i) const {
-    return positions.data() + static_cast<size_t>(i % (clip.frame_count() - 1)) * 3 * static_cast<size_t>(joints());
-  }
-  SkeletonDefinition definition(uint64_t id, uint32_t revision = 1) const {
-    SkeletonDefinition d;
-    d.stream_id = id;
-    d.revision = revision;
-    d.skeleton = clip.skeleton;
-    d.layout = "cmu";
-    return d;
-  }
-};
 
-const Clip& clip() {
-  static Clip c;
+// 07_01 from its first frame (T-pose included), wrapping round the clip.
+const test::LiveClip& clip() {
+  static const test::LiveClip c("07_01", 0);
   return c;
 }
 

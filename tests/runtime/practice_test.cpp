@@ -23,6 +23,7 @@
 #include "io/model_file.hpp"
 #include "pipeline/pipeline.hpp"
 #include "runtime/runtime.hpp"
+#include "support/live_clip.hpp"
 #include "support/accounting.hpp"
 #include "support/zmq_subscriber.hpp"
 #include "transport/wire.hpp"
@@ -37,30 +38,10 @@ using transport::SkeletonDefinition;
 
 // The teacher and the students: 05_18 from clip frame 1 (the CMU T-pose skipped), teacher row i
 // = student frame i.
-struct Lesson {
-  BvhClip clip = load_bvh(std::string(KATA_DATA_DIR) + "/cmu/05_18.bvh");
-  std::vector<float> positions = clip_positions(clip, 1);
-  int rows = clip.frame_count() - 1;
-  double ft = clip.frame_time;
-  std::shared_ptr<const metric::Metric> metric =
-      std::make_shared<const metric::Metric>(metric::load_model(std::string(KATA_SOURCE_DIR) + "/models/default.kata"));
-  std::shared_ptr<const pipeline::Teacher> teacher;
-  Lesson() {
-    const GpdMap map = make_gpd_map(clip.skeleton, preset_joint_names("cmu"));
-    teacher = pipeline::Teacher::from_positions(metric, clip.skeleton,
-                                                stream_config_for(clip.skeleton, map, metric->stencil()),
-                                                positions.data(), rows, ft);
-  }
-  int joints() const { return clip.skeleton.joint_count(); }
-  const float* row(int i) const { return positions.data() + static_cast<size_t>(i) * 3 * static_cast<size_t>(joints()); }
-  SkeletonDefinition definition(uint64_t id) const {
-    SkeletonDefinition d;
-    d.stream_id = id;
-    d.revision = 1;
-    d.skeleton = clip.skeleton;
-    d.layout = "cmu";
-    return d;
-  }
+struct Lesson : test::LiveClip {
+  std::shared_ptr<const metric::Metric> metric = test::default_metric();
+  std::shared_ptr<const pipeline::Teacher> teacher = test::clip_teacher(metric, "05_18");
+  Lesson() : test::LiveClip("05_18") {}
 };
 
 const Lesson& lesson() {
@@ -109,7 +90,7 @@ struct Sender {
   }
   void frame(uint64_t id, int row) {
     const uint64_t k = sequence[id]++;
-    send(encoder.frame(id, k, static_cast<int64_t>(static_cast<double>(k) * lesson().ft * 1e9), lesson().row(row),
+    send(encoder.frame(id, k, static_cast<int64_t>(static_cast<double>(k) * lesson().frame_time() * 1e9), lesson().frame(row),
                        lesson().joints()));
     ++frames;
   }
@@ -163,7 +144,7 @@ void wait_received(const Runtime& runtime, uint64_t n) {
 double share_found(const std::vector<ResultFields>& results, uint32_t revision, int (*row_of)(uint64_t),
                    uint64_t entered) {
   int near = 0, judged = 0;
-  const double ft = lesson().ft;
+  const double ft = lesson().frame_time();
   for (const ResultFields& r : results) {
     if (r.practice_revision != revision || !r.scored || r.frame_sequence < entered + static_cast<uint64_t>(1.5 / ft))
       continue;
@@ -181,7 +162,7 @@ constexpr int kPhase1 = 1500, kPhase2Begin = 1000, kPhase2 = 800;
 
 TEST(runtime_practice, ALoopHoldsTheMatchInsideItAndAChangeMidStreamMovesIt) {
   const Lesson& l = lesson();
-  ASSERT_GE(l.rows, kPhase2Begin + kPhase2);
+  ASSERT_GE(l.rows(), kPhase2Begin + kPhase2);
   Runtime runtime(config_with_teacher());
   void* context = zmq_ctx_new();
   {
@@ -189,10 +170,10 @@ TEST(runtime_practice, ALoopHoldsTheMatchInsideItAndAChangeMidStreamMovesIt) {
     Sender source(context, runtime.ingest_endpoint());
     source.send(source.encoder.skeleton(l.definition(7)));
     ASSERT_TRUE(results.joined(7));
-    source.practice(7, 1, 0.0, true, kLoopFirst * l.ft, kLoopLast * l.ft);
+    source.practice(7, 1, 0.0, true, kLoopFirst * l.frame_time(), kLoopLast * l.frame_time());
     for (int i = 0; i < kPhase1; ++i) source.frame(7, i);
     // A coach: "again from row 1200", mid-stream.
-    source.practice(7, 2, kStart * l.ft);
+    source.practice(7, 2, kStart * l.frame_time());
     for (int i = 0; i < kPhase2; ++i) source.frame(7, kPhase2Begin + i);
     results.until({{7, static_cast<size_t>(kPhase1 + kPhase2)}});
     wait_received(runtime, source.sent);
@@ -200,7 +181,7 @@ TEST(runtime_practice, ALoopHoldsTheMatchInsideItAndAChangeMidStreamMovesIt) {
     const std::vector<ResultFields>& r = results.of[7];
     ASSERT_EQ(r.size(), static_cast<size_t>(kPhase1 + kPhase2)) << "every frame's result";
 
-    const double last_time = (l.rows - 1) * l.ft;
+    const double last_time = (l.rows() - 1) * l.frame_time();
     int scored[3] = {0, 0, 0};
     for (const ResultFields& f : r) {
       ASSERT_TRUE(f.has_practice) << "a stream with a clip teacher says its practice in every result";
@@ -214,11 +195,11 @@ TEST(runtime_practice, ALoopHoldsTheMatchInsideItAndAChangeMidStreamMovesIt) {
         ASSERT_EQ(rev, 2u) << "frame " << f.frame_sequence;
       }
       if (rev == 1) {
-        EXPECT_DOUBLE_EQ(f.practice_start_time, kLoopFirst * l.ft);
-        EXPECT_DOUBLE_EQ(f.practice_end_time, kLoopLast * l.ft);
+        EXPECT_DOUBLE_EQ(f.practice_start_time, kLoopFirst * l.frame_time());
+        EXPECT_DOUBLE_EQ(f.practice_end_time, kLoopLast * l.frame_time());
         EXPECT_TRUE(f.practice_loop);
       } else {
-        EXPECT_DOUBLE_EQ(f.practice_start_time, kStart * l.ft);
+        EXPECT_DOUBLE_EQ(f.practice_start_time, kStart * l.frame_time());
         EXPECT_DOUBLE_EQ(f.practice_end_time, last_time);
         EXPECT_FALSE(f.practice_loop);
       }
@@ -227,7 +208,7 @@ TEST(runtime_practice, ALoopHoldsTheMatchInsideItAndAChangeMidStreamMovesIt) {
       // The matched teacher time stays in the section, wherever the student is.
       ASSERT_GE(f.matched_teacher_time, f.practice_start_time - 1e-9) << "frame " << f.frame_sequence;
       ASSERT_LE(f.matched_teacher_time, f.practice_end_time + 1e-9) << "frame " << f.frame_sequence;
-      EXPECT_EQ(f.matched_teacher_frame, static_cast<int>(std::lround(f.matched_teacher_time / l.ft)));
+      EXPECT_EQ(f.matched_teacher_frame, static_cast<int>(std::lround(f.matched_teacher_time / l.frame_time())));
     }
     EXPECT_GT(scored[1], kPhase1 * 9 / 10);
     EXPECT_GT(scored[2], kPhase2 * 9 / 10);
@@ -239,7 +220,7 @@ TEST(runtime_practice, ALoopHoldsTheMatchInsideItAndAChangeMidStreamMovesIt) {
       if (f.scored && f.practice_revision == 1 && f.frame_sequence >= loop_entered + 180 &&
           f.frame_sequence <= static_cast<uint64_t>(kLoopLast)) {
         ++judged_loop;
-        near_loop += std::abs(f.matched_teacher_time - static_cast<double>(f.frame_sequence) * l.ft) <= 0.25;
+        near_loop += std::abs(f.matched_teacher_time - static_cast<double>(f.frame_sequence) * l.frame_time()) <= 0.25;
       }
     ASSERT_GT(judged_loop, 100);
     EXPECT_GE(static_cast<double>(near_loop) / judged_loop, 0.9) << near_loop << " of " << judged_loop;
@@ -271,15 +252,15 @@ TEST(runtime_practice, BadSettingsAreRefusedByCauseAndNoOtherStreamIsTouched) {
     a.send(a.encoder.skeleton(l.definition(kNoTeacher)));
     b.send(b.encoder.skeleton(l.definition(8)));
     ASSERT_TRUE(results.joined(8));
-    a.practice(7, 1, 0.0, true, kLoopFirst * l.ft, kLoopLast * l.ft);
-    a.practice(7, 1, 0.0, true, kLoopFirst * l.ft, kLoopLast * l.ft);  // a re-send: not applied again
+    a.practice(7, 1, 0.0, true, kLoopFirst * l.frame_time(), kLoopLast * l.frame_time());
+    a.practice(7, 1, 0.0, true, kLoopFirst * l.frame_time(), kLoopLast * l.frame_time());  // a re-send: not applied again
     constexpr int kFrames = 1200;
     for (int i = 0; i < kFrames; ++i) {
       if (i == 400) {
         a.practice(7, 2, 0.0, true, 5.0, 4.0);          // an empty loop
         a.practice(7, 3, std::nan(""));                 // not finite
         a.practice(7, 4, 1000.0);                       // beyond the clip's end
-        a.practice(7, 5, 0.0, true, 2.0, 2.0 + l.ft / 4);  // within one teacher frame
+        a.practice(7, 5, 0.0, true, 2.0, 2.0 + l.frame_time() / 4);  // within one teacher frame
         a.practice(kNoTeacher, 6, 1.0);                 // no clip teacher
         forger.practice(8, 7, 3.0);                     // not its stream
         forger.practice(7, 7, 3.0);
@@ -317,8 +298,8 @@ TEST(runtime_practice, BadSettingsAreRefusedByCauseAndNoOtherStreamIsTouched) {
     for (const ResultFields& f : results.of[7]) {
       ASSERT_EQ(f.practice_revision, 1u) << "stream 7 keeps its setting, frame " << f.frame_sequence;
       if (f.scored) {
-        ASSERT_GE(f.matched_teacher_time, kLoopFirst * l.ft - 1e-9);
-        ASSERT_LE(f.matched_teacher_time, kLoopLast * l.ft + 1e-9);
+        ASSERT_GE(f.matched_teacher_time, kLoopFirst * l.frame_time() - 1e-9);
+        ASSERT_LE(f.matched_teacher_time, kLoopLast * l.frame_time() + 1e-9);
       }
     }
     // Stream 8 is followed along the whole clip, as it would be alone: its own frames, in order,
@@ -329,7 +310,7 @@ TEST(runtime_practice, BadSettingsAreRefusedByCauseAndNoOtherStreamIsTouched) {
       ASSERT_TRUE(f.has_practice);
       ASSERT_EQ(f.practice_revision, 0u);
       ASSERT_EQ(f.practice_start_time, 0.0);
-      ASSERT_DOUBLE_EQ(f.practice_end_time, (l.rows - 1) * l.ft);
+      ASSERT_DOUBLE_EQ(f.practice_end_time, (l.rows() - 1) * l.frame_time());
       ASSERT_FALSE(f.practice_loop);
     }
     EXPECT_GE(share_found(results.of[8], 0, [](uint64_t k) { return static_cast<int>(k); }, 0), 0.9);

@@ -20,6 +20,7 @@
 #include "io/model_file.hpp"
 #include "pipeline/pipeline.hpp"
 #include "runtime/runtime.hpp"
+#include "support/live_clip.hpp"
 #include "transport/wire.hpp"
 #include "support/accounting.hpp"
 #include "support/alloc_counter.hpp"
@@ -39,20 +40,10 @@ std::string unique_ipc(const char* tag) {
 
 struct Fixture {
   BvhClip student = load_bvh(std::string(KATA_DATA_DIR) + "/cmu/07_01.bvh");
-  BvhClip teacher_clip = load_bvh(std::string(KATA_DATA_DIR) + "/cmu/02_01.bvh");
-  std::shared_ptr<const metric::Metric> metric =
-      std::make_shared<const metric::Metric>(metric::load_model(std::string(KATA_SOURCE_DIR) + "/models/default.kata"));
+  std::shared_ptr<const metric::Metric> metric = test::default_metric();
   std::vector<float> positions = clip_positions(student);
-  std::shared_ptr<const pipeline::Teacher> teacher;
+  std::shared_ptr<const pipeline::Teacher> teacher = test::clip_teacher(metric, "02_01");
 
-  Fixture() {
-    const GpdMap map = make_gpd_map(teacher_clip.skeleton, preset_joint_names("cmu"));
-    const auto teacher_positions = clip_positions(teacher_clip, 1);
-    teacher = pipeline::Teacher::from_positions(metric, teacher_clip.skeleton,
-                                                stream_config_for(teacher_clip.skeleton, map, metric->stencil()),
-                                                teacher_positions.data(), teacher_clip.frame_count() - 1,
-                                                teacher_clip.frame_time);
-  }
   int joints() const { return student.skeleton.joint_count(); }
   const float* frame(int i) const { return positions.data() + static_cast<size_t>(i) * 3 * static_cast<size_t>(joints()); }
 

@@ -22,6 +22,7 @@
 #include "runtime/plugin.hpp"
 #include "runtime/plugin_host.hpp"
 #include "runtime/runtime.hpp"
+#include "support/live_clip.hpp"
 #include "support/accounting.hpp"
 #include "support/temp_paths.hpp"
 #include "support/zmq_subscriber.hpp"
@@ -33,26 +34,10 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using transport::SkeletonDefinition;
 
-struct Clip {
-  BvhClip clip = load_bvh(std::string(KATA_DATA_DIR) + "/cmu/07_01.bvh");
-  std::vector<float> positions = clip_positions(clip);
-  int joints() const { return clip.skeleton.joint_count(); }
-  int frames() const { return clip.frame_count(); }
-  const float* frame(int i) const {
-    return positions.data() + static_cast<size_t>(i % frames()) * 3 * static_cast<size_t>(joints());
-  }
-  SkeletonDefinition definition(uint64_t id) const {
-    SkeletonDefinition d;
-    d.stream_id = id;
-    d.revision = 1;
-    d.skeleton = clip.skeleton;
-    d.layout = "cmu";
-    return d;
-  }
-};
 
-const Clip& clip() {
-  static const Clip c;
+// 07_01 from its first frame (T-pose included), wrapping round the clip.
+const test::LiveClip& clip() {
+  static const test::LiveClip c("07_01", 0);
   return c;
 }
 
@@ -62,7 +47,7 @@ const Clip& clip() {
 // grows) and one thread reads counters. A persistent subscriber must see every result of every
 // stream, in order.
 TEST(runtime_stress, ManyStreamsSeveralPushersSubscribersComeAndGo) {
-  const Clip& c = clip();
+  const test::LiveClip& c = clip();
   RuntimeConfig config;
   config.workers = 3;
   config.frame_queue_capacity = 8192;
@@ -93,7 +78,7 @@ TEST(runtime_stress, ManyStreamsSeveralPushersSubscribersComeAndGo) {
         for (int f = 0; f < kFrames; ++f)
           for (int k = 0; k < kPerPusher; ++k) {
             const uint64_t id = static_cast<uint64_t>(p * kPerPusher + k);
-            if (runtime.push(id, static_cast<uint64_t>(f), f * c.clip.frame_time, c.frame(f + k), c.joints()) == Status::kOk)
+            if (runtime.push(id, static_cast<uint64_t>(f), f * c.frame_time(), c.frame(f + k), c.joints()) == Status::kOk)
               pushed.fetch_add(1);
           }
       });
@@ -102,7 +87,7 @@ TEST(runtime_stress, ManyStreamsSeveralPushersSubscribersComeAndGo) {
         const uint64_t id = 1000 + static_cast<uint64_t>(s);
         runtime.open_stream(c.definition(id), setup_from_definition(c.definition(id)));
         for (int f = 0; f < 10; ++f)
-          if (runtime.push(id, static_cast<uint64_t>(f), f * c.clip.frame_time, c.frame(f), c.joints()) == Status::kOk)
+          if (runtime.push(id, static_cast<uint64_t>(f), f * c.frame_time(), c.frame(f), c.joints()) == Status::kOk)
             pushed.fetch_add(1);
       }
     });
@@ -157,7 +142,7 @@ TEST(runtime_stress, ManyStreamsSeveralPushersSubscribersComeAndGo) {
 // A source keeps sending definitions and frames over ZeroMQ while runtimes reading them are
 // created and destroyed, three times; frames queued when stop begins are finished.
 TEST(runtime_stress, RuntimeDestroyedWhileFramesArrive) {
-  const Clip& c = clip();
+  const test::LiveClip& c = clip();
   void* context = zmq_ctx_new();
   void* pub = zmq_socket(context, ZMQ_PUB);
   int linger = 0;
@@ -168,7 +153,7 @@ TEST(runtime_stress, RuntimeDestroyedWhileFramesArrive) {
   std::thread source([&] {  // the PUB socket is used by this thread only from here on
     transport::Encoder encoder;
     uint64_t sequence = 0;
-    const int64_t dt = static_cast<int64_t>(c.clip.frame_time * 1e9);
+    const int64_t dt = static_cast<int64_t>(c.frame_time() * 1e9);
     while (!done.load()) {
       for (uint64_t id = 0; id < 4; ++id) {
         if (sequence % 50 == 0) {
@@ -269,7 +254,7 @@ TEST(runtime_stress, PluginsLoadedAndUnloadedAroundRunningRuntimes) {
 // once a thread saw kStopped it never sees kOk again; every frame is accounted for. Eight lanes of
 // 125 runtimes each run side by side (a stop waits for the workers' 50 ms idle wake-up).
 TEST(runtime_stress, PushesRacingStopAreTakenOrRefusedNeverLost) {
-  const Clip& c = clip();
+  const test::LiveClip& c = clip();
   constexpr int kLanes = 8, kRounds = 125, kPushers = 3, kMaxFrames = 400;
   std::atomic<int> failures{0};
   std::atomic<uint64_t> taken_total{0}, refused_total{0};
@@ -300,7 +285,7 @@ TEST(runtime_stress, PushesRacingStopAreTakenOrRefusedNeverLost) {
           while (!go.load(std::memory_order_acquire)) std::this_thread::yield();
           Tally& t = tallies[static_cast<size_t>(p)];
           for (int f = 0; f < kMaxFrames; ++f) {
-            const Status st = runtime.push(static_cast<uint64_t>(p), static_cast<uint64_t>(f), f * c.clip.frame_time,
+            const Status st = runtime.push(static_cast<uint64_t>(p), static_cast<uint64_t>(f), f * c.frame_time(),
                                            c.frame(f + p), c.joints());
             if (st == Status::kOk) {
               ++t.ok;
