@@ -134,7 +134,8 @@ const float* Stream::last_joints() const {
   return accepted_ ? joints_.data() + static_cast<size_t>(slot_at(accepted_ - 1)) * 3 * gpd::kJoints : nullptr;
 }
 
-Status Stream::push(double t, const float* xyz, const float* confidence, int joint_count) {
+Status Stream::check_input(double t, const float* xyz, const float* confidence, int joint_count,
+                           uint32_t* input_bits) {
   if (!xyz) return refuse(Status::kNullPointer, "push: positions pointer is null");
   if (joint_count != config_.input_joints)
     return refuse(Status::kWrongJointCount, "push: frame has %d joints, the stream's skeleton has %d", joint_count,
@@ -149,10 +150,10 @@ Status Stream::push(double t, const float* xyz, const float* confidence, int joi
     return refuse(Status::kTimestampNotIncreasing,
                   "push: timestamp %.17g s is %.3g s after the previous one, below the minimum step %g s", t,
                   t - last_time_, kMinTimeStep);
-  uint32_t input_bits = kInfBits;  // the largest |input coordinate|, when every one is read
+  *input_bits = kInfBits;  // the largest |input coordinate|, when every one is read
   if (!confidence) {
-    input_bits = largest_magnitude_bits(xyz, 3 * joint_count);
-    if (input_bits >= kInfBits) {
+    *input_bits = largest_magnitude_bits(xyz, 3 * joint_count);
+    if (*input_bits >= kInfBits) {
       // Only the mapped joints matter, but a NaN anywhere means a broken frame: refuse it whole.
       for (int i = 0; i < 3 * joint_count; ++i) {
         if (!std::isfinite(xyz[i]))
@@ -160,13 +161,12 @@ Status Stream::push(double t, const float* xyz, const float* confidence, int joi
       }
     }
   }
+  return Status::kOk;
+}
 
-  // The mapped joints (missing ones held), checked against the plausibility range before
-  // anything changes. A direct map copies coordinates (signs aside), so when the input scan
-  // found them all within the range the mapped ones are too; otherwise they are scanned.
-  float mapped[3 * gpd::kJoints];
-  bool good[gpd::kJoints];
-  const int missing = gate(t, xyz, confidence, mapped, good);
+Status Stream::check_plausible(const float* mapped, uint32_t input_bits) {
+  // A direct map copies coordinates (signs aside), so when the input scan found them all within
+  // the range the mapped ones are too; otherwise they are scanned.
   uint32_t mapped_bits = input_bits;  // at least the largest |mapped coordinate|
   if (!direct_map_ || input_bits > kMaxCoordinateBits) mapped_bits = largest_magnitude_bits(mapped, 3 * gpd::kJoints);
   if (mapped_bits > kMaxCoordinateBits) {
@@ -206,11 +206,22 @@ Status Stream::push(double t, const float* xyz, const float* confidence, int joi
                         std::sqrt(hip_distance2(j)) / height_, kMaxReach);
     }
   }
+  return Status::kOk;
+}
+
+Status Stream::push(double t, const float* xyz, const float* confidence, int joint_count) {
+  uint32_t input_bits = kInfBits;
+  if (const Status st = check_input(t, xyz, confidence, joint_count, &input_bits); st != Status::kOk) return st;
+  // The mapped joints (missing ones held), checked against the plausibility range before
+  // anything changes.
+  float mapped[3 * gpd::kJoints];
+  bool good[gpd::kJoints];
+  const int missing = gate(t, xyz, confidence, mapped, good);
+  if (const Status st = check_plausible(mapped, input_bits); st != Status::kOk) return st;
   float floor = floor_;
   if (!find_floor(xyz, confidence, &floor))
     return refuse(Status::kInvalidArgument, "push: a foot joint's height %g is beyond the plausible +-%g input units",
                   double(floor), kMaxCoordinate);
-
   // Accepted: the gate's state moves on, the floor is applied.
   if (!confidence) {  // every joint good
     std::memcpy(last_good_, mapped, sizeof mapped);
@@ -241,12 +252,16 @@ Status Stream::push(double t, const float* xyz, const float* confidence, int joi
   }
   if (missing == 0 && bone_count_ < config_.bone_window) collect_bones(mapped);
 
+  return store(t, gap, mapped);
+}
+
+Status Stream::store(double t, bool gap, float* mapped) {
   const int64_t frame = accepted_;
   const int slot = next_slot_;
   const bool starts = new_segment_ || gap;
   smooth(t, starts, mapped);
   float* joints = joints_.data() + static_cast<size_t>(slot) * 3 * gpd::kJoints;
-  std::memcpy(joints, mapped, sizeof mapped);
+  std::memcpy(joints, mapped, 3 * gpd::kJoints * sizeof(float));
   time_[slot] = t;
   starts_segment_[slot] = starts ? 1 : 0;
   new_segment_ = false;

@@ -168,6 +168,14 @@ class Stream {
   // Frame `frame` lives in ring slot `slot` (slot_at(frame), passed on so the per-frame path
   // divides nothing).
   void process(int64_t frame, int slot);
+  // push's stages before anything changes: the frame's shape, times and values (*input_bits: the
+  // largest |input coordinate|'s bits when every one was read, else infinity's), then the mapped
+  // joints against the plausibility range and the body's reach. kOk, or the refusal's status.
+  Status check_input(double t, const float* xyz, const float* confidence, int joint_count, uint32_t* input_bits);
+  Status check_plausible(const float* mapped, uint32_t input_bits);
+  // An accepted frame's mapped joints (smoothed here) into the ring, then its features, or its
+  // bone lengths while the body height is calibrated; `gap` starts a new segment.
+  Status store(double t, bool gap, float* mapped);
   // Completes frame `frame`'s vector (in `slot`) with block 9: kinetics by the backward rules
   // (central == false) or the central stencil (needs frame + 1).
   void emit(int64_t frame, int slot, bool central);
