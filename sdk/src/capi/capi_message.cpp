@@ -110,7 +110,7 @@ kata_status check_frame(const char* call, const kata_frame_message& m, size_t* s
 }
 
 // A checked frame message as the encoder takes it: the capture time as the wire's nanoseconds,
-// rounded (as a result record's: wire.cpp).
+// rounded (as a result record's: wire_encode.cpp).
 kata::transport::Encoder::BatchFrame batch_frame_of(const kata_frame_message& m) {
   kata::transport::Encoder::BatchFrame f;
   f.stream_id = m.stream_id;
