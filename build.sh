@@ -141,7 +141,7 @@ fuzz() {  # fuzz [seconds per target]
 # The whole project (but benchmarks and bindings) built with Debian's clang 14, -Werror and
 # ThreadSanitizer (so this is also a clang -Werror build of everything), then the live path run:
 # the runtime, transport, pipeline, plugin and runtime C ABI tests and the stress tests
-# (tests/runtime/stress_test.cpp), every one labelled tsan. Any report fails the run;
+# (tests/runtime/test_stress.cpp), every one labelled tsan. Any report fails the run;
 # tests/tsan.supp holds the suppressions (third-party code only, each justified).
 tsan() {
   local dir=build-tsan

@@ -1,5 +1,5 @@
 // A lease-holding shard in a process of its own, for the tests that kill one (kill -9): the test
-// executable run as `test_nats --agent ...` (nats_test.cpp's main). It holds partitions through a
+// executable run as `test_nats --agent ...` (test_nats.cpp's main). It holds partitions through a
 // LeaseManager, writes every lease event to a log file (one line each, written before the lease
 // thread acts on it), and for every partition it may publish for, publishes a probe result every
 // 50 ms on the stream chosen for that partition (probe_stream), stamped with the steady clock just

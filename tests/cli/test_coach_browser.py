@@ -14,7 +14,7 @@ While a recorded lesson is replayed into the viewer (loopback only):
      a longer student, 07_01) is picked up by the page, which shows "teacher finished".
 Then the HTML report renders in headless Chromium without a console error, its two uPlot charts drawn.
 
-Usage: coach_browser_test.py --kata build/bin/kata --source-dir . [--screenshots DIR]
+Usage: test_coach_browser.py --kata build/bin/kata --source-dir . [--screenshots DIR]
 Exit 0 on success; every wait is bounded (the whole test takes under a minute).
 """
 import argparse

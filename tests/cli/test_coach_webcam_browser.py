@@ -23,7 +23,7 @@ photograph, the wall and the door with nobody in it, is the camera with no perso
      loads it as its teacher (/webcam/setup says its frame count) and `kata score` scores the
      recorded student of 1. against it (the same photograph: the same pose, so the top scores).
 
-Usage: coach_webcam_browser_test.py --kata build/bin/kata --source-dir . [--screenshot FILE.png]
+Usage: test_coach_webcam_browser.py --kata build/bin/kata --source-dir . [--screenshot FILE.png]
 Every wait is bounded; prints its wall time per phase.
 """
 import argparse

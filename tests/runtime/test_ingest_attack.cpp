@@ -33,11 +33,14 @@
 #include "pipeline/pipeline.hpp"
 #include "runtime/runtime.hpp"
 #include "support/live_clip.hpp"
+#include "support/runtime_waits.hpp"
 #include "transport/wire.hpp"
 #include "transport/zmq_io.hpp"
 
 namespace kata::runtime {
 namespace {
+
+using test::wait_received;
 
 using transport::SkeletonDefinition;
 using Clock = std::chrono::steady_clock;
@@ -141,13 +144,6 @@ std::multiset<uint64_t> sequences(uint64_t first, uint64_t last) {
   std::multiset<uint64_t> s;
   for (uint64_t i = first; i <= last; ++i) s.insert(i);
   return s;
-}
-
-// Waits until the runtime received `n` ingest messages (its snapshot lags by up to 50 ms).
-void wait_received(const Runtime& runtime, uint64_t n) {
-  const auto end = Clock::now() + std::chrono::seconds(10);
-  while (runtime.counters().ingest.received < n && Clock::now() < end)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
 }
 
 constexpr uint64_t kReal = 7;

@@ -24,12 +24,15 @@
 #include "pipeline/pipeline.hpp"
 #include "runtime/runtime.hpp"
 #include "support/live_clip.hpp"
+#include "support/runtime_waits.hpp"
 #include "support/accounting.hpp"
 #include "support/zmq_subscriber.hpp"
 #include "transport/wire.hpp"
 
 namespace kata::runtime {
 namespace {
+
+using test::wait_received;
 
 using Clock = std::chrono::steady_clock;
 using transport::PracticeSetting;
@@ -130,13 +133,6 @@ struct Results {
       if (sub.next(decoder, 100) == transport::MessageKind::kResult) of[decoder.result().stream_id].push_back(decoder.result());
   }
 };
-
-// Waits until the runtime received `n` ingest messages (its snapshot lags by up to 50 ms).
-void wait_received(const Runtime& runtime, uint64_t n) {
-  const auto end = Clock::now() + std::chrono::seconds(20);
-  while (runtime.counters().ingest.received < n && Clock::now() < end)
-    std::this_thread::sleep_for(std::chrono::milliseconds(10));
-}
 
 // Of the results computed under `revision` whose student frame's truth (row_of) is settled (at
 // least 1.5 s after `entered`, the frame at which the truth entered the section), the share
