@@ -316,7 +316,7 @@ namespace Kata
     public static class Library
     {
         public const int ExpectedMajor = 1; // KATA_VERSION_MAJOR this binding is written against
-        public const int MinimumMinor = 0;  // 1.0: the teacher as the one way
+        public const int MinimumMinor = 1;  // 1.1: the teacher fields and the joint / part calls this file declares
         private static int checkedOk;
 
         public static Version LoadedVersion

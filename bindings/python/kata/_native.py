@@ -14,9 +14,10 @@ import sys
 from typing import Any, Iterator, List, Tuple
 
 # The C ABI major version this binding is written against (kata.h KATA_VERSION_MAJOR), and the
-# oldest minor that has every function declared below (1.0: the teacher as the one way).
+# oldest minor that has every function declared below (1.1: the message writers, the joint and
+# part vocabulary, direct ingest, landmark recordings).
 EXPECTED_MAJOR = 1
-MINIMUM_MINOR = 0
+MINIMUM_MINOR = 1
 
 GPD_DIMS = 1683
 GPD_JOINTS = 16

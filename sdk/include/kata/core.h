@@ -36,7 +36,7 @@ extern "C" {
  * this library does not know ignored when read and zeroed when written. A struct_size below
  * 1.0's (an uninitialised struct; no 0.x struct is read) is refused with KATA_E_INVALID_ARGUMENT. */
 #define KATA_VERSION_MAJOR 1
-#define KATA_VERSION_MINOR 0 /* additions since the major's first release */
+#define KATA_VERSION_MINOR 1 /* additions since the major's first release */
 #define KATA_VERSION_PATCH 0 /* fixes only */
 /* The feature layout this library computes (spec gpd-v1.md); stored in every model file. */
 #define KATA_GPD_LAYOUT "gpd-v1"
