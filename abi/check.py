@@ -14,8 +14,9 @@ struct_size: an older caller passes its smaller size), and the lines that lead t
 (which function, which parameter, which pointed-to type). Any other line is a break: a removed or
 renamed function, a changed parameter or return type, a member moved, removed or retyped, an
 enumerator's value changed, the soname changed. A break passes only when the library's soname major
-is above the baseline's AND CHANGELOG.md's section for --version names every kata_* function or
-type the report names (and says "soname" when it moved).
+is above the baseline's AND CHANGELOG.md's section for --version (or for the first release of its
+major, X.0.0) names every kata_* function or type the report names (and says "soname" when it
+moved).
 
 Exit status: 0 compatible (or a break released as such), 1 a break, 2 a usage or tool error.
 """
@@ -164,7 +165,14 @@ def main():
     if not version:
         with open(os.path.join(ROOT, "CMakeLists.txt"), encoding="utf-8") as f:
             version = re.search(r"project\(kata VERSION ([0-9.]+)", f.read()).group(1)
+    # A break against an older major's baseline is listed where that major was first released
+    # (X.0.0), which later minors of it (a 1.1 build against the 0.x baseline) still are.
     section = changelog_section(a.changelog, version)
+    first_of_major = "%s.0.0" % version.split(".")[0]
+    listed_in = version
+    if first_of_major != version:
+        section += changelog_section(a.changelog, first_of_major)
+        listed_in = "%s] or [%s" % (version, first_of_major)
     soname = lib_soname(a.lib)
     status = 0
     for base in baselines:
@@ -204,7 +212,7 @@ def main():
         print("  breaking lines:\n" + "\n".join("  ! " + line.strip() for line in bad))
         if moved and not missing:
             print("ABI: %s breaks %s (%s) as released: the soname's major moved and CHANGELOG.md [%s] "
-                  "lists every change" % (soname, name, base_soname, version))
+                  "lists every change" % (soname, name, base_soname, listed_in))
             continue
         if not moved:
             print("ABI BREAK: %s is incompatible with %s (%s) within major version %d. Keep the old ABI (add, do "
@@ -214,7 +222,7 @@ def main():
                   file=sys.stderr)
         else:
             print("ABI BREAK: the major version moved, but CHANGELOG.md [%s] does not name: %s"
-                  % (version, ", ".join(missing)), file=sys.stderr)
+                  % (listed_in, ", ".join(missing)), file=sys.stderr)
         status = 1
     return status
 

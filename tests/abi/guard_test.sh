@@ -10,9 +10,9 @@ v1=$1 append=$2 moved=$3 removed=$4 retyped=$5 enum_value=$6 moved_major=$7
 rm -rf "$tmp" && mkdir -p "$tmp"
 abidw --no-show-locs --suppressions "$(dirname "$check")/kata.abignore" --out-file "$tmp/released.abi" "$v1" || { echo "abidw failed"; exit 1; }
 failures=0
-expect() {  # expect RC WHAT LIB [CHANGELOG]
-  local want=$1 what=$2 lib=$3 log=${4:-/dev/null}
-  /usr/bin/python3 "$check" --baseline "$tmp/released.abi" --changelog "$log" --version 1.0.0 \
+expect() {  # expect RC WHAT LIB [CHANGELOG [VERSION]]
+  local want=$1 what=$2 lib=$3 log=${4:-/dev/null} version=${5:-1.0.0}
+  /usr/bin/python3 "$check" --baseline "$tmp/released.abi" --changelog "$log" --version "$version" \
     "$lib" >"$tmp/out.txt" 2>&1
   local rc=$?
   if [ "$rc" -ne "$want" ]; then
@@ -41,8 +41,10 @@ cat >"$tmp/CHANGELOG.md" <<'LOG'
 LOG
 expect 0 "members swapped, major moved, the change listed" "$moved_major" "$tmp/CHANGELOG.md"
 expect 1 "members swapped, major moved, nothing listed" "$moved_major"
+# A later minor of the new major (1.1.0) still passes by the first release's (1.0.0) entry.
+expect 0 "members swapped, major moved, listed under 1.0.0, built as 1.1.0" "$moved_major" "$tmp/CHANGELOG.md" 1.1.0
 sed -i 's/ (kata_fx_run, kata_fx_count, kata_fx_scale read it)//' "$tmp/CHANGELOG.md"
 expect 1 "members swapped, major moved, the functions not named" "$moved_major" "$tmp/CHANGELOG.md"
 expect 1 "members swapped within the same major, even when listed" "$moved" "$tmp/CHANGELOG.md"
-echo "$((10 - failures)) passed, $failures failed"
+echo "$((11 - failures)) passed, $failures failed"
 [ "$failures" -eq 0 ]
