@@ -146,12 +146,15 @@ TEST(Feedback, IdenticalPoseScoresHundredOnEveryPartAndNamesNoPart) {
 // The ranking of the part to fix (scorer.cpp update_part_to_fix), from averaged part scores and
 // offsets: the lowest averaged part (equal ones by the larger offset), unless a part below
 // kBandScore whose averaged score is within kOffsetBand points of it has a larger averaged offset
-// (the torso's weighed kTorsoOffsetWeight times).
-int ranked_part(const std::vector<double>& average, const std::vector<double>& offset) {
+// (the torso's weighed kTorsoOffsetWeight times while its averaged score is below `good`).
+int ranked_part(const std::vector<double>& average, const std::vector<double>& offset, double good) {
   int lowest = 0;
   for (int q = 1; q < kParts; ++q)
     if (average[q] < average[lowest] || (average[q] == average[lowest] && offset[q] > offset[lowest])) lowest = q;
-  const auto weighed = [&](int q) { return q == static_cast<int>(metric::Part::kTorsoHead) ? metric::kTorsoOffsetWeight * offset[q] : offset[q]; };
+  const int torso = static_cast<int>(metric::Part::kTorsoHead);
+  const auto weighed = [&](int q) {
+    return q == torso && average[q] < good ? metric::kTorsoOffsetWeight * offset[q] : offset[q];
+  };
   int best = lowest;
   for (int q = 0; q < kParts; ++q)
     if (q != lowest && average[q] < metric::kBandScore && average[q] <= average[lowest] + metric::kOffsetBand &&
@@ -190,7 +193,7 @@ void check_part_to_fix_holds(double smoothing_time) {
       average[q] += (r.part_scores[q] - average[q]) / weight;
       offset[q] += (r.part_offset[q] - offset[q]) / weight;
     }
-    const int low = ranked_part(average, offset);
+    const int low = ranked_part(average, offset, c.good_score);
     lowest_changes += !lowest.empty() && lowest.back() != low;
     lowest.push_back(low);
     const int hold_frames = static_cast<int>(std::ceil(fb.hold_time / dt - 1e-9));
@@ -269,7 +272,7 @@ TEST(Feedback, APartIsNamedWhileItOrTheTotalIsBelowGood) {
           if (average[q] < average[lowest]) lowest = q;
         const bool part_poor = average[lowest] < good,
                    total_poor = average[kParts] < good;
-        const int low = ranked_part(average, offset);
+        const int low = ranked_part(average, offset, good);
         by_part_only += part_poor && !total_poor;
         by_total_only += total_poor && !part_poor;
         by_neither += !part_poor && !total_poor;

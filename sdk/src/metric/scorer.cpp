@@ -247,7 +247,8 @@ void Scorer::update_part_to_fix(double t) {
   // otherwise): among the part with the lowest averaged score and the parts below kBandScore whose
   // averaged score is within kOffsetBand points of it, the part whose joints are farthest from the
   // teacher's (the largest averaged offset, the local-frame mean joint distance that is geometry's
-  // measure on real pairs; the torso's weighed kTorsoOffsetWeight times). Why both
+  // measure on real pairs; the torso's weighed kTorsoOffsetWeight times while it is below good).
+  // Why both
   // (docs/model/scores.md "The part to fix", replayed by docs/model/part_fix_rules.py on the real
   // pairs and on the turned copies of docs/model/part_fix_turned.py): the lowest score alone agreed
   // with geometry on 66 of 98 real pairs, since two people's parts differ by close scores and the
@@ -262,7 +263,10 @@ void Scorer::update_part_to_fix(double t) {
     if (smoothed_parts_[q] < smoothed_parts_[lowest] ||
         (smoothed_parts_[q] == smoothed_parts_[lowest] && smoothed_offset_[q] > smoothed_offset_[lowest]))
       lowest = q;
-  const auto weighed = [this](int q) { return q == static_cast<int>(Part::kTorsoHead) ? kTorsoOffsetWeight * smoothed_offset_[q] : smoothed_offset_[q]; };
+  const auto weighed = [this](int q) {
+    const bool bent_torso = q == static_cast<int>(Part::kTorsoHead) && smoothed_parts_[q] < calibration_.good_score;
+    return bent_torso ? kTorsoOffsetWeight * smoothed_offset_[q] : smoothed_offset_[q];
+  };
   int32_t candidate = lowest;
   for (int q = 0; q < kParts; ++q)
     if (q != lowest && smoothed_parts_[q] < kBandScore && smoothed_parts_[q] <= smoothed_parts_[lowest] + kOffsetBand &&
