@@ -5,7 +5,9 @@ frame after frame 0) scored against their own clip by `kata score` with the onli
 per-frame CSVs with the local-frame part offsets at the matched frame (part_fix.py's geometry), so that
 part_fix_rules.py can replay a rule on the turned copies as it does on the real pairs.
 
-    /usr/bin/python3 docs/model/part_fix_turned.py [build/bin/kata] [../shared/data/cmu] [models/default.kata]
+    /usr/bin/python3 docs/model/part_fix_turned.py [build/bin/kata] [../shared/data/cmu] [models/default.kata] [whole]
+
+With `whole`, the whole clips instead of the test's 3 s (balance-table's copies).
 
 Prints the share of scoring frames naming the turned joint's part, per row, as the product's scorer
 wrote it (the CSV's part_to_fix): compare with Balance.EveryJointCountsAlikeLeftAndRight's online block.
@@ -17,18 +19,19 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 KATA = sys.argv[1] if len(sys.argv) > 1 else "build/bin/kata"
 DATA = sys.argv[2] if len(sys.argv) > 2 else "../shared/data/cmu"
 MODEL = sys.argv[3] if len(sys.argv) > 3 else "models/default.kata"
+WHOLE = len(sys.argv) > 4 and sys.argv[4] == "whole"
 sys.argv = [sys.argv[0], "measure", KATA, DATA, MODEL]
 sys.path.insert(0, HERE)
 import part_fix as P  # noqa: E402
 
 BEND = os.path.join(os.path.dirname(os.path.abspath(DATA)), "..", "tools", "bend-joint")
 CLIPS = ["02_01", "05_18", "09_01"]
-FRAMES = 361  # the test's kMaxFrames: frame 0 and 3 s at 120 fps
+FRAMES = 10 ** 9 if WHOLE else 361  # the test's kMaxFrames: frame 0 and 3 s at 120 fps
 TURNS = [("LeftForeArm", "Y", 1), ("RightForeArm", "Y", 2), ("LeftArm", "Z", 1), ("RightArm", "Z", 2),
          ("LeftLeg", "X", 3), ("RightLeg", "X", 4), ("LeftUpLeg", "X", 3), ("RightUpLeg", "X", 4),
          ("Spine1", "X", 0), ("Neck1", "X", 0)]
 ANGLES = [30, -30, 45, -45]
-WORK = os.path.join(P.WORK, "turned")
+WORK = os.path.join(P.WORK, "turned-whole" if WHOLE else "turned")
 
 
 def excerpt(clip):
