@@ -248,9 +248,8 @@ void Scorer::update_part_to_fix(double t) {
   // averaged score is within kOffsetBand points of it, the part whose joints are farthest from the
   // teacher's (the largest averaged offset, the local-frame mean joint distance that is geometry's
   // measure on real pairs; the torso's weighed kTorsoOffsetWeight times while it is below good).
-  // Why both
-  // (docs/model/scores.md "The part to fix", replayed by docs/model/part_fix_rules.py on the real
-  // pairs and on the turned copies of docs/model/part_fix_turned.py): the lowest score alone agreed
+  // Why both (docs/model/scores.md "The part to fix", replayed by docs/model/part_fix_rules.py on
+  // the real pairs and on the turned copies of docs/model/part_fix_turned.py): the lowest score alone agreed
   // with geometry on 66 of 98 real pairs, since two people's parts differ by close scores and the
   // angle does not weigh a bone's length; the offset alone on 78, but blamed a chest bent 30 deg on
   // an arm (the arms ride on the chest, in the local frame they move farther than the torso's
