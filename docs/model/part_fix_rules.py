@@ -1,31 +1,40 @@
 #!/usr/bin/python3
-"""Which rule for the part to fix can agree with geometry on real pairs (issue 34 item 3): replays the
-scorer's averaging and hysteresis (sdk/src/metric/scorer.cpp Scorer::update_part_to_fix) in Python on the
-per-frame CSVs of `part_fix.py measure`, with other ranking keys and other hysteresis, and counts the
-pairs whose part named on the most scoring frames is in geometry's top 2 (part_fix.py's judge).
+"""Which rule for the part to fix can agree with geometry on real pairs (issue 34 item 3) and still name a
+turned joint: replays the scorer's averaging and hysteresis (sdk/src/metric/scorer.cpp
+Scorer::update_part_to_fix) in Python, with other ranking keys and holds, on two sets of per-frame CSVs:
+the 98 real pairs of `part_fix.py measure` (`--align dtw`; counted: pairs whose part named on the most
+scoring frames is in geometry's top 2, part_fix.py's judge) and the 120 turned copies of
+`part_fix_turned.py` (the balance test's 3 s of 02_01, 05_18, 09_01, ten joints at +-30 and +-45 deg,
+online alignment; counted: the share of scoring frames naming the turned joint's part).
 
-    /usr/bin/python3 docs/model/part_fix_rules.py [build/bin/kata] [../shared/data/cmu] [models/default.kata]
+    /usr/bin/python3 docs/model/part_fix_rules.py [build/bin/kata] [../shared/data/cmu] [models/default.kata] [loso]
 
-The offset key is the local-frame mean joint distance of each part per frame (part_fix.py's geometry,
-at the matched frame), which is the scorer's PartError::offset since 2026-12-04 (before, the head and arms
-were read in the chest frame). The replay of the product's rule (`product` below: the lowest averaged part,
-or a part below good within kOffsetBand = 20 points of it with a larger averaged offset; 0.5 s average,
-0.5 s hold) must give part_fix.py's own count; the replay of the old rule (`lowest score`, hold 0.5 s)
-gave 66 of 98, part_fix.py's count before. Turned-joint figures need the scorer (balance-table,
-tests/metric/test_balance.cpp); scores.md "The part to fix" gives both.
+With `loso`, the choice of the band, hold and torso weight is checked leave-one-subject-out: per subject,
+the grid point (band 98-99.5 x hold 0.25-0.35 s x weight 3-4) with the most pairs in top 2 among the pairs
+the subject takes no part in, of those that keep every turned row at +-30 >= 0.70, scored on its own pairs.
+
+The offset key is the local-frame mean joint distance of each part per frame at the matched frame
+(part_fix.py's geometry), which is the scorer's PartError::offset. The averages are the scorer's: exponential
+over 0.5 s, normalised by the weights summed since the first scoring frame. The replay of the shipped rule
+(`shipped` below) gives part_fix.py's own count (85 of 98) and the turned shares of the CSVs the scorer
+wrote (part_fix_turned.py prints them). scores.md "The part to fix" gives the tables this prints.
 """
-import csv, os, sys
+import os, sys
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
-sys.argv = [sys.argv[0], "measure"] + sys.argv[1:4]
 sys.path.insert(0, HERE)
-import part_fix as P  # noqa: E402  (its argv parsing reads KATA, DATA, MODEL from the arguments above)
+LOSO = len(sys.argv) > 4 and sys.argv[4] == "loso"
+del sys.argv[4:]
+import part_fix_turned as T  # noqa: E402  (reads KATA, DATA, MODEL from the arguments; imports part_fix)
+import part_fix as P  # noqa: E402
+import csv  # noqa: E402
 
 GOOD = 92.0  # the model's good_score (scores.md "The coaching total")
+TORSO = 0
 
 
-def load():
+def load_pairs():
     os.makedirs(P.WORK, exist_ok=True)
     pairs = []
     for t, s in P.HELD_OUT_PAIRS + P.TRAIN_PAIRS:
@@ -39,73 +48,119 @@ def load():
     return pairs
 
 
-def replay(p, key, tau=0.5, hold=0.5, margin=None):
-    """The part named per frame: exponential averages over tau s of the part scores, the offsets and the
-    total; candidate = argmax key(scores, offsets) while a part or the total is below good; shown as in
-    the scorer (at once when nothing is shown, else after the candidate held `hold` s), or, with a
-    margin, when the candidate's key exceeds the shown part's by that fraction."""
-    sp = sg = st = prev = None
-    shown, cand, since, out = -1, -1, 0.0, []
+def replay(p, rank, hold, tau=0.5):
+    """The part shown per frame: normalised exponential averages over tau s of the part scores, offsets
+    and total; candidate = rank(scores, offsets) while a part or the total is below good; shown at once
+    when nothing is shown, else after the candidate has held `hold` s."""
+    sp, sg, st, w, prev = np.zeros(5), np.zeros(5), 0.0, 0.0, None
+    shown, cand, since = -1, -1, 0.0
+    out = np.empty(len(p["t"]), int)
     for i in range(len(p["t"])):
         k = 0.0 if prev is None or tau <= 0 else np.exp(-(p["t"][i] - prev) / tau)
-        sp = p["ps"][i] if sp is None else p["ps"][i] + k * (sp - p["ps"][i])
-        sg = p["geo"][i] if sg is None else p["geo"][i] + k * (sg - p["geo"][i])
-        st = p["total"][i] if st is None else p["total"][i] + k * (st - p["total"][i])
+        w = 1.0 + k * w
+        sp += (p["ps"][i] - sp) / w
+        sg += (p["geo"][i] - sg) / w
+        st += (p["total"][i] - st) / w
         prev = p["t"][i]
-        v = key(sp, sg)
-        c = int(np.argmax(v)) if (sp.min() < GOOD or st < GOOD) else -1
-        if margin is not None:
-            if c < 0: shown = -1
-            elif shown < 0 or v[c] > v[shown] * (1 + margin): shown = c
-        else:
-            if c != cand: cand, since = c, p["t"][i]
-            if shown < 0 and cand >= 0: shown = cand
-            elif cand != shown and p["t"][i] - since >= hold - 1e-9: shown = cand
-        out.append(shown)
-    out = np.array(out)
-    n = np.bincount(out[out >= 0], minlength=5)
-    named = int(n.argmax()) if n.sum() else int(np.argmin(p["ps"].mean(0)))
-    return named in p["rank"][:2]
+        c = rank(sp, sg) if (sp.min() < GOOD or st < GOOD) else -1
+        if c != cand: cand, since = c, p["t"][i]
+        if shown < 0 and cand >= 0: shown = cand
+        elif cand != shown and p["t"][i] - since >= hold - 1e-9: shown = cand
+        out[i] = shown
+    return out
 
 
-def lowest(sp, sg): return -sp  # the product: lowest averaged part score (ties by offset: none occur here)
+def band(admit, width, torso_weight=1.0, torso_below=GOOD):
+    """The lowest averaged part, or a part scoring below `admit` within `width` points of it with a larger
+    offset; the torso's offset weighed `torso_weight` times while the torso scores below `torso_below`."""
+    def rank(sp, sg):
+        low = int(np.argmin(sp))
+        g = sg.copy()
+        if sp[TORSO] < torso_below: g[TORSO] *= torso_weight
+        c = low
+        for q in range(5):
+            if q != low and sp[q] < admit and sp[q] <= sp[low] + width and g[q] > g[c]: c = q
+        return c
+    return rank
 
 
-def offset(sp, sg): return sg
+def lowest(sp, sg): return int(np.argmin(sp))
 
 
-def within(n):
-    return lambda sp, sg: np.where(sp <= sp.min() + n, sg, -1.0)
+def offset(sp, sg): return int(np.argmax(sg))
 
 
-def band_below_good(n, good=GOOD):
-    """The lowest part, or a part below good within n points of it, by the larger offset."""
-    return lambda sp, sg: np.where((sp <= sp.min() + n) & ((sp < good) | (sp <= sp.min())), sg, -1.0)
+def real_count(pairs, rank, hold):
+    n = 0
+    for p in pairs:
+        out = replay(p, rank, hold)
+        f = np.bincount(out[out >= 0], minlength=5)
+        named = int(f.argmax()) if f.sum() else int(np.argmin(p["ps"].mean(0)))
+        n += named in p["rank"][:2]
+    return n
 
 
-def mode_of_frames(pairs, per_frame):
-    return sum(int(np.bincount(per_frame(p), minlength=5).argmax()) in p["rank"][:2] for p in pairs)
+def turned_shares(copies, rank, hold):
+    return {(c["clip"], c["joint"], c["deg"]): float(np.mean(replay(c, rank, hold) == c["part"])) for c in copies}
+
+
+RULES = [
+    ("lowest score", lowest, 0.5),
+    ("largest offset", offset, 0.5),
+    ("offset below good (92) within 20 of the lowest, hold 0.5 s (2026-12-04)", band(GOOD, 20), 0.5),
+    ("the same, hold 0.3 s", band(GOOD, 20), 0.3),
+    ("below 99 within 30, hold 0.3 s", band(99, 30), 0.3),
+    ("below 99 within 30, hold 0.25 s", band(99, 30), 0.25),
+    ("below 98 within 30, torso x 3.25 always, hold 0.3 s", band(98, 30, 3.25, 101), 0.3),
+    ("below 99 within 30, torso x 3.25 always, hold 0.3 s", band(99, 30, 3.25, 101), 0.3),
+    ("below 99 within 30, torso x 2 below good, hold 0.3 s", band(99, 30, 2.0), 0.3),
+    ("**below 99 within 30, torso x 3.25 below good, hold 0.3 s (shipped)**", band(99, 30, 3.25), 0.3),
+    ("below 99 within 30, torso x 3.25 below good, hold 0.25 s", band(99, 30, 3.25), 0.25),
+    ("below 99 within 30, torso x 3.25 below good, hold 0.35 s", band(99, 30, 3.25), 0.35),
+    ("below 99 within 30, torso x 3.25 below good, hold 0.5 s", band(99, 30, 3.25), 0.5),
+    ("below 99.5 within 30, torso x 3.25 below good, hold 0.25 s", band(99.5, 30, 3.25), 0.25),
+    ("below 98.5 within 30, torso x 3.25 below good, hold 0.3 s", band(98.5, 30, 3.25), 0.3),
+]
 
 
 def main():
-    pairs = load()
-    n = len(pairs)
-    keys = [("lowest score", lowest), ("largest offset", offset), ("offset within 20 of lowest", within(20)),
-            ("offset within 30 of lowest", within(30)), ("product: offset within 20 of lowest, below good", band_below_good(20)),
-            ("offset within 30 of lowest, below good", band_below_good(30))]
-    print("Pairs in geometry's top 2 of %d (first 22: subject 9's runs, held out)\n" % n)
-    print("| ranking \\ average, hysteresis | " + " | ".join(
-        ["0.5 s, hold 0.5 s (the product's)", "0.5 s, hold 0.25 s", "0.5 s, no hold", "0.25 s, no hold",
-         "0.5 s, margin 10 %", "0.5 s, margin 20 %"]) + " |")
-    print("|---|" + "---|" * 6)
-    for name, key in keys:
-        cells = [sum(replay(p, key, 0.5, 0.5) for p in pairs), sum(replay(p, key, 0.5, 0.25) for p in pairs),
-                 sum(replay(p, key, 0.5, 0.0) for p in pairs), sum(replay(p, key, 0.25, 0.0) for p in pairs),
-                 sum(replay(p, key, 0.5, margin=0.1) for p in pairs), sum(replay(p, key, 0.5, margin=0.2) for p in pairs)]
-        print("| %s | %s |" % (name, " | ".join("%d (%.1f %%)" % (c, 100.0 * c / n) for c in cells)))
-    print("\nNo average, no gate, no hysteresis, the mode over frames: largest offset %d, lowest score %d" % (
-        mode_of_frames(pairs, lambda p: np.argmax(p["geo"], 1)), mode_of_frames(pairs, lambda p: np.argmin(p["ps"], 1))))
+    pairs, copies = load_pairs(), T.load()
+    print("| rule (0.5 s normalised average) | real pairs in top 2 (of %d) | turned +-30: lowest share (rows < 0.70 of 60) "
+          "| turned +-45: lowest share (rows < 0.70 of 60) |" % len(pairs))
+    print("|---|---|---|---|")
+    for name, rank, hold in RULES:
+        sh = turned_shares(copies, rank, hold)
+        cells = []
+        for deg in (30, 45):
+            v = {k: s for k, s in sh.items() if abs(k[2]) == deg}
+            worst = min(v, key=v.get)
+            cells.append("%.2f (%s %s %+d); %d" % (v[worst], worst[0], worst[1], worst[2], sum(s < 0.70 for s in v.values())))
+        print("| %s | %d | %s | %s |" % (name, real_count(pairs, rank, hold), cells[0], cells[1]), flush=True)
+
+
+def hits(pairs, rank, hold):
+    out = []
+    for p in pairs:
+        shown = replay(p, rank, hold)
+        f = np.bincount(shown[shown >= 0], minlength=5)
+        out.append((int(f.argmax()) if f.sum() else int(np.argmin(p["ps"].mean(0)))) in p["rank"][:2])
+    return np.array(out)
+
+
+def loso():
+    pairs, copies = load_pairs(), T.load()
+    grid = [(a, h, w) for a in (98, 98.5, 99, 99.5) for h in (0.25, 0.3, 0.35) for w in (3.0, 3.25, 3.5, 4.0)]
+    res = {}
+    for a, h, w in grid:
+        sh = turned_shares(copies, band(a, 30, w), h)
+        res[(a, h, w)] = (min(v for k, v in sh.items() if abs(k[2]) == 30) >= 0.70, hits(pairs, band(a, 30, w), h))
+    for sub in (2, 5, 7, 9):
+        mine = np.array([sub in (P.subject(p["teacher"]), P.subject(p["student"])) for p in pairs])
+        best = max((k for k in grid if res[k][0]), key=lambda k: (res[k][1][~mine].sum(), -abs(k[1] - 0.3)))
+        print("subject %d: chosen on the %d other pairs: band %g, hold %g s, weight %g (%d in top 2); on its own %d "
+              "pairs: %d" % (sub, (~mine).sum(), best[0], best[1], best[2], res[best][1][~mine].sum(), mine.sum(),
+                             res[best][1][mine].sum()))
 
 
 if __name__ == "__main__":
-    main()
+    loso() if LOSO else main()

@@ -144,15 +144,21 @@ TEST(Feedback, IdenticalPoseScoresHundredOnEveryPartAndNamesNoPart) {
 }
 
 // The ranking of the part to fix (scorer.cpp update_part_to_fix), from averaged part scores and
-// offsets: the lowest averaged part (equal ones by the larger offset), unless a part below `good`
-// whose averaged score is within kOffsetBand points of it has a larger averaged offset.
+// offsets: the lowest averaged part (equal ones by the larger offset), unless a part below
+// kBandScore whose averaged score is within kOffsetBand points of it has a larger averaged offset
+// (the torso's weighed kTorsoOffsetWeight times while its averaged score is below `good`).
 int ranked_part(const std::vector<double>& average, const std::vector<double>& offset, double good) {
   int lowest = 0;
   for (int q = 1; q < kParts; ++q)
     if (average[q] < average[lowest] || (average[q] == average[lowest] && offset[q] > offset[lowest])) lowest = q;
+  const int torso = static_cast<int>(metric::Part::kTorsoHead);
+  const auto weighed = [&](int q) {
+    return q == torso && average[q] < good ? metric::kTorsoOffsetWeight * offset[q] : offset[q];
+  };
   int best = lowest;
   for (int q = 0; q < kParts; ++q)
-    if (q != lowest && average[q] < good && average[q] <= average[lowest] + metric::kOffsetBand && offset[q] > offset[best])
+    if (q != lowest && average[q] < metric::kBandScore && average[q] <= average[lowest] + metric::kOffsetBand &&
+        weighed(q) > weighed(best))
       best = q;
   return best;
 }

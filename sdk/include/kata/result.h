@@ -77,7 +77,7 @@ typedef struct kata_result_record {
   float score;                   /* 0..100 (100 at d = 0) */
   float parts[KATA_PART_COUNT];  /* split of d^2 by kata_body_part; sums to d^2 */
   float part_scores[KATA_PART_COUNT]; /* each part's calibrated score, 0..100 */
-  int32_t part_to_fix;           /* kata_body_part to correct, -1 for none (held 0.5 s, see kata.h) */
+  int32_t part_to_fix;           /* kata_body_part to correct, -1 for none (held 0.3 s, see kata.h) */
   uint32_t ghost_joint_count;    /* joints of this result's ghost (0: none was made) */
   const float* ghost;            /* ghost_joint_count x 3 floats (student units, placed over the
                                     student), or NULL. Messages and plugins: valid until the next

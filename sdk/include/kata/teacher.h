@@ -204,17 +204,18 @@ KATA_API kata_status kata_stream_restart_teacher(kata_stream stream);
  * calibration uses d50 = delta*, slope 2, good_score 75; the part maps d50_p, slope_p of the
  * struct below are kept for old readers and no longer read by the scorer.
  * part_to_fix (averaged over 0.5 s): while the lowest part score's average or the total's is
- * below good_score, the part with the lowest averaged score, unless a part below good_score within
- * 20 points of it has its joints farther from the teacher's (averaged local-frame mean joint distance;
- * equal scores rank the same way); named at once when nothing is named; another part (or none) replaces a named one only after
- * holding for 0.5 s, so cues do not flicker.
+ * below good_score, the part with the lowest averaged score, unless a part scoring below 99 within
+ * 30 points of it has its joints farther from the teacher's (averaged local-frame mean joint distance,
+ * the torso's counted 3.25 times while it is below good_score; equal scores rank the same way); named
+ * at once when nothing is named; another part (or none) replaces a named one only after holding for
+ * 0.3 s, so cues do not flicker (docs/model/scores.md "The part to fix").
  * The correction cue (cue_joint, cue_degrees, cue_action; present iff part_to_fix >= 0) says what
  * to change in that part, as a coach does: "left knee: bend 30 deg more". cue_joint is the joint
  * to move (a bone turns about the joint at its start: a bent knee names LKnee), the one of the
  * part whose bone is farthest from the teacher's, measured at the joint (a forearm or shin
  * against its upper arm or thigh, so a turned hip names the hip, not the knee as well);
  * cue_degrees that angle. Both averaged like the part scores and held like the part: named at once
- * with a new part, replaced within a part only after 0.5 s. cue_action from the body frame: knees
+ * with a new part, replaced within a part only after 0.3 s. cue_action from the body frame: knees
  * and elbows bend / straighten (the inner angle), shoulders and hips raise / lower (the bone's
  * height), the chest and lower back bend / straighten (the forward lean), the neck raises /
  * lowers the head; "turn" when most of the angle is sideways or a twist (docs/model/scores.md "The cue").

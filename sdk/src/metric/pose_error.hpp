@@ -55,7 +55,8 @@ struct PartError {
   // Offset, body heights: the mean over the part's joints of the student-teacher distance, every
   // joint in the local frame (the torso's hip by its height): the local-frame mean joint distance
   // that docs/model/part_fix.py calls geometry. The part to fix ranks by it among the parts below
-  // good within kOffsetBand points of the lowest part score (scorer.cpp update_part_to_fix). Until
+  // kBandScore within kOffsetBand points of the lowest part score, the torso's weighed while it is
+  // below good (scorer.cpp update_part_to_fix). Until
   // 2026-12-04 the head and arms were read in the chest frame here, so that a bent spine did not
   // move the arms it carries; the band now keeps an arm at 100 out instead.
   float offset[kParts];

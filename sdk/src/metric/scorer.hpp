@@ -34,9 +34,19 @@ enum class ScoreState : int32_t {
 // low whatever the joints' angles); each part score is the map of the part's joint angle
 // (pose_error.hpp: the largest angle between a student bone and the teacher's, in the body's
 // frames), the same map for every part, so the same bend costs the same at every joint, left or right.
-// The part to fix ranks by offset among the parts below good_score within this many points of the
-// lowest averaged part score (scorer.cpp update_part_to_fix; docs/model/scores.md "The part to fix").
-constexpr double kOffsetBand = 20.0;
+// The part to fix ranks by offset among the parts scoring below kBandScore within kOffsetBand
+// points of the lowest averaged part score, the torso's offset weighed kTorsoOffsetWeight times
+// while the torso scores below good_score (scorer.cpp update_part_to_fix; docs/model/scores.md
+// "The part to fix"). kBandScore 99 is a part angle of about 16 deg: two people's legs are often
+// the farthest joints while their angles score 93-99, so the band reaches past good_score.
+constexpr double kOffsetBand = 30.0;
+constexpr double kBandScore = 99.0;
+// The torso's offset is a mean over the hip (its height), chest, neck and head, of which a bent
+// chest moves only the neck and head, while the arms it carries move farther in the local frame:
+// weighed alike, a chest bent 30 deg on a dance lost to the arms and legs its online match puts
+// 20-30 deg off. Only while the torso is below good: weighed always, it outranked two people's
+// arms on real pairs where the torso scored 94-97 (and is never geometry's largest part).
+constexpr double kTorsoOffsetWeight = 3.25;
 
 struct ScoreRecord {
   double time = 0.0;          // timestamp of the scored frame, seconds (stream clock)
@@ -64,9 +74,10 @@ struct ScoreRecord {
   // FeedbackOptions::smoothing_time (exponentially, normalised by the weights summed since scoring
   // started): while the lowest averaged part score (or the averaged total)
   // is below the calibration's good_score in kScoring, the candidate is, among the lowest averaged
-  // part and the parts below good_score within kOffsetBand points of it, the one with the largest
-  // averaged offset (local-frame mean joint distance); named at once when no part is named; another part replaces it, or "none"
-  // clears it, only after holding for FeedbackOptions::hold_time seconds (hysteresis).
+  // part and the parts below kBandScore within kOffsetBand points of it, the one with the largest
+  // averaged offset (local-frame mean joint distance; the torso's weighed kTorsoOffsetWeight times
+  // while it is below good_score); named at once when no part is named; another part replaces it,
+  // or "none" clears it, only after holding for FeedbackOptions::hold_time seconds (hysteresis).
   int32_t part_to_fix = -1;
   // The correction cue (cue.hpp), present iff part_to_fix >= 0: the GPD joint to move (0..15,
   // always in part_to_fix; -1 none), the angle at that joint between the student's bone and the
@@ -85,9 +96,11 @@ struct ScoreRecord {
 // How feedback is held and when the states apply.
 struct FeedbackOptions {
   // A new part to fix (or "none") replaces a part shown only after it has been the candidate for
-  // this long, seconds: a person needs about half a second to read a cue and react. When no part
-  // is shown, a candidate is named at once.
-  double hold_time = 0.5;
+  // this long, seconds (the cue's joint within a part alike). 0.3 s, not the 0.5 s a person needs
+  // to read and react: a walk or a run alternates its legs every 0.4-0.6 s, and with a 0.5 s hold
+  // the part shown lagged the part that was wrong (docs/model/scores.md "The part to fix"). When
+  // no part is shown, a candidate is named at once.
+  double hold_time = 0.3;
   // The part scores the cue compares are averaged exponentially with this time constant,
   // seconds (0: this frame's alone), normalised by the weights summed since scoring started. A single frame's lowest part changes every few frames
   // (joints cross the reference's path); a coach names what has been wrong for a while.
