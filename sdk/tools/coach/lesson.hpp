@@ -66,7 +66,7 @@ struct FrameRecord {
   int32_t matched = -1;       // teacher frame matched, counted from first_frame
   double matched_time = -1.0; // where the student is in the routine: the matched frame's time,
                               // seconds from first_frame (-1: not scored, or a recording's frame)
-  int32_t part_to_fix = -1;   // the scorer's part to fix (lowest part score, held 0.5 s), -1: none
+  int32_t part_to_fix = -1;   // the scorer's part to fix (kata/teacher.h: held 0.3 s), -1: none
   // The correction cue (kata/result.h): the GPD joint to move (-1: none), the angle at it in
   // degrees, the kata_cue_action (-1: none). Present iff part_to_fix is.
   int32_t cue_joint = -1;
