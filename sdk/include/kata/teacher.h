@@ -199,7 +199,7 @@ KATA_API kata_status kata_stream_restart_teacher(kata_stream stream);
  * exactly as if each had been given the same desc by kata_stream_attach_teacher. */
 /* An immutable teacher, built once: its frames' features (the scorer's reference) and joint
  * positions (the ghost's source). Reference-counted inside: every stream it is attached to keeps
- * it alive, so the handle may be destroyed while streams still use it. */
+ * it alive, so the handle may be destroyed while streams still use it. Since 1.1. */
 typedef struct kata_teacher_s* kata_teacher;
 /* Builds the teacher desc describes, as kata_stream_attach_teacher would for a stream with the
  * model's stencil: desc->model and exactly one motion are required; desc's per-stream fields
@@ -207,7 +207,8 @@ typedef struct kata_teacher_s* kata_teacher;
  * kata_stream_attach_shared_teacher; on_progress is called on this thread while the features are
  * computed. The model may be destroyed afterwards. Errors (as kata_stream_attach_teacher's, less
  * the ones that need a student stream) return their status with the message in
- * kata_context_last_error; *out is then NULL. *out is owned by the caller. Allocates. [any thread] */
+ * kata_context_last_error; *out is then NULL. *out is owned by the caller. Allocates. Since 1.1.
+ * [any thread] */
 KATA_API kata_status kata_teacher_create(kata_context context, const kata_teacher_desc* desc, kata_teacher* out);
 /* Releases the caller's handle. Streams it is attached to keep the teacher until they detach it,
  * attach another or are destroyed. NULL is ignored. Since 1.1. [any thread, not concurrently with
