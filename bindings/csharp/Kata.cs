@@ -259,6 +259,12 @@ namespace Kata
         [DllImport(Lib, CallingConvention = CC)] public static extern void kata_teacher_desc_init_sized(ref TeacherDesc desc, uint structSize);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_attach_teacher(StreamHandle stream, ref TeacherDesc desc);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_detach_teacher(StreamHandle stream);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_teacher_create(ContextHandle context, ref TeacherDesc desc, out TeacherHandle teacher);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_teacher_destroy(IntPtr teacher);
+        [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_teacher_frame_count(TeacherHandle teacher);
+        [DllImport(Lib, CallingConvention = CC)] public static extern double kata_teacher_frame_time(TeacherHandle teacher);
+        [DllImport(Lib, CallingConvention = CC)] public static extern ulong kata_teacher_memory_bytes(TeacherHandle teacher);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_attach_shared_teacher(StreamHandle stream, TeacherHandle teacher, IntPtr options);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_restart_teacher(StreamHandle stream);
         [DllImport(Lib, CallingConvention = CC)]
         public static extern Status kata_stream_read_newest(StreamHandle stream, [In, Out] ResultRecord[] result,
@@ -377,6 +383,7 @@ namespace Kata
     public sealed class ClipHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_clip_destroy(h); } }
     public sealed class StreamHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_stream_destroy(h); } }
     public sealed class ModelHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_model_destroy(h); } }
+    public sealed class TeacherHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_teacher_destroy(h); } }
     public sealed class RetargeterHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_retargeter_destroy(h); } }
 
     // ---- objects ------------------------------------------------------------------------------------------
@@ -425,6 +432,32 @@ namespace Kata
             ModelHandle h;
             Status s = Native.kata_model_load(Handle, Native.Utf8(path), out h);
             return new Model(Check(s, h, "kata_model_load"));
+        }
+
+        // kata_teacher_create (1.1): a clip teacher built once, for Stream.AttachSharedTeacher (ghost: the
+        // default of the streams it is attached to).
+        public Teacher CreateTeacher(Model model, Clip clip, uint firstFrame = 0, bool ghost = true)
+        {
+            TeacherDesc d = new TeacherDesc();
+            Native.kata_teacher_desc_init_sized(ref d, (uint)Marshal.SizeOf(typeof(TeacherDesc)));
+            bool modelRef = false, clipRef = false;
+            try
+            {
+                model.Handle.DangerousAddRef(ref modelRef);
+                clip.Handle.DangerousAddRef(ref clipRef);
+                d.Model = model.Handle.DangerousGetHandle();
+                d.Clip = clip.Handle.DangerousGetHandle();
+                d.FirstFrame = firstFrame;
+                d.Ghost = ghost ? 1 : 0;
+                TeacherHandle h;
+                Status s = Native.kata_teacher_create(Handle, ref d, out h);
+                return new Teacher(Check(s, h, "kata_teacher_create"));
+            }
+            finally
+            {
+                if (clipRef) clip.Handle.DangerousRelease();
+                if (modelRef) model.Handle.DangerousRelease();
+            }
         }
 
         public Model LoadModel(byte[] data)
@@ -556,6 +589,17 @@ namespace Kata
         public string Metadata(string key) { return Native.FromUtf8(Native.kata_model_metadata(Handle, Native.Utf8(key))); }
     }
 
+    // A teacher built once and shared by any number of streams (kata_teacher, 1.1); streams keep it after Dispose.
+    public sealed class Teacher : IDisposable
+    {
+        public readonly TeacherHandle Handle;
+        internal Teacher(TeacherHandle h) { Handle = h; }
+        public void Dispose() { Handle.Dispose(); }
+        public uint FrameCount { get { return Native.kata_teacher_frame_count(Handle); } }
+        public double FrameTime { get { return Native.kata_teacher_frame_time(Handle); } }
+        public ulong MemoryBytes { get { return Native.kata_teacher_memory_bytes(Handle); } }
+    }
+
     // Arrays kata_stream_read_results fills in place; allocate once, read every frame.
     public sealed class ResultBatch
     {
@@ -649,6 +693,13 @@ namespace Kata
                 pin.Free();
                 if (modelRef) model.Handle.DangerousRelease();
             }
+        }
+
+        // kata_stream_attach_shared_teacher (1.1): the teacher without a copy, with the options it was created with.
+        public void AttachSharedTeacher(Teacher teacher)
+        {
+            Status s = Native.kata_stream_attach_shared_teacher(Handle, teacher.Handle, IntPtr.Zero);
+            if (s != Status.Ok) Throw(s, "kata_stream_attach_shared_teacher");
         }
 
         // kata_stream_detach_teacher: later results are not scored and carry no ghost.

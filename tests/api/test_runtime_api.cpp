@@ -688,3 +688,167 @@ TEST(runtime_capi, QueueFullAndNoClipTeacherAreTheirOwnCodes) {
 }
 
 }  // namespace
+
+// kata_runtime_desc.on_stream_open (1.1): the app attaches a teacher (here one built once with
+// kata_teacher_create) to a stream a skeleton definition opens. The runtime's results for it must
+// equal, bit for bit, those of a kata_stream given the same teacher with kata_stream_attach_teacher
+// and fed the same frames; a definition the hook refuses opens nothing (its frames are dropped as
+// an unknown stream's), is counted, and leaves the other stream's results as they are.
+struct HookState {
+  kata_teacher teacher = nullptr;
+  uint64_t refuse_id = 0;
+  std::vector<uint64_t> ids;
+  std::vector<uint32_t> joint_counts;
+  std::vector<std::string> layouts;
+  std::vector<double> frame_rates;
+};
+kata_status on_open(void* user, const kata_stream_open_info* info, kata_stream stream) {
+  auto* h = static_cast<HookState*>(user);
+  h->ids.push_back(info->stream_id);
+  h->joint_counts.push_back(info->joint_count);
+  h->layouts.emplace_back(info->layout);
+  h->frame_rates.push_back(info->frame_rate);
+  if (info->stream_id == h->refuse_id) return KATA_E_STATE;
+  if (kata_skeleton_joint_count(info->skeleton) != info->joint_count) return KATA_E_INTERNAL;
+  return kata_stream_attach_shared_teacher(stream, h->teacher, nullptr);
+}
+
+TEST(runtime_capi, OnStreamOpenAttachesASharedTeacherAndARefusalIsCounted) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_model model = nullptr;
+  ASSERT_EQ(kata_model_load(ctx, KATA_SOURCE_DIR "/models/default.kata", &model), KATA_OK);
+  kata_clip student = nullptr, teacher_clip = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &student), KATA_OK);
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_01.bvh", &teacher_clip), KATA_OK);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(student, &skel), KATA_OK);
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  kata_teacher_desc td;
+  kata_teacher_desc_init(&td);
+  td.model = model;
+  td.clip = teacher_clip;
+  td.first_frame = 1;
+  HookState hook;
+  ASSERT_EQ(kata_teacher_create(ctx, &td, &hook.teacher), KATA_OK) << kata_context_last_error(ctx);
+  hook.refuse_id = 22;
+
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  EXPECT_EQ(rd.on_stream_open, nullptr);
+  EXPECT_EQ(rd.stream_stencil, KATA_STENCIL_BACKWARD);
+  Received got;
+  rd.workers = 1;
+  rd.direct_ingest = 1;
+  rd.max_frame_age_seconds = 0.0;  // the clip's capture times are not this host's clock
+  rd.on_result = receive;
+  rd.on_result_user = &got;
+  rd.on_stream_open = on_open;
+  rd.on_stream_open_user = &hook;
+  rd.stream_stencil = kata_model_stencil(model);
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  // The hook attaches the handle to each stream it opens: kept until no definition can come.
+  std::vector<unsigned char> buffer(1 << 16);
+  size_t size = 0;
+  for (uint64_t id : {uint64_t{21}, uint64_t{22}}) {
+    kata_skeleton_message sm;
+    kata_skeleton_message_init(&sm);
+    sm.stream_id = id;
+    sm.skeleton = skel;
+    sm.layout = "cmu";
+    sm.frame_rate = 120.0f;
+    ASSERT_EQ(kata_message_write_skeleton(&sm, buffer.data(), buffer.size(), &size), KATA_OK);
+    ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK);
+  }
+
+  kata_stream_desc sd;
+  kata_stream_desc_init(&sd);
+  sd.layout = "cmu";
+  sd.stencil = kata_model_stencil(model);
+  sd.result_capacity = 256;
+  // The wire carries rest offsets as floats (schemas/common.fbs Vec3): the stream set up the
+  // existing way is opened on the skeleton as the runtime receives it.
+  std::vector<const char*> names(joints);
+  std::vector<int32_t> parents(joints);
+  std::vector<double> offsets(3 * static_cast<size_t>(joints));
+  for (uint32_t j = 0; j < joints; ++j) {
+    names[j] = kata_skeleton_joint_name(skel, j);
+    parents[j] = kata_skeleton_joint_parent(skel, j);
+    ASSERT_EQ(kata_skeleton_joint_offset(skel, j, &offsets[3 * j]), KATA_OK);
+    for (int k = 0; k < 3; ++k) offsets[3 * j + k] = static_cast<float>(offsets[3 * j + k]);
+  }
+  kata_skeleton received = nullptr;
+  ASSERT_EQ(kata_skeleton_create(ctx, joints, names.data(), parents.data(), offsets.data(), &received), KATA_OK);
+  kata_stream direct = nullptr;
+  ASSERT_EQ(kata_stream_open(ctx, received, &sd, &direct), KATA_OK) << kata_context_last_error(ctx);
+  kata_skeleton_destroy(received);
+  ASSERT_EQ(kata_stream_attach_teacher(direct, &td), KATA_OK) << kata_stream_last_error(direct);
+  std::vector<float> p(3 * joints);
+  const int frames = 120;
+  for (int i = 0; i < frames; ++i) {
+    ASSERT_EQ(kata_clip_positions(student, static_cast<uint32_t>(1 + i), p.data(), p.size()), KATA_OK);
+    for (uint64_t id : {uint64_t{21}, uint64_t{22}}) {
+      kata_frame_message fm;
+      kata_frame_message_init(&fm);
+      fm.stream_id = id;
+      fm.sequence = static_cast<uint64_t>(i);
+      fm.capture_time = 10.0 + i / 128.0;  // dyadic: the wire's nanoseconds give it back exactly
+      fm.positions = p.data();
+      fm.joint_count = joints;
+      ASSERT_EQ(kata_message_write_frame(&fm, buffer.data(), buffer.size(), &size), KATA_OK);
+      ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK) << i;
+    }
+    ASSERT_EQ(kata_stream_push(direct, 10.0 + i / 128.0, p.data(), joints), KATA_OK);
+  }
+  ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);  // every offered message handled first
+  kata_teacher_destroy(hook.teacher);  // the runtime's stream still holds it
+  ASSERT_EQ(hook.ids.size(), 2u);
+  EXPECT_EQ(hook.ids[0], 21u);
+  EXPECT_EQ(hook.ids[1], 22u);
+  for (size_t i = 0; i < 2; ++i) {
+    EXPECT_EQ(hook.joint_counts[i], joints);
+    EXPECT_EQ(hook.layouts[i], "cmu");
+    EXPECT_EQ(hook.frame_rates[i], 120.0);
+  }
+
+  const uint32_t pending = kata_stream_results_pending(direct);
+  ASSERT_GT(pending, 90u);
+  std::vector<kata_result_record> expected(pending);
+  expected[0].struct_size = sizeof expected[0];
+  std::vector<float> ghosts(pending * 3 * static_cast<size_t>(kata_stream_ghost_joint_count(direct)));
+  ASSERT_GT(ghosts.size(), 0u);
+  uint32_t n = 0;
+  ASSERT_EQ(kata_stream_read_results(direct, expected.data(), ghosts.data(), ghosts.size(), nullptr, 0, pending, &n),
+            KATA_OK);
+  ASSERT_EQ(got.records.size(), static_cast<size_t>(n));  // stream 22 published nothing
+  for (uint32_t i = 0; i < n; ++i) {
+    SCOPED_TRACE(i);
+    const kata_result_record& r = got.records[i];
+    EXPECT_EQ(r.stream_id, 21u);
+    EXPECT_EQ(r.scored, 1);
+    EXPECT_EQ(r.scored, expected[i].scored);
+    EXPECT_EQ(r.matched_teacher_frame, expected[i].matched_teacher_frame);
+    EXPECT_EQ(std::memcmp(&r.distance, &expected[i].distance, sizeof(float)), 0);
+    EXPECT_EQ(std::memcmp(&r.score, &expected[i].score, sizeof(float)), 0);
+    EXPECT_EQ(std::memcmp(r.parts, expected[i].parts, sizeof r.parts), 0);
+    EXPECT_EQ(std::memcmp(r.part_scores, expected[i].part_scores, sizeof r.part_scores), 0);
+    EXPECT_EQ(r.part_to_fix, expected[i].part_to_fix);
+    EXPECT_EQ(r.state, expected[i].state);
+  }
+  ASSERT_EQ(got.ghosts.size(), ghosts.size());
+  EXPECT_EQ(std::memcmp(got.ghosts.data(), ghosts.data(), ghosts.size() * sizeof(float)), 0);
+  kata_runtime_counters c;
+  c.struct_size = sizeof c;
+  ASSERT_EQ(kata_runtime_get_counters(runtime, &c), KATA_OK);
+  EXPECT_EQ(c.streams_refused_by_app, 1u);
+  EXPECT_EQ(c.frames_in, static_cast<uint64_t>(frames));  // stream 21's only
+  EXPECT_GE(c.ingest_dropped, static_cast<uint64_t>(frames) + 1);  // the refused definition, 22's frames
+  kata_runtime_destroy(runtime);
+  kata_stream_destroy(direct);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(teacher_clip);
+  kata_clip_destroy(student);
+  kata_model_destroy(model);
+  kata_context_destroy(ctx);
+}

@@ -308,6 +308,48 @@ static class KataTests
         }
     }
 
+    // kata_teacher (1.1): a stream given the shared teacher scores, frame for frame, exactly as one given the same
+    // clip by AttachTeacher; the teacher outlives its Dispose in the stream.
+    static StreamDesc StencilDesc(Model model)
+    {
+        StreamDesc d = Context.DefaultStreamDesc();
+        d.Stencil = model.Stencil;
+        return d;
+    }
+
+    static void SharedTeacherScoresAsAttachTeacher(Context ctx, string repo)
+    {
+        using (Model model = ctx.LoadModel(Path.Combine(repo, "models/default.kata")))
+        using (Clip teacher = ctx.LoadClip(Path.Combine(repo, "data/cmu/02_01.bvh")))
+        using (Clip student = ctx.LoadClip(Path.Combine(repo, "data/cmu/02_02.bvh")))
+        using (Skeleton sk = student.Skeleton())
+        using (Kata.Stream own = ctx.OpenStream(sk, "cmu", StencilDesc(model)))
+        using (Kata.Stream shared = ctx.OpenStream(sk, "cmu", StencilDesc(model)))
+        {
+            own.AttachTeacher(model, teacher, 1);
+            using (Teacher t = ctx.CreateTeacher(model, teacher, 1))
+            {
+                Check(t.FrameCount == teacher.FrameCount - 1 && t.MemoryBytes > 0, "Teacher.FrameCount " + t.FrameCount);
+                shared.AttachSharedTeacher(t);
+            }
+            float[] xyz = new float[3 * (int)sk.JointCount];
+            ResultBatch a = own.NewResultBatch(64), b = shared.NewResultBatch(64);
+            int compared = 0, differing = 0;
+            for (uint f = 1; f <= 150; ++f)
+            {
+                student.Positions(f, xyz);
+                own.Push(f / 120.0, xyz);
+                shared.Push(f / 120.0, xyz);
+                int n = own.ReadResults(a), m = shared.ReadResults(b);
+                if (n != m) { ++differing; continue; }
+                for (int i = 0; i < n; ++i, ++compared)
+                    if (a.Results[i].Score != b.Results[i].Score || a.Results[i].MatchedTeacherFrame != b.Results[i].MatchedTeacherFrame ||
+                        a.Results[i].Distance != b.Results[i].Distance || a.Results[i].Scored != 1) ++differing;
+            }
+            Check(compared > 100 && differing == 0, "shared teacher: " + differing + " of " + compared + " results differ");
+        }
+    }
+
     static int Main(string[] args)
     {
         if (args.Length == 1 && args[0] == "--expect-wrong-version")
@@ -332,6 +374,7 @@ static class KataTests
             SkeletonsAndRetargeting(ctx, repo);
             TeacherAsFeaturesAndTheNewestResult(ctx, repo);
             OnePointOneTeacherAndJoints(ctx, repo);
+            SharedTeacherScoresAsAttachTeacher(ctx, repo);
         }
         HandlesReleasedOnce(repo);
         Console.WriteLine(failures == 0 ? "all C# binding checks passed" : failures + " checks failed");

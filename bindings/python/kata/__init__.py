@@ -30,7 +30,8 @@ it before it is destroyed (kata.h requires that order).
 import os
 
 from .errors import KataError, ResultsDroppedError, ResultsDroppedWarning, Status
-from .objects import (GPD_DIMS, GPD_JOINTS, BodyPart, Clip, Context, CueAction, Landmarks, Model, ScoreState, Skeleton, Stencil, UpAxis,
+from .objects import (GPD_DIMS, GPD_JOINTS, BodyPart, Clip, Context, CueAction, Landmarks, Model, ScoreState, Skeleton, Stencil,
+                      Teacher, UpAxis,
                       default_model_path, find_data, library_path, layouts, version)
 from .stream import (DROP_POLICIES, RESULT_DTYPE, ResultBuffer, Results,
                      ScoreRecord, Stream, body_part_name, cue_text, detect_time_units, gpd_joint_name,
@@ -43,7 +44,7 @@ from .runtime import Runtime, shard_of
 #: The loaded libkata's version as "MAJOR.MINOR.PATCH" (the package is versioned with it).
 __version__ = "%d.%d.%d" % version
 
-__all__ = ["Context", "Skeleton", "Clip", "Model", "Landmarks", "Stream", "Retargeter", "Runtime", "Subscriber",
+__all__ = ["Context", "Skeleton", "Clip", "Model", "Teacher", "Landmarks", "Stream", "Retargeter", "Runtime", "Subscriber",
            "Results", "ResultBuffer", "ScoreRecord", "ResultMessage", "PracticeSection",
            "KataError", "ResultsDroppedWarning", "ResultsDroppedError", "Status", "Stencil", "UpAxis", "ScoreState",
            "BodyPart", "CueAction", "cue_text", "gpd_joint_name", "gpd_joint_part", "body_part_name",

@@ -161,7 +161,21 @@ class RuntimeDesc(ctypes.Structure):
                 ("idle_stream_seconds", ctypes.c_double),
                 # 1.1: on_result (a kata_result_callback, left NULL here) and its user, direct_ingest
                 ("on_result", ctypes.c_void_p), ("on_result_user", ctypes.c_void_p),
-                ("direct_ingest", ctypes.c_int32)]
+                ("direct_ingest", ctypes.c_int32),
+                # 1.1: on_stream_open (a kata_stream_open_callback) and its user, stream_stencil
+                ("on_stream_open", ctypes.c_void_p), ("on_stream_open_user", ctypes.c_void_p),
+                ("stream_stencil", ctypes.c_int)]
+
+
+class StreamOpenInfo(ctypes.Structure):
+    """kata_stream_open_info (since 1.1): what a skeleton definition says of the stream it opens."""
+    _fields_ = [("struct_size", ctypes.c_uint32), ("joint_count", ctypes.c_uint32), ("stream_id", ctypes.c_uint64),
+                ("revision", ctypes.c_uint32), ("has_rest_pose", ctypes.c_int32), ("layout", ctypes.c_char_p),
+                ("frame_rate", ctypes.c_double), ("skeleton", ctypes.c_void_p)]
+
+
+#: kata_stream_open_callback (kata/runtime.h, 1.1): (user, info, stream) -> kata_status.
+StreamOpenCallback = ctypes.CFUNCTYPE(ctypes.c_int, ctypes.c_void_p, ctypes.POINTER(StreamOpenInfo), ctypes.c_void_p)
 
 
 class RuntimeCounters(ctypes.Structure):
@@ -173,7 +187,9 @@ class RuntimeCounters(ctypes.Structure):
                                              "ingest_not_owner", "ingest_refused_limit", "ingest_out_of_window",
                                              "ingest_stale", "closed_streams", "ingest_practices",
                                              "ingest_practice_bad_values", "ingest_practice_outside_clip",
-                                             "ingest_practice_no_clip", "ingest_practice_queue_full")]
+                                             "ingest_practice_no_clip", "ingest_practice_queue_full",
+                                             # since 1.1
+                                             "streams_refused_by_app")]
 
 
 class SkeletonMessage(ctypes.Structure):
@@ -254,6 +270,12 @@ _SIGNATURES = {
     "kata_retargeter_reset": (_st, [_p]),
     "kata_teacher_desc_init_sized": (None, [ctypes.POINTER(TeacherDesc), _u32]),
     "kata_stream_attach_teacher": (_st, [_p, ctypes.POINTER(TeacherDesc)]),
+    "kata_teacher_create": (_st, [_p, ctypes.POINTER(TeacherDesc), _pp]),
+    "kata_teacher_destroy": (None, [_p]),
+    "kata_teacher_frame_count": (_u32, [_p]),
+    "kata_teacher_frame_time": (_d, [_p]),
+    "kata_teacher_memory_bytes": (_u64, [_p]),
+    "kata_stream_attach_shared_teacher": (_st, [_p, _p, ctypes.POINTER(TeacherDesc)]),
     "kata_stream_detach_teacher": (_st, [_p]),
     "kata_stream_restart_teacher": (_st, [_p]),
     "kata_stream_read_newest": (_st, [_p, _p, _p, _sz, _p, _sz]),

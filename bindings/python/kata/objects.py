@@ -17,7 +17,7 @@ if TYPE_CHECKING:
     from .runtime import Runtime
     from .stream import Stream
 
-__all__ = ["Context", "Skeleton", "Clip", "Model", "Landmarks", "Stencil", "UpAxis", "ScoreState", "BodyPart", "CueAction",
+__all__ = ["Context", "Skeleton", "Clip", "Model", "Teacher", "Landmarks", "Stencil", "UpAxis", "ScoreState", "BodyPart", "CueAction",
            "default_model_path", "find_data", "layouts", "version", "library_path", "GPD_DIMS", "GPD_JOINTS"]
 
 GPD_DIMS = _n.GPD_DIMS
@@ -288,13 +288,21 @@ class Context(_Handle):
                        publish: Optional[str] = None, send_hwm: Optional[int] = None, ingest: Optional[str] = None,
                        ingest_pull: Optional[bool] = None, max_message_bytes: Optional[int] = None,
                        skeleton_resend_seconds: Optional[float] = None,
-                       max_frame_age_seconds: Optional[float] = None, direct_ingest: bool = False) -> "Runtime":
+                       max_frame_age_seconds: Optional[float] = None, direct_ingest: bool = False,
+                       on_stream_open: Any = None, stream_stencil: Optional[int] = None) -> "Runtime":
         """kata_runtime_create: many streams on worker threads, every result published on ZeroMQ.
         publish: comma-separated endpoints to bind ("tcp://127.0.0.1:*" picks a free port: see
         Runtime.publish_endpoint); ingest: endpoints to read frames from ("bind:" prefix binds).
         max_frame_age_seconds: older ingest frames are dropped (0: never; default 0.25).
         direct_ingest: the ingest is fed by the app's own transport through Runtime.offer instead
         of sockets (ingest must then be None; kata_runtime_desc.direct_ingest, 1.1).
+        on_stream_open(info, stream): called on the runtime's I/O thread when a skeleton definition
+        opens a stream, before its first frame (kata_runtime_desc.on_stream_open, 1.1): info is a
+        dict (stream_id, revision, joint_count, layout, has_rest_pose, frame_rate), stream a Stream
+        valid only during the call, to attach a teacher to (Stream.attach_shared_teacher: build the
+        Teacher beforehand) or set a practice section on. Returning False or raising refuses the
+        stream (counted in counters()["streams_refused_by_app"]). stream_stencil: the stencil of
+        those streams (a teacher needs its model's, Model.stencil).
         Arguments left None keep kata_runtime_desc_init's defaults. [any thread]"""
         from . import runtime as _runtime  # runtime.py builds on this module
         d = _n.RuntimeDesc()
@@ -311,7 +319,34 @@ class Context(_Handle):
         if ingest_pull is not None:
             d.ingest_pull = 1 if ingest_pull else 0
         d.direct_ingest = 1 if direct_ingest else 0
-        return self._make(_runtime.Runtime, "kata_runtime_create", _n.runtime_create, ctypes.byref(d))
+        if stream_stencil is not None:
+            d.stream_stencil = int(stream_stencil)
+        hook = _runtime._stream_open_hook(on_stream_open) if on_stream_open is not None else None
+        if hook is not None:
+            d.on_stream_open = ctypes.cast(hook, ctypes.c_void_p)
+        r = self._make(_runtime.Runtime, "kata_runtime_create", _n.runtime_create, ctypes.byref(d))
+        r._stream_open_hook = hook  # called by the runtime until it is destroyed
+        return r
+
+    def create_teacher(self, model: "Model", **teacher: Any) -> "Teacher":
+        """kata_teacher_create (1.1): a teacher built once, for Stream.attach_shared_teacher; the
+        arguments are Stream.attach_teacher's (clip, skeleton + positions + frame_time, features,
+        joints, first_frame, pose_frame, layout, ghost, ghost_across, alignment_window, on_progress,
+        retarget options); ghost, ghost_across, alignment_window and the retarget options are the
+        defaults of the streams it is attached to. [any thread]"""
+        from . import stream as _stream  # stream.py builds on this module
+        args = {"clip": None, "skeleton": None, "positions": None, "frame_time": None, "layout": None,
+                "first_frame": 0, "pose_frame": -1, "ghost": None, "features": None, "joints": None,
+                "body_height": 0.0, "ghost_across": False, "alignment_window": None, "on_progress": None}
+        retarget = {k: v for k, v in teacher.items() if k not in args}
+        args.update({k: v for k, v in teacher.items() if k in args})
+        d, keep = _stream._teacher_desc(model, args["clip"], args["skeleton"], args["positions"], args["frame_time"],
+                                        args["layout"], args["first_frame"], args["pose_frame"], args["ghost"],
+                                        args["features"], args["joints"], args["body_height"], args["ghost_across"],
+                                        args["alignment_window"], args["on_progress"], retarget)
+        t = self._make(Teacher, "kata_teacher_create", _n.teacher_create, ctypes.byref(d))
+        del keep  # copied by the call
+        return t
 
     def create_retargeter(self, student: "Skeleton", **options: Any) -> "Retargeter":
         """kata_retargeter_create: student is a Skeleton with rest offsets. options: joint_set ("cmu" or
@@ -459,6 +494,27 @@ class Landmarks(_Handle):
         if not address or n == 0:
             return np.zeros((n, j, 3), dtype=np.float32)
         return np.ctypeslib.as_array(ctypes.cast(address, _n.c_float_p), shape=(n, j, 3)).copy()
+
+
+class Teacher(_Handle):
+    """A teacher built once and shared by any number of streams (kata_teacher, 1.1;
+    Context.create_teacher, Stream.attach_shared_teacher). Streams keep it after close()."""
+    _release = _n.teacher_destroy
+
+    @property
+    def frame_count(self) -> int:
+        """Teacher frames the alignment follows (1 for a one-pose teacher)."""
+        return _n.teacher_frame_count(self.handle)
+
+    @property
+    def frame_time(self) -> float:
+        """Seconds between teacher frames (0 for a one-pose teacher)."""
+        return _n.teacher_frame_time(self.handle)
+
+    @property
+    def memory_bytes(self) -> int:
+        """Bytes the teacher's frames hold, once however many streams share it."""
+        return _n.teacher_memory_bytes(self.handle)
 
 
 class Model(_Handle):

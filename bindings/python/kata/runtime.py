@@ -6,11 +6,32 @@ import numpy as np
 
 from . import _native as _n
 from ._util import _address, _positions_f32, _text, _type_error, _typed, _utf8
-from .errors import KataError
+from .errors import KataError, Status
 from .objects import _Handle
 from .stream import Stream
 
 __all__ = ["Runtime", "shard_of"]
+
+
+def _stream_open_hook(callback: Any) -> Any:
+    """A kata_stream_open_callback calling callback(info, stream) (Context.create_runtime)."""
+    def _hook(user: Optional[int], info: Any, handle: Optional[int]) -> int:
+        i = info.contents
+        stream = Stream(handle, None)
+        stream._joints = int(i.joint_count)
+        try:
+            accepted = callback({"stream_id": int(i.stream_id), "revision": int(i.revision),
+                                 "joint_count": int(i.joint_count), "layout": _text(i.layout) or "",
+                                 "has_rest_pose": bool(i.has_rest_pose), "frame_rate": float(i.frame_rate)},
+                                stream)
+        except Exception as e:  # refused: an exception cannot cross the C call
+            import sys
+            print("kata: on_stream_open raised %r; stream %d refused" % (e, int(i.stream_id)), file=sys.stderr)
+            accepted = False
+        finally:
+            stream._h = None  # the runtime's: never released here
+        return 0 if accepted is None or accepted else int(Status.E_STATE)
+    return _n.StreamOpenCallback(_hook)
 
 
 class Runtime(_Handle):

@@ -2,14 +2,14 @@
 records results are read into."""
 import ctypes
 import warnings
-from typing import Any, Callable, List, NoReturn, Optional, Sequence, Tuple
+from typing import Any, Callable, Dict, List, NoReturn, Optional, Sequence, Tuple
 
 import numpy as np
 
 from . import _native as _n
 from ._util import _address, _positions_f32, _text, _time_units_code, _type_error, _typed, _utf8
 from .errors import KataError, ResultsDroppedError, ResultsDroppedWarning, Status
-from .objects import GPD_DIMS, GPD_JOINTS, Clip, Model, Skeleton, _Handle
+from .objects import GPD_DIMS, GPD_JOINTS, Clip, Model, Skeleton, Teacher, _Handle
 from .retarget import _retarget_desc
 
 __all__ = ["Stream", "ResultBuffer", "Results", "ScoreRecord", "cue_text", "gpd_joint_name", "gpd_joint_part", "body_part_name", "gpd_joint_words", "detect_time_units", "RESULT_DTYPE", "DROP_POLICIES"]
@@ -150,6 +150,65 @@ class Results:
 
     def __repr__(self) -> str:
         return "Results(%d results%s)" % (len(self), ", %d dropped before them" % self.dropped if self.dropped else "")
+
+
+def _teacher_desc(model: Any, clip: Any, skeleton: Any, positions: Any, frame_time: Optional[float],
+                  layout: Optional[str], first_frame: int, pose_frame: int, ghost: Optional[bool], features: Any,
+                  joints: Any, body_height: float, ghost_across: bool, alignment_window: Optional[float],
+                  on_progress: Optional[Callable[[int, int], None]], retarget: Dict[str, Any]) -> Tuple[Any, List[Any]]:
+    """A kata_teacher_desc from Stream.attach_teacher's arguments, and what must outlive the C call
+    that reads it (arrays, the progress callback, the retarget desc)."""
+    d = _n.TeacherDesc()
+    _n.teacher_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
+    d.model = model.handle
+    keep: List[Any] = []
+    if clip is not None:
+        d.clip = clip.handle
+    if skeleton is not None:
+        d.skeleton = skeleton.handle
+    if positions is not None:
+        p = _positions_f32(positions)
+        keep.append(p)
+        d.positions = p.ctypes.data
+        d.frames = p.shape[0]
+    if features is not None:
+        f = np.ascontiguousarray(features, dtype=np.float32)
+        if f.size == 0 or f.size % GPD_DIMS:
+            raise ValueError("features must be frames x %d" % GPD_DIMS)
+        keep.append(f)
+        d.features = f.ctypes.data
+        d.frames = f.size // GPD_DIMS
+    if joints is not None:
+        j = np.ascontiguousarray(joints, dtype=np.float32)
+        if j.size != 3 * GPD_JOINTS:
+            raise ValueError("joints must be %d x 3 (the 16 GPD joints, GPD order)" % GPD_JOINTS)
+        keep.append(j)
+        d.joints = j.ctypes.data
+        d.frames = 1
+        d.body_height = body_height
+    if frame_time is not None:
+        d.frame_time = frame_time
+    d.layout = _utf8(layout)
+    d.first_frame = first_frame
+    d.pose_frame = pose_frame
+    if ghost is None:
+        ghost = features is None and joints is None
+    d.ghost = 1 if ghost else 0
+    d.ghost_across = 1 if ghost_across else 0
+    if alignment_window is not None:
+        d.alignment_window = alignment_window
+    if on_progress is not None:
+        progress = on_progress
+
+        def _progress(user: Optional[int], done: int, frames: int) -> None:
+            progress(int(done), int(frames))
+        d.on_progress = _n.ProgressCallback(_progress)
+        keep.append(d.on_progress)
+    rdesc = _retarget_desc(retarget) if retarget else None
+    if rdesc is not None:
+        d.retarget = ctypes.pointer(rdesc)
+        keep.append(rdesc)
+    return d, keep
 
 
 class Stream(_Handle):
@@ -362,59 +421,39 @@ class Stream(_Handle):
         teacher only; 1.1). on_progress(done, frames): called on this thread as the teacher's
         features are computed, done == frames on the last call (a long teacher's loading; not for
         features or joints; 1.1); an exception it raises is printed and ignored (ctypes)."""
-        d = _n.TeacherDesc()
-        _n.teacher_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
-        d.model = model.handle
-        keep: List[Any] = []
-        if clip is not None:
-            d.clip = clip.handle
-        if skeleton is not None:
-            d.skeleton = skeleton.handle
-        if positions is not None:
-            p = _positions_f32(positions)
-            keep.append(p)
-            d.positions = p.ctypes.data
-            d.frames = p.shape[0]
-        if features is not None:
-            f = np.ascontiguousarray(features, dtype=np.float32)
-            if f.size == 0 or f.size % GPD_DIMS:
-                raise ValueError("features must be frames x %d" % GPD_DIMS)
-            keep.append(f)
-            d.features = f.ctypes.data
-            d.frames = f.size // GPD_DIMS
-        if joints is not None:
-            j = np.ascontiguousarray(joints, dtype=np.float32)
-            if j.size != 3 * GPD_JOINTS:
-                raise ValueError("joints must be %d x 3 (the 16 GPD joints, GPD order)" % GPD_JOINTS)
-            keep.append(j)
-            d.joints = j.ctypes.data
-            d.frames = 1
-            d.body_height = body_height
-        if frame_time is not None:
-            d.frame_time = frame_time
-        d.layout = _utf8(layout)
-        d.first_frame = first_frame
-        d.pose_frame = pose_frame
-        if ghost is None:
-            ghost = features is None and joints is None
-        d.ghost = 1 if ghost else 0
-        d.ghost_across = 1 if ghost_across else 0
-        if alignment_window is not None:
-            d.alignment_window = alignment_window
-        if on_progress is not None:
-            progress = on_progress
-
-            def _progress(user: Optional[int], done: int, frames: int) -> None:
-                progress(int(done), int(frames))
-            d.on_progress = _n.ProgressCallback(_progress)
-            keep.append(d.on_progress)
-        rdesc = _retarget_desc(retarget) if retarget else None
-        if rdesc is not None:
-            d.retarget = ctypes.pointer(rdesc)
+        d, keep = _teacher_desc(model, clip, skeleton, positions, frame_time, layout, first_frame, pose_frame, ghost,
+                                features, joints, body_height, ghost_across, alignment_window, on_progress, retarget)
         status = _n.stream_attach_teacher(self.handle, ctypes.byref(d))
         del keep  # copied by the call
         if status:
             self._raise(status, "kata_stream_attach_teacher")
+
+    @_typed
+    def attach_shared_teacher(self, teacher: Teacher, ghost: Optional[bool] = None, ghost_across: Optional[bool] = None,
+                              alignment_window: Optional[float] = None, **retarget: Any) -> None:
+        """kata_stream_attach_shared_teacher (1.1): score against a Teacher built once
+        (Context.create_teacher) without copying it; results are those attach_teacher gives with
+        the same arguments. With no argument the stream takes the per-stream options the teacher
+        was created with; any of ghost, ghost_across, alignment_window or retarget options given
+        replaces them all for this stream (the others at their defaults: ghost True, which a
+        teacher given as features or joints refuses). A practice section: set_practice_section
+        afterwards."""
+        options = None
+        if ghost is not None or ghost_across is not None or alignment_window is not None or retarget:
+            d = _n.TeacherDesc()
+            _n.teacher_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
+            if ghost is not None:
+                d.ghost = 1 if ghost else 0
+            d.ghost_across = 1 if ghost_across else 0
+            if alignment_window is not None:
+                d.alignment_window = alignment_window
+            rdesc = _retarget_desc(retarget) if retarget else None
+            if rdesc is not None:
+                d.retarget = ctypes.pointer(rdesc)
+            options = ctypes.byref(d)
+        status = _n.stream_attach_shared_teacher(self.handle, teacher.handle, options)
+        if status:
+            self._raise(status, "kata_stream_attach_shared_teacher")
 
     def detach_teacher(self) -> None:
         """kata_stream_detach_teacher: later results are not scored and carry no ghost."""

@@ -56,6 +56,36 @@ typedef struct kata_runtime_s* kata_runtime;
  * kata_runtime_* on its runtime (stop and destroy wait for it). `user` is on_result_user. */
 typedef void (*kata_result_callback)(void* user, const kata_result_record* result);
 
+/* What a skeleton definition says of the stream it opens (1.1; kata_runtime_desc.on_stream_open).
+ * Written by the library: struct_size is this library's sizeof(kata_stream_open_info) (a caller
+ * built against an older kata.h reads the fields it knows); valid only during the call. */
+typedef struct kata_stream_open_info {
+  uint32_t struct_size;     /* this library's sizeof(kata_stream_open_info) */
+  uint32_t joint_count;     /* joints per frame of the stream's skeleton */
+  uint64_t stream_id;       /* the stream the definition opens */
+  uint32_t revision;        /* the definition's revision (a new skeleton opens the stream anew) */
+  int32_t has_rest_pose;    /* 1: the definition carries rest offsets (a ghost on its own joints) */
+  const char* layout;       /* the definition's layout name ("cmu", "mediapipe"...), "" for a name map */
+  double frame_rate;        /* Hz as the source declared it; 0 unknown */
+  kata_skeleton skeleton;   /* the stream's skeleton (owned by the library: valid during the call;
+                               kata_skeleton_joint_name etc. may read it) */
+} kata_stream_open_info;
+
+/* Called when a skeleton definition (from the ingest sockets or kata_runtime_offer) opens a
+ * stream, on the runtime's I/O thread (also for kata_runtime_offer's), before the
+ * stream's first frame (1.1; kata_runtime_desc.on_stream_open). `stream` is the new stream, opened
+ * with the definition's layout and kata_runtime_desc.stream_stencil; inside the call the app may
+ * configure it with the calls of the stream owner: kata_stream_attach_shared_teacher (the cheap
+ * way: the teacher built once with kata_teacher_create), kata_stream_attach_teacher,
+ * kata_stream_set_practice_section, kata_stream_set_calibration. After the call the runtime owns
+ * it: the app must not keep or use the handle. Return KATA_OK to open the stream; any other status
+ * refuses it (its frames are dropped as an unknown stream's until a definition is accepted;
+ * counted in kata_runtime_counters.streams_refused_by_app, and within ingest_dropped), and
+ * other streams are untouched. The I/O thread carries every stream's frames: the call must not
+ * block or load anything (build teachers before kata_runtime_start), and must not call
+ * kata_runtime_* on its runtime. `user` is on_stream_open_user. */
+typedef kata_status (*kata_stream_open_callback)(void* user, const kata_stream_open_info* info, kata_stream stream);
+
 /* How a runtime is built. Fill with kata_runtime_desc_init, then change fields. */
 typedef struct kata_runtime_desc {
   uint32_t struct_size;             /* sizeof(kata_runtime_desc) */
@@ -92,6 +122,14 @@ typedef struct kata_runtime_desc {
    * judged as a socket's are (the sender limits, max_frame_age_seconds, the ingest counters).
    * 0 (default): sockets, or no ingest. Since 1.1. */
   int32_t direct_ingest;
+  /* Called when a skeleton definition opens a stream (kata_stream_open_callback above), so the
+   * app attaches its teacher to streams it did not open itself. NULL (default): streams open with
+   * no teacher (features only). Since 1.1. */
+  kata_stream_open_callback on_stream_open;
+  void* on_stream_open_user;        /* passed to on_stream_open as is. Default NULL */
+  /* The stencil of the streams definitions open (kata_stream_desc.stencil): a teacher attached in
+   * on_stream_open needs its model's (kata_model_stencil). Default KATA_STENCIL_BACKWARD. Since 1.1. */
+  kata_stencil stream_stencil;
 } kata_runtime_desc;
 
 /* Counters since the runtime was created (sums over streams). */
@@ -121,6 +159,9 @@ typedef struct kata_runtime_counters {
   uint64_t ingest_practice_outside_clip;  /* outside the stream's teacher clip */
   uint64_t ingest_practice_no_clip;       /* for a stream without a clip teacher */
   uint64_t ingest_practice_queue_full;    /* the stream's worker queue was full */
+  /* ---- 1.1 ---- */
+  uint64_t streams_refused_by_app;  /* definitions kata_runtime_desc.on_stream_open refused (within
+                                      ingest_dropped) */
 } kata_runtime_counters;
 
 /* Fills the first struct_size bytes of desc with the defaults above and sets desc->struct_size

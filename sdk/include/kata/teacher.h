@@ -1,6 +1,6 @@
 /* kata/teacher.h: tasks 2 and 3, attach a teacher and read results: models, the teacher a stream
  * is scored against (and its ghost), the score's calibration and cue, practice sections, and
- * the stream's ring of results.
+ * the stream's ring of results, and a teacher shared by many streams.
  *
  * Part of the C ABI; include "kata/kata.h" (all of it) or this header alone: it includes what it
  * needs. kata.h states the conventions every function here follows. */
@@ -188,6 +188,53 @@ KATA_API kata_status kata_stream_detach_teacher(kata_stream stream);
  * solve starts cold and the score calibrates again (KATA_SCORE_CALIBRATING). KATA_E_STATE
  * without a teacher. [stream owner] */
 KATA_API kata_status kata_stream_restart_teacher(kata_stream stream);
+
+/* ---- A teacher shared by many streams (1.1) ------------------------------------------------
+ * kata_stream_attach_teacher loads (or copies) the teacher for each stream it is given to. A
+ * server scoring many students against one clip builds the teacher once instead:
+ *   kata_teacher t;  kata_teacher_create(ctx, &desc, &t);         -- loads, once
+ *   kata_stream_attach_shared_teacher(s1, t, NULL);  kata_stream_attach_shared_teacher(s2, t, NULL);
+ *   kata_teacher_destroy(t);                                      -- the streams keep it
+ * The streams then read one copy of the teacher's frames (kata_teacher_memory_bytes), and score
+ * exactly as if each had been given the same desc by kata_stream_attach_teacher. */
+/* An immutable teacher, built once: its frames' features (the scorer's reference) and joint
+ * positions (the ghost's source). Reference-counted inside: every stream it is attached to keeps
+ * it alive, so the handle may be destroyed while streams still use it. Since 1.1. */
+typedef struct kata_teacher_s* kata_teacher;
+/* Builds the teacher desc describes, as kata_stream_attach_teacher would for a stream with the
+ * model's stencil: desc->model and exactly one motion are required; desc's per-stream fields
+ * (ghost, ghost_across, retarget, alignment_window) are kept as the defaults of
+ * kata_stream_attach_shared_teacher; on_progress is called on this thread while the features are
+ * computed. The model may be destroyed afterwards. Errors (as kata_stream_attach_teacher's, less
+ * the ones that need a student stream) return their status with the message in
+ * kata_context_last_error; *out is then NULL. *out is owned by the caller. Allocates. Since 1.1.
+ * [any thread] */
+KATA_API kata_status kata_teacher_create(kata_context context, const kata_teacher_desc* desc, kata_teacher* out);
+/* Releases the caller's handle. Streams it is attached to keep the teacher until they detach it,
+ * attach another or are destroyed. NULL is ignored. Since 1.1. [any thread, not concurrently with
+ * other calls on the same handle] */
+KATA_API void kata_teacher_destroy(kata_teacher teacher);
+/* Teacher frames the alignment follows (from desc->first_frame to the end; 1 for a one-pose
+ * teacher); 0 for NULL. Since 1.1. [any thread] */
+KATA_API uint32_t kata_teacher_frame_count(kata_teacher teacher);
+/* Seconds between teacher frames (0 for a one-pose teacher or NULL). Since 1.1. [any thread] */
+KATA_API double kata_teacher_frame_time(kata_teacher teacher);
+/* Bytes the teacher's frames hold (the scorer's reference and the ghost's joint positions): held
+ * once however many streams share it. 0 for NULL. Since 1.1. [any thread] */
+KATA_API uint64_t kata_teacher_memory_bytes(kata_teacher teacher);
+/* Attaches a shared teacher to a stream, as kata_stream_attach_teacher does with the desc the
+ * teacher was created from (same scores, matched frames and ghosts, bit for bit), without copying
+ * it: the stream takes a reference. options: NULL for the per-stream fields the teacher was
+ * created with, or a kata_teacher_desc (kata_teacher_desc_init) whose ghost, ghost_across,
+ * retarget and alignment_window apply to this stream only (its model and on_progress are ignored;
+ * a motion in it is refused). A practice section is set afterwards with
+ * kata_stream_set_practice_section, as for any clip teacher. Replaces any teacher; a refused call
+ * leaves the old one in place, with the message in kata_stream_last_error (a stream whose stencil
+ * is not the model's, a ghost the student's skeleton cannot carry). Allocates the stream's scorer
+ * and ghost solver, never the teacher's frames. Since 1.1. [stream owner; any number of streams
+ * may attach the same teacher from their own threads at once] */
+KATA_API kata_status kata_stream_attach_shared_teacher(kata_stream stream, kata_teacher teacher,
+                                                       const kata_teacher_desc* options);
 
 /* kata_body_part (the five parts of a score breakdown) is in kata/result.h. */
 

@@ -183,6 +183,17 @@ struct kata_stream_s {
   void set_error(const char* message) noexcept { std::snprintf(error, sizeof error, "%s", message); }
 };
 
+// A teacher built once (kata_teacher_create) and shared by any number of streams: the loaded,
+// immutable Teacher (reference-counted: a stream keeps it after the handle is destroyed), how its
+// frames are read for a ghost across layouts, and the per-stream options its desc gave, the
+// defaults of kata_stream_attach_shared_teacher.
+struct kata_teacher_s {
+  std::shared_ptr<const kata::pipeline::Teacher> teacher;
+  kata::retarget::MappedSide ghost_side;
+  kata::pipeline::TeacherOptions options;
+  bool scores_only = false;  // given as features or GPD joints: no positions for a ghost
+};
+
 // Stream-level calls: errors go to the stream's message buffer.
 namespace kata::capi {
 template <class Body>

@@ -2,6 +2,7 @@
 // and draining results. The composition is kata::pipeline::Pipeline's; these only translate.
 #include <algorithm>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -118,6 +119,43 @@ std::shared_ptr<const kata::pipeline::Teacher> make_teacher(const kata_teacher_d
                                                  frame_time, pose, progress);
 }
 
+// One teacher motion at most: a clip, skeleton + positions, features or joints.
+void check_one_motion(const kata_teacher_desc& d, const char* call) {
+  const int motions = (d.clip ? 1 : 0) + (d.skeleton || d.positions ? 1 : 0) + (d.features ? 1 : 0) + (d.joints ? 1 : 0);
+  if (motions > 1) invalid(call, "give one teacher motion: a clip, skeleton + positions, features or joints, not several");
+}
+
+// The per-stream options a desc gives (ghost, ghost_across, retarget, alignment_window), checked
+// against the teacher's motion (one given as features or joints has no ghost) but not yet against
+// the student stream (check_student). Throws kata::Error.
+kata::pipeline::TeacherOptions teacher_options(const kata_teacher_desc& d, const char* call) {
+  kata::pipeline::TeacherOptions options;
+  // The aligner refuses a window out of range, naming it.
+  if (!(d.alignment_window > 0.0 && d.alignment_window <= 60.0))
+    invalid(call, "alignment_window must be in (0, 60] teacher seconds");
+  options.alignment.window = d.alignment_window;
+  options.ghost = d.ghost != 0;
+  options.retarget = kata::capi::retarget_options(d.retarget, &options.ghost_joints);
+  check_one_motion(d, call);
+  if (options.ghost && (d.features || d.joints))
+    invalid(call, "a teacher given as features or GPD joints has no joint positions to make a ghost from "
+                  "(set desc->ghost = 0, or give the teacher as a clip or positions)");
+  // Across layouts the stream's bone-length estimate stands in for a rest pose (the pipeline
+  // makes the ghost once it is ready).
+  options.ghost_across = options.ghost && d.ghost_across != 0;
+  if (d.ghost_across != 0 && d.ghost_across != 1) invalid(call, "ghost_across must be 0 or 1");
+  if (d.ghost_across && !options.ghost) invalid(call, "ghost_across = 1 needs ghost = 1");
+  return options;
+}
+
+// A ghost on the student's own joints needs the student's bone lengths.
+void check_student(kata_stream stream, const kata::pipeline::TeacherOptions& options, const char* call) {
+  if (options.ghost && !options.ghost_across && !stream->pipeline.student().has_rest_pose)
+    invalid(call, "a ghost needs the student's bone lengths, and the stream's skeleton has no rest offsets "
+                  "(set desc->ghost = 0 for scores only, or ghost_across = 1 for the 16 GPD joints from the "
+                  "stream's estimate)");
+}
+
 }  // namespace
 
 namespace kata::capi {
@@ -126,27 +164,8 @@ kata_status attach_teacher(kata_stream stream, const kata_teacher_desc* desc, co
   return guarded_stream(stream, [&] {
     const kata_teacher_desc d = effective_teacher_desc(desc, call);
     if (!d.model) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_attach_teacher: desc->model is NULL");
-    kata::pipeline::TeacherOptions options;
-    // The aligner refuses a window out of range, naming it.
-    if (!(d.alignment_window > 0.0 && d.alignment_window <= 60.0))
-      invalid(call, "alignment_window must be in (0, 60] teacher seconds");
-    options.alignment.window = d.alignment_window;
-    options.ghost = d.ghost != 0;
-    options.retarget = kata::capi::retarget_options(d.retarget, &options.ghost_joints);
-    const int motions = (d.clip ? 1 : 0) + (d.skeleton || d.positions ? 1 : 0) + (d.features ? 1 : 0) + (d.joints ? 1 : 0);
-    if (motions > 1) invalid(call, "give one teacher motion: a clip, skeleton + positions, features or joints, not several");
-    if (options.ghost && (d.features || d.joints))
-      invalid(call, "a teacher given as features or GPD joints has no joint positions to make a ghost from "
-                    "(set desc->ghost = 0, or give the teacher as a clip or positions)");
-    // Across layouts the stream's bone-length estimate stands in for a rest pose (the pipeline
-    // makes the ghost once it is ready).
-    options.ghost_across = options.ghost && d.ghost_across != 0;
-    if (d.ghost_across != 0 && d.ghost_across != 1) invalid(call, "ghost_across must be 0 or 1");
-    if (d.ghost_across && !options.ghost) invalid(call, "ghost_across = 1 needs ghost = 1");
-    if (options.ghost && !options.ghost_across && !stream->pipeline.student().has_rest_pose)
-      invalid(call, "a ghost needs the student's bone lengths, and the stream's skeleton has no rest offsets "
-                    "(set desc->ghost = 0 for scores only, or ghost_across = 1 for the 16 GPD joints from the "
-                    "stream's estimate)");
+    kata::pipeline::TeacherOptions options = teacher_options(d, call);
+    check_student(stream, options, call);
     stream->pipeline.set_teacher(
         make_teacher(d, stream->pipeline.stream().config().stencil, call, &options.ghost_teacher), options);
     return KATA_OK;
@@ -266,6 +285,70 @@ KATA_API uint32_t kata_stream_ghost_joint_count(kata_stream stream) {
 KATA_API int32_t kata_stream_ghost_joint_source(kata_stream stream, uint32_t i) {
   if (!stream || i >= static_cast<uint32_t>(stream->pipeline.ghost_joint_count())) return -1;
   return stream->pipeline.ghost_sources()[i];
+}
+
+KATA_API kata_status kata_teacher_create(kata_context context, const kata_teacher_desc* desc, kata_teacher* out) {
+  const kata::capi::ContextScope scope(context);
+  if (!context || !desc || !out) {
+    kata::capi::set_context_error("kata_teacher_create: context, desc and out must not be NULL");
+    return KATA_E_NULL_POINTER;
+  }
+  *out = nullptr;
+  return kata::capi::guarded_context([&] {
+    const char* call = "kata_teacher_create";
+    const kata_teacher_desc d = effective_teacher_desc(desc, call);
+    if (!d.model) {
+      kata::capi::set_context_error("kata_teacher_create: desc->model is NULL");
+      return KATA_E_NULL_POINTER;
+    }
+    auto t = std::make_unique<kata_teacher_s>();
+    t->options = teacher_options(d, call);
+    t->scores_only = d.features || d.joints;
+    // Built in the model's stencil: a stream it is attached to must use it anyway.
+    t->teacher = make_teacher(d, d.model->metric->stencil(), call, &t->ghost_side);
+    t->options.ghost_teacher = t->ghost_side;
+    *out = t.release();
+    return KATA_OK;
+  });
+}
+
+KATA_API void kata_teacher_destroy(kata_teacher teacher) { delete teacher; }
+
+KATA_API uint32_t kata_teacher_frame_count(kata_teacher teacher) {
+  return teacher ? static_cast<uint32_t>(teacher->teacher->reference->frames()) : 0u;
+}
+
+KATA_API double kata_teacher_frame_time(kata_teacher teacher) {
+  return teacher ? teacher->teacher->reference->frame_time() : 0.0;
+}
+
+KATA_API uint64_t kata_teacher_memory_bytes(kata_teacher teacher) {
+  if (!teacher) return 0u;
+  const kata::pipeline::Teacher& t = *teacher->teacher;
+  return static_cast<uint64_t>(t.reference->memory_bytes() + t.positions.capacity() * sizeof(float));
+}
+
+KATA_API kata_status kata_stream_attach_shared_teacher(kata_stream stream, kata_teacher teacher,
+                                                       const kata_teacher_desc* options) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (!teacher) return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_attach_shared_teacher: teacher is NULL");
+  return guarded_stream(stream, [&] {
+    const char* call = "kata_stream_attach_shared_teacher";
+    kata::pipeline::TeacherOptions o = teacher->options;
+    if (options) {
+      const kata_teacher_desc d = effective_teacher_desc(options, call);
+      if (d.clip || d.skeleton || d.positions || d.features || d.joints)
+        invalid(call, "options gives a teacher motion; the shared teacher is the motion (set only ghost, "
+                      "ghost_across, retarget and alignment_window)");
+      o = teacher_options(d, call);
+      if (o.ghost && teacher->scores_only)
+        invalid(call, "the shared teacher was given as features or GPD joints: it has no ghost (set options->ghost = 0)");
+      o.ghost_teacher = teacher->ghost_side;
+    }
+    check_student(stream, o, call);
+    stream->pipeline.set_teacher(teacher->teacher, o);
+    return KATA_OK;
+  });
 }
 
 }  // extern "C"

@@ -1,4 +1,5 @@
 // C ABI of the runtime (kata.h section "runtime"): handle checks, exceptions -> status, copies.
+#include <atomic>
 #include <sstream>
 
 #include "capi/capi_internal.hpp"
@@ -9,6 +10,8 @@ struct kata_runtime_s {
   std::unique_ptr<kata::runtime::Runtime> runtime;
   kata_context context = nullptr;  // where the runtime's calls report their errors
   bool direct_ingest = false;      // fed by kata_runtime_offer
+  // Definitions the app's on_stream_open refused (written by the I/O thread).
+  std::shared_ptr<std::atomic<uint64_t>> refused_by_app = std::make_shared<std::atomic<uint64_t>>(0);
 };
 
 namespace {
@@ -131,6 +134,44 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
       throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_runtime_create: CURVE keys need key_file");
     }
     auto r = std::make_unique<kata_runtime_s>();
+    if (d.stream_stencil != KATA_STENCIL_BACKWARD && d.stream_stencil != KATA_STENCIL_CENTRAL)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_runtime_create: stream_stencil is not a kata_stencil");
+    const auto stencil = d.stream_stencil == KATA_STENCIL_CENTRAL ? kata::gpd::Stencil::kCentral
+                                                                  : kata::gpd::Stencil::kBackward;
+    if (d.on_stream_open) {
+      // The app configures each announced stream as a kata_stream of its own before the runtime
+      // adopts its pipeline (as kata_runtime_add_stream adopts one).
+      const kata_stream_open_callback callback = d.on_stream_open;
+      void* const user = d.on_stream_open_user;
+      std::shared_ptr<std::atomic<uint64_t>> refused = r->refused_by_app;
+      config.build_stream = [callback, user, stencil, refused](const kata::transport::SkeletonDefinition& def) {
+        kata::runtime::StreamSetup setup = kata::runtime::setup_from_definition(def);
+        setup.pipeline.stream.stencil = stencil;
+        auto stream = std::make_unique<kata_stream_s>(setup.pipeline);
+        stream->layout_name = def.layout;
+        stream->name_map = def.name_map;
+        kata_skeleton_s skeleton{def.skeleton};
+        kata_stream_open_info info;
+        std::memset(&info, 0, sizeof info);
+        info.struct_size = sizeof info;
+        info.joint_count = static_cast<uint32_t>(def.skeleton.joint_count());
+        info.stream_id = def.stream_id;
+        info.revision = def.revision;
+        info.has_rest_pose = def.skeleton.has_rest_pose ? 1 : 0;
+        info.layout = def.layout.c_str();
+        info.frame_rate = def.frame_rate;
+        info.skeleton = &skeleton;
+        const kata_status status = callback(user, &info, stream.get());
+        if (status != KATA_OK) {
+          refused->fetch_add(1, std::memory_order_relaxed);
+          throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                            "on_stream_open refused the stream (" + std::string(kata_status_string(status)) + ")");
+        }
+        kata_stream_s* owned = stream.release();
+        return kata::runtime::RuntimeConfig::AdoptedPipeline{
+            &owned->pipeline, [owned](kata::pipeline::Pipeline*) { delete owned; }, false};
+      };
+    }
     r->runtime = std::make_unique<kata::runtime::Runtime>(std::move(config));
     r->context = context;
     r->direct_ingest = d.direct_ingest != 0;
@@ -254,6 +295,7 @@ KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtim
   k.ingest_practice_outside_clip = c.ingest.practice_outside_clip;
   k.ingest_practice_no_clip = c.ingest.practice_no_clip;
   k.ingest_practice_queue_full = c.ingest.practice_queue_full;
+  k.streams_refused_by_app = runtime->refused_by_app->load(std::memory_order_relaxed);
   kata::capi::write_sized(k, kata::capi::kRuntimeCounters10, out);  // size checked above
   return KATA_OK;
 }

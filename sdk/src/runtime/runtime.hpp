@@ -117,6 +117,16 @@ struct RuntimeConfig {
   // How a stream announced by ingest is set up (default: setup_from_definition); may attach a
   // teacher. Throwing refuses the stream (counted). Runs on the I/O thread.
   std::function<StreamSetup(const transport::SkeletonDefinition&)> configure_stream;
+  // Instead of configure_stream (taking precedence over it): the app builds the announced
+  // stream's pipeline itself (the C ABI's kata_runtime_desc.on_stream_open: a kata_stream the app
+  // attached a teacher to) and hands it over with the function that releases it. Throwing refuses
+  // the stream (counted). Runs on the I/O thread, before the stream's first frame.
+  struct AdoptedPipeline {
+    pipeline::Pipeline* pipeline = nullptr;
+    std::function<void(pipeline::Pipeline*)> release;
+    bool publish_features = false;
+  };
+  std::function<AdoptedPipeline(const transport::SkeletonDefinition&)> build_stream;
   double skeleton_resend_seconds = 1.0;  // periodic re-send of every skeleton definition
   IdleStrategy idle;                     // how workers and the I/O thread wait for work
   // A worker sends its results after this many frames, or as soon as no frame waits for it

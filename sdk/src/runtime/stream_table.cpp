@@ -84,6 +84,17 @@ void Runtime::open_announced(const transport::SkeletonDefinition& d) {
     std::lock_guard<std::mutex> lock(open_mutex_);
     check_open(d);
   }
+  if (config_.build_stream) {
+    RuntimeConfig::AdoptedPipeline built = config_.build_stream(d);
+    std::lock_guard<std::mutex> lock(open_mutex_);
+    try {
+      add_locked(d, built.pipeline, built.release, built.publish_features);
+    } catch (...) {
+      built.release(built.pipeline);  // refused: still the builder's
+      throw;
+    }
+    return;
+  }
   const StreamSetup setup = config_.configure_stream ? config_.configure_stream(d) : setup_from_definition(d);
   std::lock_guard<std::mutex> lock(open_mutex_);
   open_locked(d, setup);
