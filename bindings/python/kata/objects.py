@@ -4,7 +4,7 @@ import ctypes
 import enum
 import os
 import weakref
-from typing import TYPE_CHECKING, Any, List, Optional, Sequence, Tuple, Type, TypeVar
+from typing import TYPE_CHECKING, Any, Dict, List, Optional, Sequence, Tuple, Type, TypeVar
 
 import numpy as np
 
@@ -335,7 +335,7 @@ class Context(_Handle):
         retarget options); ghost, ghost_across, alignment_window and the retarget options are the
         defaults of the streams it is attached to. [any thread]"""
         from . import stream as _stream  # stream.py builds on this module
-        args = {"clip": None, "skeleton": None, "positions": None, "frame_time": None, "layout": None,
+        args: Dict[str, Any] = {"clip": None, "skeleton": None, "positions": None, "frame_time": None, "layout": None,
                 "first_frame": 0, "pose_frame": -1, "ghost": None, "features": None, "joints": None,
                 "body_height": 0.0, "ghost_across": False, "alignment_window": None, "on_progress": None}
         retarget = {k: v for k, v in teacher.items() if k not in args}

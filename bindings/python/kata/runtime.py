@@ -38,6 +38,7 @@ class Runtime(_Handle):
     """Many streams, ZeroMQ in and out (kata_runtime). push may be called from any thread (one
     producer per stream keeps its order); it never blocks: a full worker queue drops and counts."""
     _release = _n.runtime_destroy
+    _stream_open_hook: Any = None  # the on_stream_open trampoline, kept alive with the runtime
 
     def _context_error(self) -> Optional[str]:
         return _text(_n.context_last_error(self._context.handle if self._context is not None else None))
