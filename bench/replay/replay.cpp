@@ -182,9 +182,14 @@ json run_soak(const Options& o, const Clips& c) {
   j["p99_last_windows_us"] = last_p99;
   j["p99_ratio_last_over_first"] = ratio;
   j["lost"] = lost;
-  const bool p50_ok = o.p50_growth <= 0 || p50_ratio <= o.p50_growth;
+  // A growth beyond the ratio counts only when it also exceeds --p50-slack-us: at one stream the
+  // p50 is an idle machine's wake-up, which wanders by +-150 us between minutes on this guest
+  // (220-390 us measured in runs minutes apart), while the drift the soak is for grows without
+  // bound (30 us/s is 1.8 ms over a minute).
+  const bool p50_ok = o.p50_growth <= 0 || p50_ratio <= o.p50_growth || last_p50 - first_p50 <= o.p50_slack_us;
   const bool p99_ok = o.p99_growth <= 0 || ratio <= o.p99_growth;
   j["p50_growth_bound"] = o.p50_growth;
+  j["p50_slack_us"] = o.p50_slack_us;
   j["p99_growth_bound"] = o.p99_growth;
   const bool rss_ok = drift <= 1.0;
   const bool pass = lost == 0 && drops == 0 && unaccounted == 0 && rss_ok && p50_ok && p99_ok;
@@ -358,6 +363,10 @@ void setup(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--p50-growth", o->p50_growth,
                   "with --soak: the last windows' p50 must be <= this x the first's (0: reported, not judged)")
+      ->capture_default_str();
+  cmd->add_option("--p50-slack-us", o->p50_slack_us,
+                  "with --soak: a p50 growth within this many us passes whatever its ratio (an idle machine's "
+                  "wake-up wanders; a drift grows without bound)")
       ->capture_default_str();
   cmd->add_option("--judge-windows", o->judge_windows,
                   "with --soak: the first and last p50 / p99 are medians over this many windows each")

@@ -62,6 +62,7 @@ struct Options {
   double window = 60.0;  // soak: seconds per latency window
   double p99_growth = 1.25;  // soak: last windows' p99 <= this x the first's; 0: reported only
   double p50_growth = 1.15;  // soak: last windows' p50 <= this x the first's; 0: reported only
+  double p50_slack_us = 0.0;  // soak: a p50 growth within this many us passes whatever its ratio
   int judge_windows = 1;     // soak: first / last figures are medians over this many windows
   double inject_growth_us_per_s = 0.0;  // internal (the judge's own test): added latency per second
   double p99_bound_us = 0.0;  // 0: only the 1.25 x bare ratio bounds --find-max
