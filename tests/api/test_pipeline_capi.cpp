@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "kata/kata.h"
+#include "support/capi_fixture.hpp"
 #include "support/capi_teacher.hpp"
 #include "support/alloc_counter.hpp"
 
@@ -16,43 +17,9 @@ namespace {
 
 constexpr uint32_t kFrames = 120;
 
-struct PipelineCapi : ::testing::Test {
-  void SetUp() override {
-    ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
-    ASSERT_EQ(kata_model_load(ctx, KATA_SOURCE_DIR "/models/default.kata", &model), KATA_OK)
-        << kata_context_last_error(ctx);
-    ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_01.bvh", &teacher), KATA_OK);
-    ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &student), KATA_OK);
-    ASSERT_EQ(kata_clip_skeleton(student, &skel), KATA_OK);
-    joints = kata_skeleton_joint_count(skel);
-  }
-  void TearDown() override {
-    kata_skeleton_destroy(skel);
-    kata_clip_destroy(student);
-    kata_clip_destroy(teacher);
-    kata_model_destroy(model);
-    kata_context_destroy(ctx);
-  }
-  kata_stream open(uint32_t capacity = 64) {
-    kata_stream_desc d;
-    kata_stream_desc_init(&d);
-    d.layout = "cmu";
-    d.stencil = kata_model_stencil(model);
-    d.result_capacity = capacity;
-    kata_stream s = nullptr;
-    EXPECT_EQ(kata_stream_open(ctx, skel, &d, &s), KATA_OK) << kata_context_last_error(ctx);
-    return s;
-  }
-  std::vector<float> frame(kata_clip clip, uint32_t f) {
-    std::vector<float> p(3 * static_cast<size_t>(kata_skeleton_joint_count(skel)));
-    EXPECT_EQ(kata_clip_positions(clip, f, p.data(), p.size()), KATA_OK);
-    return p;
-  }
-  kata_context ctx = nullptr;
-  kata_model model = nullptr;
-  kata_clip teacher = nullptr, student = nullptr;
-  kata_skeleton skel = nullptr;
-  uint32_t joints = 0;
+struct PipelineCapi : kata::test::CapiClips {
+  PipelineCapi() : CapiClips(KATA_DATA_DIR "/cmu/02_01.bvh", KATA_DATA_DIR "/cmu/07_01.bvh") {}
+  kata_stream open(uint32_t capacity = 64) { return CapiClips::open(capacity); }
 };
 
 TEST_F(PipelineCapi, EveryFrameScoredAndGhostedWhenReadAtAQuarterOfThePushRate) {

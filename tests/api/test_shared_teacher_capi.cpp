@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "kata/kata.h"
+#include "support/capi_fixture.hpp"
 
 namespace {
 
@@ -26,33 +27,9 @@ long long rss_bytes() {
   return n == 2 ? resident * static_cast<long long>(sysconf(_SC_PAGESIZE)) : -1;
 }
 
-struct SharedTeacher : ::testing::Test {
-  void SetUp() override {
-    ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
-    ASSERT_EQ(kata_model_load(ctx, KATA_SOURCE_DIR "/models/default.kata", &model), KATA_OK)
-        << kata_context_last_error(ctx);
-    ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_01.bvh", &teacher_clip), KATA_OK);
-    ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_02.bvh", &student_clip), KATA_OK);
-    ASSERT_EQ(kata_clip_skeleton(student_clip, &skel), KATA_OK);
-    joints = kata_skeleton_joint_count(skel);
-  }
-  void TearDown() override {
-    kata_skeleton_destroy(skel);
-    kata_clip_destroy(student_clip);
-    kata_clip_destroy(teacher_clip);
-    kata_model_destroy(model);
-    kata_context_destroy(ctx);
-  }
-  kata_stream open() {
-    kata_stream_desc d;
-    kata_stream_desc_init(&d);
-    d.layout = "cmu";
-    d.stencil = kata_model_stencil(model);
-    d.result_capacity = 512;
-    kata_stream s = nullptr;
-    EXPECT_EQ(kata_stream_open(ctx, skel, &d, &s), KATA_OK) << kata_context_last_error(ctx);
-    return s;
-  }
+struct SharedTeacher : kata::test::CapiClips {
+  SharedTeacher() : CapiClips(KATA_DATA_DIR "/cmu/02_01.bvh", KATA_DATA_DIR "/cmu/02_02.bvh") {}
+  kata_stream open() { return CapiClips::open(512); }
   kata_teacher_desc desc(kata_clip clip) {
     kata_teacher_desc t;
     kata_teacher_desc_init(&t);
@@ -67,8 +44,8 @@ struct SharedTeacher : ::testing::Test {
            std::vector<float>* ghosts) {
     std::vector<float> p(3 * static_cast<size_t>(joints));
     for (uint32_t f = first; f < first + n; ++f) {
-      ASSERT_EQ(kata_clip_positions(student_clip, f % kata_clip_frame_count(student_clip), p.data(), p.size()), KATA_OK);
-      ASSERT_EQ(kata_stream_push(s, f * kata_clip_frame_time(student_clip), p.data(), joints), KATA_OK)
+      ASSERT_EQ(kata_clip_positions(student, f % kata_clip_frame_count(student), p.data(), p.size()), KATA_OK);
+      ASSERT_EQ(kata_stream_push(s, f * kata_clip_frame_time(student), p.data(), joints), KATA_OK)
           << kata_stream_last_error(s);
     }
     const uint32_t pending = kata_stream_results_pending(s);
@@ -101,24 +78,19 @@ struct SharedTeacher : ::testing::Test {
       EXPECT_EQ(a[i].ghost_joint_count, b[i].ghost_joint_count);
     }
   }
-  kata_context ctx = nullptr;
-  kata_model model = nullptr;
-  kata_clip teacher_clip = nullptr, student_clip = nullptr;
-  kata_skeleton skel = nullptr;
-  uint32_t joints = 0;
 };
 
 TEST_F(SharedTeacher, ScoresAndGhostsAreBitIdenticalToAPerStreamTeacherEvenAfterTheHandleIsDestroyed) {
-  const kata_teacher_desc d = desc(teacher_clip);
+  const kata_teacher_desc d = desc(teacher);
   kata_stream own = open();
   ASSERT_EQ(kata_stream_attach_teacher(own, &d), KATA_OK) << kata_stream_last_error(own);
   kata_teacher t = nullptr;
   ASSERT_EQ(kata_teacher_create(ctx, &d, &t), KATA_OK) << kata_context_last_error(ctx);
-  EXPECT_EQ(kata_teacher_frame_count(t), kata_clip_frame_count(teacher_clip) - 1);
-  EXPECT_EQ(kata_teacher_frame_time(t), kata_clip_frame_time(teacher_clip));
+  EXPECT_EQ(kata_teacher_frame_count(t), kata_clip_frame_count(teacher) - 1);
+  EXPECT_EQ(kata_teacher_frame_time(t), kata_clip_frame_time(teacher));
   // At least the teacher's joint positions (frames x joints x 3 floats) are held.
   kata_skeleton tskel = nullptr;
-  ASSERT_EQ(kata_clip_skeleton(teacher_clip, &tskel), KATA_OK);
+  ASSERT_EQ(kata_clip_skeleton(teacher, &tskel), KATA_OK);
   EXPECT_GE(kata_teacher_memory_bytes(t),
             uint64_t{kata_teacher_frame_count(t)} * kata_skeleton_joint_count(tskel) * 3 * sizeof(float));
   kata_skeleton_destroy(tskel);
@@ -156,7 +128,7 @@ TEST_F(SharedTeacher, ScoresAndGhostsAreBitIdenticalToAPerStreamTeacherEvenAfter
 }
 
 TEST_F(SharedTeacher, PerStreamOptionsApplyToOneStreamAndAMotionInThemIsRefused) {
-  kata_teacher_desc d = desc(teacher_clip);
+  kata_teacher_desc d = desc(teacher);
   kata_teacher t = nullptr;
   ASSERT_EQ(kata_teacher_create(ctx, &d, &t), KATA_OK) << kata_context_last_error(ctx);
   // Scores only on one stream: the same scores as a per-stream teacher without a ghost.
@@ -176,13 +148,13 @@ TEST_F(SharedTeacher, PerStreamOptionsApplyToOneStreamAndAMotionInThemIsRefused)
   // A motion in the options is refused and leaves the stream's teacher in place.
   kata_teacher_desc motion;
   kata_teacher_desc_init(&motion);
-  motion.clip = student_clip;
+  motion.clip = student;
   EXPECT_EQ(kata_stream_attach_shared_teacher(a, t, &motion), KATA_E_INVALID_ARGUMENT);
   EXPECT_NE(std::strstr(kata_stream_last_error(a), "motion"), nullptr);
   EXPECT_EQ(kata_stream_attach_shared_teacher(a, nullptr, nullptr), KATA_E_NULL_POINTER);
   run(a, 120, 30, &r_a, &g);
   for (const kata_result_record& r : r_a) EXPECT_EQ(r.scored, 1);
-  kata_teacher_desc no_model = desc(teacher_clip);
+  kata_teacher_desc no_model = desc(teacher);
   no_model.model = nullptr;
   kata_teacher none = nullptr;
   EXPECT_EQ(kata_teacher_create(ctx, &no_model, &none), KATA_E_NULL_POINTER);
@@ -211,11 +183,11 @@ TEST_F(SharedTeacher, ThirtyTwoStreamsOnOneTeacherHoldOneCopy) {
   const long long before_copies = rss_bytes();
   for (kata_stream s : copies) ASSERT_EQ(kata_stream_attach_teacher(s, &d), KATA_OK);
   const long long copies_growth = rss_bytes() - before_copies;
-  const long long teacher = static_cast<long long>(kata_teacher_memory_bytes(t));
-  std::printf("teacher %lld bytes; 32 streams: shared +%lld bytes RSS, a copy each +%lld bytes RSS\n", teacher,
+  const long long teacher_bytes = static_cast<long long>(kata_teacher_memory_bytes(t));
+  std::printf("teacher %lld bytes; 32 streams: shared +%lld bytes RSS, a copy each +%lld bytes RSS\n", teacher_bytes,
               shared_growth, copies_growth);
   // 31 more copies of the teacher's frames: allow half of them for allocator slack.
-  EXPECT_GE(copies_growth - shared_growth, 31 * teacher / 2);
+  EXPECT_GE(copies_growth - shared_growth, 31 * teacher_bytes / 2);
   EXPECT_LT(shared_growth, copies_growth / 4);
   for (kata_stream s : shared) kata_stream_destroy(s);
   for (kata_stream s : copies) kata_stream_destroy(s);
