@@ -852,3 +852,100 @@ TEST(runtime_capi, OnStreamOpenAttachesASharedTeacherAndARefusalIsCounted) {
   kata_model_destroy(model);
   kata_context_destroy(ctx);
 }
+
+// A practice section the hook sets (kata_stream_set_practice_section inside on_stream_open, as
+// kata serve's [scoring] loop does) is the one the runtime publishes: every result carries it
+// (has_practice, the section's teacher times, the loop, revision 0: no Practice message set it),
+// and the matched teacher time stays inside it.
+struct PracticeHook {
+  kata_teacher teacher = nullptr;
+  int32_t first = 0, last = 0;
+};
+kata_status on_open_practice(void* user, const kata_stream_open_info*, kata_stream stream) {
+  auto* h = static_cast<PracticeHook*>(user);
+  const kata_status s = kata_stream_attach_shared_teacher(stream, h->teacher, nullptr);
+  if (s != KATA_OK) return s;
+  return kata_stream_set_practice_section(stream, h->first, h->last, 1);
+}
+
+TEST(runtime_capi, APracticeSectionSetInOnStreamOpenIsPublishedWithEveryResult) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_model model = nullptr;
+  ASSERT_EQ(kata_model_load(ctx, KATA_SOURCE_DIR "/models/default.kata", &model), KATA_OK);
+  kata_clip student = nullptr, teacher_clip = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &student), KATA_OK);
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_01.bvh", &teacher_clip), KATA_OK);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(student, &skel), KATA_OK);
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  kata_teacher_desc td;
+  kata_teacher_desc_init(&td);
+  td.model = model;
+  td.clip = teacher_clip;
+  td.first_frame = 1;
+  PracticeHook hook;
+  hook.first = 40;
+  hook.last = 160;
+  ASSERT_EQ(kata_teacher_create(ctx, &td, &hook.teacher), KATA_OK) << kata_context_last_error(ctx);
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  Received got;
+  rd.workers = 1;
+  rd.direct_ingest = 1;
+  rd.max_frame_age_seconds = 0.0;
+  rd.on_result = receive;
+  rd.on_result_user = &got;
+  rd.on_stream_open = on_open_practice;
+  rd.on_stream_open_user = &hook;
+  rd.stream_stencil = kata_model_stencil(model);
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  std::vector<unsigned char> buffer(1 << 16);
+  size_t size = 0;
+  kata_skeleton_message sm;
+  kata_skeleton_message_init(&sm);
+  sm.stream_id = 5;
+  sm.skeleton = skel;
+  sm.layout = "cmu";
+  ASSERT_EQ(kata_message_write_skeleton(&sm, buffer.data(), buffer.size(), &size), KATA_OK);
+  ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK);
+  std::vector<float> p(3 * joints);
+  for (int i = 0; i < 100; ++i) {
+    ASSERT_EQ(kata_clip_positions(student, static_cast<uint32_t>(1 + i), p.data(), p.size()), KATA_OK);
+    kata_frame_message fm;
+    kata_frame_message_init(&fm);
+    fm.stream_id = 5;
+    fm.sequence = static_cast<uint64_t>(i);
+    fm.capture_time = 10.0 + i / 128.0;
+    fm.positions = p.data();
+    fm.joint_count = joints;
+    ASSERT_EQ(kata_message_write_frame(&fm, buffer.data(), buffer.size(), &size), KATA_OK);
+    ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK) << i;
+  }
+  ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);
+  kata_teacher_destroy(hook.teacher);
+  // The section's ends in teacher seconds: its rows times the teacher clip's frame time.
+  const double ft = kata_clip_frame_time(teacher_clip);
+  ASSERT_GT(ft, 0.0);
+  ASSERT_GT(got.records.size(), 60u);
+  for (size_t i = 0; i < got.records.size(); ++i) {
+    SCOPED_TRACE(i);
+    const kata_result_record& r = got.records[i];
+    EXPECT_EQ(r.has_practice, 1);
+    EXPECT_EQ(r.practice_revision, 0u);
+    EXPECT_EQ(r.practice_loop, 1);
+    EXPECT_NEAR(r.practice_start_time, hook.first * ft, 1e-9);
+    EXPECT_NEAR(r.practice_end_time, hook.last * ft, 1e-9);
+    if (r.scored) {
+      EXPECT_GE(r.matched_teacher_time, r.practice_start_time - 1e-9);
+      EXPECT_LE(r.matched_teacher_time, r.practice_end_time + 1e-9);
+    }
+  }
+  kata_runtime_destroy(runtime);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(teacher_clip);
+  kata_clip_destroy(student);
+  kata_model_destroy(model);
+  kata_context_destroy(ctx);
+}
