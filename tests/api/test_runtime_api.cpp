@@ -7,6 +7,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstddef>
+#include <cstdio>
 #include <cstring>
 #include <memory>
 #include <string>
@@ -948,4 +949,246 @@ TEST(runtime_capi, APracticeSectionSetInOnStreamOpenIsPublishedWithEveryResult) 
   kata_clip_destroy(student);
   kata_model_destroy(model);
   kata_context_destroy(ctx);
+}
+
+// The 1.1 fields of kata_runtime_desc that a `kata serve` config sets: their defaults are the
+// runtime's behaviour before them, and values outside their ranges are refused by name.
+TEST(runtime_capi, ServeSettingsDefaultToTheEarlierBehaviourAndOutOfRangeValuesAreRefused) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  EXPECT_EQ(rd.shard_count, 1u);
+  EXPECT_EQ(rd.shard_index, 0u);
+  EXPECT_EQ(rd.require_checksum, 1);
+  EXPECT_EQ(rd.idle_backoff, 0);
+  EXPECT_EQ(rd.result_queue_capacity, 0u);
+  EXPECT_EQ(rd.publish_server_key_file, nullptr);
+  EXPECT_EQ(rd.sequence_window, 65536u);
+  struct Bad {
+    const char* word;
+    void (*set)(kata_runtime_desc*);
+  };
+  const Bad bad[] = {
+      {"shard_count", [](kata_runtime_desc* d) { d->shard_count = 0; }},
+      {"shard_count", [](kata_runtime_desc* d) { d->shard_count = 65537; }},
+      {"shard_index", [](kata_runtime_desc* d) { d->shard_count = 3, d->shard_index = 3; }},
+      {"require_checksum", [](kata_runtime_desc* d) { d->require_checksum = 2; }},
+      {"idle_backoff", [](kata_runtime_desc* d) { d->idle_backoff = -1; }},
+      {"result_queue_capacity", [](kata_runtime_desc* d) { d->result_queue_capacity = 1; }},
+      {"sequence_window", [](kata_runtime_desc* d) { d->sequence_window = 0; }},
+      {"key_file", [](kata_runtime_desc* d) { d->publish_server_key_file = "proxy.pub"; }},
+  };
+  for (const Bad& b : bad) {
+    SCOPED_TRACE(b.word);
+    kata_runtime_desc d;
+    kata_runtime_desc_init(&d);
+    b.set(&d);
+    kata_runtime runtime = nullptr;
+    EXPECT_EQ(kata_runtime_create(ctx, &d, &runtime), KATA_E_INVALID_ARGUMENT);
+    EXPECT_EQ(runtime, nullptr);
+    EXPECT_NE(std::strstr(kata_context_last_error(ctx), b.word), nullptr) << kata_context_last_error(ctx);
+  }
+  kata_context_destroy(ctx);
+}
+
+namespace {
+
+// kata_shard_of as kata/runtime.h specifies it (FNV-1a 64 over the id's bytes, least significant
+// first), computed here rather than asked of the library.
+uint32_t fnv_shard(uint64_t id, uint32_t count) {
+  uint64_t h = 14695981039346656037ull;
+  for (int b = 0; b < 8; ++b) {
+    h ^= (id >> (8 * b)) & 0xff;
+    h *= 1099511628211ull;
+  }
+  return count <= 1 ? 0 : static_cast<uint32_t>(h % count);
+}
+
+}  // namespace
+
+// A shard of two fed every kind of ingest outcome through kata_runtime_offer: each new counter
+// equals the number of messages of its kind the test offered, the outcomes add up to the messages
+// received, the shard scores only its own streams (and an out-of-window sequence is judged by the
+// desc's window), per-stream counters add up to the totals, and the histograms hold one count
+// per published result and per frame handed on, their percentiles as documented.
+TEST(runtime_capi, EveryIngestOutcomeIsCountedByCauseAndTheHistogramsHoldEveryCount) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_clip student = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &student), KATA_OK);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(student, &skel), KATA_OK);
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  // Two streams of shard 1 of 2, one of shard 0.
+  std::vector<uint64_t> mine, theirs;
+  for (uint64_t id = 1; mine.size() < 2 || theirs.empty(); ++id)
+    (fnv_shard(id, 2) == 1 ? mine : theirs).push_back(id);
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.workers = 1;
+  rd.direct_ingest = 1;
+  rd.max_frame_age_seconds = 0.0;
+  rd.shard_count = 2;
+  rd.shard_index = 1;
+  rd.sequence_window = 10;
+  rd.idle_backoff = 1;
+  rd.result_queue_capacity = 64;
+  rd.publish_endpoints = "tcp://127.0.0.1:*";  // published results: the latency histogram's
+  Received got;
+  rd.on_result = receive;
+  rd.on_result_user = &got;
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  std::vector<unsigned char> buffer(1 << 16);
+  size_t size = 0;
+  uint64_t offered = 0;
+  auto offer = [&] {
+    ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK);
+    ++offered;
+  };
+  auto skeleton = [&](uint64_t id) {
+    kata_skeleton_message sm;
+    kata_skeleton_message_init(&sm);
+    sm.stream_id = id;
+    sm.skeleton = skel;
+    sm.layout = "cmu";
+    ASSERT_EQ(kata_message_write_skeleton(&sm, buffer.data(), buffer.size(), &size), KATA_OK);
+    offer();
+  };
+  std::vector<float> p(3 * joints);
+  ASSERT_EQ(kata_clip_positions(student, 1, p.data(), p.size()), KATA_OK);
+  auto frame = [&](uint64_t id, uint64_t sequence, uint32_t count) {
+    kata_frame_message fm;
+    kata_frame_message_init(&fm);
+    fm.stream_id = id;
+    fm.sequence = sequence;
+    fm.capture_time = 10.0 + static_cast<double>(sequence) / 128.0;
+    fm.positions = p.data();
+    fm.joint_count = count;
+    ASSERT_EQ(kata_message_write_frame(&fm, buffer.data(), buffer.size(), &size), KATA_OK);
+    offer();
+  };
+  skeleton(mine[0]);
+  skeleton(mine[1]);
+  skeleton(theirs[0]);                               // other shard: 1
+  skeleton(mine[0]);                                 // a re-send: repeated 1
+  const int frames0 = 30, frames1 = 12;
+  for (int i = 0; i < frames0; ++i) frame(mine[0], static_cast<uint64_t>(i), joints);
+  for (int i = 0; i < frames1; ++i) frame(mine[1], static_cast<uint64_t>(i), joints);
+  frame(theirs[0], 0, joints);                       // other shard: 2
+  frame(mine[0], 5, joints);                         // out of order
+  frame(mine[0], frames0 + 20, joints);              // beyond the window of 10
+  frame(mine[1], frames1, joints - 1);               // wrong joint count
+  uint64_t unknown = mine[1] + 1;
+  while (fnv_shard(unknown, 2) != 1) ++unknown;
+  frame(unknown, 0, joints);                         // no definition: unknown stream
+  // Malformed: a topic of this shard's stream (another shard's is dropped on its topic alone)
+  // and no FlatBuffer after it.
+  unsigned char garbage[40] = {};
+  std::snprintf(reinterpret_cast<char*>(garbage), 17, "%016llx", static_cast<unsigned long long>(mine[0]));
+  garbage[16] = 7;
+  ASSERT_EQ(kata_runtime_offer(runtime, garbage, sizeof garbage), KATA_OK);
+  ++offered;
+  ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);
+
+  kata_runtime_counters c;
+  std::memset(&c, 0xff, sizeof c);
+  c.struct_size = sizeof c;
+  ASSERT_EQ(kata_runtime_get_counters(runtime, &c), KATA_OK);
+  EXPECT_EQ(c.ingest_received, offered);
+  EXPECT_EQ(c.ingest_skeletons, 2u);
+  EXPECT_EQ(c.ingest_repeated_skeletons, 1u);
+  EXPECT_EQ(c.ingest_other_shard, 2u);
+  EXPECT_EQ(c.ingest_frames, static_cast<uint64_t>(frames0 + frames1));
+  EXPECT_EQ(c.ingest_out_of_order, 1u);
+  EXPECT_EQ(c.ingest_out_of_window, 1u);
+  EXPECT_EQ(c.ingest_wrong_joint_count, 1u);
+  EXPECT_EQ(c.ingest_unknown_stream, 1u);
+  EXPECT_EQ(c.ingest_malformed, 1u);
+  EXPECT_EQ(c.ingest_dropped, 5u);
+  EXPECT_EQ(c.ingest_closes, 0u);
+  EXPECT_EQ(c.ingest_refused_skeletons, 0u);
+  EXPECT_EQ(c.ingest_other_kind, 0u);
+  EXPECT_EQ(c.ingest_batches, 0u);
+  EXPECT_EQ(c.ingest_batch_frames, 0u);
+  EXPECT_EQ(c.ingest_connections, 0u);  // no socket
+  EXPECT_EQ(c.ingest_handshake_failures, 0u);
+  EXPECT_EQ(c.ingest_last_handshake_error, 0u);
+  EXPECT_EQ(c.pipeline_dropped + c.result_queue_full, c.results_dropped);
+  EXPECT_EQ(c.send_failed, 0u);
+  EXPECT_EQ(c.ingest_received - c.ingest_batches + c.ingest_batch_frames,
+            c.ingest_frames + c.ingest_skeletons + c.ingest_repeated_skeletons + c.ingest_closes + c.ingest_practices +
+                c.ingest_repeated_practices + c.ingest_other_shard + c.ingest_dropped);
+  EXPECT_EQ(c.frames_in, static_cast<uint64_t>(frames0 + frames1));
+
+  // Per stream, in the order they opened; the two structs sum to the totals.
+  uint32_t count = 0;
+  EXPECT_EQ(kata_runtime_get_stream_counters(runtime, nullptr, 0, &count), KATA_E_BUFFER_TOO_SMALL);
+  ASSERT_EQ(count, 2u);
+  std::vector<kata_stream_counters> sc(3);
+  sc[0].struct_size = sizeof sc[0];
+  EXPECT_EQ(kata_runtime_get_stream_counters(runtime, sc.data(), 1, &count), KATA_E_BUFFER_TOO_SMALL);
+  ASSERT_EQ(kata_runtime_get_stream_counters(runtime, sc.data(), 3, &count), KATA_OK);
+  ASSERT_EQ(count, 2u);
+  EXPECT_EQ(sc[0].stream_id, mine[0]);
+  EXPECT_EQ(sc[1].stream_id, mine[1]);
+  EXPECT_EQ(sc[0].frames_in, static_cast<uint64_t>(frames0));
+  EXPECT_EQ(sc[1].frames_in, static_cast<uint64_t>(frames1));
+  EXPECT_EQ(sc[0].out_of_sequence, 2u);  // its out-of-order and out-of-window frames
+  EXPECT_EQ(sc[1].wrong_joints, 1u);
+  uint64_t published = 0, results = 0;
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_EQ(sc[i].struct_size, sizeof sc[i]);
+    published += sc[i].published;
+    results += sc[i].results;
+  }
+  EXPECT_EQ(published, c.published);
+  EXPECT_EQ(results, c.results);
+  EXPECT_EQ(published, got.records.size());
+  EXPECT_EQ(published, static_cast<uint64_t>(frames0 + frames1) - c.refused - c.results_dropped);
+  EXPECT_GT(published, 30u);
+  sc[0].struct_size = 8;
+  EXPECT_EQ(kata_runtime_get_stream_counters(runtime, sc.data(), 3, &count), KATA_E_INVALID_ARGUMENT);
+
+  // Histograms: one count per published result, per frame handed on.
+  std::vector<uint64_t> latency(KATA_LATENCY_BUCKETS + 1, 7), age(KATA_LATENCY_BUCKETS);
+  EXPECT_EQ(kata_runtime_get_histogram(runtime, KATA_HISTOGRAM_LATENCY, latency.data(), KATA_LATENCY_BUCKETS - 1),
+            KATA_E_BUFFER_TOO_SMALL);
+  EXPECT_EQ(kata_runtime_get_histogram(runtime, static_cast<kata_histogram_kind>(2), latency.data(), KATA_LATENCY_BUCKETS),
+            KATA_E_INVALID_ARGUMENT);
+  ASSERT_EQ(kata_runtime_get_histogram(runtime, KATA_HISTOGRAM_LATENCY, latency.data(), KATA_LATENCY_BUCKETS), KATA_OK);
+  ASSERT_EQ(kata_runtime_get_histogram(runtime, KATA_HISTOGRAM_SOURCE_AGE, age.data(), KATA_LATENCY_BUCKETS), KATA_OK);
+  EXPECT_EQ(latency[KATA_LATENCY_BUCKETS], 7u);  // nothing written past the buckets
+  uint64_t latency_sum = 0, age_sum = 0;
+  for (int i = 0; i < KATA_LATENCY_BUCKETS; ++i) {
+    latency_sum += latency[i];
+    age_sum += age[i];
+  }
+  EXPECT_EQ(latency_sum, c.published);
+  EXPECT_EQ(age_sum, c.ingest_frames);
+  for (double q : {0.0, 0.5, 0.99, 1.0})
+    EXPECT_EQ(kata_histogram_percentile(latency.data(), KATA_LATENCY_BUCKETS, q), kata_runtime_latency_percentile(runtime, q));
+  kata_runtime_destroy(runtime);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(student);
+  kata_context_destroy(ctx);
+}
+
+// kata_histogram_percentile on histograms built here: the answer is the upper edge 2^((i+1)/8) ns
+// of the bucket where the running count first reaches q of the total.
+TEST(runtime_capi, HistogramPercentileIsTheUpperEdgeOfTheBucketReachingQ) {
+  std::vector<uint64_t> h(KATA_LATENCY_BUCKETS, 0);
+  EXPECT_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, 0.5), 0.0);  // empty
+  h[80] = 50;   // [2^10, 2^10.125) ns
+  h[160] = 49;  // [2^20, ...)
+  h[200] = 1;
+  EXPECT_DOUBLE_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, 0.5), std::pow(2.0, 81 / 8.0));
+  EXPECT_DOUBLE_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, 0.51), std::pow(2.0, 161 / 8.0));
+  EXPECT_DOUBLE_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, 0.99), std::pow(2.0, 161 / 8.0));
+  EXPECT_DOUBLE_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, 1.0), std::pow(2.0, 201 / 8.0));
+  EXPECT_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS - 1, 0.5), 0.0);
+  EXPECT_EQ(kata_histogram_percentile(nullptr, KATA_LATENCY_BUCKETS, 0.5), 0.0);
+  EXPECT_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, -0.1), 0.0);
+  EXPECT_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, std::nan("")), 0.0);
 }
