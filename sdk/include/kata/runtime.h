@@ -86,6 +86,12 @@ typedef struct kata_stream_open_info {
  * kata_runtime_* on its runtime. `user` is on_stream_open_user. */
 typedef kata_status (*kata_stream_open_callback)(void* user, const kata_stream_open_info* info, kata_stream stream);
 
+/* A plugin for kata_runtime_desc.plugins (since 1.1). */
+typedef struct kata_runtime_plugin {
+  const char* path;    /* the plugin's shared module (.so) */
+  const char* config;  /* its configuration, "key=value;..." as the plugin documents it, or NULL ("") */
+} kata_runtime_plugin;
+
 /* How a runtime is built. Fill with kata_runtime_desc_init, then change fields. */
 typedef struct kata_runtime_desc {
   uint32_t struct_size;             /* sizeof(kata_runtime_desc) */
@@ -153,6 +159,13 @@ typedef struct kata_runtime_desc {
   /* An ingest frame whose sequence is more than this after its stream's last is dropped
    * (kata_runtime_counters.ingest_out_of_window), >= 1. Default 65536. Since 1.1. */
   uint64_t sequence_window;
+  /* Plugins the runtime hosts (kata/kata_plugin.h; since 1.1): plugin_count entries, read during
+   * kata_runtime_create only. Each is loaded and activated with its config by create, in order
+   * (a refusal, the plugin's own message included, fails create naming its file): a sink gets
+   * every result (before on_result), a source is started once the runtime runs and stopped first
+   * thing in kata_runtime_stop. NULL / 0 (default): none. */
+  const kata_runtime_plugin* plugins;
+  uint32_t plugin_count;            /* entries in plugins. Default 0. Since 1.1 */
 } kata_runtime_desc;
 
 /* Counters since the runtime was created (sums over streams). */

@@ -1,17 +1,36 @@
 // C ABI of the runtime (kata.h section "runtime"): handle checks, exceptions -> status, copies.
 #include <atomic>
+#include <mutex>
 #include <sstream>
 
 #include "capi/capi_internal.hpp"
 #include "common/text.hpp"
+#include "runtime/plugin.hpp"
+#include "runtime/plugin_host.hpp"
 #include "runtime/runtime.hpp"
 
 struct kata_runtime_s {
+  // Plugins (kata_runtime_desc.plugins): declared before the runtime, so that they outlive it
+  // (its threads call the sinks until it is destroyed); the sources are stopped first (below).
+  std::shared_ptr<kata::runtime::PluginHostTarget> plugin_target = std::make_shared<kata::runtime::PluginHostTarget>();
+  std::vector<std::unique_ptr<kata::runtime::PluginInstance>> plugin_sinks, plugin_sources;
+  std::mutex sources_mutex;  // kata_runtime_stop may race kata_runtime_destroy's stop
   std::unique_ptr<kata::runtime::Runtime> runtime;
   kata_context context = nullptr;  // where the runtime's calls report their errors
   bool direct_ingest = false;      // fed by kata_runtime_offer
   // Definitions the app's on_stream_open refused (written by the I/O thread).
   std::shared_ptr<std::atomic<uint64_t>> refused_by_app = std::make_shared<std::atomic<uint64_t>>(0);
+
+  // A source plugin pushes into the runtime: stopped before the runtime stops.
+  void stop_sources() {
+    std::lock_guard<std::mutex> lock(sources_mutex);
+    for (auto& s : plugin_sources) s->stop();
+  }
+  ~kata_runtime_s() {
+    stop_sources();
+    runtime.reset();  // its last result reaches the sinks before they are deactivated
+    plugin_target->runtime = nullptr;
+  }
 };
 
 namespace {
@@ -193,7 +212,31 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
             &owned->pipeline, [owned](kata::pipeline::Pipeline*) { delete owned; }, false};
       };
     }
+    if (d.plugin_count > 0 && !d.plugins)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_runtime_create: plugin_count without plugins");
+    if (d.plugin_count > 1024)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_runtime_create: plugin_count above 1024");
+    // Each plugin sink gets every result before on_result (as kata serve hands them on).
+    std::vector<kata::runtime::Sink> plugin_sinks;
+    for (uint32_t i = 0; i < d.plugin_count; ++i) {
+      const kata_runtime_plugin& p = d.plugins[i];
+      if (!p.path || !p.path[0])
+        throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                          "kata_runtime_create: plugins[" + std::to_string(i) + "].path is empty");
+      std::shared_ptr<kata::runtime::LoadedPlugin> loaded =
+          kata::runtime::LoadedPlugin::load(kata::c_string(p.path, "plugin path"));
+      auto instance = std::make_unique<kata::runtime::PluginInstance>(
+          loaded, p.config ? kata::c_string(p.config, "plugin config") : std::string(), r->plugin_target);
+      if (loaded->is_sink()) plugin_sinks.push_back(instance->sink());
+      (loaded->is_source() ? r->plugin_sources : r->plugin_sinks).push_back(std::move(instance));
+    }
+    config.sinks.insert(config.sinks.begin(), plugin_sinks.begin(), plugin_sinks.end());
     r->runtime = std::make_unique<kata::runtime::Runtime>(std::move(config));
+    r->plugin_target->runtime = r->runtime.get();
+    {
+      std::lock_guard<std::mutex> lock(r->sources_mutex);
+      for (auto& source : r->plugin_sources) source->start();  // a failure: r's destructor stops the rest
+    }
     r->context = context;
     r->direct_ingest = d.direct_ingest != 0;
     *out = r.release();
@@ -284,6 +327,7 @@ KATA_API kata_status kata_runtime_stop(kata_runtime runtime) {
   if (!runtime) return KATA_E_NULL_POINTER;
   const kata::capi::ContextScope scope(runtime->context);
   return kata::capi::guarded_context([&] {
+    runtime->stop_sources();  // a source plugin pushes no frame after this
     runtime->runtime->stop();
     return KATA_OK;
   });
