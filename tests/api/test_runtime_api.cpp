@@ -9,6 +9,7 @@
 #include <cstddef>
 #include <cstdio>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -1191,4 +1192,138 @@ TEST(runtime_capi, HistogramPercentileIsTheUpperEdgeOfTheBucketReachingQ) {
   EXPECT_EQ(kata_histogram_percentile(nullptr, KATA_LATENCY_BUCKETS, 0.5), 0.0);
   EXPECT_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, -0.1), 0.0);
   EXPECT_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, std::nan("")), 0.0);
+}
+
+namespace {
+
+struct Kept {
+  std::vector<kata_result_record> records;
+  std::vector<std::vector<float>> ghosts;
+};
+void keep(void* user, const kata_result_record* r) {
+  auto* k = static_cast<Kept*>(user);
+  k->records.push_back(*r);
+  k->ghosts.emplace_back(r->ghost ? std::vector<float>(r->ghost, r->ghost + 3 * r->ghost_joint_count)
+                                  : std::vector<float>());
+}
+
+}  // namespace
+
+// kata_message_write_result (1.1): the message written from each record on_result received is,
+// byte for byte, the message the runtime's ZeroMQ publisher sent for that result (scored, with a
+// ghost and a practice section); a 1.0-sized record writes the cue as "none", and bad records are
+// refused.
+TEST(runtime_capi, AResultWrittenFromItsRecordIsTheMessageTheRuntimePublished) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_clip student = nullptr, teacher = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &student), KATA_OK);
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_01.bvh", &teacher), KATA_OK);
+  kata_model model = nullptr;
+  ASSERT_EQ(kata_model_load(ctx, KATA_SOURCE_DIR "/models/default.kata", &model), KATA_OK);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(student, &skel), KATA_OK);
+  kata_stream_desc sd;
+  kata_stream_desc_init(&sd);
+  sd.layout = "cmu";
+  sd.stencil = kata_model_stencil(model);
+  kata_stream stream = nullptr;
+  ASSERT_EQ(kata_stream_open(ctx, skel, &sd, &stream), KATA_OK);
+  kata_teacher_desc td;
+  kata_teacher_desc_init(&td);
+  td.model = model;
+  td.clip = teacher;
+  td.first_frame = 1;
+  ASSERT_EQ(kata_stream_attach_teacher(stream, &td), KATA_OK) << kata_stream_last_error(stream);
+  ASSERT_EQ(kata_stream_set_practice_section(stream, 10, 200, 1), KATA_OK);
+  Kept kept;
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.workers = 1;
+  rd.publish_endpoints = "tcp://127.0.0.1:*";
+  rd.on_result = keep;
+  rd.on_result_user = &kept;
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  ASSERT_EQ(kata_runtime_add_stream(runtime, 42, &stream, "cmu", 0), KATA_OK) << kata_context_last_error(ctx);
+  void* zctx = zmq_ctx_new();
+  auto sub = std::make_unique<kata::test::ZmqSubscriber>(zctx, kata_runtime_publish_endpoint(runtime), 100000,
+                                                         "000000000000002a", 1 << 16);
+  ASSERT_TRUE(sub->connected());
+  std::vector<char> definition;
+  ASSERT_TRUE(wait_for_definition(*sub, &definition));
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  std::vector<float> p(3 * joints);
+  const int frames = 60;
+  for (int i = 0; i < frames; ++i) {
+    ASSERT_EQ(kata_clip_positions(student, static_cast<uint32_t>(1 + i), p.data(), p.size()), KATA_OK);
+    ASSERT_EQ(kata_runtime_push(runtime, 42, static_cast<uint64_t>(i), i / 120.0, p.data(), joints), KATA_OK);
+  }
+  std::vector<std::vector<unsigned char>> published;
+  const char* buffer = reinterpret_cast<const char*>(sub->data());
+  const auto limit = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (published.size() < static_cast<size_t>(frames) && std::chrono::steady_clock::now() < limit) {
+    const int n = sub->receive(100);
+    if (n > 24 && std::memcmp(buffer + 20, "KRES", 4) == 0)
+      published.emplace_back(buffer, buffer + n);
+  }
+  ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);
+  ASSERT_EQ(published.size(), static_cast<size_t>(frames));
+  ASSERT_EQ(kept.records.size(), static_cast<size_t>(frames));
+  std::vector<unsigned char> written(1 << 16);
+  int scored = 0;
+  for (int i = 0; i < frames; ++i) {
+    SCOPED_TRACE(i);
+    kata_result_record r = kept.records[static_cast<size_t>(i)];
+    r.ghost = kept.ghosts[static_cast<size_t>(i)].empty() ? nullptr : kept.ghosts[static_cast<size_t>(i)].data();
+    ASSERT_GT(r.ghost_joint_count, 0u);
+    ASSERT_EQ(r.has_practice, 1);
+    scored += r.scored;
+    size_t size = 0;
+    ASSERT_EQ(kata_message_write_result(&r, nullptr, 0, &size), KATA_E_BUFFER_TOO_SMALL);
+    ASSERT_EQ(size, published[static_cast<size_t>(i)].size());
+    ASSERT_EQ(kata_message_write_result(&r, written.data(), written.size(), &size), KATA_OK) << kata_context_last_error(ctx);
+    ASSERT_EQ(size, published[static_cast<size_t>(i)].size());
+    EXPECT_EQ(std::memcmp(written.data(), published[static_cast<size_t>(i)].data(), size), 0);
+  }
+  EXPECT_GT(scored, 20);
+  // A 1.0-sized record (no cue fields): the cue reads back as "none", the rest as written.
+  kata_result_record r = kept.records.back();
+  r.ghost = kept.ghosts.back().data();
+  r.cue_joint = 3;
+  r.struct_size = static_cast<uint32_t>(offsetof(kata_result_record, reserved0) + sizeof r.reserved0);
+  size_t size = 0;
+  ASSERT_EQ(kata_message_write_result(&r, written.data(), written.size(), &size), KATA_OK);
+  kata_result_record back;
+  back.struct_size = sizeof back;
+  ASSERT_EQ(kata_message_read_result(written.data(), size, &back), KATA_OK);
+  EXPECT_EQ(back.cue_joint, -1);
+  EXPECT_EQ(back.cue_action, -1);
+  EXPECT_EQ(back.result_sequence, r.result_sequence);
+  EXPECT_EQ(std::memcmp(&back.score, &r.score, sizeof r.score), 0);
+  EXPECT_EQ(back.ghost_joint_count, r.ghost_joint_count);
+  // Refusals write nothing and say why.
+  r.struct_size = 16;
+  EXPECT_EQ(kata_message_write_result(&r, written.data(), written.size(), &size), KATA_E_INVALID_ARGUMENT);
+  EXPECT_EQ(size, 0u);
+  r.struct_size = sizeof r;
+  r.ghost = nullptr;
+  EXPECT_EQ(kata_message_write_result(&r, written.data(), written.size(), &size), KATA_E_NULL_POINTER);
+  std::vector<float> bad = kept.ghosts.back();
+  bad[4] = std::nanf("");
+  r.ghost = bad.data();
+  EXPECT_EQ(kata_message_write_result(&r, written.data(), written.size(), &size), KATA_E_NON_FINITE);
+  EXPECT_NE(std::string(kata_context_last_error(ctx)).find("ghost joint 1"), std::string::npos) << kata_context_last_error(ctx);
+  r.ghost = kept.ghosts.back().data();
+  r.score = std::numeric_limits<float>::infinity();
+  EXPECT_EQ(kata_message_write_result(&r, written.data(), written.size(), &size), KATA_E_NON_FINITE);
+  EXPECT_EQ(kata_message_write_result(nullptr, written.data(), written.size(), &size), KATA_E_NULL_POINTER);
+  sub.reset();
+  zmq_ctx_term(zctx);
+  kata_runtime_destroy(runtime);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(teacher);
+  kata_clip_destroy(student);
+  kata_model_destroy(model);
+  kata_context_destroy(ctx);
 }

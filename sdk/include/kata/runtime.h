@@ -552,6 +552,21 @@ KATA_API kata_status kata_message_write_frame_batch(const kata_frame_message* co
 KATA_API kata_status kata_message_write_practice(const kata_practice_message* message, void* buffer, size_t capacity,
                                                  size_t* size);
 
+/* Writes a result message (schemas/result.fbs; buffers: see above) from a result record, as a
+ * runtime publishes it: for an app that carries a runtime's results over its own transport (a
+ * NATS shard: on_result, then this, then its publish). The message of an on_result record equals,
+ * byte for byte, the one the runtime's ZeroMQ publisher sent for that result (the features of
+ * publish_features are not in the record and not written). record->struct_size is the caller's
+ * sizeof(kata_result_record), at least 1.0's (fields a smaller record lacks are written as
+ * "none"); record->ghost (ghost_joint_count x 3 floats) is read during the call, NULL for none.
+ * KATA_E_NULL_POINTER also for no record, or a ghost_joint_count with no ghost;
+ * KATA_E_INVALID_ARGUMENT for a struct_size below 1.0's or more than 1048576 ghost joints;
+ * KATA_E_NON_FINITE for a NaN or infinite ghost coordinate, distance, score, matched teacher
+ * time or practice time. Does not allocate once its thread has written a message as large.
+ * Since 1.1. [any thread] */
+KATA_API kata_status kata_message_write_result(const kata_result_record* record, void* buffer, size_t capacity,
+                                               size_t* size);
+
 #ifdef __cplusplus
 }
 #endif
