@@ -547,13 +547,16 @@ TEST(runtime_capi, StatsOnTheResultSocketAreValidNonResults) {
 
 // The skeleton definition a runtime publishes for a stream handed to it (the first message a
 // subscriber gets on the stream's topic).
-std::string definition_of(kata_context ctx, kata_stream stream, const char* preset, kata_status* added) {
+std::string definition_of(kata_context ctx, kata_stream stream, const char* preset, kata_status* added,
+                          float frame_rate = -1.0f, float metres_per_unit = 0.0f) {
   kata_runtime_desc rd;
   kata_runtime_desc_init(&rd);
   rd.publish_endpoints = "tcp://127.0.0.1:*";
   kata_runtime runtime = nullptr;
   if (kata_runtime_create(ctx, &rd, &runtime) != KATA_OK) return "";
-  *added = kata_runtime_add_stream(runtime, 5, &stream, preset, 0);
+  // frame_rate -1: the call without rate and units.
+  *added = frame_rate < 0.0f ? kata_runtime_add_stream(runtime, 5, &stream, preset, 0)
+                             : kata_runtime_add_stream_ex(runtime, 5, &stream, preset, 0, frame_rate, metres_per_unit);
   std::string definition;
   if (*added == KATA_OK) {
     void* zctx = zmq_ctx_new();
@@ -632,6 +635,44 @@ TEST(runtime_capi, AddStreamAnnouncesTheStreamsOwnLayout) {
   }
   EXPECT_EQ(defs[0].size(), defs[1].size());
   EXPECT_NE(defs[0], defs[1]);
+
+  // kata_runtime_add_stream_ex: the definition announces the rate and the units, byte for byte
+  // the message a source writes with kata_message_write_skeleton for the same stream (and
+  // kata_runtime_add_stream's is that message with both 0).
+  for (const float rate : {0.0f, 30.0f}) {
+    SCOPED_TRACE(rate);
+    kata_stream_desc_init(&d);
+    d.layout = "mediapipe";
+    ASSERT_EQ(kata_stream_open(ctx, mp, &d, &s), KATA_OK);
+    const std::string def = rate == 0.0f ? definition_of(ctx, s, nullptr, &added)
+                                         : definition_of(ctx, s, nullptr, &added, rate, 0.01f);
+    ASSERT_EQ(added, KATA_OK) << kata_context_last_error(ctx);
+    kata_skeleton_message sm;
+    kata_skeleton_message_init(&sm);
+    sm.stream_id = 5;
+    sm.skeleton = mp;
+    sm.layout = "mediapipe";
+    sm.frame_rate = rate;
+    sm.metres_per_unit = rate == 0.0f ? 0.0f : 0.01f;
+    std::vector<char> expected(1 << 16);
+    size_t size = 0;
+    ASSERT_EQ(kata_message_write_skeleton(&sm, expected.data(), expected.size(), &size), KATA_OK);
+    EXPECT_EQ(def, std::string(expected.data(), size));
+  }
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK);
+  kata_stream_desc_init(&d);
+  d.layout = "mediapipe";
+  ASSERT_EQ(kata_stream_open(ctx, mp, &d, &s), KATA_OK);
+  EXPECT_EQ(kata_runtime_add_stream_ex(runtime, 6, &s, nullptr, 0, std::nanf(""), 1.0f), KATA_E_NON_FINITE);
+  EXPECT_EQ(kata_runtime_add_stream_ex(runtime, 6, &s, nullptr, 0, 30.0f, -1.0f), KATA_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(kata_context_last_error(ctx)).find("metres_per_unit"), std::string::npos);
+  ASSERT_NE(s, nullptr);  // refused: still the caller's
+  EXPECT_EQ(kata_runtime_add_stream_ex(runtime, 6, &s, nullptr, 0, 30.0f, 1.0f), KATA_OK);
+  EXPECT_EQ(s, nullptr);
+  kata_runtime_destroy(runtime);
   kata_skeleton_destroy(mp);
   kata_skeleton_destroy(gpd);
   kata_context_destroy(ctx);

@@ -294,6 +294,14 @@ KATA_API void kata_runtime_destroy(kata_runtime runtime);
  * desc.keep_features). KATA_E_INVALID_ARGUMENT for a used id or a full runtime. [any thread] */
 KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
                                              const char* layout, int32_t publish_features);
+/* As kata_runtime_add_stream, and the published skeleton definition also announces the source's
+ * frame rate (Hz) and units (metres per unit: 1 metres, 0.01 centimetres), as a source's own
+ * definition does (kata_skeleton_message); kata_runtime_add_stream announces both as 0, unknown.
+ * KATA_E_NON_FINITE for a NaN or infinite value, KATA_E_INVALID_ARGUMENT for a negative one
+ * (nothing added: the stream stays the caller's). Since 1.1. [any thread] */
+KATA_API kata_status kata_runtime_add_stream_ex(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
+                                                const char* layout, int32_t publish_features, float frame_rate,
+                                                float metres_per_unit);
 /* Queues one frame of a stream: the source's sequence number, capture time in seconds (must
  * increase), positions (joint_count x 3 floats). KATA_E_NOT_FOUND (no such stream),
  * KATA_E_WRONG_JOINT_COUNT (more than max_joints), KATA_E_QUEUE_FULL (the worker's queue is full:

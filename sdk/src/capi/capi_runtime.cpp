@@ -1,5 +1,6 @@
 // C ABI of the runtime (kata.h section "runtime"): handle checks, exceptions -> status, copies.
 #include <atomic>
+#include <cmath>
 #include <mutex>
 #include <sstream>
 
@@ -248,13 +249,28 @@ KATA_API void kata_runtime_destroy(kata_runtime runtime) { delete runtime; }
 
 KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
                                              const char* layout, int32_t publish_features) {
+  return kata_runtime_add_stream_ex(runtime, stream_id, stream, layout, publish_features, 0.0f, 0.0f);
+}
+
+KATA_API kata_status kata_runtime_add_stream_ex(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
+                                                const char* layout, int32_t publish_features, float frame_rate,
+                                                float metres_per_unit) {
   if (!runtime || !stream || !*stream) return KATA_E_NULL_POINTER;
   const kata::capi::ContextScope scope(runtime->context);
+  if (!std::isfinite(frame_rate) || !std::isfinite(metres_per_unit)) {
+    kata::capi::set_context_error("kata_runtime_add_stream_ex: frame_rate and metres_per_unit must be finite");
+    return KATA_E_NON_FINITE;
+  }
   return kata::capi::guarded_context([&] {
+    if (frame_rate < 0.0f || metres_per_unit < 0.0f)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        "kata_runtime_add_stream_ex: frame_rate and metres_per_unit are >= 0 (0: unknown)");
     kata_stream s = *stream;
     kata::transport::SkeletonDefinition d;
     d.stream_id = stream_id;
     d.revision = 1;
+    d.frame_rate = frame_rate;
+    d.metres_per_unit = metres_per_unit;
     d.skeleton = s->pipeline.student();
     // The stream's own layout, so subscribers and shards rebuild the map it was opened with;
     // a layout that names another contradicts the stream and is refused.
