@@ -517,6 +517,9 @@ void run_serve(const std::string& file, const std::string& counters_path) {
   if (nats) {
     const auto sc = nats->shard()->counters();
     nats->stop();  // gives the partitions back: the other shards take them at once
+    if (nats->results_refused() > 0)
+      std::fprintf(stderr, "kata serve: warning: %llu results could not be written as messages (not published)\n",
+                   static_cast<unsigned long long>(nats->results_refused()));
     std::fprintf(stderr,
                  "kata serve: NATS %llu messages received (%llu handed on; %llu oversized, %llu outside their partition, "
                  "%llu after the partition was given up, %llu dropped as a slow consumer, %llu not taken by the ingest); "

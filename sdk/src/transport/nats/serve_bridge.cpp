@@ -1,14 +1,13 @@
 #include "transport/nats/serve_bridge.hpp"
 
+#include <chrono>
 #include <cstring>
 
 #include "common/error.hpp"
-#include "pipeline/pipeline.hpp"
-#include "pipeline/record.hpp"
 
 namespace kata::transport::nats {
 
-ServeBridge::ServeBridge(ShardOptions options) : options_(std::move(options)), encoder_(std::make_unique<Encoder>()) {}
+ServeBridge::ServeBridge(ShardOptions options) : options_(std::move(options)), message_(4096) {}
 
 ServeBridge::~ServeBridge() { stop(); }
 
@@ -16,13 +15,26 @@ void ServeBridge::publish(const kata_result_record& record) {
   Shard* shard = live_shard_.load(std::memory_order_acquire);
   if (shard == nullptr) return;
   // The runtime stamps published_ns only for its own ZeroMQ publisher (none here): stamped as it
-  // does, just before the encoding, so that a result's computed -> published -> received split
-  // means the same on both transports (kata replay --transport nats reports it).
-  ResultFields stamped;
-  pipeline::copy_record_in(&record, &stamped);
-  stamped.published_ns = pipeline::now_ns();
-  const Bytes bytes = encoder_->result(stamped);
-  shard->publish_result(record.stream_id, bytes.data, bytes.size);
+  // does (steady_clock, CLOCK_MONOTONIC), just before the encoding, so that a result's computed ->
+  // published -> received split means the same on both transports (kata replay --transport nats
+  // reports it).
+  kata_result_record stamped = record;
+  stamped.struct_size = sizeof stamped;  // the runtime's record is at least this kata.h's
+  stamped.published_ns =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()).count();
+  // The ABI's writer: the bytes the runtime's own publisher would send. The buffer grows to the
+  // largest result once (a ghost of 64 joints: about 1.5 kB).
+  size_t size = 0;
+  kata_status status = kata_message_write_result(&stamped, message_.data(), message_.size(), &size);
+  if (status == KATA_E_BUFFER_TOO_SMALL) {
+    message_.resize(size);
+    status = kata_message_write_result(&stamped, message_.data(), message_.size(), &size);
+  }
+  if (status != KATA_OK) {
+    write_failed_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  shard->publish_result(record.stream_id, message_.data(), size);
 }
 
 void ServeBridge::start(Offer offer) {

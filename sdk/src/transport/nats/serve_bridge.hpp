@@ -16,7 +16,8 @@
 // permissions' business. A message the ring cannot take (the I/O thread fell behind, or the
 // runtime is stopping) is counted in bridge_dropped().
 //
-// Results: publish() encodes each one (the same FlatBuffers Result as ZeroMQ's) and publishes it on
+// Results: publish() encodes each one with kata_message_write_result (the same FlatBuffers Result
+// as ZeroMQ's, byte for byte) and publishes it on
 // the stream's result subject under this shard's lease epoch, or drops it (counted) when the
 // stream's partition is not held. Skeleton definitions of the held streams are forwarded to the
 // same subjects, so that a consumer learns each stream's skeleton on NATS as on ZeroMQ.
@@ -35,8 +36,9 @@
 #include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
-#include "kata/result.h"
+#include "kata/kata.h"
 #include "transport/nats/shard.hpp"
 #include "transport/wire.hpp"
 
@@ -66,6 +68,9 @@ class ServeBridge {
   const Shard* shard() const { return shard_.get(); }
   // Messages the runtime's ring would not take (full: the runtime fell behind; or it was stopping).
   uint64_t bridge_dropped() const { return bridge_dropped_.load(std::memory_order_relaxed); }
+  // Results kata_message_write_result refused (a record with a non-finite value: none from a
+  // runtime), not published.
+  uint64_t results_refused() const { return write_failed_.load(std::memory_order_relaxed); }
 
  private:
   void on_message(const void* data, size_t size);
@@ -73,7 +78,8 @@ class ServeBridge {
   Offer offer_;  // set by start() before the first subscription exists
   std::unique_ptr<Shard> shard_;
   std::atomic<Shard*> live_shard_{nullptr};  // for publish(): null before start and after stop
-  std::unique_ptr<Encoder> encoder_;          // [publish()'s thread]
+  std::vector<unsigned char> message_;        // a result's bytes [publish()'s thread]
+  std::atomic<uint64_t> write_failed_{0};     // records kata_message_write_result refused (none expected)
   std::atomic<uint64_t> bridge_dropped_{0};
 };
 
