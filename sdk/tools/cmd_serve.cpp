@@ -61,37 +61,26 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
-#include <filesystem>
-#include <functional>
 #include <map>
 #include <memory>
 #include <string>
 #include <thread>
+#include <vector>
 
-#include <toml++/toml.h>
 #include <zmq.h>
 
 #include "command.hpp"
-#include "common/error.hpp"
-#include "io/bvh.hpp"
-#include "io/clip_features.hpp"
-#include "io/model_file.hpp"
+#include "failure.hpp"
+#include "kata/kata.h"
 #include "load_progress.hpp"
-#include "pipeline/pipeline.hpp"
-#include "runtime/plugin.hpp"
-#include "runtime/plugin_host.hpp"
-#include "runtime/runtime.hpp"
 #include "serve_config.hpp"
 #ifdef KATA_HAVE_NATS
-#include <unistd.h>
-
 #include "transport/nats/serve_bridge.hpp"
 #endif
 
 namespace {
 
-using kata::Error;
-using kata::ErrorKind;
+using kata::cli::fail;
 
 std::atomic<bool> g_stop{false};
 void serve_on_signal(int) { g_stop.store(true); }
@@ -100,56 +89,92 @@ using kata::serve::ServeConfig;
 using kata::serve::TeacherSource;
 using kata::serve::parse_config;
 
+// The C ABI's objects serve holds, released in the reverse order (the runtime before the teachers
+// and the model its streams use; the context last).
+struct Handles {
+  kata_context context = nullptr;
+  kata_model model = nullptr;
+  std::map<std::string, kata_teacher> teachers;
+  kata_runtime runtime = nullptr;
+  ~Handles() {
+    kata_runtime_destroy(runtime);
+    for (auto& [path, t] : teachers) kata_teacher_destroy(t);
+    kata_model_destroy(model);
+    kata_context_destroy(context);
+  }
+  // The library's own message (it names the file), as kata::Error's used to be printed.
+  [[noreturn]] void failed() const { fail(kata_context_last_error(context)); }
+};
+
+kata_runtime_counters counters_of(kata_runtime runtime) {
+  kata_runtime_counters c{};
+  c.struct_size = sizeof c;
+  kata_runtime_get_counters(runtime, &c);
+  return c;
+}
+
 // --counters FILE: every stream's counters after the stop, as JSON ({"streams": {"<id>": {name:
-// count}}, "ingest": {...}}), by the names of runtime::kDropCauses plus frames_in, results and
+// count}}, "ingest": {...}}), by the names of the runtime's drop causes plus frames_in, results and
 // published: what tests/support/accounting.py balances against the frames a test sent.
-void write_counters(const std::string& path, const kata::runtime::Runtime& runtime) {
+void write_counters(const std::string& path, kata_runtime runtime) {
+  uint32_t count = 0;
+  kata_runtime_get_stream_counters(runtime, nullptr, 0, &count);
+  std::vector<kata_stream_counters> streams(count);
+  if (count > 0) {
+    streams[0].struct_size = sizeof streams[0];
+    if (kata_runtime_get_stream_counters(runtime, streams.data(), count, &count) != KATA_OK)
+      fail("serve: cannot read the streams' counters");
+  }
   std::FILE* f = std::fopen(path.c_str(), "w");
-  if (!f) throw Error(ErrorKind::kIo, "serve: cannot write " + path);
+  if (!f) fail("serve: cannot write " + path);
   std::fprintf(f, "{\"streams\": {");
   const char* sep = "";
-  for (const auto& [id, c] : runtime.all_stream_counters()) {
+  for (const kata_stream_counters& c : streams) {
     std::fprintf(f, "%s\n  \"%llu\": {\"frames_in\": %llu, \"results\": %llu, \"published\": %llu", sep,
-                 static_cast<unsigned long long>(id), static_cast<unsigned long long>(c.frames_in),
+                 static_cast<unsigned long long>(c.stream_id), static_cast<unsigned long long>(c.frames_in),
                  static_cast<unsigned long long>(c.results), static_cast<unsigned long long>(c.published));
-    for (const kata::runtime::DropCause& cause : kata::runtime::kDropCauses)
-      std::fprintf(f, ", \"%s\": %llu", cause.name, static_cast<unsigned long long>(c.*cause.count));
+    const std::pair<const char*, uint64_t> causes[] = {
+        {"queue_full", c.queue_full},         {"stopped", c.stopped},
+        {"stale", c.stale},                   {"unauthorised", c.unauthorised},
+        {"out_of_sequence", c.out_of_sequence}, {"wrong_joints", c.wrong_joints},
+        {"refused", c.refused},               {"pipeline_dropped", c.pipeline_dropped},
+        {"result_queue_full", c.result_queue_full}, {"send_failed", c.send_failed}};
+    for (const auto& [name, n] : causes) std::fprintf(f, ", \"%s\": %llu", name, static_cast<unsigned long long>(n));
     std::fprintf(f, "}");
     sep = ",";
   }
-  const kata::transport::IngestCounters i = runtime.counters().ingest;
+  const kata_runtime_counters i = counters_of(runtime);
   std::fprintf(f, "},\n \"ingest\": {\"received\": %llu, \"frames\": %llu, \"dropped\": %llu, \"unknown_stream\": %llu, "
                "\"out_of_order\": %llu, \"sequence_gaps\": %llu, \"other_shard\": %llu, \"batches\": %llu, "
                "\"batch_frames\": %llu}}\n",
-               static_cast<unsigned long long>(i.received), static_cast<unsigned long long>(i.frames),
-               static_cast<unsigned long long>(i.dropped_total()), static_cast<unsigned long long>(i.unknown_stream),
-               static_cast<unsigned long long>(i.out_of_order), static_cast<unsigned long long>(i.sequence_gaps),
-               static_cast<unsigned long long>(i.other_shard), static_cast<unsigned long long>(i.batches),
-               static_cast<unsigned long long>(i.batch_frames));
-  if (std::fclose(f) != 0) throw Error(ErrorKind::kIo, "serve: cannot write " + path);
+               static_cast<unsigned long long>(i.ingest_received), static_cast<unsigned long long>(i.ingest_frames),
+               static_cast<unsigned long long>(i.ingest_dropped), static_cast<unsigned long long>(i.ingest_unknown_stream),
+               static_cast<unsigned long long>(i.ingest_out_of_order), static_cast<unsigned long long>(i.ingest_sequence_gaps),
+               static_cast<unsigned long long>(i.ingest_other_shard), static_cast<unsigned long long>(i.ingest_batches),
+               static_cast<unsigned long long>(i.ingest_batch_frames));
+  if (std::fclose(f) != 0) fail("serve: cannot write " + path);
 }
 
 // The drops of the status line by cause, only those that happened ("unknown stream 120,
 // definitions refused 2"): a sum alone does not say what to fix.
-std::string drop_causes(const kata::runtime::RuntimeCounters& c) {
-  const auto& in = c.ingest;
+std::string drop_causes(const kata_runtime_counters& c) {
   const std::pair<const char*, uint64_t> causes[] = {
-      {"not owner", in.not_owner},
-      {"limit", in.refused_limit},
-      {"window", in.out_of_window},
-      {"stale", in.stale},
-      {"malformed", in.malformed_total()},
-      {"definitions refused", in.refused_skeletons},
-      {"unknown stream", in.unknown_stream},
-      {"wrong joint count", in.wrong_joint_count},
-      {"out of order", in.out_of_order},
-      {"not ingest's kind", in.other_kind},
-      {"practice values", in.practice_bad_values},
-      {"practice outside the clip", in.practice_outside_clip},
-      {"practice without a clip teacher", in.practice_no_clip},
-      {"practice queue full", in.practice_queue_full},
-      {"refused by the pipeline", c.total.refused},
-      {"queues", c.total.queue_full + c.total.result_queue_full + c.total.pipeline_dropped + c.total.send_failed}};
+      {"not owner", c.ingest_not_owner},
+      {"limit", c.ingest_refused_limit},
+      {"window", c.ingest_out_of_window},
+      {"stale", c.ingest_stale},
+      {"malformed", c.ingest_malformed},
+      {"definitions refused", c.ingest_refused_skeletons},
+      {"unknown stream", c.ingest_unknown_stream},
+      {"wrong joint count", c.ingest_wrong_joint_count},
+      {"out of order", c.ingest_out_of_order},
+      {"not ingest's kind", c.ingest_other_kind},
+      {"practice values", c.ingest_practice_bad_values},
+      {"practice outside the clip", c.ingest_practice_outside_clip},
+      {"practice without a clip teacher", c.ingest_practice_no_clip},
+      {"practice queue full", c.ingest_practice_queue_full},
+      {"refused by the pipeline", c.refused},
+      {"queues", c.queue_full + c.result_queue_full + c.pipeline_dropped + c.send_failed}};
   std::string out;
   for (const auto& [name, count] : causes)
     if (count > 0) out += (out.empty() ? "" : ", ") + std::string(name) + " " + std::to_string(count);
@@ -157,13 +182,13 @@ std::string drop_causes(const kata::runtime::RuntimeCounters& c) {
 }
 
 // Why a sender's connection failed its handshake, from ZeroMQ's protocol error, and what to change.
-std::string handshake_advice(uint32_t error, const ServeConfig& config) {
-  const bool sub = config.runtime.ingest.kind == kata::transport::IngestKind::kSub;
+std::string handshake_advice(uint64_t error, const ServeConfig& config) {
+  const bool sub = !config.runtime.ingest_pull;
   // ZeroMQ reports socket kinds that cannot talk without detail (libzmq 4.3: the peer's READY is
   // refused), or as invalid metadata.
   // Over TCP a keyless sender meeting a CURVE ingest is reported the same way (libzmq 4.3), so with
   // a key here that is named first.
-  const bool curve = !config.runtime.ingest.security.curve.own.secret_key.empty();
+  const bool curve = !config.runtime.key_file.empty();
   if (error == 0 || error == ZMQ_PROTOCOL_ERROR_ZMTP_INVALID_METADATA)
     return std::string(curve ? "most likely CURVE is set on one side only ([security] key here; kata send --key and "
                                "--server-key there), else its socket kind cannot talk to this ingest's ("
@@ -176,9 +201,87 @@ std::string handshake_advice(uint32_t error, const ServeConfig& config) {
   if (error == ZMQ_PROTOCOL_ERROR_ZMTP_MECHANISM_MISMATCH)
     return "CURVE is set on one side only ([security] key here; kata send --key and --server-key there)";
   char code[16];
-  std::snprintf(code, sizeof code, "0x%08x", error);
+  std::snprintf(code, sizeof code, "0x%08x", static_cast<uint32_t>(error));
   return std::string("ZeroMQ protocol error ") + code;
 }
+
+// The comma-separated endpoint list kata_runtime_desc takes.
+std::string joined(const std::vector<std::string>& endpoints) {
+  std::string out;
+  for (const std::string& e : endpoints) out += (out.empty() ? "" : ",") + e;
+  return out;
+}
+
+// What on_stream_open needs: each stream's teacher and practice section, found by stream id.
+struct StreamSetup {
+  const ServeConfig* config = nullptr;
+  const std::map<std::string, kata_teacher>* teachers = nullptr;
+  bool scoring = false;  // a model: streams are scored against their teacher
+  const TeacherSource& teacher_of(uint64_t id) const {
+    const auto it = config->teachers.find(id);
+    return it != config->teachers.end() ? it->second : config->default_teacher;
+  }
+  const kata::serve::Practice& practice_of(uint64_t id) const {
+    const auto it = config->practices.find(id);
+    return it != config->practices.end() ? it->second : config->default_practice;
+  }
+};
+
+// A practice section in the teacher's clip frames -> the alignment's rows (first, last, loop;
+// first -1: none set), checked against the clip at start so that a section outside it is refused
+// with its file:line.
+struct Rows {
+  int32_t first = -1, last = -1, loop = 0;
+};
+Rows rows_for(const kata::serve::Practice& p, const TeacherSource& t, kata_teacher teacher) {
+  Rows r;
+  if (p.where.empty() || t.path.empty() || !teacher) return r;
+  const int frames = static_cast<int>(kata_teacher_frame_count(teacher));
+  auto row = [&](int clip_frame) {
+    if (clip_frame < t.first_frame || clip_frame - t.first_frame >= frames)
+      fail(p.where + ": practice frame " + std::to_string(clip_frame) + " is outside " + t.path + " (frames " +
+           std::to_string(t.first_frame) + ".." + std::to_string(t.first_frame + frames - 1) + ")");
+    return clip_frame - t.first_frame;
+  };
+  if (p.teacher_start >= 0) r.first = row(p.teacher_start);
+  if (p.loop_first >= 0) {
+    r.first = row(p.loop_first);
+    r.last = row(p.loop_last);
+    r.loop = 1;
+  }
+  return r;
+}
+
+// Each stream a definition opens: its teacher (shared, built at start) with a ghost when the
+// definition has a rest pose, and its practice section; on the runtime's I/O thread.
+kata_status on_stream_open(void* user, const kata_stream_open_info* info, kata_stream stream) {
+  const StreamSetup& s = *static_cast<const StreamSetup*>(user);
+  const TeacherSource& source = s.teacher_of(info->stream_id);
+  const std::string& path = source.path;
+  if (s.scoring && !path.empty()) {
+    const kata_teacher teacher = s.teachers->at(path);
+    kata_teacher_desc options;
+    kata_teacher_desc_init(&options);
+    options.ghost = s.config->ghost && info->has_rest_pose ? 1 : 0;
+    if (const kata_status status = kata_stream_attach_shared_teacher(stream, teacher, &options)) return status;
+    const Rows r = rows_for(s.practice_of(info->stream_id), source, teacher);  // checked at start
+    if (r.first >= 0)
+      if (const kata_status status = kata_stream_set_practice_section(stream, r.first, r.last, r.loop)) return status;
+  }
+  std::fprintf(stderr, "\nstream %llu: %u joints, %s\n", static_cast<unsigned long long>(info->stream_id),
+               info->joint_count, s.scoring && !path.empty() ? path.c_str() : "features only");
+  return KATA_OK;
+}
+
+void progress_of(void* user, uint32_t done, uint32_t frames) {
+  (*static_cast<kata::tools::LoadProgress*>(user))(static_cast<int>(done), static_cast<int>(frames));
+}
+
+#ifdef KATA_HAVE_NATS
+void publish_on_nats(void* user, const kata_result_record* record) {
+  static_cast<kata::transport::nats::ServeBridge*>(user)->publish(*record);
+}
+#endif
 
 void run_serve(const std::string& file, const std::string& counters_path) {
   ServeConfig config = parse_config(file);
@@ -192,85 +295,81 @@ void run_serve(const std::string& file, const std::string& counters_path) {
       setrlimit(RLIMIT_NOFILE, &limit);
     }
   }
-  std::shared_ptr<const kata::metric::Metric> metric;
-  if (!config.model.empty())
-    metric = std::make_shared<const kata::metric::Metric>(kata::metric::load_model(config.model));
+  Handles h;
+  if (kata_context_create(&h.context) != KATA_OK) fail("serve: cannot create a kata context");
+  if (!config.model.empty() && kata_model_load(h.context, config.model.c_str(), &h.model) != KATA_OK)
+    h.failed();
   // Teachers are loaded once (at start) and shared by every stream that uses them.
-  std::map<std::string, std::shared_ptr<const kata::pipeline::Teacher>> teachers;
   auto load_teacher = [&](const TeacherSource& t) {
-    if (t.path.empty() || !metric || teachers.count(t.path)) return;
+    if (t.path.empty() || !h.model || h.teachers.count(t.path)) return;
     kata::tools::LoadProgress progress(t.path);  // a line on stderr if loading takes > 1 s
-    const kata::BvhClip clip = kata::load_bvh(t.path);
-    const auto positions = kata::clip_positions(clip, t.first_frame);
-    const kata::GpdMap map = kata::make_gpd_map(clip.skeleton, kata::preset_joint_names("cmu"));
-    teachers[t.path] = kata::pipeline::Teacher::from_positions(
-        metric, clip.skeleton, kata::stream_config_for(clip.skeleton, map, metric->stencil()), positions.data(),
-        clip.frame_count() - t.first_frame, clip.frame_time, -1, std::ref(progress));
+    kata_clip clip = nullptr;
+    if (kata_clip_load_bvh(h.context, t.path.c_str(), &clip) != KATA_OK) h.failed();
+    kata_teacher_desc d;
+    kata_teacher_desc_init(&d);
+    d.model = h.model;
+    d.clip = clip;
+    d.first_frame = static_cast<uint32_t>(t.first_frame);
+    d.on_progress = progress_of;
+    d.on_progress_user = &progress;
+    kata_teacher teacher = nullptr;
+    const kata_status status = kata_teacher_create(h.context, &d, &teacher);
+    kata_clip_destroy(clip);
+    if (status != KATA_OK) h.failed();
+    h.teachers[t.path] = teacher;
   };
   load_teacher(config.default_teacher);
   for (const auto& [id, t] : config.teachers) load_teacher(t);
-  // A practice section in the teacher's clip frames -> the alignment's rows, checked against the
-  // clip here (at start), so that a section outside it is refused with its file:line.
-  auto alignment_for = [&](const kata::serve::Practice& p, const TeacherSource& t) {
-    kata::metric::AlignmentOptions o;
-    if (p.where.empty() || t.path.empty() || !metric) return o;
-    const int frames = teachers.at(t.path)->reference->frames();
-    auto row = [&](int clip_frame) {
-      if (clip_frame < t.first_frame || clip_frame - t.first_frame >= frames)
-        throw Error(ErrorKind::kParse, p.where + ": practice frame " + std::to_string(clip_frame) + " is outside " +
-                                           t.path + " (frames " + std::to_string(t.first_frame) + ".." +
-                                           std::to_string(t.first_frame + frames - 1) + ")");
-      return clip_frame - t.first_frame;
-    };
-    if (p.teacher_start >= 0) o.first_frame = row(p.teacher_start);
-    if (p.loop_first >= 0) {
-      o.first_frame = row(p.loop_first);
-      o.last_frame = row(p.loop_last);
-      o.loop = true;
-    }
-    return o;
+  StreamSetup setup;
+  setup.config = &config;
+  setup.teachers = &h.teachers;
+  setup.scoring = h.model != nullptr;
+  auto teacher_handle = [&](const TeacherSource& t) {
+    const auto it = h.teachers.find(t.path);
+    return it != h.teachers.end() ? it->second : nullptr;
   };
-  auto teacher_of = [&](uint64_t id) -> const TeacherSource& {
-    const auto it = config.teachers.find(id);
-    return it != config.teachers.end() ? it->second : config.default_teacher;
-  };
-  auto practice_of = [&](uint64_t id) -> const kata::serve::Practice& {
-    const auto it = config.practices.find(id);
-    return it != config.practices.end() ? it->second : config.default_practice;
-  };
-  alignment_for(config.default_practice, config.default_teacher);
-  for (const auto& [id, t] : config.teachers) alignment_for(practice_of(id), t);
-  for (const auto& [id, p] : config.practices) alignment_for(p, teacher_of(id));
+  rows_for(config.default_practice, config.default_teacher, teacher_handle(config.default_teacher));
+  for (const auto& [id, t] : config.teachers) rows_for(setup.practice_of(id), t, teacher_handle(t));
+  for (const auto& [id, p] : config.practices) rows_for(p, setup.teacher_of(id), teacher_handle(setup.teacher_of(id)));
 
-  config.runtime.configure_stream = [&](const kata::transport::SkeletonDefinition& d) {
-    kata::runtime::StreamSetup s = kata::runtime::setup_from_definition(d);
-    if (!metric) return s;
-    s.pipeline.stream.stencil = metric->stencil();
-    const TeacherSource& source = teacher_of(d.stream_id);
-    const std::string& path = source.path;
-    if (!path.empty()) {
-      s.teacher = teachers.at(path);
-      s.teacher_options.ghost = config.ghost && d.skeleton.has_rest_pose;
-      s.teacher_options.alignment = alignment_for(practice_of(d.stream_id), source);  // checked at start
-    }
-    std::fprintf(stderr, "\nstream %llu: %d joints, %s\n", static_cast<unsigned long long>(d.stream_id),
-                 d.skeleton.joint_count(), path.empty() ? "features only" : path.c_str());
-    return s;
-  };
-
-  // Plugins: every refusal names its file. Sinks are part of the runtime's config; sources are
-  // started once it runs and stopped before it stops.
-  auto target = std::make_shared<kata::runtime::PluginHostTarget>();
-  std::vector<std::unique_ptr<kata::runtime::PluginInstance>> sinks, sources;
-  for (const auto& p : config.plugins) {
-    std::shared_ptr<kata::runtime::LoadedPlugin> loaded = kata::runtime::LoadedPlugin::load(p.path);
-    auto instance = std::make_unique<kata::runtime::PluginInstance>(loaded, p.config, target);
-    if (loaded->is_sink()) config.runtime.sinks.push_back(instance->sink());
-    (loaded->is_source() ? sources : sinks).push_back(std::move(instance));
-  }
+  const kata::serve::RuntimeSettings& rs = config.runtime;
+  const std::string ingest_endpoints = joined(rs.ingest_endpoints), publish_endpoints = joined(rs.publish_endpoints);
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.workers = static_cast<uint32_t>(rs.workers);
+  rd.max_streams = static_cast<uint32_t>(rs.max_streams);
+  rd.queue_capacity = static_cast<uint32_t>(rs.frame_queue_capacity);
+  rd.result_queue_capacity = 4096;  // the runtime's own default: serve sizes only the frame queue
+  rd.publish_endpoints = publish_endpoints.c_str();
+  rd.send_hwm = rs.send_hwm;
+  rd.ingest_endpoints = ingest_endpoints.c_str();
+  rd.ingest_pull = rs.ingest_pull ? 1 : 0;
+  rd.max_message_bytes = rs.max_message_bytes;
+  rd.skeleton_resend_seconds = rs.skeleton_resend_seconds;
+  rd.key_file = rs.key_file.empty() ? nullptr : rs.key_file.c_str();
+  rd.client_keys_dir = rs.client_keys_dir.empty() ? nullptr : rs.client_keys_dir.c_str();
+  rd.ingest_server_key_file = rs.ingest_server_key_file.empty() ? nullptr : rs.ingest_server_key_file.c_str();
+  rd.publish_server_key_file = rs.publish_server_key_file.empty() ? nullptr : rs.publish_server_key_file.c_str();
+  rd.max_streams_per_sender = rs.max_streams_per_sender;
+  rd.max_connections = rs.max_connections;
+  rd.max_frame_age_seconds = static_cast<double>(rs.max_frame_age_ms) / 1000.0;
+  rd.idle_stream_seconds = static_cast<double>(rs.idle_stream_seconds);
+  rd.shard_count = rs.shard_count;
+  rd.shard_index = rs.shard_index;
+  rd.require_checksum = rs.require_checksum ? 1 : 0;
+  rd.idle_backoff = rs.idle_backoff ? 1 : 0;
+  rd.sequence_window = rs.sequence_window;
+  rd.on_stream_open = on_stream_open;
+  rd.on_stream_open_user = &setup;
+  if (h.model) rd.stream_stencil = kata_model_stencil(h.model);
+  // Plugins: hosted by the runtime; every refusal names its file.
+  std::vector<kata_runtime_plugin> plugins;
+  for (const auto& p : config.plugins) plugins.push_back({p.path.c_str(), p.config.c_str()});
+  rd.plugins = plugins.empty() ? nullptr : plugins.data();
+  rd.plugin_count = static_cast<uint32_t>(plugins.size());
   // [transport] kind = "nats": the bridge hands every message to the runtime's direct ingest
-  // (Runtime::offer), its sink publishes the results (declared before the runtime: it outlives the
-  // runtime's last result; stopped before the runtime is destroyed, below).
+  // (kata_runtime_offer), on_result publishes the results (declared before the handles: it
+  // outlives the runtime's last result; stopped before the runtime is destroyed, below).
 #ifdef KATA_HAVE_NATS
   std::unique_ptr<kata::transport::nats::ServeBridge> nats;
   if (config.nats.enabled) {
@@ -299,19 +398,21 @@ void run_serve(const std::string& file, const std::string& counters_path) {
     so.lease.guard_ms = n.lease_ttl_ms / 4;
     so.lease.replicas = n.lease_replicas;
     so.prefix = n.subject_prefix;
-    so.max_message_bytes = config.runtime.ingest.max_message_bytes;
+    so.max_message_bytes = rs.max_message_bytes;
     nats = std::make_unique<kata::transport::nats::ServeBridge>(so);
-    nats->configure(config.runtime);
+    rd.ingest_endpoints = nullptr;
+    rd.direct_ingest = 1;
+    rd.on_result = publish_on_nats;
+    rd.on_result_user = nats.get();
   }
 #else
-  if (config.nats.enabled)
-    throw Error(ErrorKind::kInvalidArgument, "serve: [transport] kind = \"nats\": this kata was built without libnats");
+  if (config.nats.enabled) fail("serve: [transport] kind = \"nats\": this kata was built without libnats");
 #endif
-  kata::runtime::Runtime runtime(config.runtime);
-  target->runtime = &runtime;
+  if (kata_runtime_create(h.context, &rd, &h.runtime) != KATA_OK) fail(kata_context_last_error(h.context));
+  kata_runtime runtime = h.runtime;
 #ifdef KATA_HAVE_NATS
-  // Whichever way this scope ends, libnats' delivery thread stops calling runtime.offer before
-  // the runtime is destroyed (the normal end stops the bridge after runtime.stop(), below).
+  // Whichever way this scope ends, libnats' delivery thread stops calling kata_runtime_offer
+  // before the runtime is destroyed (the normal end stops the bridge after kata_runtime_stop).
   struct StopBridge {
     kata::transport::nats::ServeBridge* bridge;
     ~StopBridge() {
@@ -319,20 +420,25 @@ void run_serve(const std::string& file, const std::string& counters_path) {
     }
   } stop_bridge{nats.get()};
   if (nats) {
-    nats->start(runtime);
+    nats->start([runtime](const void* data, size_t size) { return kata_runtime_offer(runtime, data, size) == KATA_OK; });
     std::fprintf(stderr, "kata serve: NATS shard %s on %s (subjects %s.in.<stream>, results %s.out.<stream>.<epoch>.<shard>)\n",
                  nats->shard()->options().lease.member.c_str(),
                  const_cast<kata::transport::nats::Shard*>(nats->shard())->connection().connected_url().c_str(),
                  config.nats.subject_prefix.c_str(), config.nats.subject_prefix.c_str());
   }
 #endif
-  for (auto& s : sources) s->start();
   std::signal(SIGINT, serve_on_signal);
   std::signal(SIGTERM, serve_on_signal);
-  std::fprintf(stderr, "kata serve: ingest %s, publishing on %s (Ctrl-C stops)\n", runtime.ingest_endpoint().c_str(),
-               runtime.publish_endpoint().c_str());
-  auto previous = runtime.counters();
-  uint64_t previous_out = previous.total.published;
+  const std::string ingest_at = kata_runtime_ingest_endpoint(runtime);
+  std::fprintf(stderr, "kata serve: ingest %s, publishing on %s (Ctrl-C stops)\n", ingest_at.c_str(),
+               kata_runtime_publish_endpoint(runtime));
+  kata_runtime_counters previous = counters_of(runtime);
+  uint64_t previous_out = previous.published;
+  std::vector<uint64_t> latency_before(KATA_LATENCY_BUCKETS), age_before(KATA_LATENCY_BUCKETS);
+  std::vector<uint64_t> latency_now(KATA_LATENCY_BUCKETS), age_now(KATA_LATENCY_BUCKETS);
+  std::vector<uint64_t> window(KATA_LATENCY_BUCKETS), age(KATA_LATENCY_BUCKETS);
+  kata_runtime_get_histogram(runtime, KATA_HISTOGRAM_LATENCY, latency_before.data(), KATA_LATENCY_BUCKETS);
+  kata_runtime_get_histogram(runtime, KATA_HISTOGRAM_SOURCE_AGE, age_before.data(), KATA_LATENCY_BUCKETS);
   auto last = std::chrono::steady_clock::now();
   const auto started = last;
   uint64_t handshakes_told = 0;
@@ -347,69 +453,73 @@ void run_serve(const std::string& file, const std::string& counters_path) {
     const auto now = std::chrono::steady_clock::now();
     const double dt = std::chrono::duration<double>(now - last).count();
     if (dt < config.status_seconds) continue;
-    const auto c = runtime.counters();
-    // Results out: the publisher's, or on NATS the shard's (the runtime hands them to its sink).
-    uint64_t out = c.total.published;
+    const kata_runtime_counters c = counters_of(runtime);
+    // Results out: the publisher's, or on NATS the shard's (the runtime hands them to on_result).
+    uint64_t out = c.published;
 #ifdef KATA_HAVE_NATS
     if (nats) out = nats->shard()->counters().results_published;
 #endif
-    if (c.ingest.handshake_failures > handshakes_told) {
+    if (c.ingest_handshake_failures > handshakes_told) {
       if (handshakes_told == 0)
         std::fprintf(stderr, "\nkata serve: a sender's connection to %s was refused at the handshake: %s; counted "
                              "(handshakes refused), not logged again\n",
-                     runtime.ingest_endpoint().c_str(), handshake_advice(c.ingest.last_handshake_error, config).c_str());
-      handshakes_told = c.ingest.handshake_failures;
+                     ingest_at.c_str(), handshake_advice(c.ingest_last_handshake_error, config).c_str());
+      handshakes_told = c.ingest_handshake_failures;
     }
-    if (!silence_told && c.ingest.received == 0 &&
+    if (!silence_told && c.ingest_received == 0 &&
         std::chrono::duration<double>(now - started).count() >= kSilenceSeconds) {
       silence_told = true;
-      const auto& in = c.ingest;
       std::string why;
-      if (in.handshake_failures > 0)
-        why = std::to_string(in.handshake_failures) + " connection(s) refused at the handshake (above)";
-      else if (in.connections == 0)
+      if (c.ingest_handshake_failures > 0)
+        why = std::to_string(c.ingest_handshake_failures) + " connection(s) refused at the handshake (above)";
+      else if (c.ingest_connections == 0)
         why = "no sender has connected (a bound endpoint waits for senders to connect; a connecting one needs "
               "the sender to bind)";
       else
-        why = std::to_string(in.connections - in.disconnections) + " sender(s) connected but sent nothing (" +
+        why = std::to_string(c.ingest_connections - c.ingest_disconnections) + " sender(s) connected but sent nothing (" +
               config.ingest_kind_where + ")";
-      std::fprintf(stderr, "\nkata serve: nothing received on %s in %.0f s: %s\n", runtime.ingest_endpoint().c_str(),
-                   kSilenceSeconds, why.c_str());
+      std::fprintf(stderr, "\nkata serve: nothing received on %s in %.0f s: %s\n", ingest_at.c_str(), kSilenceSeconds,
+                   why.c_str());
     }
-    uint64_t window[kata::runtime::kLatencyBuckets], age[kata::runtime::kLatencyBuckets];
-    static_assert(kata::transport::IngestCounters::kAgeBuckets == kata::runtime::kLatencyBuckets, "one bucket scheme");
-    for (int i = 0; i < kata::runtime::kLatencyBuckets; ++i) {
-      window[i] = c.latency_histogram[i] - previous.latency_histogram[i];
-      age[i] = c.ingest.age_histogram[i] - previous.ingest.age_histogram[i];
+    // The status window's histograms: this second's copy minus the last one's.
+    kata_runtime_get_histogram(runtime, KATA_HISTOGRAM_LATENCY, latency_now.data(), KATA_LATENCY_BUCKETS);
+    kata_runtime_get_histogram(runtime, KATA_HISTOGRAM_SOURCE_AGE, age_now.data(), KATA_LATENCY_BUCKETS);
+    for (int i = 0; i < KATA_LATENCY_BUCKETS; ++i) {
+      window[i] = latency_now[i] - latency_before[i];
+      age[i] = age_now[i] - age_before[i];
     }
     // Every frame that came in is scored or counted in one drop cause (the pipeline's refusals
     // included: frames with bad values or a time that does not increase).
-    const uint64_t drops = c.total.queue_full + c.total.refused + c.total.result_queue_full +
-                           c.total.pipeline_dropped + c.total.send_failed + c.ingest.dropped_total();
+    const uint64_t drops =
+        c.queue_full + c.refused + c.result_queue_full + c.pipeline_dropped + c.send_failed + c.ingest_dropped;
+    auto pct = [](const std::vector<uint64_t>& histogram, double q) {
+      return kata_histogram_percentile(histogram.data(), KATA_LATENCY_BUCKETS, q) / 1000.0;
+    };
     std::fprintf(stderr,
                  "%sstreams %llu | in %.0f frames/s | out %.0f results/s | drops %llu%s | handshakes refused %llu | "
                  "gaps %llu, restarts %llu | latency in->out p50 %.0f us p99 %.0f us | source age p50 %.0f us p99 %.0f us%s",
                  terminal ? "\r" : "", static_cast<unsigned long long>(c.streams),
-                 static_cast<double>(c.total.frames_in - previous.total.frames_in) / dt,
+                 static_cast<double>(c.frames_in - previous.frames_in) / dt,
                  static_cast<double>(out - previous_out) / dt,
                  static_cast<unsigned long long>(drops), drop_causes(c).c_str(),
-                 static_cast<unsigned long long>(c.ingest.handshake_failures),
-                 static_cast<unsigned long long>(c.ingest.sequence_gaps), static_cast<unsigned long long>(c.ingest.restarts),
-                 kata::runtime::latency_percentile(window, 0.5) / 1000.0,
-                 kata::runtime::latency_percentile(window, 0.99) / 1000.0,
-                 kata::runtime::latency_percentile(age, 0.5) / 1000.0,
-                 kata::runtime::latency_percentile(age, 0.99) / 1000.0, terminal ? "   " : "\n");
+                 static_cast<unsigned long long>(c.ingest_handshake_failures),
+                 static_cast<unsigned long long>(c.ingest_sequence_gaps), static_cast<unsigned long long>(c.ingest_restarts),
+                 pct(window, 0.5), pct(window, 0.99), pct(age, 0.5), pct(age, 0.99), terminal ? "   " : "\n");
     previous = c;
     previous_out = out;
+    latency_before.swap(latency_now);
+    age_before.swap(age_now);
     last = now;
   }
-  for (auto& s : sources) s->stop();
-  runtime.stop();  // finishes queued frames, sends every result, flushes the sink plugins
-  target->runtime = nullptr;
+  // Stops the source plugins, finishes queued frames, sends every result, flushes the sink plugins.
+  if (kata_runtime_stop(runtime) != KATA_OK) fail(kata_context_last_error(h.context));
 #ifdef KATA_HAVE_NATS
   if (nats) {
     const auto sc = nats->shard()->counters();
     nats->stop();  // gives the partitions back: the other shards take them at once
+    if (nats->results_refused() > 0)
+      std::fprintf(stderr, "kata serve: warning: %llu results could not be written as messages (not published)\n",
+                   static_cast<unsigned long long>(nats->results_refused()));
     std::fprintf(stderr,
                  "kata serve: NATS %llu messages received (%llu handed on; %llu oversized, %llu outside their partition, "
                  "%llu after the partition was given up, %llu dropped as a slow consumer, %llu not taken by the ingest); "
@@ -424,33 +534,32 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                  static_cast<unsigned long long>(sc.leases.paused), static_cast<unsigned long long>(sc.reconnects));
   }
 #endif
-  const auto c = runtime.counters();
+  const kata_runtime_counters c = counters_of(runtime);
   std::fprintf(stderr, "\nkata serve: stopped; %llu frames in, %llu results published, %llu ingest messages dropped\n",
-               static_cast<unsigned long long>(c.total.frames_in), static_cast<unsigned long long>(c.total.published),
-               static_cast<unsigned long long>(c.ingest.dropped_total()));
-  const auto& in = c.ingest;
+               static_cast<unsigned long long>(c.frames_in), static_cast<unsigned long long>(c.published),
+               static_cast<unsigned long long>(c.ingest_dropped));
   std::fprintf(stderr,
                "kata serve: ingest %llu messages received (%llu frame batches counted as their %llu frames) = %llu frames + %llu definitions + %llu repeated + %llu closes"
                " + %llu practice settings + %llu repeated + %llu other shard + %llu dropped (not owner %llu, limit %llu, window %llu,"
                " stale %llu, malformed %llu, unknown stream %llu, joints %llu, order %llu, refused definitions %llu, results %llu,"
                " practice values %llu, practice outside the clip %llu, practice without a clip %llu, practice queue full %llu); frames: %llu "
                "refused by the pipeline, %llu lost in queues; connections %llu (%llu refused, %llu handshakes refused)\n",
-               static_cast<unsigned long long>(in.received), static_cast<unsigned long long>(in.batches),
-               static_cast<unsigned long long>(in.batch_frames), static_cast<unsigned long long>(in.frames),
-               static_cast<unsigned long long>(in.skeletons), static_cast<unsigned long long>(in.repeated_skeletons),
-               static_cast<unsigned long long>(in.closes), static_cast<unsigned long long>(in.practices),
-               static_cast<unsigned long long>(in.repeated_practices), static_cast<unsigned long long>(in.other_shard),
-               static_cast<unsigned long long>(in.dropped_total()), static_cast<unsigned long long>(in.not_owner),
-               static_cast<unsigned long long>(in.refused_limit), static_cast<unsigned long long>(in.out_of_window),
-               static_cast<unsigned long long>(in.stale), static_cast<unsigned long long>(in.malformed_total()),
-               static_cast<unsigned long long>(in.unknown_stream), static_cast<unsigned long long>(in.wrong_joint_count),
-               static_cast<unsigned long long>(in.out_of_order), static_cast<unsigned long long>(in.refused_skeletons),
-               static_cast<unsigned long long>(in.other_kind), static_cast<unsigned long long>(in.practice_bad_values),
-               static_cast<unsigned long long>(in.practice_outside_clip), static_cast<unsigned long long>(in.practice_no_clip),
-               static_cast<unsigned long long>(in.practice_queue_full), static_cast<unsigned long long>(c.total.refused),
-               static_cast<unsigned long long>(c.total.queue_full + c.total.result_queue_full + c.total.send_failed),
-               static_cast<unsigned long long>(in.connections), static_cast<unsigned long long>(in.connections_refused),
-               static_cast<unsigned long long>(in.handshake_failures));
+               static_cast<unsigned long long>(c.ingest_received), static_cast<unsigned long long>(c.ingest_batches),
+               static_cast<unsigned long long>(c.ingest_batch_frames), static_cast<unsigned long long>(c.ingest_frames),
+               static_cast<unsigned long long>(c.ingest_skeletons), static_cast<unsigned long long>(c.ingest_repeated_skeletons),
+               static_cast<unsigned long long>(c.ingest_closes), static_cast<unsigned long long>(c.ingest_practices),
+               static_cast<unsigned long long>(c.ingest_repeated_practices), static_cast<unsigned long long>(c.ingest_other_shard),
+               static_cast<unsigned long long>(c.ingest_dropped), static_cast<unsigned long long>(c.ingest_not_owner),
+               static_cast<unsigned long long>(c.ingest_refused_limit), static_cast<unsigned long long>(c.ingest_out_of_window),
+               static_cast<unsigned long long>(c.ingest_stale), static_cast<unsigned long long>(c.ingest_malformed),
+               static_cast<unsigned long long>(c.ingest_unknown_stream), static_cast<unsigned long long>(c.ingest_wrong_joint_count),
+               static_cast<unsigned long long>(c.ingest_out_of_order), static_cast<unsigned long long>(c.ingest_refused_skeletons),
+               static_cast<unsigned long long>(c.ingest_other_kind), static_cast<unsigned long long>(c.ingest_practice_bad_values),
+               static_cast<unsigned long long>(c.ingest_practice_outside_clip), static_cast<unsigned long long>(c.ingest_practice_no_clip),
+               static_cast<unsigned long long>(c.ingest_practice_queue_full), static_cast<unsigned long long>(c.refused),
+               static_cast<unsigned long long>(c.queue_full + c.result_queue_full + c.send_failed),
+               static_cast<unsigned long long>(c.ingest_connections), static_cast<unsigned long long>(c.ingest_connections_refused),
+               static_cast<unsigned long long>(c.ingest_handshake_failures));
   if (!counters_path.empty()) write_counters(counters_path, runtime);
 }
 

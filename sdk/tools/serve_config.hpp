@@ -8,7 +8,6 @@
 #include <string>
 #include <vector>
 
-#include "runtime/runtime.hpp"
 
 namespace kata::serve {
 
@@ -45,9 +44,33 @@ struct NatsTransport {
   int lease_replicas = 3;
 };
 
+// The runtime's settings as plain values, what kata_runtime_desc takes (kata/runtime.h; defaults
+// there), read from [ingest], [publish], [shard], [runtime] and [security].
+struct RuntimeSettings {
+  std::vector<std::string> ingest_endpoints;  // connected, or bound with "bind:"
+  bool ingest_pull = false;                   // kind = "pull"; else "sub"
+  uint32_t max_message_bytes = 1u << 20;
+  bool require_checksum = true;
+  uint32_t max_connections = 256;
+  uint32_t max_streams_per_sender = 64;
+  uint64_t sequence_window = 1u << 16;
+  int64_t max_frame_age_ms = 250;             // 0: not judged
+  int64_t idle_stream_seconds = 300;          // 0: never closed
+  std::vector<std::string> publish_endpoints;
+  int send_hwm = 10000;
+  uint32_t shard_count = 1, shard_index = 0;
+  int workers = 2;
+  double skeleton_resend_seconds = 1.0;
+  int max_streams = 1024;
+  int frame_queue_capacity = 4096;
+  bool idle_backoff = false;                  // idle = "backoff"
+  // CURVE (checked when the config is read): resolved paths, empty when not set.
+  std::string key_file, client_keys_dir, ingest_server_key_file, publish_server_key_file;
+};
+
 struct ServeConfig {
   NatsTransport nats;
-  runtime::RuntimeConfig runtime;  // shard count / index are in runtime.ingest
+  RuntimeSettings runtime;
   std::string model;  // empty: features only
   TeacherSource default_teacher;
   std::map<uint64_t, TeacherSource> teachers;

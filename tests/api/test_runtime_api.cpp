@@ -7,7 +7,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstddef>
+#include <cstdio>
 #include <cstring>
+#include <limits>
 #include <memory>
 #include <string>
 #include <vector>
@@ -545,13 +547,16 @@ TEST(runtime_capi, StatsOnTheResultSocketAreValidNonResults) {
 
 // The skeleton definition a runtime publishes for a stream handed to it (the first message a
 // subscriber gets on the stream's topic).
-std::string definition_of(kata_context ctx, kata_stream stream, const char* preset, kata_status* added) {
+std::string definition_of(kata_context ctx, kata_stream stream, const char* preset, kata_status* added,
+                          float frame_rate = -1.0f, float metres_per_unit = 0.0f) {
   kata_runtime_desc rd;
   kata_runtime_desc_init(&rd);
   rd.publish_endpoints = "tcp://127.0.0.1:*";
   kata_runtime runtime = nullptr;
   if (kata_runtime_create(ctx, &rd, &runtime) != KATA_OK) return "";
-  *added = kata_runtime_add_stream(runtime, 5, &stream, preset, 0);
+  // frame_rate -1: the call without rate and units.
+  *added = frame_rate < 0.0f ? kata_runtime_add_stream(runtime, 5, &stream, preset, 0)
+                             : kata_runtime_add_stream_ex(runtime, 5, &stream, preset, 0, frame_rate, metres_per_unit);
   std::string definition;
   if (*added == KATA_OK) {
     void* zctx = zmq_ctx_new();
@@ -630,6 +635,44 @@ TEST(runtime_capi, AddStreamAnnouncesTheStreamsOwnLayout) {
   }
   EXPECT_EQ(defs[0].size(), defs[1].size());
   EXPECT_NE(defs[0], defs[1]);
+
+  // kata_runtime_add_stream_ex: the definition announces the rate and the units, byte for byte
+  // the message a source writes with kata_message_write_skeleton for the same stream (and
+  // kata_runtime_add_stream's is that message with both 0).
+  for (const float rate : {0.0f, 30.0f}) {
+    SCOPED_TRACE(rate);
+    kata_stream_desc_init(&d);
+    d.layout = "mediapipe";
+    ASSERT_EQ(kata_stream_open(ctx, mp, &d, &s), KATA_OK);
+    const std::string def = rate == 0.0f ? definition_of(ctx, s, nullptr, &added)
+                                         : definition_of(ctx, s, nullptr, &added, rate, 0.01f);
+    ASSERT_EQ(added, KATA_OK) << kata_context_last_error(ctx);
+    kata_skeleton_message sm;
+    kata_skeleton_message_init(&sm);
+    sm.stream_id = 5;
+    sm.skeleton = mp;
+    sm.layout = "mediapipe";
+    sm.frame_rate = rate;
+    sm.metres_per_unit = rate == 0.0f ? 0.0f : 0.01f;
+    std::vector<char> expected(1 << 16);
+    size_t size = 0;
+    ASSERT_EQ(kata_message_write_skeleton(&sm, expected.data(), expected.size(), &size), KATA_OK);
+    EXPECT_EQ(def, std::string(expected.data(), size));
+  }
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK);
+  kata_stream_desc_init(&d);
+  d.layout = "mediapipe";
+  ASSERT_EQ(kata_stream_open(ctx, mp, &d, &s), KATA_OK);
+  EXPECT_EQ(kata_runtime_add_stream_ex(runtime, 6, &s, nullptr, 0, std::nanf(""), 1.0f), KATA_E_NON_FINITE);
+  EXPECT_EQ(kata_runtime_add_stream_ex(runtime, 6, &s, nullptr, 0, 30.0f, -1.0f), KATA_E_INVALID_ARGUMENT);
+  EXPECT_NE(std::string(kata_context_last_error(ctx)).find("metres_per_unit"), std::string::npos);
+  ASSERT_NE(s, nullptr);  // refused: still the caller's
+  EXPECT_EQ(kata_runtime_add_stream_ex(runtime, 6, &s, nullptr, 0, 30.0f, 1.0f), KATA_OK);
+  EXPECT_EQ(s, nullptr);
+  kata_runtime_destroy(runtime);
   kata_skeleton_destroy(mp);
   kata_skeleton_destroy(gpd);
   kata_context_destroy(ctx);
@@ -848,6 +891,479 @@ TEST(runtime_capi, OnStreamOpenAttachesASharedTeacherAndARefusalIsCounted) {
   kata_stream_destroy(direct);
   kata_skeleton_destroy(skel);
   kata_clip_destroy(teacher_clip);
+  kata_clip_destroy(student);
+  kata_model_destroy(model);
+  kata_context_destroy(ctx);
+}
+
+// A practice section the hook sets (kata_stream_set_practice_section inside on_stream_open, as
+// kata serve's [scoring] loop does) is the one the runtime publishes: every result carries it
+// (has_practice, the section's teacher times, the loop, revision 0: no Practice message set it),
+// and the matched teacher time stays inside it.
+struct PracticeHook {
+  kata_teacher teacher = nullptr;
+  int32_t first = 0, last = 0;
+};
+kata_status on_open_practice(void* user, const kata_stream_open_info*, kata_stream stream) {
+  auto* h = static_cast<PracticeHook*>(user);
+  const kata_status s = kata_stream_attach_shared_teacher(stream, h->teacher, nullptr);
+  if (s != KATA_OK) return s;
+  return kata_stream_set_practice_section(stream, h->first, h->last, 1);
+}
+
+TEST(runtime_capi, APracticeSectionSetInOnStreamOpenIsPublishedWithEveryResult) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_model model = nullptr;
+  ASSERT_EQ(kata_model_load(ctx, KATA_SOURCE_DIR "/models/default.kata", &model), KATA_OK);
+  kata_clip student = nullptr, teacher_clip = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &student), KATA_OK);
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_01.bvh", &teacher_clip), KATA_OK);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(student, &skel), KATA_OK);
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  kata_teacher_desc td;
+  kata_teacher_desc_init(&td);
+  td.model = model;
+  td.clip = teacher_clip;
+  td.first_frame = 1;
+  PracticeHook hook;
+  hook.first = 40;
+  hook.last = 160;
+  ASSERT_EQ(kata_teacher_create(ctx, &td, &hook.teacher), KATA_OK) << kata_context_last_error(ctx);
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  Received got;
+  rd.workers = 1;
+  rd.direct_ingest = 1;
+  rd.max_frame_age_seconds = 0.0;
+  rd.on_result = receive;
+  rd.on_result_user = &got;
+  rd.on_stream_open = on_open_practice;
+  rd.on_stream_open_user = &hook;
+  rd.stream_stencil = kata_model_stencil(model);
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  std::vector<unsigned char> buffer(1 << 16);
+  size_t size = 0;
+  kata_skeleton_message sm;
+  kata_skeleton_message_init(&sm);
+  sm.stream_id = 5;
+  sm.skeleton = skel;
+  sm.layout = "cmu";
+  ASSERT_EQ(kata_message_write_skeleton(&sm, buffer.data(), buffer.size(), &size), KATA_OK);
+  ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK);
+  std::vector<float> p(3 * joints);
+  for (int i = 0; i < 100; ++i) {
+    ASSERT_EQ(kata_clip_positions(student, static_cast<uint32_t>(1 + i), p.data(), p.size()), KATA_OK);
+    kata_frame_message fm;
+    kata_frame_message_init(&fm);
+    fm.stream_id = 5;
+    fm.sequence = static_cast<uint64_t>(i);
+    fm.capture_time = 10.0 + i / 128.0;
+    fm.positions = p.data();
+    fm.joint_count = joints;
+    ASSERT_EQ(kata_message_write_frame(&fm, buffer.data(), buffer.size(), &size), KATA_OK);
+    ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK) << i;
+  }
+  ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);
+  kata_teacher_destroy(hook.teacher);
+  // The section's ends in teacher seconds: its rows times the teacher clip's frame time.
+  const double ft = kata_clip_frame_time(teacher_clip);
+  ASSERT_GT(ft, 0.0);
+  ASSERT_GT(got.records.size(), 60u);
+  for (size_t i = 0; i < got.records.size(); ++i) {
+    SCOPED_TRACE(i);
+    const kata_result_record& r = got.records[i];
+    EXPECT_EQ(r.has_practice, 1);
+    EXPECT_EQ(r.practice_revision, 0u);
+    EXPECT_EQ(r.practice_loop, 1);
+    EXPECT_NEAR(r.practice_start_time, hook.first * ft, 1e-9);
+    EXPECT_NEAR(r.practice_end_time, hook.last * ft, 1e-9);
+    if (r.scored) {
+      EXPECT_GE(r.matched_teacher_time, r.practice_start_time - 1e-9);
+      EXPECT_LE(r.matched_teacher_time, r.practice_end_time + 1e-9);
+    }
+  }
+  kata_runtime_destroy(runtime);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(teacher_clip);
+  kata_clip_destroy(student);
+  kata_model_destroy(model);
+  kata_context_destroy(ctx);
+}
+
+// The 1.1 fields of kata_runtime_desc that a `kata serve` config sets: their defaults are the
+// runtime's behaviour before them, and values outside their ranges are refused by name.
+TEST(runtime_capi, ServeSettingsDefaultToTheEarlierBehaviourAndOutOfRangeValuesAreRefused) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  EXPECT_EQ(rd.shard_count, 1u);
+  EXPECT_EQ(rd.shard_index, 0u);
+  EXPECT_EQ(rd.require_checksum, 1);
+  EXPECT_EQ(rd.idle_backoff, 0);
+  EXPECT_EQ(rd.result_queue_capacity, 0u);
+  EXPECT_EQ(rd.publish_server_key_file, nullptr);
+  EXPECT_EQ(rd.sequence_window, 65536u);
+  struct Bad {
+    const char* word;
+    void (*set)(kata_runtime_desc*);
+  };
+  const Bad bad[] = {
+      {"shard_count", [](kata_runtime_desc* d) { d->shard_count = 0; }},
+      {"shard_count", [](kata_runtime_desc* d) { d->shard_count = 65537; }},
+      {"shard_index", [](kata_runtime_desc* d) { d->shard_count = 3, d->shard_index = 3; }},
+      {"require_checksum", [](kata_runtime_desc* d) { d->require_checksum = 2; }},
+      {"idle_backoff", [](kata_runtime_desc* d) { d->idle_backoff = -1; }},
+      {"result_queue_capacity", [](kata_runtime_desc* d) { d->result_queue_capacity = 1; }},
+      {"sequence_window", [](kata_runtime_desc* d) { d->sequence_window = 0; }},
+      {"key_file", [](kata_runtime_desc* d) { d->publish_server_key_file = "proxy.pub"; }},
+  };
+  for (const Bad& b : bad) {
+    SCOPED_TRACE(b.word);
+    kata_runtime_desc d;
+    kata_runtime_desc_init(&d);
+    b.set(&d);
+    kata_runtime runtime = nullptr;
+    EXPECT_EQ(kata_runtime_create(ctx, &d, &runtime), KATA_E_INVALID_ARGUMENT);
+    EXPECT_EQ(runtime, nullptr);
+    EXPECT_NE(std::strstr(kata_context_last_error(ctx), b.word), nullptr) << kata_context_last_error(ctx);
+  }
+  kata_context_destroy(ctx);
+}
+
+namespace {
+
+// kata_shard_of as kata/runtime.h specifies it (FNV-1a 64 over the id's bytes, least significant
+// first), computed here rather than asked of the library.
+uint32_t fnv_shard(uint64_t id, uint32_t count) {
+  uint64_t h = 14695981039346656037ull;
+  for (int b = 0; b < 8; ++b) {
+    h ^= (id >> (8 * b)) & 0xff;
+    h *= 1099511628211ull;
+  }
+  return count <= 1 ? 0 : static_cast<uint32_t>(h % count);
+}
+
+}  // namespace
+
+// A shard of two fed every kind of ingest outcome through kata_runtime_offer: each new counter
+// equals the number of messages of its kind the test offered, the outcomes add up to the messages
+// received, the shard scores only its own streams (and an out-of-window sequence is judged by the
+// desc's window), per-stream counters add up to the totals, and the histograms hold one count
+// per published result and per frame handed on, their percentiles as documented.
+TEST(runtime_capi, EveryIngestOutcomeIsCountedByCauseAndTheHistogramsHoldEveryCount) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_clip student = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &student), KATA_OK);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(student, &skel), KATA_OK);
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  // Two streams of shard 1 of 2, one of shard 0.
+  std::vector<uint64_t> mine, theirs;
+  for (uint64_t id = 1; mine.size() < 2 || theirs.empty(); ++id)
+    (fnv_shard(id, 2) == 1 ? mine : theirs).push_back(id);
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.workers = 1;
+  rd.direct_ingest = 1;
+  rd.max_frame_age_seconds = 0.0;
+  rd.shard_count = 2;
+  rd.shard_index = 1;
+  rd.sequence_window = 10;
+  rd.idle_backoff = 1;
+  rd.result_queue_capacity = 64;
+  rd.publish_endpoints = "tcp://127.0.0.1:*";  // published results: the latency histogram's
+  Received got;
+  rd.on_result = receive;
+  rd.on_result_user = &got;
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  std::vector<unsigned char> buffer(1 << 16);
+  size_t size = 0;
+  uint64_t offered = 0;
+  auto offer = [&] {
+    ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK);
+    ++offered;
+  };
+  auto skeleton = [&](uint64_t id) {
+    kata_skeleton_message sm;
+    kata_skeleton_message_init(&sm);
+    sm.stream_id = id;
+    sm.skeleton = skel;
+    sm.layout = "cmu";
+    ASSERT_EQ(kata_message_write_skeleton(&sm, buffer.data(), buffer.size(), &size), KATA_OK);
+    offer();
+  };
+  std::vector<float> p(3 * joints);
+  ASSERT_EQ(kata_clip_positions(student, 1, p.data(), p.size()), KATA_OK);
+  auto frame = [&](uint64_t id, uint64_t sequence, uint32_t count) {
+    kata_frame_message fm;
+    kata_frame_message_init(&fm);
+    fm.stream_id = id;
+    fm.sequence = sequence;
+    fm.capture_time = 10.0 + static_cast<double>(sequence) / 128.0;
+    fm.positions = p.data();
+    fm.joint_count = count;
+    ASSERT_EQ(kata_message_write_frame(&fm, buffer.data(), buffer.size(), &size), KATA_OK);
+    offer();
+  };
+  skeleton(mine[0]);
+  skeleton(mine[1]);
+  skeleton(theirs[0]);                               // other shard: 1
+  skeleton(mine[0]);                                 // a re-send: repeated 1
+  const int frames0 = 30, frames1 = 12;
+  for (int i = 0; i < frames0; ++i) frame(mine[0], static_cast<uint64_t>(i), joints);
+  for (int i = 0; i < frames1; ++i) frame(mine[1], static_cast<uint64_t>(i), joints);
+  frame(theirs[0], 0, joints);                       // other shard: 2
+  frame(mine[0], 5, joints);                         // out of order
+  frame(mine[0], frames0 + 20, joints);              // beyond the window of 10
+  frame(mine[1], frames1, joints - 1);               // wrong joint count
+  uint64_t unknown = mine[1] + 1;
+  while (fnv_shard(unknown, 2) != 1) ++unknown;
+  frame(unknown, 0, joints);                         // no definition: unknown stream
+  // Malformed: a topic of this shard's stream (another shard's is dropped on its topic alone)
+  // and no FlatBuffer after it.
+  unsigned char garbage[40] = {};
+  std::snprintf(reinterpret_cast<char*>(garbage), 17, "%016llx", static_cast<unsigned long long>(mine[0]));
+  garbage[16] = 7;
+  ASSERT_EQ(kata_runtime_offer(runtime, garbage, sizeof garbage), KATA_OK);
+  ++offered;
+  ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);
+
+  kata_runtime_counters c;
+  std::memset(&c, 0xff, sizeof c);
+  c.struct_size = sizeof c;
+  ASSERT_EQ(kata_runtime_get_counters(runtime, &c), KATA_OK);
+  EXPECT_EQ(c.ingest_received, offered);
+  EXPECT_EQ(c.ingest_skeletons, 2u);
+  EXPECT_EQ(c.ingest_repeated_skeletons, 1u);
+  EXPECT_EQ(c.ingest_other_shard, 2u);
+  EXPECT_EQ(c.ingest_frames, static_cast<uint64_t>(frames0 + frames1));
+  EXPECT_EQ(c.ingest_out_of_order, 1u);
+  EXPECT_EQ(c.ingest_out_of_window, 1u);
+  EXPECT_EQ(c.ingest_wrong_joint_count, 1u);
+  EXPECT_EQ(c.ingest_unknown_stream, 1u);
+  EXPECT_EQ(c.ingest_malformed, 1u);
+  EXPECT_EQ(c.ingest_dropped, 5u);
+  EXPECT_EQ(c.ingest_closes, 0u);
+  EXPECT_EQ(c.ingest_refused_skeletons, 0u);
+  EXPECT_EQ(c.ingest_other_kind, 0u);
+  EXPECT_EQ(c.ingest_batches, 0u);
+  EXPECT_EQ(c.ingest_batch_frames, 0u);
+  EXPECT_EQ(c.ingest_connections, 0u);  // no socket
+  EXPECT_EQ(c.ingest_handshake_failures, 0u);
+  EXPECT_EQ(c.ingest_last_handshake_error, 0u);
+  EXPECT_EQ(c.pipeline_dropped + c.result_queue_full, c.results_dropped);
+  EXPECT_EQ(c.send_failed, 0u);
+  EXPECT_EQ(c.ingest_received - c.ingest_batches + c.ingest_batch_frames,
+            c.ingest_frames + c.ingest_skeletons + c.ingest_repeated_skeletons + c.ingest_closes + c.ingest_practices +
+                c.ingest_repeated_practices + c.ingest_other_shard + c.ingest_dropped);
+  EXPECT_EQ(c.frames_in, static_cast<uint64_t>(frames0 + frames1));
+
+  // Per stream, in the order they opened; the two structs sum to the totals.
+  uint32_t count = 0;
+  EXPECT_EQ(kata_runtime_get_stream_counters(runtime, nullptr, 0, &count), KATA_E_BUFFER_TOO_SMALL);
+  ASSERT_EQ(count, 2u);
+  std::vector<kata_stream_counters> sc(3);
+  sc[0].struct_size = sizeof sc[0];
+  EXPECT_EQ(kata_runtime_get_stream_counters(runtime, sc.data(), 1, &count), KATA_E_BUFFER_TOO_SMALL);
+  ASSERT_EQ(kata_runtime_get_stream_counters(runtime, sc.data(), 3, &count), KATA_OK);
+  ASSERT_EQ(count, 2u);
+  EXPECT_EQ(sc[0].stream_id, mine[0]);
+  EXPECT_EQ(sc[1].stream_id, mine[1]);
+  EXPECT_EQ(sc[0].frames_in, static_cast<uint64_t>(frames0));
+  EXPECT_EQ(sc[1].frames_in, static_cast<uint64_t>(frames1));
+  EXPECT_EQ(sc[0].out_of_sequence, 2u);  // its out-of-order and out-of-window frames
+  EXPECT_EQ(sc[1].wrong_joints, 1u);
+  uint64_t published = 0, results = 0;
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_EQ(sc[i].struct_size, sizeof sc[i]);
+    published += sc[i].published;
+    results += sc[i].results;
+  }
+  EXPECT_EQ(published, c.published);
+  EXPECT_EQ(results, c.results);
+  EXPECT_EQ(published, got.records.size());
+  EXPECT_EQ(published, static_cast<uint64_t>(frames0 + frames1) - c.refused - c.results_dropped);
+  EXPECT_GT(published, 30u);
+  sc[0].struct_size = 8;
+  EXPECT_EQ(kata_runtime_get_stream_counters(runtime, sc.data(), 3, &count), KATA_E_INVALID_ARGUMENT);
+
+  // Histograms: one count per published result, per frame handed on.
+  std::vector<uint64_t> latency(KATA_LATENCY_BUCKETS + 1, 7), age(KATA_LATENCY_BUCKETS);
+  EXPECT_EQ(kata_runtime_get_histogram(runtime, KATA_HISTOGRAM_LATENCY, latency.data(), KATA_LATENCY_BUCKETS - 1),
+            KATA_E_BUFFER_TOO_SMALL);
+  EXPECT_EQ(kata_runtime_get_histogram(runtime, static_cast<kata_histogram_kind>(2), latency.data(), KATA_LATENCY_BUCKETS),
+            KATA_E_INVALID_ARGUMENT);
+  ASSERT_EQ(kata_runtime_get_histogram(runtime, KATA_HISTOGRAM_LATENCY, latency.data(), KATA_LATENCY_BUCKETS), KATA_OK);
+  ASSERT_EQ(kata_runtime_get_histogram(runtime, KATA_HISTOGRAM_SOURCE_AGE, age.data(), KATA_LATENCY_BUCKETS), KATA_OK);
+  EXPECT_EQ(latency[KATA_LATENCY_BUCKETS], 7u);  // nothing written past the buckets
+  uint64_t latency_sum = 0, age_sum = 0;
+  for (int i = 0; i < KATA_LATENCY_BUCKETS; ++i) {
+    latency_sum += latency[i];
+    age_sum += age[i];
+  }
+  EXPECT_EQ(latency_sum, c.published);
+  EXPECT_EQ(age_sum, c.ingest_frames);
+  for (double q : {0.0, 0.5, 0.99, 1.0})
+    EXPECT_EQ(kata_histogram_percentile(latency.data(), KATA_LATENCY_BUCKETS, q), kata_runtime_latency_percentile(runtime, q));
+  kata_runtime_destroy(runtime);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(student);
+  kata_context_destroy(ctx);
+}
+
+// kata_histogram_percentile on histograms built here: the answer is the upper edge 2^((i+1)/8) ns
+// of the bucket where the running count first reaches q of the total.
+TEST(runtime_capi, HistogramPercentileIsTheUpperEdgeOfTheBucketReachingQ) {
+  std::vector<uint64_t> h(KATA_LATENCY_BUCKETS, 0);
+  EXPECT_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, 0.5), 0.0);  // empty
+  h[80] = 50;   // [2^10, 2^10.125) ns
+  h[160] = 49;  // [2^20, ...)
+  h[200] = 1;
+  EXPECT_DOUBLE_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, 0.5), std::pow(2.0, 81 / 8.0));
+  EXPECT_DOUBLE_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, 0.51), std::pow(2.0, 161 / 8.0));
+  EXPECT_DOUBLE_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, 0.99), std::pow(2.0, 161 / 8.0));
+  EXPECT_DOUBLE_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, 1.0), std::pow(2.0, 201 / 8.0));
+  EXPECT_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS - 1, 0.5), 0.0);
+  EXPECT_EQ(kata_histogram_percentile(nullptr, KATA_LATENCY_BUCKETS, 0.5), 0.0);
+  EXPECT_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, -0.1), 0.0);
+  EXPECT_EQ(kata_histogram_percentile(h.data(), KATA_LATENCY_BUCKETS, std::nan("")), 0.0);
+}
+
+namespace {
+
+struct Kept {
+  std::vector<kata_result_record> records;
+  std::vector<std::vector<float>> ghosts;
+};
+void keep(void* user, const kata_result_record* r) {
+  auto* k = static_cast<Kept*>(user);
+  k->records.push_back(*r);
+  k->ghosts.emplace_back(r->ghost ? std::vector<float>(r->ghost, r->ghost + 3 * r->ghost_joint_count)
+                                  : std::vector<float>());
+}
+
+}  // namespace
+
+// kata_message_write_result (1.1): the message written from each record on_result received is,
+// byte for byte, the message the runtime's ZeroMQ publisher sent for that result (scored, with a
+// ghost and a practice section); a 1.0-sized record writes the cue as "none", and bad records are
+// refused.
+TEST(runtime_capi, AResultWrittenFromItsRecordIsTheMessageTheRuntimePublished) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_clip student = nullptr, teacher = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &student), KATA_OK);
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_01.bvh", &teacher), KATA_OK);
+  kata_model model = nullptr;
+  ASSERT_EQ(kata_model_load(ctx, KATA_SOURCE_DIR "/models/default.kata", &model), KATA_OK);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(student, &skel), KATA_OK);
+  kata_stream_desc sd;
+  kata_stream_desc_init(&sd);
+  sd.layout = "cmu";
+  sd.stencil = kata_model_stencil(model);
+  kata_stream stream = nullptr;
+  ASSERT_EQ(kata_stream_open(ctx, skel, &sd, &stream), KATA_OK);
+  kata_teacher_desc td;
+  kata_teacher_desc_init(&td);
+  td.model = model;
+  td.clip = teacher;
+  td.first_frame = 1;
+  ASSERT_EQ(kata_stream_attach_teacher(stream, &td), KATA_OK) << kata_stream_last_error(stream);
+  ASSERT_EQ(kata_stream_set_practice_section(stream, 10, 200, 1), KATA_OK);
+  Kept kept;
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.workers = 1;
+  rd.publish_endpoints = "tcp://127.0.0.1:*";
+  rd.on_result = keep;
+  rd.on_result_user = &kept;
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  ASSERT_EQ(kata_runtime_add_stream(runtime, 42, &stream, "cmu", 0), KATA_OK) << kata_context_last_error(ctx);
+  void* zctx = zmq_ctx_new();
+  auto sub = std::make_unique<kata::test::ZmqSubscriber>(zctx, kata_runtime_publish_endpoint(runtime), 100000,
+                                                         "000000000000002a", 1 << 16);
+  ASSERT_TRUE(sub->connected());
+  std::vector<char> definition;
+  ASSERT_TRUE(wait_for_definition(*sub, &definition));
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  std::vector<float> p(3 * joints);
+  const int frames = 60;
+  for (int i = 0; i < frames; ++i) {
+    ASSERT_EQ(kata_clip_positions(student, static_cast<uint32_t>(1 + i), p.data(), p.size()), KATA_OK);
+    ASSERT_EQ(kata_runtime_push(runtime, 42, static_cast<uint64_t>(i), i / 120.0, p.data(), joints), KATA_OK);
+  }
+  std::vector<std::vector<unsigned char>> published;
+  const char* buffer = reinterpret_cast<const char*>(sub->data());
+  const auto limit = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (published.size() < static_cast<size_t>(frames) && std::chrono::steady_clock::now() < limit) {
+    const int n = sub->receive(100);
+    if (n > 24 && std::memcmp(buffer + 20, "KRES", 4) == 0)
+      published.emplace_back(buffer, buffer + n);
+  }
+  ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);
+  ASSERT_EQ(published.size(), static_cast<size_t>(frames));
+  ASSERT_EQ(kept.records.size(), static_cast<size_t>(frames));
+  std::vector<unsigned char> written(1 << 16);
+  int scored = 0;
+  for (int i = 0; i < frames; ++i) {
+    SCOPED_TRACE(i);
+    kata_result_record r = kept.records[static_cast<size_t>(i)];
+    r.ghost = kept.ghosts[static_cast<size_t>(i)].empty() ? nullptr : kept.ghosts[static_cast<size_t>(i)].data();
+    ASSERT_GT(r.ghost_joint_count, 0u);
+    ASSERT_EQ(r.has_practice, 1);
+    scored += r.scored;
+    size_t size = 0;
+    ASSERT_EQ(kata_message_write_result(&r, nullptr, 0, &size), KATA_E_BUFFER_TOO_SMALL);
+    ASSERT_EQ(size, published[static_cast<size_t>(i)].size());
+    ASSERT_EQ(kata_message_write_result(&r, written.data(), written.size(), &size), KATA_OK) << kata_context_last_error(ctx);
+    ASSERT_EQ(size, published[static_cast<size_t>(i)].size());
+    EXPECT_EQ(std::memcmp(written.data(), published[static_cast<size_t>(i)].data(), size), 0);
+  }
+  EXPECT_GT(scored, 20);
+  // A 1.0-sized record (no cue fields): the cue reads back as "none", the rest as written.
+  kata_result_record r = kept.records.back();
+  r.ghost = kept.ghosts.back().data();
+  r.cue_joint = 3;
+  r.struct_size = static_cast<uint32_t>(offsetof(kata_result_record, reserved0) + sizeof r.reserved0);
+  size_t size = 0;
+  ASSERT_EQ(kata_message_write_result(&r, written.data(), written.size(), &size), KATA_OK);
+  kata_result_record back;
+  back.struct_size = sizeof back;
+  ASSERT_EQ(kata_message_read_result(written.data(), size, &back), KATA_OK);
+  EXPECT_EQ(back.cue_joint, -1);
+  EXPECT_EQ(back.cue_action, -1);
+  EXPECT_EQ(back.result_sequence, r.result_sequence);
+  EXPECT_EQ(std::memcmp(&back.score, &r.score, sizeof r.score), 0);
+  EXPECT_EQ(back.ghost_joint_count, r.ghost_joint_count);
+  // Refusals write nothing and say why.
+  r.struct_size = 16;
+  EXPECT_EQ(kata_message_write_result(&r, written.data(), written.size(), &size), KATA_E_INVALID_ARGUMENT);
+  EXPECT_EQ(size, 0u);
+  r.struct_size = sizeof r;
+  r.ghost = nullptr;
+  EXPECT_EQ(kata_message_write_result(&r, written.data(), written.size(), &size), KATA_E_NULL_POINTER);
+  std::vector<float> bad = kept.ghosts.back();
+  bad[4] = std::nanf("");
+  r.ghost = bad.data();
+  EXPECT_EQ(kata_message_write_result(&r, written.data(), written.size(), &size), KATA_E_NON_FINITE);
+  EXPECT_NE(std::string(kata_context_last_error(ctx)).find("ghost joint 1"), std::string::npos) << kata_context_last_error(ctx);
+  r.ghost = kept.ghosts.back().data();
+  r.score = std::numeric_limits<float>::infinity();
+  EXPECT_EQ(kata_message_write_result(&r, written.data(), written.size(), &size), KATA_E_NON_FINITE);
+  EXPECT_EQ(kata_message_write_result(nullptr, written.data(), written.size(), &size), KATA_E_NULL_POINTER);
+  sub.reset();
+  zmq_ctx_term(zctx);
+  kata_runtime_destroy(runtime);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(teacher);
   kata_clip_destroy(student);
   kata_model_destroy(model);
   kata_context_destroy(ctx);

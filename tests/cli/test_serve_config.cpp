@@ -50,7 +50,7 @@ TEST(serve_config, AWholeConfigNamesTheLineOfABadValue) {
   // Without the key, every default holds (none of them is judged against a line it does not have).
   const ServeConfig c = parse_config_text(config.substr(0, config.find("[runtime]")), "stage.toml");
   EXPECT_EQ(c.runtime.workers, 2);
-  EXPECT_EQ(c.runtime.ingest.limits.max_streams_per_sender, 64u);
+  EXPECT_EQ(c.runtime.max_streams_per_sender, 64u);
 }
 
 // [transport] kind = "nats" (docs/deploy.md, "NATS"): the servers and lease settings are read,
@@ -65,9 +65,9 @@ TEST(serve_config, ANatsTransportReplacesTheZeroMqSockets) {
   EXPECT_EQ(c.nats.shard, "shard-a");
   EXPECT_EQ(c.nats.lease_ttl_ms, 5000);
   EXPECT_EQ(c.nats.partitions, 64u);
-  EXPECT_EQ(c.runtime.ingest.max_message_bytes, 65536u);
-  EXPECT_EQ(c.runtime.ingest.limits.max_streams_per_sender, 300u);  // one local sender carries every stream
-  EXPECT_TRUE(c.runtime.publish.endpoints.empty());
+  EXPECT_EQ(c.runtime.max_message_bytes, 65536u);
+  EXPECT_EQ(c.runtime.max_streams_per_sender, 300u);  // one local sender carries every stream
+  EXPECT_TRUE(c.runtime.publish_endpoints.empty());
   EXPECT_EQ(refusal([&] { parse_config_text(config + "[publish]\nendpoints = [\"tcp://127.0.0.1:5556\"]\n", "shard.toml"); }),
             "shard.toml:10: [publish] is for ZeroMQ: with [transport] kind = \"nats\" results go out on NATS and shards "
             "share the partitions by lease (docs/deploy.md)");

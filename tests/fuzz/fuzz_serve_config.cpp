@@ -14,10 +14,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   try {
     const kata::serve::ServeConfig c =
         kata::serve::parse_config_text(std::string(reinterpret_cast<const char*>(data), size), "fuzz.toml");
-    const auto& ingest = c.runtime.ingest;
-    if (ingest.endpoints.empty() || c.runtime.publish.endpoints.empty()) std::abort();
-    if (c.runtime.workers < 1 || c.runtime.workers > 64) std::abort();
-    if (ingest.shard_count < 1 || ingest.shard_index >= ingest.shard_count) std::abort();
+    const auto& r = c.runtime;
+    if (r.ingest_endpoints.empty() || r.publish_endpoints.empty()) std::abort();
+    if (r.workers < 1 || r.workers > 64) std::abort();
+    if (r.shard_count < 1 || r.shard_index >= r.shard_count) std::abort();
   } catch (const kata::Error& e) {
     if (e.kind() != kata::ErrorKind::kParse) std::abort();
   }

@@ -189,7 +189,15 @@ class RuntimeCounters(ctypes.Structure):
                                              "ingest_practice_bad_values", "ingest_practice_outside_clip",
                                              "ingest_practice_no_clip", "ingest_practice_queue_full",
                                              # since 1.1
-                                             "streams_refused_by_app")]
+                                             "streams_refused_by_app", "ingest_frames", "ingest_skeletons",
+                                             "ingest_repeated_skeletons", "ingest_closes",
+                                             "ingest_repeated_practices", "ingest_other_shard", "ingest_batches",
+                                             "ingest_batch_frames", "ingest_malformed", "ingest_refused_skeletons",
+                                             "ingest_unknown_stream", "ingest_wrong_joint_count",
+                                             "ingest_out_of_order", "ingest_other_kind", "ingest_connections",
+                                             "ingest_disconnections", "ingest_connections_refused",
+                                             "ingest_handshake_failures", "ingest_last_handshake_error",
+                                             "pipeline_dropped", "result_queue_full", "send_failed")]
 
 
 class SkeletonMessage(ctypes.Structure):

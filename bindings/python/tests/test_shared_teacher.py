@@ -79,4 +79,10 @@ def test_on_stream_open_attaches_the_teacher_and_a_refusal_is_counted(data, mode
     assert all(s["joint_count"] == joints and s["layout"] == "cmu" and s["has_rest_pose"] for s in seen)
     assert c["streams_refused_by_app"] == 2
     assert c["frames_in"] == len(p)  # stream 21's only
+    # The 1.1 counters by cause: three definitions handed on, two refused by the hook; the other
+    # streams' frames dropped as an unknown stream's; every message has one outcome.
+    assert c["ingest_skeletons"] == 1 and c["ingest_refused_skeletons"] == 2
+    assert c["ingest_frames"] == len(p) and c["ingest_unknown_stream"] == 2 * len(p)
+    assert c["ingest_received"] == 3 + 3 * len(p) == (c["ingest_frames"] + c["ingest_skeletons"]
+                                                     + c["ingest_dropped"])
     assert len(expected) > 90 and c["results"] == len(expected)

@@ -86,6 +86,12 @@ typedef struct kata_stream_open_info {
  * kata_runtime_* on its runtime. `user` is on_stream_open_user. */
 typedef kata_status (*kata_stream_open_callback)(void* user, const kata_stream_open_info* info, kata_stream stream);
 
+/* A plugin for kata_runtime_desc.plugins (since 1.1). */
+typedef struct kata_runtime_plugin {
+  const char* path;    /* the plugin's shared module (.so) */
+  const char* config;  /* its configuration, "key=value;..." as the plugin documents it, or NULL ("") */
+} kata_runtime_plugin;
+
 /* How a runtime is built. Fill with kata_runtime_desc_init, then change fields. */
 typedef struct kata_runtime_desc {
   uint32_t struct_size;             /* sizeof(kata_runtime_desc) */
@@ -130,6 +136,36 @@ typedef struct kata_runtime_desc {
   /* The stencil of the streams definitions open (kata_stream_desc.stencil): a teacher attached in
    * on_stream_open needs its model's (kata_model_stencil). Default KATA_STENCIL_BACKWARD. Since 1.1. */
   kata_stencil stream_stencil;
+  /* ---- 1.1: the rest of what a `kata serve` config sets (docs/runtime.md, "kata serve") ---- */
+  /* This runtime is shard shard_index of shard_count: it scores exactly the streams for which
+   * kata_shard_of(stream_id, shard_count) == shard_index; the others' ingest messages are counted
+   * in kata_runtime_counters.ingest_other_shard and dropped (not refused). shard_count 1..65536,
+   * shard_index below it. Default 1 and 0: every stream. Since 1.1. */
+  uint32_t shard_count;
+  uint32_t shard_index;             /* see shard_count. Default 0. Since 1.1 */
+  /* 1 (default): ingest frames that carry no checksum are refused as malformed; 0 takes them
+   * (a source that predates checksums). Since 1.1. */
+  int32_t require_checksum;
+  /* How a worker out of frames waits (docs/runtime.md, "Idle strategy"): 0 (default) parks at
+   * once (no CPU while idle); 1 spins, then yields, for a few microseconds before it parks (for
+   * dedicated cores: frames of a burst that arrive a little apart find it awake). Since 1.1. */
+  int32_t idle_backoff;
+  /* Results a worker holds before they are sent (>= 2; rounded up to a power of two). 0
+   * (default): queue_capacity. Since 1.1. */
+  uint32_t result_queue_capacity;
+  /* With key_file: the server .pub file of the results proxy a "connect:" publish endpoint
+   * connects to (`kata proxy`, docs/deploy.md), or NULL (default). Since 1.1. */
+  const char* publish_server_key_file;
+  /* An ingest frame whose sequence is more than this after its stream's last is dropped
+   * (kata_runtime_counters.ingest_out_of_window), >= 1. Default 65536. Since 1.1. */
+  uint64_t sequence_window;
+  /* Plugins the runtime hosts (kata/kata_plugin.h; since 1.1): plugin_count entries, read during
+   * kata_runtime_create only. Each is loaded and activated with its config by create, in order
+   * (a refusal, the plugin's own message included, fails create naming its file): a sink gets
+   * every result (before on_result), a source is started once the runtime runs and stopped first
+   * thing in kata_runtime_stop. NULL / 0 (default): none. */
+  const kata_runtime_plugin* plugins;
+  uint32_t plugin_count;            /* entries in plugins. Default 0. Since 1.1 */
 } kata_runtime_desc;
 
 /* Counters since the runtime was created (sums over streams). */
@@ -162,7 +198,75 @@ typedef struct kata_runtime_counters {
   /* ---- 1.1 ---- */
   uint64_t streams_refused_by_app;  /* definitions kata_runtime_desc.on_stream_open refused (within
                                       ingest_dropped) */
+  /* ---- 1.1: every ingest outcome and every result loss by cause (what `kata serve` prints) ----
+   * Every ingest message has one outcome, a frame batch counted as its frames:
+   * ingest_received - ingest_batches + ingest_batch_frames = ingest_frames + ingest_skeletons +
+   * ingest_repeated_skeletons + ingest_closes + ingest_practices + ingest_repeated_practices +
+   * ingest_other_shard + ingest_dropped. */
+  uint64_t ingest_frames;               /* frames handed to their streams */
+  uint64_t ingest_skeletons;            /* skeleton definitions handed on (new streams, new revisions) */
+  uint64_t ingest_repeated_skeletons;   /* periodic re-sends of a known definition (not a drop) */
+  uint64_t ingest_closes;               /* streams closed by their source's message */
+  uint64_t ingest_repeated_practices;   /* re-sends of the practice setting in force (not a drop) */
+  uint64_t ingest_other_shard;          /* messages of streams another shard owns (not a drop) */
+  uint64_t ingest_batches;              /* frame batches read (their frames are judged one by one) */
+  uint64_t ingest_batch_frames;         /* the frames those batches carried */
+  /* the other causes inside ingest_dropped */
+  uint64_t ingest_malformed;            /* refused by the verifier (truncated, corrupt, a bad checksum) */
+  uint64_t ingest_refused_skeletons;    /* definitions verified but refused (inconsistent, no such layout) */
+  uint64_t ingest_unknown_stream;       /* frames before (or without) their stream's definition */
+  uint64_t ingest_wrong_joint_count;    /* frames with another joint count than their definition's */
+  uint64_t ingest_out_of_order;         /* frames whose sequence is not after the last one */
+  uint64_t ingest_other_kind;           /* valid kata messages that are not ingest's (a result) */
+  /* the ingest's connections (sockets only) */
+  uint64_t ingest_connections;          /* connections accepted or made */
+  uint64_t ingest_disconnections;       /* connections closed */
+  uint64_t ingest_connections_refused;  /* connections closed at once: max_connections reached */
+  uint64_t ingest_handshake_failures;   /* connections closed before their ZeroMQ handshake finished */
+  uint64_t ingest_last_handshake_error; /* ZeroMQ's ZMQ_PROTOCOL_ERROR_* of the last such failure
+                                           that had a reason; 0 none */
+  /* results_dropped by cause, and the results ZeroMQ refused */
+  uint64_t pipeline_dropped;            /* results overwritten in a stream's ring before they were read */
+  uint64_t result_queue_full;           /* results dropped: the queue to the publisher was full */
+  uint64_t send_failed;                 /* results ZeroMQ refused to take (never blocks) */
 } kata_runtime_counters;
+
+/* One stream's counters (1.1; kata_runtime_get_stream_counters): every frame pushed or ingested
+ * for the stream ends as one published result or as one count of exactly one of the causes
+ * between stopped and send_failed. Written by the library; the caller sets struct_size. */
+typedef struct kata_stream_counters {
+  uint32_t struct_size;       /* set by the caller: sizeof(kata_stream_counters) */
+  uint32_t reserved;          /* 0 */
+  uint64_t stream_id;         /* the stream these counters are of */
+  uint64_t frames_in;         /* frames queued */
+  uint64_t results;           /* results computed */
+  uint64_t published;         /* results handed to ZeroMQ */
+  uint64_t queue_full;        /* frames dropped: the worker's queue was full */
+  uint64_t stopped;           /* frames refused because kata_runtime_stop had begun */
+  uint64_t stale;             /* ingest frames too old to score (kata_runtime_desc.max_frame_age_seconds) */
+  uint64_t unauthorised;      /* ingest frames from a sender the stream does not belong to */
+  uint64_t out_of_sequence;   /* ingest frames out of order or outside the sequence window */
+  uint64_t wrong_joints;      /* ingest frames with another joint count than the stream's */
+  uint64_t refused;           /* frames the pipeline refused (kata_stream_push's reasons) */
+  uint64_t pipeline_dropped;  /* results overwritten in the stream's ring before they were read */
+  uint64_t result_queue_full; /* results dropped: the queue to the publisher was full */
+  uint64_t send_failed;       /* results ZeroMQ refused */
+} kata_stream_counters;
+
+/* The runtime's histograms (1.1; kata_runtime_get_histogram). Both count nanoseconds in
+ * KATA_LATENCY_BUCKETS buckets: bucket i holds [2^(i/8), 2^((i+1)/8)) ns, the last also
+ * anything longer. */
+typedef enum kata_histogram_kind {
+  /* a frame's arrival to its result's hand-over to ZeroMQ, every published result (what
+   * kata_runtime_latency_percentile reads) */
+  KATA_HISTOGRAM_LATENCY = 0,
+  /* a source's age of every ingest frame handed on: its arrival minus its capture time, beyond
+   * the stream's quickest delivery (a source that falls behind shows here) */
+  KATA_HISTOGRAM_SOURCE_AGE = 1
+} kata_histogram_kind;
+
+/* Buckets of a kata_runtime_get_histogram histogram (see kata_histogram_kind). */
+#define KATA_LATENCY_BUCKETS 288
 
 /* Fills the first struct_size bytes of desc with the defaults above and sets desc->struct_size
  * to the smaller of struct_size and sizeof(kata_runtime_desc): nothing past the caller's own struct is
@@ -190,6 +294,14 @@ KATA_API void kata_runtime_destroy(kata_runtime runtime);
  * desc.keep_features). KATA_E_INVALID_ARGUMENT for a used id or a full runtime. [any thread] */
 KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
                                              const char* layout, int32_t publish_features);
+/* As kata_runtime_add_stream, and the published skeleton definition also announces the source's
+ * frame rate (Hz) and units (metres per unit: 1 metres, 0.01 centimetres), as a source's own
+ * definition does (kata_skeleton_message); kata_runtime_add_stream announces both as 0, unknown.
+ * KATA_E_NON_FINITE for a NaN or infinite value, KATA_E_INVALID_ARGUMENT for a negative one
+ * (nothing added: the stream stays the caller's). Since 1.1. [any thread] */
+KATA_API kata_status kata_runtime_add_stream_ex(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
+                                                const char* layout, int32_t publish_features, float frame_rate,
+                                                float metres_per_unit);
 /* Queues one frame of a stream: the source's sequence number, capture time in seconds (must
  * increase), positions (joint_count x 3 floats). KATA_E_NOT_FOUND (no such stream),
  * KATA_E_WRONG_JOINT_COUNT (more than max_joints), KATA_E_QUEUE_FULL (the worker's queue is full:
@@ -253,6 +365,27 @@ KATA_API const char* kata_runtime_ingest_endpoint(kata_runtime runtime);
  * running count first reaches q x the total. 0 before the first published result, without a
  * publisher, for NULL or for q outside 0..1 or NaN. Does not allocate. Since 1.1. [any thread] */
 KATA_API double kata_runtime_latency_percentile(kata_runtime runtime, double q);
+/* Copies a histogram of the runtime since it was created (kata_histogram_kind) into buckets,
+ * which holds `capacity` counts: at least KATA_LATENCY_BUCKETS (else KATA_E_BUFFER_TOO_SMALL,
+ * nothing written); KATA_E_INVALID_ARGUMENT for another kind. The difference of two copies is
+ * the histogram of the time between them (a status line's window: kata_histogram_percentile
+ * reads it). Does not allocate. Since 1.1. [any thread] */
+KATA_API kata_status kata_runtime_get_histogram(kata_runtime runtime, kata_histogram_kind kind, uint64_t* buckets,
+                                                uint32_t capacity);
+/* The value in nanoseconds below which a fraction q (0..1) of a histogram's counts lies
+ * (KATA_LATENCY_BUCKETS buckets as kata_runtime_get_histogram writes them): the upper edge,
+ * 2^((i+1)/8), of the bucket i where the running count first reaches q x the total. 0 for an
+ * empty histogram, NULL, a count other than KATA_LATENCY_BUCKETS, or q outside 0..1 or NaN.
+ * Since 1.1. [any thread] */
+KATA_API double kata_histogram_percentile(const uint64_t* buckets, uint32_t count, double q);
+/* Every stream's counters (kata_stream_counters), in the order the streams were opened, the
+ * closed ones the runtime still keeps included: out holds `capacity` structs, each
+ * out[0].struct_size bytes (set it; 1.1's size or more). *count is set to the streams there are;
+ * with capacity below that, KATA_E_BUFFER_TOO_SMALL and nothing written (out may then be NULL
+ * with capacity 0: asks the count). Allocates (a report, not for the live path). Since 1.1.
+ * [any thread] */
+KATA_API kata_status kata_runtime_get_stream_counters(kata_runtime runtime, kata_stream_counters* out,
+                                                      uint32_t capacity, uint32_t* count);
 
 /* ---- Shards (docs/deploy.md) ----
  * Several `kata serve` processes split the streams: with [shard] count = N, index = i in its
@@ -426,6 +559,21 @@ KATA_API kata_status kata_message_write_frame_batch(const kata_frame_message* co
  * judges the times against the stream's teacher clip). [any thread] */
 KATA_API kata_status kata_message_write_practice(const kata_practice_message* message, void* buffer, size_t capacity,
                                                  size_t* size);
+
+/* Writes a result message (schemas/result.fbs; buffers: see above) from a result record, as a
+ * runtime publishes it: for an app that carries a runtime's results over its own transport (a
+ * NATS shard: on_result, then this, then its publish). The message of an on_result record equals,
+ * byte for byte, the one the runtime's ZeroMQ publisher sent for that result (the features of
+ * publish_features are not in the record and not written). record->struct_size is the caller's
+ * sizeof(kata_result_record), at least 1.0's (fields a smaller record lacks are written as
+ * "none"); record->ghost (ghost_joint_count x 3 floats) is read during the call, NULL for none.
+ * KATA_E_NULL_POINTER also for no record, or a ghost_joint_count with no ghost;
+ * KATA_E_INVALID_ARGUMENT for a struct_size below 1.0's or more than 1048576 ghost joints;
+ * KATA_E_NON_FINITE for a NaN or infinite ghost coordinate, distance, score, matched teacher
+ * time or practice time. Does not allocate once its thread has written a message as large.
+ * Since 1.1. [any thread] */
+KATA_API kata_status kata_message_write_result(const kata_result_record* record, void* buffer, size_t capacity,
+                                               size_t* size);
 
 #ifdef __cplusplus
 }

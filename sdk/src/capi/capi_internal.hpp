@@ -64,6 +64,10 @@ inline constexpr uint32_t kRetargetInfo10 = KATA_CAPI_END_OF(kata_retarget_info,
 inline constexpr uint32_t kSkeletonMessage11 = KATA_CAPI_END_OF(kata_skeleton_message, closed);
 inline constexpr uint32_t kFrameMessage11 = KATA_CAPI_END_OF(kata_frame_message, confidences);
 inline constexpr uint32_t kPracticeMessage11 = KATA_CAPI_END_OF(kata_practice_message, loop_end);
+// A result record a caller hands in (kata_message_write_result): at least 1.0's fields (the
+// correction cue came after reserved0; a smaller record's cue is "none").
+inline constexpr uint32_t kResultRecord10 = KATA_CAPI_END_OF(kata_result_record, reserved0);
+inline constexpr uint32_t kStreamCounters11 = KATA_CAPI_END_OF(kata_stream_counters, send_failed);
 
 // Context errors are kept per context and per thread (kata.h: "the last failed call made on this
 // context from the calling thread"). A call made on a context, or on an object that knows its

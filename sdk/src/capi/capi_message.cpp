@@ -7,6 +7,7 @@
 
 #include "capi/capi_internal.hpp"
 #include "common/text.hpp"
+#include "pipeline/record.hpp"
 #include "transport/wire.hpp"
 
 namespace {
@@ -236,6 +237,36 @@ KATA_API kata_status kata_message_write_frame_batch(const kata_frame_message* co
     }
     return deliver(call, thread_encoder().frame_batch(batch.data(), frame_count), buffer, capacity, size);
   });
+}
+
+KATA_API kata_status kata_message_write_result(const kata_result_record* record, void* buffer, size_t capacity,
+                                               size_t* size) {
+  static const char* const call = "kata_message_write_result";
+  if (!size) return KATA_E_NULL_POINTER;
+  *size = 0;
+  if (!record || (!buffer && capacity > 0))
+    return refuse(KATA_E_NULL_POINTER, size, std::string(call) + ": record and size must not be NULL, nor buffer with a capacity");
+  if (record->struct_size < kata::capi::kResultRecord10)
+    return refuse(KATA_E_INVALID_ARGUMENT, size,
+                  std::string(call) + ": record->struct_size " + std::to_string(record->struct_size) +
+                      " is below 1.0's kata_result_record (" + std::to_string(kata::capi::kResultRecord10) + ")");
+  kata::transport::ResultFields f;  // a smaller record's later fields keep their "none" defaults
+  kata::pipeline::copy_record_in(record, &f);
+  if (f.ghost_joint_count > 0 && !f.ghost)
+    return refuse(KATA_E_NULL_POINTER, size, std::string(call) + ": ghost_joint_count " +
+                                                 std::to_string(f.ghost_joint_count) + " with no ghost");
+  if (f.ghost_joint_count > (1u << 20))
+    return refuse(KATA_E_INVALID_ARGUMENT, size,
+                  std::string(call) + ": ghost_joint_count " + std::to_string(f.ghost_joint_count) + " (at most 1048576)");
+  if (!f.ghost) f.ghost_joint_count = 0;
+  for (uint32_t i = 0; i < 3 * f.ghost_joint_count; ++i)
+    if (!std::isfinite(f.ghost[i]))
+      return refuse(KATA_E_NON_FINITE, size,
+                    std::string(call) + ": ghost joint " + std::to_string(i / 3) + " is not finite");
+  if (!std::isfinite(f.distance) || !std::isfinite(f.score) || !std::isfinite(f.matched_teacher_time) ||
+      !std::isfinite(f.practice_start_time) || !std::isfinite(f.practice_end_time))
+    return refuse(KATA_E_NON_FINITE, size, std::string(call) + ": a time, distance or score is not finite");
+  return kata::capi::guarded_context([&] { return deliver(call, thread_encoder().result(f), buffer, capacity, size); });
 }
 
 KATA_API kata_status kata_message_write_practice(const kata_practice_message* message, void* buffer, size_t capacity,

@@ -1,17 +1,37 @@
 // C ABI of the runtime (kata.h section "runtime"): handle checks, exceptions -> status, copies.
 #include <atomic>
+#include <cmath>
+#include <mutex>
 #include <sstream>
 
 #include "capi/capi_internal.hpp"
 #include "common/text.hpp"
+#include "runtime/plugin.hpp"
+#include "runtime/plugin_host.hpp"
 #include "runtime/runtime.hpp"
 
 struct kata_runtime_s {
+  // Plugins (kata_runtime_desc.plugins): declared before the runtime, so that they outlive it
+  // (its threads call the sinks until it is destroyed); the sources are stopped first (below).
+  std::shared_ptr<kata::runtime::PluginHostTarget> plugin_target = std::make_shared<kata::runtime::PluginHostTarget>();
+  std::vector<std::unique_ptr<kata::runtime::PluginInstance>> plugin_sinks, plugin_sources;
+  std::mutex sources_mutex;  // kata_runtime_stop may race kata_runtime_destroy's stop
   std::unique_ptr<kata::runtime::Runtime> runtime;
   kata_context context = nullptr;  // where the runtime's calls report their errors
   bool direct_ingest = false;      // fed by kata_runtime_offer
   // Definitions the app's on_stream_open refused (written by the I/O thread).
   std::shared_ptr<std::atomic<uint64_t>> refused_by_app = std::make_shared<std::atomic<uint64_t>>(0);
+
+  // A source plugin pushes into the runtime: stopped before the runtime stops.
+  void stop_sources() {
+    std::lock_guard<std::mutex> lock(sources_mutex);
+    for (auto& s : plugin_sources) s->stop();
+  }
+  ~kata_runtime_s() {
+    stop_sources();
+    runtime.reset();  // its last result reaches the sinks before they are deactivated
+    plugin_target->runtime = nullptr;
+  }
 };
 
 namespace {
@@ -46,6 +66,9 @@ kata_runtime_desc runtime_desc_defaults() {
   d.max_connections = 256;
   d.max_frame_age_seconds = 0.25;
   d.idle_stream_seconds = 300.0;
+  d.shard_count = 1;
+  d.require_checksum = 1;
+  d.sequence_window = 1u << 16;
   return d;
 }
 // What the unsized init writes, for ever: 1.0's struct (programs built before the sized init
@@ -79,8 +102,22 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
     config.workers = static_cast<int>(d.workers);
     config.max_streams = static_cast<int>(d.max_streams);
     config.max_joints = static_cast<int>(d.max_joints);
+    if (d.result_queue_capacity == 1 || d.result_queue_capacity > (1u << 24) || d.queue_capacity > (1u << 24))
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        "kata_runtime_create: queue_capacity 2..2^24, result_queue_capacity 0 (queue_capacity) or 2..2^24");
     config.frame_queue_capacity = static_cast<int>(d.queue_capacity);
-    config.result_queue_capacity = static_cast<int>(d.queue_capacity);
+    config.result_queue_capacity = static_cast<int>(d.result_queue_capacity ? d.result_queue_capacity : d.queue_capacity);
+    if (d.shard_count < 1 || d.shard_count > 65536 || d.shard_index >= d.shard_count)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        "kata_runtime_create: shard_count 1..65536 and shard_index below it");
+    config.ingest.shard_count = d.shard_count;
+    config.ingest.shard_index = d.shard_index;
+    if ((d.require_checksum != 0 && d.require_checksum != 1) || (d.idle_backoff != 0 && d.idle_backoff != 1))
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_runtime_create: require_checksum and idle_backoff are 0 or 1");
+    config.ingest.require_checksum = d.require_checksum != 0;
+    config.idle.kind = d.idle_backoff ? kata::runtime::IdleStrategy::Kind::kBackoff : kata::runtime::IdleStrategy::Kind::kPark;
+    if (d.sequence_window < 1)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_runtime_create: sequence_window >= 1");
     config.publish.endpoints = split_endpoints(d.publish_endpoints);
     config.publish.send_hwm = d.send_hwm;
     config.ingest.endpoints = split_endpoints(d.ingest_endpoints);
@@ -117,6 +154,7 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
     limits.max_streams_per_sender = d.max_streams_per_sender;
     limits.max_frame_age_ns = static_cast<int64_t>(d.max_frame_age_seconds * 1e9);
     limits.idle_ns = static_cast<int64_t>(d.idle_stream_seconds * 1e9);
+    limits.sequence_window = d.sequence_window;
     config.ingest.max_connections = d.max_connections;
     if (d.key_file && d.key_file[0]) {
       const kata::transport::KeyPair own = kata::transport::read_key_file(d.key_file);
@@ -130,7 +168,10 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
       }
       if (d.ingest_server_key_file && d.ingest_server_key_file[0])
         config.ingest.security.curve.remote_server = kata::transport::read_key_file(d.ingest_server_key_file).public_key;
-    } else if ((d.client_keys_dir && d.client_keys_dir[0]) || (d.ingest_server_key_file && d.ingest_server_key_file[0])) {
+      if (d.publish_server_key_file && d.publish_server_key_file[0])
+        config.publish.security.curve.remote_server = kata::transport::read_key_file(d.publish_server_key_file).public_key;
+    } else if ((d.client_keys_dir && d.client_keys_dir[0]) || (d.ingest_server_key_file && d.ingest_server_key_file[0]) ||
+               (d.publish_server_key_file && d.publish_server_key_file[0])) {
       throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_runtime_create: CURVE keys need key_file");
     }
     auto r = std::make_unique<kata_runtime_s>();
@@ -172,7 +213,31 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
             &owned->pipeline, [owned](kata::pipeline::Pipeline*) { delete owned; }, false};
       };
     }
+    if (d.plugin_count > 0 && !d.plugins)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_runtime_create: plugin_count without plugins");
+    if (d.plugin_count > 1024)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_runtime_create: plugin_count above 1024");
+    // Each plugin sink gets every result before on_result (as kata serve hands them on).
+    std::vector<kata::runtime::Sink> plugin_sinks;
+    for (uint32_t i = 0; i < d.plugin_count; ++i) {
+      const kata_runtime_plugin& p = d.plugins[i];
+      if (!p.path || !p.path[0])
+        throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                          "kata_runtime_create: plugins[" + std::to_string(i) + "].path is empty");
+      std::shared_ptr<kata::runtime::LoadedPlugin> loaded =
+          kata::runtime::LoadedPlugin::load(kata::c_string(p.path, "plugin path"));
+      auto instance = std::make_unique<kata::runtime::PluginInstance>(
+          loaded, p.config ? kata::c_string(p.config, "plugin config") : std::string(), r->plugin_target);
+      if (loaded->is_sink()) plugin_sinks.push_back(instance->sink());
+      (loaded->is_source() ? r->plugin_sources : r->plugin_sinks).push_back(std::move(instance));
+    }
+    config.sinks.insert(config.sinks.begin(), plugin_sinks.begin(), plugin_sinks.end());
     r->runtime = std::make_unique<kata::runtime::Runtime>(std::move(config));
+    r->plugin_target->runtime = r->runtime.get();
+    {
+      std::lock_guard<std::mutex> lock(r->sources_mutex);
+      for (auto& source : r->plugin_sources) source->start();  // a failure: r's destructor stops the rest
+    }
     r->context = context;
     r->direct_ingest = d.direct_ingest != 0;
     *out = r.release();
@@ -184,13 +249,28 @@ KATA_API void kata_runtime_destroy(kata_runtime runtime) { delete runtime; }
 
 KATA_API kata_status kata_runtime_add_stream(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
                                              const char* layout, int32_t publish_features) {
+  return kata_runtime_add_stream_ex(runtime, stream_id, stream, layout, publish_features, 0.0f, 0.0f);
+}
+
+KATA_API kata_status kata_runtime_add_stream_ex(kata_runtime runtime, uint64_t stream_id, kata_stream* stream,
+                                                const char* layout, int32_t publish_features, float frame_rate,
+                                                float metres_per_unit) {
   if (!runtime || !stream || !*stream) return KATA_E_NULL_POINTER;
   const kata::capi::ContextScope scope(runtime->context);
+  if (!std::isfinite(frame_rate) || !std::isfinite(metres_per_unit)) {
+    kata::capi::set_context_error("kata_runtime_add_stream_ex: frame_rate and metres_per_unit must be finite");
+    return KATA_E_NON_FINITE;
+  }
   return kata::capi::guarded_context([&] {
+    if (frame_rate < 0.0f || metres_per_unit < 0.0f)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        "kata_runtime_add_stream_ex: frame_rate and metres_per_unit are >= 0 (0: unknown)");
     kata_stream s = *stream;
     kata::transport::SkeletonDefinition d;
     d.stream_id = stream_id;
     d.revision = 1;
+    d.frame_rate = frame_rate;
+    d.metres_per_unit = metres_per_unit;
     d.skeleton = s->pipeline.student();
     // The stream's own layout, so subscribers and shards rebuild the map it was opened with;
     // a layout that names another contradicts the stream and is refused.
@@ -263,6 +343,7 @@ KATA_API kata_status kata_runtime_stop(kata_runtime runtime) {
   if (!runtime) return KATA_E_NULL_POINTER;
   const kata::capi::ContextScope scope(runtime->context);
   return kata::capi::guarded_context([&] {
+    runtime->stop_sources();  // a source plugin pushes no frame after this
     runtime->runtime->stop();
     return KATA_OK;
   });
@@ -296,6 +377,29 @@ KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtim
   k.ingest_practice_no_clip = c.ingest.practice_no_clip;
   k.ingest_practice_queue_full = c.ingest.practice_queue_full;
   k.streams_refused_by_app = runtime->refused_by_app->load(std::memory_order_relaxed);
+  const kata::transport::IngestCounters& in = c.ingest;
+  k.ingest_frames = in.frames;
+  k.ingest_skeletons = in.skeletons;
+  k.ingest_repeated_skeletons = in.repeated_skeletons;
+  k.ingest_closes = in.closes;
+  k.ingest_repeated_practices = in.repeated_practices;
+  k.ingest_other_shard = in.other_shard;
+  k.ingest_batches = in.batches;
+  k.ingest_batch_frames = in.batch_frames;
+  k.ingest_malformed = in.malformed_total();
+  k.ingest_refused_skeletons = in.refused_skeletons;
+  k.ingest_unknown_stream = in.unknown_stream;
+  k.ingest_wrong_joint_count = in.wrong_joint_count;
+  k.ingest_out_of_order = in.out_of_order;
+  k.ingest_other_kind = in.other_kind;
+  k.ingest_connections = in.connections;
+  k.ingest_disconnections = in.disconnections;
+  k.ingest_connections_refused = in.connections_refused;
+  k.ingest_handshake_failures = in.handshake_failures;
+  k.ingest_last_handshake_error = in.last_handshake_error;
+  k.pipeline_dropped = c.total.pipeline_dropped;
+  k.result_queue_full = c.total.result_queue_full;
+  k.send_failed = c.total.send_failed;
   kata::capi::write_sized(k, kata::capi::kRuntimeCounters10, out);  // size checked above
   return KATA_OK;
 }
@@ -318,6 +422,67 @@ KATA_API double kata_runtime_latency_percentile(kata_runtime runtime, double q) 
   if (!runtime || !(q >= 0.0 && q <= 1.0)) return 0.0;
   const kata::runtime::RuntimeCounters c = runtime->runtime->counters();
   return kata::runtime::latency_percentile(c.latency_histogram, q);
+}
+
+KATA_API kata_status kata_runtime_get_histogram(kata_runtime runtime, kata_histogram_kind kind, uint64_t* buckets,
+                                                uint32_t capacity) {
+  if (!runtime || !buckets) return KATA_E_NULL_POINTER;
+  if (kind != KATA_HISTOGRAM_LATENCY && kind != KATA_HISTOGRAM_SOURCE_AGE) return KATA_E_INVALID_ARGUMENT;
+  if (capacity < KATA_LATENCY_BUCKETS) return KATA_E_BUFFER_TOO_SMALL;
+  static_assert(KATA_LATENCY_BUCKETS == kata::runtime::kLatencyBuckets &&
+                    KATA_LATENCY_BUCKETS == kata::transport::IngestCounters::kAgeBuckets,
+                "one bucket scheme");
+  const kata::runtime::RuntimeCounters c = runtime->runtime->counters();
+  const uint64_t* from = kind == KATA_HISTOGRAM_LATENCY ? c.latency_histogram : c.ingest.age_histogram;
+  std::memcpy(buckets, from, sizeof(uint64_t) * KATA_LATENCY_BUCKETS);
+  return KATA_OK;
+}
+
+KATA_API double kata_histogram_percentile(const uint64_t* buckets, uint32_t count, double q) {
+  if (!buckets || count != KATA_LATENCY_BUCKETS || !(q >= 0.0 && q <= 1.0)) return 0.0;
+  return kata::runtime::latency_percentile(buckets, q);
+}
+
+KATA_API kata_status kata_runtime_get_stream_counters(kata_runtime runtime, kata_stream_counters* out,
+                                                      uint32_t capacity, uint32_t* count) {
+  if (!runtime || !count || (!out && capacity > 0)) return KATA_E_NULL_POINTER;
+  const kata::capi::ContextScope scope(runtime->context);
+  return kata::capi::guarded_context([&] {
+    const auto all = runtime->runtime->all_stream_counters();
+    *count = static_cast<uint32_t>(all.size());
+    if (capacity < all.size()) return KATA_E_BUFFER_TOO_SMALL;
+    if (all.empty()) return KATA_OK;
+    // Each element is as large as the caller's struct (out[0].struct_size), so an array of a
+    // newer kata.h's structs is walked with its own stride.
+    const uint32_t stride = out->struct_size;
+    if (stride < kata::capi::kStreamCounters11)
+      throw kata::Error(kata::ErrorKind::kInvalidArgument,
+                        "kata_runtime_get_stream_counters: out->struct_size is below 1.1's kata_stream_counters");
+    auto* base = reinterpret_cast<unsigned char*>(out);
+    for (size_t i = 0; i < all.size(); ++i) {
+      const kata::runtime::StreamCounters& c = all[i].second;
+      kata_stream_counters k{};
+      k.struct_size = sizeof k;
+      k.stream_id = all[i].first;
+      k.frames_in = c.frames_in;
+      k.results = c.results;
+      k.published = c.published;
+      k.queue_full = c.queue_full;
+      k.stopped = c.stopped;
+      k.stale = c.stale;
+      k.unauthorised = c.unauthorised;
+      k.out_of_sequence = c.out_of_sequence;
+      k.wrong_joints = c.wrong_joints;
+      k.refused = c.refused;
+      k.pipeline_dropped = c.pipeline_dropped;
+      k.result_queue_full = c.result_queue_full;
+      k.send_failed = c.send_failed;
+      auto* element = reinterpret_cast<kata_stream_counters*>(base + i * stride);
+      element->struct_size = stride;
+      kata::capi::write_sized(k, kata::capi::kStreamCounters11, element);
+    }
+    return KATA_OK;
+  });
 }
 
 KATA_API kata_status kata_message_read_result(const void* message, size_t size, kata_result_record* out) {

@@ -43,4 +43,9 @@ void copy_record_out(const kata_result_record& record, uint32_t caller_size, voi
   std::memcpy(out, &caller_size, sizeof caller_size);
 }
 
+void copy_record_in(const kata_result_record* record, kata_result_record* out) noexcept {
+  std::memcpy(static_cast<void*>(out), record, std::min<size_t>(record->struct_size, sizeof *out));
+  out->struct_size = sizeof *out;
+}
+
 }  // namespace kata::pipeline

@@ -22,4 +22,9 @@ void fill_record(const Result& result, uint32_t ghost_joint_count, kata_result_r
 // the struct_size field.
 void copy_record_out(const kata_result_record& record, uint32_t caller_size, void* out) noexcept;
 
+// The other way: a caller's record of record->struct_size bytes (at least the struct_size field)
+// into *out, a full record: the fields the caller's struct lacks keep out's values (its
+// defaults), and out->struct_size becomes sizeof(kata_result_record).
+void copy_record_in(const kata_result_record* record, kata_result_record* out) noexcept;
+
 }  // namespace kata::pipeline

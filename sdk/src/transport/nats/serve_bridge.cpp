@@ -1,40 +1,44 @@
 #include "transport/nats/serve_bridge.hpp"
 
+#include <chrono>
 #include <cstring>
 
 #include "common/error.hpp"
-#include "pipeline/pipeline.hpp"
 
 namespace kata::transport::nats {
 
-ServeBridge::ServeBridge(ShardOptions options) : options_(std::move(options)), encoder_(std::make_unique<Encoder>()) {}
+ServeBridge::ServeBridge(ShardOptions options) : options_(std::move(options)), message_(4096) {}
 
 ServeBridge::~ServeBridge() { stop(); }
 
-void ServeBridge::configure(runtime::RuntimeConfig& config) {
-  config.ingest.endpoints.clear();
-  config.ingest.kind = IngestKind::kDirect;
-  config.sinks.push_back(sink());
+void ServeBridge::publish(const kata_result_record& record) {
+  Shard* shard = live_shard_.load(std::memory_order_acquire);
+  if (shard == nullptr) return;
+  // The runtime stamps published_ns only for its own ZeroMQ publisher (none here): stamped as it
+  // does (steady_clock, CLOCK_MONOTONIC), just before the encoding, so that a result's computed ->
+  // published -> received split means the same on both transports (kata replay --transport nats
+  // reports it).
+  kata_result_record stamped = record;
+  stamped.struct_size = sizeof stamped;  // the runtime's record is at least this kata.h's
+  stamped.published_ns =
+      std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()).count();
+  // The ABI's writer: the bytes the runtime's own publisher would send. The buffer grows to the
+  // largest result once (a ghost of 64 joints: about 1.5 kB).
+  size_t size = 0;
+  kata_status status = kata_message_write_result(&stamped, message_.data(), message_.size(), &size);
+  if (status == KATA_E_BUFFER_TOO_SMALL) {
+    message_.resize(size);
+    status = kata_message_write_result(&stamped, message_.data(), message_.size(), &size);
+  }
+  if (status != KATA_OK) {
+    write_failed_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  shard->publish_result(record.stream_id, message_.data(), size);
 }
 
-runtime::Sink ServeBridge::sink() {
-  runtime::Sink s;
-  s.on_result = [this](const ResultFields& fields) {
-    Shard* shard = live_shard_.load(std::memory_order_acquire);
-    if (shard == nullptr) return;
-    // The runtime stamps published_ns only for its own ZeroMQ publisher (none here): stamped as it
-    // does, just before the encoding, so that a result's computed -> published -> received split
-    // means the same on both transports (kata replay --transport nats reports it).
-    ResultFields stamped = fields;
-    stamped.published_ns = pipeline::now_ns();
-    const Bytes bytes = encoder_->result(stamped);
-    shard->publish_result(fields.stream_id, bytes.data, bytes.size);
-  };
-  return s;
-}
-
-void ServeBridge::start(runtime::Runtime& runtime) {
-  runtime_ = &runtime;  // before the Shard exists: its lease thread subscribes after this
+void ServeBridge::start(Offer offer) {
+  offer_ = std::move(offer);  // before the Shard exists: its lease thread subscribes after this
   Shard::Handlers h;
   h.on_message = [this](const void* data, size_t size) { on_message(data, size); };
   shard_ = std::make_unique<Shard>(options_, h);
@@ -49,8 +53,8 @@ void ServeBridge::on_message(const void* data, size_t size) {
     Shard* shard = live_shard_.load(std::memory_order_acquire);
     if (shard != nullptr && parse_topic(static_cast<const uint8_t*>(data), &id)) shard->publish_definition(id, data, size);
   }
-  // Into the runtime's ring; its I/O thread verifies, counts and scores it (runtime.hpp, offer).
-  if (!runtime_->offer(data, size)) bridge_dropped_.fetch_add(1, std::memory_order_relaxed);
+  // Into the runtime's ring; its I/O thread verifies, counts and scores it (kata_runtime_offer).
+  if (!offer_(data, size)) bridge_dropped_.fetch_add(1, std::memory_order_relaxed);
 }
 
 void ServeBridge::stop() {

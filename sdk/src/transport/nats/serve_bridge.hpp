@@ -1,9 +1,12 @@
 // `kata serve` over NATS ([transport] kind = "nats"; docs/deploy.md): a Shard (shard.hpp) whose
-// messages reach the runtime's own ingest, and whose results leave through a runtime Sink.
+// messages reach the runtime's own ingest (kata_runtime_offer, through the offer function start()
+// is given), and whose results leave through publish() (called from kata_runtime_desc.on_result).
+// It knows the runtime only through those two: serve runs its runtime on the C ABI.
 //
 // The runtime's ingest is the one ZeroMQ uses (the same verifier, size limit, stream table,
 // counters by cause, revisions and closes), made socketless (transport::IngestKind::kDirect):
-// libnats' delivery thread hands each message of a held partition, in order, to Runtime::offer,
+// libnats' delivery thread hands each message of a held partition, in order, to the offer function
+// (kata_runtime_offer: Runtime::offer),
 // which copies it into a bounded single-producer ring (allocated once) and wakes the runtime's
 // I/O thread, the ingest's one owner, through an eventfd. Before this ring the bridge
 // pushed every message over a private ipc PUSH -> PULL socket instead: two ZeroMQ I/O threads and
@@ -13,7 +16,8 @@
 // permissions' business. A message the ring cannot take (the I/O thread fell behind, or the
 // runtime is stopping) is counted in bridge_dropped().
 //
-// Results: the sink encodes each one (the same FlatBuffers Result as ZeroMQ's) and publishes it on
+// Results: publish() encodes each one with kata_message_write_result (the same FlatBuffers Result
+// as ZeroMQ's, byte for byte) and publishes it on
 // the stream's result subject under this shard's lease epoch, or drops it (counted) when the
 // stream's partition is not held. Skeleton definitions of the held streams are forwarded to the
 // same subjects, so that a consumer learns each stream's skeleton on NATS as on ZeroMQ.
@@ -22,17 +26,21 @@
 // idle_stream_seconds closes it (or its partition comes back and it goes on). The new holder
 // opens it from its next skeleton definition.
 //
-// Thread rules: construct, configure(), start(), stop() and destroy on one thread; the runtime
-// given to start() must outlive stop() (stop() returns after libnats' last delivery, so no call
+// Thread rules: construct, start(), stop() and destroy on one thread; the runtime the offer
+// function reaches must outlive stop() (stop() returns after libnats' last delivery, so no call
 // into the runtime follows it). on_message runs on libnats' delivery thread (one: shard.hpp), the
-// ring's one producer. sink() is called by the runtime (one thread at a time).
+// ring's one producer. publish() is called by the runtime's on_result (one thread at a time).
 #pragma once
 
+#include <atomic>
+#include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
-#include "runtime/runtime.hpp"
+#include "kata/kata.h"
 #include "transport/nats/shard.hpp"
+#include "transport/wire.hpp"
 
 namespace kata::transport::nats {
 
@@ -44,14 +52,15 @@ class ServeBridge {
   ServeBridge(const ServeBridge&) = delete;
   ServeBridge& operator=(const ServeBridge&) = delete;
 
-  // Before the runtime is made: its ingest becomes a direct one (no endpoint, no socket) and this
-  // bridge's sink is added to its sinks.
-  void configure(runtime::RuntimeConfig& config);
-  // The sink that publishes results (configure() adds it).
-  runtime::Sink sink();
-  // Connects to NATS and starts taking partitions; their messages go to runtime.offer(). Throws
+  // Takes a message into the runtime's direct ingest (kata_runtime_offer == KATA_OK): false when
+  // the runtime would not take it (counted in bridge_dropped()).
+  using Offer = std::function<bool(const void* message, size_t size)>;
+  // Publishes one result of the runtime (its on_result record, valid during the call) on the
+  // stream's result subject, or drops it (counted) when the stream's partition is not held.
+  void publish(const kata_result_record& record);
+  // Connects to NATS and starts taking partitions; their messages go to offer. Throws
   // kata::Error.
-  void start(runtime::Runtime& runtime);
+  void start(Offer offer);
   // Gives every partition back (the others take them at once) and disconnects; after it returns
   // nothing reaches the runtime. Idempotent.
   void stop();
@@ -59,14 +68,18 @@ class ServeBridge {
   const Shard* shard() const { return shard_.get(); }
   // Messages the runtime's ring would not take (full: the runtime fell behind; or it was stopping).
   uint64_t bridge_dropped() const { return bridge_dropped_.load(std::memory_order_relaxed); }
+  // Results kata_message_write_result refused (a record with a non-finite value: none from a
+  // runtime), not published.
+  uint64_t results_refused() const { return write_failed_.load(std::memory_order_relaxed); }
 
  private:
   void on_message(const void* data, size_t size);
   ShardOptions options_;
-  runtime::Runtime* runtime_ = nullptr;  // set by start() before the first subscription exists
+  Offer offer_;  // set by start() before the first subscription exists
   std::unique_ptr<Shard> shard_;
-  std::atomic<Shard*> live_shard_{nullptr};  // for the sink: null before start and after stop
-  std::unique_ptr<Encoder> encoder_;          // [the sink's thread]
+  std::atomic<Shard*> live_shard_{nullptr};  // for publish(): null before start and after stop
+  std::vector<unsigned char> message_;        // a result's bytes [publish()'s thread]
+  std::atomic<uint64_t> write_failed_{0};     // records kata_message_write_result refused (none expected)
   std::atomic<uint64_t> bridge_dropped_{0};
 };
 
