@@ -256,9 +256,10 @@ Rows rows_for(const kata::serve::Practice& p, const TeacherSource& t, kata_teach
 // definition has a rest pose, and its practice section; on the runtime's I/O thread.
 kata_status on_stream_open(void* user, const kata_stream_open_info* info, kata_stream stream) {
   const StreamSetup& s = *static_cast<const StreamSetup*>(user);
+  if (!s.scoring) return KATA_OK;  // no model: features only, and nothing to say per stream
   const TeacherSource& source = s.teacher_of(info->stream_id);
   const std::string& path = source.path;
-  if (s.scoring && !path.empty()) {
+  if (!path.empty()) {
     const kata_teacher teacher = s.teachers->at(path);
     kata_teacher_desc options;
     kata_teacher_desc_init(&options);
@@ -269,7 +270,7 @@ kata_status on_stream_open(void* user, const kata_stream_open_info* info, kata_s
       if (const kata_status status = kata_stream_set_practice_section(stream, r.first, r.last, r.loop)) return status;
   }
   std::fprintf(stderr, "\nstream %llu: %u joints, %s\n", static_cast<unsigned long long>(info->stream_id),
-               info->joint_count, s.scoring && !path.empty() ? path.c_str() : "features only");
+               info->joint_count, path.empty() ? "features only" : path.c_str());
   return KATA_OK;
 }
 
