@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "kata/kata.h"
+#include "support/capi_fixture.hpp"
 #include "support/zmq_subscriber.hpp"
 
 namespace {
@@ -756,54 +757,79 @@ kata_status on_open(void* user, const kata_stream_open_info* info, kata_stream s
   return kata_stream_attach_shared_teacher(stream, h->teacher, nullptr);
 }
 
-TEST(runtime_capi, OnStreamOpenAttachesASharedTeacherAndARefusalIsCounted) {
-  kata_context ctx = nullptr;
-  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
-  kata_model model = nullptr;
-  ASSERT_EQ(kata_model_load(ctx, KATA_SOURCE_DIR "/models/default.kata", &model), KATA_OK);
-  kata_clip student = nullptr, teacher_clip = nullptr;
-  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &student), KATA_OK);
-  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_01.bvh", &teacher_clip), KATA_OK);
-  kata_skeleton skel = nullptr;
-  ASSERT_EQ(kata_clip_skeleton(student, &skel), KATA_OK);
-  const uint32_t joints = kata_skeleton_joint_count(skel);
-  kata_teacher_desc td;
-  kata_teacher_desc_init(&td);
-  td.model = model;
-  td.clip = teacher_clip;
-  td.first_frame = 1;
-  HookState hook;
-  ASSERT_EQ(kata_teacher_create(ctx, &td, &hook.teacher), KATA_OK) << kata_context_last_error(ctx);
-  hook.refuse_id = 22;
-
-  kata_runtime_desc rd;
-  kata_runtime_desc_init(&rd);
-  EXPECT_EQ(rd.on_stream_open, nullptr);
-  EXPECT_EQ(rd.stream_stencil, KATA_STENCIL_BACKWARD);
-  Received got;
-  rd.workers = 1;
-  rd.direct_ingest = 1;
-  rd.max_frame_age_seconds = 0.0;  // the clip's capture times are not this host's clock
-  rd.on_result = receive;
-  rd.on_result_user = &got;
-  rd.on_stream_open = on_open;
-  rd.on_stream_open_user = &hook;
-  rd.stream_stencil = kata_model_stencil(model);
-  kata_runtime runtime = nullptr;
-  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
-  // The hook attaches the handle to each stream it opens: kept until no definition can come.
-  std::vector<unsigned char> buffer(1 << 16);
-  size_t size = 0;
-  for (uint64_t id : {uint64_t{21}, uint64_t{22}}) {
+// The two hook tests' set-up: the C ABI clips (teacher 02_01, student 07_01), a runtime fed by
+// kata_runtime_offer whose on_stream_open is the test's hook and whose results reach `got`, and
+// the skeleton and frame messages offered to it.
+class RuntimeHook : public kata::test::CapiClips {
+ protected:
+  RuntimeHook() : CapiClips(KATA_DATA_DIR "/cmu/02_01.bvh", KATA_DATA_DIR "/cmu/07_01.bvh") {}
+  kata_teacher_desc teacher_desc() const {
+    kata_teacher_desc td;
+    kata_teacher_desc_init(&td);
+    td.model = model;
+    td.clip = teacher;
+    td.first_frame = 1;
+    return td;
+  }
+  // One worker, the direct ingest, no age limit (the clip's capture times are not this host's clock).
+  kata_runtime start(kata_stream_open_callback hook, void* hook_user) {
+    kata_runtime_desc rd;
+    kata_runtime_desc_init(&rd);
+    rd.workers = 1;
+    rd.direct_ingest = 1;
+    rd.max_frame_age_seconds = 0.0;
+    rd.on_result = receive;
+    rd.on_result_user = &got;
+    rd.on_stream_open = hook;
+    rd.on_stream_open_user = hook_user;
+    rd.stream_stencil = kata_model_stencil(model);
+    kata_runtime runtime = nullptr;
+    EXPECT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+    return runtime;
+  }
+  void offer_skeleton(kata_runtime runtime, uint64_t id, float frame_rate) {
     kata_skeleton_message sm;
     kata_skeleton_message_init(&sm);
     sm.stream_id = id;
     sm.skeleton = skel;
     sm.layout = "cmu";
-    sm.frame_rate = 120.0f;
+    sm.frame_rate = frame_rate;
+    size_t size = 0;
     ASSERT_EQ(kata_message_write_skeleton(&sm, buffer.data(), buffer.size(), &size), KATA_OK);
     ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK);
   }
+  // Frame i of a stream: positions p, captured at 10 + i / 128 s (dyadic: the wire's nanoseconds
+  // give it back exactly).
+  void offer_frame(kata_runtime runtime, uint64_t id, int i, const std::vector<float>& p) {
+    kata_frame_message fm;
+    kata_frame_message_init(&fm);
+    fm.stream_id = id;
+    fm.sequence = static_cast<uint64_t>(i);
+    fm.capture_time = 10.0 + i / 128.0;
+    fm.positions = p.data();
+    fm.joint_count = joints;
+    size_t size = 0;
+    ASSERT_EQ(kata_message_write_frame(&fm, buffer.data(), buffer.size(), &size), KATA_OK);
+    ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK) << i;
+  }
+
+  Received got;
+  std::vector<unsigned char> buffer = std::vector<unsigned char>(1 << 16);
+};
+
+TEST_F(RuntimeHook, OnStreamOpenAttachesASharedTeacherAndARefusalIsCounted) {
+  kata_runtime_desc fresh;
+  kata_runtime_desc_init(&fresh);
+  EXPECT_EQ(fresh.on_stream_open, nullptr);
+  EXPECT_EQ(fresh.stream_stencil, KATA_STENCIL_BACKWARD);
+  const kata_teacher_desc td = teacher_desc();
+  HookState hook;
+  ASSERT_EQ(kata_teacher_create(ctx, &td, &hook.teacher), KATA_OK) << kata_context_last_error(ctx);
+  hook.refuse_id = 22;
+  kata_runtime runtime = start(on_open, &hook);
+  ASSERT_NE(runtime, nullptr);
+  // The hook attaches the handle to each stream it opens: kept until no definition can come.
+  for (uint64_t id : {uint64_t{21}, uint64_t{22}}) ASSERT_NO_FATAL_FAILURE(offer_skeleton(runtime, id, 120.0f));
 
   kata_stream_desc sd;
   kata_stream_desc_init(&sd);
@@ -831,17 +857,7 @@ TEST(runtime_capi, OnStreamOpenAttachesASharedTeacherAndARefusalIsCounted) {
   const int frames = 120;
   for (int i = 0; i < frames; ++i) {
     ASSERT_EQ(kata_clip_positions(student, static_cast<uint32_t>(1 + i), p.data(), p.size()), KATA_OK);
-    for (uint64_t id : {uint64_t{21}, uint64_t{22}}) {
-      kata_frame_message fm;
-      kata_frame_message_init(&fm);
-      fm.stream_id = id;
-      fm.sequence = static_cast<uint64_t>(i);
-      fm.capture_time = 10.0 + i / 128.0;  // dyadic: the wire's nanoseconds give it back exactly
-      fm.positions = p.data();
-      fm.joint_count = joints;
-      ASSERT_EQ(kata_message_write_frame(&fm, buffer.data(), buffer.size(), &size), KATA_OK);
-      ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK) << i;
-    }
+    for (uint64_t id : {uint64_t{21}, uint64_t{22}}) ASSERT_NO_FATAL_FAILURE(offer_frame(runtime, id, i, p));
     ASSERT_EQ(kata_stream_push(direct, 10.0 + i / 128.0, p.data(), joints), KATA_OK);
   }
   ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);  // every offered message handled first
@@ -889,11 +905,6 @@ TEST(runtime_capi, OnStreamOpenAttachesASharedTeacherAndARefusalIsCounted) {
   EXPECT_GE(c.ingest_dropped, static_cast<uint64_t>(frames) + 1);  // the refused definition, 22's frames
   kata_runtime_destroy(runtime);
   kata_stream_destroy(direct);
-  kata_skeleton_destroy(skel);
-  kata_clip_destroy(teacher_clip);
-  kata_clip_destroy(student);
-  kata_model_destroy(model);
-  kata_context_destroy(ctx);
 }
 
 // A practice section the hook sets (kata_stream_set_practice_section inside on_stream_open, as
@@ -911,65 +922,24 @@ kata_status on_open_practice(void* user, const kata_stream_open_info*, kata_stre
   return kata_stream_set_practice_section(stream, h->first, h->last, 1);
 }
 
-TEST(runtime_capi, APracticeSectionSetInOnStreamOpenIsPublishedWithEveryResult) {
-  kata_context ctx = nullptr;
-  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
-  kata_model model = nullptr;
-  ASSERT_EQ(kata_model_load(ctx, KATA_SOURCE_DIR "/models/default.kata", &model), KATA_OK);
-  kata_clip student = nullptr, teacher_clip = nullptr;
-  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &student), KATA_OK);
-  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_01.bvh", &teacher_clip), KATA_OK);
-  kata_skeleton skel = nullptr;
-  ASSERT_EQ(kata_clip_skeleton(student, &skel), KATA_OK);
-  const uint32_t joints = kata_skeleton_joint_count(skel);
-  kata_teacher_desc td;
-  kata_teacher_desc_init(&td);
-  td.model = model;
-  td.clip = teacher_clip;
-  td.first_frame = 1;
+TEST_F(RuntimeHook, APracticeSectionSetInOnStreamOpenIsPublishedWithEveryResult) {
+  const kata_teacher_desc td = teacher_desc();
   PracticeHook hook;
   hook.first = 40;
   hook.last = 160;
   ASSERT_EQ(kata_teacher_create(ctx, &td, &hook.teacher), KATA_OK) << kata_context_last_error(ctx);
-  kata_runtime_desc rd;
-  kata_runtime_desc_init(&rd);
-  Received got;
-  rd.workers = 1;
-  rd.direct_ingest = 1;
-  rd.max_frame_age_seconds = 0.0;
-  rd.on_result = receive;
-  rd.on_result_user = &got;
-  rd.on_stream_open = on_open_practice;
-  rd.on_stream_open_user = &hook;
-  rd.stream_stencil = kata_model_stencil(model);
-  kata_runtime runtime = nullptr;
-  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
-  std::vector<unsigned char> buffer(1 << 16);
-  size_t size = 0;
-  kata_skeleton_message sm;
-  kata_skeleton_message_init(&sm);
-  sm.stream_id = 5;
-  sm.skeleton = skel;
-  sm.layout = "cmu";
-  ASSERT_EQ(kata_message_write_skeleton(&sm, buffer.data(), buffer.size(), &size), KATA_OK);
-  ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK);
+  kata_runtime runtime = start(on_open_practice, &hook);
+  ASSERT_NE(runtime, nullptr);
+  ASSERT_NO_FATAL_FAILURE(offer_skeleton(runtime, 5, 0.0f));
   std::vector<float> p(3 * joints);
   for (int i = 0; i < 100; ++i) {
     ASSERT_EQ(kata_clip_positions(student, static_cast<uint32_t>(1 + i), p.data(), p.size()), KATA_OK);
-    kata_frame_message fm;
-    kata_frame_message_init(&fm);
-    fm.stream_id = 5;
-    fm.sequence = static_cast<uint64_t>(i);
-    fm.capture_time = 10.0 + i / 128.0;
-    fm.positions = p.data();
-    fm.joint_count = joints;
-    ASSERT_EQ(kata_message_write_frame(&fm, buffer.data(), buffer.size(), &size), KATA_OK);
-    ASSERT_EQ(kata_runtime_offer(runtime, buffer.data(), size), KATA_OK) << i;
+    ASSERT_NO_FATAL_FAILURE(offer_frame(runtime, 5, i, p));
   }
   ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);
   kata_teacher_destroy(hook.teacher);
   // The section's ends in teacher seconds: its rows times the teacher clip's frame time.
-  const double ft = kata_clip_frame_time(teacher_clip);
+  const double ft = kata_clip_frame_time(teacher);
   ASSERT_GT(ft, 0.0);
   ASSERT_GT(got.records.size(), 60u);
   for (size_t i = 0; i < got.records.size(); ++i) {
@@ -986,11 +956,6 @@ TEST(runtime_capi, APracticeSectionSetInOnStreamOpenIsPublishedWithEveryResult) 
     }
   }
   kata_runtime_destroy(runtime);
-  kata_skeleton_destroy(skel);
-  kata_clip_destroy(teacher_clip);
-  kata_clip_destroy(student);
-  kata_model_destroy(model);
-  kata_context_destroy(ctx);
 }
 
 // The 1.1 fields of kata_runtime_desc that a `kata serve` config sets: their defaults are the
