@@ -387,6 +387,37 @@ KATA_API double kata_histogram_percentile(const uint64_t* buckets, uint32_t coun
 KATA_API kata_status kata_runtime_get_stream_counters(kata_runtime runtime, kata_stream_counters* out,
                                                       uint32_t capacity, uint32_t* count);
 
+/* ---- CURVE key files and endpoints (docs/deploy.md; since 1.1) ----
+ * What an app checks before it fills kata_runtime_desc's key fields, so that a bad key is refused
+ * where the app read its name (a config's line) rather than later by kata_runtime_create.
+ * Key files, as `kata keygen` writes them and kata_runtime_create reads them:
+ *   NAME.pub     public = "<40 Z85 characters>"
+ *   NAME.secret  public = "<40 Z85 characters>", secret = "<40 Z85 characters>"   (mode 0600)
+ * Lines starting with '#' and blank lines are ignored. A client key directory holds *.pub files;
+ * anything else in it is ignored. */
+
+/* Size of a Z85 key as text: 40 characters and the terminating NUL. */
+#define KATA_KEY_TEXT_SIZE 41
+
+/* Reads a key file. public_key (KATA_KEY_TEXT_SIZE bytes) receives its public key; secret_key
+ * (KATA_KEY_TEXT_SIZE bytes, or NULL) its secret key, "" for a .pub file. A file that cannot be
+ * read is KATA_E_IO; a malformed one (a line that is not key = "value", a key that is not 40
+ * Z85 characters, no public key, a secret that does not belong to the public key) KATA_E_PARSE;
+ * the reason, naming the file and its line, is kata_context_last_error(context). context may be NULL: the reason is then filed
+ * on the calling thread (kata_context_last_error of NULL or of any context of the thread, as for
+ * kata_clip_positions). [any thread] */
+KATA_API kata_status kata_key_file_read(kata_context context, const char* path, char* public_key, char* secret_key);
+/* Checks a client key directory as a runtime's client_keys_dir is read: every *.pub file in it
+ * must be a public key file (kata_key_file_read). *count receives the number of keys. A missing
+ * directory is KATA_E_IO, a bad file the status and reason of kata_key_file_read, naming that file.
+ * context: as for kata_key_file_read. [any thread] */
+KATA_API kata_status kata_key_directory_check(kata_context context, const char* dir, uint32_t* count);
+/* 1 when a bind endpoint is reachable from beyond this host, 0 otherwise: tcp:// on a host other
+ * than 127.x.x.x, localhost, ::1 or lo ("*" and 0.0.0.0 included; "tcp://source;host:port" is
+ * judged by host). ipc:// and inproc:// are local; NULL is 0. A runtime that binds such an
+ * endpoint without key_file takes frames from anyone on the network. [any thread] */
+KATA_API int32_t kata_endpoint_reachable_beyond_host(const char* endpoint);
+
 /* ---- Shards (docs/deploy.md) ----
  * Several `kata serve` processes split the streams: with [shard] count = N, index = i in its
  * config, a shard scores exactly the streams for which kata_shard_of(stream_id, N) == i and drops
