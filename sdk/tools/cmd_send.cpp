@@ -31,7 +31,6 @@
 #include "common/error.hpp"  // kata::Error: how a CLI command reports a failure (command.hpp)
 #include "data_files.hpp"
 #include "kata/kata.h"
-#include "transport/curve.hpp"  // CURVE key files as kata keygen writes them and kata serve reads them
 #ifdef KATA_HAVE_NATS
 #include "transport/nats/connection.hpp"
 #include "transport/nats/partition.hpp"
@@ -413,11 +412,24 @@ void run_send(const Options& o) {
   if (!o.key.empty() || !o.server_key.empty()) {
     if (o.key.empty() || o.server_key.empty())
       throw Error(ErrorKind::kInvalidArgument, "send: CURVE needs both --key (this sender's .secret) and --server-key");
-    kata::transport::CurveOptions curve;
-    curve.own = kata::transport::read_key_file(o.key);
-    if (curve.own.secret_key.empty()) throw Error(ErrorKind::kInvalidArgument, "send: --key must be a .secret file");
-    curve.remote_server = kata::transport::read_key_file(o.server_key).public_key;
-    kata::transport::apply_curve(socket, curve);
+    // The key files through the C ABI's reader (what kata serve's config and runtime read them
+    // with), then this socket a CURVE client of the server's public key.
+    char public_key[KATA_KEY_TEXT_SIZE], secret_key[KATA_KEY_TEXT_SIZE], server_key[KATA_KEY_TEXT_SIZE];
+    auto read_keys = [](const std::string& path, char* public_out, char* secret_out) {
+      const kata_status status = kata_key_file_read(nullptr, path.c_str(), public_out, secret_out);
+      if (status != KATA_OK)
+        throw Error(status == KATA_E_IO ? ErrorKind::kIo : ErrorKind::kParse, kata_context_last_error(nullptr));
+    };
+    read_keys(o.key, public_key, secret_key);
+    if (secret_key[0] == '\0') throw Error(ErrorKind::kInvalidArgument, "send: --key must be a .secret file");
+    read_keys(o.server_key, server_key, nullptr);
+    auto set_key = [&](int option, const char* key, const char* what) {
+      if (zmq_setsockopt(socket, option, key, std::strlen(key)) != 0)
+        throw Error(ErrorKind::kIo, std::string("ZeroMQ: cannot set ") + what + ": " + zmq_strerror(zmq_errno()));
+    };
+    set_key(ZMQ_CURVE_SERVERKEY, server_key, "ZMQ_CURVE_SERVERKEY");
+    set_key(ZMQ_CURVE_PUBLICKEY, public_key, "ZMQ_CURVE_PUBLICKEY");
+    set_key(ZMQ_CURVE_SECRETKEY, secret_key, "ZMQ_CURVE_SECRETKEY");
   }
   const bool bind = o.endpoint.rfind("bind:", 0) == 0;
   const std::string endpoint = bind ? o.endpoint.substr(5) : o.endpoint;

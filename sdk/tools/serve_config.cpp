@@ -14,8 +14,8 @@
 #include "common/error.hpp"
 #include "common/text.hpp"
 #include "data_files.hpp"
+#include "kata/kata.h"
 #include "serve_config_read.hpp"
-#include "transport/curve.hpp"
 
 namespace kata::serve {
 
@@ -328,28 +328,34 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
   const std::string key_file = read<std::string>(file, security, "key", "");
   const std::string clients = read<std::string>(file, security, "clients", "");
   c.insecure = read<bool>(file, security, "insecure", false);
-  auto load = [&](const toml::table& t, const char* name, auto&& reader) {
-    try {
-      return reader(resolve(read<std::string>(file, t, name, "")));
-    } catch (const Error& e) {
-      refuse(file, t.get(name)->source(), std::string("'") + name + "': " + e.what());
-    }
+  // Key files and the client directory are checked with the C ABI's readers (kata/runtime.h: what
+  // kata_runtime_create reads them with), so a bad one is refused here with the config's line.
+  char public_key[KATA_KEY_TEXT_SIZE], secret_key[KATA_KEY_TEXT_SIZE];
+  auto read_key_file = [&](const std::string& path) {
+    return kata_key_file_read(nullptr, path.c_str(), public_key, secret_key);
+  };
+  auto check_key_directory = [](const std::string& path) {
+    uint32_t count = 0;
+    return kata_key_directory_check(nullptr, path.c_str(), &count);
+  };
+  auto load = [&](const toml::table& t, const char* name, auto&& check) {
+    if (check(resolve(read<std::string>(file, t, name, ""))) != KATA_OK)
+      refuse(file, t.get(name)->source(), std::string("'") + name + "': " + kata_context_last_error(nullptr));
   };
   if (!key_file.empty()) {
-    const transport::KeyPair own = load(security, "key", transport::read_key_file);
-    if (own.secret_key.empty())
+    load(security, "key", read_key_file);
+    if (secret_key[0] == '\0')
       refuse(file, security.get("key")->source(), "'key' must be a .secret file (kata keygen), not a public key");
-    std::vector<std::string> allowed;
-    if (!clients.empty()) allowed = load(security, "clients", transport::read_key_directory);
-    (void)allowed;  // read here so that a bad directory is refused with its line; the runtime reads it again
+    // Read here so that a bad directory is refused with its line; the runtime reads it again.
+    if (!clients.empty()) load(security, "clients", check_key_directory);
     c.runtime.key_file = resolve(key_file);
     if (!clients.empty()) c.runtime.client_keys_dir = resolve(clients);
     if (ingest.get("server_key")) {
-      load(ingest, "server_key", transport::read_key_file);
+      load(ingest, "server_key", read_key_file);
       c.runtime.ingest_server_key_file = resolve(read<std::string>(file, ingest, "server_key", ""));
     }
     if (publish.get("server_key")) {
-      load(publish, "server_key", transport::read_key_file);
+      load(publish, "server_key", read_key_file);
       c.runtime.publish_server_key_file = resolve(read<std::string>(file, publish, "server_key", ""));
     }
   } else if (!clients.empty() || ingest.get("server_key") || publish.get("server_key")) {
@@ -360,7 +366,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
     for (const std::string& e : endpoints) {
       const bool binds = bind_prefix ? e.rfind("bind:", 0) == 0 : e.rfind("connect:", 0) != 0;
       const std::string endpoint = e.substr(e.find("tcp://") == std::string::npos ? 0 : e.find("tcp://"));
-      if (!binds || !transport::reachable_beyond_host(endpoint) || !key_file.empty()) continue;
+      if (!binds || kata_endpoint_reachable_beyond_host(endpoint.c_str()) == 0 || !key_file.empty()) continue;
       if (!c.insecure)
         throw Error(ErrorKind::kParse, file + ":1: [" + where + "] " + e + " is reachable from other hosts without keys: "
                                            "add [security] key and clients (kata keygen; docs/deploy.md), or "

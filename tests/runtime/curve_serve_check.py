@@ -28,6 +28,20 @@ with tempfile.TemporaryDirectory(prefix="kata_curve_test_") as tmp:
     assert oct(os.stat(os.path.join(keys, "server.secret")).st_mode & 0o777) == "0o600"
     subprocess.run([kata, "keygen", "--out", os.path.join(tmp, "stranger")], check=True, capture_output=True, timeout=30)
 
+    # A key file kata keygen wrote, its secret cut short: refused with the config's line and key and
+    # the key file's line and reason (kata_key_file_read, the reader kata_runtime_create uses).
+    lines = open(os.path.join(keys, "server.secret")).read().split("\n")
+    secret_line = next(i for i, l in enumerate(lines) if l.startswith("secret = "))
+    lines[secret_line] = lines[secret_line][:-2] + '"'
+    bad_secret = os.path.join(tmp, "bad.secret")
+    open(bad_secret, "w").write("\n".join(lines))
+    bad_config = os.path.join(tmp, "bad.toml")
+    open(bad_config, "w").write('[ingest]\nendpoints = ["bind:tcp://127.0.0.1:%d"]\nkind = "pull"\n[publish]\n'
+                                'endpoints = ["tcp://127.0.0.1:%d"]\n[security]\nkey = "%s"\n' % (free_port(), free_port(), bad_secret))
+    r = subprocess.run([kata, "serve", "--config", bad_config], capture_output=True, text=True, timeout=30)
+    expected = "%s:7: 'key': %s:%d: 'secret' is not a CURVE key (40 Z85 characters)" % (bad_config, bad_secret, secret_line + 1)
+    assert r.returncode == 1 and expected in r.stderr, (expected, r.stderr)
+
     # Beyond this host without keys: refused, or warned with insecure = true.
     open_config = os.path.join(tmp, "open.toml")
     body = '[ingest]\nendpoints = ["bind:tcp://0.0.0.0:%d"]\nkind = "pull"\n[publish]\nendpoints = ["tcp://127.0.0.1:%d"]\n'
