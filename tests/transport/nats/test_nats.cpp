@@ -38,6 +38,7 @@
 #include "transport/nats/partition.hpp"
 #include "transport/nats/results.hpp"
 #include "transport/nats/shard.hpp"
+#include "transport/nats/topic.hpp"
 #include "transport/wire.hpp"
 
 namespace kata::test {
@@ -68,6 +69,29 @@ TEST(NatsPartition, Fnv1aKnownValues) {
   EXPECT_EQ(kn::fnv1a32("", 0), 0x811c9dc5u);
   EXPECT_EQ(kn::fnv1a32("a", 1), 0xe40c292cu);
   EXPECT_EQ(kn::fnv1a32("foobar", 6), 0xbf9cf968u);
+}
+
+TEST(NatsPartition, TopicIsTheDocumentedHexAndAgreesWithTheRuntimes) {
+  // kata/runtime.h: the stream id as 16 lowercase hex digits, most significant first.
+  char topic[kn::kStreamTopicBytes];
+  kn::write_stream_topic(0x0123456789abcdefULL, topic);
+  EXPECT_EQ(std::string(topic, sizeof topic), "0123456789abcdef");
+  kn::write_stream_topic(7, topic);
+  EXPECT_EQ(std::string(topic, sizeof topic), "0000000000000007");
+  uint64_t id = 0;
+  EXPECT_TRUE(kn::read_stream_topic("fedcba9876543210", &id));
+  EXPECT_EQ(id, 0xfedcba9876543210ULL);
+  id = 5;
+  EXPECT_FALSE(kn::read_stream_topic("FEDCBA9876543210", &id));  // upper case is not a topic
+  EXPECT_FALSE(kn::read_stream_topic("000000000000000g", &id));
+  EXPECT_EQ(id, 5u);
+  // The same bytes the runtime's own writer puts in front of every message.
+  char runtime_topic[kata::transport::kTopicBytes];
+  for (uint64_t sid : {0ULL, 1ULL, 0xffffffffffffffffULL, 0x8000000000000001ULL, 123456789ULL}) {
+    kn::write_stream_topic(sid, topic);
+    kata::transport::write_topic(sid, runtime_topic);
+    EXPECT_EQ(std::string(topic, sizeof topic), std::string(runtime_topic, sizeof runtime_topic)) << sid;
+  }
 }
 
 TEST(NatsPartition, SubjectsRoundTrip) {

@@ -2,7 +2,7 @@
 
 #include <cstring>
 
-#include "transport/wire.hpp"
+#include "transport/nats/topic.hpp"
 
 namespace kata::transport::nats {
 
@@ -18,16 +18,16 @@ uint32_t fnv1a32(const void* data, size_t size) {
 
 uint32_t partition_of(uint64_t stream_id, uint32_t partitions) {
   if (partitions == 0) return 0;
-  char topic[kTopicBytes];
-  write_topic(stream_id, topic);
-  return fnv1a32(topic, kTopicBytes) % partitions;
+  char topic[kStreamTopicBytes];
+  write_stream_topic(stream_id, topic);
+  return fnv1a32(topic, kStreamTopicBytes) % partitions;
 }
 
 namespace {
 std::string topic_string(uint64_t stream_id) {
-  char topic[kTopicBytes];
-  write_topic(stream_id, topic);
-  return std::string(topic, kTopicBytes);
+  char topic[kStreamTopicBytes];
+  write_stream_topic(stream_id, topic);
+  return std::string(topic, kStreamTopicBytes);
 }
 }  // namespace
 
@@ -60,9 +60,9 @@ bool parse_partition_subject(const std::string& prefix, const char* subject, uin
   }
   if (digits == 0 || *p != '.') return false;
   ++p;
-  if (std::strlen(p) != kTopicBytes) return false;
+  if (std::strlen(p) != kStreamTopicBytes) return false;
   uint64_t id = 0;
-  if (!parse_topic(reinterpret_cast<const uint8_t*>(p), &id)) return false;
+  if (!read_stream_topic(p, &id)) return false;
   *partition = value;
   *stream_id = id;
   return true;

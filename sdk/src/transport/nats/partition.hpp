@@ -1,7 +1,7 @@
 // Where a stream's messages travel on NATS and which shard scores it (docs/deploy.md, "NATS").
 //
 // Sources publish a stream's frames and skeleton definitions on `<prefix>.in.<topic>` (topic: the
-// stream id as 16 lowercase hex digits, wire.hpp). Every NATS server of the cluster carries the
+// stream id as 16 lowercase hex digits, kata/runtime.h; topic.hpp). Every NATS server of the cluster carries the
 // subject mapping server_mapping() writes, which rewrites that subject to
 // `<prefix>.in.<partition>.<topic>` with partition = FNV-1a 32 of the topic modulo the partition
 // count (the server's `{{partition(n,1)}}`); a shard subscribes to `<prefix>.in.<p>.*` for each

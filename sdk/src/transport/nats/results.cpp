@@ -3,15 +3,15 @@
 #include <cstdio>
 #include <cstring>
 
-#include "transport/wire.hpp"
+#include "transport/nats/topic.hpp"
 
 namespace kata::transport::nats {
 
 bool format_result_subject(char* out, size_t capacity, const std::string& prefix, uint64_t stream_id,
                            uint64_t epoch, const std::string& owner) {
-  char topic[kTopicBytes + 1];
-  write_topic(stream_id, topic);
-  topic[kTopicBytes] = '\0';
+  char topic[kStreamTopicBytes + 1];
+  write_stream_topic(stream_id, topic);
+  topic[kStreamTopicBytes] = '\0';
   const int n = std::snprintf(out, capacity, "%s.out.%s.%llu.%s", prefix.c_str(), topic,
                               static_cast<unsigned long long>(epoch), owner.c_str());
   return n > 0 && static_cast<size_t>(n) < capacity;
@@ -23,10 +23,10 @@ bool parse_result_subject(const std::string& prefix, const char* subject, uint64
       std::strncmp(subject + prefix.size(), ".out.", 5) != 0)
     return false;
   const char* p = subject + prefix.size() + 5;
-  if (std::strlen(p) < kTopicBytes + 4 || p[kTopicBytes] != '.') return false;
+  if (std::strlen(p) < kStreamTopicBytes + 4 || p[kStreamTopicBytes] != '.') return false;
   uint64_t id = 0;
-  if (!parse_topic(reinterpret_cast<const uint8_t*>(p), &id)) return false;
-  p += kTopicBytes + 1;
+  if (!read_stream_topic(p, &id)) return false;
+  p += kStreamTopicBytes + 1;
   uint64_t e = 0;
   int digits = 0;
   for (; *p >= '0' && *p <= '9'; ++p) {

@@ -47,11 +47,12 @@ void ServeBridge::start(Offer offer) {
 
 void ServeBridge::on_message(const void* data, size_t size) {
   // A skeleton definition is also a consumer's: forwarded to the stream's result subject.
-  if (size >= kTopicBytes + 8 && std::memcmp(static_cast<const char*>(data) + kTopicBytes + 4, "KSKL", 4) == 0) {
+  if (size >= kStreamTopicBytes + 8 &&
+      std::memcmp(static_cast<const char*>(data) + kStreamTopicBytes + 4, "KSKL", 4) == 0) {
     uint64_t id = 0;
     // live_shard_, not shard_: the first delivery may come before start() has stored shard_.
     Shard* shard = live_shard_.load(std::memory_order_acquire);
-    if (shard != nullptr && parse_topic(static_cast<const uint8_t*>(data), &id)) shard->publish_definition(id, data, size);
+    if (shard != nullptr && read_stream_topic(static_cast<const char*>(data), &id)) shard->publish_definition(id, data, size);
   }
   // Into the runtime's ring; its I/O thread verifies, counts and scores it (kata_runtime_offer).
   if (!offer_(data, size)) bridge_dropped_.fetch_add(1, std::memory_order_relaxed);

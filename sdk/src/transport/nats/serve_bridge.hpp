@@ -40,7 +40,7 @@
 
 #include "kata/kata.h"
 #include "transport/nats/shard.hpp"
-#include "transport/wire.hpp"
+#include "transport/nats/topic.hpp"
 
 namespace kata::transport::nats {
 

@@ -8,7 +8,7 @@
 
 #include "common/error.hpp"
 #include "transport/nats/results.hpp"
-#include "transport/wire.hpp"
+#include "transport/nats/topic.hpp"
 
 namespace kata::transport::nats {
 
@@ -100,9 +100,9 @@ void Shard::on_msg(natsConnection*, natsSubscription*, natsMsg* msg, void* closu
   } else if (size > self.options_.max_message_bytes) {
     self.oversized_.fetch_add(1, std::memory_order_relaxed);
   } else if (!parse_partition_subject(self.options_.prefix, natsMsg_GetSubject(msg), &p, &id) || p != part->index ||
-             partition_of(id, self.options_.lease.partitions) != p || size < kTopicBytes ||
-             std::memcmp(data, natsMsg_GetSubject(msg) + std::strlen(natsMsg_GetSubject(msg)) - kTopicBytes,
-                         kTopicBytes) != 0) {
+             partition_of(id, self.options_.lease.partitions) != p || size < kStreamTopicBytes ||
+             std::memcmp(data, natsMsg_GetSubject(msg) + std::strlen(natsMsg_GetSubject(msg)) - kStreamTopicBytes,
+                         kStreamTopicBytes) != 0) {
     self.wrong_partition_.fetch_add(1, std::memory_order_relaxed);
   } else {
     self.handed_on_.fetch_add(1, std::memory_order_relaxed);
