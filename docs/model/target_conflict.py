@@ -17,7 +17,9 @@ the head and both arms in the chest frame, the rest in GPD's local frame), from 
 Dominance: a same-motion pair dominates a turned pair when its angle is >= on every one of the 15
 bones. Any score monotone in the per-bone angles scores a dominating pair no higher than the turned
 one. Counted per frame (random subsample of both sides, per motion) and per clip (per-bone mean,
-median and 90th percentile over the frames).
+median and 90th percentile over the frames); per clip also with `kata score`'s online alignment on
+both sides (as a lesson scores), and two monotone clip-level measures (the largest bone's clip
+mean; the clip mean of each frame's largest bone) against a threshold.
 
     /usr/bin/python3 docs/model/target_conflict.py [build/bin/kata] [../shared/data/cmu] [models/default.kata] [OUT_DIR]
 
@@ -104,6 +106,19 @@ def same_motion():
         ds, dt = bone_dirs(feats(os.path.join(DATA, s + ".bvh"))), bone_dirs(feats(os.path.join(DATA, t + ".bvh")))
         out.append((MOTION.get(t, "jump"), t, s, angles(ds[a], dt[b])))
     return out
+
+
+def online(teacher, student):
+    """Frames x 15 angles of `kata score`'s own online alignment (as a lesson scores; scoring frames)."""
+    path = os.path.join(WORK, "online", "%s_vs_%s.csv" % (os.path.basename(teacher)[:-4], os.path.basename(student)[:-4]))
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    if not os.path.exists(path):
+        subprocess.run(["nice", KATA, "score", "--model", MODEL, "--teacher", teacher, "--student", student, "--preset",
+                        "cmu", "--first-frame", "1", "--out", path], check=False, stdout=subprocess.DEVNULL)
+    rows = [r for r in csv.DictReader(l for l in open(path) if not l.startswith("#")) if r["state"] == "scoring"]
+    a = np.array([int(r["frame"]) - 1 for r in rows], dtype=int)
+    b = np.array([int(r["matched_teacher_frame"]) - 1 for r in rows], dtype=int)
+    return angles(bone_dirs(feats(student))[a], bone_dirs(feats(teacher))[b])
 
 
 def turned(data):
@@ -222,18 +237,43 @@ def main():
       "B: the clip mean of each frame's largest bone, mean_t max_b angle[t, b] (the shape of the shipped "
       "total: the worst bone per frame, averaged over the scoring frames). A threshold separates the two "
       "targets when every same-motion pair is below every copy at 45.\n")
-    w("| measure | motion | same-motion pairs: median (highest; pair) | copies at 30: lowest, median | copies at 45: "
+    data = os.path.join(WORK, "data")
+    on_same = [(m, t, st, online(os.path.join(DATA, t + ".bvh"), os.path.join(DATA, st + ".bvh"))) for m, t, st, _ in same]
+    on_tur = [(m, c, j, g, online(os.path.join(data, "x%s.bvh" % c), os.path.join(data, w_turned.turned_name(c, j, g))))
+              for m, c, j, g, _ in tur]
+    w("Alignment 'DTW / frame for frame': the same-motion pairs by `kata score --align dtw`, the copies frame for "
+      "frame (as above); 'online': both by `kata score`'s own online alignment (as a lesson scores them: the "
+      "student's frame against its matched teacher frame), scoring frames only.\n")
+    w("| measure | alignment | motion | same-motion pairs: median (highest; pair) | copies at 30: lowest, median | copies at 45: "
       "lowest (copy), median | same-motion pairs above the lowest copy at 45 |")
-    w("|---|---|---|---|---|---|")
-    for name, f, m in [(n, f, m) for n, f in (("A", lambda e: e.mean(0).max()), ("B", lambda e: e.max(1).mean()))
-                       for m in ("all", "walk", "run", "dance", "jump")]:
-        sv = [(f(e), "%s vs %s" % (t, s)) for mm, t, s, e in same if m in ("all", mm)]
-        v30 = [f(e) for *_, g, e in tur if abs(g) == 30]
-        v45 = sorted((f(e), "%s %s %+d" % (c, j, g)) for _, c, j, g, e in tur if abs(g) == 45)
+    w("|---|---|---|---|---|---|---|")
+    for name, f, al, SM, TU, m in [(n, f, al, SM, TU, m) for n, f in (("A", lambda e: e.mean(0).max()),
+                                                             ("B", lambda e: e.max(1).mean()))
+                                   for al, SM, TU in (("DTW / frame for frame", same, tur), ("online", on_same, on_tur))
+                                   for m in ("all", "walk", "run", "dance", "jump")]:
+        sv = [(f(e), "%s vs %s" % (t, s)) for mm, t, s, e in SM if m in ("all", mm)]
+        v30 = [f(e) for *_, g, e in TU if abs(g) == 30]
+        v45 = sorted((f(e), "%s %s %+d" % (c, j, g)) for _, c, j, g, e in TU if abs(g) == 45)
         hi = max(sv)
-        w("| %s | %s | %.1f (%.1f; %s) | %.1f, %.1f | %.1f (%s), %.1f | %d of %d |" % (
-            name, m, np.median([x for x, _ in sv]), hi[0], hi[1], min(v30), np.median(v30), v45[0][0], v45[0][1],
+        w("| %s | %s | %s | %.1f (%.1f; %s) | %.1f, %.1f | %.1f (%s), %.1f | %d of %d |" % (
+            name, al, m, np.median([x for x, _ in sv]), hi[0], hi[1], min(v30), np.median(v30), v45[0][0], v45[0][1],
             np.median([x for x, _ in v45]), sum(x >= v45[0][0] for x, _ in sv), len(sv)))
+    w("\nClip level with the online alignment (both sides): same-motion pairs whose per-bone profile dominates "
+      "at least one copy at 45, and the (pair, copy) combinations dominated:\n")
+    w("| aggregate | walk | run | dance | jump | all: pairs | all: combinations |\n|---|---|---|---|---|---|---|")
+    on45 = [x for x in on_tur if abs(x[3]) == 45]
+    for an, f in AGG:
+        tp = np.array([f(e) for *_, e in on45])
+        dom = [(mm, np.array([(f(e) >= q).all() for q in tp])) for mm, _, _, e in on_same]
+        per = ["%d of %d" % (sum(d.any() for mm, d in dom if mm == m), sum(1 for mm, _ in dom if mm == m))
+               for m in ("walk", "run", "dance", "jump")]
+        w("| %s | %s | %d of %d | %d of %d |" % (an, " | ".join(per), sum(d.any() for _, d in dom), len(dom),
+                                               sum(d.sum() for _, d in dom), len(dom) * len(tp)))
+    tp = np.array([e.mean(0) for *_, e in on45])
+    for m, t, st, e in on_same:
+        hits = ["%s %s %+d" % (c, j, g) for (_, c, j, g, _), q in zip(on45, tp) if (e.mean(0) >= q).all()]
+        if hits:
+            w("- online, per-bone mean: %s vs %s (%s) dominates %d copies at 45: %s" % (t, st, m, len(hits), ", ".join(hits)))
     w("\n## Per bone: same-motion angle against the turned bone's angle\n")
     w("Same-motion: quantiles over every aligned frame pair (all motions). Turned: per joint, the median "
       "angle (over the frames of its copies) of the bone most moved by the turn.\n")
