@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """Can one score meet issue 34's item 5 (same motion by another subject >= 70, no pair below 50)
 and the 45-degree catch (one joint turned 45 degrees on every frame -> total <= 50) at once?
-(docs/model/scores.md, "Why item 5 and the 45-degree catch cannot both hold (measured)").
+(docs/model/scores.md, "Can item 5 and the 45-degree catch both hold? (measured)").
 
 Per frame pair, the vector of the 15 per-bone angles the shipped worst part's joint angle takes its
 maximum over (sdk/src/metric/pose_error.cpp part_error: bone parent -> child of GPD joints 1..15,
