@@ -763,26 +763,10 @@ kata_status on_open(void* user, const kata_stream_open_info* info, kata_stream s
 class RuntimeHook : public kata::test::CapiClips {
  protected:
   RuntimeHook() : CapiClips(KATA_DATA_DIR "/cmu/02_01.bvh", KATA_DATA_DIR "/cmu/07_01.bvh") {}
-  kata_teacher_desc teacher_desc() const {
-    kata_teacher_desc td;
-    kata_teacher_desc_init(&td);
-    td.model = model;
-    td.clip = teacher;
-    td.first_frame = 1;
-    return td;
-  }
+  kata_teacher_desc teacher_desc() const { return kata::test::clip_teacher_desc(model, teacher); }
   // One worker, the direct ingest, no age limit (the clip's capture times are not this host's clock).
   kata_runtime start(kata_stream_open_callback hook, void* hook_user) {
-    kata_runtime_desc rd;
-    kata_runtime_desc_init(&rd);
-    rd.workers = 1;
-    rd.direct_ingest = 1;
-    rd.max_frame_age_seconds = 0.0;
-    rd.on_result = receive;
-    rd.on_result_user = &got;
-    rd.on_stream_open = hook;
-    rd.on_stream_open_user = hook_user;
-    rd.stream_stencil = kata_model_stencil(model);
+    const kata_runtime_desc rd = kata::test::hooked_direct_ingest_desc(model, hook, hook_user, receive, &got);
     kata_runtime runtime = nullptr;
     EXPECT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
     return runtime;

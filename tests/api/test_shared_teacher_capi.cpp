@@ -30,14 +30,7 @@ long long rss_bytes() {
 struct SharedTeacher : kata::test::CapiClips {
   SharedTeacher() : CapiClips(KATA_DATA_DIR "/cmu/02_01.bvh", KATA_DATA_DIR "/cmu/02_02.bvh") {}
   kata_stream open() { return CapiClips::open(512); }
-  kata_teacher_desc desc(kata_clip clip) {
-    kata_teacher_desc t;
-    kata_teacher_desc_init(&t);
-    t.model = model;
-    t.clip = clip;
-    t.first_frame = 1;
-    return t;
-  }
+  kata_teacher_desc desc(kata_clip clip) { return kata::test::clip_teacher_desc(model, clip); }
   // Pushes student frames first..first+n-1 (the clip over and over, time running on) and drains
   // every result with its ghost.
   void run(kata_stream s, uint32_t first, uint32_t n, std::vector<kata_result_record>* out,

@@ -20,6 +20,7 @@
 #include "kata/kata.h"
 #include "pipeline/pipeline.hpp"
 #include "runtime/runtime.hpp"
+#include "support/capi_fixture.hpp"
 
 namespace {
 
@@ -128,25 +129,12 @@ TEST(serve_setup_abi, TheCAbisStreamSetupScoresAndGhostsBitIdenticallyToServesCo
   {
     kata_model model = nullptr;
     ASSERT_EQ(kata_model_load(ctx, model_path.c_str(), &model), KATA_OK);
-    kata_teacher_desc td;
-    kata_teacher_desc_init(&td);
-    td.model = model;
-    td.clip = teacher_clip;
-    td.first_frame = 1;
+    const kata_teacher_desc td = kata::test::clip_teacher_desc(model, teacher_clip);
     Hook hook;
     hook.first = first;
     hook.last = last;
     ASSERT_EQ(kata_teacher_create(ctx, &td, &hook.teacher), KATA_OK) << kata_context_last_error(ctx);
-    kata_runtime_desc rd;
-    kata_runtime_desc_init(&rd);
-    rd.workers = 1;
-    rd.direct_ingest = 1;
-    rd.max_frame_age_seconds = 0.0;
-    rd.on_stream_open = on_open;
-    rd.on_stream_open_user = &hook;
-    rd.stream_stencil = kata_model_stencil(model);
-    rd.on_result = on_result;
-    rd.on_result_user = &through_abi;
+    const kata_runtime_desc rd = kata::test::hooked_direct_ingest_desc(model, on_open, &hook, on_result, &through_abi);
     kata_runtime runtime = nullptr;
     ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
     for (const auto& m : messages) ASSERT_EQ(kata_runtime_offer(runtime, m.data(), m.size()), KATA_OK);

@@ -15,6 +15,34 @@
 
 namespace kata::test {
 
+// A teacher of a whole CMU clip for the model (the clip's first frame is its T-pose, so scoring
+// starts at frame 1), as the runtime and shared-teacher tests attach it.
+inline kata_teacher_desc clip_teacher_desc(kata_model model, kata_clip clip) {
+  kata_teacher_desc td;
+  kata_teacher_desc_init(&td);
+  td.model = model;
+  td.clip = clip;
+  td.first_frame = 1;
+  return td;
+}
+
+// A runtime fed by kata_runtime_offer whose on_stream_open sets up each stream: one worker, no
+// age limit (a clip's capture times are not this host's clock), the model's stencil.
+inline kata_runtime_desc hooked_direct_ingest_desc(kata_model model, kata_stream_open_callback hook, void* hook_user,
+                                                   kata_result_callback on_result, void* on_result_user) {
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.workers = 1;
+  rd.direct_ingest = 1;
+  rd.max_frame_age_seconds = 0.0;
+  rd.on_result = on_result;
+  rd.on_result_user = on_result_user;
+  rd.on_stream_open = hook;
+  rd.on_stream_open_user = hook_user;
+  rd.stream_stencil = kata_model_stencil(model);
+  return rd;
+}
+
 class CapiClips : public ::testing::Test {
  protected:
   CapiClips(std::string teacher_path, std::string student_path)
