@@ -28,8 +28,8 @@
 #include <vector>
 
 #include "command.hpp"
-#include "common/error.hpp"  // kata::Error: how a CLI command reports a failure (command.hpp)
 #include "data_files.hpp"
+#include "failure.hpp"  // cli::Failure: how this command reports a failure
 #include "kata/kata.h"
 #ifdef KATA_HAVE_NATS
 #include "transport/nats/connection.hpp"
@@ -38,8 +38,7 @@
 
 namespace {
 
-using kata::Error;
-using kata::ErrorKind;
+using kata::cli::fail;
 
 struct Options {
   std::string bvh, endpoint, socket = "push", preset = "cmu";
@@ -70,26 +69,25 @@ class Clip {
     kata_context context = nullptr;
     kata_clip clip = nullptr;
     kata_skeleton skeleton = nullptr;
-    if (kata_context_create(&context) != KATA_OK) throw Error(ErrorKind::kIo, "send: cannot create a kata context");
+    if (kata_context_create(&context) != KATA_OK) fail("send: cannot create a kata context");
     context_.reset(context);
-    if (kata_clip_load_bvh(context, path.c_str(), &clip) != KATA_OK) fail(ErrorKind::kIo);
+    if (kata_clip_load_bvh(context, path.c_str(), &clip) != KATA_OK) fail_with_last_error();
     clip_.reset(clip);
-    if (kata_clip_skeleton(clip, &skeleton) != KATA_OK) fail(ErrorKind::kIo);
+    if (kata_clip_skeleton(clip, &skeleton) != KATA_OK) fail_with_last_error();
     skeleton_.reset(skeleton);
     frame_time = kata_clip_frame_time(clip);
     joints = kata_skeleton_joint_count(skeleton);
     const int count = static_cast<int>(kata_clip_frame_count(clip));
     if (first_frame < 0 || first_frame > count)
-      throw Error(ErrorKind::kInvalidArgument, path + ": first frame " + std::to_string(first_frame) +
-                                                   " out of range (the clip has " + std::to_string(count) +
-                                                   " frames; --first-frame takes 0.." + std::to_string(count) + ")");
+      fail(path + ": first frame " + std::to_string(first_frame) + " out of range (the clip has " +
+           std::to_string(count) + " frames; --first-frame takes 0.." + std::to_string(count) + ")");
     available = count - first_frame;
     const size_t stride = 3 * static_cast<size_t>(joints);
     positions.resize(static_cast<size_t>(available) * stride);
     for (int f = 0; f < available; ++f)
       if (kata_clip_positions(clip, static_cast<uint32_t>(first_frame + f), positions.data() + static_cast<size_t>(f) * stride,
                               stride) != KATA_OK)
-        fail(ErrorKind::kInvalidArgument);
+        fail_with_last_error();
   }
 
   kata_context context() const { return context_.get(); }
@@ -103,7 +101,7 @@ class Clip {
   std::vector<float> positions;
 
  private:
-  [[noreturn]] void fail(ErrorKind kind) const { throw Error(kind, kata_context_last_error(context_.get())); }
+  [[noreturn]] void fail_with_last_error() const { fail(kata_context_last_error(context_.get())); }
   // Released in reverse order: the skeleton and clip before their context.
   std::unique_ptr<kata_context_s, void (*)(kata_context)> context_{nullptr, kata_context_destroy};
   std::unique_ptr<kata_clip_s, void (*)(kata_clip)> clip_{nullptr, kata_clip_destroy};
@@ -146,7 +144,7 @@ class Writer {
       buffer_.resize(size);
       status = writer(&message, buffer_.data(), buffer_.size(), &size);
     }
-    if (status != KATA_OK) throw Error(ErrorKind::kInvalidArgument, std::string("send: ") + last_error());
+    if (status != KATA_OK) fail(std::string("send: ") + last_error());
     return Message{buffer_.data(), size};
   }
   kata_context context_;
@@ -176,12 +174,12 @@ class PeerWatch {
                            ZMQ_EVENT_CONNECTED | ZMQ_EVENT_ACCEPTED | ZMQ_EVENT_DISCONNECTED | ZMQ_EVENT_CONNECT_RETRIED |
                                ZMQ_EVENT_HANDSHAKE_SUCCEEDED | ZMQ_EVENT_HANDSHAKE_FAILED_PROTOCOL |
                                ZMQ_EVENT_HANDSHAKE_FAILED_AUTH) != 0)
-      throw Error(ErrorKind::kIo, std::string("send: cannot watch the socket: ") + zmq_strerror(zmq_errno()));
+      fail(std::string("send: cannot watch the socket: ") + zmq_strerror(zmq_errno()));
     monitor_ = zmq_socket(context, ZMQ_PAIR);
     int linger = 0;
     zmq_setsockopt(monitor_, ZMQ_LINGER, &linger, sizeof linger);
     if (zmq_connect(monitor_, endpoint.c_str()) != 0)
-      throw Error(ErrorKind::kIo, std::string("send: cannot watch the socket: ") + zmq_strerror(zmq_errno()));
+      fail(std::string("send: cannot watch the socket: ") + zmq_strerror(zmq_errno()));
   }
   ~PeerWatch() {
     zmq_socket_monitor(socket_, nullptr, 0);
@@ -329,7 +327,13 @@ void run_send_nats(const Options& o, const Clip& clip, int frames, Writer& w, bo
   co.servers = o.nats_servers;
   co.credentials_file = o.nats_creds;
   co.name = "kata-send";
-  kn::Connection connection(co);
+  std::unique_ptr<kn::Connection> connected;
+  try {
+    connected = std::make_unique<kn::Connection>(co);
+  } catch (const kn::Error& e) {
+    fail(e.what());  // no server reachable, unusable options: the user's to fix
+  }
+  kn::Connection& connection = *connected;
   constexpr size_t kTopicBytes = 16;  // a message's first bytes: the stream id as 16 hex digits (kata/runtime.h)
   std::string subject = o.nats_prefix + ".in.";
   const size_t head = subject.size();
@@ -346,10 +350,10 @@ void run_send_nats(const Options& o, const Clip& clip, int frames, Writer& w, bo
                static_cast<unsigned long long>(sent), o.streams, static_cast<unsigned long long>(o.stream_id),
                connection.connected_url().c_str(), refused ? "; some refused by the client (disconnected, buffer full)" : "",
                flushed ? "" : "; the server did not confirm the last of them");
-  if (sent == 0 || refused == sent) throw kata::Error(kata::ErrorKind::kIo, "send: nothing was published on NATS");
+  if (sent == 0 || refused == sent) fail("send: nothing was published on NATS");
 #else
   (void)o, (void)clip, (void)frames, (void)w, (void)practice;
-  throw kata::Error(kata::ErrorKind::kInvalidArgument, "send: this kata was built without NATS (libnats-dev)");
+  fail("send: this kata was built without NATS (libnats-dev)");
 #endif
 }
 
@@ -358,9 +362,9 @@ void run_send(const Options& o) {
   const int available = clip.available;
   const int frames = o.frames > 0 ? std::min(o.frames, available) : available;
   if (frames < 1 || !(o.speed > 0) || o.loops < 1)
-    throw Error(ErrorKind::kInvalidArgument, "send: no frames to send (--first-frame, --frames, --speed > 0, --loops >= 1)");
+    fail("send: no frames to send (--first-frame, --frames, --speed > 0, --loops >= 1)");
   if (o.streams < 1 || !(o.definition_interval > 0) || !(o.warmup >= 0))
-    throw Error(ErrorKind::kInvalidArgument, "send: --streams >= 1, --definition-interval > 0, --warmup >= 0");
+    fail("send: --streams >= 1, --definition-interval > 0, --warmup >= 0");
   // Slower than recorded, the clip's capture times run ahead of the frames: to the receiver each
   // frame is later behind its capture time than the last, like a source falling behind, and an
   // ingest that judges age drops them all once they are max_frame_age behind (kata serve's PULL
@@ -389,7 +393,7 @@ void run_send(const Options& o) {
       std::string why = w.last_error();
       const std::string call = "kata_message_write_practice: ";
       if (why.rfind(call, 0) == 0) why.erase(0, call.size());
-      throw Error(ErrorKind::kInvalidArgument, "send: --teacher-start / --loop: " + why);
+      fail("send: --teacher-start / --loop: " + why);
     }
   }
   w.definition.revision = 1;
@@ -411,21 +415,20 @@ void run_send(const Options& o) {
   auto watch = std::make_unique<PeerWatch>(context, socket, pub);
   if (!o.key.empty() || !o.server_key.empty()) {
     if (o.key.empty() || o.server_key.empty())
-      throw Error(ErrorKind::kInvalidArgument, "send: CURVE needs both --key (this sender's .secret) and --server-key");
+      fail("send: CURVE needs both --key (this sender's .secret) and --server-key");
     // The key files through the C ABI's reader (what kata serve's config and runtime read them
     // with), then this socket a CURVE client of the server's public key.
     char public_key[KATA_KEY_TEXT_SIZE], secret_key[KATA_KEY_TEXT_SIZE], server_key[KATA_KEY_TEXT_SIZE];
     auto read_keys = [](const std::string& path, char* public_out, char* secret_out) {
       const kata_status status = kata_key_file_read(nullptr, path.c_str(), public_out, secret_out);
-      if (status != KATA_OK)
-        throw Error(status == KATA_E_IO ? ErrorKind::kIo : ErrorKind::kParse, kata_context_last_error(nullptr));
+      if (status != KATA_OK) fail(kata_context_last_error(nullptr));
     };
     read_keys(o.key, public_key, secret_key);
-    if (secret_key[0] == '\0') throw Error(ErrorKind::kInvalidArgument, "send: --key must be a .secret file");
+    if (secret_key[0] == '\0') fail("send: --key must be a .secret file");
     read_keys(o.server_key, server_key, nullptr);
     auto set_key = [&](int option, const char* key, const char* what) {
       if (zmq_setsockopt(socket, option, key, std::strlen(key)) != 0)
-        throw Error(ErrorKind::kIo, std::string("ZeroMQ: cannot set ") + what + ": " + zmq_strerror(zmq_errno()));
+        fail(std::string("ZeroMQ: cannot set ") + what + ": " + zmq_strerror(zmq_errno()));
     };
     set_key(ZMQ_CURVE_SERVERKEY, server_key, "ZMQ_CURVE_SERVERKEY");
     set_key(ZMQ_CURVE_PUBLICKEY, public_key, "ZMQ_CURVE_PUBLICKEY");
@@ -434,12 +437,12 @@ void run_send(const Options& o) {
   const bool bind = o.endpoint.rfind("bind:", 0) == 0;
   const std::string endpoint = bind ? o.endpoint.substr(5) : o.endpoint;
   if ((bind ? zmq_bind(socket, endpoint.c_str()) : zmq_connect(socket, endpoint.c_str())) != 0)
-    throw Error(ErrorKind::kIo, "send: cannot use " + o.endpoint + ": " + zmq_strerror(zmq_errno()));
-  auto fail = [&](const std::string& what) {
+    fail("send: cannot use " + o.endpoint + ": " + zmq_strerror(zmq_errno()));
+  auto give_up = [&](const std::string& what) {
     watch.reset();
     zmq_close(socket);
     zmq_ctx_term(context);
-    throw Error(ErrorKind::kIo, "send: " + o.endpoint + " took nothing: " + what);
+    fail("send: " + o.endpoint + " took nothing: " + what);
   };
   // Nothing goes out before someone takes it: wait for a peer (its handshake done; for pub, its
   // subscription).
@@ -451,7 +454,7 @@ void run_send(const Options& o) {
     if (!watch->ready()) {
       char seconds[32];
       std::snprintf(seconds, sizeof seconds, "%g", o.connect_timeout);
-      fail("no peer in " + std::string(seconds) + " s (--connect-timeout): " + watch->why_nobody(o, bind));
+      give_up("no peer in " + std::string(seconds) + " s (--connect-timeout): " + watch->why_nobody(o, bind));
     }
   }
   // A peer that leaves (or a server that refuses this sender) leaves nobody to queue for: a send
@@ -461,7 +464,7 @@ void run_send(const Options& o) {
   uint64_t taken = 0, not_taken = 0;  // frames (not definitions) a peer took / sent with nobody there
   auto send = [&](Message m) {
     if (zmq_send(socket, m.data, m.size, 0) < 0)
-      fail("the peer took nothing more for 5 s (" + std::string(zmq_strerror(zmq_errno())) + ") after " +
+      give_up("the peer took nothing more for 5 s (" + std::string(zmq_strerror(zmq_errno())) + ") after " +
            std::to_string(taken) + " frame(s); " + watch->why_nobody(o, bind));
   };
   bool someone = false;  // pub: a frame sent with no subscriber is dropped by ZeroMQ
@@ -484,7 +487,7 @@ void run_send(const Options& o) {
                static_cast<unsigned long long>(taken), static_cast<unsigned long long>(taken + not_taken), o.streams,
                static_cast<unsigned long long>(o.stream_id), o.endpoint.c_str(), connections,
                not_taken ? "; the rest were sent while no subscriber was there (dropped by ZeroMQ)" : "");
-  if (taken == 0) throw Error(ErrorKind::kIo, "send: no frame was taken by a peer");
+  if (taken == 0) fail("send: no frame was taken by a peer");
 }
 
 void setup(CLI::App& app) {

@@ -570,7 +570,17 @@ void setup(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("serve", "run a live stage from a TOML config: ZeroMQ frames in, scores and ghosts out");
   cmd->add_option("--config", *path, "the TOML config (see docs/runtime.md)")->required();
   cmd->add_option("--counters", *counters, "after the stop, write every stream's counters to this JSON file (tests)");
-  cmd->callback([path, counters] { run_serve(*path, *counters); });
+  cmd->callback([path, counters] {
+#ifdef KATA_HAVE_NATS
+    try {
+      run_serve(*path, *counters);
+    } catch (const kata::transport::nats::Error& e) {
+      kata::cli::fail(e.what());  // NATS could not start (options, servers, lease bucket): a user's error
+    }
+#else
+    run_serve(*path, *counters);
+#endif
+  });
 }
 
 const kata::cli::RegisterCommand reg(setup);

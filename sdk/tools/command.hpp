@@ -12,7 +12,7 @@
 namespace kata::cli {
 
 // Adds one subcommand (with its flags and callback) to the app. A callback signals failure by
-// throwing kata::Error or Failure (failure.hpp) (printed as "kata: message", exit 1) or CLI::RuntimeError(code).
+// throwing Failure (failure.hpp) or, in the commands on the private core, kata::Error (printed as "kata: message", exit 1) or CLI::RuntimeError(code).
 using CommandSetup = void (*)(CLI::App& app);
 
 std::vector<CommandSetup>& command_registry();

@@ -11,9 +11,9 @@
 
 #include <toml++/toml.h>
 
-#include "common/error.hpp"
-#include "common/text.hpp"
+#include "common/quote.hpp"  // bounded, closest_name: std-only, shared with the core
 #include "data_files.hpp"
+#include "failure.hpp"
 #include "kata/kata.h"
 #include "serve_config_read.hpp"
 
@@ -22,7 +22,7 @@ namespace kata::serve {
 namespace {
 
 [[noreturn]] void refuse(const std::string& file, const toml::source_region& where, const std::string& what) {
-  throw Error(ErrorKind::kParse, file + ":" + std::to_string(where.begin.line) + ": " + what);
+  throw cli::Failure(file + ":" + std::to_string(where.begin.line) + ": " + what);
 }
 
 // Reads an optional value of type T at `key` in `table`; a present value of the wrong type is refused.
@@ -102,7 +102,7 @@ const toml::table& section(const std::string& file, const toml::table& root, con
   static const toml::table empty;
   const toml::node* n = root.get(name);
   if (!n) {
-    if (required) throw Error(ErrorKind::kParse, file + ":1: missing section [" + std::string(name) + "]");
+    if (required) throw cli::Failure(file + ":1: missing section [" + std::string(name) + "]");
     return empty;
   }
   if (!n->is_table()) refuse(file, n->source(), std::string("'") + name + "' must be a table");
@@ -202,7 +202,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
     n.enabled = true;
     const toml::node* servers = transport.get("servers");
     const toml::array* list = servers ? servers->as_array() : nullptr;
-    if (!list || list->empty()) throw Error(ErrorKind::kParse, file + ":1: [transport] kind = \"nats\" needs servers = [\"nats://host:4222\", ...]");
+    if (!list || list->empty()) throw cli::Failure(file + ":1: [transport] kind = \"nats\" needs servers = [\"nats://host:4222\", ...]");
     for (const auto& v : *list) {
       const auto url = v.value<std::string>();
       if (!url || url->empty() || url->find(',') != std::string::npos)
@@ -219,13 +219,13 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
     if (!n.credentials.empty() && !n.nkey.empty())
       refuse(file, transport.get("nkey")->source(), "give credentials or nkey + nkey_seed, not both");
     if (n.nkey.empty() != n.nkey_seed.empty())
-      throw Error(ErrorKind::kParse, file + ":1: [transport] nkey needs nkey_seed (and the reverse)");
+      throw cli::Failure(file + ":1: [transport] nkey needs nkey_seed (and the reverse)");
     n.tls = read<bool>(file, transport, "tls", false);
     n.tls_ca = file_key("tls_ca");
     n.tls_cert = file_key("tls_cert");
     n.tls_key = file_key("tls_key");
     if (n.tls_cert.empty() != n.tls_key.empty())
-      throw Error(ErrorKind::kParse, file + ":1: [transport] tls_cert needs tls_key (and the reverse)");
+      throw cli::Failure(file + ":1: [transport] tls_cert needs tls_key (and the reverse)");
     n.shard = read<std::string>(file, transport, "shard", "");
     auto token = [](const std::string& v) {
       if (v.empty() || v.size() > 64) return false;
@@ -261,7 +261,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
                                   "and shards share the partitions by lease (docs/deploy.md)");
   }
   c.runtime.ingest_endpoints = nats ? std::vector<std::string>{} : read_endpoints(file, ingest, "ingest");
-  if (!nats && c.runtime.ingest_endpoints.empty()) throw Error(ErrorKind::kParse, file + ":1: [ingest] endpoints is empty");
+  if (!nats && c.runtime.ingest_endpoints.empty()) throw cli::Failure(file + ":1: [ingest] endpoints is empty");
   const std::string kind = read<std::string>(file, ingest, "kind", nats ? "pull" : "sub");
   if (kind != "sub" && kind != "pull") refuse(file, ingest.get("kind")->source(), "kind must be \"sub\" or \"pull\"");
   c.runtime.ingest_pull = kind == "pull";
@@ -281,7 +281,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
   const toml::table& publish = section(file, root, "publish", !nats);
   check_keys(file, publish, {"endpoints", "send_hwm", "server_key"}, "publish");
   c.runtime.publish_endpoints = read_endpoints(file, publish, "publish");
-  if (!nats && c.runtime.publish_endpoints.empty()) throw Error(ErrorKind::kParse, file + ":1: [publish] endpoints is empty");
+  if (!nats && c.runtime.publish_endpoints.empty()) throw cli::Failure(file + ":1: [publish] endpoints is empty");
   c.runtime.send_hwm = static_cast<int>(read_range(file, publish, "send_hwm", 10000, 0, 1 << 30));
 
   const toml::table& shard = section(file, root, "shard", false);
@@ -359,7 +359,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
       c.runtime.publish_server_key_file = resolve(read<std::string>(file, publish, "server_key", ""));
     }
   } else if (!clients.empty() || ingest.get("server_key") || publish.get("server_key")) {
-    throw Error(ErrorKind::kParse, file + ":1: [security] key is needed with clients or server_key");
+    throw cli::Failure(file + ":1: [security] key is needed with clients or server_key");
   }
   // Beyond this host only with keys, or when the config says insecure = true.
   auto check_reach = [&](const std::vector<std::string>& endpoints, const char* where, bool bind_prefix) {
@@ -368,7 +368,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
       const std::string endpoint = e.substr(e.find("tcp://") == std::string::npos ? 0 : e.find("tcp://"));
       if (!binds || kata_endpoint_reachable_beyond_host(endpoint.c_str()) == 0 || !key_file.empty()) continue;
       if (!c.insecure)
-        throw Error(ErrorKind::kParse, file + ":1: [" + where + "] " + e + " is reachable from other hosts without keys: "
+        throw cli::Failure(file + ":1: [" + where + "] " + e + " is reachable from other hosts without keys: "
                                            "add [security] key and clients (kata keygen; docs/deploy.md), or "
                                            "insecure = true");
       c.warnings.push_back(std::string("[") + where + "] " + e +
@@ -383,7 +383,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
              "scoring");
   if (!scoring.empty()) {
     const std::string model = read<std::string>(file, scoring, "model", "");
-    if (model.empty()) throw Error(ErrorKind::kParse, file + ":1: [scoring] needs model");
+    if (model.empty()) throw cli::Failure(file + ":1: [scoring] needs model");
     c.model = resolve_at(*scoring.get("model"), model, "model");
     const std::string teacher = read<std::string>(file, scoring, "teacher", "");
     if (!teacher.empty()) c.default_teacher.path = resolve_at(*scoring.get("teacher"), teacher, "teacher");
@@ -441,14 +441,14 @@ ServeConfig parse_config_text(const std::string& text, const std::string& name) 
   try {
     root = toml::parse(text, name);
   } catch (const toml::parse_error& e) {
-    throw Error(ErrorKind::kParse, name + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description()));
+    throw cli::Failure(name + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description()));
   }
   return parse_root(name, root);
 }
 
 ServeConfig parse_config(const std::string& file) {
   std::ifstream in(file, std::ios::binary);
-  if (!in) throw Error(ErrorKind::kIo, file + ": cannot open the config");
+  if (!in) throw cli::Failure(file + ": cannot open the config");
   std::stringstream text;
   text << in.rdbuf();
   return parse_config_text(text.str(), file);

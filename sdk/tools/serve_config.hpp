@@ -1,6 +1,6 @@
 // The `kata serve` config file (TOML; the keys are documented in cmd_serve.cpp and
 // docs/deploy.md): parsed and checked completely before anything starts, every refusal a
-// kata::Error(kParse) naming file:line (kIo when the file cannot be read).
+// cli::Failure (failure.hpp) naming file:line, or the file when it cannot be read.
 #pragma once
 
 #include <cstdint>

@@ -10,7 +10,7 @@
 namespace kata::serve::detail {
 
 // The integer at `key` in `table`, which must be in [lo, hi]: a present value outside it (or not
-// an integer) is refused as kata::Error(kParse) with `file`, the key's line and the key. A
+// an integer) is refused as cli::Failure (failure.hpp) with `file`, the key's line and the key. A
 // missing key gives `fallback` as it is: the program's default, which has no line to name (the
 // refusal used to read the missing key's node for its line).
 int64_t read_range(const std::string& file, const toml::table& table, const char* key, int64_t fallback, int64_t lo,

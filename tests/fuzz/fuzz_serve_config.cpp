@@ -1,13 +1,15 @@
 // libFuzzer target: `kata serve` config files (TOML) through the parser serve uses
 // (sdk/tools/serve_config.cpp), which checks everything before anything starts.
-// Asserts: only kata::Error(kParse) escapes; an accepted config has ingest and publish endpoints,
-// 1..64 workers and a shard index below its count.
+// Asserts: only the CLI's refusal (kata::cli::Failure) escapes, and it names the file and a line
+// ("fuzz.toml:N: ..."); an accepted config has ingest and publish endpoints, 1..64 workers and a
+// shard index below its count.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
+#include <cstring>
 #include <string>
 
-#include "common/error.hpp"
+#include "failure.hpp"
 #include "serve_config.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
@@ -18,8 +20,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (r.ingest_endpoints.empty() || r.publish_endpoints.empty()) std::abort();
     if (r.workers < 1 || r.workers > 64) std::abort();
     if (r.shard_count < 1 || r.shard_index >= r.shard_count) std::abort();
-  } catch (const kata::Error& e) {
-    if (e.kind() != kata::ErrorKind::kParse) std::abort();
+  } catch (const kata::cli::Failure& e) {
+    constexpr char kFile[] = "fuzz.toml:";
+    const char* what = e.what();
+    if (std::strncmp(what, kFile, sizeof kFile - 1) != 0) std::abort();
+    const char* line = what + sizeof kFile - 1;
+    if (*line < '1' || *line > '9') std::abort();
   }
   return 0;
 }

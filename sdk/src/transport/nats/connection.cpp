@@ -5,7 +5,6 @@
 #include <chrono>
 #include <memory>
 
-#include "common/error.hpp"
 
 namespace kata::transport::nats {
 
@@ -38,14 +37,14 @@ struct OptionsDeleter {
 };
 
 void check(natsStatus s, const char* what) {
-  if (s != NATS_OK) throw Error(ErrorKind::kInvalidArgument, std::string("NATS option ") + what + ": " + last_error());
+  if (s != NATS_OK) throw Error(std::string("NATS option ") + what + ": " + last_error());
 }
 }  // namespace
 
 Connection::Connection(const ConnectionOptions& o) {
-  if (auto problem = options_problem(o); !problem.empty()) throw Error(ErrorKind::kInvalidArgument, problem);
+  if (auto problem = options_problem(o); !problem.empty()) throw Error(problem);
   natsOptions* raw = nullptr;
-  if (natsOptions_Create(&raw) != NATS_OK) throw Error(ErrorKind::kIo, "NATS: " + last_error());
+  if (natsOptions_Create(&raw) != NATS_OK) throw Error("NATS: " + last_error());
   std::unique_ptr<natsOptions, OptionsDeleter> opts(raw);
   std::vector<const char*> urls;
   for (const auto& s : o.servers) urls.push_back(s.c_str());
@@ -75,7 +74,7 @@ Connection::Connection(const ConnectionOptions& o) {
   if (s != NATS_OK) {
     std::string all;
     for (const auto& u : o.servers) all += (all.empty() ? "" : ", ") + u;
-    throw Error(ErrorKind::kIo, "NATS: cannot connect to " + all + ": " + last_error());
+    throw Error("NATS: cannot connect to " + all + ": " + last_error());
   }
   jsOptions js;
   jsOptions_Init(&js);
@@ -84,7 +83,7 @@ Connection::Connection(const ConnectionOptions& o) {
     std::string why = last_error();
     close_and_wait();
     natsConnection_Destroy(connection_);
-    throw Error(ErrorKind::kIo, "NATS: JetStream context: " + why);
+    throw Error("NATS: JetStream context: " + why);
   }
 }
 

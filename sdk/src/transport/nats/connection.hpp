@@ -12,6 +12,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <mutex>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -20,6 +21,15 @@ typedef struct __natsConnection natsConnection;
 typedef struct __jsCtx jsCtx;
 
 namespace kata::transport::nats {
+
+// What the NATS layer throws when it cannot start (options, connection, lease bucket); never on a
+// message's path. Its own type rather than the core's kata::Error: this library is a client of
+// libkata's public C ABI (kata/kata.h) and of libnats only, as the `kata serve` and `kata send`
+// that link it are (sdk/tools/CMakeLists.txt); `kata` prints it as "kata: <message>".
+class Error : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
 
 struct ConnectionOptions {
   // nats://host:port (tls://host:port for TLS); every server of the cluster, or some of them (the
@@ -68,8 +78,8 @@ std::string last_error();
 
 class Connection {
  public:
-  // Connects (trying every server). Throws kata::Error(kInvalidArgument) for unusable options and
-  // kata::Error(kIo) naming the servers and libnats' reason when none can be reached.
+  // Connects (trying every server). Throws Error for unusable options, and naming the servers and
+  // libnats' reason when none can be reached.
   explicit Connection(const ConnectionOptions& options);
   // Flushes what was published (up to 1 s), then closes.
   ~Connection();

@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cstring>
 
-#include "common/error.hpp"
 
 namespace kata::transport::nats {
 
@@ -61,7 +60,7 @@ std::string lease_options_problem(const LeaseOptions& o) {
 
 LeaseManager::LeaseManager(Connection& connection, LeaseOptions options, Handler handler)
     : connection_(connection), options_(std::move(options)), handler_(std::move(handler)) {
-  if (auto problem = lease_options_problem(options_); !problem.empty()) throw Error(ErrorKind::kInvalidArgument, problem);
+  if (auto problem = lease_options_problem(options_); !problem.empty()) throw Error(problem);
   kvConfig cfg;
   kvConfig_Init(&cfg);
   cfg.Bucket = options_.bucket.c_str();
@@ -93,12 +92,12 @@ LeaseManager::LeaseManager(Connection& connection, LeaseOptions options, Handler
   } while (steady_ns() < deadline);
   if (ttl < 0) {
     if (kv_ != nullptr) kvStore_Destroy(kv_);
-    throw Error(ErrorKind::kIo, "NATS: cannot create or open the lease bucket \"" + options_.bucket + "\": " + why);
+    throw Error("NATS: cannot create or open the lease bucket \"" + options_.bucket + "\": " + why);
   }
   if (ttl != 0 && ttl < options_.ttl_ms) {
     // The servers would forget a lease before its holder stops publishing.
     kvStore_Destroy(kv_);
-    throw Error(ErrorKind::kInvalidArgument, "the lease bucket \"" + options_.bucket + "\" keeps values " +
+    throw Error("the lease bucket \"" + options_.bucket + "\" keeps values " +
                                                  std::to_string(ttl) + " ms, less than the lease ttl " +
                                                  std::to_string(options_.ttl_ms) + " ms");
   }

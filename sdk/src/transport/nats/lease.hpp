@@ -110,8 +110,8 @@ class LeaseManager {
  public:
   using Handler = std::function<void(const LeaseEvent&)>;
   // Opens (or creates) the bucket and starts the lease thread; the handler runs on that thread.
-  // Throws kata::Error(kInvalidArgument) for bad options, kata::Error(kIo) when the bucket cannot
-  // be opened or created, or exists with another TTL.
+  // Throws Error (connection.hpp) for bad options, and when the bucket cannot be opened or
+  // created, or exists with another TTL.
   LeaseManager(Connection& connection, LeaseOptions options, Handler handler = {});
   // stop(), then closes the bucket.
   ~LeaseManager();

@@ -3,7 +3,6 @@
 #include <chrono>
 #include <cstring>
 
-#include "common/error.hpp"
 
 namespace kata::transport::nats {
 

@@ -58,8 +58,8 @@ class ServeBridge {
   // Publishes one result of the runtime (its on_result record, valid during the call) on the
   // stream's result subject, or drops it (counted) when the stream's partition is not held.
   void publish(const kata_result_record& record);
-  // Connects to NATS and starts taking partitions; their messages go to offer. Throws
-  // kata::Error.
+  // Connects to NATS and starts taking partitions; their messages go to offer. Throws Error
+  // (connection.hpp).
   void start(Offer offer);
   // Gives every partition back (the others take them at once) and disconnects; after it returns
   // nothing reaches the runtime. Idempotent.

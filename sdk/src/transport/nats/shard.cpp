@@ -6,7 +6,6 @@
 #include <cstring>
 #include <thread>
 
-#include "common/error.hpp"
 #include "transport/nats/results.hpp"
 #include "transport/nats/topic.hpp"
 

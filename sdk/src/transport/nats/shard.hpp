@@ -65,7 +65,7 @@ class Shard {
     std::function<void(uint32_t partition, uint64_t epoch)> on_acquired;   // [lease thread]
     std::function<void(uint32_t partition)> on_dropped;                    // [lease thread]
   };
-  // Connects and starts the lease thread. Throws kata::Error as Connection and LeaseManager do.
+  // Connects and starts the lease thread. Throws Error (connection.hpp) as Connection and LeaseManager do.
   Shard(ShardOptions options, Handlers handlers);
   // stop(true).
   ~Shard();
