@@ -5,7 +5,6 @@
 #include <chrono>
 #include <memory>
 
-
 namespace kata::transport::nats {
 
 std::string last_error() {

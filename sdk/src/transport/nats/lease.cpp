@@ -6,7 +6,6 @@
 #include <chrono>
 #include <cstring>
 
-
 namespace kata::transport::nats {
 
 namespace {
@@ -97,9 +96,8 @@ LeaseManager::LeaseManager(Connection& connection, LeaseOptions options, Handler
   if (ttl != 0 && ttl < options_.ttl_ms) {
     // The servers would forget a lease before its holder stops publishing.
     kvStore_Destroy(kv_);
-    throw Error("the lease bucket \"" + options_.bucket + "\" keeps values " +
-                                                 std::to_string(ttl) + " ms, less than the lease ttl " +
-                                                 std::to_string(options_.ttl_ms) + " ms");
+    throw Error("the lease bucket \"" + options_.bucket + "\" keeps values " + std::to_string(ttl) +
+                " ms, less than the lease ttl " + std::to_string(options_.ttl_ms) + " ms");
   }
   slots_.reset(new Slot[options_.partitions]);
   thread_ = std::thread([this] { run(); });

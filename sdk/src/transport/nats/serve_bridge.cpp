@@ -3,7 +3,6 @@
 #include <chrono>
 #include <cstring>
 
-
 namespace kata::transport::nats {
 
 ServeBridge::ServeBridge(ShardOptions options) : options_(std::move(options)), message_(4096) {}
