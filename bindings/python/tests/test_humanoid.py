@@ -81,8 +81,12 @@ def test_cmu_clip_forward_kinematics_puts_every_joint_back(data):
             u = rig.pose(f, frame=kata.HumanoidFrame.UNITY)
             xu = forward(u.rotation, u.offset, u.hips_position)
             worst_mirror = max(worst_mirror, np.abs(xu - x * np.array([-1.0, 1.0, 1.0])).max())
-            # The library's own FK agrees with this one.
+            # The library's own FK agrees with this one, and its conversion with the Unity pose.
             np.testing.assert_allclose(u.joints(), xu, atol=1e-5)
+            c = p.converted(kata.HumanoidFrame.UNITY)
+            assert c.frame == kata.HumanoidFrame.UNITY
+            np.testing.assert_array_equal(c.rotation, u.rotation)
+            np.testing.assert_array_equal(c.offset, u.offset)
     assert worst < 1.7e-4 and worst_rest < 1.7e-4 and worst_mirror < 1e-5, (worst, worst_rest, worst_mirror)
 
 
