@@ -32,6 +32,7 @@ constexpr double kPi = 3.14159265358979323846;
 // The bend twist fades in between these bend angles (a straight limb says nothing of its turn).
 constexpr double kBendNone = 5.0 * kPi / 180.0, kBendFull = 20.0 * kPi / 180.0;
 constexpr double kTanBendFull = 0.36397023426620234;  // tan(20 degrees)
+constexpr double kTanBendNone = 0.087488663525924;     // tan(5 degrees)
 // The lateral twists fade in as the reference's component across the bone grows (sine).
 constexpr double kLateralNone = 0.05, kLateralFull = 0.2;
 // A pelvis whose hips joint lies this close to the hip line (share of the hip width) takes its
@@ -506,6 +507,8 @@ void Rig::pose(const Points& pts, Pose& out) const {
               const double along = s.dot(dn);
               if (along <= 0.0 || an >= kTanBendFull * along) {
                 w = 1.0;
+              } else if (an <= kTanBendNone * along) {
+                w = 0.0;  // straight: no turn to read
               } else {
                 const double bend = std::atan2(an, along);
                 w = smoothstep((bend - kBendNone) / (kBendFull - kBendNone));
