@@ -67,10 +67,12 @@ Eigen::Vector4d xyzw(const Quaterniond& q) {
 // The smallest rotation taking unit a onto unit b: (1 + a.b, a x b), normalised.
 Quaterniond swing_q(const Vector3d& a, const Vector3d& b) {
   const double c = a.dot(b);
-  if (c > -1.0 + 1e-12) {
-    // |(1 + c, a x b)|^2 = 2 (1 + c) for unit a and b.
-    const Vector3d v = a.cross(b);
-    const double k = 1.0 / std::sqrt(2.0 * (1.0 + c));
+  const Vector3d v = a.cross(b);
+  // Normalised by its computed length (2 (1 + c) in exact arithmetic, not after rounding when a
+  // and b are nearly opposite).
+  const double n2 = (1.0 + c) * (1.0 + c) + v.squaredNorm();
+  if (n2 > 1e-20) {
+    const double k = 1.0 / std::sqrt(n2);
     return Quaterniond((1.0 + c) * k, v.x() * k, v.y() * k, v.z() * k);
   }
   // Opposite: half a turn about any axis across a.
