@@ -1,7 +1,9 @@
 """Puts the native parts into the package as it is built (pyproject.toml has the metadata):
 libkata.so from $KATA_LIBRARY or <repo>/build/lib, and the FlatBuffers readers flatc generated
 (kata/fb/*.py) from $KATA_PYTHON_FB or <repo>/build/python/kata/fb, and the scoring model
-(kata/models/default.kata) from $KATA_MODEL or <repo>/models/default.kata. The version is kata.h's.
+(kata/models/default.kata) from $KATA_MODEL or <repo>/models/default.kata, and the CMU clips the
+docs' examples use (kata/data/cmu: 02_01, 07_01, 05_18 and the licence) from $KATA_DATA or
+<repo>/data/cmu, so kata.find_data finds them in the package. The version is kata.h's.
 Nothing is written into the source folder: build/ and kata.egg-info go to a scratch folder."""
 import atexit
 import os
@@ -54,6 +56,11 @@ def _fb_dir():
     return path
 
 
+# The clips the README's and the package docstring's examples load with kata.find_data, and their
+# licence (data/cmu/README.md): 2 MB of the 4 MB that `cmake --install` puts in share/kata.
+WHEEL_CLIPS = ("02_01.bvh", "07_01.bvh", "05_18.bvh", "README.md")
+
+
 class BuildWithNative(build_py):
     """build_py, then libkata.so and kata/fb copied into the build tree (never into the sources)."""
 
@@ -70,6 +77,12 @@ class BuildWithNative(build_py):
             raise SystemExit("kata: the default model %s is missing (set KATA_MODEL)" % model)
         os.makedirs(os.path.join(package, "models"), exist_ok=True)
         shutil.copyfile(model, os.path.join(package, "models", "default.kata"))
+        clips = os.environ.get("KATA_DATA") or os.path.join(REPO, "data", "cmu")
+        os.makedirs(os.path.join(package, "data", "cmu"), exist_ok=True)
+        for name in WHEEL_CLIPS:
+            if not os.path.isfile(os.path.join(clips, name)):
+                raise SystemExit("kata: %s is missing from %s (set KATA_DATA to the folder of kata's data/cmu)" % (name, clips))
+            shutil.copyfile(os.path.join(clips, name), os.path.join(package, "data", "cmu", name))
 
 
 class PlatformWheel(bdist_wheel):

@@ -4,7 +4,8 @@ in an empty folder with nothing of the checkout on PATH or PYTHONPATH:
 - installed executables carry a RUNPATH to the library folder; kata.pc says how to get an rpath;
 - the samples are installed under share/kata/samples; the installed Python package finds
   share/kata (the model and the clips) and its python_subscriber.py needs no --python-dir;
-- docs/runtime.md's minimal config and docs/deploy.md's stage config start `kata serve` from the
+- docs/config.md's minimal config and docs/deploy.md's stage config, as installed in
+  share/doc/kata, start `kata serve` from the
   install (their model and teacher clip are installed; ports made free ones, deploy.md's 0.0.0.0
   bound as 127.0.0.1), and `kata replay` finds its clips;
 - `kata serve`'s status line is one line per second into a file (no carriage returns), and a
@@ -114,19 +115,19 @@ def _():
     assert r.returncode == 1 and "kata.fb" not in r.stderr and "Traceback" not in r.stderr, r.stderr
 
 
-@check("docs/runtime.md's minimal config and docs/deploy.md's stage config serve")
+@check("docs/config.md's minimal config and docs/deploy.md's stage config serve (the installed pages)")
 def _():
-    text = open(os.path.join(source, "docs", "runtime.md"), encoding="utf-8").read()
+    text = open(os.path.join(prefix, "share", "doc", "kata", "config.md"), encoding="utf-8").read()
     minimal = re.search(r"Minimal:\n\n```toml\n(.*?)```", text, re.S).group(1)
     ports = {"5555": str(free_port()), "5556": str(free_port())}
     # One pass: a new port may itself contain "5556" (25556), which a second replace would change.
     port_re = re.compile("|".join(ports))
     minimal = port_re.sub(lambda m: ports[m.group(0)], minimal)
-    d = folder("runtime_md")
+    d = folder("config_md")
     open(os.path.join(d, "stage.toml"), "w").write(minimal)
     log = serve(d, "stage.toml", 0.5)
     assert "publishing on tcp://127.0.0.1:%s" % ports["5556"] in log, log
-    text = open(os.path.join(source, "docs", "deploy.md"), encoding="utf-8").read()
+    text = open(os.path.join(prefix, "share", "doc", "kata", "deploy.md"), encoding="utf-8").read()
     stage = re.search(r"```toml\n(# stage.toml.*?)```", text, re.S).group(1)
     stage = port_re.sub(lambda m: ports[m.group(0)], stage).replace("0.0.0.0", "127.0.0.1")
     d = folder("deploy_md")

@@ -11,14 +11,14 @@ teacher's pose retargeted onto the student (the "ghost"), from Python over libka
         r = stream.push_and_read(1 + np.arange(len(frames)) * clip.frame_time, frames)
         print(len(r), r.scores["score"].mean())              # every result: nothing dropped
 
-Modules (all re-exported here): errors (Status, KataError, the dropped-results warning),
-objects (Context, Skeleton, Clip, Model, Landmarks, the enums, find_data), stream (Stream, Results,
-gpd_joint_name / gpd_joint_part / body_part_name / gpd_joint_words),
-retarget (Retargeter), messages (Subscriber, read_message, write_skeleton / write_frame /
-write_practice), runtime (Runtime), mediapipe
-(MediaPipe Pose recordings and live feeds scored against a BVH teacher), humanoid (HumanoidRig: the
-student and the ghost as VRM bone rotations); _native holds every
-ctypes declaration. The C header kata.h is the manual: units, ownership and thread rules are its.
+Modules, whose public names are re-exported here: errors (Status, KataError, the dropped-results
+warning), objects (Context, Skeleton, Clip, Model, Landmarks, the enums, find_data), stream
+(Stream, Results, gpd_joint_name / gpd_joint_part / body_part_name / gpd_joint_words), retarget
+(Retargeter), messages (Subscriber, read_message, write_skeleton / write_frame / write_practice),
+runtime (Runtime), humanoid (HumanoidRig: the student and the ghost as VRM bone rotations). Not
+re-exported: mediapipe (MediaPipe Pose recordings and live feeds scored against a BVH teacher;
+`import kata.mediapipe`). _native holds every ctypes declaration. The C header kata.h is the
+manual: units, ownership and thread rules are its.
 
 Results are never lost in silence: a stream keeps result_capacity results (64) until read; a
 read after some were overwritten says so (Results.dropped, and a ResultsDroppedWarning by default;

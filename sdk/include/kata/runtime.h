@@ -136,7 +136,7 @@ typedef struct kata_runtime_desc {
   /* The stencil of the streams definitions open (kata_stream_desc.stencil): a teacher attached in
    * on_stream_open needs its model's (kata_model_stencil). Default KATA_STENCIL_BACKWARD. Since 1.1. */
   kata_stencil stream_stencil;
-  /* ---- 1.1: the rest of what a `kata serve` config sets (docs/runtime.md, "kata serve") ---- */
+  /* ---- 1.1: the rest of what a `kata serve` config sets (docs/config.md) ---- */
   /* This runtime is shard shard_index of shard_count: it scores exactly the streams for which
    * kata_shard_of(stream_id, shard_count) == shard_index; the others' ingest messages are counted
    * in kata_runtime_counters.ingest_other_shard and dropped (not refused). shard_count 1..65536,
@@ -146,7 +146,7 @@ typedef struct kata_runtime_desc {
   /* 1 (default): ingest frames that carry no checksum are refused as malformed; 0 takes them
    * (a source that predates checksums). Since 1.1. */
   int32_t require_checksum;
-  /* How a worker out of frames waits (docs/runtime.md, "Idle strategy"): 0 (default) parks at
+  /* How a worker out of frames waits (docs/runtime.md): 0 (default) parks at
    * once (no CPU while idle); 1 spins, then yields, for a few microseconds before it parks (for
    * dedicated cores: frames of a burst that arrive a little apart find it awake). Since 1.1. */
   int32_t idle_backoff;

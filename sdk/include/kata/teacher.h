@@ -38,7 +38,7 @@ extern "C" {
  * who pauses holds the teacher (docs/model/alignment.md). The frame scored (matched_teacher_frame)
  * is the teacher frame within 0.05 s of that match where the body but its worst part agrees best,
  * so a joint held wrong throughout is not absorbed by the match (docs/model/scores.md "The
- * re-match").
+ * total").
  * Memory: loading a model and attaching a teacher allocate; scoring never does.
  * Threads: a model is immutable and may be shared by any number of streams and threads; a
  * stream keeps what it needs from the model, which may be freed while streams still use it. */
@@ -239,7 +239,7 @@ KATA_API kata_status kata_stream_attach_shared_teacher(kata_stream stream, kata_
 /* kata_body_part (the five parts of a score breakdown) is in kata/result.h. */
 
 /* ==== Score calibration and feedback ====================================================== */
-/* The score is the coaching total (docs/model/scores.md "The coaching total"):
+/* The score is the coaching total (docs/model/scores.md "The total"):
  *     score = min(model_score, the lowest part score)      so  score <= the worst part's score
  * a part at 10 cannot hide in a total of 90. Each part's score is a map of its joint angle: the
  * largest angle between one of the student's bones of that part and the teacher's, each bone read
@@ -255,7 +255,7 @@ KATA_API kata_status kata_stream_attach_shared_teacher(kata_stream stream, kata_
  * 30 points of it has its joints farther from the teacher's (averaged local-frame mean joint distance,
  * the torso's counted 3.25 times while it is below good_score; equal scores rank the same way); named
  * at once when nothing is named; another part (or none) replaces a named one only after holding for
- * 0.3 s, so cues do not flicker (docs/model/scores.md "The part to fix").
+ * 0.3 s, so cues do not flicker (docs/model/scores.md "The part to fix and the cue").
  * The correction cue (cue_joint, cue_degrees, cue_action; present iff part_to_fix >= 0) says what
  * to change in that part, as a coach does: "left knee: bend 30 deg more". cue_joint is the joint
  * to move (a bone turns about the joint at its start: a bent knee names LKnee), the one of the
