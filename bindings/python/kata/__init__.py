@@ -14,7 +14,7 @@ teacher's pose retargeted onto the student (the "ghost"), from Python over libka
 Modules (all re-exported here): errors (Status, KataError, the dropped-results warning),
 objects (Context, Skeleton, Clip, Model, Landmarks, the enums, find_data), stream (Stream, Results,
 gpd_joint_name / gpd_joint_part / body_part_name / gpd_joint_words),
-retarget (Retargeter), messages (Subscriber, read_message, write_skeleton / write_frame /
+retarget (Retargeter), people (People: identity of unlabeled multi-person poses), messages (Subscriber, read_message, write_skeleton / write_frame /
 write_practice), runtime (Runtime), mediapipe
 (MediaPipe Pose recordings and live feeds scored against a BVH teacher); _native holds every
 ctypes declaration. The C header kata.h is the manual: units, ownership and thread rules are its.
@@ -40,6 +40,7 @@ from .retarget import Retargeter
 from .messages import (PracticeSection, ResultMessage, Subscriber, read_message, write_frame, write_frame_batch, write_practice,
                        write_skeleton)
 from .runtime import Runtime, shard_of
+from .people import People
 
 #: The loaded libkata's version as "MAJOR.MINOR.PATCH" (the package is versioned with it).
 __version__ = "%d.%d.%d" % version
@@ -51,6 +52,7 @@ __all__ = ["Context", "Skeleton", "Clip", "Model", "Teacher", "Landmarks", "Stre
            "gpd_joint_words", "read_message", "write_skeleton", "write_frame", "write_frame_batch",
            "write_practice", "shard_of", "detect_time_units", "default_model_path", "find_data", "layouts",
            "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "DROP_POLICIES"]
+__all__ += ["People"]
 
 # kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the
 # installed package; used from a checkout, they are the build's (<repo>/build/python/kata/fb).

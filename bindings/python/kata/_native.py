@@ -126,6 +126,23 @@ class TeacherDesc(ctypes.Structure):
                 ("on_progress", ProgressCallback), ("on_progress_user", ctypes.c_void_p)]
 
 
+class PeopleDesc(ctypes.Structure):
+    """kata_people_desc (kata/people.h, 1.1)."""
+    _fields_ = [("struct_size", ctypes.c_uint32), ("joint_count", ctypes.c_uint32), ("max_people", ctypes.c_uint32),
+                ("max_poses", ctypes.c_uint32), ("forget_seconds", ctypes.c_double), ("coast_seconds", ctypes.c_double),
+                ("gate", ctypes.c_double), ("gate_growth", ctypes.c_double), ("size_gate", ctypes.c_double),
+                ("shape_weight", ctypes.c_double), ("min_confidence", ctypes.c_double)]
+
+
+class PeopleCounters(ctypes.Structure):
+    """kata_people_counters (kata/people.h, 1.1)."""
+    _fields_ = [("struct_size", ctypes.c_uint32), ("open_streams", ctypes.c_uint32)] + [
+        (name, ctypes.c_uint64) for name in (
+            "frames", "empty_frames", "refused_frames", "poses", "assigned", "opened", "closed",
+            "refused_non_finite", "refused_out_of_range", "refused_few_joints", "refused_too_many_poses",
+            "refused_table_full")]
+
+
 class ResultRecord(ctypes.Structure):
     """kata_result_record (kata/result.h): every result a stream, a message or a plugin gives."""
     _fields_ = [("struct_size", ctypes.c_uint32), ("scored", ctypes.c_int32),
@@ -346,6 +363,17 @@ _SIGNATURES = {
     "kata_landmarks_frame_time": (_d, [_p]),
     "kata_landmarks_capture_time": (_d, [_p, _u32]),
     "kata_landmarks_positions": (_p, [_p]),
+    # since 1.1: the people tracker
+    "kata_people_desc_init_sized": (None, [ctypes.POINTER(PeopleDesc), _u32]),
+    "kata_people_create": (_st, [_p, ctypes.POINTER(PeopleDesc), _pp]),
+    "kata_people_destroy": (None, [_p]),
+    "kata_people_last_error": (_s, [_p]),
+    "kata_people_track": (_st, [_p, _d, _p, _p, _u32, _p, _sz]),
+    "kata_people_opened": (_st, [_p, _p, _sz, ctypes.POINTER(_u32)]),
+    "kata_people_closed": (_st, [_p, _p, _sz, ctypes.POINTER(_u32)]),
+    "kata_people_streams": (_st, [_p, _p, _sz, ctypes.POINTER(_u32)]),
+    "kata_people_predicted": (_st, [_p, _u32, _d, _p]),
+    "kata_people_get_counters": (_st, [_p, ctypes.POINTER(PeopleCounters)]),
 }
 
 for _name, (_restype, _argtypes) in _SIGNATURES.items():

@@ -1,0 +1,76 @@
+"""kata.People (kata/people.h) from Python: streams kept through a crossing with the poses
+shuffled, the prediction against the centroid numpy computes, refusals counted."""
+import numpy as np
+import pytest
+
+import kata
+
+J = 17  # COCO keypoints
+
+
+def figure(x, phase):
+    """A 1.7 m stick figure standing at x, every third joint swinging."""
+    h = np.linspace(0.0, 1.7, J)
+    swing = np.where(np.arange(J) % 3 == 1, 0.2 * np.sin(phase + np.arange(J)), 0.0)
+    return np.stack([x + swing, h, np.zeros(J)], axis=1).astype(np.float32)
+
+
+def test_two_people_keep_their_streams_through_a_crossing_in_shuffled_order():
+    rng = np.random.default_rng(3)
+    with kata.Context() as ctx, kata.People(ctx, joint_count=J, max_people=4) as people:
+        own = {}
+        for k in range(150):
+            t = k / 30.0
+            xs = {0: -2.0 + 0.8 * t, 1: 2.0 - 0.8 * t}
+            visible = [0] if abs(xs[0] - xs[1]) < 0.32 else [0, 1]  # 1 hidden 0.8 s
+            order = rng.permutation(visible)
+            poses = np.stack([figure(xs[a], 3 * t + a) for a in order])
+            ids = people.track(t, poses, np.full((len(order), J), 0.9))
+            for a, i in zip(order, ids):
+                assert i != 0
+                assert own.setdefault(int(a), int(i)) == i, "frame %d: person %d changed stream" % (k, a)
+            if k == 0:
+                assert sorted(people.opened) == sorted(own.values())
+        assert len(set(own.values())) == 2
+        c = people.counters()
+        assert c["opened"] == 2 and c["poses"] == c["assigned"] and c["open_streams"] == 2
+        assert sorted(people.streams) == sorted(own.values())
+
+
+def test_the_prediction_is_the_centroid_of_the_confident_joints():
+    with kata.Context() as ctx, kata.People(ctx, joint_count=J) as people:
+        pose = figure(0.5, 1.0)
+        conf = np.full(J, 0.9, np.float32)
+        conf[[2, 5]] = 0.1  # below min_confidence (0.3): not part of the centroid
+        pose[2] = np.nan    # and may be anything
+        (i,) = people.track(10.0, pose[None], conf[None])
+        expected = np.mean(pose[conf >= 0.3], axis=0)
+        np.testing.assert_allclose(people.predicted(i, 10.0), expected, rtol=1e-6, atol=1e-6)
+        # One step later, moved by d: the prediction a second on is the new centroid + velocity x 1 s.
+        d = np.array([0.05, 0.0, 0.0], np.float32)
+        people.track(10.1, (pose + d)[None], conf[None])
+        np.testing.assert_allclose(people.predicted(i, 11.1), expected + d + d / 0.1 * 1.0, rtol=1e-5, atol=1e-5)
+        with pytest.raises(kata.KataError) as e:
+            people.predicted(12345, 11.0)
+        assert e.value.status == kata.Status.E_NOT_FOUND
+
+
+def test_bad_input_is_refused_and_counted():
+    with kata.Context() as ctx, kata.People(ctx, joint_count=J, max_poses=2) as people:
+        good = figure(0.0, 0.0)
+        nan = figure(2.0, 0.0)
+        nan[4, 1] = np.nan
+        ids = people.track(1.0, np.stack([good, nan, figure(4.0, 0.0), figure(-4.0, 0.0)]))
+        assert ids[0] != 0 and ids[1] == 0 and (ids != 0).sum() == 3 - 1  # 3 valid, max_poses 2
+        assert len(people.track(1.1, np.zeros((0, J, 3)))) == 0  # an empty frame
+        with pytest.raises(kata.KataError) as e:
+            people.track(1.1, good[None])
+        assert e.value.status == kata.Status.E_TIMESTAMP_NOT_INCREASING
+        c = people.counters()
+        assert (c["frames"], c["empty_frames"], c["refused_frames"]) == (2, 1, 1)
+        assert (c["refused_non_finite"], c["refused_too_many_poses"], c["assigned"]) == (1, 1, 2)
+        with pytest.raises(TypeError):
+            kata.People(ctx, joint_count=J, no_such_option=1)
+        with pytest.raises(kata.KataError) as e:
+            kata.People(ctx, joint_count=J, max_people=0)
+        assert "max_people" in e.value.message
