@@ -134,6 +134,13 @@ class PeopleDesc(ctypes.Structure):
                 ("shape_weight", ctypes.c_double), ("min_confidence", ctypes.c_double)]
 
 
+class PeopleFrameMessage(ctypes.Structure):
+    """kata_people_frame_message (kata/people.h, 1.1)."""
+    _fields_ = [("struct_size", ctypes.c_uint32), ("joint_count", ctypes.c_uint32), ("stream_id", ctypes.c_uint64),
+                ("sequence", ctypes.c_uint64), ("capture_time", ctypes.c_double), ("pose_count", ctypes.c_uint32),
+                ("reserved", ctypes.c_uint32), ("positions", ctypes.c_void_p), ("confidences", ctypes.c_void_p)]
+
+
 class PeopleCounters(ctypes.Structure):
     """kata_people_counters (kata/people.h, 1.1)."""
     _fields_ = [("struct_size", ctypes.c_uint32), ("open_streams", ctypes.c_uint32)] + [
@@ -374,6 +381,9 @@ _SIGNATURES = {
     "kata_people_streams": (_st, [_p, _p, _sz, ctypes.POINTER(_u32)]),
     "kata_people_predicted": (_st, [_p, _u32, _d, _p]),
     "kata_people_get_counters": (_st, [_p, ctypes.POINTER(PeopleCounters)]),
+    "kata_people_frame_message_init_sized": (None, [ctypes.POINTER(PeopleFrameMessage), _u32]),
+    "kata_message_write_people_frame": (_st, [ctypes.POINTER(PeopleFrameMessage), _p, _sz, ctypes.POINTER(_sz)]),
+    "kata_people_stream_id": (_u64, [_u64, _u32]),
 }
 
 for _name, (_restype, _argtypes) in _SIGNATURES.items():

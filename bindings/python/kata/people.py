@@ -15,10 +15,10 @@ import numpy as np
 
 from . import _native as _n
 from ._util import _text
-from .errors import KataError
+from .errors import KataError, Status
 from .objects import Context, _Handle
 
-__all__ = ["People"]
+__all__ = ["People", "write_people_frame", "people_stream_id"]
 
 _OPTIONS = ("max_people", "max_poses", "forget_seconds", "coast_seconds", "gate", "gate_growth", "size_gate",
             "shape_weight", "min_confidence")
@@ -107,3 +107,38 @@ class People(_Handle):
         if status:
             self._raise(status, "kata_people_get_counters")
         return {name: int(getattr(c, name)) for name, _ in _n.PeopleCounters._fields_[1:]}
+
+
+def people_stream_id(group: int, person: int) -> int:
+    """kata_people_stream_id: the stream a runtime scores person `person` (a tracker id: 1, 2, ...)
+    of group stream `group` on."""
+    return int(_n.people_stream_id(int(group), int(person)))
+
+
+def write_people_frame(stream_id: int, sequence: int, capture_time: float, poses: Any,
+                       confidences: Optional[Any] = None) -> bytes:
+    """kata_message_write_people_frame: one image of group stream `stream_id` for a runtime's
+    ingest (kata serve): poses (n, joints, 3) floats in any order (n may be 0: give (0, joints, 3)),
+    confidences (n, joints) or None. KataError on a refusal. [any thread]"""
+    p = np.ascontiguousarray(poses, dtype=np.float32)
+    if p.ndim != 3 or p.shape[2] != 3:
+        raise ValueError("poses must be (n, joints, 3), got shape %s" % (p.shape,))
+    m = _n.PeopleFrameMessage()
+    _n.people_frame_message_init_sized(ctypes.byref(m), ctypes.sizeof(m))
+    m.stream_id, m.sequence, m.capture_time = int(stream_id), int(sequence), float(capture_time)
+    m.pose_count, m.joint_count = p.shape[0], p.shape[1]
+    m.positions = p.ctypes.data if p.size else None
+    c = None
+    if confidences is not None:
+        c = np.ascontiguousarray(confidences, dtype=np.float32)
+        if c.size != p.shape[0] * p.shape[1]:
+            raise ValueError("confidences must be (%d, %d), got shape %s" % (p.shape[0], p.shape[1], c.shape))
+        m.confidences = c.ctypes.data if c.size else None
+    size = ctypes.c_size_t(0)
+    status = _n.message_write_people_frame(ctypes.byref(m), None, 0, ctypes.byref(size))
+    if status == Status.E_BUFFER_TOO_SMALL:
+        buffer = ctypes.create_string_buffer(size.value)
+        status = _n.message_write_people_frame(ctypes.byref(m), buffer, size.value, ctypes.byref(size))
+        if status == Status.OK:
+            return buffer.raw[:size.value]
+    raise KataError(status, (_n.context_last_error(None) or b"").decode(), "kata_message_write_people_frame")

@@ -74,3 +74,35 @@ def test_bad_input_is_refused_and_counted():
         with pytest.raises(kata.KataError) as e:
             kata.People(ctx, joint_count=J, max_people=0)
         assert "max_people" in e.value.message
+
+
+def fnv1a64(*values):
+    h = 14695981039346656037
+    for v in values:
+        for b in int(v).to_bytes(8, "little"):
+            h = ((h ^ b) * 1099511628211) % (1 << 64)
+    return h - 2 if h >= (1 << 64) - 2 else h
+
+
+def test_people_stream_id_is_the_documented_hash():
+    for group, person in [(500, 1), (500, 2), (0, 1), ((1 << 64) - 3, 7), (123456789, 4000000000)]:
+        assert kata.people_stream_id(group, person) == fnv1a64(group, person)
+    assert kata.people_stream_id(500, 1) != kata.people_stream_id(500, 2)
+
+
+def test_write_people_frame_carries_the_poses_as_given():
+    fb = pytest.importorskip("kata.fb.PeopleFrame")
+    poses = np.stack([figure(0.5, 0.0), figure(-1.0, 1.0)])
+    conf = np.full((2, J), 0.8, np.float32)
+    poses[1, 3, 0] = np.nan  # written as given: the receiving tracker refuses it
+    msg = kata.write_people_frame(77, 5, 12.5, poses, conf)
+    assert msg[:16] == b"%016x" % 77
+    f = fb.PeopleFrame.GetRootAs(msg[16:], 0)
+    assert (f.StreamId(), f.Sequence(), f.CaptureTime().Nanoseconds()) == (77, 5, 12_500_000_000)
+    assert (f.JointCount(), f.PoseCount(), f.PositionsLength(), f.ConfidenceLength()) == (J, 2, 2 * J, 2 * J)
+    got = np.array([[f.Positions(i).X(), f.Positions(i).Y(), f.Positions(i).Z()] for i in range(2 * J)], np.float32)
+    np.testing.assert_array_equal(got, poses.reshape(-1, 3))
+    assert len(kata.write_people_frame(77, 6, 12.6, np.zeros((0, J, 3)))) > 16  # nobody in the picture
+    with pytest.raises(kata.KataError) as e:
+        kata.write_people_frame(77, 7, float("nan"), poses)
+    assert e.value.status == kata.Status.E_NON_FINITE

@@ -40,12 +40,15 @@ people::TrackerConfig group_tracker(int joints) {
 }  // namespace
 
 void Runtime::push_people(const transport::PeopleFrameView& f, bool restarted) {
+  StreamState* s = find(f.stream_id);
+  if (!s) {  // the group stream was closed by the app (the ingest still knows it): its people too
+    close_people(f.stream_id);
+    return;
+  }
   PeopleGroup* g = nullptr;
   for (const auto& p : people_groups_)
     if (p->id == f.stream_id) g = p.get();
   if (!g) {
-    StreamState* s = find(f.stream_id);
-    if (!s) return;
     // One group per live stream at most: the table is bounded by max_streams.
     people_groups_.push_back(std::make_shared<PeopleGroup>(f.stream_id, s->definition, group_tracker(f.joints)));
     g = people_groups_.back().get();

@@ -18,7 +18,7 @@ bool is_people_frame(const void* data, size_t size) {
 }
 
 PeopleFrameDecoder::PeopleFrameDecoder(size_t max_message_bytes, bool require_checksum)
-    : max_bytes_(max_message_bytes), require_checksum_(require_checksum), scratch_(max_message_bytes / 8 + 1) {}
+    : max_bytes_(max_message_bytes), require_checksum_(require_checksum) {}
 
 DecodeError PeopleFrameDecoder::decode(const void* data, size_t size, PeopleFrameView* out) {
   if (size < kTopicBytes + 8) return DecodeError::kTooShort;
@@ -29,6 +29,9 @@ DecodeError PeopleFrameDecoder::decode(const void* data, size_t size, PeopleFram
   const size_t payload_size = size - kTopicBytes;
   const uint8_t* payload = bytes + kTopicBytes;
   if (reinterpret_cast<uintptr_t>(payload) % 8 != 0) {
+    // Sized at the limit by the first misaligned people frame (a runtime without people frames
+    // never pays for it), then reused.
+    if (scratch_.empty()) scratch_.resize(max_bytes_ / 8 + 1);
     std::memcpy(scratch_.data(), payload, payload_size);
     payload = reinterpret_cast<const uint8_t*>(scratch_.data());
   }

@@ -27,8 +27,9 @@ struct PeopleFrameView {
 // Whether a message holds a people frame (the FlatBuffer's file identifier, after the topic).
 bool is_people_frame(const void* data, size_t size);
 
-// Verifies and reads people frames. Owns an aligned scratch buffer (allocated once, at the size
-// limit) for a message ZeroMQ hands over misaligned: decode() allocates nothing.
+// Verifies and reads people frames. Owns an aligned scratch buffer for a message ZeroMQ hands over
+// misaligned, allocated at the size limit by the first such message: after it, decode()
+// allocates nothing.
 class PeopleFrameDecoder {
  public:
   PeopleFrameDecoder(size_t max_message_bytes, bool require_checksum);
