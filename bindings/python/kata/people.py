@@ -3,7 +3,7 @@ of a multi-person detector belongs to.
 
     with kata.Context() as ctx, kata.People(ctx, joint_count=33, max_people=4) as people:
         ids = people.track(t, poses, confidences)   # poses (n, 33, 3), any order -> ids (n,)
-        people.opened, people.closed               # streams this frame opened and closed
+        people.opened_streams, people.closed_streams  # streams this frame opened and closed
 
 An id is a person's stream (0: the pose was refused, see counters()); ids count up from 1 and are
 not reused. kata/people.h explains the cost, the gate and what identity rests on.
@@ -77,12 +77,12 @@ class People(_Handle):
         return [int(x) for x in self._list[:count.value]]
 
     @property
-    def opened(self) -> List[int]:
+    def opened_streams(self) -> List[int]:
         """The streams the last track() opened (new people)."""
         return self._ids_of(_n.people_opened, "kata_people_opened")
 
     @property
-    def closed(self) -> List[int]:
+    def closed_streams(self) -> List[int]:
         """The streams the last track() closed (unseen for longer than forget_seconds)."""
         return self._ids_of(_n.people_closed, "kata_people_closed")
 

@@ -30,11 +30,13 @@ def test_two_people_keep_their_streams_through_a_crossing_in_shuffled_order():
                 assert i != 0
                 assert own.setdefault(int(a), int(i)) == i, "frame %d: person %d changed stream" % (k, a)
             if k == 0:
-                assert sorted(people.opened) == sorted(own.values())
+                assert sorted(people.opened_streams) == sorted(own.values())
         assert len(set(own.values())) == 2
         c = people.counters()
         assert c["opened"] == 2 and c["poses"] == c["assigned"] and c["open_streams"] == 2
         assert sorted(people.streams) == sorted(own.values())
+        people.track(5.0 + 3.1, np.zeros((0, J, 3)))  # nobody for longer than forget_seconds (3)
+        assert sorted(people.closed_streams) == sorted(own.values()) and people.streams == []
 
 
 def test_the_prediction_is_the_centroid_of_the_confident_joints():
