@@ -110,8 +110,8 @@ KATA_API const char* kata_people_last_error(kata_people people);
  * or out-of-range confident joint, too few confident joints, beyond max_poses, or a new person
  * while max_people streams are open: counted by cause in kata_people_counters); the other poses
  * of the frame are tracked as usual. KATA_E_NON_FINITE / KATA_E_TIMESTAMP_NOT_INCREASING for the
- * time, KATA_E_NULL_POINTER, KATA_E_BUFFER_TOO_SMALL: nothing changed. Does not allocate.
- * [tracker owner] */
+ * time (counted in refused_frames), KATA_E_NULL_POINTER, KATA_E_BUFFER_TOO_SMALL: nothing else
+ * changed. Does not allocate. [tracker owner] */
 KATA_API kata_status kata_people_track(kata_people people, double time, const float* xyz, const float* confidence,
                                        uint32_t pose_count, uint32_t* ids, size_t capacity);
 /* The streams the last kata_people_track opened (new people): up to capacity ids into ids,
