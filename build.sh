@@ -120,7 +120,7 @@ demo() {
 # Builds the fuzz targets (tests/fuzz/README.md) and runs each for FUZZ_SECONDS over its seed
 # corpus (tests/fuzz/corpus/NAME, read only) plus a working corpus in build-fuzz/corpus/NAME. A
 # crash, sanitizer report or failed assertion stops the script with the input saved in build-fuzz/.
-FUZZ_TARGETS=(bvh model name_map stream landmarks ingest serve_config)
+FUZZ_TARGETS=(bvh model name_map stream landmarks ingest serve_config people)
 fuzz() {  # fuzz [seconds per target]
   local dir=build-fuzz secs=${1:-${FUZZ_SECONDS:-20}}
   CC=clang-14 CXX=clang++-14 cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DKATA_FUZZ=ON \

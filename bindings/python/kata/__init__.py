@@ -14,11 +14,12 @@ teacher's pose retargeted onto the student (the "ghost"), from Python over libka
 Modules, whose public names are re-exported here: errors (Status, KataError, the dropped-results
 warning), objects (Context, Skeleton, Clip, Model, Landmarks, the enums, find_data), stream
 (Stream, Results, gpd_joint_name / gpd_joint_part / body_part_name / gpd_joint_words), retarget
-(Retargeter), messages (Subscriber, read_message, write_skeleton / write_frame / write_practice),
-runtime (Runtime), humanoid (HumanoidRig: the student and the ghost as VRM bone rotations). Not
-re-exported: mediapipe (MediaPipe Pose recordings and live feeds scored against a BVH teacher;
-`import kata.mediapipe`). _native holds every ctypes declaration. The C header kata.h is the
-manual: units, ownership and thread rules are its.
+(Retargeter), people (People: identity of unlabeled multi-person poses), messages (Subscriber,
+read_message, write_skeleton / write_frame / write_practice), runtime (Runtime), humanoid
+(HumanoidRig: the student and the ghost as VRM bone rotations). Not re-exported: mediapipe
+(MediaPipe Pose recordings and live feeds scored against a BVH teacher; `import kata.mediapipe`).
+_native holds every ctypes declaration. The C header kata.h is the manual: units, ownership and
+thread rules are its.
 
 Results are never lost in silence: a stream keeps result_capacity results (64) until read; a
 read after some were overwritten says so (Results.dropped, and a ResultsDroppedWarning by default;
@@ -43,6 +44,7 @@ from .messages import (PracticeSection, ResultMessage, Subscriber, read_message,
 from .runtime import Runtime, shard_of
 from .humanoid import (BONE_COUNT, BONE_NAMES, BONE_PARENTS, Bone, HumanoidFrame, HumanoidPose, HumanoidRig, bone_find,
                        bone_name, bone_parent)
+from .people import People, people_stream_id, write_people_frame
 
 #: The loaded libkata's version as "MAJOR.MINOR.PATCH" (the package is versioned with it).
 __version__ = "%d.%d.%d" % version
@@ -56,6 +58,7 @@ __all__ = ["Context", "Skeleton", "Clip", "Model", "Teacher", "Landmarks", "Stre
            "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "DROP_POLICIES",
            "HumanoidRig", "HumanoidPose", "HumanoidFrame", "Bone", "BONE_COUNT", "BONE_NAMES", "BONE_PARENTS",
            "bone_name", "bone_parent", "bone_find"]
+__all__ += ["People", "people_stream_id", "write_people_frame"]
 
 # kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the
 # installed package; used from a checkout, they are the build's (<repo>/build/python/kata/fb).

@@ -126,6 +126,30 @@ class TeacherDesc(ctypes.Structure):
                 ("on_progress", ProgressCallback), ("on_progress_user", ctypes.c_void_p)]
 
 
+class PeopleDesc(ctypes.Structure):
+    """kata_people_desc (kata/people.h, 1.1)."""
+    _fields_ = [("struct_size", ctypes.c_uint32), ("joint_count", ctypes.c_uint32), ("max_people", ctypes.c_uint32),
+                ("max_poses", ctypes.c_uint32), ("forget_seconds", ctypes.c_double), ("coast_seconds", ctypes.c_double),
+                ("gate", ctypes.c_double), ("gate_growth", ctypes.c_double), ("size_gate", ctypes.c_double),
+                ("shape_weight", ctypes.c_double), ("min_confidence", ctypes.c_double)]
+
+
+class PeopleFrameMessage(ctypes.Structure):
+    """kata_people_frame_message (kata/people.h, 1.1)."""
+    _fields_ = [("struct_size", ctypes.c_uint32), ("joint_count", ctypes.c_uint32), ("stream_id", ctypes.c_uint64),
+                ("sequence", ctypes.c_uint64), ("capture_time", ctypes.c_double), ("pose_count", ctypes.c_uint32),
+                ("reserved", ctypes.c_uint32), ("positions", ctypes.c_void_p), ("confidences", ctypes.c_void_p)]
+
+
+class PeopleCounters(ctypes.Structure):
+    """kata_people_counters (kata/people.h, 1.1)."""
+    _fields_ = [("struct_size", ctypes.c_uint32), ("open_streams", ctypes.c_uint32)] + [
+        (name, ctypes.c_uint64) for name in (
+            "frames", "empty_frames", "refused_frames", "poses", "assigned", "opened", "closed",
+            "refused_non_finite", "refused_out_of_range", "refused_few_joints", "refused_too_many_poses",
+            "refused_table_full")]
+
+
 class ResultRecord(ctypes.Structure):
     """kata_result_record (kata/result.h): every result a stream, a message or a plugin gives."""
     _fields_ = [("struct_size", ctypes.c_uint32), ("scored", ctypes.c_int32),
@@ -382,6 +406,20 @@ _SIGNATURES = {
     "kata_humanoid_rig_pose_ghost": (_st, [_p, _p, _u32, _i32, ctypes.POINTER(HumanoidPose)]),
     "kata_humanoid_pose_convert": (_st, [ctypes.POINTER(HumanoidPose), _i32]),
     "kata_humanoid_pose_joints": (_st, [ctypes.POINTER(HumanoidPose), _p, _sz, _p, _sz]),
+    # since 1.1: the people tracker
+    "kata_people_desc_init_sized": (None, [ctypes.POINTER(PeopleDesc), _u32]),
+    "kata_people_create": (_st, [_p, ctypes.POINTER(PeopleDesc), _pp]),
+    "kata_people_destroy": (None, [_p]),
+    "kata_people_last_error": (_s, [_p]),
+    "kata_people_track": (_st, [_p, _d, _p, _p, _u32, _p, _sz]),
+    "kata_people_opened": (_st, [_p, _p, _sz, ctypes.POINTER(_u32)]),
+    "kata_people_closed": (_st, [_p, _p, _sz, ctypes.POINTER(_u32)]),
+    "kata_people_streams": (_st, [_p, _p, _sz, ctypes.POINTER(_u32)]),
+    "kata_people_predicted": (_st, [_p, _u32, _d, _p]),
+    "kata_people_get_counters": (_st, [_p, ctypes.POINTER(PeopleCounters)]),
+    "kata_people_frame_message_init_sized": (None, [ctypes.POINTER(PeopleFrameMessage), _u32]),
+    "kata_message_write_people_frame": (_st, [ctypes.POINTER(PeopleFrameMessage), _p, _sz, ctypes.POINTER(_sz)]),
+    "kata_people_stream_id": (_u64, [_u64, _u32]),
 }
 
 for _name, (_restype, _argtypes) in _SIGNATURES.items():

@@ -11,6 +11,7 @@
  *   kata/retarget.h  task 4, retarget: a teacher's posture on a student's body
  *   kata/runtime.h   tasks 5 to 7, run many streams (ZeroMQ in and out), read and write messages
  *   kata/humanoid.h  the student and the ghost as humanoid (VRM) bone rotations, for game engines
+ *   kata/people.h    several people in one picture: which stream each unlabeled pose belongs to
  *   kata/kata_plugin.h (not included here) the plugin ABI of a runtime's sinks
  *
  * Conventions (they hold for every function below unless it says otherwise):
@@ -52,5 +53,6 @@
 #include "teacher.h"  /* kata_model, kata_teacher_desc, reading results */
 #include "runtime.h"  /* kata_runtime, kata_message_read_result, kata_message_write_* */
 #include "humanoid.h" /* kata_humanoid_rig, kata_humanoid_pose: VRM bone rotations */
+#include "people.h"   /* kata_people: identity of unlabeled multi-person detections */
 
 #endif /* KATA_KATA_H */

@@ -45,8 +45,14 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
     };
     // The owner's new revision restarts the stream with it (the ingest restarts the next frame):
     // the same skeleton keeps its pipeline, another one is opened anew.
-    handlers.on_revision = [this](const transport::SkeletonDefinition& d) { return revise_announced(d); };
-    handlers.on_close = [this](uint64_t id) { close_stream(id); };
+    handlers.on_revision = [this](const transport::SkeletonDefinition& d) {
+      close_people(d.stream_id);
+      return revise_announced(d);
+    };
+    handlers.on_close = [this](uint64_t id) {
+      close_people(id);
+      close_stream(id);
+    };
     // A frame of an open stream the ingest refused is counted on the stream (kDropCauses).
     handlers.on_refused_frame = [this](uint64_t id, transport::TableVerdict cause) {
       StreamState* s = find(id);
@@ -67,6 +73,7 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
     handlers.on_frame = [this](const transport::FrameView& f, bool restarted) {
       push(f.stream_id, f.sequence, static_cast<double>(f.capture_ns) * 1e-9, f.xyz, f.joints, restarted, f.confidence);
     };
+    handlers.on_people = [this](const transport::PeopleFrameView& f, bool restarted) { push_people(f, restarted); };
     ingest_ = std::make_unique<transport::Ingest>(*context_, config_.ingest, std::move(handlers));
     ingest_endpoint_ = ingest_->endpoint();
   }

@@ -353,6 +353,12 @@ class Runtime {
   alignas(64) std::atomic<bool> offering_{false};
   // Drains the ring into the ingest (at most max messages; all of them when max < 0). [I/O thread]
   void drain_direct(int max);
+  // People frames (people_streams.cpp): a people tracker per group stream, each person's poses
+  // pushed to their own stream, opened and closed as the tracker says. [I/O thread]
+  struct PeopleGroup;
+  void push_people(const transport::PeopleFrameView& frame, bool restarted);
+  void close_people(uint64_t group_id);
+  std::vector<std::shared_ptr<PeopleGroup>> people_groups_;  // I/O thread; one per live group stream
 };
 
 }  // namespace kata::runtime

@@ -35,7 +35,8 @@ bool read_socket_event(void* monitor, uint16_t* kind, uint32_t* value) {
 }
 
 Ingest::Ingest(Context& context, const IngestOptions& options, Handlers handlers)
-    : decoder_(options.max_message_bytes, options.require_checksum), handlers_(std::move(handlers)),
+    : decoder_(options.max_message_bytes, options.require_checksum),
+      people_decoder_(options.max_message_bytes, options.require_checksum), handlers_(std::move(handlers)),
       table_(options.limits) {
   const bool direct = options.kind == IngestKind::kDirect;
   if (direct != options.endpoints.empty())

@@ -174,6 +174,7 @@ void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t n
     ++counters_.other_shard;
     return;
   }
+  if (is_people_frame(data, size)) return handle_people(data, size, sender, now_ns);
   const MessageKind kind = decoder_.decode(data, size);
   switch (kind) {
     case MessageKind::kNone:

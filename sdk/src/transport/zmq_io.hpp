@@ -14,6 +14,7 @@
 
 #include "transport/curve.hpp"
 #include "transport/ingest_table.hpp"
+#include "transport/people_frame.hpp"
 #include "transport/wire.hpp"
 
 namespace kata::transport {
@@ -195,6 +196,10 @@ struct IngestCounters {
   // last failure ZeroMQ reported with a reason (0: none; socket kinds that cannot talk have none).
   uint64_t handshake_failures = 0;
   uint32_t last_handshake_error = 0;
+  // Of the frames handed on, the people frames (schemas/people_frame.fbs; since 1.1: a frame of
+  // their group stream; refused ones are in the causes above), and the poses they carried.
+  uint64_t people_frames = 0;
+  uint64_t people_poses = 0;
   // The source's age of every frame handed on: arrival - capture beyond the stream's quickest
   // delivery (ingest_table.hpp), in the runtime's latency buckets (2^(i/8) ns, kAgeBuckets).
   static constexpr int kAgeBuckets = 8 * 36;
@@ -232,6 +237,9 @@ class Ingest {
     // kPracticeOutsideClip / kPracticeNoClip / kPracticeQueueFull / kUnknownStream and says why
     // in *why (logged once per sender and cause). [ingest's thread]
     std::function<TableVerdict(const PracticeSetting&, std::string* why)> on_practice;
+    // A people frame of a known group stream, in order (judged as a frame of that stream; its
+    // poses are the receiver's to judge). [ingest's thread]
+    std::function<void(const PeopleFrameView&, bool restarted)> on_people;
   };
 
   Ingest(Context& context, const IngestOptions& options, Handlers handlers);
@@ -265,10 +273,13 @@ class Ingest {
   void handle_frame(SenderToken sender, int64_t now_ns);
   void handle_batch(SenderToken sender, int64_t now_ns);
   void handle_practice(SenderToken sender, int64_t now_ns);
+  // A people frame (people_ingest.cpp): verified by its own decoder, then judged as a frame.
+  void handle_people(const void* data, size_t size, SenderToken sender, int64_t now_ns);
   std::string describe(SenderToken sender) const;
   void* socket_ = nullptr;
   void* monitor_ = nullptr;  // PAIR socket reading this socket's connection events
   Decoder decoder_;
+  PeopleFrameDecoder people_decoder_;
   uint32_t shard_count_ = 1, shard_index_ = 0;
   uint32_t max_connections_ = 0;
   bool log_refusals_ = true;

@@ -1,0 +1,39 @@
+// The ingest's path for people frames (schemas/people_frame.fbs): its own verifier, then the
+// table's rules as a frame of the group stream (owner, sequence, age, joint count), then on to
+// the receiver, which tracks the people and judges each pose.
+#include <algorithm>
+#include <cmath>
+
+#include "transport/zmq_io.hpp"
+
+namespace kata::transport {
+
+void Ingest::handle_people(const void* data, size_t size, SenderToken sender, int64_t now_ns) {
+  PeopleFrameView f;
+  const DecodeError e = people_decoder_.decode(data, size, &f);
+  if (e != DecodeError::kNone) {
+    ++counters_.malformed[static_cast<int>(e)];
+    return;
+  }
+  bool restarted = false;
+  uint64_t gap = 0;
+  int64_t age_ns = -1;
+  const TableVerdict v =
+      table_.judge_frame(sender, f.stream_id, f.sequence, f.capture_ns, f.joints, now_ns, &restarted, &gap, &age_ns);
+  if (v != TableVerdict::kAccepted) {
+    if (v != TableVerdict::kUnknownStream && handlers_.on_refused_frame) handlers_.on_refused_frame(f.stream_id, v);
+    return refused(sender, v, f.stream_id);
+  }
+  if (restarted) ++counters_.restarts;
+  counters_.sequence_gaps += gap;
+  if (age_ns >= 0) {
+    const int bucket = age_ns < 1 ? 0 : static_cast<int>(8.0 * std::log2(static_cast<double>(age_ns)));
+    ++counters_.age_histogram[std::min(std::max(bucket, 0), IngestCounters::kAgeBuckets - 1)];
+  }
+  ++counters_.frames;
+  ++counters_.people_frames;
+  counters_.people_poses += static_cast<uint64_t>(f.poses);
+  if (handlers_.on_people) handlers_.on_people(f, restarted);
+}
+
+}  // namespace kata::transport
