@@ -1412,7 +1412,16 @@ struct ServeRun {
   uint64_t stale = 0;                         // mutex
 
   explicit ServeRun(uint64_t first) : first_id(first) {}
-  ~ServeRun() { finish(); }
+  ~ServeRun() {
+    finish();
+    // A failed run keeps the servers' and shards' logs for a look.
+    if (::testing::Test::HasFailure()) {
+      const std::string keep = "/tmp/kata_nats_failed_" + std::to_string(::getpid()) + "_" + std::to_string(first_id);
+      std::error_code ignored;
+      std::filesystem::copy(dir.path(), keep, std::filesystem::copy_options::recursive, ignored);
+      std::printf("the servers' and shards' logs: %s\n", keep.c_str());
+    }
+  }
   std::string holder(uint64_t id) const {
     return names[static_cast<size_t>(kn::rendezvous_owner(names, kn::partition_of(id, kPartitions)))];
   }

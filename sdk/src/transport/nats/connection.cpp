@@ -81,6 +81,7 @@ Connection::Connection(const ConnectionOptions& o) {
   check(natsOptions_SetMaxPingsOut(raw, o.max_pings_out), "max pings out");
   check(natsOptions_SetSendAsap(raw, o.send_asap), "send asap");
   if (o.single_delivery_thread) check(natsOptions_UseGlobalMessageDelivery(raw, true), "global message delivery");
+  if (o.only_given_servers) check(natsOptions_SetIgnoreDiscoveredServers(raw, true), "ignore discovered servers");
   if (o.connect_in_background)  // A callback makes the first connect asynchronous (without one, libnats blocks until connected).
     check(natsOptions_SetRetryOnFailedConnect(raw, true, &Connection::on_reconnected, this), "retry on failed connect");
   check(natsOptions_SetDisconnectedCB(raw, &Connection::on_disconnected, this), "disconnected callback");

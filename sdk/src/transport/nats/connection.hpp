@@ -71,6 +71,9 @@ struct ConnectionOptions {
   // (libnats' retry on failed connect): a connection that must exist whether or not its one
   // server is up now (the lease loop's witnesses, lease.hpp).
   bool connect_in_background = false;
+  // Only ever the servers given: not those the cluster announces (libnats adds them to its list and
+  // may move there when the given one is lost). For a connection that must stay on its one server.
+  bool only_given_servers = false;
 };
 
 // The servers of a list as the docs write it: URLs separated by commas

@@ -169,6 +169,7 @@ LeaseManager::LeaseManager(Connection& connection, LeaseOptions options, Handler
       w.randomize = false;
       w.name = options_.member + "-witness-" + std::to_string(i);
       w.connect_in_background = true;
+      w.only_given_servers = true;  // pinned: a witness that moved to another server would speak for it twice
       w.single_delivery_thread = false;
       w.reconnect_wait_ms = std::max(w.reconnect_wait_ms, 250);
       try {
