@@ -1451,10 +1451,10 @@ struct ServeRun {
     natsSubscription_SetPendingLimits(sub, -1, -1);
     consumer->flush(2000);
     receiver = std::thread([this] { receive(); });
-    // 05_18 at --speed 0.5: 60 frames a second per stream, for up to 100 s (stopped before).
+    // 05_18 at --speed 0.5: 60 frames a second per stream, ~30 s a loop, for up to 2 minutes (stopped before).
     const std::string command = std::string(KATA_CLI) + " send --transport nats --nats-server " + join(cluster->urls()) +
                                 " --bvh " KATA_DATA_DIR "/cmu/05_18.bvh --speed 0.5 --streams " + std::to_string(kStreams) +
-                                " --stream-id " + std::to_string(first_id) + " --frames 6000 --warmup 0.5";
+                                " --stream-id " + std::to_string(first_id) + " --loops 4 --warmup 0.5";
     other_processes.pids.push_back(spawn({"/bin/sh", "-c", "exec " + command}, dir.file("send.log")));
     // Flowing: every stream has had two seconds of results.
     if (!wait_for([&] {
