@@ -134,6 +134,19 @@ static int parse_subject(const char* subject, const char* prefix, uint64_t* stre
   return 1;
 }
 
+/* The connection's events, on stderr: which server it follows after losing one. */
+static void on_disconnected(natsConnection* nc, void* closure) {
+  (void)nc;
+  (void)closure;
+  fprintf(stderr, "disconnected\n");
+}
+static void on_reconnected(natsConnection* nc, void* closure) {
+  char url[256] = "";
+  (void)closure;
+  natsConnection_GetConnectedUrl(nc, url, sizeof url);
+  fprintf(stderr, "reconnected to %s\n", url);
+}
+
 static int run_nats(const char* urls, const char* stream, long count) {
   const char* prefix = getenv("KATA_NATS_PREFIX") ? getenv("KATA_NATS_PREFIX") : "kata";
   const char* creds = getenv("KATA_NATS_CREDS");
@@ -147,10 +160,20 @@ static int run_nats(const char* urls, const char* stream, long count) {
     snprintf(subject, sizeof subject, "%s.out.%016" PRIx64 ".>", prefix, (uint64_t)strtoull(stream, NULL, 10));
   else
     snprintf(subject, sizeof subject, "%s.out.>", prefix);
+  /* The servers, split at the commas: a cluster's list, tried in turn at the start and when the
+   * server this subscriber is connected to is lost. */
+  char list[1024];
+  const char* servers[16];
+  int n = 0;
+  snprintf(list, sizeof list, "%s", urls);
+  for (char* save = NULL, *url = strtok_r(list, ", ", &save); url && n < 16; url = strtok_r(NULL, ", ", &save)) servers[n++] = url;
   s = natsOptions_Create(&options);
-  if (s == NATS_OK) s = natsOptions_SetURL(options, urls);
+  if (s == NATS_OK) s = n > 0 ? natsOptions_SetServers(options, servers, n) : NATS_INVALID_ARG;
   if (s == NATS_OK && creds) s = natsOptions_SetUserCredentialsFromFiles(options, creds, NULL);
   if (s == NATS_OK) s = natsOptions_SetMaxReconnect(options, -1); /* a cluster: follow it, forever */
+  if (s == NATS_OK) s = natsOptions_SetReconnectWait(options, 100); /* per server; another one is tried at once */
+  if (s == NATS_OK) s = natsOptions_SetDisconnectedCB(options, on_disconnected, NULL);
+  if (s == NATS_OK) s = natsOptions_SetReconnectedCB(options, on_reconnected, NULL);
   if (s == NATS_OK) s = natsConnection_Connect(&connection, options);
   if (s == NATS_OK) s = natsConnection_SubscribeSync(&sub, connection, subject);
   if (s == NATS_OK) s = natsSubscription_SetPendingLimits(sub, 100000, -1);
@@ -159,7 +182,11 @@ static int run_nats(const char* urls, const char* stream, long count) {
     fprintf(stderr, "cannot subscribe to %s on %s: %s\n", subject, urls, natsStatus_GetText(s));
     return 1;
   }
-  fprintf(stderr, "subscribed to %s\n", subject);
+  {
+    char url[256] = "";
+    natsConnection_GetConnectedUrl(connection, url, sizeof url);
+    fprintf(stderr, "subscribed to %s on %s\n", subject, url);
+  }
   while (count == 0 || seen < count) {
     natsMsg* msg = NULL;
     uint64_t id = 0, epoch = 0;
@@ -195,6 +222,7 @@ static int run_nats(const char* urls, const char* stream, long count) {
 int main(int argc, char** argv) {
   const char* stream = argc > 2 ? argv[2] : NULL;
   const long count = argc > 3 ? atol(argv[3]) : 0;
+  setvbuf(stdout, NULL, _IOLBF, 0); /* a line per result as it arrives, into a pipe or file too */
   if (argc < 2) {
     fprintf(stderr, "usage: %s ENDPOINT [STREAM_ID] [COUNT]\n", argv[0]);
     return 2;

@@ -190,6 +190,32 @@ void NatsCluster::kill(int i) {
   pids_[i] = -1;
 }
 
+bool NatsCluster::restart(int i) {
+  if (pids_[static_cast<size_t>(i)] > 0) return true;
+  const std::string binary = server_binary();
+  // Its config, store directory and log as before: it rejoins the cluster as the same server.
+  const pid_t pid = spawn({binary, "-c", dir_ + "/" + name(i) + ".conf"}, dir_ + "/" + name(i) + ".log");
+  if (pid < 0) return false;
+  pids_[static_cast<size_t>(i)] = pid;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);
+  while (std::chrono::steady_clock::now() < deadline) {
+    natsConnection* nc = nullptr;
+    bool ready = false;
+    if (natsConnection_ConnectTo(&nc, url(i).c_str()) == NATS_OK) {
+      natsMsg* reply = nullptr;
+      if (natsConnection_RequestString(&reply, nc, "$JS.API.INFO", "", 500) == NATS_OK) {
+        const std::string body(natsMsg_GetData(reply), static_cast<size_t>(natsMsg_GetDataLength(reply)));
+        ready = body.find("\"memory\"") != std::string::npos && body.find("\"error\"") == std::string::npos;
+        natsMsg_Destroy(reply);
+      }
+      natsConnection_Destroy(nc);
+    }
+    if (ready) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  return false;
+}
+
 std::string NatsCluster::log_tail(int i, int lines) const {
   std::ifstream in(dir_ + "/" + name(i) + ".log");
   std::deque<std::string> tail;

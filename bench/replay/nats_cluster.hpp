@@ -37,6 +37,9 @@ class NatsCluster {
   pid_t pid(int i) const { return pids_[static_cast<size_t>(i)]; }
   // SIGKILL server i and reap it.
   void kill(int i);
+  // Starts server i again after kill(i), with its config and store directory: it rejoins the
+  // cluster as the same server. Returns once JetStream answers through it (false: not in 20 s).
+  bool restart(int i);
   // The last lines of server i's log (for failure messages).
   std::string log_tail(int i, int lines = 20) const;
 

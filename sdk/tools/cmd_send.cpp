@@ -324,7 +324,8 @@ void run_send_nats(const Options& o, const Clip& clip, int frames, Writer& w, bo
 #ifdef KATA_HAVE_NATS
   namespace kn = kata::transport::nats;
   kn::ConnectionOptions co;
-  co.servers = o.nats_servers;
+  for (const auto& list : o.nats_servers)  // each a URL or a comma-separated list of them
+    for (auto& url : kn::split_servers(list)) co.servers.push_back(url);
   co.credentials_file = o.nats_creds;
   co.name = "kata-send";
   std::unique_ptr<kn::Connection> connected;
@@ -498,7 +499,7 @@ void setup(CLI::App& app) {
   cmd->add_option("--transport", o->transport, "zmq, or nats (--nats-server)")
       ->capture_default_str()
       ->check(CLI::IsMember({"zmq", "nats"}));
-  cmd->add_option("--nats-server", o->nats_servers, "NATS: a server URL (nats://host:4222; repeat for several)");
+  cmd->add_option("--nats-server", o->nats_servers, "NATS: the servers, nats://host:4222 or a comma-separated list of URLs (or repeat the option)");
   cmd->add_option("--nats-creds", o->nats_creds, "NATS: a credentials file (user JWT and NKEY seed)");
   cmd->add_option("--nats-prefix", o->nats_prefix, "NATS: the subject prefix (as kata serve's [transport])")
       ->capture_default_str();

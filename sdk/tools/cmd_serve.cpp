@@ -46,7 +46,7 @@
 //   config = "path=scores.csv"
 //   [transport]                                # optional: frames and results over a NATS cluster
 //   kind = "nats"                              #   instead of [ingest] endpoints and [publish]
-//   servers = ["nats://10.0.0.1:4222", "nats://10.0.0.2:4222"]
+//   servers = ["nats://10.0.0.1:4222", "nats://10.0.0.2:4222"]  # or "nats://10.0.0.1:4222,nats://..."
 //   credentials = "keys/shard.creds"           # or nkey = "U..." + nkey_seed = "keys/shard.nk"
 //   tls = false                                # tls_ca, tls_cert, tls_key: files
 //   shard = "shard-a"                          # this shard's name (default kata-<host>-<pid>)
@@ -116,7 +116,7 @@ kata_runtime_counters counters_of(kata_runtime runtime) {
 // --counters FILE: every stream's counters after the stop, as JSON ({"streams": {"<id>": {name:
 // count}}, "ingest": {...}}), by the names of the runtime's drop causes plus frames_in, results and
 // published: what tests/support/accounting.py balances against the frames a test sent.
-void write_counters(const std::string& path, kata_runtime runtime) {
+void write_counters(const std::string& path, kata_runtime runtime, const std::string& more = "") {
   uint32_t count = 0;
   kata_runtime_get_stream_counters(runtime, nullptr, 0, &count);
   std::vector<kata_stream_counters> streams(count);
@@ -146,12 +146,12 @@ void write_counters(const std::string& path, kata_runtime runtime) {
   const kata_runtime_counters i = counters_of(runtime);
   std::fprintf(f, "},\n \"ingest\": {\"received\": %llu, \"frames\": %llu, \"dropped\": %llu, \"unknown_stream\": %llu, "
                "\"out_of_order\": %llu, \"sequence_gaps\": %llu, \"other_shard\": %llu, \"batches\": %llu, "
-               "\"batch_frames\": %llu}}\n",
+               "\"batch_frames\": %llu}%s}\n",
                static_cast<unsigned long long>(i.ingest_received), static_cast<unsigned long long>(i.ingest_frames),
                static_cast<unsigned long long>(i.ingest_dropped), static_cast<unsigned long long>(i.ingest_unknown_stream),
                static_cast<unsigned long long>(i.ingest_out_of_order), static_cast<unsigned long long>(i.ingest_sequence_gaps),
                static_cast<unsigned long long>(i.ingest_other_shard), static_cast<unsigned long long>(i.ingest_batches),
-               static_cast<unsigned long long>(i.ingest_batch_frames));
+               static_cast<unsigned long long>(i.ingest_batch_frames), more.c_str());
   if (std::fclose(f) != 0) fail("serve: cannot write " + path);
 }
 
@@ -515,8 +515,10 @@ void run_serve(const std::string& file, const std::string& counters_path) {
   // Stops the source plugins, finishes queued frames, sends every result, flushes the sink plugins.
   if (kata_runtime_stop(runtime) != KATA_OK) fail(kata_context_last_error(h.context));
 #ifdef KATA_HAVE_NATS
+  std::string counters_more;  // --counters: on NATS, each partition's pauses and why
   if (nats) {
     const auto sc = nats->shard()->counters();
+    const auto pauses = nats->shard()->leases().pauses();
     nats->stop();  // gives the partitions back: the other shards take them at once
     if (nats->results_refused() > 0)
       std::fprintf(stderr, "kata serve: warning: %llu results could not be written as messages (not published)\n",
@@ -533,6 +535,9 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                  static_cast<unsigned long long>(sc.results_not_held), static_cast<unsigned long long>(sc.leases.acquired),
                  static_cast<unsigned long long>(sc.leases.released), static_cast<unsigned long long>(sc.leases.lost),
                  static_cast<unsigned long long>(sc.leases.paused), static_cast<unsigned long long>(sc.reconnects));
+    // How long each partition went without results from here, and why (lease lapsed, election, moved).
+    std::fprintf(stderr, "kata serve: NATS partition pauses: %s\n", kata::transport::nats::describe_pauses(pauses).c_str());
+    counters_more = ",\n \"nats_partitions\": " + kata::transport::nats::pauses_json(pauses);
   }
 #endif
   const kata_runtime_counters c = counters_of(runtime);
@@ -561,7 +566,11 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                static_cast<unsigned long long>(c.queue_full + c.result_queue_full + c.send_failed),
                static_cast<unsigned long long>(c.ingest_connections), static_cast<unsigned long long>(c.ingest_connections_refused),
                static_cast<unsigned long long>(c.ingest_handshake_failures));
+#ifdef KATA_HAVE_NATS
+  if (!counters_path.empty()) write_counters(counters_path, runtime, counters_more);
+#else
   if (!counters_path.empty()) write_counters(counters_path, runtime);
+#endif
 }
 
 void setup(CLI::App& app) {

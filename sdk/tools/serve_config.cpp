@@ -202,13 +202,27 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
     n.enabled = true;
     const toml::node* servers = transport.get("servers");
     const toml::array* list = servers ? servers->as_array() : nullptr;
-    if (!list || list->empty()) throw cli::Failure(file + ":1: [transport] kind = \"nats\" needs servers = [\"nats://host:4222\", ...]");
-    for (const auto& v : *list) {
-      const auto url = v.value<std::string>();
-      if (!url || url->empty() || url->find(',') != std::string::npos)
-        refuse(file, v.source(), "servers must be NATS URLs (nats://host:port, tls://host:port)");
-      n.servers.push_back(*url);
-    }
+    // An array of URLs, or of comma-separated lists of them, or one such list as a string: the
+    // server list as every kata NATS client takes it ("nats://n0:4222,nats://n1:4222").
+    const auto add_servers = [&](const toml::node& v) {
+      const auto text = v.value<std::string>();
+      const size_t before = n.servers.size();
+      bool ok = text.has_value();
+      for (size_t at = 0; ok && at <= text->size();) {
+        size_t end = text->find(',', at);
+        if (end == std::string::npos) end = text->size();
+        std::string url = text->substr(at, end - at);
+        url.erase(0, url.find_first_not_of(" \t"));
+        url.erase(url.find_last_not_of(" \t") + 1);
+        if (!url.empty()) n.servers.push_back(url);
+        at = end + 1;
+      }
+      if (!ok || n.servers.size() == before) refuse(file, v.source(), "servers must be NATS URLs (nats://host:port, tls://host:port)");
+    };
+    if (servers != nullptr && servers->is_string()) add_servers(*servers);
+    else if (list != nullptr)
+      for (const auto& v : *list) add_servers(v);
+    if (n.servers.empty()) throw cli::Failure(file + ":1: [transport] kind = \"nats\" needs servers = [\"nats://host:4222\", ...]");
     auto file_key = [&](const char* key) {
       const std::string v = read<std::string>(file, transport, key, "");
       return v.empty() ? v : resolve_at(*transport.get(key), v, key);

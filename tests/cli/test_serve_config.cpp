@@ -76,6 +76,14 @@ TEST(serve_config, ANatsTransportReplacesTheZeroMqSockets) {
             "s.toml:4: shard must be 1..64 of [A-Za-z0-9_-] (a NATS subject token)");
   EXPECT_EQ(refusal([&] { parse_config_text("[transport]\nkind = \"mqtt\"\n", "s.toml"); }),
             "s.toml:2: kind must be \"zmq\" or \"nats\"");
+  // The server list as the docs write it: one comma-separated string, or such lists in the array.
+  const std::vector<std::string> three{"nats://a:1", "nats://b:2", "nats://c:3"};
+  EXPECT_EQ(parse_config_text("[transport]\nkind = \"nats\"\nservers = \"nats://a:1, nats://b:2,nats://c:3\"\n", "s.toml").nats.servers,
+            three);
+  EXPECT_EQ(parse_config_text("[transport]\nkind = \"nats\"\nservers = [\"nats://a:1,nats://b:2\", \"nats://c:3\"]\n", "s.toml").nats.servers,
+            three);
+  EXPECT_EQ(refusal([&] { parse_config_text("[transport]\nkind = \"nats\"\nservers = [\" , \"]\n", "s.toml"); }),
+            "s.toml:3: servers must be NATS URLs (nats://host:port, tls://host:port)");
   // kind = "zmq" takes no NATS key.
   EXPECT_NE(refusal([&] { parse_config_text("[transport]\nservers = [\"nats://a:1\"]\n", "s.toml"); }).find(
                 "'servers' is for kind = \"nats\""),

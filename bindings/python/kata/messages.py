@@ -155,6 +155,7 @@ class _Nats:
                                     ("natsSubscription_Destroy", None, [vp]),
                                     ("natsMsg_GetSubject", c_char_p, [vp]), ("natsMsg_GetData", vp, [vp]),
                                     ("natsMsg_GetDataLength", c_int, [vp]), ("natsMsg_Destroy", None, [vp]),
+                                    ("natsConnection_GetConnectedUrl", c_int, [vp, c_char_p, ctypes.c_size_t]),
                                     ("natsStatus_GetText", c_char_p, [c_int])):
                 f = getattr(lib, name)
                 f.restype, f.argtypes = res, args
@@ -207,6 +208,13 @@ class _Nats:
             self.lib.natsMsg_Destroy(msg)
         return status, (subject, data)
 
+    def connected_url(self) -> Optional[str]:
+        """The server this connection reads from now (None while it reconnects)."""
+        buf = ctypes.create_string_buffer(256)
+        if self.connection.value and self.lib.natsConnection_GetConnectedUrl(self.connection, buf, len(buf)) == 0 and buf.value:
+            return buf.value.decode("ascii", "replace")
+        return None
+
     def close(self) -> None:
         lib = self.lib
         if self.subscription:
@@ -252,8 +260,11 @@ class Subscriber:
         with kata.Subscriber("tcp://127.0.0.1:5556") as sub:
             msg = sub.receive(timeout=1.0)   # a ResultMessage, or None after 1 s without one
 
-    NATS (Debian's libnats3.4, through ctypes): endpoint is a server URL or a list of them
-    ("nats://host:4222", "tls://..."), one cluster; subject_prefix is the shards' [transport]
+    NATS (Debian's libnats3.4, through ctypes): endpoint is a server URL, a comma-separated list of
+    them ("nats://n0:4222,nats://n1:4222,nats://n2:4222", "tls://..."), or a Python list, one
+    cluster; the subscriber follows the cluster when the server it is connected to is lost
+    (resubscribing on another within about 0.1 s; what the servers routed meanwhile is lost,
+    result_sequence gaps show it); subject_prefix is the shards' [transport]
     subject_prefix ("kata"), credentials a .creds file. Results come from whichever shard holds
     the stream's partition; each message carries its owner and epoch (ResultMessage.owner,
     .epoch), and a result from a former holder that arrives after a newer holder's is dropped
@@ -273,7 +284,9 @@ class Subscriber:
         self._nats: Optional[_Nats] = None
         self._socket: Any = None
         if _is_nats(endpoint):
-            servers = [endpoint] if isinstance(endpoint, str) else list(endpoint)
+            # A URL, a comma-separated list of them ("nats://n0:4222,nats://n1:4222"), or a list.
+            servers = [u.strip() for e in ([endpoint] if isinstance(endpoint, str) else list(endpoint))
+                       for u in str(e).split(",") if u.strip()]
             self._prefix = subject_prefix
             self._newest: dict = {}  # stream id -> newest epoch seen (bounded below)
             subject = "%s.out.%s" % (subject_prefix, ">" if stream is None else "%016x.>" % stream)
@@ -312,6 +325,12 @@ class Subscriber:
             self.handovers += 1
             self._newest[stream_id] = epoch
         return True
+
+    @property
+    def nats_server(self) -> Optional[str]:
+        """NATS: the URL of the server this subscriber reads from now (None while it reconnects, or
+        over ZeroMQ)."""
+        return self._nats.connected_url() if self._nats is not None else None
 
     def receive(self, timeout: Optional[float] = None) -> Optional[ResultMessage]:
         """The next result message; None when none arrives within timeout seconds (None: wait)."""

@@ -81,13 +81,17 @@ int run_agent(int argc, char** argv) {
     lo.ttl_ms = o.ttl_ms;
     lo.renew_ms = o.renew_ms;
     lo.guard_ms = o.guard_ms;
-    transport::nats::LeaseManager leases(connection, lo, [fd](const transport::nats::LeaseEvent& e) {
-      char line[160];
-      std::snprintf(line, sizeof line, "E %s %u %llu %lld %lld", transport::nats::lease_event_name(e.kind), e.partition,
-                    static_cast<unsigned long long>(e.epoch), static_cast<long long>(e.at_ns),
-                    static_cast<long long>(e.valid_until_ns));
-      write_line(fd, line);
-    });
+    // The connection's options for the witnesses (one connection pinned to each server), as kata serve's shard.
+    transport::nats::LeaseManager leases(
+        connection, lo,
+        [fd](const transport::nats::LeaseEvent& e) {
+          char line[160];
+          std::snprintf(line, sizeof line, "E %s %u %llu %lld %lld", transport::nats::lease_event_name(e.kind), e.partition,
+                        static_cast<unsigned long long>(e.epoch), static_cast<long long>(e.at_ns),
+                        static_cast<long long>(e.valid_until_ns));
+          write_line(fd, line);
+        },
+        &co);
     std::vector<uint64_t> streams(o.partitions);
     for (uint32_t p = 0; p < o.partitions; ++p) streams[p] = probe_stream(p, o.partitions);
     uint64_t reconnects = 0;

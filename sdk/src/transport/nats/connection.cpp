@@ -30,6 +30,21 @@ std::string options_problem(const ConnectionOptions& o) {
   return {};
 }
 
+std::vector<std::string> split_servers(const std::string& list) {
+  std::vector<std::string> out;
+  size_t begin = 0;
+  while (begin <= list.size()) {
+    size_t end = list.find(',', begin);
+    if (end == std::string::npos) end = list.size();
+    size_t a = begin, b = end;
+    while (a < b && (list[a] == ' ' || list[a] == '\t')) ++a;
+    while (b > a && (list[b - 1] == ' ' || list[b - 1] == '\t')) --b;
+    if (b > a) out.push_back(list.substr(a, b - a));
+    begin = end + 1;
+  }
+  return out;
+}
+
 namespace {
 struct OptionsDeleter {
   void operator()(natsOptions* o) const { natsOptions_Destroy(o); }
@@ -66,10 +81,14 @@ Connection::Connection(const ConnectionOptions& o) {
   check(natsOptions_SetMaxPingsOut(raw, o.max_pings_out), "max pings out");
   check(natsOptions_SetSendAsap(raw, o.send_asap), "send asap");
   if (o.single_delivery_thread) check(natsOptions_UseGlobalMessageDelivery(raw, true), "global message delivery");
+  if (o.only_given_servers) check(natsOptions_SetIgnoreDiscoveredServers(raw, true), "ignore discovered servers");
+  if (o.connect_in_background)  // A callback makes the first connect asynchronous (without one, libnats blocks until connected).
+    check(natsOptions_SetRetryOnFailedConnect(raw, true, &Connection::on_reconnected, this), "retry on failed connect");
   check(natsOptions_SetDisconnectedCB(raw, &Connection::on_disconnected, this), "disconnected callback");
   check(natsOptions_SetReconnectedCB(raw, &Connection::on_reconnected, this), "reconnected callback");
   check(natsOptions_SetClosedCB(raw, &Connection::on_closed, this), "closed callback");
   natsStatus s = natsConnection_Connect(&connection_, raw);
+  if (s == NATS_NOT_YET_CONNECTED && o.connect_in_background) s = NATS_OK;
   if (s != NATS_OK) {
     std::string all;
     for (const auto& u : o.servers) all += (all.empty() ? "" : ", ") + u;
@@ -89,7 +108,7 @@ Connection::Connection(const ConnectionOptions& o) {
 Connection::~Connection() {
   if (jetstream_ != nullptr) jsCtx_Destroy(jetstream_);
   if (connection_ != nullptr) {
-    natsConnection_FlushTimeout(connection_, 1000);
+    if (connected()) natsConnection_FlushTimeout(connection_, 1000);  // not while reconnecting: nothing to wait for
     close_and_wait();
     natsConnection_Destroy(connection_);
   }
@@ -106,6 +125,12 @@ bool Connection::connected() const { return natsConnection_Status(connection_) =
 std::string Connection::connected_url() const {
   char buffer[256] = {};
   if (natsConnection_GetConnectedUrl(connection_, buffer, sizeof buffer) != NATS_OK) return {};
+  return buffer;
+}
+
+std::string Connection::connected_server_id() const {
+  char buffer[128] = {};
+  if (natsConnection_GetConnectedServerId(connection_, buffer, sizeof buffer) != NATS_OK) return {};
   return buffer;
 }
 

@@ -67,7 +67,19 @@ struct ConnectionOptions {
   bool single_delivery_thread = false;
   // Timeout of each JetStream request (the lease loop's KV operations), milliseconds.
   int jetstream_wait_ms = 500;
+  // Return from the constructor even when no server answers yet, and keep trying in the background
+  // (libnats' retry on failed connect): a connection that must exist whether or not its one
+  // server is up now (the lease loop's witnesses, lease.hpp).
+  bool connect_in_background = false;
+  // Only ever the servers given: not those the cluster announces (libnats adds them to its list and
+  // may move there when the given one is lost). For a connection that must stay on its one server.
+  bool only_given_servers = false;
 };
+
+// The servers of a list as the docs write it: URLs separated by commas
+// ("nats://n0:4222,nats://n1:4222,nats://n2:4222"), blanks around them ignored; empty entries
+// dropped. What every kata NATS client (kata serve, kata send, the sample subscribers) accepts.
+std::vector<std::string> split_servers(const std::string& list);
 
 // A description of the options' problem (an empty list of servers, credentials given twice, an
 // NKEY without its seed file, ...), or empty when they are usable.
@@ -100,6 +112,9 @@ class Connection {
   bool connected() const;
   // The URL of the server connected now ("" while reconnecting). [any thread]
   std::string connected_url() const;
+  // The id the connected server announced ("" while reconnecting): tells two URLs of one server apart
+  // from two servers. [any thread]
+  std::string connected_server_id() const;
 
   // Times the connection was lost, and re-established. [any thread]
   uint64_t disconnects() const { return disconnects_.load(std::memory_order_relaxed); }

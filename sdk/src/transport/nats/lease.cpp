@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
 #include <cstring>
+#include <set>
 
 namespace kata::transport::nats {
 
@@ -40,8 +42,59 @@ const char* lease_event_name(LeaseEvent::Kind kind) {
     case LeaseEvent::Kind::kResumed: return "resumed";
     case LeaseEvent::Kind::kReleased: return "released";
     case LeaseEvent::Kind::kLost: return "lost";
+    case LeaseEvent::Kind::kElection: return "election";
   }
   return "?";
+}
+
+std::string describe_pauses(const std::vector<PartitionPauses>& pauses) {
+  std::string out;
+  char clause[256];
+  const auto seconds = [](int64_t ns) { return static_cast<double>(ns) / 1e9; };
+  for (const PartitionPauses& p : pauses) {
+    std::string text;
+    if (p.lapsed > 0) {
+      std::snprintf(clause, sizeof clause, "paused %llux %.1f s (lease lapsed: not renewed, no election proven)",
+                    static_cast<unsigned long long>(p.lapsed), seconds(p.lapsed_ns));
+      text += clause;
+    }
+    if (p.elections > 0) {
+      std::snprintf(clause, sizeof clause, "%spublished through %llu election%s for %.1f s (no pause)", text.empty() ? "" : ", ",
+                    static_cast<unsigned long long>(p.elections), p.elections == 1 ? "" : "s", seconds(p.election_ns));
+      text += clause;
+    }
+    if (p.taken_over > 0) {
+      std::snprintf(clause, sizeof clause, "%staken over %llux after %.1f s without a holder", text.empty() ? "" : ", ",
+                    static_cast<unsigned long long>(p.taken_over), seconds(p.taken_over_ns));
+      text += clause;
+    }
+    if (p.handed_over > 0) {
+      std::snprintf(clause, sizeof clause, "%shanded over %llux after %.1f s", text.empty() ? "" : ", ",
+                    static_cast<unsigned long long>(p.handed_over), seconds(p.handed_over_ns));
+      text += clause;
+    }
+    if (text.empty()) continue;  // only given up (moved away): its new holder tells the pause
+    out += (out.empty() ? "p" : "; p") + std::to_string(p.partition) + ": " + text;
+  }
+  return out.empty() ? "none" : out;
+}
+
+std::string pauses_json(const std::vector<PartitionPauses>& pauses) {
+  std::string out = "{";
+  char entry[320];
+  for (const PartitionPauses& p : pauses) {
+    std::snprintf(entry, sizeof entry,
+                  "%s\"%u\": {\"lapsed\": %llu, \"lapsed_ms\": %lld, \"elections\": %llu, \"election_ms\": %lld, "
+                  "\"taken_over\": %llu, \"taken_over_ms\": %lld, \"handed_over\": %llu, \"handed_over_ms\": %lld, "
+                  "\"moved_out\": %llu}",
+                  out.size() > 1 ? ", " : "", p.partition, static_cast<unsigned long long>(p.lapsed),
+                  static_cast<long long>(p.lapsed_ns / kMs), static_cast<unsigned long long>(p.elections),
+                  static_cast<long long>(p.election_ns / kMs), static_cast<unsigned long long>(p.taken_over),
+                  static_cast<long long>(p.taken_over_ns / kMs), static_cast<unsigned long long>(p.handed_over),
+                  static_cast<long long>(p.handed_over_ns / kMs), static_cast<unsigned long long>(p.moved_out));
+    out += entry;
+  }
+  return out + "}";
 }
 
 std::string lease_options_problem(const LeaseOptions& o) {
@@ -57,7 +110,8 @@ std::string lease_options_problem(const LeaseOptions& o) {
   return {};
 }
 
-LeaseManager::LeaseManager(Connection& connection, LeaseOptions options, Handler handler)
+LeaseManager::LeaseManager(Connection& connection, LeaseOptions options, Handler handler,
+                           const ConnectionOptions* witnesses)
     : connection_(connection), options_(std::move(options)), handler_(std::move(handler)) {
   if (auto problem = lease_options_problem(options_); !problem.empty()) throw Error(problem);
   kvConfig cfg;
@@ -72,6 +126,7 @@ LeaseManager::LeaseManager(Connection& connection, LeaseOptions options, Handler
   // elect its leader: retry for a few seconds before giving up.
   std::string why;
   int64_t ttl = -1;
+  int64_t replicas = 0;
   const int64_t deadline = steady_ns() + 10'000 * kMs;
   do {
     if (kv_ == nullptr && js_CreateKeyValue(&kv_, connection_.jetstream(), &cfg) != NATS_OK) {
@@ -83,6 +138,7 @@ LeaseManager::LeaseManager(Connection& connection, LeaseOptions options, Handler
     kvStatus* status = nullptr;
     if (kv_ != nullptr && kvStore_Status(&status, kv_) == NATS_OK) {
       ttl = kvStatus_TTL(status) / kMs;
+      replicas = kvStatus_Replicas(status);
       kvStatus_Destroy(status);
       break;
     }
@@ -100,6 +156,30 @@ LeaseManager::LeaseManager(Connection& connection, LeaseOptions options, Handler
                 " ms, less than the lease ttl " + std::to_string(options_.ttl_ms) + " ms");
   }
   slots_.reset(new Slot[options_.partitions]);
+  pauses_.reset(new PauseRecord[options_.partitions]);
+  for (uint32_t p = 0; p < options_.partitions; ++p) pauses_[p].stats.partition = p;
+  // The witnesses: a connection pinned to each server given (distinct servers answer for
+  // themselves: no proof rests on one server's word), opened in the background so that a server
+  // down now does not stop the shard. Only with 3 or more replicas: a majority of one or two
+  // replicas is every replica, and a lone cut-off server would then prove what it cannot.
+  if (witnesses != nullptr && options_.through_elections && replicas >= 3 && witnesses->servers.size() >= 2) {
+    for (size_t i = 0; i < witnesses->servers.size(); ++i) {
+      ConnectionOptions w = *witnesses;
+      w.servers = {witnesses->servers[i]};
+      w.randomize = false;
+      w.name = options_.member + "-witness-" + std::to_string(i);
+      w.connect_in_background = true;
+      w.only_given_servers = true;  // pinned: a witness that moved to another server would speak for it twice
+      w.single_delivery_thread = false;
+      w.reconnect_wait_ms = std::max(w.reconnect_wait_ms, 250);
+      try {
+        witnesses_.push_back(std::make_unique<Connection>(w));
+      } catch (const Error&) {
+        // Unusable options for this one server: it is not a witness (fewer proofs, never a wrong one).
+      }
+    }
+    leaderless_quorum_ = static_cast<int>(replicas / 2 + 1);
+  }
   thread_ = std::thread([this] { run(); });
 }
 
@@ -147,6 +227,18 @@ LeaseCounters LeaseManager::counters() const {
   return counters_;
 }
 
+std::vector<PartitionPauses> LeaseManager::pauses() const {
+  std::vector<PartitionPauses> out;
+  const int64_t now = steady_ns();
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (uint32_t p = 0; p < options_.partitions; ++p) {
+    PartitionPauses x = pauses_[p].stats;
+    if (pauses_[p].paused_since != 0) x.lapsed_ns += now - pauses_[p].paused_since;
+    if (x.lapsed > 0 || x.elections > 0 || x.taken_over > 0 || x.handed_over > 0 || x.moved_out > 0) out.push_back(x);
+  }
+  return out;
+}
+
 void LeaseManager::emit(LeaseEvent::Kind kind, uint32_t p, uint64_t epoch, int64_t valid_until) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
@@ -157,6 +249,7 @@ void LeaseManager::emit(LeaseEvent::Kind kind, uint32_t p, uint64_t epoch, int64
       case LeaseEvent::Kind::kResumed: ++counters_.resumed; ++counters_.renewals; break;
       case LeaseEvent::Kind::kReleased: ++counters_.released; break;
       case LeaseEvent::Kind::kLost: ++counters_.lost; break;
+      case LeaseEvent::Kind::kElection: break;
     }
   }
   if (handler_) handler_(LeaseEvent{kind, p, epoch, steady_ns(), valid_until});
@@ -194,18 +287,26 @@ void LeaseManager::tick(int64_t) {
     member_revision_before_ = member_revision_;
     member_revision_ = reachable ? rev : 0;
   }
+  for (uint32_t p = 0; p < options_.partitions; ++p)
+    if (writes && reachable && slots_[p].held.load(std::memory_order_relaxed)) reachable = renew(p);
+  if (writes) reachable_ = reachable;
+  // Out of reach: an election of the bucket's leader, proven, lets the holders publish on (above);
+  // otherwise, or once it is over, each lease pauses at its valid_until.
+  if (!reachable && leaderless_quorum_ > 0) election_round();
+  else leaderless_since_ns_ = 0;
   for (uint32_t p = 0; p < options_.partitions; ++p) {
     Slot& s = slots_[p];
-    if (!s.held.load(std::memory_order_relaxed)) continue;
-    if (writes && reachable) reachable = renew(p);
-    if (!s.held.load(std::memory_order_relaxed)) continue;
-    if (!s.paused && s.last_ok_ns + (options_.ttl_ms - options_.guard_ms) * kMs <= steady_ns()) {
-      s.paused = true;
-      s.valid_until.store(0, std::memory_order_release);
-      emit(LeaseEvent::Kind::kPaused, p, s.epoch.load(), 0);
+    if (!s.held.load(std::memory_order_relaxed) || s.paused || s.until_ns > steady_ns()) continue;
+    s.paused = true;
+    s.paused_at = steady_ns();
+    s.valid_until.store(0, std::memory_order_release);
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      ++pauses_[p].stats.lapsed;
+      pauses_[p].paused_since = s.paused_at;
     }
+    emit(LeaseEvent::Kind::kPaused, p, s.epoch.load(), 0);
   }
-  if (writes) reachable_ = reachable;
   const int64_t now = steady_ns();
   if (!reachable || !read_bucket(now)) {
     // What was seen before the bucket went out of reach proves nothing about renewals meanwhile.
@@ -217,23 +318,32 @@ void LeaseManager::tick(int64_t) {
     return;
   }
   const int64_t ttl = options_.ttl_ms * kMs;
-  std::vector<std::string> live;
-  for (const auto& [k, seen] : seen_)
-    if (k.compare(0, 2, "m.") == 0 && (now - seen.since_ns < ttl || k.compare(2, std::string::npos, options_.member) == 0))
-      live.push_back(k.substr(2));
+  // live: not stale; proven: also seen writing during this observation (or this shard itself).
+  std::vector<std::string> live, proven;
+  for (const auto& [k, seen] : seen_) {
+    if (k.compare(0, 2, "m.") != 0) continue;
+    const bool self = k.compare(2, std::string::npos, options_.member) == 0;
+    if (now - seen.since_ns >= ttl && !self) continue;
+    live.push_back(k.substr(2));
+    if (seen.moved || self) proven.push_back(k.substr(2));
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     members_ = live;
   }
   if (!std::binary_search(live.begin(), live.end(), options_.member)) return;  // our membership is not written yet
   for (uint32_t p = 0; p < options_.partitions; ++p) {
-    const int owner = rendezvous_owner(live, p);
-    const bool mine = owner >= 0 && live[static_cast<size_t>(owner)] == options_.member;
     Slot& s = slots_[p];
     if (s.held.load(std::memory_order_relaxed)) {
-      if (!mine && !s.paused) give_back(p);
+      // Given back only to a member seen alive now: not to the last membership of one long dead
+      // that a fresh watcher shows for ttl_ms (the partition would move there and back).
+      const int owner = rendezvous_owner(proven, p);
+      if (owner >= 0 && proven[static_cast<size_t>(owner)] != options_.member && !s.paused) give_back(p);
       continue;
     }
+    // Claimed over every member that may be alive: never a partition a live member should hold.
+    const int owner = rendezvous_owner(live, p);
+    const bool mine = owner >= 0 && live[static_cast<size_t>(owner)] == options_.member;
     if (!mine) continue;
     const auto it = seen_.find(key(p));
     const Seen* seen = it == seen_.end() ? nullptr : &it->second;
@@ -291,8 +401,22 @@ void LeaseManager::renewed(uint32_t p, int64_t sent_ns, uint64_t revision) {
   // counted the ttl from any moment in between.
   const int64_t until = sent_ns + (options_.ttl_ms - options_.guard_ms) * kMs;
   const bool was_paused = s.paused;
+  const int64_t now = steady_ns();
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (was_paused) {
+      pauses_[p].stats.lapsed_ns += now - s.paused_at;
+      pauses_[p].paused_since = 0;
+    }
+    if (s.election_since != 0) {
+      ++pauses_[p].stats.elections;
+      pauses_[p].stats.election_ns += std::max<int64_t>(0, std::min(now, s.until_ns) - s.election_since);
+    }
+  }
+  s.election_since = 0;
   s.revision = revision;
   s.last_ok_ns = sent_ns;
+  s.until_ns = until;
   s.paused = false;
   emit(was_paused ? LeaseEvent::Kind::kResumed : LeaseEvent::Kind::kExtended, p, s.epoch.load(), until);
   s.valid_until.store(until, std::memory_order_release);
@@ -319,14 +443,22 @@ bool LeaseManager::claim(uint32_t p, const Seen* seen, int64_t) {
     ++counters_.claims_refused;
     return false;
   }
-  if (seen != nullptr && !seen->value.empty()) {
+  {
     std::lock_guard<std::mutex> lock(mutex_);
-    ++counters_.takeovers;
+    if (seen != nullptr && !seen->value.empty()) ++counters_.takeovers;
+    // A move: it was held before (a stale holder's, or given back); how long it had none, as seen here.
+    if (seen != nullptr) {
+      const bool stale = !seen->value.empty();
+      ++(stale ? pauses_[p].stats.taken_over : pauses_[p].stats.handed_over);
+      (stale ? pauses_[p].stats.taken_over_ns : pauses_[p].stats.handed_over_ns) += std::max<int64_t>(0, t0 - seen->since_ns);
+    }
   }
   const int64_t until = t0 + (options_.ttl_ms - options_.guard_ms) * kMs;
   s.revision = rev;
   s.last_ok_ns = t0;
+  s.until_ns = until;
   s.paused = false;
+  s.election_since = 0;
   s.epoch.store(rev, std::memory_order_relaxed);
   s.held.store(true, std::memory_order_release);
   emit(LeaseEvent::Kind::kAcquired, p, rev, until);
@@ -334,12 +466,29 @@ bool LeaseManager::claim(uint32_t p, const Seen* seen, int64_t) {
   return true;
 }
 
+void LeaseManager::ended(uint32_t p, int64_t now) {
+  Slot& s = slots_[p];
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++pauses_[p].stats.moved_out;
+  if (s.paused) {
+    pauses_[p].stats.lapsed_ns += now - s.paused_at;
+    pauses_[p].paused_since = 0;
+  }
+  if (s.election_since != 0) {
+    ++pauses_[p].stats.elections;
+    pauses_[p].stats.election_ns += std::max<int64_t>(0, std::min(now, s.until_ns) - s.election_since);
+  }
+  s.election_since = 0;
+  s.paused = false;
+  s.until_ns = 0;
+}
+
 void LeaseManager::give_back(uint32_t p) {
   Slot& s = slots_[p];
   // Stop publishing before the partition can be claimed by anyone else.
   s.valid_until.store(0, std::memory_order_release);
   s.held.store(false, std::memory_order_release);
-  s.paused = false;
+  ended(p, steady_ns());
   emit(LeaseEvent::Kind::kReleased, p, s.epoch.load(), 0);
   uint64_t rev = 0;
   // By revision: a lease taken over meanwhile is not overwritten.
@@ -350,8 +499,62 @@ void LeaseManager::lose(uint32_t p) {
   Slot& s = slots_[p];
   s.valid_until.store(0, std::memory_order_release);
   s.held.store(false, std::memory_order_release);
-  s.paused = false;
+  ended(p, steady_ns());
   emit(LeaseEvent::Kind::kLost, p, s.epoch.load(), 0);
+}
+
+int LeaseManager::probe_leader(int64_t* sent_ns, int64_t* received_ns) {
+  // The write: this shard's membership (harmless if a leader takes it), as a plain request on the
+  // key's subject, so that each connection's own server answers.
+  const std::string subject = "$KV." + options_.bucket + ".m." + options_.member;
+  const int64_t wait_ms = std::min<int64_t>(options_.renew_ms, 500);
+  std::set<std::string> leaderless;  // servers (by id) that answered "no responders"
+  bool accepted = false;
+  *sent_ns = steady_ns();
+  const auto ask = [&](Connection& c) {
+    if (accepted || !c.connected()) return;
+    const std::string id = c.connected_server_id();
+    natsMsg* reply = nullptr;
+    const natsStatus status = natsConnection_Request(&reply, c.get(), subject.c_str(), options_.member.data(),
+                                                     static_cast<int>(options_.member.size()), wait_ms);
+    if (reply != nullptr) natsMsg_Destroy(reply);
+    // The same server before and after (not one reconnected to meanwhile): its answer is its own.
+    if (status == NATS_NO_RESPONDERS && !id.empty() && id == c.connected_server_id()) leaderless.insert(id);
+    if (status == NATS_OK) accepted = true;
+  };
+  ask(connection_);
+  for (auto& w : witnesses_) ask(*w);
+  *received_ns = steady_ns();
+  if (accepted) return -1;
+  return static_cast<int>(leaderless.size()) >= leaderless_quorum_ ? 1 : 0;
+}
+
+void LeaseManager::election_round() {
+  int64_t sent = 0, received = 0;
+  if (probe_leader(&sent, &received) != 1) {
+    leaderless_since_ns_ = 0;
+    return;
+  }
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    ++counters_.leaderless_proofs;
+  }
+  // The run of proofs began no later than the first one was answered; it must have lasted a
+  // renewal period before it proves every claimer's observation restarted (above).
+  if (leaderless_since_ns_ == 0) leaderless_since_ns_ = received;
+  const int64_t renew = options_.renew_ms * kMs;
+  if (sent - renew < leaderless_since_ns_) return;
+  const int64_t until = sent - renew + (options_.ttl_ms - options_.guard_ms) * kMs;
+  const int64_t now = steady_ns();
+  for (uint32_t p = 0; p < options_.partitions; ++p) {
+    Slot& s = slots_[p];
+    // Only a tenure still valid goes on: one that lapsed may have been taken over before the election.
+    if (!s.held.load(std::memory_order_relaxed) || s.paused || s.until_ns <= now || until <= s.until_ns) continue;
+    if (s.election_since == 0) s.election_since = s.until_ns;
+    s.until_ns = until;
+    emit(LeaseEvent::Kind::kElection, p, s.epoch.load(), until);
+    s.valid_until.store(until, std::memory_order_release);
+  }
 }
 
 void LeaseManager::drop_watcher() {
@@ -400,6 +603,7 @@ bool LeaseManager::read_bucket(int64_t) {
         if (it != seen_.end() && it->second.revision < revision) seen_.erase(it);
       } else if (it == seen_.end() || it->second.revision < revision) {
         Seen& seen = seen_[k];
+        seen.moved = it != seen_.end();  // a newer revision of a key already seen: written meanwhile
         seen.revision = revision;
         seen.since_ns = steady_ns();
         seen.value.assign(static_cast<const char*>(kvEntry_Value(entry)), static_cast<size_t>(kvEntry_ValueLen(entry)));

@@ -20,7 +20,9 @@ Shard::Shard(ShardOptions options, Handlers handlers) : options_(std::move(optio
     partitions_[p].shard = this;
     partitions_[p].index = p;
   }
-  leases_ = std::make_unique<LeaseManager>(*connection_, options_.lease, [this](const LeaseEvent& e) { on_lease(e); });
+  // The connection's options again: the lease loop's witnesses, one connection pinned to each server.
+  leases_ = std::make_unique<LeaseManager>(*connection_, options_.lease, [this](const LeaseEvent& e) { on_lease(e); },
+                                           &options_.connection);
 }
 
 Shard::~Shard() { stop(true); }
