@@ -28,19 +28,38 @@
 /* kata_body_part order (kata.h). */
 static const char* const kParts[KATA_PART_COUNT] = {"torso_head", "left_arm", "right_arm", "left_leg", "right_leg"};
 
-/* One message: 1 when it was a result (printed), 0 otherwise (a skeleton definition, stats, or a
- * message the verifier refused). owner / epoch: the NATS shard and lease tenure, or NULL / 0. */
+/* A repetition message (docs/coach/repetitions.md): printed; 1 when it was one. */
+static int print_repetition(const void* data, size_t size) {
+  kata_repetition p;
+  p.struct_size = sizeof p;
+  if (kata_message_read_repetition(data, size, &p) != KATA_OK) return 0;
+  printf("stream %" PRIu64 " repetition %d%s: %.2f-%.2f s, tempo %.2f, score %.1f, knees %.0f/%.0f deg (teacher %.0f/%.0f)\n",
+         p.stream_id, (int)p.index, p.partial ? " (partial)" : "", p.start_time, p.end_time, p.tempo, p.score,
+         p.range[KATA_ROM_LEFT_KNEE], p.range[KATA_ROM_RIGHT_KNEE], p.teacher_range[KATA_ROM_LEFT_KNEE],
+         p.teacher_range[KATA_ROM_RIGHT_KNEE]);
+  fflush(stdout);
+  return 1;
+}
+
+/* One message: 1 when it was a result (printed), 0 otherwise (a repetition, printed; a skeleton
+ * definition, stats, or a message the verifier refused). owner / epoch: the NATS shard and lease
+ * tenure, or NULL / 0. */
 static int print_result(const void* data, size_t size, const char* owner, uint64_t epoch) {
   kata_result_record r;
   struct timespec now;
   clock_gettime(CLOCK_MONOTONIC, &now);
   r.struct_size = sizeof r;
-  if (kata_message_read_result(data, size, &r) != KATA_OK) return 0;
+  if (kata_message_read_result(data, size, &r) != KATA_OK) {
+    print_repetition(data, size);
+    return 0;
+  }
   printf("stream %" PRIu64 " frame %" PRIu64 ": score %.1f (teacher frame %d, ghost %u joints) age %.0f us, fix %s",
          r.stream_id, r.frame_sequence, r.scored ? r.score : 0.0f, (int)r.matched_teacher_frame,
          (unsigned)r.ghost_joint_count,
          ((double)now.tv_sec * 1e9 + (double)now.tv_nsec - (double)r.arrival_ns) / 1000.0,
          r.part_to_fix >= 0 && r.part_to_fix < KATA_PART_COUNT ? kParts[r.part_to_fix] : "-");
+  if (KATA_RESULT_HAS(&r, repetition) && r.repetition > 0)
+    printf(", rep %d %.0f%%", (int)r.repetition, 100.0 * r.repetition_progress);
   if (owner) printf(" (shard %s, epoch %" PRIu64 ")", owner, epoch);
   printf("\n");
   fflush(stdout);

@@ -78,6 +78,7 @@ def main():
     import_readers(args.python_dir)
     from kata.fb.Result import Result
     from kata.fb.SkeletonDefinition import SkeletonDefinition
+    from kata.fb.Repetition import Repetition
 
     sub = zmq.Context.instance().socket(zmq.SUB)
     if args.key or args.server_key:
@@ -121,6 +122,12 @@ def main():
                 print("stream %d result %d frame %d: not scored%s, age %.0f us" % (r.StreamId(), r.ResultSequence(),
                       r.FrameSequence(), " (%s)" % why if why else "", age_us), flush=True)
             seen += 1
+        elif kind == b"KREP":  # a repetition ended (docs/coach/repetitions.md), after its frame's result
+            p = Repetition.GetRootAs(body, 0)
+            print("stream %d repetition %d%s: %.2f-%.2f s, tempo %.2f, score %.1f, knees %s deg (teacher %s)" % (
+                p.StreamId(), p.Index(), " (partial)" if p.Partial() else "", p.StartTime(), p.EndTime(), p.Tempo(),
+                p.Score(), "/".join("%.0f" % p.Range(k) for k in range(min(2, p.RangeLength()))),
+                "/".join("%.0f" % p.TeacherRange(k) for k in range(min(2, p.TeacherRangeLength())))), flush=True)
     return 0
 
 

@@ -175,7 +175,25 @@ const stateBanner = {
   'tracking lost': 'tracking lost: the body is not fully visible',
   'teacher finished': 'teacher finished: the teacher\'s clip is over',
 };
+// The repetition counter (docs/coach/repetitions.md): the repetition in progress and how far
+// through the teacher's section it is; the newest repetition's tempo, score and depth (knee range
+// against the teacher's). kata.reps keeps every repetition the lesson sent.
+kata.reps = [];
+function showRepetitions(f) {
+  if (f.reps) kata.reps.push(...f.reps);
+  if (!f.rep && !kata.reps.length) return;
+  $('reps').style.display = '';
+  if (f.rep) {
+    $('rep-count').textContent = f.rep;
+    $('rep-progress').textContent = Math.round(100 * f.rep_progress) + '%';
+  }
+  const last = kata.reps[kata.reps.length - 1];
+  if (last)
+    $('rep-last').textContent = `last: ${last.partial ? 'partial, ' : ''}tempo ${last.tempo.toFixed(2)}, score ` +
+      `${last.score.toFixed(0)}, depth ${last.depth.toFixed(0)} of ${last.teacher_depth.toFixed(0)} deg`;
+}
 function showFrame(f) {
+  showRepetitions(f);
   const st = $('state');
   st.textContent = f.state;
   st.className = 'badge ' + (stateClass[f.state] || '');

@@ -18,7 +18,7 @@ const GPD_PARENTS = [-1, 0, 1, 2, 2, 4, 5, 2, 7, 8, 0, 10, 11, 0, 13, 14];
 
 const hook = {
   state: "starting", states: [], framesSent: 0, personFrames: 0, results: 0, scored: 0,
-  scores: [], events: [], lastResult: null, latency: {}, errors: [], complexity: 0,
+  scores: [], events: [], lastResult: null, latency: {}, errors: [], complexity: 0, reps: [],
 };
 window.kata = Object.assign(window.kata || {}, { webcam: hook });
 
@@ -130,6 +130,15 @@ function onResult(e) {
   if (s && r.result_ms !== undefined) undrawn.push({ r, s });
   dirty = true;
   if (r.state !== "not in frame" || !hook.personFrames) setState(r.state === "tracking" ? "scored" : r.state);
+  // The repetition counter (docs/coach/repetitions.md): the one in progress and how far through the
+  // teacher's section; the newest one's tempo, score and depth. hook.reps keeps every one sent.
+  if (r.reps) hook.reps.push(...r.reps);
+  if (r.rep) {
+    const last = hook.reps[hook.reps.length - 1];
+    document.getElementById("reps").textContent = `repetition ${r.rep} (${Math.round(100 * r.rep_progress)}%)` +
+      (last ? ` - last: ${last.partial ? "partial, " : ""}tempo ${last.tempo.toFixed(2)}, score ${Math.round(last.score)}, ` +
+              `depth ${Math.round(last.depth)} of ${Math.round(last.teacher_depth)} deg` : "");
+  }
   if (r.score !== undefined) {
     document.getElementById("score").textContent = Math.round(r.score);
     // The part to fix and the correction cue ("left knee: bend 30 deg more").

@@ -166,6 +166,9 @@ namespace Kata
         public float CueDegrees;
         public int CueAction;
         public uint Reserved1;
+        // ---- 1.2: repetitions (docs/coach/repetitions.md) ----
+        public int Repetition;             // the repetition in progress: 1 + the complete ones (0 without a clip teacher)
+        public float RepetitionProgress;   // where the match is in the teacher's section, 0..1
 
         public float Part(BodyPart p)
         {
@@ -178,6 +181,31 @@ namespace Kata
                 default: return PartRightLeg;
             }
         }
+    }
+
+    // kata_repetition (kata/result.h, 1.2): one repetition of the teacher's section, complete or partial.
+    // The eight ranges (degrees, kata_rom_joint order) as named fields: blittable without unsafe code.
+    [StructLayout(LayoutKind.Sequential)]
+    public struct Repetition
+    {
+        public uint StructSize;
+        public int Index;                  // 1, 2, 3...; a partial one: the index the attempt would have had
+        public ulong StreamId;             // 0 for a stream's
+        public double StartTime;           // student seconds
+        public double EndTime;
+        public double Tempo;               // duration / the teacher section's (1.2: 20 % slower)
+        public float Score;                // mean total score
+        public int Partial;                // 1: abandoned before the end, not counted
+        public int PartToFix;              // a BodyPart, -1 for none
+        public int CueJoint;               // GPD joint, -1 for none
+        public float CueDegrees;
+        public int CueAction;              // kata_cue_action, -1 for none
+        public float RangeLeftKnee, RangeRightKnee, RangeLeftHip, RangeRightHip,
+                     RangeLeftElbow, RangeRightElbow, RangeLeftShoulder, RangeRightShoulder;
+        public float TeacherRangeLeftKnee, TeacherRangeRightKnee, TeacherRangeLeftHip, TeacherRangeRightHip,
+                     TeacherRangeLeftElbow, TeacherRangeRightElbow, TeacherRangeLeftShoulder, TeacherRangeRightShoulder;
+        public float Coverage;             // the fraction of the section gone through, 0..1
+        public uint Reserved0;
     }
 
     // ---- errors ------------------------------------------------------------------------------------------
@@ -290,9 +318,16 @@ namespace Kata
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_attach_shared_teacher(StreamHandle stream, TeacherHandle teacher, IntPtr options);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_stream_restart_teacher(StreamHandle stream);
         [DllImport(Lib, CallingConvention = CC)]
+        public static extern Status kata_stream_set_practice_section(StreamHandle stream, int firstFrame, int lastFrame, int loop);
+        [DllImport(Lib, CallingConvention = CC)]
         public static extern Status kata_stream_read_newest(StreamHandle stream, [In, Out] ResultRecord[] result,
                                                             [Out] float[] ghost, UIntPtr ghostCapacity, [Out] float[] features,
                                                             UIntPtr featureCapacity);
+        [DllImport(Lib, CallingConvention = CC)]
+        public static extern Status kata_stream_read_repetitions(StreamHandle stream, [In, Out] Repetition[] repetitions,
+                                                                 uint capacity, out uint count);
+        [DllImport(Lib, CallingConvention = CC)]
+        public static extern Status kata_message_read_repetition(byte[] message, UIntPtr size, ref Repetition repetition);
         [DllImport(Lib, CallingConvention = CC)]
         public static extern Status kata_stream_read_results(StreamHandle stream, [In, Out] ResultRecord[] results,
                                                              [Out] float[] ghosts, UIntPtr ghostCapacity, [Out] float[] features,
@@ -783,6 +818,13 @@ namespace Kata
         public void DetachTeacher() { Status s = Native.kata_stream_detach_teacher(Handle); if (s != Status.Ok) Throw(s, "kata_stream_detach_teacher"); }
         // kata_stream_restart_teacher: the next frame is matched from the teacher's first frame.
         public void RestartTeacher() { Status s = Native.kata_stream_restart_teacher(Handle); if (s != Status.Ok) Throw(s, "kata_stream_restart_teacher"); }
+        // kata_stream_set_practice_section: follow teacher frames first..last (-1: the end), looped when loop
+        // (the repetition ReadRepetitions counts).
+        public void SetPracticeSection(int firstFrame, int lastFrame, bool loop)
+        {
+            Status s = Native.kata_stream_set_practice_section(Handle, firstFrame, lastFrame, loop ? 1 : 0);
+            if (s != Status.Ok) Throw(s, "kata_stream_set_practice_section");
+        }
 
         // kata_stream_read_newest: the newest unread result into batch entry 0 (older unread ones are passed
         // over); false (batch.Count = 0) when nothing is unread.
@@ -839,6 +881,18 @@ namespace Kata
         public ulong ResultsDropped { get { return Native.kata_stream_results_dropped(Handle); } }
 
         public ResultBatch NewResultBatch(int capacity, bool features = false) { return new ResultBatch(capacity, (int)GhostJointCount, features); }
+
+        // kata_stream_read_repetitions (1.2): the repetitions that ended since the last call (at most
+        // into.Length), oldest first; returns the count. The stream keeps the newest 16.
+        public int ReadRepetitions(Repetition[] into)
+        {
+            if (into.Length == 0) return 0;
+            into[0].StructSize = (uint)Marshal.SizeOf(typeof(Repetition));
+            uint n;
+            Status s = Native.kata_stream_read_repetitions(Handle, into, (uint)into.Length, out n);
+            if (s != Status.Ok) Throw(s, "kata_stream_read_repetitions");
+            return (int)n;
+        }
 
         // kata_stream_read_results: moves every unread result (at most batch.Capacity) into batch; returns the count.
         public int ReadResults(ResultBatch batch)

@@ -24,6 +24,7 @@
 
 #include "coach/lesson.hpp"
 #include "coach/present.hpp"
+#include "coach/reps_view.hpp"
 #include "coach/recording.hpp"
 #include "coach/viewer_server.hpp"
 #include "data_files.hpp"
@@ -117,6 +118,9 @@ class TerminalView {
       char cue[64];
       append_line(line, sizeof line, at, " %-32s", cue_phrase(*r, cue, sizeof cue));
       if (r->state == FrameState::kTeacherFinished) append_line(line, sizeof line, at, " (teacher finished)");
+      if (r->repetition > 0)  // the repetition counter (docs/coach/repetitions.md)
+        append_line(line, sizeof line, at, " | rep %d %3.0f%%%s%s", r->repetition, 100.0 * r->repetition_progress,
+                    last_rep_.empty() ? "" : " | last ", last_rep_.c_str());
     } else if (r) {
       append_line(line, sizeof line, at, " | %-16s", state_name(r->state));
     }
@@ -128,6 +132,8 @@ class TerminalView {
   void close() {
     if (interactive_) std::printf("\n");
   }
+  // The newest repetition's words for the line ("rep 3: tempo 1.12, ..."), set as one ends.
+  void set_last_repetition(std::string words) { last_rep_ = std::move(words); }
 
  private:
   bool interactive_;
@@ -138,6 +144,7 @@ class TerminalView {
   double parts_[KATA_PART_COUNT] = {};  // part scores averaged as the scorer does (update)
   double parts_time_ = -1.0;                  // the newest frame taken into parts_, -1: none yet
   std::vector<double> latencies_, sorted_;
+  std::string last_rep_;
 };
 
 // A webcam lesson (or a teacher's recording): the page at http://host:port/webcam.html does the
@@ -149,6 +156,8 @@ void run_webcam(CoachArgs a) {
   a.cam.first_frame = a.lesson.first_frame;
   a.cam.window = a.lesson.window;
   a.cam.publish = a.lesson.publish;
+  a.cam.reps = a.lesson.reps;
+  a.cam.rep_start = a.lesson.rep_start, a.cam.rep_end = a.lesson.rep_end;
   if (a.cam.complexity < 0 || a.cam.complexity > 2)
     fail("--complexity must be 0 (lite), 1 (full) or 2 (heavy)");
   WebcamCoach coach(a.cam, a.viewer_dir.empty() ? kata::cli::share_dir() + "/viewer" : a.viewer_dir, a.host, a.port);
@@ -228,9 +237,21 @@ void run_coach(CoachArgs a) {
 
   TerminalView view(!a.headless && isatty(STDOUT_FILENO), frames);
   size_t published = 0;  // frames handed to the viewer (in order, once their record is final)
+  size_t reps_shown = 0;  // repetitions handed to the viewer and the terminal
   auto publish_settled = [&](size_t settled) {
-    for (; published < settled; ++published)
-      if (viewer) viewer->publish(frame_json(data, published));
+    for (; published < settled; ++published) {
+      std::string json = viewer ? frame_json(data, published) : std::string();
+      // The repetitions that ended by now ride on the next frame event ("reps": [...]).
+      if (live && live->repetitions_ended() > reps_shown) {
+        std::string reps;
+        for (; reps_shown < live->repetitions_ended(); ++reps_shown) {
+          reps += (reps.empty() ? "" : ",") + repetition_json(live->repetition(reps_shown));
+          view.set_last_repetition(repetition_words(live->repetition(reps_shown)));
+        }
+        if (viewer) json.insert(json.size() - 1, ",\"reps\":[" + reps + "]");
+      }
+      if (viewer) viewer->publish(std::move(json));
+    }
   };
 
   const auto start = Clock::now();
@@ -295,6 +316,7 @@ void run_coach(CoachArgs a) {
                 live->latency_percentile(0.5) / 1e3, live->latency_percentile(0.99) / 1e3);
   }
   std::printf("%s\n", g_interrupted ? " (interrupted)" : "");
+  if (!data.repetitions.empty()) std::printf("repetitions: %s\n", repetitions_summary(data.repetitions).c_str());
   if (!a.csv.empty()) write_results_csv(data, a.csv);
   if (!a.record.empty() && live) {
     write_recording(data, a.record);
@@ -352,6 +374,18 @@ void setup(CLI::App& app) {
            a->lesson.loop_first = v[0], a->lesson.loop_last = v[1];
          },
          "practice: loop teacher clip frames A..B")
+      ->expected(2);
+  cmd->add_flag("--reps", a->lesson.reps,
+                "count repetitions: the teacher (the whole clip, or --rep-section) is one repetition, looped; a "
+                "counter, tempo and depth live and in the report (docs/coach/repetitions.md)");
+  cmd->add_option_function<std::vector<double>>(
+         "--rep-section",
+         [a](const std::vector<double>& v) {
+           if (!(v[0] >= 0.0) || !(v[1] > v[0])) throw CLI::ValidationError("--rep-section", "takes teacher seconds A B, 0 <= A < B");
+           a->lesson.rep_start = v[0], a->lesson.rep_end = v[1], a->lesson.reps = true;
+         },
+         "count repetitions of the teacher's seconds A to B (clip time; B: where the next repetition would start); "
+         "implies --reps")
       ->expected(2);
   cmd->add_option("--publish", a->lesson.publish,
                   "ZeroMQ endpoint the runtime publishes results on (default tcp://127.0.0.1:*, any free port)");

@@ -17,6 +17,7 @@
 #include "metric/model.hpp"
 #include "metric/align_dtw.hpp"
 #include "metric/parts.hpp"
+#include "metric/reps.hpp"
 #include "metric/scorer.hpp"
 #include "skeleton/skeleton.hpp"
 #include "io/clip_features.hpp"
@@ -44,6 +45,8 @@ struct ScoreArgs {
   std::vector<int> loop;         // practice: loop teacher clip frames A..B
   double relocate_time = kata::metric::AlignmentOptions{}.relocate_time;
   double rematch_time = kata::metric::AlignmentOptions{}.rematch_time;
+  std::string reps;               // repetitions CSV (docs/coach/repetitions.md), or empty
+  std::vector<double> rep_section;  // the repetition: teacher seconds A B (empty: the whole clip)
 };
 
 // Seconds for a message: 0.25, 0.0083, 12.5.
@@ -51,6 +54,37 @@ std::string text_seconds(double s) {
   char text[32];
   std::snprintf(text, sizeof text, "%.3g", s);
   return text;
+}
+
+// The repetitions CSV (docs/coach/repetitions.md "The CSV"): one row per repetition, complete or
+// partial, in the order they ended.
+void write_reps(const ScoreArgs& a, const std::vector<kata::metric::Repetition>& repetitions, int count) {
+  using namespace kata;
+  std::FILE* out = std::fopen(a.reps.c_str(), "w");
+  if (!out) throw Error(ErrorKind::kIo, a.reps + ": cannot open for writing");
+  std::fprintf(out, "rep,start_time,end_time,tempo,score,part_to_fix,cue,partial");
+  for (int i = 0; i < metric::kRomJoints; ++i)
+    std::fprintf(out, ",range_%s,range_%s_teacher", metric::rom_joint_name(i), metric::rom_joint_name(i));
+  std::fputc('\n', out);
+  int partial = 0;
+  double tempo = 0.0;
+  for (const metric::Repetition& r : repetitions) {
+    char cue[64] = "";
+    if (r.cue_joint >= 0) metric::cue_text(r.cue_joint, r.cue_degrees, r.cue_action, cue, sizeof cue);
+    std::fprintf(out, "%d,%.6f,%.6f,%.4f,%.2f,%s,%s,%d", r.index, r.start_time, r.end_time, r.tempo, r.score,
+                 r.part_to_fix >= 0 ? metric::part_name(r.part_to_fix) : "", cue, r.partial ? 1 : 0);
+    for (int i = 0; i < metric::kRomJoints; ++i) std::fprintf(out, ",%.2f,%.2f", r.range[i], r.teacher_range[i]);
+    std::fputc('\n', out);
+    if (r.partial) ++partial;
+    else tempo += r.tempo;
+  }
+  const bool ok = std::fflush(out) == 0 && !std::ferror(out);
+  std::fclose(out);
+  if (!ok) throw Error(ErrorKind::kIo, a.reps + ": write failed");
+  std::printf("%d repetitions", count);
+  if (count > 0) std::printf(" (mean tempo %.2f)", tempo / count);
+  if (partial > 0) std::printf(", %d partial (not counted)", partial);
+  std::printf(" -> %s\n", a.reps.c_str());
 }
 
 void run_score(const ScoreArgs& a) {
@@ -156,7 +190,41 @@ void run_score(const ScoreArgs& a) {
     options.last_frame = to_row(a.loop[1], "--loop");
     options.loop = true;
   }
+  // Repetitions: the section (or the whole clip) is one repetition, looped so that the match comes
+  // round from its end to its start when the student starts the next one.
+  if (!a.reps.empty()) {
+    if (a.teacher_frame >= 0)
+      throw Error(ErrorKind::kInvalidArgument, "--reps needs a teacher clip, not --teacher-frame");
+    if (!a.loop.empty() || a.teacher_start >= 0)
+      throw Error(ErrorKind::kInvalidArgument, "--reps sets the section itself: give --rep-section A B, not --loop or "
+                                               "--teacher-start");
+    options.first_frame = 0;
+    options.last_frame = teacher_frames - 1;
+    if (!a.rep_section.empty()) {
+      // Teacher clip seconds (clip frame k at k x the frame time): the frames in [A, B), so that
+      // the repetition's period is B - A.
+      const double A = a.rep_section[0], B = a.rep_section[1];
+      const int fa = static_cast<int>(std::ceil(A / teacher.frame_time - 1e-6));
+      const int fb = static_cast<int>(std::ceil(B / teacher.frame_time - 1e-6)) - 1;
+      if (!(A >= 0.0) || !(B > A) || fb < fa)
+        throw Error(ErrorKind::kInvalidArgument, "--rep-section takes teacher seconds A B with 0 <= A < B (got " +
+                                                     text_seconds(A) + " " + text_seconds(B) + ")");
+      const int last_clip = a.first + teacher_frames - 1;
+      if (fa < a.first || fb > last_clip)
+        throw Error(ErrorKind::kInvalidArgument, "--rep-section " + text_seconds(A) + " " + text_seconds(B) +
+                                                     " is outside " + a.teacher + " (" +
+                                                     text_seconds(a.first * teacher.frame_time) + ".." +
+                                                     text_seconds((last_clip + 1) * teacher.frame_time) + " s)");
+      options.first_frame = fa - a.first;
+      options.last_frame = fb - a.first;
+    }
+    options.loop = true;
+  } else if (!a.rep_section.empty()) {
+    throw Error(ErrorKind::kInvalidArgument, "--rep-section needs --reps FILE.csv");
+  }
   metric::Scorer scorer(ref, options);
+  metric::RepCounter reps(ref);
+  std::vector<metric::Repetition> repetitions;
   // The offline reference: every student frame's teacher frame from a subsequence DTW over the
   // same static-blocks projections (metric/align_dtw.hpp); the scores are the same scorer's.
   std::vector<int> dtw;
@@ -198,6 +266,7 @@ void run_score(const ScoreArgs& a) {
                                    : dtw.empty() ? scorer.score(x, t)
                                                  : scorer.score_matched(x, t, dtw[row]);
     if (has_row) ++row;
+    if (!a.reps.empty() && reps.update(r, x, scorer.aligner()) > 0) repetitions.push_back(reps.newest());
     const int matched = a.teacher_frame >= 0 ? a.teacher_frame : r.matched + a.first;
     std::fprintf(out, "%d,%.6f,%.7g,%.4f", f + a.first, t, r.distance, r.score);
     for (float p : r.parts) std::fprintf(out, ",%.7g", p);
@@ -224,6 +293,11 @@ void run_score(const ScoreArgs& a) {
   const bool ok = std::fflush(out) == 0 && !std::ferror(out);
   std::fclose(out);
   if (!ok) throw Error(ErrorKind::kIo, a.out + ": write failed");
+  if (!a.reps.empty()) {
+    const double end = ss.times.empty() ? (student_frames - 1) * student.frame_time : ss.times.back();
+    if (reps.finish(end) > 0) repetitions.push_back(reps.newest());
+    write_reps(a, repetitions, reps.count());
+  }
 
   // Nothing scored: no mean and no part to fix to report (a mean of 0 would read as a terrible
   // performance); say which state every frame was in and why, and fail.
@@ -322,6 +396,14 @@ void setup(CLI::App& app) {
                   "alignment's match where every part but the worst agrees best (default 0.05); 0: the match itself")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--loop", args->loop, "practice: loop teacher clip frames A..B (two numbers: A B)")->expected(2);
+  cmd->add_option("--reps", args->reps,
+                  "also count repetitions: the teacher clip (or --rep-section) is one repetition, looped; one CSV "
+                  "row per repetition: rep, start_time, end_time, tempo, score, part_to_fix, cue, partial, then "
+                  "range_<joint> and range_<joint>_teacher (degrees) per joint (docs/coach/repetitions.md)");
+  cmd->add_option("--rep-section", args->rep_section,
+                  "with --reps: the repetition is the teacher's seconds A to B (clip time, frame k at k x the frame "
+                  "time; B is where the next repetition would start)")
+      ->expected(2);
   cmd->add_option("--out", args->out, "output CSV")->required();
   cmd->callback([args] { run_score(*args); });
 }

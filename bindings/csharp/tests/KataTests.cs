@@ -140,6 +140,37 @@ static class KataTests
         }
     }
 
+    // A walk played twice against itself, looped: the first play is one repetition at the teacher's tempo,
+    // and the records count 1 then 2 (docs/coach/repetitions.md).
+    static void RepetitionsOfAWalkPlayedTwice(Context ctx, string repo)
+    {
+        using (Model m = ctx.LoadModel(Path.Combine(repo, "models/default.kata")))
+        using (Clip c = ctx.LoadClip(Path.Combine(repo, "data/cmu/02_01.bvh")))
+        using (Skeleton sk = c.Skeleton())
+        {
+            StreamDesc d = Context.DefaultStreamDesc();
+            d.Stencil = m.Stencil;
+            d.ResultCapacity = 2 * c.FrameCount;
+            using (Kata.Stream s = ctx.OpenStream(sk, "cmu", d))
+            {
+                s.AttachTeacher(m, c, 1, false);
+                s.SetPracticeSection(0, -1, true);
+                int joints = (int)sk.JointCount;
+                uint n = c.FrameCount - 1;
+                for (uint k = 0; k < 2 * n; ++k) s.Push(k * c.FrameTime, Frame(c, 1 + k % n, joints));
+                ResultBatch batch = s.NewResultBatch((int)(2 * n));
+                int got = s.ReadResults(batch);
+                Repetition[] reps = new Repetition[16];
+                int count = s.ReadRepetitions(reps);
+                Check(count >= 1 && reps[0].Index == 1 && reps[0].Partial == 0, "reps: the first play is repetition 1 (" + count + " read)");
+                Check(Math.Abs(reps[0].Tempo - 1.0) < 0.05, "reps: its tempo " + reps[0].Tempo + " is the teacher's");
+                Check(Math.Abs(reps[0].EndTime - n * c.FrameTime) < 0.05, "reps: it ends where the second play starts: " + reps[0].EndTime);
+                Check(got > 0 && batch.Results[0].Repetition == 1 && batch.Results[got - 1].Repetition == 2,
+                      "reps: the records count 1 then 2");
+            }
+        }
+    }
+
     static void ErrorsCarryTheCMessage(Context ctx, string repo, string tmp)
     {
         string bad = Path.Combine(tmp, "bad.kata");
@@ -452,6 +483,7 @@ static class KataTests
             OnePointOneTeacherAndJoints(ctx, repo);
             SharedTeacherScoresAsAttachTeacher(ctx, repo);
             HumanoidRigOfAClip(ctx, repo);
+            RepetitionsOfAWalkPlayedTwice(ctx, repo);
         }
         HandlesReleasedOnce(repo);
         Console.WriteLine(failures == 0 ? "all C# binding checks passed" : failures + " checks failed");

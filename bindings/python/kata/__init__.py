@@ -41,6 +41,7 @@ from .stream import (DROP_POLICIES, RESULT_DTYPE, ResultBuffer, Results,
 from .retarget import Retargeter
 from .messages import (PracticeSection, ResultMessage, Subscriber, read_message, write_frame, write_frame_batch, write_practice,
                        write_skeleton)
+from .messages import ROM_JOINTS, Repetition, read_repetition, write_repetition
 from .runtime import Runtime, shard_of
 from .humanoid import (BONE_COUNT, BONE_NAMES, BONE_PARENTS, Bone, HumanoidFrame, HumanoidPose, HumanoidRig, bone_find,
                        bone_name, bone_parent)
@@ -59,6 +60,7 @@ __all__ = ["Context", "Skeleton", "Clip", "Model", "Teacher", "Landmarks", "Stre
            "HumanoidRig", "HumanoidPose", "HumanoidFrame", "Bone", "BONE_COUNT", "BONE_NAMES", "BONE_PARENTS",
            "bone_name", "bone_parent", "bone_find"]
 __all__ += ["People", "people_stream_id", "write_people_frame"]
+__all__ += ["Repetition", "read_repetition", "write_repetition", "ROM_JOINTS"]
 
 # kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the
 # installed package; used from a checkout, they are the build's (<repo>/build/python/kata/fb).

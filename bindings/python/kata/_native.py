@@ -168,7 +168,22 @@ class ResultRecord(ctypes.Structure):
                 ("practice_loop", ctypes.c_int32), ("reserved0", ctypes.c_uint32),
                 # added with the correction cue (after reserved0) (kata.h "Score calibration and feedback")
                 ("cue_joint", ctypes.c_int32), ("cue_degrees", ctypes.c_float), ("cue_action", ctypes.c_int32),
-                ("reserved1", ctypes.c_uint32)]
+                ("reserved1", ctypes.c_uint32),
+                # 1.2: repetitions
+                ("repetition", ctypes.c_int32), ("repetition_progress", ctypes.c_float)]
+
+
+ROM_JOINT_COUNT = 8
+
+
+class Repetition(ctypes.Structure):
+    """kata_repetition (kata/result.h, 1.2): one repetition of the teacher's section."""
+    _fields_ = [("struct_size", ctypes.c_uint32), ("index", ctypes.c_int32), ("stream_id", ctypes.c_uint64),
+                ("start_time", ctypes.c_double), ("end_time", ctypes.c_double), ("tempo", ctypes.c_double),
+                ("score", ctypes.c_float), ("partial", ctypes.c_int32), ("part_to_fix", ctypes.c_int32),
+                ("cue_joint", ctypes.c_int32), ("cue_degrees", ctypes.c_float), ("cue_action", ctypes.c_int32),
+                ("range", ctypes.c_float * ROM_JOINT_COUNT), ("teacher_range", ctypes.c_float * ROM_JOINT_COUNT),
+                ("coverage", ctypes.c_float), ("reserved0", ctypes.c_uint32)]
 
 
 class RuntimeDesc(ctypes.Structure):
@@ -346,6 +361,11 @@ _SIGNATURES = {
     "kata_retargeter_local_rotations": (_st, [_p, _p, _sz, _p, _sz, _p, _p, _sz, ctypes.POINTER(_d)]),
     # messages
     "kata_message_read_result": (_st, [_p, _sz, ctypes.POINTER(ResultRecord)]),
+    # since 1.2: repetitions
+    "kata_message_read_repetition": (_st, [_p, _sz, ctypes.POINTER(Repetition)]),
+    "kata_message_write_repetition": (_st, [ctypes.POINTER(Repetition), _p, _sz, ctypes.POINTER(_sz)]),
+    "kata_stream_read_repetitions": (_st, [_p, ctypes.POINTER(Repetition), _u32, ctypes.POINTER(_u32)]),
+    "kata_stream_set_practice_section": (_st, [_p, _i32, _i32, _i32]),
     # since 1.1: the ingest message writers
     "kata_skeleton_message_init_sized": (None, [ctypes.POINTER(SkeletonMessage), _u32]),
     "kata_frame_message_init_sized": (None, [ctypes.POINTER(FrameMessage), _u32]),

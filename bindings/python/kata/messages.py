@@ -1,10 +1,11 @@
 """Messages: a subscriber of a runtime's (or `kata serve`'s) results, decoded by the C library's
 verifier (kata_message_read_result); and the messages a source sends to a runtime's ingest, written
 by the C library's writers (kata_message_write_*, since 1.1)."""
+import collections
 import ctypes
 import os
 import time
-from typing import Any, Callable, NamedTuple, Optional, Sequence, Tuple
+from typing import Any, Callable, Deque, NamedTuple, Optional, Sequence, Tuple
 
 import numpy as np
 
@@ -13,7 +14,11 @@ from ._util import _address, _positions_f32, _typed, _utf8
 from .errors import KataError, Status
 
 __all__ = ["Subscriber", "ResultMessage", "PracticeSection", "read_message", "write_skeleton", "write_frame",
-           "write_practice"]
+           "write_practice", "Repetition", "read_repetition", "write_repetition", "ROM_JOINTS"]
+
+#: The joint angles of a repetition's range of motion, in order (kata_rom_joint).
+ROM_JOINTS = ("left_knee", "right_knee", "left_hip", "right_hip", "left_elbow", "right_elbow", "left_shoulder",
+              "right_shoulder")
 
 
 class PracticeSection(NamedTuple):
@@ -43,7 +48,8 @@ class ResultMessage:
     __slots__ = ("stream_id", "result_sequence", "frame_sequence", "frame_index", "capture_time", "arrival_ns",
                  "computed_ns", "published_ns", "scored", "matched_teacher_frame", "matched_teacher_time",
                  "distance", "score", "parts", "part_scores", "part_to_fix", "state", "ghost", "practice",
-                 "cue_joint", "cue_degrees", "cue_action", "cue", "owner", "epoch")
+                 "cue_joint", "cue_degrees", "cue_action", "cue", "owner", "epoch", "repetition",
+                 "repetition_progress")
     stream_id: int
     result_sequence: int
     frame_sequence: int
@@ -77,6 +83,10 @@ class ResultMessage:
         self.parts = tuple(m.parts)
         self.part_scores = tuple(m.part_scores)
         _set_cue(self, m)
+        # 1.2: the repetition in progress (1 + the complete ones; 0 without a clip teacher or from an
+        # older runtime) and the progress through the teacher's section, 0..1.
+        self.repetition = int(m.repetition)
+        self.repetition_progress = float(m.repetition_progress)
         # Over NATS (Subscriber on nats:// URLs): the shard that computed it and its lease tenure,
         # from the result's subject; "" and 0 over ZeroMQ.
         self.owner, self.epoch = "", 0
@@ -114,6 +124,75 @@ def read_message(message: bytes) -> Optional[ResultMessage]:
     if status:
         raise KataError(status, "message of %d bytes refused" % len(data), "kata_message_read_result")
     return ResultMessage(m)
+
+
+class Repetition:
+    """One repetition of the teacher's section (kata_repetition, 1.2; docs/coach/repetitions.md):
+    index (1, 2, 3...; a partial one the index the attempt would have had), partial (abandoned
+    before the end, not counted), start_time / end_time (student seconds, the stream's clock), tempo
+    (duration / the teacher section's: 1.2 is 20 % slower), score (mean total), part_to_fix
+    (BodyPart or -1), cue (the phrase shown most, "" for none), cue_joint ("LKnee", ""), cue_degrees,
+    cue_action, range and teacher_range (dicts of the ROM_JOINTS, degrees), coverage (0..1) and
+    stream_id (0 for a Stream's)."""
+    __slots__ = ("stream_id", "index", "partial", "start_time", "end_time", "tempo", "score", "part_to_fix",
+                 "cue_joint", "cue_degrees", "cue_action", "cue", "range", "teacher_range", "coverage")
+
+    def __init__(self, r: "_n.Repetition") -> None:
+        self.stream_id = int(r.stream_id)
+        self.index = int(r.index)
+        self.partial = bool(r.partial)
+        self.start_time, self.end_time, self.tempo = float(r.start_time), float(r.end_time), float(r.tempo)
+        self.score = float(r.score)
+        self.part_to_fix = int(r.part_to_fix)
+        cue = _n.ResultRecord()  # the cue's phrase through kata_cue_text
+        cue.struct_size = ctypes.sizeof(cue)
+        cue.part_to_fix, cue.cue_joint, cue.cue_degrees, cue.cue_action = (r.part_to_fix, r.cue_joint, r.cue_degrees,
+                                                                          r.cue_action)
+        _set_cue(self, cue)
+        self.range = dict(zip(ROM_JOINTS, (float(v) for v in r.range)))
+        self.teacher_range = dict(zip(ROM_JOINTS, (float(v) for v in r.teacher_range)))
+        self.coverage = float(r.coverage)
+
+    def __repr__(self) -> str:
+        return "Repetition(%d%s, %.2f-%.2f s, tempo %.2f, score %.1f)" % (
+            self.index, " partial" if self.partial else "", self.start_time, self.end_time, self.tempo, self.score)
+
+
+def read_repetition(message: bytes) -> Optional[Repetition]:
+    """kata_message_read_repetition: a Repetition message of a runtime (published right after the
+    result of the frame that ended it). None for a valid message of another kind (a result,
+    stats); KataError E_PARSE for a refused one. [any thread]"""
+    r = _n.Repetition()
+    r.struct_size = ctypes.sizeof(r)
+    data = bytes(message)
+    status = _n.message_read_repetition(data, len(data), ctypes.byref(r))
+    if status == Status.NO_DATA:
+        return None
+    if status:
+        raise KataError(status, "message of %d bytes refused" % len(data), "kata_message_read_repetition")
+    return Repetition(r)
+
+
+def write_repetition(stream_id: int, index: int, start_time: float, end_time: float, tempo: float, score: float,
+                     partial: bool = False, part_to_fix: int = -1, cue_joint: int = -1, cue_degrees: float = 0.0,
+                     cue_action: int = -1, range: Sequence[float] = (0.0,) * 8,
+                     teacher_range: Sequence[float] = (0.0,) * 8, coverage: float = 1.0) -> bytes:
+    """kata_message_write_repetition: the Repetition message a runtime publishes (for carrying a
+    runtime's messages over another transport, and for testing subscribers)."""
+    r = _n.Repetition()
+    r.struct_size = ctypes.sizeof(r)
+    r.stream_id, r.index, r.partial = stream_id, index, int(bool(partial))
+    r.start_time, r.end_time, r.tempo, r.score = start_time, end_time, tempo, score
+    r.part_to_fix, r.cue_joint, r.cue_degrees, r.cue_action = part_to_fix, cue_joint, cue_degrees, cue_action
+    r.range[:] = [float(v) for v in range]
+    r.teacher_range[:] = [float(v) for v in teacher_range]
+    r.coverage = coverage
+    buf = ctypes.create_string_buffer(1024)
+    size = ctypes.c_size_t(0)
+    status = _n.message_write_repetition(ctypes.byref(r), buf, len(buf), ctypes.byref(size))
+    if status:
+        raise KataError(status, "repetition refused", "kata_message_write_repetition")
+    return buf.raw[:size.value]
 
 
 class _Nats:
@@ -281,6 +360,9 @@ class Subscriber:
         self.stale = 0  #: NATS: results of a former holder after a newer holder's (dropped)
         self.handovers = 0  #: NATS: a stream's results seen moving to a newer holder
         self.dropped = 0  #: NATS: times the client library dropped messages for this slow reader
+        #: 1.2: the Repetition messages received with the results (docs/coach/repetitions.md), oldest
+        #: first; the newest 1024 are kept: pop them as they come.
+        self.repetitions: Deque[Repetition] = collections.deque(maxlen=1024)
         self._nats: Optional[_Nats] = None
         self._socket: Any = None
         if _is_nats(endpoint):
@@ -309,7 +391,11 @@ class Subscriber:
             self.refused += 1
             return None
         if m is None:
-            self.skipped += 1
+            r = read_repetition(data)
+            if r is not None:
+                self.repetitions.append(r)
+            else:
+                self.skipped += 1
         return m
 
     def _accept_epoch(self, stream_id: int, epoch: int) -> bool:

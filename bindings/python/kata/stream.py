@@ -73,7 +73,8 @@ def detect_time_units(timestamps: Any) -> str:
 class ScoreRecord:
     """One scored frame (a kata_result_record), as plain Python values."""
     __slots__ = ("matched_teacher_frame", "matched_teacher_time", "frame_index", "capture_time", "distance", "score",
-                 "parts", "part_scores", "part_to_fix", "state", "cue_joint", "cue_degrees", "cue_action", "cue")
+                 "parts", "part_scores", "part_to_fix", "state", "cue_joint", "cue_degrees", "cue_action", "cue",
+                 "repetition", "repetition_progress")
 
     def __init__(self, rec: "_n.ResultRecord") -> None:
         self.matched_teacher_frame = rec.matched_teacher_frame
@@ -89,6 +90,10 @@ class ScoreRecord:
         # The correction cue (messages.ResultMessage says what each field holds).
         from .messages import _set_cue
         _set_cue(self, rec)
+        # 1.2: the repetition in progress (1 + the complete ones; 0 without a clip teacher) and the
+        # progress through the teacher's section, 0..1.
+        self.repetition = int(rec.repetition)
+        self.repetition_progress = float(rec.repetition_progress)
 
     def __repr__(self) -> str:
         return "ScoreRecord(frame=%d, score=%.2f, distance=%.5g)" % (self.frame_index, self.score, self.distance)
@@ -461,6 +466,14 @@ class Stream(_Handle):
         if status:
             self._raise(status, "kata_stream_detach_teacher")
 
+    def set_practice_section(self, first_frame: int, last_frame: int = -1, loop: bool = False) -> None:
+        """kata_stream_set_practice_section: from the next frame follow only the teacher's frames
+        first_frame..last_frame (0-based from the teacher's first frame; -1: its end), looped when
+        loop (a section practised over and over, and the repetition read_repetitions counts)."""
+        status = _n.stream_set_practice_section(self.handle, int(first_frame), int(last_frame), 1 if loop else 0)
+        if status:
+            self._raise(status, "kata_stream_set_practice_section")
+
     def restart_teacher(self) -> None:
         """kata_stream_restart_teacher: the next frame is matched from the teacher's first frame."""
         status = _n.stream_restart_teacher(self.handle)
@@ -577,6 +590,23 @@ class Stream(_Handle):
             parts.append(Results.concatenate([self.read_results(buffer)]))
             start = end
         return Results.concatenate(parts)
+
+    def read_repetitions(self) -> List[Any]:
+        """kata_stream_read_repetitions (1.2): the repetitions of the teacher's section that ended
+        since the last call, oldest first (messages.Repetition each; docs/coach/repetitions.md). The
+        stream keeps the newest 16: read at least that often."""
+        from .messages import Repetition
+        buf = (_n.Repetition * 16)()
+        buf[0].struct_size = ctypes.sizeof(_n.Repetition)
+        count = ctypes.c_uint32(0)
+        out: List[Any] = []
+        while True:
+            status = _n.stream_read_repetitions(self.handle, buf, 16, ctypes.byref(count))
+            if status:
+                self._raise(status, "kata_stream_read_repetitions")
+            out.extend(Repetition(buf[i]) for i in range(count.value))
+            if count.value < 16:
+                return out
 
     def read_newest(self, buffer: Optional[ResultBuffer] = None) -> Optional[Results]:
         """kata_stream_read_newest: the newest unread result (older unread ones are passed over) as

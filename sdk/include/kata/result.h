@@ -101,7 +101,63 @@ typedef struct kata_result_record {
                                     over 0.5 s like the part scores); 0 for none */
   int32_t cue_action;            /* kata_cue_action; KATA_CUE_NONE (-1) for none */
   uint32_t reserved1;            /* 0 */
+  /* ---- 1.2: repetitions (check KATA_RESULT_HAS(r, repetition)) ----
+   * The teacher's section (the clip, or its practice section, best looped) is one repetition; a
+   * repetition ends when the match comes round from the section's end to its start (a
+   * kata_repetition then says how it went: kata_stream_read_repetitions, or a Repetition message
+   * beside the results, kata_message_read_repetition). */
+  int32_t repetition;            /* the repetition in progress: 1 + the complete ones so far; 0
+                                    unless scored against a clip */
+  float repetition_progress;     /* where the match is in the section, 0..1 (0 unless scored
+                                    against a clip) */
 } kata_result_record;
+
+/* The joint angles whose range of motion a repetition reports, in array order. Each is the angle
+ * at a joint between its two segments, degrees (0..180): a knee at the knee between the hip and
+ * the ankle (180 straight); a hip between the trunk (pelvis -> neck) and the thigh (180 standing,
+ * 90 with the thigh level: flexion or abduction alike); an elbow at the elbow between the shoulder
+ * and the wrist (180 straight); a shoulder between the trunk (neck -> pelvis) and the upper arm (0
+ * hanging, 90 level: flexion or abduction alike). Since 1.2. */
+typedef enum kata_rom_joint {
+  KATA_ROM_LEFT_KNEE = 0,      /* at LKnee between LHip and LFoot */
+  KATA_ROM_RIGHT_KNEE = 1,     /* at RKnee between RHip and RFoot */
+  KATA_ROM_LEFT_HIP = 2,       /* between Hip -> Neck and LHip -> LKnee */
+  KATA_ROM_RIGHT_HIP = 3,      /* between Hip -> Neck and RHip -> RKnee */
+  KATA_ROM_LEFT_ELBOW = 4,     /* at LElbow between LShoulder and LHand */
+  KATA_ROM_RIGHT_ELBOW = 5,    /* at RElbow between RShoulder and RHand */
+  KATA_ROM_LEFT_SHOULDER = 6,  /* between Neck -> Hip and LShoulder -> LElbow */
+  KATA_ROM_RIGHT_SHOULDER = 7, /* between Neck -> Hip and RShoulder -> RElbow */
+  KATA_ROM_JOINT_COUNT = 8     /* the number of angles */
+} kata_rom_joint;
+
+/* One repetition of the teacher's section by the student, complete or partial (1.2;
+ * docs/coach/repetitions.md). A repetition ends when the match comes round from the section's end
+ * to its start (or jumps back to its start, or holds at its end for 0.5 s); it is complete when
+ * the student went through at least 70 % of the section and reached its end, partial (reported,
+ * not counted) when abandoned after 20 % or more. A pause between repetitions belongs to neither.
+ * Growth as kata_result_record: fields only appended; the writer fills struct_size bytes. */
+typedef struct kata_repetition {
+  uint32_t struct_size;          /* the caller's sizeof(kata_repetition); kept by every writer */
+  int32_t index;                 /* 1, 2, 3...: the count of complete repetitions with this one; a
+                                    partial one carries the index the attempt would have had (the
+                                    next complete one gets it: the count goes on) */
+  uint64_t stream_id;            /* the runtime's stream id; 0 for a kata_stream */
+  double start_time;             /* student seconds (capture_time's clock): it started */
+  double end_time;               /* its last step forward in the section */
+  double tempo;                  /* (end - start) / the teacher's section duration: 1 the teacher's
+                                    pace, 1.2 20 % slower */
+  float score;                   /* mean total score over its scoring frames, 0..100 */
+  int32_t partial;               /* 1: abandoned before the end, not counted */
+  int32_t part_to_fix;           /* the kata_body_part shown on most of its frames, -1 for none */
+  int32_t cue_joint;             /* the cue shown most while that part was (GPD joint), -1 none */
+  float cue_degrees;             /* that cue's mean degrees while shown; 0 for none */
+  int32_t cue_action;            /* kata_cue_action of that cue; KATA_CUE_NONE for none */
+  float range[KATA_ROM_JOINT_COUNT];          /* the student's range of motion per kata_rom_joint,
+                                                 max - min over the repetition, degrees */
+  float teacher_range[KATA_ROM_JOINT_COUNT];  /* the teacher's over the section, degrees */
+  float coverage;                /* the fraction of the section the student went through, 0..1 */
+  uint32_t reserved0;            /* 0 */
+} kata_repetition;
 
 /* 1 when a record written for a caller's struct_size holds FIELD. */
 #define KATA_RESULT_HAS(r, field) \

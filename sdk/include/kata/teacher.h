@@ -357,6 +357,14 @@ KATA_API kata_status kata_stream_read_results(kata_stream stream, kata_result_re
  * when nothing is unread: no new result since the last read. Does not allocate. [stream owner] */
 KATA_API kata_status kata_stream_read_newest(kata_stream stream, kata_result_record* result, float* ghost, size_t ghost_capacity, float* features,
                                              size_t feature_capacity);
+/* The repetitions (kata/result.h kata_repetition) the stream's clip teacher saw end since the last
+ * call, oldest first, at most `capacity` into repetitions[] (entries of repetitions[0].struct_size
+ * bytes: set it to sizeof(kata_repetition)); *count says how many. The stream keeps the newest 16:
+ * read at least that often (each result's repetition field says when one ended). stream_id is 0.
+ * *count = 0 and KATA_OK without a clip teacher or a new repetition; a new teacher's repetitions
+ * are read from its first. Since 1.2. Does not allocate. [stream owner] */
+KATA_API kata_status kata_stream_read_repetitions(kata_stream stream, kata_repetition* repetitions, uint32_t capacity,
+                                                  uint32_t* count);
 /* Results overwritten before they were read (a full ring), since the stream was opened; 0 for
  * NULL. [stream owner] */
 KATA_API uint64_t kata_stream_results_dropped(kata_stream stream);

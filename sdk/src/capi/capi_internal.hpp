@@ -181,6 +181,10 @@ struct kata_stream_s {
   // order (layout_name empty).
   std::string layout_name;
   std::vector<std::string> name_map;
+  // kata_stream_read_repetitions: the repetitions of this counter read so far (a new teacher has a
+  // new counter, read from its first).
+  const void* repetitions_of = nullptr;
+  int64_t repetitions_read = 0;
   char error[256] = {0};
 
   // Copies a message into the stream's fixed buffer (no allocation: used on the frame path).

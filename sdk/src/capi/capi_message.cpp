@@ -269,6 +269,24 @@ KATA_API kata_status kata_message_write_result(const kata_result_record* record,
   return kata::capi::guarded_context([&] { return deliver(call, thread_encoder().result(f), buffer, capacity, size); });
 }
 
+KATA_API kata_status kata_message_write_repetition(const kata_repetition* repetition, void* buffer, size_t capacity,
+                                                   size_t* size) {
+  static const char* const call = "kata_message_write_repetition";
+  kata_repetition r;
+  kata_repetition defaults{};
+  defaults.part_to_fix = defaults.cue_joint = defaults.cue_action = -1;
+  // kata_repetition's first size is 1.2's whole struct.
+  if (const kata_status s = check_call(call, repetition, buffer, capacity, size,
+                                       static_cast<uint32_t>(sizeof(kata_repetition)), defaults, &r))
+    return s;
+  bool finite = std::isfinite(r.start_time) && std::isfinite(r.end_time) && std::isfinite(r.tempo) &&
+                std::isfinite(r.score) && std::isfinite(r.cue_degrees) && std::isfinite(r.coverage);
+  for (int i = 0; i < KATA_ROM_JOINT_COUNT; ++i) finite = finite && std::isfinite(r.range[i]) && std::isfinite(r.teacher_range[i]);
+  if (!finite) return refuse(KATA_E_NON_FINITE, size, std::string(call) + ": a time, tempo, score or range is not finite");
+  return kata::capi::guarded_context(
+      [&] { return deliver(call, thread_encoder().repetition(r, kata::pipeline::now_ns()), buffer, capacity, size); });
+}
+
 KATA_API kata_status kata_message_write_practice(const kata_practice_message* message, void* buffer, size_t capacity,
                                                  size_t* size) {
   static const char* const call = "kata_message_write_practice";

@@ -272,6 +272,38 @@ KATA_API kata_status kata_stream_read_newest(kata_stream stream, kata_result_rec
   return KATA_OK;
 }
 
+KATA_API kata_status kata_stream_read_repetitions(kata_stream stream, kata_repetition* repetitions, uint32_t capacity,
+                                                  uint32_t* count) {
+  if (!stream) return KATA_E_NULL_POINTER;
+  if (!repetitions || !count)
+    return refuse(stream, KATA_E_NULL_POINTER, "kata_stream_read_repetitions: repetitions and count must not be NULL");
+  *count = 0;
+  const uint32_t size = repetitions->struct_size;
+  if (size < offsetof(kata_repetition, index) + sizeof(int32_t))
+    return refuse(stream, KATA_E_INVALID_ARGUMENT, "kata_stream_read_repetitions: repetitions[0].struct_size is not set");
+  const kata::metric::RepCounter* reps = stream->pipeline.repetitions();
+  if (!reps) return KATA_OK;
+  if (stream->repetitions_of != reps) {
+    stream->repetitions_of = reps;
+    stream->repetitions_read = 0;
+  }
+  const int64_t ended = reps->ended();
+  // The counter keeps the newest kKept; older unread ones are gone.
+  int64_t next = std::max(stream->repetitions_read, ended - kata::metric::RepCounter::kKept);
+  uint32_t n = 0;
+  for (; n < capacity && next < ended; ++n, ++next) {
+    kata_repetition k;
+    kata::pipeline::fill_repetition(reps->newest(static_cast<int>(ended - 1 - next)), 0, &k);
+    unsigned char* out = reinterpret_cast<unsigned char*>(repetitions) + static_cast<size_t>(n) * size;
+    std::memcpy(out, &k, std::min<size_t>(size, sizeof k));
+    if (size > sizeof k) std::memset(out + sizeof k, 0, size - sizeof k);
+    std::memcpy(out, &size, sizeof size);
+  }
+  stream->repetitions_read = next;
+  *count = n;
+  return KATA_OK;
+}
+
 KATA_API uint64_t kata_stream_results_dropped(kata_stream stream) { return stream ? stream->pipeline.dropped() : 0u; }
 
 KATA_API uint32_t kata_stream_results_pending(kata_stream stream) {

@@ -144,6 +144,11 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
                               },
                               {}});
     }
+    if (d.on_repetition) {
+      const kata_repetition_callback callback = d.on_repetition;
+      void* const user = d.on_result_user;
+      config.repetition_sinks.push_back([callback, user](const kata_repetition& r) { callback(user, &r); });
+    }
     if (d.max_streams_per_sender < 1 || !(d.max_frame_age_seconds >= 0.0) || !(d.idle_stream_seconds >= 0.0) ||
         d.max_frame_age_seconds > 3600.0 || d.idle_stream_seconds > 1e7)
       throw kata::Error(kata::ErrorKind::kInvalidArgument,
@@ -496,6 +501,21 @@ KATA_API kata_status kata_message_read_result(const void* message, size_t size, 
     if (kind == kata::transport::MessageKind::kNone) return KATA_E_PARSE;
     if (kind != kata::transport::MessageKind::kResult) return KATA_NO_DATA;
     kata::pipeline::copy_record_out(decoder.result(), out->struct_size, out);
+    return KATA_OK;
+  } catch (const std::bad_alloc&) {
+    return KATA_E_OUT_OF_MEMORY;
+  }
+}
+
+KATA_API kata_status kata_message_read_repetition(const void* message, size_t size, kata_repetition* out) {
+  if (!message || !out) return KATA_E_NULL_POINTER;
+  if (out->struct_size < sizeof(uint32_t)) return KATA_E_INVALID_ARGUMENT;
+  try {
+    thread_local kata::transport::Decoder decoder(1 << 22, false);
+    const kata::transport::MessageKind kind = decoder.decode(message, size);
+    if (kind == kata::transport::MessageKind::kNone) return KATA_E_PARSE;
+    if (kind != kata::transport::MessageKind::kRepetition) return KATA_NO_DATA;
+    if (!kata::capi::write_sized(decoder.repetition(), sizeof(uint32_t), out)) return KATA_E_INVALID_ARGUMENT;
     return KATA_OK;
   } catch (const std::bad_alloc&) {
     return KATA_E_OUT_OF_MEMORY;

@@ -92,6 +92,9 @@ void Pipeline::set_teacher(std::shared_ptr<const Teacher> teacher, const Teacher
                 "with the model's stencil");
   // Build everything first, then swap in: a refused teacher leaves the old one in place.
   auto scorer = std::make_unique<metric::Scorer>(teacher->reference, options.alignment);
+  std::unique_ptr<metric::RepCounter> reps;
+  if (teacher->reference->kind() == metric::ReferenceKind::kClip)
+    reps = std::make_unique<metric::RepCounter>(teacher->reference);
   std::unique_ptr<retarget::Retargeter> retargeter;
   retarget::JointSelection selection;
   const bool across = options.ghost && options.ghost_across && teacher->has_positions();
@@ -120,6 +123,7 @@ void Pipeline::set_teacher(std::shared_ptr<const Teacher> teacher, const Teacher
   student_pose_.assign(3 * n, 0.0);
   teacher_ = std::move(teacher);
   scorer_ = std::move(scorer);
+  reps_ = std::move(reps);
   retargeter_ = std::move(retargeter);
   selection_ = std::move(selection);
   ghost_joints_ = static_cast<int>(n);
@@ -147,6 +151,7 @@ bool Pipeline::make_mapped() {
 void Pipeline::clear_teacher() {
   teacher_.reset();
   scorer_.reset();
+  reps_.reset();
   retargeter_.reset();
   mapped_.reset();
   across_ = false;
@@ -156,6 +161,7 @@ void Pipeline::clear_teacher() {
 
 void Pipeline::restart_teacher() {
   if (scorer_) scorer_->reset();
+  if (reps_) reps_->reset();
   if (retargeter_) retargeter_->reset();
   if (mapped_) mapped_->reset();
 }
@@ -227,6 +233,11 @@ void Pipeline::produce(int64_t frame, int64_t arrival_ns) {
     r.score = score_frame(frame, r.capture_time);
     r.scored = true;
     r.matched_frame = r.score.matched;
+    if (reps_) {
+      r.repetition_ended = reps_->update(r.score, x, scorer_->aligner()) > 0;
+      r.repetition = reps_->current_index();
+      r.repetition_progress = reps_->progress();
+    }
     if (retargeter_) {
       const float* t = teacher_->frame_positions(r.matched_frame);
       const float* s = student_ring_.data() + static_cast<size_t>(frame % history_) * 3 *

@@ -28,6 +28,7 @@
 #include <vector>
 
 #include "common/status.hpp"
+#include "metric/reps.hpp"
 #include "metric/scorer.hpp"
 #include "retarget/joint_set.hpp"
 #include "retarget/mapped.hpp"
@@ -103,6 +104,12 @@ struct Result {
   metric::ScoreRecord score;  // score.matched = matched teacher frame
   int32_t matched_frame = -1; // teacher frame matched (-1 when not scored)
   bool has_ghost = false;     // the ghost (ghost_joint_count() x 3 floats) was made
+  // Repetitions (metric/reps.hpp), against a clip teacher: the repetition in progress (1 + the
+  // complete ones; 0 without a clip teacher), the match's progress through the section (0..1), and
+  // whether this frame ended one (Pipeline::repetitions()->newest() says how it went).
+  int32_t repetition = 0;
+  float repetition_progress = 0.0f;
+  bool repetition_ended = false;
 };
 
 class Pipeline {
@@ -122,6 +129,8 @@ class Pipeline {
   bool has_ghost() const { return retargeter_ != nullptr || across_; }
   // The teacher's scorer (null without a teacher), e.g. to override its calibration.
   metric::Scorer* scorer() { return scorer_.get(); }
+  // The teacher's repetition counter (null without a clip teacher): the repetitions ended so far.
+  const metric::RepCounter* repetitions() const { return reps_.get(); }
 
   // Pushes a frame (Stream::push) and runs every vector it emits through score and ghost.
   // arrival_ns: the steady-clock time the frame arrived (0: now). A refused frame changes
@@ -177,6 +186,7 @@ class Pipeline {
   // Teacher side (rebuilt by set_teacher).
   std::shared_ptr<const Teacher> teacher_;
   std::unique_ptr<metric::Scorer> scorer_;
+  std::unique_ptr<metric::RepCounter> reps_;  // a clip teacher's repetitions (metric/reps.hpp)
   std::unique_ptr<retarget::Retargeter> retargeter_;
   retarget::JointSelection selection_;   // ghost joints: index into student and teacher skeletons
   int ghost_joints_ = 0;

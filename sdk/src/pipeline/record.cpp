@@ -33,8 +33,31 @@ void fill_record(const Result& r, uint32_t ghost_joint_count, kata_result_record
     k.cue_joint = s.cue_joint;
     k.cue_degrees = s.cue_degrees;
     k.cue_action = s.cue_action;
+    k.repetition = r.repetition;
+    k.repetition_progress = r.repetition_progress;
   }
   k.ghost_joint_count = r.has_ghost ? ghost_joint_count : 0u;
+  *out = k;
+}
+
+void fill_repetition(const metric::Repetition& r, uint64_t stream_id, kata_repetition* out) noexcept {
+  kata_repetition k{};
+  k.struct_size = sizeof k;
+  k.index = r.index;
+  k.stream_id = stream_id;
+  k.start_time = r.start_time;
+  k.end_time = r.end_time;
+  k.tempo = r.tempo;
+  k.score = r.score;
+  k.partial = r.partial ? 1 : 0;
+  k.part_to_fix = r.part_to_fix;
+  k.cue_joint = r.cue_joint;
+  k.cue_degrees = r.cue_degrees;
+  k.cue_action = r.cue_action;
+  static_assert(KATA_ROM_JOINT_COUNT == metric::kRomJoints, "the ABI's joints are the counter's");
+  std::copy(r.range, r.range + KATA_ROM_JOINT_COUNT, k.range);
+  std::copy(r.teacher_range, r.teacher_range + KATA_ROM_JOINT_COUNT, k.teacher_range);
+  k.coverage = r.coverage;
   *out = k;
 }
 

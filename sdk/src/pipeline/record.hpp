@@ -17,6 +17,10 @@ namespace kata::pipeline {
 // and the practice section are the runtime's (0 here). Allocation-free.
 void fill_record(const Result& result, uint32_t ghost_joint_count, kata_result_record* out) noexcept;
 
+// The one translation of a repetition (metric/reps.hpp) into the public kata_repetition
+// (struct_size = sizeof(kata_repetition)). Allocation-free.
+void fill_repetition(const metric::Repetition& repetition, uint64_t stream_id, kata_repetition* out) noexcept;
+
 // Copies a record into a caller's struct of caller_size bytes (a 1.0 caller's smaller struct
 // gets the fields it knows), keeping caller_size as its struct_size. caller_size must be at least
 // the struct_size field.

@@ -181,6 +181,13 @@ bool Runtime::drain_results(transport::Encoder& encoder) {
           s.counters.send_failed.fetch_add(1, std::memory_order_relaxed);
       }
       for (const Sink& sink : config_.sinks) sink.on_result(f);  // after the send: no added latency
+      if (cell.has_repetition) {  // the repetition this frame ended, right after it
+        kata_repetition rep = cell.repetition;
+        rep.stream_id = f.stream_id;
+        if (publisher_ && !publisher_->send(encoder.repetition(rep, pipeline::now_ns())))
+          s.counters.send_failed.fetch_add(1, std::memory_order_relaxed);
+        for (const RepetitionSink& sink : config_.repetition_sinks) sink(rep);
+      }
       any = true;
     }
     w.result_tail.store(tail, std::memory_order_release);

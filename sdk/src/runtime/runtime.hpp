@@ -81,6 +81,9 @@ struct Sink {
   std::function<void(const transport::ResultFields&)> on_result;
   std::function<void()> flush;  // optional; on the I/O thread after the last result (at stop)
 };
+// A consumer of every repetition that ends (metric/reps.hpp), called as a Sink's on_result is,
+// right after the result of the frame that ended it (and its Repetition message).
+using RepetitionSink = std::function<void(const kata_repetition&)>;
 
 // How a runtime thread waits for work (docs/runtime.md, "Idle strategy"). A parked thread costs no
 // CPU but a wake-up from sleep (a futex or eventfd and the scheduler: tens of us on a VM) each
@@ -135,6 +138,7 @@ struct RuntimeConfig {
   // A lone stream never waits: its worker has no next frame, so it sends at once.
   int result_batch = 8;
   std::vector<Sink> sinks;               // in-process consumers of every result
+  std::vector<RepetitionSink> repetition_sinks;  // and of every repetition that ends
 };
 
 // Counters of one stream (monotonic since it was opened).

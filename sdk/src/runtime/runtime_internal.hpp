@@ -139,6 +139,8 @@ struct ResultCell {
   int64_t computed_ns = 0;
   bool has_practice = false;  // the setting it was computed under (StreamState::practice)
   transport::PracticeSection practice;
+  bool has_repetition = false;  // the frame ended a repetition: published after the result
+  kata_repetition repetition{};
 };
 
 // The section a stream's scorer follows, in teacher seconds (has = false: no clip teacher).

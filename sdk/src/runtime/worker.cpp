@@ -4,6 +4,7 @@
 // thread through a single-producer / single-consumer ring. A worker parks in its semaphore (or
 // backs off first, by the idle strategy) when it has no frame.
 #include "runtime/runtime_internal.hpp"
+#include "pipeline/record.hpp"
 
 #include <cstdio>
 
@@ -161,8 +162,12 @@ void Runtime::worker_loop(Worker& w) {
       const size_t n = p.read(w.read_buffer.data(), w.read_ghosts.data(), features, kReadBatch);
       if (n == 0) break;
       const int64_t computed = pipeline::now_ns();
+      // The repetitions the batch's frames ended are the counter's newest, the last frame's first.
+      int ended_after = 0;
+      for (size_t i = 0; i < n; ++i) ended_after += w.read_buffer[i].repetition_ended ? 1 : 0;
       for (size_t i = 0; i < n; ++i) {
         const pipeline::Result& r = w.read_buffer[i];
+        if (r.repetition_ended) --ended_after;
         s.counters.results.fetch_add(1, std::memory_order_relaxed);
         const size_t head = w.result_head.load(std::memory_order_relaxed);
         if (head - w.result_tail.load(std::memory_order_acquire) > w.result_mask) {
@@ -176,6 +181,8 @@ void Runtime::worker_loop(Worker& w) {
         cell.computed_ns = r.computed_ns ? r.computed_ns : computed;  // the pipeline's stamp
         cell.has_practice = s.has_practice;
         cell.practice = s.practice;
+        cell.has_repetition = r.repetition_ended && p.repetitions() && ended_after < metric::RepCounter::kKept;
+        if (cell.has_repetition) pipeline::fill_repetition(p.repetitions()->newest(ended_after), 0, &cell.repetition);
         const size_t ring = static_cast<size_t>(r.frame_index) % s.sequence_ring.size();
         cell.frame_sequence = s.sequence_ring[ring];
         cell.result.capture_time = s.capture_ring[ring];

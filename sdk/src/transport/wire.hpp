@@ -156,6 +156,9 @@ class Encoder {
   Bytes result(const ResultFields& fields);
   // A Stats message (topic: kStatsStreamId).
   Bytes stats(const StatsFields& fields);
+  // A Repetition message (schemas/repetition.fbs) of repetition.stream_id, published_ns its
+  // published time.
+  Bytes repetition(const kata_repetition& repetition, int64_t published_ns);
 
  private:
   Bytes finish(uint64_t stream_id, const char* identifier);
@@ -179,7 +182,7 @@ enum class DecodeError {
 };
 const char* decode_error_name(DecodeError error);
 
-enum class MessageKind { kNone, kFrame, kSkeleton, kResult, kStats, kPractice, kFrameBatch };
+enum class MessageKind { kNone, kFrame, kSkeleton, kResult, kStats, kPractice, kFrameBatch, kRepetition };
 
 // A verified frame; pointers are valid until the decoder's next call.
 struct FrameView {
@@ -229,6 +232,9 @@ class Decoder {
   int skeleton_joints() const;
   bool skeleton_closed() const;
   const ResultFields& result() const { return result_; }
+  // The last decoded Repetition message (published_ns: its published time). Allocation-free.
+  const kata_repetition& repetition() const { return repetition_; }
+  int64_t repetition_published_ns() const { return repetition_published_ns_; }
   // The last decoded Practice message (verified structure; its values are judged by
   // practice_values_problem). Allocation-free.
   PracticeSetting practice() const;
@@ -253,6 +259,8 @@ class Decoder {
   const void* batch_ = nullptr;  // the verified FrameBatch's frames vector
   size_t batch_size_ = 0;
   ResultFields result_;
+  kata_repetition repetition_{};
+  int64_t repetition_published_ns_ = 0;
 };
 
 }  // namespace kata::transport

@@ -190,6 +190,8 @@ MessageKind Decoder::decode(const void* data, size_t size) {
     o.cue_joint = r->cue_joint();
     o.cue_degrees = r->cue_degrees();
     o.cue_action = r->cue_action();
+    o.repetition = r->repetition();
+    o.repetition_progress = r->repetition_progress();
     o.features = r->features() ? r->features()->data() : nullptr;
     o.feature_count = r->features() ? static_cast<int>(r->features()->size()) : 0;
     return MessageKind::kResult;
@@ -200,6 +202,34 @@ MessageKind Decoder::decode(const void* data, size_t size) {
     if (k->schema_version() != kPracticeVersion) return fail(DecodeError::kVersion);
     if (k->stream_id() != stream_id_) return fail(DecodeError::kTopicMismatch);
     return MessageKind::kPractice;
+  }
+  if (flatbuffers::BufferHasIdentifier(payload_, fb::RepetitionIdentifier())) {
+    if (!fb::VerifyRepetitionBuffer(verifier)) return fail(DecodeError::kVerifier);
+    const fb::Repetition* r = fb::GetRepetition(payload_);
+    if (r->schema_version() != kRepetitionVersion) return fail(DecodeError::kVersion);
+    if (r->stream_id() != stream_id_) return fail(DecodeError::kTopicMismatch);
+    kata_repetition& o = repetition_;
+    o = kata_repetition{};
+    o.struct_size = sizeof o;
+    o.stream_id = r->stream_id();
+    o.index = r->index();
+    o.partial = r->partial() ? 1 : 0;
+    o.start_time = r->start_time();
+    o.end_time = r->end_time();
+    o.tempo = r->tempo();
+    o.score = r->score();
+    o.part_to_fix = r->part_to_fix();
+    o.cue_joint = r->cue_joint();
+    o.cue_degrees = r->cue_degrees();
+    o.cue_action = r->cue_action();
+    // Fewer than eight angles (a shorter writer): the rest stay 0; more: the first eight.
+    if (const auto* v = r->range())
+      for (flatbuffers::uoffset_t i = 0; i < v->size() && i < KATA_ROM_JOINT_COUNT; ++i) o.range[i] = v->Get(i);
+    if (const auto* v = r->teacher_range())
+      for (flatbuffers::uoffset_t i = 0; i < v->size() && i < KATA_ROM_JOINT_COUNT; ++i) o.teacher_range[i] = v->Get(i);
+    o.coverage = r->coverage();
+    repetition_published_ns_ = r->published_time() ? r->published_time()->nanoseconds() : 0;
+    return MessageKind::kRepetition;
   }
   if (flatbuffers::BufferHasIdentifier(payload_, fb::StatsIdentifier())) {
     if (!fb::VerifyStatsBuffer(verifier)) return fail(DecodeError::kVerifier);

@@ -219,10 +219,39 @@ Bytes Encoder::result(const ResultFields& r) {
   o.add_cue_joint(static_cast<int8_t>(r.cue_joint));
   o.add_cue_degrees(r.cue_degrees);
   o.add_cue_action(static_cast<int8_t>(r.cue_action));
+  o.add_repetition(r.repetition);
+  o.add_repetition_progress(r.repetition_progress);
   if (r.ghost) o.add_ghost(ghost);
   if (r.features) o.add_features(features);
   b.Finish(o.Finish(), fb::ResultIdentifier());
   return finish(r.stream_id, fb::ResultIdentifier());
+}
+
+Bytes Encoder::repetition(const kata_repetition& r, int64_t published_ns) {
+  auto& b = impl_->builder;
+  b.Clear();
+  const auto range = b.CreateVector(r.range, static_cast<size_t>(KATA_ROM_JOINT_COUNT));
+  const auto teacher_range = b.CreateVector(r.teacher_range, static_cast<size_t>(KATA_ROM_JOINT_COUNT));
+  fb::RepetitionBuilder o(b);
+  o.add_schema_version(kRepetitionVersion);
+  o.add_stream_id(r.stream_id);
+  o.add_index(r.index);
+  o.add_partial(r.partial != 0);
+  o.add_start_time(r.start_time);
+  o.add_end_time(r.end_time);
+  o.add_tempo(r.tempo);
+  o.add_score(r.score);
+  o.add_part_to_fix(static_cast<int8_t>(r.part_to_fix));
+  o.add_cue_joint(static_cast<int8_t>(r.cue_joint));
+  o.add_cue_degrees(r.cue_degrees);
+  o.add_cue_action(static_cast<int8_t>(r.cue_action));
+  o.add_range(range);
+  o.add_teacher_range(teacher_range);
+  o.add_coverage(r.coverage);
+  const fb::Time published(published_ns);
+  o.add_published_time(&published);
+  b.Finish(o.Finish(), fb::RepetitionIdentifier());
+  return finish(r.stream_id, fb::RepetitionIdentifier());
 }
 
 Bytes Encoder::stats(const StatsFields& f) {

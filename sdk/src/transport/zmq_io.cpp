@@ -182,6 +182,7 @@ void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t n
       return;
     case MessageKind::kResult:
     case MessageKind::kStats:
+    case MessageKind::kRepetition:
       ++counters_.other_kind;
       return;
     case MessageKind::kPractice:

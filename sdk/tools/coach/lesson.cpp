@@ -129,6 +129,24 @@ Lesson::Lesson(const LessonSettings& settings) {
       section_last = settings.loop_last - settings.first_frame;
       loop = 1;
     }
+    if (settings.reps) {
+      // The repetition: the whole teacher (from first_frame) or its seconds rep_start..rep_end
+      // (clip time: the clip frames in [start, end)), looped.
+      if (section_first != -1) fail("--reps / --rep-section set the section themselves: not with --loop or --teacher-start");
+      section_first = 0, section_last = -1, loop = 1;
+      if (settings.rep_start >= 0.0) {
+        const double ft = kata_clip_frame_time(teacher_clip_);
+        const int fa = static_cast<int>(std::ceil(settings.rep_start / ft - 1e-6));
+        const int fb = static_cast<int>(std::ceil(settings.rep_end / ft - 1e-6)) - 1;
+        if (!(settings.rep_end > settings.rep_start) || fb < fa || fa < settings.first_frame ||
+            fb >= static_cast<int>(teacher_count))
+          fail("--rep-section " + std::to_string(settings.rep_start) + " " + std::to_string(settings.rep_end) +
+               " is not a section of " + settings.teacher + " (seconds A < B within its " +
+               std::to_string(settings.first_frame * ft) + ".." + std::to_string(teacher_count * ft) + " s)");
+        section_first = fa - settings.first_frame;
+        section_last = fb - settings.first_frame;
+      }
+    }
     if (section_first != -1 &&
         kata_stream_set_practice_section(student_stream_, section_first, section_last, loop) != KATA_OK)
       fail(kata_stream_last_error(student_stream_));
@@ -190,7 +208,9 @@ Lesson::Lesson(const LessonSettings& settings) {
     rd.queue_capacity = 1024;
     rd.publish_endpoints = settings.publish.c_str();
     rd.on_result = &Lesson::on_result;
+    rd.on_repetition = &Lesson::on_repetition;
     rd.on_result_user = this;
+    repetitions_.resize(kMaxRepetitions);
     check(kata_runtime_create(context_, &rd, &runtime_));
     check(kata_runtime_add_stream(runtime_, kTeacherStream, &teacher_stream_, settings.preset.c_str(), 0));
     check(kata_runtime_add_stream(runtime_, kStudentStream, &student_stream_, settings.preset.c_str(), 0));
@@ -247,6 +267,7 @@ void Lesson::on_result(void* self, const kata_result_record* f) {
   r.matched_time = f->matched_teacher_time;
   r.part_to_fix = f->part_to_fix;
   r.cue_joint = f->cue_joint, r.cue_degrees = f->cue_degrees, r.cue_action = f->cue_action;
+  if (KATA_RESULT_HAS(f, repetition_progress)) r.repetition = f->repetition, r.repetition_progress = f->repetition_progress;
   r.latency_ns = f->published_ns > 0 ? f->published_ns - f->arrival_ns : f->computed_ns - f->arrival_ns;
   r.has_ghost = f->ghost != nullptr && static_cast<int>(f->ghost_joint_count) == data.ghost_joints;
   if (r.has_ghost)
@@ -288,10 +309,20 @@ void Lesson::push(int i) {
   }
 }
 
+void Lesson::on_repetition(void* self, const kata_repetition* r) {
+  Lesson& l = *static_cast<Lesson*>(self);
+  if (r->stream_id != kStudentStream) return;
+  const size_t n = l.repetitions_count_.load(std::memory_order_relaxed);
+  if (n >= l.repetitions_.size()) return;  // bounded: the first kMaxRepetitions
+  l.repetitions_[n] = *r;
+  l.repetitions_count_.store(n + 1, std::memory_order_release);
+}
+
 void Lesson::finish() {
   if (finished_) return;
   finished_ = true;
   kata_runtime_stop(runtime_);  // every queued frame computed, every result sent and recorded
+  data_.repetitions.assign(repetitions_.begin(), repetitions_.begin() + static_cast<std::ptrdiff_t>(repetitions_ended()));
   // A pushed frame the stream accepted but never answered (none expected): shown as lost.
   for (int i = 0; i < data_.pushed; ++i)
     if (!ready(static_cast<size_t>(i))) {

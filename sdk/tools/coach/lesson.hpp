@@ -50,6 +50,11 @@ struct LessonSettings {
   // Kept in recordings (array 'practice').
   int teacher_start = -1;
   int loop_first = -1, loop_last = -1;
+  // Repetitions (docs/coach/repetitions.md): the teacher (the whole clip from first_frame, or its
+  // seconds rep_start..rep_end, clip time) is one repetition, looped; the counter, tempo and depth
+  // are shown live and in the report. Not kept in recordings.
+  bool reps = false;
+  double rep_start = -1.0, rep_end = -1.0;
   // Where the runtime publishes results (ZeroMQ PUB, bound); "*" as the port: any free one.
   std::string publish = "tcp://127.0.0.1:*";
 };
@@ -74,6 +79,10 @@ struct FrameRecord {
   int32_t cue_action = -1;
   int64_t latency_ns = 0;     // frame in -> result published, steady clock
   bool has_ghost = false;
+  // The repetition in progress (1 + the complete ones; 0 without a clip teacher or in a
+  // recording) and the progress through the teacher's section, 0..1 (kata/result.h).
+  int32_t repetition = 0;
+  float repetition_progress = 0.0f;
 };
 
 // Share of distance^2 part p holds in a record (0..1; negative terms clamped to 0).
@@ -107,6 +116,8 @@ struct LessonData {
   int pushed = 0;                        // frames pushed so far
   std::vector<float> positions;          // frames x joints x 3: the pushed student frames
   std::vector<float> ghosts;             // frames x ghost_joints x 3 (zeros without a ghost)
+  std::vector<kata_repetition> repetitions;  // every repetition that ended (complete or partial),
+                                             // in order: Lesson::finish fills it (not recorded)
 
   const float* frame_positions(size_t i) const { return positions.data() + i * 3 * static_cast<size_t>(joints); }
   const float* frame_ghost(size_t i) const { return ghosts.data() + i * 3 * static_cast<size_t>(ghost_joints); }
@@ -146,9 +157,15 @@ class Lesson {
   // (both streams).
   double latency_percentile(double q) const { return kata_runtime_latency_percentile(runtime_, q); }
   uint64_t teacher_results() const { return teacher_results_.load(std::memory_order_relaxed); }
+  // The repetitions ended so far (the runtime's on_repetition), and the k-th (k < that), readable
+  // from the pushing thread while the lesson runs. The first kMaxRepetitions are kept.
+  static constexpr size_t kMaxRepetitions = 4096;
+  size_t repetitions_ended() const { return repetitions_count_.load(std::memory_order_acquire); }
+  const kata_repetition& repetition(size_t k) const { return repetitions_[k]; }
 
  private:
   static void on_result(void* self, const kata_result_record* r);  // the runtime's thread
+  static void on_repetition(void* self, const kata_repetition* r);  // the runtime's thread
 
   LessonData data_;
   std::vector<float> clip_positions_;     // student frames x joints x 3
@@ -158,6 +175,8 @@ class Lesson {
   int teacher_pushed_ = 0;
   std::unique_ptr<std::atomic<uint8_t>[]> ready_;
   std::atomic<uint64_t> teacher_results_{0};
+  std::vector<kata_repetition> repetitions_;  // kMaxRepetitions, reserved at construction
+  std::atomic<size_t> repetitions_count_{0};
   std::atomic<int64_t> newest_ready_{-1};  // the newest frame with a result (results come in order)
   size_t settled_ = 0;
   // libkata's handles, released in reverse order (the runtime first: its callback writes into data_).

@@ -13,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "coach/report_assets.hpp"
+#include "coach/reps_view.hpp"
 
 namespace kata::coach {
 namespace {
@@ -198,6 +199,8 @@ std::string frame_json(const LessonData& d, size_t i) {
     char cue[64];
     s += ",\"cue_joint\":" + std::to_string(r.cue_joint) + ",\"cue\":" + json_string(coach::cue_phrase(r, cue, sizeof cue));
     if (r.matched_time >= 0.0) append(s, ",\"matched_time\":%.3f", r.matched_time);
+    // The repetition in progress and the progress through it (docs/coach/repetitions.md).
+    if (r.repetition > 0) s += ",\"rep\":" + std::to_string(r.repetition), append(s, ",\"rep_progress\":%.3f", r.repetition_progress);
     s += ",\"latency_us\":";
     append(s, "%.1f", r.latency_ns / 1e3);
   }
@@ -378,6 +381,8 @@ void write_report(const LessonData& d, const std::string& path) {
   // Inside <script>: "</" would end the element; "<\/" is the same JSON string.
   for (size_t at = chart_json.find("</"); at != std::string::npos; at = chart_json.find("</", at + 3)) chart_json.insert(at + 1, "\\");
   page.set("chart_json", chart_json);
+  page.set("has_repetitions", !d.repetitions.empty());
+  page.set("repetitions_html", repetitions_report_html(d.repetitions));
   page.set("uplot_js", report_assets::kUplotJs);
   page.set("uplot_css", report_assets::kUplotCss);
   page.set("uplot_license", report_assets::kUplotLicense);

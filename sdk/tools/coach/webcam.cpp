@@ -14,6 +14,7 @@
 #include <nlohmann/json.hpp>
 
 #include "coach/lesson.hpp"  // part_name, fail
+#include "coach/reps_view.hpp"
 #include "io/npy.hpp"        // write_npy: the recordings' file format
 #include "kata/kata.h"
 #include "load_progress.hpp"
@@ -109,6 +110,8 @@ struct WebcamCoach::Impl {
   };
   std::vector<Received> frames;       // by sequence (the page's); a gap stays unpushed
   std::vector<std::string> events;    // "result" events in order of emission
+  std::vector<kata_repetition> repetitions;  // every repetition that ended (on_repetition), bounded
+  size_t repetitions_sent = 0;               // of them, those already on an event
   struct Scored {
     uint64_t seq;
     double time;  // seconds from the first pushed frame
@@ -189,6 +192,24 @@ struct WebcamCoach::Impl {
     kata_landmarks_destroy(landmarks);
     kata_skeleton_destroy(skeleton);
     if (status != KATA_OK) fail(path + ": " + why);
+    if (settings.reps) {  // the repetition: the whole teacher or its seconds [rep_start, rep_end), looped
+      int32_t first = 0, last = -1;
+      if (settings.rep_start >= 0.0) {
+        const int offset = bvh ? settings.first_frame : 0;  // clip frame of teacher frame 0
+        first = static_cast<int32_t>(std::ceil(settings.rep_start / teacher_frame_time - 1e-6)) - offset;
+        last = static_cast<int32_t>(std::ceil(settings.rep_end / teacher_frame_time - 1e-6)) - 1 - offset;
+        if (first < 0 || last < first || last >= teacher_frames)
+          fail("--rep-section " + std::to_string(settings.rep_start) + " " + std::to_string(settings.rep_end) +
+               " is not a section of " + path);
+      }
+      if (kata_stream_set_practice_section(student_stream, first, last, 1) != KATA_OK)
+        fail(path + ": " + kata_stream_last_error(student_stream));
+    }
+  }
+
+  void on_repetition(const kata_repetition& r) {  // the runtime's thread, after its frame's result
+    std::lock_guard<std::mutex> lock(mutex);
+    if (repetitions.size() < 4096) repetitions.push_back(r);  // bounded; rides on the next event
   }
 
   explicit Impl(const WebcamSettings& s) : settings(s), recording_teacher(!s.record_teacher.empty()) {
@@ -217,7 +238,9 @@ struct WebcamCoach::Impl {
       rd.queue_capacity = 256;
       rd.publish_endpoints = settings.publish.c_str();
       rd.on_result = [](void* self, const kata_result_record* r) { static_cast<Impl*>(self)->on_result(*r); };
+      rd.on_repetition = [](void* self, const kata_repetition* r) { static_cast<Impl*>(self)->on_repetition(*r); };
       rd.on_result_user = this;
+      repetitions.reserve(4096);
       check(kata_runtime_create(context, &rd, &runtime));
       check(kata_runtime_add_stream(runtime, kStudentStream, &student_stream, "mediapipe", 0));
     } catch (...) {
@@ -288,10 +311,20 @@ struct WebcamCoach::Impl {
       kata_cue_text(&f, cue, sizeof cue);
       e["cue"] = cue;
       e["matched"] = f.matched_teacher_frame;
+      if (KATA_RESULT_HAS(&f, repetition_progress) && f.repetition > 0) {
+        e["rep"] = f.repetition;
+        e["rep_progress"] = f.repetition_progress;
+      }
       if (f.ghost && f.ghost_joint_count == static_cast<uint32_t>(KATA_GPD_JOINTS))
         e["ghost"] = std::vector<float>(f.ghost, f.ghost + 3 * KATA_GPD_JOINTS);
     }
     timeline.push_back({seq, r.frame.capture_ms * 1e-3 - first_time, state, f.scored ? f.score : 0.0f});
+    if (repetitions_sent < repetitions.size()) {  // the repetitions that ended since the last event
+      std::string reps = "[";
+      for (; repetitions_sent < repetitions.size(); ++repetitions_sent)
+        reps += (reps.size() > 1 ? "," : "") + repetition_json(repetitions[repetitions_sent]);
+      e["reps"] = nlohmann::json::parse(reps + "]");
+    }
     emit(e.dump());
     if (seq + 1 > answered_upto) answered_upto = seq + 1;
   }
@@ -524,6 +557,7 @@ std::string WebcamCoach::summary() const {
                 static_cast<unsigned long long>(m.refused), static_cast<unsigned long long>(m.results), scored,
                 scored ? sum / scored : 0.0, static_cast<unsigned long long>(m.lost));
   std::string out = line;
+  if (!m.repetitions.empty()) out += "; repetitions: " + repetitions_summary(m.repetitions);
   if (m.latency.contains("stages")) out += "; latency per stage (page): " + m.latency["stages"].dump();
   return out;
 }
@@ -553,6 +587,11 @@ void WebcamCoach::write_report(const std::string& path) const {
     if (s.state == "tracking" || s.state == "teacher finished")
       out << 800.0 * s.time / span << "," << 200.0 - 2.0 * s.score << " ";
   out << "\"/></svg>";
+  if (!m.repetitions.empty())
+    out << "<h2>Repetitions</h2><style>.repplots{display:flex;gap:10px;flex-wrap:wrap}.repplot{background:none}"
+           ".repplot .t{font-size:12px;font-weight:600}.repplot .a{font-size:10px;fill:#636e72}.repplot .g{stroke:#ddd}"
+           ".repplot .b{fill:#0984e3}.repplot .p{fill:#b2bec3}.repplot .r{stroke:#d63031;stroke-dasharray:4 3}</style>"
+        << repetitions_report_html(m.repetitions);
   out << "<h2>Latency per stage</h2>";
   if (m.latency.contains("stages") && m.latency["stages"].is_object()) {
     out << "<table><tr><th>stage</th><th>p50 ms</th><th>p95 ms</th></tr>";

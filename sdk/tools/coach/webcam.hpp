@@ -51,6 +51,10 @@ struct WebcamSettings {
   std::string record_teacher;                  // record mode: landmarks .npy (+ .times.npy), no scoring
   std::string record_student;                  // a lesson also keeps what the page sent here
   int complexity = 0;                          // MediaPipe model: 0 lite, 1 full, 2 heavy
+  // Repetitions (docs/coach/repetitions.md): the teacher (whole, or its seconds rep_start..rep_end,
+  // clip time) is one repetition, looped; the page shows the counter, the report the table and plots.
+  bool reps = false;
+  double rep_start = -1.0, rep_end = -1.0;
 };
 
 constexpr int kWebcamLandmarks = 33;

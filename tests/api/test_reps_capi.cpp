@@ -1,0 +1,125 @@
+// Repetitions through the C ABI (kata/result.h kata_repetition; docs/coach/repetitions.md): a
+// stream's kata_stream_read_repetitions, a runtime's on_repetition for the same frames, and the
+// Repetition message's writer and reader. libkata only.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <vector>
+
+#include "kata/kata.h"
+
+namespace {
+
+struct Got {
+  std::vector<kata_repetition> reps;
+  std::vector<int32_t> record_reps;  // the records' repetition field, in order
+};
+void on_result(void* user, const kata_result_record* r) {
+  if (KATA_RESULT_HAS(r, repetition)) static_cast<Got*>(user)->record_reps.push_back(r->repetition);
+}
+void on_repetition(void* user, const kata_repetition* r) { static_cast<Got*>(user)->reps.push_back(*r); }
+
+// 02_01 played three times against itself, looped: the runtime's callback and the stream alone
+// see the same repetitions, two complete ones (the third is in progress when the frames stop),
+// each at the teacher's tempo.
+TEST(reps_capi, ARuntimeAndAStreamAloneSeeTheSameRepetitions) {
+  kata_context ctx = nullptr;
+  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
+  kata_clip clip = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_01.bvh", &clip), KATA_OK);
+  kata_model model = nullptr;
+  ASSERT_EQ(kata_model_load(ctx, KATA_SOURCE_DIR "/models/default.kata", &model), KATA_OK) << kata_context_last_error(ctx);
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(clip, &skel), KATA_OK);
+  auto open = [&]() {
+    kata_stream_desc sd;
+    kata_stream_desc_init(&sd);
+    sd.layout = "cmu";
+    sd.stencil = kata_model_stencil(model);
+    sd.result_capacity = 1024;
+    kata_stream s = nullptr;
+    EXPECT_EQ(kata_stream_open(ctx, skel, &sd, &s), KATA_OK) << kata_context_last_error(ctx);
+    kata_teacher_desc td;
+    kata_teacher_desc_init(&td);
+    td.model = model;
+    td.clip = clip;
+    td.first_frame = 1;
+    td.ghost = 0;
+    EXPECT_EQ(kata_stream_attach_teacher(s, &td), KATA_OK) << kata_stream_last_error(s);
+    EXPECT_EQ(kata_stream_set_practice_section(s, 0, -1, 1), KATA_OK) << kata_stream_last_error(s);
+    return s;
+  };
+  kata_stream alone = open(), handed = open();
+  Got got;
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  EXPECT_EQ(rd.on_repetition, nullptr);
+  rd.workers = 1;
+  rd.on_result = on_result;
+  rd.on_repetition = on_repetition;
+  rd.on_result_user = &got;
+  kata_runtime runtime = nullptr;
+  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+  ASSERT_EQ(kata_runtime_add_stream(runtime, 5, &handed, "cmu", 0), KATA_OK) << kata_context_last_error(ctx);
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  const uint32_t n = kata_clip_frame_count(clip) - 1;
+  const double ft = kata_clip_frame_time(clip);
+  std::vector<float> p(3 * joints);
+  std::vector<kata_repetition> read;
+  kata_repetition buf[4];
+  for (uint32_t k = 0; k < 3 * n; ++k) {
+    ASSERT_EQ(kata_clip_positions(clip, 1 + k % n, p.data(), p.size()), KATA_OK);
+    ASSERT_EQ(kata_runtime_push(runtime, 5, k, k * ft, p.data(), joints), KATA_OK);
+    ASSERT_EQ(kata_stream_push(alone, k * ft, p.data(), joints), KATA_OK);
+    buf[0].struct_size = sizeof buf[0];
+    uint32_t count = 0;
+    ASSERT_EQ(kata_stream_read_repetitions(alone, buf, 4, &count), KATA_OK);
+    read.insert(read.end(), buf, buf + count);
+  }
+  ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);
+  ASSERT_EQ(read.size(), 2u);
+  ASSERT_EQ(got.reps.size(), read.size());
+  for (size_t i = 0; i < read.size(); ++i) {
+    EXPECT_EQ(read[i].index, static_cast<int32_t>(i + 1));
+    EXPECT_EQ(read[i].partial, 0);
+    EXPECT_EQ(read[i].stream_id, 0u);
+    EXPECT_NEAR(read[i].tempo, 1.0, 0.05) << i;
+    EXPECT_NEAR(read[i].end_time, (i + 1) * n * ft, 0.05) << i;
+    EXPECT_EQ(got.reps[i].stream_id, 5u);
+    EXPECT_EQ(got.reps[i].struct_size, sizeof(kata_repetition));
+    EXPECT_EQ(got.reps[i].index, read[i].index);
+    EXPECT_EQ(got.reps[i].start_time, read[i].start_time);
+    EXPECT_EQ(got.reps[i].end_time, read[i].end_time);
+    EXPECT_EQ(got.reps[i].score, read[i].score);
+    for (int j = 0; j < KATA_ROM_JOINT_COUNT; ++j) EXPECT_EQ(got.reps[i].range[j], read[i].range[j]);
+  }
+  ASSERT_FALSE(got.record_reps.empty());
+  EXPECT_EQ(got.record_reps.front(), 1);
+  EXPECT_EQ(got.record_reps.back(), 3);
+  // The message of a repetition reads back as written; it is no result, and a result reader says so.
+  std::vector<unsigned char> message(1024);
+  size_t size = 0;
+  ASSERT_EQ(kata_message_write_repetition(&got.reps[1], message.data(), message.size(), &size), KATA_OK);
+  kata_repetition back;
+  back.struct_size = sizeof back;
+  ASSERT_EQ(kata_message_read_repetition(message.data(), size, &back), KATA_OK);
+  EXPECT_EQ(back.stream_id, 5u);
+  EXPECT_EQ(back.index, got.reps[1].index);
+  EXPECT_EQ(back.tempo, got.reps[1].tempo);
+  EXPECT_EQ(back.teacher_range[KATA_ROM_RIGHT_SHOULDER], got.reps[1].teacher_range[KATA_ROM_RIGHT_SHOULDER]);
+  kata_result_record r;
+  r.struct_size = sizeof r;
+  EXPECT_EQ(kata_message_read_result(message.data(), size, &r), KATA_NO_DATA);
+  EXPECT_EQ(kata_message_read_repetition(message.data(), size / 2, &back), KATA_E_PARSE);
+  kata_repetition bad = got.reps[1];
+  bad.tempo = NAN;
+  EXPECT_EQ(kata_message_write_repetition(&bad, message.data(), message.size(), &size), KATA_E_NON_FINITE);
+  kata_runtime_destroy(runtime);
+  kata_stream_destroy(alone);
+  kata_model_destroy(model);
+  kata_skeleton_destroy(skel);
+  kata_clip_destroy(clip);
+  kata_context_destroy(ctx);
+}
+
+}  // namespace
