@@ -10,6 +10,7 @@
  *   kata/result.h    the one result record every reader fills
  *   kata/retarget.h  task 4, retarget: a teacher's posture on a student's body
  *   kata/runtime.h   tasks 5 to 7, run many streams (ZeroMQ in and out), read and write messages
+ *   kata/humanoid.h  the student and the ghost as humanoid (VRM) bone rotations, for game engines
  *   kata/vmc.h       avatars in game engines: humanoid poses out and in over the VMC protocol
  *   kata/kata_plugin.h (not included here) the plugin ABI of a runtime's sinks
  *
@@ -51,6 +52,7 @@
 #include "retarget.h" /* kata_retarget_desc, kata_retargeter */
 #include "teacher.h"  /* kata_model, kata_teacher_desc, reading results */
 #include "runtime.h"  /* kata_runtime, kata_message_read_result, kata_message_write_* */
+#include "humanoid.h" /* kata_humanoid_rig, kata_humanoid_pose: VRM bone rotations */
 #include "vmc.h"      /* kata_vmc_write_pose, kata_vmc_reader: the VMC protocol (OSC) */
 
 #endif /* KATA_KATA_H */
