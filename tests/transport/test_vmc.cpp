@@ -128,6 +128,19 @@ lo_message time_message(float t) {
   return m;
 }
 
+// lo_arg fields copied out (liblo's argument pointers are 4-byte aligned, the union needs 8).
+float F(const lo_arg* a) {
+  float v;
+  std::memcpy(&v, a, sizeof v);
+  return v;
+}
+int32_t I(const lo_arg* a) {
+  int32_t v;
+  std::memcpy(&v, a, sizeof v);
+  return v;
+}
+const char* S(const lo_arg* a) { return reinterpret_cast<const char*>(a); }
+
 kata_vmc_counters counters_of(kata_vmc_reader r) {
   kata_vmc_counters c{};
   c.struct_size = sizeof c;
@@ -198,24 +211,24 @@ TEST(Vmc, BundleHoldsTheProtocolsMessagesInUnitysFrame) {
     const std::string types = lo_message_get_types(m);
     if (address == "/VMC/Ext/Bone/Pos") {
       EXPECT_EQ(types, "sfffffff");
-      const std::string name = &argv[0]->s;
+      const std::string name = S(argv[0]);
       const float* want = name == "Hips" ? p.hips_position : p.offset[KATA_BONE_SPINE];
-      EXPECT_FLOAT_EQ(argv[1]->f, -2.0f * want[0]) << name;  // mirrored, scaled
-      EXPECT_FLOAT_EQ(argv[2]->f, 2.0f * want[1]);
-      EXPECT_FLOAT_EQ(argv[3]->f, 2.0f * want[2]);
-      EXPECT_FLOAT_EQ(argv[4]->f, q.x());
-      EXPECT_FLOAT_EQ(argv[5]->f, -q.y());
-      EXPECT_FLOAT_EQ(argv[6]->f, -q.z());
-      EXPECT_FLOAT_EQ(argv[7]->f, q.w());
+      EXPECT_FLOAT_EQ(F(argv[1]), -2.0f * want[0]) << name;  // mirrored, scaled
+      EXPECT_FLOAT_EQ(F(argv[2]), 2.0f * want[1]);
+      EXPECT_FLOAT_EQ(F(argv[3]), 2.0f * want[2]);
+      EXPECT_FLOAT_EQ(F(argv[4]), q.x());
+      EXPECT_FLOAT_EQ(F(argv[5]), -q.y());
+      EXPECT_FLOAT_EQ(F(argv[6]), -q.z());
+      EXPECT_FLOAT_EQ(F(argv[7]), q.w());
     } else if (address == "/VMC/Ext/Root/Pos") {
       EXPECT_EQ(types, "sfffffff");
-      EXPECT_STREQ(&argv[0]->s, "root");
+      EXPECT_STREQ(S(argv[0]), "root");
     } else if (address == "/VMC/Ext/OK") {
       EXPECT_EQ(types, "i");
-      EXPECT_EQ(argv[0]->i, 1);
+      EXPECT_EQ(I(argv[0]), 1);
     } else if (address == "/VMC/Ext/T") {
       EXPECT_EQ(types, "f");
-      EXPECT_FLOAT_EQ(argv[0]->f, 1.5f);
+      EXPECT_FLOAT_EQ(F(argv[0]), 1.5f);
     }
     lo_message_free(m);
     at += n;

@@ -102,7 +102,7 @@ typedef struct kata_vmc_counters {
   uint64_t unknown_bone;  /* Bone/Pos messages skipped: a name not among the VRM humanoid bones
                              (fingers, eyes, jaw: not used; any other name) */
   uint64_t bad_value;     /* messages skipped: a value not finite, a zero quaternion, a position
-                             beyond 10 km */
+                             beyond 10 km; datagrams dropped: a frame time beyond +-1e10 s */
   uint64_t out_of_order;  /* datagrams dropped whole: their frame's time not after the previous
                              frame's (within 1 s; a jump back of more is a restarted sender) */
   uint64_t ignored;       /* messages of other addresses (blend shapes, devices, /VMC/Ext/OK) */

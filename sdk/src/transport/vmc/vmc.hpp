@@ -34,9 +34,9 @@ struct Counters {
 // Frames: a packet that carries /VMC/Ext/T ends a frame (a performer sends it once per frame); a
 // sender that never sends it ends one with every packet that carries a bone or the root.
 // A frame's time: the packet's /VMC/Ext/T, else its bundle's timetag (not "immediately"), else the
-// arrival time; a time not after the previous frame's (within 1 s) is out of order: the packet is
-// dropped whole; a jump back of more than 1 s is a restarted sender: its times are shifted to
-// follow on.
+// arrival time; a time beyond +-1e10 s is a bad value; a time not after the previous frame's
+// (within 1 s) is out of order: the packet is dropped whole; a jump back of more than 1 s is a
+// restarted sender: its times are shifted to follow on.
 // A malformed packet (not OSC, truncated, bundles nested deeper than 8) or an oversized one
 // (above max_packet_bytes, or more than 1024 elements) changes nothing. Within a good packet, a
 // message with unexpected argument types, an unknown bone, or a value that is not finite (or a
@@ -53,6 +53,7 @@ class Reader {
   static constexpr size_t kMaxElements = 1024;
   static constexpr int kMaxDepth = 8;
   static constexpr float kMaxCoordinate = 1.0e4f;  // metres
+  static constexpr double kMaxTime = 1.0e10;       // seconds: a sender's time beyond is a bad value
 
   explicit Reader(size_t max_packet_bytes);
 

@@ -26,6 +26,15 @@ int bone_index(const char* name) {
   return -1;
 }
 
+// liblo's lo_arg pointers point into the message at 4-byte alignment, but lo_arg is a union with
+// 8-byte members: its fields are read by copying, never through the union (UBSan: misaligned).
+float float_arg(const lo_arg* a) {
+  float v;
+  std::memcpy(&v, a, sizeof v);
+  return v;
+}
+const char* string_arg(const lo_arg* a) { return reinterpret_cast<const char*>(a); }
+
 bool finite_all(const float* v, int n) {
   for (int i = 0; i < n; ++i)
     if (!std::isfinite(v[i])) return false;
@@ -35,8 +44,8 @@ bool finite_all(const float* v, int n) {
 // Seven floats (a position and a quaternion) from argv[1..7], checked: finite, the position within
 // Reader::kMaxCoordinate, the quaternion not zero (normalised here). False: a bad value.
 bool pose_args(lo_arg** argv, float* p, float* q) {
-  for (int k = 0; k < 3; ++k) p[k] = argv[1 + k]->f;
-  for (int k = 0; k < 4; ++k) q[k] = argv[4 + k]->f;
+  for (int k = 0; k < 3; ++k) p[k] = float_arg(argv[1 + k]);
+  for (int k = 0; k < 4; ++k) q[k] = float_arg(argv[4 + k]);
   if (!finite_all(p, 3) || !finite_all(q, 4)) return false;
   for (int k = 0; k < 3; ++k)
     if (std::fabs(p[k]) > Reader::kMaxCoordinate) return false;
@@ -86,7 +95,7 @@ bool Reader::read(const void* packet, size_t size, double arrival_time) {
     return false;
   }
   const double source = p.has_time ? p.time : p.has_timetag ? p.timetag : arrival_time;
-  if (!std::isfinite(source)) {
+  if (!std::isfinite(source) || std::fabs(source) > kMaxTime) {
     ++counters_.bad_value;
     return false;
   }
@@ -96,8 +105,14 @@ bool Reader::read(const void* packet, size_t size, double arrival_time) {
       ++counters_.out_of_order;
       return false;
     }
+    const double before = shift_;
     shift_ += capture_time_ + last_step_ - t;  // the sender restarted its clock: follow on
     t = source + shift_;
+    if (!(t > capture_time_) || std::fabs(shift_) > 4.0 * kMaxTime) {  // rounding near the bound: never back
+      shift_ = before;
+      ++counters_.out_of_order;
+      return false;
+    }
   }
   if (has_frame_) last_step_ = std::min(std::max(t - capture_time_, 1e-4), 1.0);
   last_source_time_ = source;
@@ -159,7 +174,7 @@ void Reader::message(const uint8_t* data, size_t size, Packet& p) {
       ++pending_counts_.wrong_type;
     } else {
       float pos[3], q[4];
-      const int j = bone ? bone_index(&argv[0]->s) : 0;
+      const int j = bone ? bone_index(string_arg(argv[0])) : 0;
       if (bone && j < 0) {
         ++pending_counts_.unknown_bone;
       } else if (!pose_args(argv, pos, q)) {
@@ -178,9 +193,9 @@ void Reader::message(const uint8_t* data, size_t size, Packet& p) {
       }
     }
   } else if (std::strcmp(address, "/VMC/Ext/T") == 0) {
-    if (types && argc == 1 && types[0] == 'f' && std::isfinite(argv[0]->f)) {
+    if (types && argc == 1 && types[0] == 'f' && std::isfinite(float_arg(argv[0]))) {
       p.has_time = true;
-      p.time = argv[0]->f;
+      p.time = float_arg(argv[0]);
     } else if (types && argc == 1 && types[0] == 'f') {
       ++pending_counts_.bad_value;
     } else {
