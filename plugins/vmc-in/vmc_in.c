@@ -8,9 +8,10 @@
  *               interface: a tracker on another machine)
  *   stream      the stream id (default 0)
  *   max_packet  the largest datagram taken, bytes (default 65536; larger are counted oversized)
- *   max_rate    frames pushed per second at most (default 250): a sender faster than this (a flood)
- *               has its extra frames counted and not pushed, so it cannot crowd the runtime's
- *               other streams; the newest pose goes with the next frame pushed
+ *   max_rate    frames pushed per second at most, on average (default 250; bursts of a tenth of a
+ *               second's worth pass): a sender faster than this (a flood) has its extra frames
+ *               counted and not pushed, so it cannot crowd the runtime's other streams; the newest
+ *               pose goes with the next frame pushed
  * On stop it logs what it counted: datagrams, frames pushed, and each cause of a refusal
  * (kata_vmc_counters), frames over max_rate, frames the runtime's queue refused.
  * Public headers only: kata_plugin.h, and kata.h for the VMC reader. */
@@ -37,7 +38,8 @@ typedef struct vmc_in {
   char bind[64];
   int port;
   uint32_t max_packet;
-  double min_interval; /* seconds between pushed frames (1 / max_rate) */
+  double max_rate;     /* frames pushed per second at most, on average (a token bucket) */
+  double burst;        /* frames pushed at once at most (a tenth of a second's worth, at least 2) */
   kata_context context;
   kata_vmc_reader reader;
   kata_skeleton skeleton;
@@ -107,7 +109,8 @@ static void* activate(const kata_plugin_host* host, const char* config, char* er
     snprintf(error, capacity, "vmc-in: port must be 1..65535, max_rate > 0, max_packet 16..1048576");
     goto fail;
   }
-  v->min_interval = 1.0 / max_rate;
+  v->max_rate = max_rate;
+  v->burst = max_rate / 10.0 < 2.0 ? 2.0 : max_rate / 10.0;
   if (kata_context_create(&v->context) != KATA_OK ||
       kata_vmc_reader_create(v->context, v->max_packet, &v->reader) != KATA_OK ||
       kata_skeleton_create_layout(v->context, "vrm", &v->skeleton) != KATA_OK) {
@@ -144,7 +147,7 @@ static void deactivate(void* instance) { free_vmc_in((vmc_in*)instance); }
 static void* receive(void* arg) {
   vmc_in* v = (vmc_in*)arg;
   float xyz[3 * KATA_VMC_JOINTS];
-  double last_push = -1e300;
+  double tokens = v->burst, last = now_seconds();
   struct pollfd p;
   p.fd = v->fd;
   p.events = POLLIN;
@@ -159,11 +162,14 @@ static void* receive(void* arg) {
       arrival = now_seconds();
       kata_vmc_reader_read(v->reader, v->buffer, (size_t)n, arrival, &frame);
       if (!frame || kata_vmc_reader_positions(v->reader, xyz, 3 * KATA_VMC_JOINTS, &t) != KATA_OK) continue;
-      if (arrival - last_push < v->min_interval) {
+      tokens += (arrival - last) * v->max_rate; /* the bucket refills at max_rate, up to burst */
+      if (tokens > v->burst) tokens = v->burst;
+      last = arrival;
+      if (tokens < 1.0) {
         ++v->over_rate;
         continue;
       }
-      last_push = arrival;
+      tokens -= 1.0;
       if (v->host->push_frame(v->host->host_data, v->stream_id, v->sequence++, t, xyz, KATA_VMC_JOINTS) != 0)
         ++v->push_refused;
       else

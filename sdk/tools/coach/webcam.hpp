@@ -51,6 +51,7 @@ struct WebcamSettings {
   std::string record_teacher;                  // record mode: landmarks .npy (+ .times.npy), no scoring
   std::string record_student;                  // a lesson also keeps what the page sent here
   int complexity = 0;                          // MediaPipe model: 0 lite, 1 full, 2 heavy
+  std::string vmc, vmc_student;                // VMC receivers (HOST:PORT) of the ghost / the student
 };
 
 constexpr int kWebcamLandmarks = 33;
