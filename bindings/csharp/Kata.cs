@@ -31,6 +31,19 @@ namespace Kata
     public enum UpAxis { Y = 0, Z = 1 }
     public enum BodyPart { TorsoHead = 0, LeftArm = 1, RightArm = 2, LeftLeg = 3, RightLeg = 4 }
 
+    // kata_humanoid_bone (kata/humanoid.h): the VRM humanoid bones, in the C ABI's order.
+    public enum HumanoidBone
+    {
+        Hips = 0, Spine = 1, Chest = 2, UpperChest = 3, Neck = 4, Head = 5,
+        LeftShoulder = 6, LeftUpperArm = 7, LeftLowerArm = 8, LeftHand = 9,
+        RightShoulder = 10, RightUpperArm = 11, RightLowerArm = 12, RightHand = 13,
+        LeftUpperLeg = 14, LeftLowerLeg = 15, LeftFoot = 16, LeftToes = 17,
+        RightUpperLeg = 18, RightLowerLeg = 19, RightFoot = 20, RightToes = 21
+    }
+
+    // kata_humanoid_frame: the rig's own right-handed Y-up metres, or Unity's left-handed mirror (as VMC sends).
+    public enum HumanoidFrame { RightHanded = 0, Unity = 1 }
+
     public static class Gpd
     {
         public const int Dims = 1683;   // KATA_GPD_DIMS
@@ -77,6 +90,16 @@ namespace Kata
         public double Stress;
         public double MaxBoneErrorSolved;
         public double MaxBoneError;
+    }
+
+    // kata_humanoid_desc (kata/humanoid.h).
+    [StructLayout(LayoutKind.Sequential)]
+    public struct HumanoidDesc
+    {
+        public uint StructSize;
+        public IntPtr Layout;          // const char*
+        public UpAxis UpAxis;
+        public double MetresPerUnit;   // 0: the layout's
     }
 
     [StructLayout(LayoutKind.Sequential)]
@@ -279,6 +302,27 @@ namespace Kata
         [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_stream_ghost_joint_count(StreamHandle stream);
         [DllImport(Lib, CallingConvention = CC)] public static extern int kata_stream_ghost_joint_source(StreamHandle stream, uint i);
 
+        // the humanoid (VRM) rig, kata/humanoid.h; poses go through unmanaged memory (HumanoidRig holds it)
+        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_humanoid_bone_name(int bone);
+        [DllImport(Lib, CallingConvention = CC)] public static extern int kata_humanoid_bone_find(byte[] name);
+        [DllImport(Lib, CallingConvention = CC)] public static extern int kata_humanoid_bone_parent(int bone);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_humanoid_desc_init_sized(ref HumanoidDesc desc, uint structSize);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_humanoid_rig_create(ContextHandle ctx, SkeletonHandle skeleton, ref HumanoidDesc desc, out HumanoidRigHandle rig);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_humanoid_rig_create_for_stream(ContextHandle ctx, StreamHandle stream, ref HumanoidDesc desc, out HumanoidRigHandle rig);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_humanoid_rig_destroy(IntPtr rig);
+        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_humanoid_rig_last_error(HumanoidRigHandle rig);
+        [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_humanoid_rig_joint_count(HumanoidRigHandle rig);
+        [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_humanoid_rig_ghost_joint_count(HumanoidRigHandle rig);
+        [DllImport(Lib, CallingConvention = CC)] public static extern uint kata_humanoid_rig_placed(HumanoidRigHandle rig);
+        [DllImport(Lib, CallingConvention = CC)] public static extern double kata_humanoid_rig_metres_per_unit(HumanoidRigHandle rig);
+        [DllImport(Lib, CallingConvention = CC)] public static extern int kata_humanoid_rig_bone_source(HumanoidRigHandle rig, int bone);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_humanoid_rig_calibrate(HumanoidRigHandle rig, float[] positions, uint jointCount, uint frames);
+        [DllImport(Lib, CallingConvention = CC)] public static extern int kata_humanoid_rig_calibrated(HumanoidRigHandle rig);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_humanoid_rig_rest_pose(HumanoidRigHandle rig, int frame, IntPtr pose);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_humanoid_rig_pose(HumanoidRigHandle rig, float[] positions, uint jointCount, int frame, IntPtr pose);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_humanoid_rig_pose_ghost(HumanoidRigHandle rig, float[] ghost, uint ghostJointCount, int frame, IntPtr pose);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_humanoid_pose_joints(IntPtr pose, [Out] float[] positions, UIntPtr capacity, [Out] float[] rotations, UIntPtr rotationCapacity);
+
         // ---- helpers: UTF-8 both ways (no reliance on CharSet, which differs between runtimes) ----
         public static byte[] Utf8(string s)
         {
@@ -385,6 +429,7 @@ namespace Kata
     public sealed class ModelHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_model_destroy(h); } }
     public sealed class TeacherHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_teacher_destroy(h); } }
     public sealed class RetargeterHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_retargeter_destroy(h); } }
+    public sealed class HumanoidRigHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_humanoid_rig_destroy(h); } }
 
     // ---- objects ------------------------------------------------------------------------------------------
 
@@ -540,6 +585,38 @@ namespace Kata
         }
 
         public Stream OpenStream(Skeleton skeleton, string layout = "cmu") { return OpenStream(skeleton, layout, DefaultStreamDesc()); }
+
+        // kata_humanoid_rig_create: frames of `skeleton` read through `layout` in `upAxis`; metresPerUnit 0
+        // takes the layout's (CMU 0.056444, azure-kinect 0.001, else 1).
+        public HumanoidRig CreateHumanoidRig(Skeleton skeleton, string layout = "cmu", UpAxis upAxis = UpAxis.Y,
+                                             double metresPerUnit = 0)
+        {
+            HumanoidDesc d = new HumanoidDesc();
+            Native.kata_humanoid_desc_init_sized(ref d, (uint)Marshal.SizeOf(typeof(HumanoidDesc)));
+            GCHandle pin = GCHandle.Alloc(Native.Utf8(layout), GCHandleType.Pinned);
+            try
+            {
+                d.Layout = pin.AddrOfPinnedObject();
+                d.UpAxis = upAxis;
+                d.MetresPerUnit = metresPerUnit;
+                HumanoidRigHandle h;
+                Status s = Native.kata_humanoid_rig_create(Handle, skeleton.Handle, ref d, out h);
+                return new HumanoidRig(Check(s, h, "kata_humanoid_rig_create"));
+            }
+            finally { pin.Free(); }
+        }
+
+        // kata_humanoid_rig_create_for_stream: the stream's skeleton, layout and axes, and its ghost (attach
+        // the teacher first).
+        public HumanoidRig CreateHumanoidRig(Stream stream, double metresPerUnit = 0)
+        {
+            HumanoidDesc d = new HumanoidDesc();
+            Native.kata_humanoid_desc_init_sized(ref d, (uint)Marshal.SizeOf(typeof(HumanoidDesc)));
+            d.MetresPerUnit = metresPerUnit;
+            HumanoidRigHandle h;
+            Status s = Native.kata_humanoid_rig_create_for_stream(Handle, stream.Handle, ref d, out h);
+            return new HumanoidRig(Check(s, h, "kata_humanoid_rig_create_for_stream"));
+        }
     }
 
     public sealed class Skeleton : IDisposable
@@ -805,5 +882,103 @@ namespace Kata
         }
 
         public void Reset() { Status s = Native.kata_retargeter_reset(Handle); if (s != Status.Ok) Throw(s, "kata_retargeter_reset"); }
+    }
+
+    // One frame of a humanoid (kata_humanoid_pose, kata/humanoid.h): Rotation[4 b .. 4 b + 3] is bone b's
+    // local rotation x, y, z, w relative to the T-pose; Offset[3 b ..] its joint's offset from its parent's
+    // in the parent's frame (metres). Reused from frame to frame: HumanoidRig.Pose fills it in place.
+    public sealed class HumanoidPose
+    {
+        public const int BoneCount = 22;                  // KATA_BONE_COUNT
+        public HumanoidFrame Frame;
+        public uint Placed;                               // bit b: bone b is placed
+        public uint Degenerate;                           // bit b: bone b's direction or turn was degenerate
+        public readonly float[] HipsPosition = new float[3];
+        public readonly float[] Rotation = new float[4 * BoneCount];
+        public readonly float[] Offset = new float[3 * BoneCount];
+        public bool IsPlaced(HumanoidBone bone) { return (Placed >> (int)bone & 1) != 0; }
+
+        public static string BoneName(HumanoidBone bone) { return Native.FromUtf8(Native.kata_humanoid_bone_name((int)bone)); }
+        public static int BoneParent(HumanoidBone bone) { return Native.kata_humanoid_bone_parent((int)bone); }
+        public static int FindBone(string name) { return Native.kata_humanoid_bone_find(Native.Utf8(name)); }
+    }
+
+    // A layout's joints on the VRM humanoid bones with the student's bone lengths (kata_humanoid_rig);
+    // one thread at a time. Pose and PoseGhost allocate nothing (the pose crosses through a buffer the rig holds).
+    public sealed class HumanoidRig : IDisposable
+    {
+        // kata_humanoid_pose's layout (x86-64 and arm64): struct_size, placed, frame, hips[3], rotation[22][4],
+        // offset[22][3], degenerate, reserved.
+        private const int HipsAt = 12, RotationAt = 24, OffsetAt = 376, DegenerateAt = 640, PoseSize = 648;
+        public readonly HumanoidRigHandle Handle;
+        private IntPtr pose;
+        internal HumanoidRig(HumanoidRigHandle h)
+        {
+            Handle = h;
+            pose = Marshal.AllocHGlobal(PoseSize);
+        }
+        public void Dispose()
+        {
+            Handle.Dispose();
+            if (pose != IntPtr.Zero) { Marshal.FreeHGlobal(pose); pose = IntPtr.Zero; }
+        }
+        ~HumanoidRig() { if (pose != IntPtr.Zero) { Marshal.FreeHGlobal(pose); pose = IntPtr.Zero; } }
+        private void Throw(Status s, string call) { throw new KataException(s, Native.FromUtf8(Native.kata_humanoid_rig_last_error(Handle)), call); }
+
+        public uint JointCount { get { return Native.kata_humanoid_rig_joint_count(Handle); } }
+        public uint GhostJointCount { get { return Native.kata_humanoid_rig_ghost_joint_count(Handle); } }
+        public uint Placed { get { return Native.kata_humanoid_rig_placed(Handle); } }
+        public double MetresPerUnit { get { return Native.kata_humanoid_rig_metres_per_unit(Handle); } }
+        public bool Calibrated { get { return Native.kata_humanoid_rig_calibrated(Handle) != 0; } }
+        public int BoneSource(HumanoidBone bone) { return Native.kata_humanoid_rig_bone_source(Handle, (int)bone); }
+
+        // kata_humanoid_rig_calibrate: rest bone lengths as medians over `frames` frames (frames x joints x 3).
+        public void Calibrate(float[] positions, uint frames)
+        {
+            Status s = Native.kata_humanoid_rig_calibrate(Handle, positions, frames == 0 ? 0 : (uint)(positions.Length / 3 / frames), frames);
+            if (s != Status.Ok) Throw(s, "kata_humanoid_rig_calibrate");
+        }
+
+        private HumanoidPose Read(HumanoidPose into)
+        {
+            HumanoidPose p = into ?? new HumanoidPose();
+            p.Placed = (uint)Marshal.ReadInt32(pose, 4);
+            p.Frame = (HumanoidFrame)Marshal.ReadInt32(pose, 8);
+            p.Degenerate = (uint)Marshal.ReadInt32(pose, DegenerateAt);
+            Marshal.Copy(pose + HipsAt, p.HipsPosition, 0, 3);
+            Marshal.Copy(pose + RotationAt, p.Rotation, 0, 4 * HumanoidPose.BoneCount);
+            Marshal.Copy(pose + OffsetAt, p.Offset, 0, 3 * HumanoidPose.BoneCount);
+            return p;
+        }
+
+        private void Begin() { Marshal.WriteInt32(pose, 0, PoseSize); }
+
+        // kata_humanoid_rig_pose: one frame (every skeleton joint x 3, input units and axes) into `into`
+        // (a new pose when null).
+        public HumanoidPose Pose(float[] positions, HumanoidFrame frame = HumanoidFrame.RightHanded, HumanoidPose into = null)
+        {
+            Begin();
+            Status s = Native.kata_humanoid_rig_pose(Handle, positions, (uint)(positions.Length / 3), (int)frame, pose);
+            if (s != Status.Ok) Throw(s, "kata_humanoid_rig_pose");
+            return Read(into);
+        }
+
+        // kata_humanoid_rig_pose_ghost: a ghost of the rig's stream (GhostJointCount x 3).
+        public HumanoidPose PoseGhost(float[] ghost, HumanoidFrame frame = HumanoidFrame.RightHanded, HumanoidPose into = null)
+        {
+            Begin();
+            Status s = Native.kata_humanoid_rig_pose_ghost(Handle, ghost, (uint)(ghost.Length / 3), (int)frame, pose);
+            if (s != Status.Ok) Throw(s, "kata_humanoid_rig_pose_ghost");
+            return Read(into);
+        }
+
+        // kata_humanoid_rig_rest_pose: the T-pose (identity rotations, rest offsets).
+        public HumanoidPose RestPose(HumanoidFrame frame = HumanoidFrame.RightHanded)
+        {
+            Begin();
+            Status s = Native.kata_humanoid_rig_rest_pose(Handle, (int)frame, pose);
+            if (s != Status.Ok) Throw(s, "kata_humanoid_rig_rest_pose");
+            return Read(null);
+        }
     }
 }

@@ -350,6 +350,82 @@ static class KataTests
         }
     }
 
+    // Forward kinematics of a humanoid pose, written here: G_b = G_parent R_b, X_b = X_parent + G_parent offset_b.
+    static double[] HumanoidJoints(HumanoidPose p)
+    {
+        int n = HumanoidPose.BoneCount;
+        double[] g = new double[4 * n], x = new double[3 * n];
+        for (int b = 0; b < n; ++b)
+        {
+            int q = HumanoidPose.BoneParent((HumanoidBone)b);
+            double rx = p.Rotation[4 * b], ry = p.Rotation[4 * b + 1], rz = p.Rotation[4 * b + 2], rw = p.Rotation[4 * b + 3];
+            if (q < 0)
+            {
+                g[0] = rx; g[1] = ry; g[2] = rz; g[3] = rw;
+                for (int k = 0; k < 3; ++k) x[k] = p.HipsPosition[k];
+                continue;
+            }
+            double px = g[4 * q], py = g[4 * q + 1], pz = g[4 * q + 2], pw = g[4 * q + 3];
+            // v' = v + 2 u x (u x v + w v), u = (px, py, pz)
+            double vx = p.Offset[3 * b], vy = p.Offset[3 * b + 1], vz = p.Offset[3 * b + 2];
+            double cx = py * vz - pz * vy + pw * vx, cy = pz * vx - px * vz + pw * vy, cz = px * vy - py * vx + pw * vz;
+            x[3 * b] = x[3 * q] + vx + 2 * (py * cz - pz * cy);
+            x[3 * b + 1] = x[3 * q + 1] + vy + 2 * (pz * cx - px * cz);
+            x[3 * b + 2] = x[3 * q + 2] + vz + 2 * (px * cy - py * cx);
+            g[4 * b] = pw * rx + px * rw + py * rz - pz * ry;
+            g[4 * b + 1] = pw * ry - px * rz + py * rw + pz * rx;
+            g[4 * b + 2] = pw * rz + px * ry - py * rx + pz * rw;
+            g[4 * b + 3] = pw * rw - px * rx - py * ry - pz * rz;
+        }
+        return x;
+    }
+
+    // kata/humanoid.h: FK of a CMU clip's humanoid poses puts every bone's joint back; Unity's frame mirrors.
+    static void HumanoidRigOfAClip(Context ctx, string repo)
+    {
+        string[] boneJoint = { "Hips", "Hips", "Spine", "Spine1", "Neck1", "Head", "Spine1", "LeftArm", "LeftForeArm",
+                               "LeftHand", "Spine1", "RightArm", "RightForeArm", "RightHand", "LeftUpLeg", "LeftLeg",
+                               "LeftFoot", "LeftToeBase", "RightUpLeg", "RightLeg", "RightFoot", "RightToeBase" };
+        Check(HumanoidPose.BoneName(HumanoidBone.LeftUpperArm) == "LeftUpperArm" && HumanoidPose.FindBone("RightToes") == 21 &&
+              HumanoidPose.BoneParent(HumanoidBone.Neck) == (int)HumanoidBone.UpperChest, "humanoid bone names and tree");
+        using (Clip clip = ctx.LoadClip(Path.Combine(repo, "data/cmu/02_01.bvh")))
+        using (Skeleton sk = clip.Skeleton())
+        using (HumanoidRig rig = ctx.CreateHumanoidRig(sk))
+        {
+            Check(rig.Placed == (1u << 22) - 1 && rig.Calibrated && Math.Abs(rig.MetresPerUnit - 0.056444) < 1e-12,
+                  "humanoid rig of a CMU clip: placed " + rig.Placed);
+            int[] index = new int[22];
+            for (int b = 0; b < 22; ++b)
+                for (uint j = 0; j < sk.JointCount; ++j)
+                    if (sk.JointName(j) == boneJoint[b]) index[b] = (int)j;
+            float[] xyz = new float[3 * (int)sk.JointCount];
+            HumanoidPose p = new HumanoidPose(), u = new HumanoidPose();
+            double worst = 0, worstMirror = 0, worstNorm = 0;
+            for (uint f = 1; f < clip.FrameCount; ++f)
+            {
+                clip.Positions(f, xyz);
+                rig.Pose(xyz, HumanoidFrame.RightHanded, p);
+                rig.Pose(xyz, HumanoidFrame.Unity, u);
+                double[] x = HumanoidJoints(p), xu = HumanoidJoints(u);
+                for (int b = 0; b < 22; ++b)
+                {
+                    for (int k = 0; k < 3; ++k)
+                    {
+                        worst = Math.Max(worst, Math.Abs(x[3 * b + k] - 0.056444 * xyz[3 * index[b] + k]));
+                        worstMirror = Math.Max(worstMirror, Math.Abs(xu[3 * b + k] - (k == 0 ? -x[3 * b] : x[3 * b + k])));
+                    }
+                    double n = 0;
+                    for (int k = 0; k < 4; ++k) n += (double)p.Rotation[4 * b + k] * p.Rotation[4 * b + k];
+                    worstNorm = Math.Max(worstNorm, Math.Abs(Math.Sqrt(n) - 1));
+                }
+            }
+            Check(worst < 1.7e-4 && worstMirror < 1e-5 && worstNorm < 1e-6,
+                  "humanoid FK: " + worst + " m, Unity mirror " + worstMirror + " m, |q| - 1 " + worstNorm);
+            try { rig.PoseGhost(xyz); Check(false, "a rig without a ghost posed one"); }
+            catch (KataException e) { Check(e.Status == Status.State && e.NativeMessage.Length > 0, "PoseGhost without a ghost: " + e.Message); }
+        }
+    }
+
     static int Main(string[] args)
     {
         if (args.Length == 1 && args[0] == "--expect-wrong-version")
@@ -375,6 +451,7 @@ static class KataTests
             TeacherAsFeaturesAndTheNewestResult(ctx, repo);
             OnePointOneTeacherAndJoints(ctx, repo);
             SharedTeacherScoresAsAttachTeacher(ctx, repo);
+            HumanoidRigOfAClip(ctx, repo);
         }
         HandlesReleasedOnce(repo);
         Console.WriteLine(failures == 0 ? "all C# binding checks passed" : failures + " checks failed");

@@ -16,7 +16,8 @@ objects (Context, Skeleton, Clip, Model, Landmarks, the enums, find_data), strea
 gpd_joint_name / gpd_joint_part / body_part_name / gpd_joint_words),
 retarget (Retargeter), messages (Subscriber, read_message, write_skeleton / write_frame /
 write_practice), runtime (Runtime), mediapipe
-(MediaPipe Pose recordings and live feeds scored against a BVH teacher); _native holds every
+(MediaPipe Pose recordings and live feeds scored against a BVH teacher), humanoid (HumanoidRig: the
+student and the ghost as VRM bone rotations); _native holds every
 ctypes declaration. The C header kata.h is the manual: units, ownership and thread rules are its.
 
 Results are never lost in silence: a stream keeps result_capacity results (64) until read; a
@@ -40,6 +41,8 @@ from .retarget import Retargeter
 from .messages import (PracticeSection, ResultMessage, Subscriber, read_message, write_frame, write_frame_batch, write_practice,
                        write_skeleton)
 from .runtime import Runtime, shard_of
+from .humanoid import (BONE_COUNT, BONE_NAMES, BONE_PARENTS, Bone, HumanoidFrame, HumanoidPose, HumanoidRig, bone_find,
+                       bone_name, bone_parent)
 
 #: The loaded libkata's version as "MAJOR.MINOR.PATCH" (the package is versioned with it).
 __version__ = "%d.%d.%d" % version
@@ -50,7 +53,9 @@ __all__ = ["Context", "Skeleton", "Clip", "Model", "Teacher", "Landmarks", "Stre
            "BodyPart", "CueAction", "cue_text", "gpd_joint_name", "gpd_joint_part", "body_part_name",
            "gpd_joint_words", "read_message", "write_skeleton", "write_frame", "write_frame_batch",
            "write_practice", "shard_of", "detect_time_units", "default_model_path", "find_data", "layouts",
-           "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "DROP_POLICIES"]
+           "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "DROP_POLICIES",
+           "HumanoidRig", "HumanoidPose", "HumanoidFrame", "Bone", "BONE_COUNT", "BONE_NAMES", "BONE_PARENTS",
+           "bone_name", "bone_parent", "bone_find"]
 
 # kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the
 # installed package; used from a checkout, they are the build's (<repo>/build/python/kata/fb).

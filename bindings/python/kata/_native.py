@@ -222,6 +222,21 @@ class PracticeMessage(ctypes.Structure):
                 ("loop_end", ctypes.c_double)]
 
 
+class HumanoidDesc(ctypes.Structure):
+    _fields_ = [("struct_size", ctypes.c_uint32), ("layout", ctypes.c_char_p), ("up_axis", ctypes.c_int),
+                ("metres_per_unit", ctypes.c_double)]
+
+
+HUMANOID_BONES = 22  # KATA_BONE_COUNT
+
+
+class HumanoidPose(ctypes.Structure):
+    _fields_ = [("struct_size", ctypes.c_uint32), ("placed", ctypes.c_uint32), ("frame", ctypes.c_int32),
+                ("hips_position", ctypes.c_float * 3), ("rotation", (ctypes.c_float * 4) * HUMANOID_BONES),
+                ("offset", (ctypes.c_float * 3) * HUMANOID_BONES), ("degenerate", ctypes.c_uint32),
+                ("reserved", ctypes.c_uint32)]
+
+
 # ---- functions -------------------------------------------------------------------------------------
 
 _u32, _i32, _i64, _u64 = ctypes.c_uint32, ctypes.c_int32, ctypes.c_int64, ctypes.c_uint64
@@ -346,6 +361,27 @@ _SIGNATURES = {
     "kata_landmarks_frame_time": (_d, [_p]),
     "kata_landmarks_capture_time": (_d, [_p, _u32]),
     "kata_landmarks_positions": (_p, [_p]),
+    # the humanoid (VRM) rig, kata/humanoid.h
+    "kata_humanoid_bone_name": (_s, [ctypes.c_int]),
+    "kata_humanoid_bone_find": (ctypes.c_int, [_s]),
+    "kata_humanoid_bone_parent": (ctypes.c_int, [ctypes.c_int]),
+    "kata_humanoid_desc_init_sized": (None, [ctypes.POINTER(HumanoidDesc), _u32]),
+    "kata_humanoid_rig_create": (_st, [_p, _p, ctypes.POINTER(HumanoidDesc), _pp]),
+    "kata_humanoid_rig_create_for_stream": (_st, [_p, _p, ctypes.POINTER(HumanoidDesc), _pp]),
+    "kata_humanoid_rig_destroy": (None, [_p]),
+    "kata_humanoid_rig_last_error": (_s, [_p]),
+    "kata_humanoid_rig_joint_count": (_u32, [_p]),
+    "kata_humanoid_rig_ghost_joint_count": (_u32, [_p]),
+    "kata_humanoid_rig_placed": (_u32, [_p]),
+    "kata_humanoid_rig_metres_per_unit": (_d, [_p]),
+    "kata_humanoid_rig_bone_source": (_i32, [_p, _i32]),
+    "kata_humanoid_rig_calibrate": (_st, [_p, _p, _u32, _u32]),
+    "kata_humanoid_rig_calibrated": (_i32, [_p]),
+    "kata_humanoid_rig_rest_pose": (_st, [_p, _i32, ctypes.POINTER(HumanoidPose)]),
+    "kata_humanoid_rig_pose": (_st, [_p, _p, _u32, _i32, ctypes.POINTER(HumanoidPose)]),
+    "kata_humanoid_rig_pose_ghost": (_st, [_p, _p, _u32, _i32, ctypes.POINTER(HumanoidPose)]),
+    "kata_humanoid_pose_convert": (_st, [ctypes.POINTER(HumanoidPose), _i32]),
+    "kata_humanoid_pose_joints": (_st, [ctypes.POINTER(HumanoidPose), _p, _sz, _p, _sz]),
 }
 
 for _name, (_restype, _argtypes) in _SIGNATURES.items():

@@ -31,15 +31,17 @@
  *     Spine), Toes (LeftToeBase) and the hand's direction (to LeftHandIndex1); "mediapipe" Toes
  *     (foot_index), the hand's direction and turn (index and pinky landmarks) and the head's turn
  *     (ears and nose); "kinect2" and "azure-kinect" Toes (FootLeft, FOOT_LEFT) and the hand's
- *     direction (HandTipLeft, HANDTIP_LEFT) and turn (ThumbLeft, THUMB_LEFT); "xsens" Toes
- *     (LeftToe). A ghost places what its joints have of these.
+ *     direction (HandTipLeft, HANDTIP_LEFT) and turn (ThumbLeft, THUMB_LEFT), "azure-kinect" the
+ *     head's turn (EAR_LEFT, EAR_RIGHT, NOSE); "xsens" Toes (LeftToe). A ghost places what its
+ *     joints have of these (a ghost across layouts, the 16 GPD joints: the bones of every layout).
  *   A bone the layout does not place has the identity rotation and a zero offset in every pose,
  *   so forward kinematics over the fixed tree passes through it.
  * Rest: a T-pose facing +Z with +Y up (VRM 1.0's): the spine and neck straight up, the arms
  * straight out (the left arm along +X, the right along -X), the legs straight down, the feet
  * forward (+Z), every bone as long as the student's (measured: kata_humanoid_rig_calibrate).
- * The hip joints' offsets from the hips are the student's own pelvis (measured in the hips' frame,
- * below), and the hips stand so that the ankles are on the floor (Y = 0).
+ * The hip joints' offsets from the hips are the student's own pelvis, measured in the hips' rest
+ * frame (the hip line +X, the spine, hips to chest, straight up +Y), and the hips stand so that the
+ * ankles are on the floor (Y = 0).
  * Per frame: each placed bone's rotation relative to that T-pose, local (relative to its parent),
  * and each bone joint's offset from its parent's joint in the parent's frame:
  *   G_hips = R_hips,  X_hips = hips_position;  G_b = G_parent R_b,  X_b = X_parent + G_parent offset_b
@@ -57,15 +59,16 @@
  *     turn that puts the bend on its hinge (the upper arm: the forearm in the upper arm's XZ plane,
  *     elbow bending forward; the upper leg: the shin bending back), fading to the smallest rotation
  *     as the limb straightens (bend below 20 degrees, none below 5); the forearm (LowerArm) and
- *     the Hand take the hand's turn from the hand's points where the layout has them (MediaPipe:
- *     index minus pinky is the hand's +Z, the thumb's side), else the smallest rotation; every other bone the
- *     smallest rotation from its parent (a swing);
+ *     the Hand take the hand's turn from the hand's points where the layout has them (the thumb's
+ *     side is their +Z: MediaPipe's index minus pinky, Kinect's thumb minus wrist), else the
+ *     smallest rotation; every other bone the smallest rotation from its parent (a swing);
  *   - the hips' orientation from the hip line (left hip joint minus right: the hips' +X) and the
- *     pelvis (the hips' joint against the hip joints, which turns rigidly with the hips), or, where
- *     the hips' joint lies on the hip line, the hip line and the spine (hips to chest: +Y);
+ *     pelvis (the hips' joint against the hip joints, taken to turn rigidly with the hips, its lean
+ *     against the spine measured at rest), or, where the hips' joint lies on the hip line (within 5%
+ *     of the hip width at rest, 2% in a frame), the hip line and the spine (hips to chest: +Y);
  *   - the topmost chest bone's from the line between the upper arms' joints (its +X) and its
- *     bone; the head's from the ears and the nose where the layout has them (MediaPipe), else the
- *     neck's (identity rotation);
+ *     bone; the head's from the ears and the nose where the layout has them (the ear line +X, the
+ *     nose +Z), else the neck's (identity rotation);
  *   - a bone whose direction is degenerate (two joints at one point, or its parent's) keeps the
  *     identity rotation (its bit is set in kata_humanoid_pose.degenerate). No finite input gives
  *     a NaN.

@@ -31,6 +31,8 @@ constexpr double kEpsilon = 1e-9;
 constexpr double kPi = 3.14159265358979323846;
 // The bend twist fades in between these bend angles (a straight limb says nothing of its turn).
 constexpr double kBendNone = 5.0 * kPi / 180.0, kBendFull = 20.0 * kPi / 180.0;
+constexpr double kTanBendFull = 0.36397023426620234;  // tan(20 degrees)
+constexpr double kTanBendNone = 0.087488663525924;     // tan(5 degrees)
 // The lateral twists fade in as the reference's component across the bone grows (sine).
 constexpr double kLateralNone = 0.05, kLateralFull = 0.2;
 // A pelvis whose hips joint lies this close to the hip line (share of the hip width) takes its
@@ -40,25 +42,6 @@ constexpr double kTriangleMin = 0.05, kTriangleFrameMin = 0.02;
 double smoothstep(double x) {
   x = std::clamp(x, 0.0, 1.0);
   return x * x * (3.0 - 2.0 * x);
-}
-
-Matrix3d skew(const Vector3d& v) {
-  Matrix3d k;
-  k << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-  return k;
-}
-
-// The smallest rotation taking unit a onto unit b.
-Matrix3d swing(const Vector3d& a, const Vector3d& b) {
-  const double c = a.dot(b);
-  if (c > -1.0 + 1e-12) {
-    const Matrix3d k = skew(a.cross(b));
-    return Matrix3d::Identity() + k + k * k / (1.0 + c);
-  }
-  // Opposite: half a turn about any axis across a.
-  const Vector3d e = std::abs(a.x()) < 0.9 ? Vector3d::UnitX() : Vector3d::UnitY();
-  const Vector3d axis = a.cross(e).normalized();
-  return 2.0 * axis * axis.transpose() - Matrix3d::Identity();
 }
 
 Matrix3d about(const Vector3d& unit_axis, double angle) {
@@ -73,11 +56,45 @@ Matrix3d columns(const Vector3d& x, const Vector3d& y, const Vector3d& z) {
   return m;
 }
 
-Eigen::Vector4d quaternion(const Matrix3d& r) {
-  Eigen::Quaterniond q(r);
-  q.normalize();
-  if (q.w() < 0) q.coeffs() = -q.coeffs();
-  return {q.x(), q.y(), q.z(), q.w()};
+using Eigen::Quaterniond;
+
+// x y z w of a unit rotation, w >= 0 (products of unit quaternions stay unit to rounding).
+Eigen::Vector4d xyzw(const Quaterniond& q) {
+  const double sign = q.w() < 0 ? -1.0 : 1.0;
+  return {sign * q.x(), sign * q.y(), sign * q.z(), sign * q.w()};
+}
+
+// The smallest rotation taking unit a onto unit b: (1 + a.b, a x b), normalised.
+Quaterniond swing_q(const Vector3d& a, const Vector3d& b) {
+  const double c = a.dot(b);
+  const Vector3d v = a.cross(b);
+  // Normalised by its computed length (2 (1 + c) in exact arithmetic, not after rounding when a
+  // and b are nearly opposite).
+  const double n2 = (1.0 + c) * (1.0 + c) + v.squaredNorm();
+  if (n2 > 1e-20) {
+    const double k = 1.0 / std::sqrt(n2);
+    return Quaterniond((1.0 + c) * k, v.x() * k, v.y() * k, v.z() * k);
+  }
+  // Opposite: half a turn about any axis across a.
+  const Vector3d e = std::abs(a.x()) < 0.9 ? Vector3d::UnitX() : Vector3d::UnitY();
+  const Vector3d axis = a.cross(e).normalized();
+  return Quaterniond(0.0, axis.x(), axis.y(), axis.z());
+}
+
+// The turn about unit `axis` taking `from` toward `to` (both across the axis), by the share w of
+// its angle: always about the axis itself, so the bone's direction stays exact.
+Quaterniond twist_q(const Vector3d& from, const Vector3d& to, const Vector3d& axis, double w) {
+  const double c = from.dot(to), s = axis.dot(from.cross(to));
+  if (w >= 1.0) {
+    // (1 + cos t, sin t axis) is the half angle's direction; half a turn when t = pi.
+    Quaterniond q(1.0 + c, s * axis.x(), s * axis.y(), s * axis.z());
+    const double n = q.norm();
+    if (n > 1e-12) return Quaterniond(q.coeffs() / n);
+    return Quaterniond(0.0, axis.x(), axis.y(), axis.z());
+  }
+  const double half = 0.5 * w * std::atan2(s, c);
+  const double sh = std::sin(half);
+  return Quaterniond(std::cos(half), sh * axis.x(), sh * axis.y(), sh * axis.z());
 }
 
 double median(std::vector<double>& v) {
@@ -437,38 +454,41 @@ void Rig::rest_pose(Pose& out) const {
 }
 
 void Rig::pose(const Points& pts, Pose& out) const {
-  std::array<Matrix3d, kBoneCount> world;
+  // World rotations as quaternions (the per-frame path: no matrix per bone, no trigonometry but
+  // for a fading twist).
+  std::array<Quaterniond, kBoneCount> world;
   uint32_t degenerate = 0;
   out.placed = placed_;
   out.hips = pts.p[0];
-  world[kHips] = hips_frame(pts, degenerate);
-  out.rotation[kHips] = quaternion(world[kHips]);
+  world[kHips] = Quaterniond(hips_frame(pts, degenerate));
+  world[kHips].normalize();  // from a matrix: normalised once
+  out.rotation[kHips] = xyzw(world[kHips]);
   out.offset[kHips] = rest_offset_[kHips];
   for (int b = 1; b < kBoneCount; ++b) {
     const size_t bi = static_cast<size_t>(b);
+    const BoneDef& d = def_[bi];
     if (!(placed_ & (1u << b))) {
-      world[bi] = world[static_cast<size_t>(def_[bi].parent < 0 ? 0 : def_[bi].parent)];
+      world[bi] = world[static_cast<size_t>(d.parent < 0 ? 0 : d.parent)];
       out.rotation[bi] = Eigen::Vector4d(0, 0, 0, 1);
       out.offset[bi] = Vector3d::Zero();
       continue;
     }
-    const BoneDef& d = def_[bi];
-    const Matrix3d& parent = world[static_cast<size_t>(d.parent)];
-    Matrix3d g = parent;
+    const Quaterniond& parent = world[static_cast<size_t>(d.parent)];
+    Quaterniond g = parent;
     const Vector3d& at = pts.p[static_cast<size_t>(d.joint)];
     if (d.child >= 0) {
       const Vector3d dir = pts.p[static_cast<size_t>(d.child)] - at;
       const double len = dir.norm();
       if (len > kEpsilon) {
-        const Vector3d dn = dir / len;
-        g = swing(parent * d.axis, dn) * parent;
+        const Vector3d dn = dir * (1.0 / len);
+        g = swing_q(parent * d.axis, dn) * parent;
         if (d.twist != kSwing) {
           Vector3d s = Vector3d::Zero();
           switch (d.twist) {
             case kShoulderLine: s = pts.p[4] - pts.p[7]; break;
             case kBendForward:
             case kBendBack: {
-              const BoneDef& c = def_[static_cast<size_t>(b + 1)];  // the lower arm / leg
+              const BoneDef& c = def_[bi + 1];  // the lower arm / leg
               s = pts.p[static_cast<size_t>(c.child)] - pts.p[static_cast<size_t>(c.joint)];
               break;
             }
@@ -484,15 +504,26 @@ void Rig::pose(const Points& pts, Pose& out) const {
           const double an = across.norm();
           double w = 0.0;
           if (sn > kEpsilon && an > kEpsilon * sn) {
-            if (d.twist == kBendForward || d.twist == kBendBack)
-              w = smoothstep((std::atan2(an, s.dot(dn)) - kBendNone) / (kBendFull - kBendNone));
-            else
-              w = smoothstep((an / sn - kLateralNone) / (kLateralFull - kLateralNone));
+            if (d.twist == kBendForward || d.twist == kBendBack) {
+              // Bent past kBendFull (tan compared, no atan2 on the common path): the full turn.
+              const double along = s.dot(dn);
+              if (along <= 0.0 || an >= kTanBendFull * along) {
+                w = 1.0;
+              } else if (an <= kTanBendNone * along) {
+                w = 0.0;  // straight: no turn to read
+              } else {
+                const double bend = std::atan2(an, along);
+                w = smoothstep((bend - kBendNone) / (kBendFull - kBendNone));
+              }
+            } else {
+              const double r = an / sn;
+              w = r >= kLateralFull ? 1.0 : smoothstep((r - kLateralNone) / (kLateralFull - kLateralNone));
+            }
           }
           if (w > 0.0) {
             const Vector3d cur = g * d.secondary;
-            const double theta = std::atan2(dn.dot(cur.cross(across)), cur.dot(across));
-            g = about(dn, w * theta) * g;
+            const Vector3d target = across * (1.0 / an);
+            g = twist_q(cur, target, dn, w) * g;
           } else if (d.twist != kBendForward && d.twist != kBendBack) {
             degenerate |= 1u << b;  // no turn to read: the smallest rotation
           }
@@ -504,22 +535,19 @@ void Rig::pose(const Points& pts, Pose& out) const {
       const Vector3d ex = pts.p[kPointLeftEar] - pts.p[kPointRightEar];
       const Vector3d fwd = pts.p[kPointNose] - 0.5 * (pts.p[kPointLeftEar] + pts.p[kPointRightEar]);
       const double exn = ex.norm();
-      if (exn > kEpsilon) {
-        const Vector3d xh = ex / exn;
-        const Vector3d zv = fwd - fwd.dot(xh) * xh;
-        if (zv.norm() > kEpsilon) {
-          const Vector3d zh = zv.normalized();
-          g = columns(xh, zh.cross(xh), zh);
-        } else {
-          degenerate |= 1u << b;
-        }
+      const Vector3d xh = exn > kEpsilon ? Vector3d(ex / exn) : Vector3d::UnitX();
+      const Vector3d zv = fwd - fwd.dot(xh) * xh;
+      if (exn > kEpsilon && zv.norm() > kEpsilon) {
+        const Vector3d zh = zv.normalized();
+        g = Quaterniond(columns(xh, zh.cross(xh), zh));
+        g.normalize();
       } else {
         degenerate |= 1u << b;
       }
     }
     world[bi] = g;
-    out.rotation[bi] = quaternion(parent.transpose() * g);
-    out.offset[bi] = parent.transpose() * (at - pts.p[static_cast<size_t>(def_[static_cast<size_t>(d.parent)].joint)]);
+    out.rotation[bi] = xyzw(parent.conjugate() * g);
+    out.offset[bi] = parent.conjugate() * (at - pts.p[static_cast<size_t>(def_[static_cast<size_t>(d.parent)].joint)]);
   }
   out.degenerate = degenerate;
 }
