@@ -22,7 +22,7 @@ import os, signal, socket, subprocess, sys, tempfile, threading, time
 import numpy as np
 import liblo
 
-kata_cli, source, python_dir, plugin_dir = sys.argv[1:5]
+kata_cli, source, python_dir, plugin_dir, vmc_send_clip = sys.argv[1:6]
 sys.path.insert(0, python_dir)
 import kata  # noqa: E402  (the clip's joint positions only)
 
@@ -153,7 +153,7 @@ def rss_kib(pid):
     return 0
 
 
-def run(frames, frame_time, hostile):
+def run(frames, frame_time, hostile, kata_sender=False):
     """kata serve with one clean vmc-in stream (7) and, with hostile, a second one (8) under attack.
     Returns (scores of stream 7 by sequence, serve's stderr, RSS growth KiB under the flood, flood rate)."""
     with tempfile.TemporaryDirectory(prefix="kata_vmc_in_") as tmp:
@@ -182,6 +182,10 @@ def run(frames, frame_time, hostile):
                 attack.result = None
                 attack.start()
             start = time.monotonic()
+            if kata_sender:  # kata's own VMC out: samples/vmc/vmc_send_clip, the clip's humanoid poses
+                subprocess.run([vmc_send_clip, os.path.join(source, "data", "cmu", "02_01.bvh"), "127.0.0.1",
+                                str(clean), "cmu", "1", str(len(frames))], check=True, timeout=60)
+                frames = []
             for i, bones in enumerate(frames):
                 due = start + i * frame_time
                 while time.monotonic() < due:
@@ -262,6 +266,16 @@ mean = sum(scored) / len(scored)
 assert len(scored) >= N - 20, "scored after calibration: %d" % len(scored)
 assert mean >= 95.0, "mean score %.2f against the same clip" % mean
 print("vmc in: %d frames, %d scored, mean score %.2f against the clip it came from" % (N, len(scored), mean))
+
+# Round trip: kata's VMC out (the humanoid rig's rotations, kata_vmc_write_pose) into kata's VMC in
+# scores the clip as the python3-liblo performer's rotations do.
+trip, err_trip, _, _ = run(frames, dt, hostile=False, kata_sender=True)
+assert sorted(trip) == list(range(N)), "round trip: %d of %d results" % (len(trip), N)
+diff = max(abs(trip[k][0] - alone[k][0]) for k in trip)
+trip_mean = sum(s for s, ok in trip.values() if ok) / max(1, sum(ok for _, ok in trip.values()))
+assert diff < 0.5 and trip_mean >= 95.0, (diff, trip_mean)
+print("round trip kata VMC out -> kata VMC in: %d frames, mean score %.2f, largest per-frame difference from the "
+      "python3-liblo performer's %.3f" % (N, trip_mean, diff))
 
 beside, err, growth, rate = run(frames, dt, hostile=True)
 c7, c8 = counters(err, 7), counters(err, 8)
