@@ -27,14 +27,15 @@ PACKAGES=(build-essential cmake pkg-config libeigen3-dev libzmq3-dev cppzmq-dev 
           libcli11-dev nlohmann-json3-dev libxsimd-dev ccache libtomlplusplus-dev libcpp-httplib-dev libzip-dev libkainjow-mustache-dev python3 python3-numpy python3-matplotlib python3-zmq python3-flatbuffers
           python3-pytest python3-setuptools python3-wheel python3-venv python3-pip python3-mypy mono-mcs mono-runtime abigail-tools xz-utils doxygen
           chromium chromium-driver python3-selenium python3-pil ffmpeg opencv-doc
-          nats-server libnats-dev)  # the NATS transport (libkata does not link libnats) and its tests
+          nats-server libnats-dev  # the NATS transport (libkata does not link libnats) and its tests
+          liblo-dev liblo-tools python3-liblo)  # OSC for the VMC protocol (kata/vmc.h), its peers in the tests
 # Only `./build.sh fuzz`, `fuzz-smoke` and `tsan` need these (Debian's clang, its libFuzzer and
 # sanitizer runtimes).
 FUZZ_PACKAGES=(clang-14 libclang-rt-14-dev)
 # Only for `./build.sh clang` / `./build.sh aarch64` (arm64 multiarch: the arm64 builds of the
 # libraries the core links; header-only packages are shared with the host).
 CLANG_PACKAGES=(clang)
-AARCH64_PACKAGES=(g++-aarch64-linux-gnu qemu-user libzmq3-dev:arm64 libgtest-dev:arm64 libflatbuffers-dev:arm64
+AARCH64_PACKAGES=(g++-aarch64-linux-gnu qemu-user libzmq3-dev:arm64 liblo-dev:arm64 libgtest-dev:arm64 libflatbuffers-dev:arm64
                   libcpp-httplib-dev:arm64 libzip-dev:arm64)  # the CLI's viewer server and .npz are configured (not built) here
 JOBS=${JOBS:-2}
 # ccache (CMakeLists.txt) keyed on paths relative to the checkout, so a fresh clone elsewhere (CI
@@ -120,7 +121,7 @@ demo() {
 # Builds the fuzz targets (tests/fuzz/README.md) and runs each for FUZZ_SECONDS over its seed
 # corpus (tests/fuzz/corpus/NAME, read only) plus a working corpus in build-fuzz/corpus/NAME. A
 # crash, sanitizer report or failed assertion stops the script with the input saved in build-fuzz/.
-FUZZ_TARGETS=(bvh model name_map stream landmarks ingest serve_config people)
+FUZZ_TARGETS=(bvh model name_map stream landmarks ingest serve_config people vmc)
 fuzz() {  # fuzz [seconds per target]
   local dir=build-fuzz secs=${1:-${FUZZ_SECONDS:-20}}
   CC=clang-14 CXX=clang++-14 cmake -S . -B "$dir" -DCMAKE_BUILD_TYPE=RelWithDebInfo -DKATA_FUZZ=ON \

@@ -27,6 +27,7 @@
 #include "coach/reps_view.hpp"
 #include "coach/recording.hpp"
 #include "coach/viewer_server.hpp"
+#include "coach/vmc_out.hpp"
 #include "data_files.hpp"
 #include "coach/webcam.hpp"
 #include "command.hpp"
@@ -49,6 +50,7 @@ struct CoachArgs {
   WebcamSettings cam;
   double duration = 0.0;  // seconds; 0: until Ctrl-C
   bool teacher_given = false;
+  std::string vmc, vmc_student;  // --vmc / --vmc-student HOST:PORT (coach/vmc_out.hpp)
 };
 
 // The time constant the scorer averages part scores over before it names the part to fix
@@ -147,6 +149,79 @@ class TerminalView {
   std::string last_rep_;
 };
 
+// VMC out of a clip lesson (or a replayed one): each settled frame's student joints and its ghost
+// (the ghost's joints on the student's skeleton: a joint the ghost leaves out sits on its parent,
+// as the clip's zero-offset joints do) to coach/vmc_out.hpp's sender.
+class LessonVmc {
+ public:
+  LessonVmc(const std::string& ghost_target, const std::string& student_target, const LessonData& d) {
+    if (ghost_target.empty() && student_target.empty()) return;
+    if (kata_context_create(&context_) != KATA_OK) fail("vmc: no context");
+    std::vector<const char*> names;
+    for (const std::string& n : d.joint_names) names.push_back(n.c_str());
+    std::vector<int32_t> parents(d.joint_parents.begin(), d.joint_parents.end());
+    kata_skeleton skeleton = nullptr;
+    if (kata_skeleton_create(context_, static_cast<uint32_t>(d.joints), names.data(), parents.data(), nullptr,
+                             &skeleton) != KATA_OK)
+      fail("vmc: " + std::string(kata_context_last_error(context_)));
+    VmcPerformer student, ghost;
+    student.target = student_target;
+    ghost.target = ghost_target;
+    student.skeleton = ghost.skeleton = skeleton;
+    student.layout = ghost.layout = d.settings.preset;
+    try {
+      out_ = std::make_unique<VmcOut>(context_, student, ghost);
+    } catch (...) {
+      kata_skeleton_destroy(skeleton);
+      throw;
+    }
+    kata_skeleton_destroy(skeleton);
+    // Student joint -> ghost joint (-1: not in the ghost); parents before children.
+    of_student_.assign(static_cast<size_t>(d.joints), -1);
+    for (size_t g = 0; g < d.ghost_sources.size(); ++g)
+      if (d.ghost_sources[g] >= 0 && d.ghost_sources[g] < d.joints) of_student_[static_cast<size_t>(d.ghost_sources[g])] = static_cast<int>(g);
+    full_ghost_.resize(3 * static_cast<size_t>(d.joints));
+    if (!ghost_target.empty()) std::printf("vmc: the ghost goes to %s\n", ghost_target.c_str());
+    if (!student_target.empty()) std::printf("vmc: the student goes to %s\n", student_target.c_str());
+  }
+  ~LessonVmc() {
+    out_.reset();
+    kata_context_destroy(context_);
+  }
+  // Frame i's student and ghost, once its record is final. [the coach's thread]
+  void offer(const LessonData& d, size_t i) {
+    if (!out_) return;
+    const FrameRecord& r = d.frames[i];
+    const float* ghost = nullptr;
+    if (r.has_ghost && d.ghost_joints > 0) {
+      const float* g = d.frame_ghost(i);
+      for (int j = 0; j < d.joints; ++j) {
+        const int at = of_student_[static_cast<size_t>(j)], parent = d.joint_parents[static_cast<size_t>(j)];
+        const float* from = at >= 0 ? g + 3 * at : parent >= 0 ? &full_ghost_[3 * static_cast<size_t>(parent)] : d.frame_positions(i);
+        std::copy(from, from + 3, &full_ghost_[3 * static_cast<size_t>(j)]);
+      }
+      ghost = full_ghost_.data();
+    }
+    out_->offer(r.time, d.frame_positions(i), ghost);
+  }
+  // Sends what is queued and prints the counts.
+  void finish() {
+    if (!out_) return;
+    out_->close();
+    const VmcCounters c = out_->counters();
+    std::printf("vmc: %llu bundles sent, %llu sends failed, %llu frames dropped (queue full), %llu not posed\n",
+                static_cast<unsigned long long>(c.sent), static_cast<unsigned long long>(c.send_failed),
+                static_cast<unsigned long long>(c.dropped), static_cast<unsigned long long>(c.pose_failed));
+    out_.reset();
+  }
+
+ private:
+  kata_context context_ = nullptr;
+  std::unique_ptr<VmcOut> out_;
+  std::vector<int> of_student_;
+  std::vector<float> full_ghost_;
+};
+
 // A webcam lesson (or a teacher's recording): the page at http://host:port/webcam.html does the
 // camera and MediaPipe; this waits until Ctrl-C (or --duration), then prints the summary and
 // writes the report and recordings.
@@ -158,6 +233,8 @@ void run_webcam(CoachArgs a) {
   a.cam.publish = a.lesson.publish;
   a.cam.reps = a.lesson.reps;
   a.cam.rep_start = a.lesson.rep_start, a.cam.rep_end = a.lesson.rep_end;
+  a.cam.vmc = a.vmc;
+  a.cam.vmc_student = a.vmc_student;
   if (a.cam.complexity < 0 || a.cam.complexity > 2)
     fail("--complexity must be 0 (lite), 1 (full) or 2 (heavy)");
   WebcamCoach coach(a.cam, a.viewer_dir.empty() ? kata::cli::share_dir() + "/viewer" : a.viewer_dir, a.host, a.port);
@@ -222,6 +299,7 @@ void run_coach(CoachArgs a) {
     viewer->set_lesson_id(lesson_id);
     std::printf("viewer: http://%s:%d/  (open it in a browser)\n", a.host.c_str(), viewer->port());
   }
+  LessonVmc vmc(a.vmc, a.vmc_student, data);
   std::signal(SIGINT, on_interrupt);
   std::signal(SIGTERM, on_interrupt);
   if (live)
@@ -251,6 +329,7 @@ void run_coach(CoachArgs a) {
         if (viewer) json.insert(json.size() - 1, ",\"reps\":[" + reps + "]");
       }
       if (viewer) viewer->publish(std::move(json));
+      vmc.offer(data, published);
     }
   };
 
@@ -317,6 +396,7 @@ void run_coach(CoachArgs a) {
   }
   std::printf("%s\n", g_interrupted ? " (interrupted)" : "");
   if (!data.repetitions.empty()) std::printf("repetitions: %s\n", repetitions_summary(data.repetitions).c_str());
+  vmc.finish();
   if (!a.csv.empty()) write_results_csv(data, a.csv);
   if (!a.record.empty() && live) {
     write_recording(data, a.record);
@@ -389,6 +469,10 @@ void setup(CLI::App& app) {
       ->expected(2);
   cmd->add_option("--publish", a->lesson.publish,
                   "ZeroMQ endpoint the runtime publishes results on (default tcp://127.0.0.1:*, any free port)");
+  cmd->add_option("--vmc", a->vmc,
+                  "send the ghost to a VMC receiver (an avatar in Unity, Unreal, Blender, Godot: docs/vmc.md) at "
+                  "HOST:PORT (its default port is 39539), one OSC bundle per frame over UDP");
+  cmd->add_option("--vmc-student", a->vmc_student, "send the student to a VMC receiver at HOST:PORT (a second avatar)");
   cmd->add_flag("--headless", a->headless, "no viewer, plain progress lines (CI)");
   cmd->add_flag("--no-viewer", a->no_viewer, "no browser viewer (the terminal view stays)");
   cmd->add_option("--host", a->host, "viewer address (default 127.0.0.1)");

@@ -152,6 +152,10 @@ TEST(Presets, EveryListedPresetResolvesAgainstItsSkeletonNames) {
       {"gpd",
        {"Hip", "Chest", "Neck", "Head", "LShoulder", "LElbow", "LHand", "RShoulder", "RElbow", "RHand", "LHip",
         "LKnee", "LFoot", "RHip", "RKnee", "RFoot"}},
+      {"vrm",
+       {"Hips", "Spine", "Chest", "UpperChest", "Neck", "Head", "LeftShoulder", "LeftUpperArm", "LeftLowerArm",
+        "LeftHand", "RightShoulder", "RightUpperArm", "RightLowerArm", "RightHand", "LeftUpperLeg", "LeftLowerLeg",
+        "LeftFoot", "LeftToes", "RightUpperLeg", "RightLowerLeg", "RightFoot", "RightToes"}},
   };
   const auto presets = kata::preset_names();
   EXPECT_EQ(presets.size(), sources.size());

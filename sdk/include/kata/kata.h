@@ -12,6 +12,7 @@
  *   kata/runtime.h   tasks 5 to 7, run many streams (ZeroMQ in and out), read and write messages
  *   kata/humanoid.h  the student and the ghost as humanoid (VRM) bone rotations, for game engines
  *   kata/people.h    several people in one picture: which stream each unlabeled pose belongs to
+ *   kata/vmc.h       avatars in game engines: humanoid poses out and in over the VMC protocol
  *   kata/kata_plugin.h (not included here) the plugin ABI of a runtime's sinks
  *
  * Conventions (they hold for every function below unless it says otherwise):
@@ -54,5 +55,6 @@
 #include "runtime.h"  /* kata_runtime, kata_message_read_result, kata_message_write_* */
 #include "humanoid.h" /* kata_humanoid_rig, kata_humanoid_pose: VRM bone rotations */
 #include "people.h"   /* kata_people: identity of unlabeled multi-person detections */
+#include "vmc.h"      /* kata_vmc_write_pose, kata_vmc_reader: the VMC protocol (OSC) */
 
 #endif /* KATA_KATA_H */

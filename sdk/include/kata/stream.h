@@ -165,7 +165,8 @@ KATA_API const char* kata_layout_name(uint32_t i);
  * GPD joints, spec parents), "azure-kinect" (Azure Kinect Body Tracking's 32 joints in
  * k4abt_joint_id_t order, named "PELVIS", "SPINE_NAVEL", ...: millimetres, camera axes, so stream
  * with KATA_UP_Y_DOWN) or "xsens" (Xsens MVN's 23 segments, "Pelvis", "L5", ..., MVN order;
- * metres, Z up: KATA_UP_Z). KATA_E_NOT_FOUND for other names (build their skeleton with
+ * metres, Z up: KATA_UP_Z), "cmu" (a CMU BVH's 31 joints) or "vrm" (the 22 VRM humanoid bones a VMC
+ * performer sends, KATA_VMC_JOINTS in kata/vmc.h; metres, +Y up). KATA_E_NOT_FOUND for other names (build their skeleton with
  * kata_skeleton_create from the source's joint names). *out is owned by the caller. [any thread] */
 KATA_API kata_status kata_skeleton_create_layout(kata_context context, const char* layout, kata_skeleton* out);
 

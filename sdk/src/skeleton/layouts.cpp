@@ -123,6 +123,31 @@ const char* const kCmuJoints[31] = {
 constexpr int kCmuParents[31] = {-1, 0, 1, 2, 3, 4, 0, 6, 7, 8, 9, 0, 11, 12, 13, 14,
                                  15, 13, 17, 18, 19, 20, 21, 20, 13, 24, 25, 26, 27, 28, 27};
 
+}  // namespace
+
+// VRM humanoid bones (VRM 1.0 humanoid.humanBones; VMC sends Unity's HumanBodyBones names).
+const std::array<const char*, kVrmJointCount> kVrmJoints = {
+    "Hips",          "Spine",         "Chest",         "UpperChest",    "Neck",          "Head",
+    "LeftShoulder",  "LeftUpperArm",  "LeftLowerArm",  "LeftHand",      "RightShoulder", "RightUpperArm",
+    "RightLowerArm", "RightHand",     "LeftUpperLeg",  "LeftLowerLeg",  "LeftFoot",      "LeftToes",
+    "RightUpperLeg", "RightLowerLeg", "RightFoot",     "RightToes"};
+const std::array<int, kVrmJointCount> kVrmParents = {-1, 0, 1, 2, 3, 4, 3, 6, 7, 8, 3, 10, 11, 12, 0, 14, 15, 16, 0, 18, 19, 20};
+// Proportions of a typical 1.65 m VRM avatar (hips 0.95 m above the floor, arms 0.62 m from the
+// shoulder joint to the wrist, legs 0.88 m from the hip joint to the ankle).
+const std::array<std::array<float, 3>, kVrmJointCount> kVrmRestOffsets = {{
+    {0.0f, 0.95f, 0.0f},  {0.0f, 0.07f, 0.0f},   {0.0f, 0.12f, 0.0f},  {0.0f, 0.12f, 0.0f},   // hips .. upper chest
+    {0.0f, 0.13f, 0.0f},  {0.0f, 0.10f, 0.0f},                                                // neck, head
+    {-0.03f, 0.09f, 0.0f}, {-0.12f, 0.0f, 0.0f}, {-0.26f, 0.0f, 0.0f}, {-0.24f, 0.0f, 0.0f},  // left arm
+    {0.03f, 0.09f, 0.0f}, {0.12f, 0.0f, 0.0f},   {0.26f, 0.0f, 0.0f},  {0.24f, 0.0f, 0.0f},   // right arm
+    {-0.09f, -0.05f, 0.0f}, {0.0f, -0.42f, 0.0f}, {0.0f, -0.41f, 0.0f}, {0.0f, -0.06f, 0.13f}, // left leg
+    {0.09f, -0.05f, 0.0f}, {0.0f, -0.42f, 0.0f},  {0.0f, -0.41f, 0.0f}, {0.0f, -0.06f, 0.13f}, // right leg
+}};
+const std::array<bool, kVrmJointCount> kVrmOptional = {false, false, false, true,  false, false, true,  false,
+                                                       false, false, true,  false, false, false, false, false,
+                                                       false, true,  false, false, false, true};
+
+namespace {
+
 Skeleton bare_skeleton(const char* const* names, const int* parents, int n) {
   Skeleton s;
   for (int i = 0; i < n; ++i) {
@@ -174,8 +199,9 @@ Skeleton layout_skeleton(const std::string& name) {
   if (name == "azure-kinect") return bare_skeleton(kAzureKinectJoints, kAzureKinectParents, 32);
   if (name == "xsens") return bare_skeleton(kXsensSegments, kXsensParents, 23);
   if (name == "cmu") return bare_skeleton(kCmuJoints, kCmuParents, 31);
+  if (name == "vrm") return bare_skeleton(kVrmJoints.data(), kVrmParents.data(), kVrmJointCount);
   throw Error(ErrorKind::kNotFound, "layout '" + bounded(name) +
-                                        "' has no built-in joint list (known: mediapipe, gpd, azure-kinect, xsens, cmu); "
+                                        "' has no built-in joint list (known: mediapipe, gpd, azure-kinect, xsens, cmu, vrm); "
                                         "build the skeleton "
                                         "from your source's joint names instead");
 }

@@ -71,6 +71,15 @@ const Preset kPresets[] = {
     // set and the streaming "bone naming convention" setting, and a Vicon Shogun subject's joints
     // come from its labeling/solving template, so any fixed list here would be a guess. Stream
     // such a skeleton with a name map (kata_stream_open_name_map) naming its 16 GPD joints.
+    // VRM humanoid bones as Unity's HumanBodyBones names them (the VMC protocol's bone names; the
+    // "vrm" layout's skeleton, layout_skeleton): a bone's position is its joint, at its proximal
+    // end (UpperArm = shoulder joint, LowerArm = elbow, Hand = wrist, UpperLeg = hip, LowerLeg =
+    // knee, Foot = ankle). GPD Chest is UpperChest: between the shoulder blades, where CMU's Spine1
+    // sits (VRM's Chest is mid-torso); a source without an UpperChest collapses it onto Chest.
+    {"vrm",
+     {"Hips", "UpperChest", "Neck", "Head", "LeftUpperArm", "LeftLowerArm", "LeftHand", "RightUpperArm",
+      "RightLowerArm", "RightHand", "LeftUpperLeg", "LeftLowerLeg", "LeftFoot", "RightUpperLeg", "RightLowerLeg",
+      "RightFoot"}},
     // Identity: a source that already names the 16 GPD joints (spec section 1 names).
     {"gpd",
      {"Hip", "Chest", "Neck", "Head", "LShoulder", "LElbow", "LHand", "RShoulder", "RElbow", "RHand", "LHip",

@@ -117,12 +117,27 @@ std::vector<std::string> layout_names();
 Layout resolve_layout(const Skeleton& skeleton, const std::string& name);
 // The skeleton a built-in layout streams when the source has none: "mediapipe" (33 landmarks,
 // each hung from a landmark before it: the tree only orders them), "gpd" (the 16 GPD joints and
-// kGpdParents), "azure-kinect" (32 joints, k4abt order), "xsens" (MVN's 23 segments). No rest
-// pose. Throws kata::Error(kNotFound) otherwise.
+// kGpdParents), "azure-kinect" (32 joints, k4abt order), "xsens" (MVN's 23 segments), "cmu"
+// (the CMU BVH's 31 joints), "vrm" (kVrmJoints: VRM humanoid bones). No rest pose. Throws kata::Error(kNotFound) otherwise.
 Skeleton layout_skeleton(const std::string& name);
 // MediaPipe Pose's 33 landmark names, in its documented order (index = landmark id).
 constexpr int kMediaPipeLandmarkCount = 33;
 extern const std::array<const char*, kMediaPipeLandmarkCount> kMediaPipeLandmarks;
+
+// The "vrm" layout's skeleton: the VRM humanoid bones a VMC performer sends, named as Unity's
+// HumanBodyBones (the VMC protocol's bone names), parents before children. Its GPD map is the
+// "vrm" preset (Chest = UpperChest).
+constexpr int kVrmJointCount = 22;
+extern const std::array<const char*, kVrmJointCount> kVrmJoints;
+extern const std::array<int, kVrmJointCount> kVrmParents;
+// A VRM-proportioned T-pose (about 1.65 m tall): each bone's offset from its parent's joint (the
+// Hips': its position above the root), metres, in Unity's frame (left-handed, +Y up, the avatar
+// facing +Z, its left side at -X), as a VRM avatar normalised by UniVRM has it. A VMC receiver
+// uses these for a bone whose local position its sender does not give.
+extern const std::array<std::array<float, 3>, kVrmJointCount> kVrmRestOffsets;
+// Bones a VRM avatar may lack (UpperChest, the shoulders, the toes): a receiver whose sender never
+// names one collapses it onto its parent (offset 0, no rotation).
+extern const std::array<bool, kVrmJointCount> kVrmOptional;
 
 // The input-joint names of a preset, in GPD joint order. Known presets: "cmu" (the CMU
 // Motionbuilder-friendly BVH conversion), "cmu-3dsmax" and "daz" (the cgspeed 3dsMax- and

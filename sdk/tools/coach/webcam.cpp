@@ -15,6 +15,7 @@
 
 #include "coach/lesson.hpp"  // part_name, fail
 #include "coach/reps_view.hpp"
+#include "coach/vmc_out.hpp"
 #include "io/npy.hpp"        // write_npy: the recordings' file format
 #include "kata/kata.h"
 #include "load_progress.hpp"
@@ -98,6 +99,9 @@ struct WebcamCoach::Impl {
   kata_context context = nullptr;
   kata_model model = nullptr;
   kata_skeleton student_skeleton = nullptr;
+  // VMC out (--vmc, --vmc-student): the student's landmarks and the ghost's 16 GPD joints (MediaPipe's
+  // axes), offered from the result callback; released after the runtime (whose thread offers).
+  std::unique_ptr<VmcOut> vmc;
   kata_stream student_stream = nullptr;  // until the runtime owns it
   kata_runtime runtime = nullptr;
 
@@ -241,6 +245,25 @@ struct WebcamCoach::Impl {
       rd.on_repetition = [](void* self, const kata_repetition* r) { static_cast<Impl*>(self)->on_repetition(*r); };
       rd.on_result_user = this;
       repetitions.reserve(4096);
+      if (!recording_teacher && (!s.vmc.empty() || !s.vmc_student.empty())) {
+        kata_skeleton gpd = nullptr;
+        check(kata_skeleton_create_layout(context, "gpd", &gpd));
+        VmcPerformer student, ghost;
+        student.target = s.vmc_student;
+        student.skeleton = student_skeleton;
+        student.layout = "mediapipe";
+        ghost.target = s.vmc;
+        ghost.skeleton = gpd;
+        ghost.layout = "gpd";
+        ghost.up_axis = KATA_UP_Y_DOWN;  // the ghost comes in MediaPipe's world axes, as the page draws it
+        try {
+          vmc = std::make_unique<VmcOut>(context, student, ghost);
+        } catch (...) {
+          kata_skeleton_destroy(gpd);
+          throw;
+        }
+        kata_skeleton_destroy(gpd);
+      }
       check(kata_runtime_create(context, &rd, &runtime));
       check(kata_runtime_add_stream(runtime, kStudentStream, &student_stream, "mediapipe", 0));
     } catch (...) {
@@ -253,6 +276,7 @@ struct WebcamCoach::Impl {
   void release() {
     kata_runtime_destroy(runtime);  // stops first: the callback writes into this
     runtime = nullptr;
+    vmc.reset();  // sends what the callback queued
     kata_stream_destroy(student_stream);
     student_stream = nullptr;
     kata_skeleton_destroy(student_skeleton);
@@ -317,6 +341,13 @@ struct WebcamCoach::Impl {
       }
       if (f.ghost && f.ghost_joint_count == static_cast<uint32_t>(KATA_GPD_JOINTS))
         e["ghost"] = std::vector<float>(f.ghost, f.ghost + 3 * KATA_GPD_JOINTS);
+    }
+    if (vmc) {
+      float xyz[3 * kWebcamLandmarks];
+      for (int j = 0; j < kWebcamLandmarks; ++j)
+        for (int k = 0; k < 3; ++k) xyz[3 * j + k] = r.frame.values[kWebcamChannels * j + k];
+      const bool ghost = f.scored && f.ghost && f.ghost_joint_count == static_cast<uint32_t>(KATA_GPD_JOINTS);
+      vmc->offer(r.frame.capture_ms * 1e-3 - first_time, xyz, ghost ? f.ghost : nullptr);
     }
     timeline.push_back({seq, r.frame.capture_ms * 1e-3 - first_time, state, f.scored ? f.score : 0.0f});
     if (repetitions_sent < repetitions.size()) {  // the repetitions that ended since the last event

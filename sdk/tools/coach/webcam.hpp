@@ -55,6 +55,7 @@ struct WebcamSettings {
   // clip time) is one repetition, looped; the page shows the counter, the report the table and plots.
   bool reps = false;
   double rep_start = -1.0, rep_end = -1.0;
+  std::string vmc, vmc_student;                // VMC receivers (HOST:PORT) of the ghost / the student
 };
 
 constexpr int kWebcamLandmarks = 33;
