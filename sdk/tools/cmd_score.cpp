@@ -44,6 +44,7 @@ struct ScoreArgs {
   std::vector<int> loop;         // practice: loop teacher clip frames A..B
   double relocate_time = kata::metric::AlignmentOptions{}.relocate_time;
   double rematch_time = kata::metric::AlignmentOptions{}.rematch_time;
+  std::string tolerance = "normal";  // metric::parse_tolerance: strict, normal, lenient or degrees
 };
 
 // Seconds for a message: 0.25, 0.0083, 12.5.
@@ -55,6 +56,7 @@ std::string text_seconds(double s) {
 
 void run_score(const ScoreArgs& a) {
   using namespace kata;
+  const metric::Tolerance tolerance = metric::parse_tolerance(a.tolerance.c_str());  // before the clips load
   const metric::Model loaded = metric::load_model(a.model);
   // A transition model (its evaluation figures name a transition protocol) scores similarity of
   // futures, not a performance: say so, the scores below are not coaching scores.
@@ -157,6 +159,7 @@ void run_score(const ScoreArgs& a) {
     options.loop = true;
   }
   metric::Scorer scorer(ref, options);
+  scorer.set_tolerance(tolerance);
   // The offline reference: every student frame's teacher frame from a subsequence DTW over the
   // same static-blocks projections (metric/align_dtw.hpp); the scores are the same scorer's.
   std::vector<int> dtw;
@@ -321,6 +324,10 @@ void setup(CLI::App& app) {
                   "online alignment: score each frame against the teacher frame within this many seconds of the "
                   "alignment's match where every part but the worst agrees best (default 0.05); 0: the match itself")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--tolerance", args->tolerance,
+                  "how far a part may be off before its score falls: strict (a 30-degree error scores <= 50), normal "
+                  "(default: a 45-degree error does), lenient (for beginners), or the angle in degrees (5..120) at "
+                  "which a part scores 50 (docs/model/tolerance.md)");
   cmd->add_option("--loop", args->loop, "practice: loop teacher clip frames A..B (two numbers: A B)")->expected(2);
   cmd->add_option("--out", args->out, "output CSV")->required();
   cmd->callback([args] { run_score(*args); });

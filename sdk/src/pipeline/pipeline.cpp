@@ -92,6 +92,7 @@ void Pipeline::set_teacher(std::shared_ptr<const Teacher> teacher, const Teacher
                 "with the model's stencil");
   // Build everything first, then swap in: a refused teacher leaves the old one in place.
   auto scorer = std::make_unique<metric::Scorer>(teacher->reference, options.alignment);
+  scorer->set_tolerance(options.tolerance);
   std::unique_ptr<retarget::Retargeter> retargeter;
   retarget::JointSelection selection;
   const bool across = options.ghost && options.ghost_across && teacher->has_positions();
