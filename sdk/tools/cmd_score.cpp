@@ -18,6 +18,7 @@
 #include "metric/align_dtw.hpp"
 #include "metric/parts.hpp"
 #include "metric/scorer.hpp"
+#include "metric/smoothed_rematch.hpp"
 #include "skeleton/skeleton.hpp"
 #include "io/clip_features.hpp"
 #include "io/motion_source.hpp"
@@ -43,7 +44,7 @@ struct ScoreArgs {
   int teacher_start = -1;        // practice: the lesson starts at this teacher clip frame
   std::vector<int> loop;         // practice: loop teacher clip frames A..B
   double relocate_time = kata::metric::AlignmentOptions{}.relocate_time;
-  double rematch_time = kata::metric::AlignmentOptions{}.rematch_time;
+  double rematch_time = -1.0;  // -1: the default, 0.05 s, or kSmoothedRematchTime for a smoothed student
   std::string tolerance = "normal";  // metric::parse_tolerance: strict, normal, lenient or degrees
 };
 
@@ -77,6 +78,7 @@ void run_score(const ScoreArgs& a) {
     std::vector<double> times;  // source frame times, seconds (empty: f x frame_time)
     int frames = 0;         // source frames
     std::shared_ptr<const metric::Reference> clip;  // a BVH teacher clip: its Reference, no features
+    bool smoothed = false;  // read through a layout that smooths (One-Euro: landmark arrays)
   };
   // The teacher of a clip score is projected chunk by chunk as it is read: its features
   // (6.7 KB a frame, 550 MB for an 11-minute teacher) are never held whole.
@@ -111,6 +113,7 @@ void run_score(const ScoreArgs& a) {
     int lost = 0;
     side.features = motion_features(m, metric->stencil(), &side.rows, &lost);
     side.frame_time = m.frame_time;
+    side.smoothed = m.layout.smooth;
     side.times = m.times;
     side.frames = m.frames;
     if (lost) std::printf("%s: %d frames tracking lost (no score)\n", path.c_str(), lost);
@@ -142,7 +145,10 @@ void run_score(const ScoreArgs& a) {
   metric::AlignmentOptions options;
   options.window = a.window;
   options.relocate_time = a.relocate_time;
-  options.rematch_time = a.rematch_time;
+  // As a stream re-matches (pipeline.cpp): a smoothed student within kSmoothedRematchTime.
+  options.rematch_time = a.rematch_time >= 0.0 ? a.rematch_time
+                         : ss.smoothed         ? metric::kSmoothedRematchTime
+                                               : metric::AlignmentOptions{}.rematch_time;
   auto to_row = [&](int clip_frame, const char* flag) {
     if (clip_frame < a.first || clip_frame - a.first >= teacher_frames)
       throw Error(ErrorKind::kInvalidArgument, std::string(flag) + " " + std::to_string(clip_frame) + " is outside " +
@@ -322,7 +328,8 @@ void setup(CLI::App& app) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--rematch-time", args->rematch_time,
                   "online alignment: score each frame against the teacher frame within this many seconds of the "
-                  "alignment's match where every part but the worst agrees best (default 0.05); 0: the match itself")
+                  "alignment's match where every part but the worst agrees best (default 0.05; 0.1 for a student "
+                  "read through a smoothing layout, e.g. mediapipe); 0: the match itself")
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--tolerance", args->tolerance,
                   "how far a part may be off before its score falls: strict (a 30-degree error scores <= 50), normal "

@@ -30,8 +30,8 @@ TEST(Tolerance, LevelsAndDegreesParseAndAnythingElseIsRefusedByName) {
   EXPECT_EQ(normal.slope, 5.0);
   EXPECT_EQ(metric::parse_tolerance("strict").angle50, 25.0);
   EXPECT_EQ(metric::parse_tolerance("strict").slope, 5.0);
-  EXPECT_EQ(metric::parse_tolerance("lenient").angle50, 48.0);
-  EXPECT_EQ(metric::parse_tolerance("lenient").slope, 8.0);
+  EXPECT_EQ(metric::parse_tolerance("lenient").angle50, 58.0);
+  EXPECT_EQ(metric::parse_tolerance("lenient").slope, 5.0);
   EXPECT_EQ(metric::parse_tolerance("35").angle50, 35.0);
   EXPECT_EQ(metric::parse_tolerance("37.5").angle50, 37.5);
   EXPECT_EQ(metric::parse_tolerance("37.5").slope, 5.0);
@@ -82,9 +82,9 @@ TEST(Tolerance, PartScoresFollowTheLevelsMapAndNormalIsTheDefault) {
     for (int q = 0; q < metric::kParts; ++q) {
       EXPECT_EQ(c.part_degrees[q], a.part_degrees[q]);
       EXPECT_NEAR(a.part_scores[q], documented_map(a.part_degrees[q], 40.0, 5.0), 1e-3);
-      EXPECT_NEAR(c.part_scores[q], documented_map(c.part_degrees[q], 48.0, 8.0), 1e-3);
+      EXPECT_NEAR(c.part_scores[q], documented_map(c.part_degrees[q], 58.0, 5.0), 1e-3);
       EXPECT_NEAR(d.part_scores[q], documented_map(d.part_degrees[q], 33.0, 5.0), 1e-3);
-      worst_c = std::min(worst_c, documented_map(c.part_degrees[q], 48.0, 8.0));
+      worst_c = std::min(worst_c, documented_map(c.part_degrees[q], 58.0, 5.0));
       worst_d = std::min(worst_d, documented_map(d.part_degrees[q], 33.0, 5.0));
     }
     // The gate (the model's map of the distance) is the same at every level.

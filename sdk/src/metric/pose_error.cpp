@@ -179,7 +179,7 @@ double angle_score(double degrees, const Tolerance& tolerance) {
 Tolerance parse_tolerance(const char* text) {
   // The levels' maps, measured in docs/model/tolerance.md (docs/model/tolerance.py): strict catches
   // the balance table's 30-degree turns, lenient is the map chosen there for beginners.
-  static constexpr Tolerance kStrict{25.0, 5.0}, kLenient{48.0, 8.0};
+  static constexpr Tolerance kStrict{25.0, 5.0}, kLenient{58.0, 5.0};
   const std::string t = text ? text : "";
   if (t == "normal") return Tolerance{};
   if (t == "strict") return kStrict;
