@@ -10,8 +10,10 @@ against its match when no joint is turned, the BVH student's against its own fra
 
     /usr/bin/python3 docs/model/landmark_balance.py [build/bin/kata] [../shared/data/cmu] [models/default.kata] [clips...]
 
-Default clips: one of each subject, 3 s (frame 0 and 360 frames): 01_01 (jump), 02_01 and 07_01
-(walk), 05_18 (dance), 09_01 (run). Work files in build/landmark-balance.
+Default clips: every subject, 3 s (frame 0 and 360 frames) of 01_01 (jump), 02_01 and 07_01
+(walk), 05_03 and 05_18 (dance), 09_01 (run). Work files in build/landmark-balance (REMATCH=S:
+the landmark student re-matched within S seconds, `--rematch-time`; work files then in
+build/landmark-balanceS).
 """
 import csv, os, subprocess, sys
 import numpy as np
@@ -23,7 +25,7 @@ from bvh_landmarks import mediapipe  # noqa: E402
 KATA = sys.argv[1] if len(sys.argv) > 1 else "build/bin/kata"
 DATA = sys.argv[2] if len(sys.argv) > 2 else "../shared/data/cmu"
 MODEL = sys.argv[3] if len(sys.argv) > 3 else "models/default.kata"
-CLIPS = sys.argv[4:] or ["01_01", "02_01", "07_01", "05_18", "09_01"]
+CLIPS = sys.argv[4:] or ["01_01", "02_01", "05_03", "07_01", "05_18", "09_01"]
 BEND = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(DATA))), "tools", "bend-joint")
 WORK = os.path.join("build", "landmark-balance" + os.environ.get("REMATCH", ""))
 TURNS = [("LeftForeArm", "Y"), ("RightForeArm", "Y"), ("LeftArm", "Z"), ("RightArm", "Z"), ("LeftLeg", "X"),
