@@ -546,17 +546,17 @@ TEST_F(TeacherCapi, ToleranceSetsThePartMap) {
   ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &other), KATA_OK);
   kata_skeleton other_skel = nullptr;
   ASSERT_EQ(kata_clip_skeleton(other, &other_skel), KATA_OK);
-  const uint32_t joints = kata_skeleton_joint_count(other_skel);
+  const uint32_t other_joints = kata_skeleton_joint_count(other_skel);
   auto records = [&](const kata_teacher_desc* t, kata_teacher shared, const kata_teacher_desc* options) {
     kata_stream s = open(other_skel, "cmu");
     if (shared)
       EXPECT_EQ(kata_stream_attach_shared_teacher(s, shared, options), KATA_OK) << kata_stream_last_error(s);
     else
       EXPECT_EQ(kata_stream_attach_teacher(s, t), KATA_OK) << kata_stream_last_error(s);
-    std::vector<float> p(3 * static_cast<size_t>(joints));
+    std::vector<float> p(3 * static_cast<size_t>(other_joints));
     for (uint32_t f = 1; f <= 150; ++f) {
       EXPECT_EQ(kata_clip_positions(other, f, p.data(), p.size()), KATA_OK);
-      EXPECT_EQ(kata_stream_push(s, f / 120.0, p.data(), joints), KATA_OK);
+      EXPECT_EQ(kata_stream_push(s, f / 120.0, p.data(), other_joints), KATA_OK);
     }
     std::vector<kata_result_record> r;
     drain(s, &r);

@@ -96,12 +96,12 @@ TEST(serve_config, AToleranceIsALevelOrDegreesAndAnythingElseIsRefusedWithItsLin
   EXPECT_EQ(parse_config_text(head + "tolerance = 37.5\n", "stage.toml").tolerance, "37.5");
   for (const char* bad : {"tolerance = \"loose\"\n", "tolerance = \"35\"\n", "tolerance = true\n"})
     EXPECT_EQ(refusal([&] { parse_config_text(head + bad, "stage.toml"); }),
-              "stage.toml:6: 'tolerance' must be \"strict\", \"normal\", \"lenient\" or the angle in degrees (5..120) at "
+              "stage.toml:7: 'tolerance' must be \"strict\", \"normal\", \"lenient\" or the angle in degrees (5..120) at "
               "which a part scores 50")
         << bad;
   for (const char* bad : {"tolerance = 4\n", "tolerance = 121.5\n", "tolerance = nan\n"})
     EXPECT_EQ(refusal([&] { parse_config_text(head + bad, "stage.toml"); }),
-              "stage.toml:6: 'tolerance' in degrees must be within 5..120 (the angle at which a part scores 50)")
+              "stage.toml:7: 'tolerance' in degrees must be within 5..120 (the angle at which a part scores 50)")
         << bad;
 }
 
