@@ -230,6 +230,7 @@ void run_webcam(CoachArgs a) {
   a.cam.teacher = a.teacher_given ? a.lesson.teacher : kata::cli::default_data_file(a.cam.teacher);
   a.cam.first_frame = a.lesson.first_frame;
   a.cam.window = a.lesson.window;
+  a.cam.tolerance = a.lesson.tolerance;
   a.cam.publish = a.lesson.publish;
   a.cam.reps = a.lesson.reps;
   a.cam.rep_start = a.lesson.rep_start, a.cam.rep_end = a.lesson.rep_end;
@@ -444,6 +445,9 @@ void setup(CLI::App& app) {
   cmd->add_option("--first-frame", a->lesson.first_frame, "first frame of each clip (default 1: skips CMU's T-pose)");
   cmd->add_option("--speed", a->lesson.speed, "playback rate, 1 = real time (default 1)");
   cmd->add_option("--window", a->lesson.window, "alignment window, teacher seconds (default 0.5)");
+  cmd->add_option("--tolerance", a->lesson.tolerance,
+                  "how far a part may be off: strict, normal (default), lenient, or the angle in degrees at which a "
+                  "part scores 50 (docs/model/tolerance.md)");
   cmd->add_option("--teacher-start", a->lesson.teacher_start,
                   "practice: start at this teacher clip frame (the teacher before it is not used)")
       ->check(CLI::NonNegativeNumber);

@@ -19,6 +19,7 @@
 #include "metric/parts.hpp"
 #include "metric/reps.hpp"
 #include "metric/scorer.hpp"
+#include "metric/smoothed_rematch.hpp"
 #include "skeleton/skeleton.hpp"
 #include "io/clip_features.hpp"
 #include "io/motion_source.hpp"
@@ -44,7 +45,8 @@ struct ScoreArgs {
   int teacher_start = -1;        // practice: the lesson starts at this teacher clip frame
   std::vector<int> loop;         // practice: loop teacher clip frames A..B
   double relocate_time = kata::metric::AlignmentOptions{}.relocate_time;
-  double rematch_time = kata::metric::AlignmentOptions{}.rematch_time;
+  double rematch_time = -1.0;  // -1: the default, 0.05 s, or kSmoothedRematchTime for a smoothed student
+  std::string tolerance = "normal";  // metric::parse_tolerance: strict, normal, lenient or degrees
   std::string reps;               // repetitions CSV (docs/coach/repetitions.md), or empty
   std::vector<double> rep_section;  // the repetition: teacher seconds A B (empty: the whole clip)
 };
@@ -89,6 +91,7 @@ void write_reps(const ScoreArgs& a, const std::vector<kata::metric::Repetition>&
 
 void run_score(const ScoreArgs& a) {
   using namespace kata;
+  const metric::Tolerance tolerance = metric::parse_tolerance(a.tolerance.c_str());  // before the clips load
   const metric::Model loaded = metric::load_model(a.model);
   // A transition model (its evaluation figures name a transition protocol) scores similarity of
   // futures, not a performance: say so, the scores below are not coaching scores.
@@ -109,6 +112,7 @@ void run_score(const ScoreArgs& a) {
     std::vector<double> times;  // source frame times, seconds (empty: f x frame_time)
     int frames = 0;         // source frames
     std::shared_ptr<const metric::Reference> clip;  // a BVH teacher clip: its Reference, no features
+    bool smoothed = false;  // read through a layout that smooths (One-Euro: landmark arrays)
   };
   // The teacher of a clip score is projected chunk by chunk as it is read: its features
   // (6.7 KB a frame, 550 MB for an 11-minute teacher) are never held whole.
@@ -143,6 +147,7 @@ void run_score(const ScoreArgs& a) {
     int lost = 0;
     side.features = motion_features(m, metric->stencil(), &side.rows, &lost);
     side.frame_time = m.frame_time;
+    side.smoothed = m.layout.smooth;
     side.times = m.times;
     side.frames = m.frames;
     if (lost) std::printf("%s: %d frames tracking lost (no score)\n", path.c_str(), lost);
@@ -174,7 +179,10 @@ void run_score(const ScoreArgs& a) {
   metric::AlignmentOptions options;
   options.window = a.window;
   options.relocate_time = a.relocate_time;
-  options.rematch_time = a.rematch_time;
+  // As a stream re-matches (pipeline.cpp): a smoothed student within kSmoothedRematchTime.
+  options.rematch_time = a.rematch_time >= 0.0 ? a.rematch_time
+                         : ss.smoothed         ? metric::kSmoothedRematchTime
+                                               : metric::AlignmentOptions{}.rematch_time;
   auto to_row = [&](int clip_frame, const char* flag) {
     if (clip_frame < a.first || clip_frame - a.first >= teacher_frames)
       throw Error(ErrorKind::kInvalidArgument, std::string(flag) + " " + std::to_string(clip_frame) + " is outside " +
@@ -225,6 +233,7 @@ void run_score(const ScoreArgs& a) {
   metric::Scorer scorer(ref, options);
   metric::RepCounter reps(ref);
   std::vector<metric::Repetition> repetitions;
+  scorer.set_tolerance(tolerance);
   // The offline reference: every student frame's teacher frame from a subsequence DTW over the
   // same static-blocks projections (metric/align_dtw.hpp); the scores are the same scorer's.
   std::vector<int> dtw;
@@ -393,8 +402,13 @@ void setup(CLI::App& app) {
       ->check(CLI::NonNegativeNumber);
   cmd->add_option("--rematch-time", args->rematch_time,
                   "online alignment: score each frame against the teacher frame within this many seconds of the "
-                  "alignment's match where every part but the worst agrees best (default 0.05); 0: the match itself")
+                  "alignment's match where every part but the worst agrees best (default 0.05; 0.1 for a student "
+                  "read through a smoothing layout, e.g. mediapipe); 0: the match itself")
       ->check(CLI::NonNegativeNumber);
+  cmd->add_option("--tolerance", args->tolerance,
+                  "how far a part may be off before its score falls: strict (a 30-degree error scores <= 50), normal "
+                  "(default: a 45-degree error does), lenient (for beginners), or the angle in degrees (5..120) at "
+                  "which a part scores 50 (docs/model/tolerance.md)");
   cmd->add_option("--loop", args->loop, "practice: loop teacher clip frames A..B (two numbers: A B)")->expected(2);
   cmd->add_option("--reps", args->reps,
                   "also count repetitions: the teacher clip (or --rep-section) is one repetition, looped; one CSV "

@@ -35,6 +35,7 @@
 //   teacher = "data/cmu/02_01.bvh"             # the default teacher
 //   first_frame = 1                            # skip the CMU T-pose
 //   ghost = true
+//   tolerance = "normal"                       # or "strict", "lenient", degrees (kata_teacher_desc)
 //   [scoring.teachers]                         # per stream id (decimal), optional
 //   "7" = "data/cmu/05_02.bvh"
 //   teacher_start = 300                        # practice (in [scoring], before the subtables): start
@@ -264,6 +265,7 @@ kata_status on_stream_open(void* user, const kata_stream_open_info* info, kata_s
     kata_teacher_desc options;
     kata_teacher_desc_init(&options);
     options.ghost = s.config->ghost && info->has_rest_pose ? 1 : 0;
+    if (!s.config->tolerance.empty()) options.tolerance = s.config->tolerance.c_str();
     if (const kata_status status = kata_stream_attach_shared_teacher(stream, teacher, &options)) return status;
     const Rows r = rows_for(s.practice_of(info->stream_id), source, teacher);  // checked at start
     if (r.first >= 0)

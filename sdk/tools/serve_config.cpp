@@ -3,6 +3,7 @@
 
 #include <cctype>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <type_traits>
 #include <filesystem>
@@ -139,6 +140,27 @@ Practice read_practice(const std::string& file, const toml::table& table) {
   const toml::node* at = table.get("loop") ? table.get("loop") : table.get("teacher_start");
   if (at) p.where = file + ":" + std::to_string(at->source().begin.line);
   return p;
+}
+
+// tolerance = "strict" | "normal" | "lenient" | DEGREES (a number, 5..120: the angle at which a part
+// scores 50; kata_teacher_desc.tolerance, which the streams' attach checks again). "" when absent.
+std::string read_tolerance(const std::string& file, const toml::table& table) {
+  const toml::node* n = table.get("tolerance");
+  if (!n) return "";
+  if (n->is_integer() || n->is_floating_point()) {
+    const double v = *n->value<double>();
+    if (!(v >= 5.0 && v <= 120.0))
+      refuse(file, n->source(), "'tolerance' in degrees must be within 5..120 (the angle at which a part scores 50)");
+    char text[32];
+    std::snprintf(text, sizeof text, "%.9g", v);
+    return text;
+  }
+  const auto s = n->value<std::string>();
+  if (!s || (*s != "strict" && *s != "normal" && *s != "lenient"))
+    refuse(file, n->source(),
+           "'tolerance' must be \"strict\", \"normal\", \"lenient\" or the angle in degrees (5..120) at which a part "
+           "scores 50");
+  return *s;
 }
 
 }  // namespace
@@ -393,7 +415,8 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
   check_reach(c.runtime.publish_endpoints, "publish", false);
 
   const toml::table& scoring = section(file, root, "scoring", false);
-  check_keys(file, scoring, {"model", "teacher", "first_frame", "ghost", "teachers", "teacher_start", "loop", "practice"},
+  check_keys(file, scoring,
+             {"model", "teacher", "first_frame", "ghost", "teachers", "teacher_start", "loop", "practice", "tolerance"},
              "scoring");
   if (!scoring.empty()) {
     const std::string model = read<std::string>(file, scoring, "model", "");
@@ -403,6 +426,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
     if (!teacher.empty()) c.default_teacher.path = resolve_at(*scoring.get("teacher"), teacher, "teacher");
     c.default_teacher.first_frame = static_cast<int>(read_range(file, scoring, "first_frame", 1, 0, 1 << 30));
     c.ghost = read<bool>(file, scoring, "ghost", true);
+    c.tolerance = read_tolerance(file, scoring);
     if (const toml::node* t = scoring.get("teachers")) {
       if (!t->is_table()) refuse(file, t->source(), "[scoring.teachers] must be a table");
       for (const auto& [key, node] : *t->as_table()) {

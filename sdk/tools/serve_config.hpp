@@ -77,6 +77,8 @@ struct ServeConfig {
   Practice default_practice;                 // [scoring] teacher_start / loop
   std::map<uint64_t, Practice> practices;    // [scoring.practice] per stream id
   bool ghost = true;
+  // [scoring] tolerance: every stream's (kata_teacher_desc.tolerance); "" for the default (normal).
+  std::string tolerance;
   double status_seconds = 1.0;
   struct Plugin {
     std::string path, config;

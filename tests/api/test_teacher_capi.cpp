@@ -536,4 +536,88 @@ TEST_F(TeacherCapi, AlignmentWindowAndLoadingProgress) {
   kata_clip_destroy(other);
 }
 
+// kata_teacher_desc.tolerance (1.2): NULL by default and for a 1.1 caller's struct (the normal
+// map, the scores as before); "lenient" and a number of degrees give each part score the documented
+// map 100 / (1 + (a / a50)^5) of the angle recovered here from the normal score (lenient 58, "33"
+// 33), the matched frames unchanged; a shared teacher's streams take it from the teacher's desc or
+// their own options; anything else is refused, naming the field.
+TEST_F(TeacherCapi, ToleranceSetsThePartMap) {
+  kata_clip other = nullptr;
+  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/07_01.bvh", &other), KATA_OK);
+  kata_skeleton other_skel = nullptr;
+  ASSERT_EQ(kata_clip_skeleton(other, &other_skel), KATA_OK);
+  const uint32_t other_joints = kata_skeleton_joint_count(other_skel);
+  auto records = [&](const kata_teacher_desc* t, kata_teacher shared, const kata_teacher_desc* options) {
+    kata_stream s = open(other_skel, "cmu");
+    if (shared)
+      EXPECT_EQ(kata_stream_attach_shared_teacher(s, shared, options), KATA_OK) << kata_stream_last_error(s);
+    else
+      EXPECT_EQ(kata_stream_attach_teacher(s, t), KATA_OK) << kata_stream_last_error(s);
+    std::vector<float> p(3 * static_cast<size_t>(other_joints));
+    for (uint32_t f = 1; f <= 150; ++f) {
+      EXPECT_EQ(kata_clip_positions(other, f, p.data(), p.size()), KATA_OK);
+      EXPECT_EQ(kata_stream_push(s, f / 120.0, p.data(), other_joints), KATA_OK);
+    }
+    std::vector<kata_result_record> r;
+    drain(s, &r);
+    kata_stream_destroy(s);
+    return r;
+  };
+  kata_teacher_desc t = desc();
+  EXPECT_EQ(t.tolerance, nullptr);
+  t.clip = clip;
+  t.first_frame = kFirst;
+  t.ghost = 0;
+  const std::vector<kata_result_record> normal = records(&t, nullptr, nullptr);
+  ASSERT_GT(normal.size(), 100u);
+  kata_teacher_desc old;  // a 1.1 caller's struct: up to on_progress_user
+  kata_teacher_desc_init_sized(&old, static_cast<uint32_t>(offsetof(kata_teacher_desc, on_progress_user) + sizeof(void*)));
+  old.model = model;
+  old.clip = clip;
+  old.first_frame = kFirst;
+  old.ghost = 0;
+  const std::vector<kata_result_record> as_11 = records(&old, nullptr, nullptr);
+  ASSERT_EQ(as_11.size(), normal.size());
+  for (size_t i = 0; i < normal.size(); ++i) EXPECT_EQ(as_11[i].score, normal[i].score);
+  auto check = [&](const std::vector<kata_result_record>& got, double a50, const char* what) {
+    ASSERT_EQ(got.size(), normal.size()) << what;
+    int compared = 0;
+    for (size_t i = 0; i < got.size(); ++i) {
+      EXPECT_EQ(got[i].matched_teacher_frame, normal[i].matched_teacher_frame) << what;
+      for (int q = 0; q < KATA_PART_COUNT; ++q) {
+        const double n = normal[i].part_scores[q];
+        if (!(n > 1e-3)) continue;  // no angle to recover from a score at float's floor
+        const double angle = 40.0 * std::pow(std::max(0.0, 100.0 / n - 1.0), 0.2);
+        EXPECT_NEAR(got[i].part_scores[q], 100.0 / (1.0 + std::pow(angle / a50, 5.0)), 0.05) << what << " " << i;
+        ++compared;
+      }
+    }
+    EXPECT_GT(compared, 500) << what;
+  };
+  t.tolerance = "lenient";
+  check(records(&t, nullptr, nullptr), 58.0, "lenient");
+  t.tolerance = "33";
+  check(records(&t, nullptr, nullptr), 33.0, "33");
+  // A shared teacher: the desc's tolerance is its streams' default; a stream's options replace it.
+  t.tolerance = "lenient";
+  kata_teacher shared = nullptr;
+  ASSERT_EQ(kata_teacher_create(ctx, &t, &shared), KATA_OK) << kata_context_last_error(ctx);
+  check(records(nullptr, shared, nullptr), 58.0, "shared lenient");
+  kata_teacher_desc options;
+  kata_teacher_desc_init(&options);
+  options.ghost = 0;
+  options.tolerance = "33";
+  check(records(nullptr, shared, &options), 33.0, "shared, the stream's 33");
+  kata_teacher_destroy(shared);
+  kata_stream s = open(other_skel, "cmu");
+  for (const char* bad : {"loose", "Lenient", "4", "121", "", "40 degrees"}) {
+    t.tolerance = bad;
+    EXPECT_EQ(kata_stream_attach_teacher(s, &t), KATA_E_INVALID_ARGUMENT) << bad;
+    EXPECT_NE(std::strstr(kata_stream_last_error(s), "tolerance"), nullptr) << kata_stream_last_error(s);
+  }
+  kata_stream_destroy(s);
+  kata_skeleton_destroy(other_skel);
+  kata_clip_destroy(other);
+}
+
 }  // namespace

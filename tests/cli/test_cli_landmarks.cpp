@@ -345,3 +345,32 @@ TEST(CliLandmarks, PresenceGatesJointsLikeVisibility) {
 }
 
 }  // namespace
+
+namespace {
+
+// kata score --tolerance: "40" is the normal map (a50 40, slope 5), CSV for CSV with the default;
+// lenient scores another subject's walk higher; anything else is refused naming it, before a clip
+// is read.
+TEST(CliScore, ToleranceSetsThePartMap) {
+  kata::test::TempDir dir;
+  const std::string base = "score --model " + std::string(KATA_SOURCE_DIR) + "/models/default.kata --teacher " +
+                           std::string(KATA_DATA_DIR) + "/cmu/02_01.bvh --student " + std::string(KATA_DATA_DIR) +
+                           "/cmu/07_01.bvh --preset cmu --first-frame 1 --out ";
+  auto text = [](const std::string& path) {
+    std::stringstream ss;
+    ss << std::ifstream(path).rdbuf();
+    return ss.str();
+  };
+  ASSERT_EQ(run_cli(dir, base + dir.file("default.csv")).code, 0);
+  ASSERT_EQ(run_cli(dir, base + dir.file("forty.csv") + " --tolerance 40").code, 0);
+  ASSERT_EQ(run_cli(dir, base + dir.file("normal.csv") + " --tolerance normal").code, 0);
+  ASSERT_EQ(run_cli(dir, base + dir.file("lenient.csv") + " --tolerance lenient").code, 0);
+  EXPECT_EQ(text(dir.file("forty.csv")), text(dir.file("default.csv")));
+  EXPECT_EQ(text(dir.file("normal.csv")), text(dir.file("default.csv")));
+  EXPECT_GT(mean_score(dir.file("lenient.csv")), mean_score(dir.file("default.csv")) + 5.0);
+  const CliResult bad = run_cli(dir, base + dir.file("bad.csv") + " --tolerance loose");
+  EXPECT_NE(bad.code, 0);
+  EXPECT_NE(bad.output.find("tolerance \"loose\""), std::string::npos) << bad.output;
+}
+
+}  // namespace

@@ -90,5 +90,28 @@ TEST(serve_config, ANatsTransportReplacesTheZeroMqSockets) {
             std::string::npos);
 }
 
+// [scoring] tolerance (kata_teacher_desc.tolerance): a level's name or the degrees at which a part
+// scores 50 (a TOML number, 5..120), kept as the text the streams' attach reads; anything else is
+// refused with its line and key; absent, the default ("": normal).
+TEST(serve_config, AToleranceIsALevelOrDegreesAndAnythingElseIsRefusedWithItsLine) {
+  const std::string head =
+      "[ingest]\nendpoints = [\"bind:tcp://127.0.0.1:5555\"]\n[publish]\nendpoints = [\"tcp://127.0.0.1:5556\"]\n"
+      "[scoring]\nmodel = \"" KATA_SOURCE_DIR "/models/default.kata\"\n";
+  EXPECT_EQ(parse_config_text(head, "stage.toml").tolerance, "");
+  EXPECT_EQ(parse_config_text(head + "tolerance = \"lenient\"\n", "stage.toml").tolerance, "lenient");
+  EXPECT_EQ(parse_config_text(head + "tolerance = \"strict\"\n", "stage.toml").tolerance, "strict");
+  EXPECT_EQ(parse_config_text(head + "tolerance = 35\n", "stage.toml").tolerance, "35");
+  EXPECT_EQ(parse_config_text(head + "tolerance = 37.5\n", "stage.toml").tolerance, "37.5");
+  for (const char* bad : {"tolerance = \"loose\"\n", "tolerance = \"35\"\n", "tolerance = true\n"})
+    EXPECT_EQ(refusal([&] { parse_config_text(head + bad, "stage.toml"); }),
+              "stage.toml:7: 'tolerance' must be \"strict\", \"normal\", \"lenient\" or the angle in degrees (5..120) at "
+              "which a part scores 50")
+        << bad;
+  for (const char* bad : {"tolerance = 4\n", "tolerance = 121.5\n", "tolerance = nan\n"})
+    EXPECT_EQ(refusal([&] { parse_config_text(head + bad, "stage.toml"); }),
+              "stage.toml:7: 'tolerance' in degrees must be within 5..120 (the angle at which a part scores 50)")
+        << bad;
+}
+
 }  // namespace
 }  // namespace kata::serve

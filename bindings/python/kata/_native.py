@@ -123,7 +123,9 @@ class TeacherDesc(ctypes.Structure):
                 ("features", ctypes.c_void_p), ("joints", ctypes.c_void_p), ("body_height", ctypes.c_double),
                 # 1.1
                 ("ghost_across", ctypes.c_int32), ("alignment_window", ctypes.c_double),
-                ("on_progress", ProgressCallback), ("on_progress_user", ctypes.c_void_p)]
+                ("on_progress", ProgressCallback), ("on_progress_user", ctypes.c_void_p),
+                # 1.2
+                ("tolerance", ctypes.c_char_p)]
 
 
 class PeopleDesc(ctypes.Structure):

@@ -332,18 +332,19 @@ class Context(_Handle):
         """kata_teacher_create (1.1): a teacher built once, for Stream.attach_shared_teacher; the
         arguments are Stream.attach_teacher's (clip, skeleton + positions + frame_time, features,
         joints, first_frame, pose_frame, layout, ghost, ghost_across, alignment_window, on_progress,
-        retarget options); ghost, ghost_across, alignment_window and the retarget options are the
+        tolerance, retarget options); ghost, ghost_across, alignment_window, tolerance and the retarget options are the
         defaults of the streams it is attached to. [any thread]"""
         from . import stream as _stream  # stream.py builds on this module
         args: Dict[str, Any] = {"clip": None, "skeleton": None, "positions": None, "frame_time": None, "layout": None,
                 "first_frame": 0, "pose_frame": -1, "ghost": None, "features": None, "joints": None,
-                "body_height": 0.0, "ghost_across": False, "alignment_window": None, "on_progress": None}
+                "body_height": 0.0, "ghost_across": False, "alignment_window": None, "on_progress": None,
+                "tolerance": None}
         retarget = {k: v for k, v in teacher.items() if k not in args}
         args.update({k: v for k, v in teacher.items() if k in args})
         d, keep = _stream._teacher_desc(model, args["clip"], args["skeleton"], args["positions"], args["frame_time"],
                                         args["layout"], args["first_frame"], args["pose_frame"], args["ghost"],
                                         args["features"], args["joints"], args["body_height"], args["ghost_across"],
-                                        args["alignment_window"], args["on_progress"], retarget)
+                                        args["alignment_window"], args["on_progress"], retarget, args["tolerance"])
         t = self._make(Teacher, "kata_teacher_create", _n.teacher_create, ctypes.byref(d))
         del keep  # copied by the call
         return t

@@ -157,10 +157,20 @@ class Results:
         return "Results(%d results%s)" % (len(self), ", %d dropped before them" % self.dropped if self.dropped else "")
 
 
+def _tolerance_text(tolerance: Any) -> Optional[bytes]:
+    """kata_teacher_desc.tolerance of "strict", "normal", "lenient" or a number of degrees; None: the default."""
+    if tolerance is None:
+        return None
+    if isinstance(tolerance, bool) or not isinstance(tolerance, (str, int, float)):
+        raise TypeError("tolerance must be 'strict', 'normal', 'lenient' or a number of degrees, not %r" % (tolerance,))
+    return (tolerance if isinstance(tolerance, str) else "%.9g" % float(tolerance)).encode("utf-8")
+
+
 def _teacher_desc(model: Any, clip: Any, skeleton: Any, positions: Any, frame_time: Optional[float],
                   layout: Optional[str], first_frame: int, pose_frame: int, ghost: Optional[bool], features: Any,
                   joints: Any, body_height: float, ghost_across: bool, alignment_window: Optional[float],
-                  on_progress: Optional[Callable[[int, int], None]], retarget: Dict[str, Any]) -> Tuple[Any, List[Any]]:
+                  on_progress: Optional[Callable[[int, int], None]], retarget: Dict[str, Any],
+                  tolerance: Any = None) -> Tuple[Any, List[Any]]:
     """A kata_teacher_desc from Stream.attach_teacher's arguments, and what must outlive the C call
     that reads it (arrays, the progress callback, the retarget desc)."""
     d = _n.TeacherDesc()
@@ -202,6 +212,7 @@ def _teacher_desc(model: Any, clip: Any, skeleton: Any, positions: Any, frame_ti
     d.ghost_across = 1 if ghost_across else 0
     if alignment_window is not None:
         d.alignment_window = alignment_window
+    d.tolerance = _tolerance_text(tolerance)
     if on_progress is not None:
         progress = on_progress
 
@@ -412,7 +423,8 @@ class Stream(_Handle):
                        first_frame: int = 0, pose_frame: int = -1, ghost: Optional[bool] = None, features: Any = None,
                        joints: Any = None, body_height: float = 0.0, ghost_across: bool = False,
                        alignment_window: Optional[float] = None,
-                       on_progress: Optional[Callable[[int, int], None]] = None, **retarget: Any) -> None:
+                       on_progress: Optional[Callable[[int, int], None]] = None, tolerance: Any = None,
+                       **retarget: Any) -> None:
         """kata_stream_attach_teacher: score against (and ghost from) a teacher given as one of
         a Clip; a Skeleton + positions (frames, joints, 3) + frame_time; GPD features
         (frames, 1683) + frame_time; or joints, one held pose of the 16 GPD joints (16, 3) with its
@@ -425,9 +437,12 @@ class Stream(_Handle):
         seconds of teacher ahead of the last match the alignment looks in ((0, 60]; None: 0.5, a clip
         teacher only; 1.1). on_progress(done, frames): called on this thread as the teacher's
         features are computed, done == frames on the last call (a long teacher's loading; not for
-        features or joints; 1.1); an exception it raises is printed and ignored (ctypes)."""
+        features or joints; 1.1); an exception it raises is printed and ignored (ctypes). tolerance:
+        the lesson's, "strict", "normal" (None: the default), "lenient" or the angle in degrees
+        (5..120) at which a part scores 50 (kata_teacher_desc.tolerance, 1.2)."""
         d, keep = _teacher_desc(model, clip, skeleton, positions, frame_time, layout, first_frame, pose_frame, ghost,
-                                features, joints, body_height, ghost_across, alignment_window, on_progress, retarget)
+                                features, joints, body_height, ghost_across, alignment_window, on_progress, retarget,
+                                tolerance)
         status = _n.stream_attach_teacher(self.handle, ctypes.byref(d))
         del keep  # copied by the call
         if status:
@@ -435,16 +450,18 @@ class Stream(_Handle):
 
     @_typed
     def attach_shared_teacher(self, teacher: Teacher, ghost: Optional[bool] = None, ghost_across: Optional[bool] = None,
-                              alignment_window: Optional[float] = None, **retarget: Any) -> None:
+                              alignment_window: Optional[float] = None, tolerance: Any = None,
+                              **retarget: Any) -> None:
         """kata_stream_attach_shared_teacher (1.1): score against a Teacher built once
         (Context.create_teacher) without copying it; results are those attach_teacher gives with
         the same arguments. With no argument the stream takes the per-stream options the teacher
-        was created with; any of ghost, ghost_across, alignment_window or retarget options given
+        was created with; any of ghost, ghost_across, alignment_window, tolerance or retarget options given
         replaces them all for this stream (the others at their defaults: ghost True, which a
         teacher given as features or joints refuses). A practice section: set_practice_section
         afterwards."""
         options = None
-        if ghost is not None or ghost_across is not None or alignment_window is not None or retarget:
+        if ghost is not None or ghost_across is not None or alignment_window is not None or tolerance is not None \
+                or retarget:
             d = _n.TeacherDesc()
             _n.teacher_desc_init_sized(ctypes.byref(d), ctypes.sizeof(d))
             if ghost is not None:
@@ -452,6 +469,7 @@ class Stream(_Handle):
             d.ghost_across = 1 if ghost_across else 0
             if alignment_window is not None:
                 d.alignment_window = alignment_window
+            d.tolerance = _tolerance_text(tolerance)
             rdesc = _retarget_desc(retarget) if retarget else None
             if rdesc is not None:
                 d.retarget = ctypes.pointer(rdesc)

@@ -163,6 +163,18 @@ typedef struct kata_teacher_desc {
    * teacher given as features or joints. NULL (default): none. Since 1.1. */
   kata_progress_callback on_progress;
   void* on_progress_user;    /* passed to on_progress as is. Default NULL */
+  /* ---- 1.2 ---- */
+  /* The lesson's tolerance, how far a part may be off before its score falls: "strict" (a
+   * 30-degree error at one joint scores 50 or less), "normal" (a 45-degree error does; 1.1's
+   * scores), "lenient" (for beginners: another person's same motion scores higher, and a
+   * 45-degree error at one joint is no longer caught), or the angle in degrees (5..120, e.g. "35")
+   * at which a part scores 50. Part score = 100 / (1 + (angle / angle50)^slope), normal 40, 5; a
+   * number: that angle, slope 5 (each level's map and what it catches: the coaching manual's
+   * tolerance table). The model's map of the distance is the same at every level, so another motion
+   * scores low at each. A per-stream field, like alignment_window. NULL (default): "normal".
+   * Anything else is refused (KATA_E_INVALID_ARGUMENT, naming it). Since 1.2 (a caller's struct
+   * without it gets "normal"). */
+  const char* tolerance;
 } kata_teacher_desc;
 
 /* Fills the first struct_size bytes of desc with the defaults above and sets desc->struct_size
@@ -203,7 +215,7 @@ KATA_API kata_status kata_stream_restart_teacher(kata_stream stream);
 typedef struct kata_teacher_s* kata_teacher;
 /* Builds the teacher desc describes, as kata_stream_attach_teacher would for a stream with the
  * model's stencil: desc->model and exactly one motion are required; desc's per-stream fields
- * (ghost, ghost_across, retarget, alignment_window) are kept as the defaults of
+ * (ghost, ghost_across, retarget, alignment_window, tolerance) are kept as the defaults of
  * kata_stream_attach_shared_teacher; on_progress is called on this thread while the features are
  * computed. The model may be destroyed afterwards. Errors (as kata_stream_attach_teacher's, less
  * the ones that need a student stream) return their status with the message in
@@ -226,7 +238,7 @@ KATA_API uint64_t kata_teacher_memory_bytes(kata_teacher teacher);
  * teacher was created from (same scores, matched frames and ghosts, bit for bit), without copying
  * it: the stream takes a reference. options: NULL for the per-stream fields the teacher was
  * created with, or a kata_teacher_desc (kata_teacher_desc_init) whose ghost, ghost_across,
- * retarget and alignment_window apply to this stream only (its model and on_progress are ignored;
+ * retarget, alignment_window and tolerance apply to this stream only (its model and on_progress are ignored;
  * a motion in it is refused). A practice section is set afterwards with
  * kata_stream_set_practice_section, as for any clip teacher. Replaces any teacher; a refused call
  * leaves the old one in place, with the message in kata_stream_last_error (a stream whose stencil

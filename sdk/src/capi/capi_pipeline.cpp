@@ -125,7 +125,7 @@ void check_one_motion(const kata_teacher_desc& d, const char* call) {
   if (motions > 1) invalid(call, "give one teacher motion: a clip, skeleton + positions, features or joints, not several");
 }
 
-// The per-stream options a desc gives (ghost, ghost_across, retarget, alignment_window), checked
+// The per-stream options a desc gives (ghost, ghost_across, retarget, alignment_window, tolerance), checked
 // against the teacher's motion (one given as features or joints has no ghost) but not yet against
 // the student stream (check_student). Throws kata::Error.
 kata::pipeline::TeacherOptions teacher_options(const kata_teacher_desc& d, const char* call) {
@@ -134,6 +134,13 @@ kata::pipeline::TeacherOptions teacher_options(const kata_teacher_desc& d, const
   if (!(d.alignment_window > 0.0 && d.alignment_window <= 60.0))
     invalid(call, "alignment_window must be in (0, 60] teacher seconds");
   options.alignment.window = d.alignment_window;
+  if (d.tolerance) {
+    try {
+      options.tolerance = kata::metric::parse_tolerance(d.tolerance);
+    } catch (const kata::Error& e) {
+      invalid(call, std::string("desc->") + e.what());
+    }
+  }
   options.ghost = d.ghost != 0;
   options.retarget = kata::capi::retarget_options(d.retarget, &options.ghost_joints);
   check_one_motion(d, call);
@@ -371,7 +378,7 @@ KATA_API kata_status kata_stream_attach_shared_teacher(kata_stream stream, kata_
       const kata_teacher_desc d = effective_teacher_desc(options, call);
       if (d.clip || d.skeleton || d.positions || d.features || d.joints)
         invalid(call, "options gives a teacher motion; the shared teacher is the motion (set only ghost, "
-                      "ghost_across, retarget and alignment_window)");
+                      "ghost_across, retarget, alignment_window and tolerance)");
       o = teacher_options(d, call);
       if (o.ghost && teacher->scores_only)
         invalid(call, "the shared teacher was given as features or GPD joints: it has no ghost (set options->ghost = 0)");

@@ -1,7 +1,13 @@
 #include "metric/pose_error.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <string>
+
+#include "common/error.hpp"
 
 namespace kata::metric {
 
@@ -163,9 +169,32 @@ double trimmed_pose_distance(const float* s, const float* t, double* rest) {
   return others + std::min(worst, kTrimmedCap * others);
 }
 
-double angle_score(double degrees) {
-  const double a = std::max(0.0, degrees) / kAngle50;
-  return 100.0 / (1.0 + std::pow(a, kAngleSlope));
+double angle_score(double degrees) { return angle_score(degrees, Tolerance{}); }
+
+double angle_score(double degrees, const Tolerance& tolerance) {
+  const double a = std::max(0.0, degrees) / tolerance.angle50;
+  return 100.0 / (1.0 + std::pow(a, tolerance.slope));
+}
+
+Tolerance parse_tolerance(const char* text) {
+  // The levels' maps, measured in docs/model/tolerance.md (docs/model/tolerance.py): strict catches
+  // the balance table's 30-degree turns, lenient is the map chosen there for beginners.
+  static constexpr Tolerance kStrict{25.0, 5.0}, kLenient{58.0, 5.0};
+  const std::string t = text ? text : "";
+  if (t == "normal") return Tolerance{};
+  if (t == "strict") return kStrict;
+  if (t == "lenient") return kLenient;
+  // A number of degrees: the whole text, finite, within the range.
+  char* end = nullptr;
+  const double deg = t.empty() ? 0.0 : std::strtod(t.c_str(), &end);
+  if (!t.empty() && end && *end == '\0' && !std::isspace(static_cast<unsigned char>(t[0])) && std::isfinite(deg) &&
+      deg >= kMinToleranceAngle && deg <= kMaxToleranceAngle)
+    return Tolerance{deg, kAngleSlope};
+  char range[64];
+  std::snprintf(range, sizeof range, "%g..%g", kMinToleranceAngle, kMaxToleranceAngle);
+  throw Error(ErrorKind::kInvalidArgument, "tolerance \"" + t.substr(0, 40) +
+                                               "\": give strict, normal, lenient or the angle in degrees at which a "
+                                               "part scores 50 (" + range + ")");
 }
 
 }  // namespace kata::metric

@@ -86,4 +86,27 @@ double trimmed_pose_distance(const float* student_dirs, const float* teacher_pos
 // The per-part coaching score of a part angle (degrees): 100 / (1 + (a / kAngle50)^kAngleSlope).
 double angle_score(double degrees);
 
+// The lesson's tolerance (docs/model/tolerance.md has the levels' figures): the part map's angle at
+// which a part scores 50 and its slope, part score = 100 / (1 + (angle / angle50)^slope). The
+// levels (their numbers in pose_error.cpp parse_tolerance):
+//   strict   a 30-degree error at one joint scores <= 50 (a coach checking a form already learnt);
+//   normal   kAngle50, kAngleSlope (the default, the map above): a 45-degree error scores <= 50;
+//   lenient  for beginners: another person's same motion scores higher, and a 45-degree error at
+//            one joint is no longer caught (docs/model/tolerance.md says what it reaches and what
+//            bounds it);
+// or a number of degrees in [kMinToleranceAngle, kMaxToleranceAngle]: that angle scores 50, with
+// the normal slope. The gate (the model map of the distance) is the same at every level: another
+// motion scores low at each of them.
+struct Tolerance {
+  double angle50 = kAngle50;
+  double slope = kAngleSlope;
+};
+constexpr double kMinToleranceAngle = 5.0, kMaxToleranceAngle = 120.0;
+// The tolerance a text names: "strict", "normal", "lenient" or a number of degrees (e.g. "45",
+// "37.5"). Throws kata::Error(kInvalidArgument) naming the text and the accepted forms. Allocates
+// (the message) only on error.
+Tolerance parse_tolerance(const char* text);
+// The part score of an angle under a tolerance; angle_score(d) == angle_score(d, Tolerance{}).
+double angle_score(double degrees, const Tolerance& tolerance);
+
 }  // namespace kata::metric

@@ -180,7 +180,7 @@ void Scorer::finish(const float* x, double t, int matched) {
     record_.part_degrees[q] = error_.degrees[q];
     record_.part_joint[q] = error_.joint[q];
     record_.part_offset[q] = error_.offset[q];
-    const double sq = angle_score(error_.degrees[q]);
+    const double sq = angle_score(error_.degrees[q], tolerance_);
     record_.part_scores[q] = static_cast<float>(sq);
     worst = std::min(worst, sq);
   }

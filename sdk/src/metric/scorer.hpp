@@ -14,6 +14,7 @@
 #include "metric/align.hpp"
 #include "metric/cue.hpp"
 #include "metric/metric.hpp"
+#include "metric/pose_error.hpp"
 #include "metric/reference.hpp"
 
 namespace kata::metric {
@@ -64,7 +65,7 @@ struct ScoreRecord {
   // Per part p (pose_error.hpp PartError): its angle, degrees (the largest angle between a
   // student bone of the part and the teacher's, each in the body's frame it hangs from), the GPD
   // joint (1..15) at the end of that bone, its offset (mean joint distance in the local frame, body
-  // heights) and its score angle_score(degrees), 0..100.
+  // heights) and its score angle_score(degrees, the scorer's tolerance), 0..100.
   float part_degrees[kParts] = {};
   int32_t part_joint[kParts] = {};
   float part_offset[kParts] = {};
@@ -142,6 +143,10 @@ class Scorer {
   // Allocates (the method text): call it between frames, not in the frame loop.
   void set_calibration(const ScoreCalibration& calibration);
   const ScoreCalibration& calibration() const { return calibration_; }
+  // The lesson's tolerance (pose_error.hpp Tolerance): the part map every part score takes from
+  // the next frame on; normal until set. Allocation-free.
+  void set_tolerance(const Tolerance& tolerance) { tolerance_ = tolerance; }
+  const Tolerance& tolerance() const { return tolerance_; }
 
   // Practice: follows only the reference frames first..last (last -1: the clip's end), looping
   // when `loop`, from the next frame on (the alignment restarts; the calibration is kept). Throws
@@ -183,6 +188,7 @@ class Scorer {
   Aligner aligner_;
   FeedbackOptions feedback_;
   ScoreCalibration calibration_;
+  Tolerance tolerance_;
   Metric::Workspace ws_;
   AlignedFloats p_;                 // kProjectionRows x stride: this frame's projections
   AlignedFloats u_;                 // stride: u = W^T (x'' - y'')

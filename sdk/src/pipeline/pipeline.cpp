@@ -6,6 +6,7 @@
 #include <cstring>
 
 #include "common/error.hpp"
+#include "metric/smoothed_rematch.hpp"
 
 namespace kata::pipeline {
 
@@ -91,7 +92,14 @@ void Pipeline::set_teacher(std::shared_ptr<const Teacher> teacher, const Teacher
                 "pipeline: the stream's stencil differs from the one the model was trained with; open the stream "
                 "with the model's stencil");
   // Build everything first, then swap in: a refused teacher leaves the old one in place.
-  auto scorer = std::make_unique<metric::Scorer>(teacher->reference, options.alignment);
+  // A smoothed student (One-Euro: a landmark layout's default, a webcam's) is re-matched within
+  // kSmoothedRematchTime (metric/smoothed_rematch.hpp has why), if re-matched at all. Decided when
+  // the teacher is attached.
+  metric::AlignmentOptions alignment = options.alignment;
+  if (config_.stream.smoothing && alignment.rematch_time > 0.0)
+    alignment.rematch_time = std::max(alignment.rematch_time, metric::kSmoothedRematchTime);
+  auto scorer = std::make_unique<metric::Scorer>(teacher->reference, alignment);
+  scorer->set_tolerance(options.tolerance);
   std::unique_ptr<metric::RepCounter> reps;
   if (teacher->reference->kind() == metric::ReferenceKind::kClip)
     reps = std::make_unique<metric::RepCounter>(teacher->reference);

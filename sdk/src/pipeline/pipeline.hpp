@@ -91,6 +91,8 @@ struct TeacherOptions {
   // until Stream::bone_lengths has them (a webcam student has no rest pose).
   bool ghost_across = false;
   retarget::MappedSide ghost_teacher;
+  // The lesson's tolerance: the part map of the stream's scores (metric/pose_error.hpp).
+  metric::Tolerance tolerance;
 };
 
 // One emitted feature vector's result.

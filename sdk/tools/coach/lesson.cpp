@@ -115,6 +115,7 @@ Lesson::Lesson(const LessonSettings& settings) {
     td.layout = settings.preset.c_str();
     td.first_frame = static_cast<uint32_t>(settings.first_frame);
     td.alignment_window = settings.window;
+    if (!settings.tolerance.empty()) td.tolerance = settings.tolerance.c_str();
     td.on_progress = [](void* user, uint32_t done, uint32_t frames) {
       (*static_cast<tools::LoadProgress*>(user))(static_cast<int>(done), static_cast<int>(frames));
     };

@@ -45,6 +45,7 @@ struct LessonSettings {
   int first_frame = 1;         // first frame of each clip (1 skips the CMU converter's T-pose)
   double speed = 1.0;          // playback rate (1 = real time)
   double window = 0.5;         // alignment window, teacher seconds
+  std::string tolerance;       // kata_teacher_desc.tolerance; "" for the default (normal)
   // Practice (teacher clip frames, like first_frame; -1: unset): the lesson starts at
   // teacher_start (the teacher before it is not used), or loops the section loop_first..loop_last.
   // Kept in recordings (array 'practice').

@@ -150,6 +150,7 @@ struct WebcamCoach::Impl {
     td.ghost = 1;
     td.ghost_across = 1;
     td.alignment_window = settings.window;
+    if (!settings.tolerance.empty()) td.tolerance = settings.tolerance.c_str();
     td.on_progress = [](void* user, uint32_t done, uint32_t total) {
       (*static_cast<tools::LoadProgress*>(user))(static_cast<int>(done), static_cast<int>(total));
     };

@@ -47,6 +47,7 @@ struct WebcamSettings {
                                                // a slow page's ~1 s steps would read as ms under auto)
   int first_frame = 1;                         // of a BVH teacher (skips CMU's T-pose)
   double window = 0.5;                         // alignment window, teacher seconds
+  std::string tolerance;                       // kata_teacher_desc.tolerance; "" for the default (normal)
   std::string publish = "tcp://127.0.0.1:*";
   std::string record_teacher;                  // record mode: landmarks .npy (+ .times.npy), no scoring
   std::string record_student;                  // a lesson also keeps what the page sent here
