@@ -65,7 +65,7 @@ void setup(CLI::App& app) {
   cmd->add_option("--good", args->good, "total score at or above which no part is named (default 75)");
   cmd->add_option("--method", args->method, "how the map was fitted (stored as text)");
   cmd->add_option("--delta-star", args->delta_star,
-                  "replace the decision threshold delta* (e.g. the one chosen by docs/model/threshold_loso.sh)")
+                  "replace the decision threshold delta* (e.g. the one chosen by docs/model/threshold_loso.sh in the source repository)")
       ->check(CLI::PositiveNumber);
   cmd->add_option("--data", args->data, "replace the model's \"data\" description (dataset and clips, no paths)");
   cmd->callback([args] { run_calibrate(*args); });

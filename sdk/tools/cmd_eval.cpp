@@ -387,7 +387,7 @@ void setup(CLI::App& app) {
   cmd->add_option("--label", a->labels, "a name per model");
   cmd->add_option("--out-dir", a->out_dir, "write eval.csv, eval.md and eval.png here");
   cmd->add_option("--title", a->title, "report title");
-  cmd->add_flag("!--no-plot", a->plot, "do not link the figures (docs/model/plot_eval.py draws them from the CSV)");
+  cmd->add_flag("!--no-plot", a->plot, "do not link the figures (docs/model/plot_eval.py, in the source repository, draws them from the CSV)");
   cmd->add_option("--stencil", a->stencil, "backward | central")->check(CLI::IsMember({"backward", "central"}));
   cmd->add_option("--layout,--preset", a->preset, "layout of the clips (default cmu; --preset: its name before 1.0)");
   cmd->add_option("--threads", a->threads, "threads");

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "data_files.hpp"
 #include "command.hpp"
 #include "common/error.hpp"
 #include "io/clip_features.hpp"
@@ -90,7 +91,8 @@ void setup(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "pairs", "labeled pose pairs (CSV clip_a,frame_a,clip_b,frame_b,label) by a reproducible proxy protocol: "
                "'transition' (future agreement, j among i's matches), 'transition-uniform' (future agreement, i and j "
-               "drawn uniformly then filtered: the independent protocol of docs/model/transition.md) or 'cross-body' (same frame on two "
+               "drawn uniformly then filtered: the uniform protocol of " + kata::cli::doc_file("model/transition.md") +
+                   ") or 'cross-body' (same frame on two "
                "bodies vs. close-but-rotated poses)");
   cmd->add_option("clips", a->clips, "BVH files relative to --data (default: every clip of --subjects)");
   cmd->add_option("--data", a->data, "folder of BVH clips")->required();

@@ -20,6 +20,7 @@
 
 #include <zmq.hpp>
 
+#include "data_files.hpp"
 #include "command.hpp"
 #include "common/error.hpp"
 #include "transport/curve.hpp"
@@ -55,7 +56,7 @@ void run_proxy(const ProxyArgs& a) {
       if (!a.insecure)
         throw kata::Error(kata::ErrorKind::kInvalidArgument,
                           "proxy: " + *e + " is reachable from other hosts without keys: give --key and --clients "
-                          "(kata keygen; docs/deploy.md), or --insecure");
+                          "(kata keygen; " + kata::cli::doc_file("deploy.md") + "), or --insecure");
       std::fprintf(stderr, "kata proxy: warning: %s bound without keys (--insecure): anyone on the network can "
                            "publish and subscribe\n", e->c_str());
     }

@@ -98,7 +98,7 @@ void run_score(const ScoreArgs& a) {
   for (const auto& figure : loaded.info.evaluation)
     if (figure.first.find("protocol transition") != std::string::npos) {
       std::fprintf(stderr, "note: %s is a transition model (%s); for coaching scores use models/default.kata "
-                           "(docs/model/transition.md)\n", a.model.c_str(), figure.first.c_str());
+                           "(%s)\n", a.model.c_str(), figure.first.c_str(), kata::cli::doc_file("model/transition.md").c_str());
       break;
     }
   const auto metric = std::make_shared<const metric::Metric>(loaded);
@@ -358,8 +358,8 @@ void setup(CLI::App& app) {
                   ".kata model: models/default.kata for coaching (calibrated scores); the transition models only "
                   "rank transition candidates: models/transition.kata within one subject's takes or one kind of "
                   "motion (leave one subject out, the independent protocol: 0.815 vs JCD 0.764), "
-                  "models/transition-static.kata between clips of different motions (0.836 vs JCD 0.620); "
-                  "docs/model/transition.md")
+                  "models/transition-static.kata between clips of different motions (0.836 vs JCD 0.620); " +
+                      kata::cli::doc_file("model/transition.md"))
       ->required()
       ->transform(kata::cli::default_data_file)->check(CLI::ExistingFile);
   cmd->add_option("--teacher", args->teacher, "teacher motion: .bvh, or a landmark .npy/.csv (see kata features)")

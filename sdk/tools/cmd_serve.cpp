@@ -70,6 +70,7 @@
 
 #include <zmq.h>
 
+#include "data_files.hpp"
 #include "command.hpp"
 #include "failure.hpp"
 #include "kata/kata.h"
@@ -579,7 +580,7 @@ void setup(CLI::App& app) {
   auto path = std::make_shared<std::string>();
   auto counters = std::make_shared<std::string>();
   CLI::App* cmd = app.add_subcommand("serve", "run a live stage from a TOML config: ZeroMQ frames in, scores and ghosts out");
-  cmd->add_option("--config", *path, "the TOML config (see docs/runtime.md)")->required();
+  cmd->add_option("--config", *path, "the TOML config (every key: " + kata::cli::doc_file("config.md") + ")")->required();
   cmd->add_option("--counters", *counters, "after the stop, write every stream's counters to this JSON file (tests)");
   cmd->callback([path, counters] {
 #ifdef KATA_HAVE_NATS

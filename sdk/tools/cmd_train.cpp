@@ -11,6 +11,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "data_files.hpp"
 #include "command.hpp"
 #include "common/error.hpp"
 #include "io/model_file.hpp"
@@ -245,7 +246,8 @@ void setup(CLI::App& app) {
   cmd->add_option("--method", a->method,
                   "rdsr (the paper's semi-supervised W) | joint-form (a transition distance fitted to the pairs' "
                   "labels: one quadratic form per axis on each joint's position, velocity and acceleration "
-                  "differences, shared by the joints, by logistic regression; docs/model/transition.md)")
+                  "differences, shared by the joints, by logistic regression; " +
+                      kata::cli::doc_file("model/transition.md") + ")")
       ->check(CLI::IsMember({"rdsr", "joint-form"}));
   cmd->add_option("--form-terms", a->form_terms, "joint-form: the terms of each joint's difference vector, p,v,a or p,v")
       ->check(CLI::IsMember({"p,v,a", "p,v"}));
@@ -256,7 +258,7 @@ void setup(CLI::App& app) {
   cmd->add_option("--sweep-rank", a->sweep_ranks, "also write a model per rank (x --sweep-alpha)")->delimiter(',');
   cmd->add_option("--lasso-compare", a->lasso_compare,
                   "write the sparse-coding benchmark set (X.npy, problems.csv) to this folder for "
-                  "docs/model/lasso_vs_sklearn.py");
+                  "docs/model/lasso_vs_sklearn.py (in the source repository)");
   cmd->add_option("--split-every", a->split_every, "clip split: every N-th clip (sorted) is 'val'");
   cmd->add_option("--split-part", a->split_part, "train | val | all")->check(CLI::IsMember({"train", "val", "all"}));
   cmd->add_option("--stencil", a->stencil, "backward | central")->check(CLI::IsMember({"backward", "central"}));

@@ -22,4 +22,8 @@ std::string default_data_file(const std::string& relative) {
   return relative;
 }
 
+std::string doc_file(const std::string& page) {
+  return (std::filesystem::path(share_dir()).parent_path() / "doc" / "kata" / page).lexically_normal().string();
+}
+
 }  // namespace kata::cli

@@ -18,4 +18,9 @@ std::string share_dir();
 // their input files too, so the docs' `data/cmu/...` and `models/...` work from an install.
 std::string default_data_file(const std::string& relative);
 
+// The installed user documentation's page (e.g. "config.md", "model/transition.md"):
+// PREFIX/share/doc/kata/PAGE beside share_dir(), where `cmake --install` puts docs/ (and the build
+// copies it to build/share/doc/kata), so `kata <cmd> --help` names a file the user has.
+std::string doc_file(const std::string& page);
+
 }  // namespace kata::cli

@@ -294,7 +294,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
     for (const char* name : {"publish", "shard"})
       if (const toml::node* n = root.get(name))
         refuse(file, n->source(), std::string("[") + name + "] is for ZeroMQ: with [transport] kind = \"nats\" results go out on NATS "
-                                  "and shards share the partitions by lease (docs/deploy.md)");
+                                  "and shards share the partitions by lease (" + kata::cli::doc_file("deploy.md") + ")");
   }
   c.runtime.ingest_endpoints = nats ? std::vector<std::string>{} : read_endpoints(file, ingest, "ingest");
   if (!nats && c.runtime.ingest_endpoints.empty()) throw cli::Failure(file + ":1: [ingest] endpoints is empty");
@@ -405,7 +405,7 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
       if (!binds || kata_endpoint_reachable_beyond_host(endpoint.c_str()) == 0 || !key_file.empty()) continue;
       if (!c.insecure)
         throw cli::Failure(file + ":1: [" + where + "] " + e + " is reachable from other hosts without keys: "
-                                           "add [security] key and clients (kata keygen; docs/deploy.md), or "
+                                           "add [security] key and clients (kata keygen; " + kata::cli::doc_file("deploy.md") + "), or "
                                            "insecure = true");
       c.warnings.push_back(std::string("[") + where + "] " + e +
                            " is bound without keys (insecure = true): anyone on the network can send frames and read results");

@@ -8,6 +8,7 @@
 #include <string>
 #include <string_view>
 
+#include "data_files.hpp"
 #include "failure.hpp"
 #include "serve_config.hpp"
 #include "serve_config_read.hpp"
@@ -69,7 +70,7 @@ TEST(serve_config, ANatsTransportReplacesTheZeroMqSockets) {
   EXPECT_TRUE(c.runtime.publish_endpoints.empty());
   EXPECT_EQ(refusal([&] { parse_config_text(config + "[publish]\nendpoints = [\"tcp://127.0.0.1:5556\"]\n", "shard.toml"); }),
             "shard.toml:10: [publish] is for ZeroMQ: with [transport] kind = \"nats\" results go out on NATS and shards "
-            "share the partitions by lease (docs/deploy.md)");
+            "share the partitions by lease (" + kata::cli::doc_file("deploy.md") + ")");
   EXPECT_EQ(refusal([&] { parse_config_text("[transport]\nkind = \"nats\"\n", "shard.toml"); }),
             "shard.toml:1: [transport] kind = \"nats\" needs servers = [\"nats://host:4222\", ...]");
   EXPECT_EQ(refusal([&] { parse_config_text("[transport]\nkind = \"nats\"\nservers = [\"nats://a:1\"]\nshard = \"a.b\"\n", "s.toml"); }),

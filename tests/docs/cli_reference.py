@@ -27,7 +27,9 @@ at fault otherwise.
 
 
 def run(kata, args, prefix):
-    r = subprocess.run([kata] + args, capture_output=True, text=True, env={"PATH": "/usr/bin:/bin", "LANG": "C.UTF-8"})
+    """`kata ARGS` as a user types it (found on PATH, so its usage line says `kata`)."""
+    r = subprocess.run(["kata"] + args, capture_output=True, text=True,
+                       env={"PATH": os.path.dirname(kata) + ":/usr/bin:/bin", "LANG": "C.UTF-8", "COLUMNS": "100"})
     out = (r.stdout + r.stderr).rstrip() + "\n"
     return out.replace(prefix + "/", "PREFIX/").replace(prefix, "PREFIX")
 
@@ -36,7 +38,7 @@ def commands(top):
     """(name, description) of every subcommand `kata --help` lists under SUBCOMMANDS."""
     out, inside = [], False
     for line in top.split("\n"):
-        if line.strip() == "SUBCOMMANDS:":
+        if line.strip().lower() == "subcommands:":
             inside = True
             continue
         if inside:

@@ -77,6 +77,8 @@ if open(os.path.join(source, "docs", "cli.md"), encoding="utf-8").read() != gene
 # --help names installed documentation, and it exists.
 helps = {}
 top = subprocess.run([kata, "--help"], capture_output=True, text=True).stdout
+if not commands(top):
+    failures.append("kata --help lists no subcommands:\n" + top)
 helps["kata --help"] = top
 for name, _ in commands(top):
     r = subprocess.run([kata, name, "--help"], capture_output=True, text=True)

@@ -214,7 +214,8 @@ def _():
                                 KATA_LIBRARY=os.path.join(build, "lib", "libkata.so"),
                                 KATA_PYTHON_FB=os.path.join(build, "python", "kata", "fb"),
                                 KATA_HEADER=os.path.join(source, "sdk", "include", "kata", "core.h"),
-                                KATA_MODEL=os.path.join(source, "models", "default.kata")))
+                                KATA_MODEL=os.path.join(source, "models", "default.kata"),
+                                KATA_DATA=os.path.join(source, "data", "cmu")))
     assert r.returncode == 0, r.stderr
     assert sorted(os.listdir(src)) == before, sorted(set(os.listdir(src)) - set(before))
 
