@@ -166,7 +166,7 @@ namespace Kata
         public float CueDegrees;
         public int CueAction;
         public uint Reserved1;
-        // ---- 1.2: repetitions (docs/coach/repetitions.md) ----
+        // ---- 1.1, later: repetitions (docs/coach/repetitions.md) ----
         public int Repetition;             // the repetition in progress: 1 + the complete ones (0 without a clip teacher)
         public float RepetitionProgress;   // where the match is in the teacher's section, 0..1
 
@@ -183,7 +183,7 @@ namespace Kata
         }
     }
 
-    // kata_repetition (kata/result.h, 1.2): one repetition of the teacher's section, complete or partial.
+    // kata_repetition (kata/result.h, 1.1): one repetition of the teacher's section, complete or partial.
     // The eight ranges (degrees, kata_rom_joint order) as named fields: blittable without unsafe code.
     [StructLayout(LayoutKind.Sequential)]
     public struct Repetition
@@ -882,7 +882,7 @@ namespace Kata
 
         public ResultBatch NewResultBatch(int capacity, bool features = false) { return new ResultBatch(capacity, (int)GhostJointCount, features); }
 
-        // kata_stream_read_repetitions (1.2): the repetitions that ended since the last call (at most
+        // kata_stream_read_repetitions (1.1): the repetitions that ended since the last call (at most
         // into.Length), oldest first; returns the count. The stream keeps the newest 16.
         public int ReadRepetitions(Repetition[] into)
         {

@@ -536,7 +536,7 @@ TEST_F(TeacherCapi, AlignmentWindowAndLoadingProgress) {
   kata_clip_destroy(other);
 }
 
-// kata_teacher_desc.tolerance (1.2): NULL by default and for a 1.1 caller's struct (the normal
+// kata_teacher_desc.tolerance (1.1): NULL by default and for a 1.1 caller's struct (the normal
 // map, the scores as before); "lenient" and a number of degrees give each part score the documented
 // map 100 / (1 + (a / a50)^5) of the angle recovered here from the normal score (lenient 58, "33"
 // 33), the matched frames unchanged; a shared teacher's streams take it from the teacher's desc or

@@ -124,7 +124,7 @@ class TeacherDesc(ctypes.Structure):
                 # 1.1
                 ("ghost_across", ctypes.c_int32), ("alignment_window", ctypes.c_double),
                 ("on_progress", ProgressCallback), ("on_progress_user", ctypes.c_void_p),
-                # 1.2
+                # 1.1
                 ("tolerance", ctypes.c_char_p)]
 
 
@@ -171,7 +171,7 @@ class ResultRecord(ctypes.Structure):
                 # added with the correction cue (after reserved0) (kata.h "Score calibration and feedback")
                 ("cue_joint", ctypes.c_int32), ("cue_degrees", ctypes.c_float), ("cue_action", ctypes.c_int32),
                 ("reserved1", ctypes.c_uint32),
-                # 1.2: repetitions
+                # 1.1: repetitions
                 ("repetition", ctypes.c_int32), ("repetition_progress", ctypes.c_float)]
 
 
@@ -179,7 +179,7 @@ ROM_JOINT_COUNT = 8
 
 
 class Repetition(ctypes.Structure):
-    """kata_repetition (kata/result.h, 1.2): one repetition of the teacher's section."""
+    """kata_repetition (kata/result.h, 1.1): one repetition of the teacher's section."""
     _fields_ = [("struct_size", ctypes.c_uint32), ("index", ctypes.c_int32), ("stream_id", ctypes.c_uint64),
                 ("start_time", ctypes.c_double), ("end_time", ctypes.c_double), ("tempo", ctypes.c_double),
                 ("score", ctypes.c_float), ("partial", ctypes.c_int32), ("part_to_fix", ctypes.c_int32),
@@ -363,7 +363,7 @@ _SIGNATURES = {
     "kata_retargeter_local_rotations": (_st, [_p, _p, _sz, _p, _sz, _p, _p, _sz, ctypes.POINTER(_d)]),
     # messages
     "kata_message_read_result": (_st, [_p, _sz, ctypes.POINTER(ResultRecord)]),
-    # since 1.2: repetitions
+    # since 1.1: repetitions
     "kata_message_read_repetition": (_st, [_p, _sz, ctypes.POINTER(Repetition)]),
     "kata_message_write_repetition": (_st, [ctypes.POINTER(Repetition), _p, _sz, ctypes.POINTER(_sz)]),
     "kata_stream_read_repetitions": (_st, [_p, ctypes.POINTER(Repetition), _u32, ctypes.POINTER(_u32)]),

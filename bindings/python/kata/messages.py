@@ -83,7 +83,7 @@ class ResultMessage:
         self.parts = tuple(m.parts)
         self.part_scores = tuple(m.part_scores)
         _set_cue(self, m)
-        # 1.2: the repetition in progress (1 + the complete ones; 0 without a clip teacher or from an
+        # 1.1: the repetition in progress (1 + the complete ones; 0 without a clip teacher or from an
         # older runtime) and the progress through the teacher's section, 0..1.
         self.repetition = int(m.repetition)
         self.repetition_progress = float(m.repetition_progress)
@@ -127,7 +127,7 @@ def read_message(message: bytes) -> Optional[ResultMessage]:
 
 
 class Repetition:
-    """One repetition of the teacher's section (kata_repetition, 1.2; docs/coach/repetitions.md):
+    """One repetition of the teacher's section (kata_repetition, 1.1; docs/coach/repetitions.md):
     index (1, 2, 3...; a partial one the index the attempt would have had), partial (abandoned
     before the end, not counted), start_time / end_time (student seconds, the stream's clock), tempo
     (duration / the teacher section's: 1.2 is 20 % slower), score (mean total), part_to_fix
@@ -360,7 +360,7 @@ class Subscriber:
         self.stale = 0  #: NATS: results of a former holder after a newer holder's (dropped)
         self.handovers = 0  #: NATS: a stream's results seen moving to a newer holder
         self.dropped = 0  #: NATS: times the client library dropped messages for this slow reader
-        #: 1.2: the Repetition messages received with the results (docs/coach/repetitions.md), oldest
+        #: 1.1: the Repetition messages received with the results (docs/coach/repetitions.md), oldest
         #: first; the newest 1024 are kept: pop them as they come.
         self.repetitions: Deque[Repetition] = collections.deque(maxlen=1024)
         self._nats: Optional[_Nats] = None

@@ -90,7 +90,7 @@ class ScoreRecord:
         # The correction cue (messages.ResultMessage says what each field holds).
         from .messages import _set_cue
         _set_cue(self, rec)
-        # 1.2: the repetition in progress (1 + the complete ones; 0 without a clip teacher) and the
+        # 1.1: the repetition in progress (1 + the complete ones; 0 without a clip teacher) and the
         # progress through the teacher's section, 0..1.
         self.repetition = int(rec.repetition)
         self.repetition_progress = float(rec.repetition_progress)
@@ -439,7 +439,7 @@ class Stream(_Handle):
         features are computed, done == frames on the last call (a long teacher's loading; not for
         features or joints; 1.1); an exception it raises is printed and ignored (ctypes). tolerance:
         the lesson's, "strict", "normal" (None: the default), "lenient" or the angle in degrees
-        (5..120) at which a part scores 50 (kata_teacher_desc.tolerance, 1.2)."""
+        (5..120) at which a part scores 50 (kata_teacher_desc.tolerance, 1.1)."""
         d, keep = _teacher_desc(model, clip, skeleton, positions, frame_time, layout, first_frame, pose_frame, ghost,
                                 features, joints, body_height, ghost_across, alignment_window, on_progress, retarget,
                                 tolerance)
@@ -610,7 +610,7 @@ class Stream(_Handle):
         return Results.concatenate(parts)
 
     def read_repetitions(self) -> List[Any]:
-        """kata_stream_read_repetitions (1.2): the repetitions of the teacher's section that ended
+        """kata_stream_read_repetitions (1.1): the repetitions of the teacher's section that ended
         since the last call, oldest first (messages.Repetition each; docs/coach/repetitions.md). The
         stream keeps the newest 16: read at least that often."""
         from .messages import Repetition

@@ -1,4 +1,4 @@
-"""The lesson's tolerance in Python (kata_teacher_desc.tolerance, 1.2): attach_teacher(tolerance=),
+"""The lesson's tolerance in Python (kata_teacher_desc.tolerance, 1.1): attach_teacher(tolerance=),
 attach_shared_teacher and create_teacher. Checked against the documented part map evaluated here with
 numpy: each part's angle recovered from the normal level's part score (100 / (1 + (a / 40)^5)),
 mapped again with the level's a50 and slope (lenient 58, 5; a number: that angle, slope 5); the

@@ -101,7 +101,7 @@ typedef struct kata_result_record {
                                     over 0.5 s like the part scores); 0 for none */
   int32_t cue_action;            /* kata_cue_action; KATA_CUE_NONE (-1) for none */
   uint32_t reserved1;            /* 0 */
-  /* ---- 1.2: repetitions (check KATA_RESULT_HAS(r, repetition)) ----
+  /* ---- 1.1, later: repetitions (check KATA_RESULT_HAS(r, repetition)) ----
    * The teacher's section (the clip, or its practice section, best looped) is one repetition; a
    * repetition ends when the match comes round from the section's end to its start (a
    * kata_repetition then says how it went: kata_stream_read_repetitions, or a Repetition message
@@ -117,7 +117,7 @@ typedef struct kata_result_record {
  * the ankle (180 straight); a hip between the trunk (pelvis -> neck) and the thigh (180 standing,
  * 90 with the thigh level: flexion or abduction alike); an elbow at the elbow between the shoulder
  * and the wrist (180 straight); a shoulder between the trunk (neck -> pelvis) and the upper arm (0
- * hanging, 90 level: flexion or abduction alike). Since 1.2. */
+ * hanging, 90 level: flexion or abduction alike). Since 1.1. */
 typedef enum kata_rom_joint {
   KATA_ROM_LEFT_KNEE = 0,      /* at LKnee between LHip and LFoot */
   KATA_ROM_RIGHT_KNEE = 1,     /* at RKnee between RHip and RFoot */
@@ -130,7 +130,7 @@ typedef enum kata_rom_joint {
   KATA_ROM_JOINT_COUNT = 8     /* the number of angles */
 } kata_rom_joint;
 
-/* One repetition of the teacher's section by the student, complete or partial (1.2;
+/* One repetition of the teacher's section by the student, complete or partial (1.1;
  * docs/coach/repetitions.md). A repetition ends when the match comes round from the section's end
  * to its start (or jumps back to its start, or holds at its end for 0.5 s); it is complete when
  * the student went through at least 70 % of the section and reached its end, partial (reported,

@@ -55,7 +55,7 @@ typedef struct kata_runtime_s* kata_runtime;
  * are valid only during the call: copy what is kept. It must return quickly and must not call
  * kata_runtime_* on its runtime (stop and destroy wait for it). `user` is on_result_user. */
 typedef void (*kata_result_callback)(void* user, const kata_result_record* result);
-/* A consumer of every repetition that ends inside the process (1.2; kata_runtime_desc.on_repetition;
+/* A consumer of every repetition that ends inside the process (1.1; kata_runtime_desc.on_repetition;
  * docs/coach/repetitions.md): called as on_result is, right after the result of the frame that
  * ended the repetition (and after the Repetition message was published), with the runtime's own
  * kata_repetition (struct_size this library's, stream_id set), valid only during the call. `user`
@@ -172,9 +172,9 @@ typedef struct kata_runtime_desc {
    * thing in kata_runtime_stop. NULL / 0 (default): none. */
   const kata_runtime_plugin* plugins;
   uint32_t plugin_count;            /* entries in plugins. Default 0. Since 1.1 */
-  /* ---- 1.2 ---- */
+  /* ---- 1.1, later ---- */
   kata_repetition_callback on_repetition; /* every repetition that ends, in the process (above), or
-                                             NULL (default). Since 1.2 */
+                                             NULL (default). Since 1.1 */
 } kata_runtime_desc;
 
 /* Counters since the runtime was created (sums over streams). */
@@ -463,7 +463,7 @@ KATA_API kata_status kata_message_read_result(const void* message, size_t size, 
  * topic right after the result of the frame that ended a repetition: docs/coach/repetitions.md)
  * into *out (as much as out->struct_size holds; set it to sizeof(kata_repetition)), verified
  * first. KATA_OK: a repetition; KATA_NO_DATA: a valid kata message of another kind (a result,
- * stats); KATA_E_PARSE: refused. kata_message_read_result returns KATA_NO_DATA for it. Since 1.2.
+ * stats); KATA_E_PARSE: refused. kata_message_read_result returns KATA_NO_DATA for it. Since 1.1.
  * [any thread] */
 KATA_API kata_status kata_message_read_repetition(const void* message, size_t size, kata_repetition* out);
 
@@ -626,7 +626,7 @@ KATA_API kata_status kata_message_write_result(const kata_result_record* record,
  * for tests of subscribers. repetition->struct_size is the caller's sizeof(kata_repetition).
  * KATA_E_NULL_POINTER for no repetition or size; KATA_E_INVALID_ARGUMENT for a smaller
  * struct_size; KATA_E_NON_FINITE for a NaN or infinite time, tempo, score or range;
- * KATA_E_BUFFER_TOO_SMALL (*size the bytes needed). Since 1.2. [any thread] */
+ * KATA_E_BUFFER_TOO_SMALL (*size the bytes needed). Since 1.1. [any thread] */
 KATA_API kata_status kata_message_write_repetition(const kata_repetition* repetition, void* buffer, size_t capacity,
                                                    size_t* size);
 

@@ -163,7 +163,7 @@ typedef struct kata_teacher_desc {
    * teacher given as features or joints. NULL (default): none. Since 1.1. */
   kata_progress_callback on_progress;
   void* on_progress_user;    /* passed to on_progress as is. Default NULL */
-  /* ---- 1.2 ---- */
+  /* ---- 1.1, later ---- */
   /* The lesson's tolerance, how far a part may be off before its score falls: "strict" (a
    * 30-degree error at one joint scores 50 or less), "normal" (a 45-degree error does; 1.1's
    * scores), "lenient" (for beginners: another person's same motion scores higher, and a
@@ -172,7 +172,7 @@ typedef struct kata_teacher_desc {
    * number: that angle, slope 5 (each level's map and what it catches: the coaching manual's
    * tolerance table). The model's map of the distance is the same at every level, so another motion
    * scores low at each. A per-stream field, like alignment_window. NULL (default): "normal".
-   * Anything else is refused (KATA_E_INVALID_ARGUMENT, naming it). Since 1.2 (a caller's struct
+   * Anything else is refused (KATA_E_INVALID_ARGUMENT, naming it). Since 1.1 (a caller's struct
    * without it gets "normal"). */
   const char* tolerance;
 } kata_teacher_desc;
@@ -374,7 +374,7 @@ KATA_API kata_status kata_stream_read_newest(kata_stream stream, kata_result_rec
  * bytes: set it to sizeof(kata_repetition)); *count says how many. The stream keeps the newest 16:
  * read at least that often (each result's repetition field says when one ended). stream_id is 0.
  * *count = 0 and KATA_OK without a clip teacher or a new repetition; a new teacher's repetitions
- * are read from its first. Since 1.2. Does not allocate. [stream owner] */
+ * are read from its first. Since 1.1. Does not allocate. [stream owner] */
 KATA_API kata_status kata_stream_read_repetitions(kata_stream stream, kata_repetition* repetitions, uint32_t capacity,
                                                   uint32_t* count);
 /* Results overwritten before they were read (a full ring), since the stream was opened; 0 for

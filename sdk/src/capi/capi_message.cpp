@@ -275,7 +275,7 @@ KATA_API kata_status kata_message_write_repetition(const kata_repetition* repeti
   kata_repetition r;
   kata_repetition defaults{};
   defaults.part_to_fix = defaults.cue_joint = defaults.cue_action = -1;
-  // kata_repetition's first size is 1.2's whole struct.
+  // kata_repetition's first size is its whole struct as first released.
   if (const kata_status s = check_call(call, repetition, buffer, capacity, size,
                                        static_cast<uint32_t>(sizeof(kata_repetition)), defaults, &r))
     return s;
