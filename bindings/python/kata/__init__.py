@@ -40,6 +40,7 @@ from .retarget import Retargeter
 from .messages import (PracticeSection, ResultMessage, Subscriber, read_message, write_frame, write_frame_batch, write_practice,
                        write_skeleton)
 from .runtime import Runtime, shard_of
+from . import mediapipe  # kata.mediapipe after a plain `import kata` (it reads the names above at call time)
 
 #: The loaded libkata's version as "MAJOR.MINOR.PATCH" (the package is versioned with it).
 __version__ = "%d.%d.%d" % version
@@ -50,7 +51,7 @@ __all__ = ["Context", "Skeleton", "Clip", "Model", "Teacher", "Landmarks", "Stre
            "BodyPart", "CueAction", "cue_text", "gpd_joint_name", "gpd_joint_part", "body_part_name",
            "gpd_joint_words", "read_message", "write_skeleton", "write_frame", "write_frame_batch",
            "write_practice", "shard_of", "detect_time_units", "default_model_path", "find_data", "layouts",
-           "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "DROP_POLICIES"]
+           "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "DROP_POLICIES", "mediapipe"]
 
 # kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the
 # installed package; used from a checkout, they are the build's (<repo>/build/python/kata/fb).

@@ -359,7 +359,7 @@ def cue_phrase(rec: ResultRecord) -> str:
     """kata_cue_text of a record: "left knee: bend 30 deg more", "" without a cue."""
     buf = ctypes.create_string_buffer(64)
     globals()["cue_text"](ctypes.byref(rec), buf, len(buf))  # set by the loop above
-    return buf.value.decode()
+    return buf.value.decode("utf-8", "replace")
 
 
 def __getattr__(name: str) -> Any:
