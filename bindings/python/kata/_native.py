@@ -307,6 +307,7 @@ _SIGNATURES = {
     "kata_retargeter_local_rotations": (_st, [_p, _p, _sz, _p, _sz, _p, _p, _sz, ctypes.POINTER(_d)]),
     # messages
     "kata_message_read_result": (_st, [_p, _sz, ctypes.POINTER(ResultRecord)]),
+    "kata_message_read_refusal": (_st, [_p, _sz, ctypes.POINTER(ctypes.c_uint64), _p, _sz]),  # 1.1
     # since 1.1: the ingest message writers
     "kata_skeleton_message_init_sized": (None, [ctypes.POINTER(SkeletonMessage), _u32]),
     "kata_frame_message_init_sized": (None, [ctypes.POINTER(FrameMessage), _u32]),

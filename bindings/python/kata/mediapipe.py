@@ -59,25 +59,25 @@ def _seconds(timestamps: np.ndarray, time_units: str) -> np.ndarray:
 
 __all__ = ["LANDMARKS", "landmarks_array", "Scorer", "Scores", "score"]
 
-#: A person's nose-to-ankles distance in metres (the mediapipe layout's unit), as the C++ loader checks.
-PERSON_METRES = (0.3, 3.0)
+#: The largest nose-to-ankles distance of a person in metres (the mediapipe layout's unit), as the
+#: C++ loader checks it: landmarks in pixels measure hundreds.
+MAX_PERSON_METRES = 3.0
 
 
 def _check_person(a: np.ndarray) -> None:
     """(frames, 33, 5) landmarks show a person in metres, y down (as kata's loader checks a
-    "mediapipe" file): the median nose-to-ankles distance within PERSON_METRES, and the nose not
-    below the ankles by more than half that. ValueError naming the figure and the likely cause."""
+    "mediapipe" file): the median nose-to-ankles distance at most MAX_PERSON_METRES, and the nose
+    not below the ankles by more than half that. ValueError naming the figure and the likely cause."""
     nose, ankles = a[:, 0, :], 0.5 * (a[:, 27, :] + a[:, 28, :])
     seen = np.isfinite(a[:, [0, 27, 28], :3]).all(axis=(1, 2)) & (a[:, [0, 27, 28], 3:5].min(axis=(1, 2)) >= 0.5)
     if not seen.any():
         return
     body = float(np.median(np.linalg.norm(ankles[seen, :3] - nose[seen, :3], axis=1)))
-    if not PERSON_METRES[0] <= body <= PERSON_METRES[1]:
+    if not body <= MAX_PERSON_METRES:
         raise ValueError("landmarks: the body measures %.4g from the nose to the ankles (the median over the frames "
-                         "that show them): not a person in metres, which MediaPipe's world landmarks are. %s" % (
-                             body, "Pixel coordinates (the image landmarks times the image's width and height)? Give "
-                             "pose_world_landmarks" if body > PERSON_METRES[1] else
-                             "Image coordinates (0..1) or another unit? Give pose_world_landmarks (metres)"))
+                         "that show them): not a person in metres, which MediaPipe's world landmarks are. Pixel "
+                         "coordinates (the image landmarks times the image's width and height)? Give "
+                         "pose_world_landmarks" % body)
     below = float(np.median(nose[seen, 1] - ankles[seen, 1]))
     if below > 0.5 * body:
         raise ValueError("landmarks: the body is upside down: the nose is %.3g m below the ankles (the median over "
@@ -184,9 +184,8 @@ class Scorer:
                  result_capacity: int = 1024, time_units: str = "ms", teacher_fps: float = 0.0) -> None:
         self._ctx = kata.Context()
         self._model = self._ctx.load_model(model or kata.default_model_path())
-        path = None if isinstance(teacher, (kata.Clip, kata.Landmarks)) else os.fspath(teacher)
-        landmark_teacher = isinstance(teacher, kata.Landmarks) or (
-            path is not None and os.path.splitext(path)[1].lower() in (".npy", ".csv"))
+        path = "" if isinstance(teacher, (kata.Clip, kata.Landmarks)) else os.fspath(teacher)
+        landmark_teacher = isinstance(teacher, kata.Landmarks) or os.path.splitext(path)[1].lower() in (".npy", ".csv")
         with self._ctx.create_layout("mediapipe") as skeleton:
             self.stream = self._ctx.open_stream(skeleton, layout="mediapipe", stencil=self._model.stencil,
                                                 result_capacity=result_capacity)
@@ -194,8 +193,8 @@ class Scorer:
             self.stream.set_smoothing(False)
         if landmark_teacher:
             layout = teacher_layout or "mediapipe"
-            lm = teacher if isinstance(teacher, kata.Landmarks) else self._ctx.load_landmarks(
-                path, layout, fps=teacher_fps)  # type: ignore[arg-type]  # a path here
+            lm = teacher if isinstance(teacher, kata.Landmarks) else self._ctx.load_landmarks(path, layout,
+                                                                                              fps=teacher_fps)
             with self._ctx.create_layout(layout) as teacher_skeleton:
                 self.stream.attach_teacher(self._model, skeleton=teacher_skeleton, positions=lm.positions,
                                            frame_time=lm.frame_time, layout=layout, first_frame=first_frame,
@@ -203,7 +202,7 @@ class Scorer:
             if lm is not teacher:
                 lm.close()
         else:
-            clip = teacher if isinstance(teacher, kata.Clip) else self._ctx.load_clip(path)  # type: ignore[arg-type]
+            clip = teacher if isinstance(teacher, kata.Clip) else self._ctx.load_clip(path)
             self.stream.attach_teacher(self._model, clip=clip, layout=teacher_layout or "cmu",
                                        first_frame=first_frame, ghost=False)
             if clip is not teacher:

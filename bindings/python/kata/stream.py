@@ -272,7 +272,7 @@ class Stream(_Handle):
         except (TypeError, ValueError):
             return  # the push itself names a wrong type
         if self._first_time is not None:
-            t = np.concatenate(([self._first_time], t))
+            t = np.concatenate((np.array([self._first_time], dtype=np.float64), t))
         if len(t) < 2:
             return
         step = float(np.median(np.diff(t)))

@@ -238,16 +238,12 @@ void check_person_in_metres(const MotionSource& m) {
   const double body = median(size), head_below = median(drop);
   char figure[64];
   std::snprintf(figure, sizeof figure, "%.4g", body);
-  if (!(body >= kMinPersonMetres && body <= kMaxPersonMetres))
+  if (!(body <= kMaxPersonMetres))
     throw Error(ErrorKind::kInvalidArgument,
                 bounded(m.path) + ": the body measures " + figure +
                     " from the nose to the ankles (the median over the frames that show them): not a person in "
-                    "metres, which the mediapipe layout reads. " +
-                    (body > kMaxPersonMetres
-                         ? "Pixel coordinates (the image landmarks times the image's width and height)? Give "
-                           "MediaPipe's world landmarks (pose_world_landmarks, metres)"
-                         : "Image coordinates (0..1) or another unit? Give MediaPipe's world landmarks "
-                           "(pose_world_landmarks, metres)"));
+                    "metres, which the mediapipe layout reads. Pixel coordinates (the image landmarks times the "
+                    "image's width and height)? Give MediaPipe's world landmarks (pose_world_landmarks, metres)");
   if (head_below > 0.5 * body) {
     std::snprintf(figure, sizeof figure, "%.3g", head_below);
     throw Error(ErrorKind::kInvalidArgument,
