@@ -303,8 +303,9 @@ TEST(Feedback, APartIsNamedWhileItOrTheTotalIsBelowGood) {
 }
 
 // The hold never keeps a part that scores at or above good in a frame while the candidate scores
-// below it there (a student read "fix the right leg" beside a right leg at 100 and arms at 2 for
-// 0.2 s): the candidate, recomputed here from the records as above, is named at once then. Whole
+// far below good there (kOffsetBand under it; a student read "fix the right leg" beside a right
+// leg at 100 and arms at 2 for 0.2 s): the candidate, recomputed here from the records as above,
+// is named at once then. Whole
 // clips followed by the alignment with the shipped model; the frames where the hold would have
 // kept such a part are counted, so the case is known to occur.
 TEST(Feedback, TheHoldNeverKeepsAPartAboveGoodWhileTheCandidateIsBelow) {
@@ -339,7 +340,8 @@ TEST(Feedback, TheHoldNeverKeepsAPartAboveGoodWhileTheCandidateIsBelow) {
       candidate.push_back(c);
       const int p = r.part_to_fix;
       ++checked;
-      EXPECT_FALSE(p >= 0 && c >= 0 && c != p && r.part_scores[p] >= good && r.part_scores[c] < good)
+      EXPECT_FALSE(p >= 0 && c >= 0 && c != p && r.part_scores[p] >= good &&
+                   r.part_scores[c] < good - metric::kOffsetBand)
           << student << " vs " << teacher << " frame " << f << ": " << metric::part_name(p) << " at "
           << r.part_scores[p] << " named while the candidate " << metric::part_name(c) << " scores "
           << r.part_scores[c];
