@@ -51,7 +51,7 @@ __all__ = ["Context", "Skeleton", "Clip", "Model", "Teacher", "Landmarks", "Stre
            "BodyPart", "CueAction", "cue_text", "gpd_joint_name", "gpd_joint_part", "body_part_name",
            "gpd_joint_words", "read_message", "write_skeleton", "write_frame", "write_frame_batch",
            "write_practice", "shard_of", "detect_time_units", "default_model_path", "find_data", "layouts",
-           "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "DROP_POLICIES", "mediapipe"]
+           "version", "library_path", "GPD_DIMS", "GPD_JOINTS", "RESULT_DTYPE", "DROP_POLICIES"]
 
 # kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the
 # installed package; used from a checkout, they are the build's (<repo>/build/python/kata/fb).
