@@ -7,6 +7,7 @@
 #include <limits>
 #include <memory>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "command.hpp"
@@ -153,6 +154,17 @@ void run_score(const ScoreArgs& a) {
     if (lost) std::printf("%s: %d frames tracking lost (no score)\n", path.c_str(), lost);
     return side;
   };
+  // A landmark array has no joint names to read a layout from: the file without one is named with
+  // the flags that give it, before either side is read (a BVH teacher read first would be blamed).
+  auto ends_with = [](const std::string& path, const char* ext) {
+    const size_t n = std::char_traits<char>::length(ext);
+    return path.size() > n && path.compare(path.size() - n, n, ext) == 0;
+  };
+  for (const auto& [path, own, flag] : {std::tuple{a.teacher, a.teacher_layout, "--teacher-layout"},
+                                        std::tuple{a.student, a.student_layout, "--student-layout"}})
+    if ((ends_with(path, ".npy") || ends_with(path, ".csv")) && own.empty() && a.preset.empty())
+      throw Error(ErrorKind::kInvalidArgument, path + ": a landmark array needs a layout: give --layout (both "
+                                                   "inputs) or " + std::string(flag) + " (mediapipe, gpd, ...)");
   const Side ts = load_side(a.teacher, a.teacher_layout.empty() ? a.preset : a.teacher_layout, a.teacher_frame < 0);
   const Side ss = load_side(a.student, a.student_layout.empty() ? a.preset : a.student_layout, false);
   const std::vector<float>& tf = ts.features;
@@ -264,6 +276,7 @@ void run_score(const ScoreArgs& a) {
   std::fprintf(out, ",part_to_fix,state,matched_teacher_time,cue_joint,cue_degrees,cue\n");
   // The summary covers the frames with a score to show (state "scoring").
   double score_sum = 0.0, part_score_sum[metric::kParts] = {};
+  int named[metric::kParts] = {};  // scored frames whose part_to_fix is each part
   int scored = 0, finished = 0, calibrating = 0, lost = 0;
   static const char* const kStates[] = {"scoring", "calibrating", "tracking_lost", "teacher_finished"};
   size_t row = 0;
@@ -298,6 +311,7 @@ void run_score(const ScoreArgs& a) {
     ++scored;
     score_sum += r.score;
     for (int q = 0; q < metric::kParts; ++q) part_score_sum[q] += r.part_scores[q];
+    if (r.part_to_fix >= 0) ++named[r.part_to_fix];
   }
   const bool ok = std::fflush(out) == 0 && !std::ferror(out);
   std::fclose(out);
@@ -329,23 +343,27 @@ void run_score(const ScoreArgs& a) {
                     "; no mean score or part to fix (each frame's figures are in " + a.out +
                     "). Give a student clip longer than " + text_seconds(calibrating_time) + " s with the body tracked");
   }
-  // The part to fix over the clip: the lowest mean part score, named only below the good level.
+  // The part to fix over the clip is the one the frames' part_to_fix column names most often (as
+  // kata coach's summary): one answer to one question (the mean part scores are printed beside it).
   const double mean = score_sum / scored;
-  int worst = 0;
+  int most = 0;
   for (int q = 1; q < metric::kParts; ++q)
-    if (part_score_sum[q] < part_score_sum[worst]) worst = q;
+    if (named[q] > named[most]) most = q;
+  std::string most_to_fix = "nothing (no frame names a part)";
+  if (named[most] > 0)
+    most_to_fix = std::string(metric::part_name(most)) + " (part_to_fix on " + std::to_string(named[most]) + " of " +
+                  std::to_string(scored) + " scored frames)";
   std::string parts;
   for (int q = 0; q < metric::kParts; ++q)
     parts += std::string(q ? ", " : "") + metric::part_name(q) + " " +
              std::to_string(static_cast<int>(std::lround(part_score_sum[q] / scored)));
-  const bool good = mean >= scorer.calibration().good_score;
   std::printf("%s vs %s: %d frames (%d scored, %d after the teacher clip ended) against %s, mean score %.1f (%s), "
               "most to fix: %s -> %s\n",
               a.student.c_str(), a.teacher.c_str(), student_frames, scored, finished,
               a.teacher_frame >= 0 ? ("teacher frame " + std::to_string(a.teacher_frame)).c_str()
               : dtw.empty()        ? "the teacher clip (aligned online)"
                                    : "the teacher clip (aligned by DTW)",
-              mean, parts.c_str(), good ? "nothing (good)" : metric::part_name(worst), a.out.c_str());
+              mean, parts.c_str(), most_to_fix.c_str(), a.out.c_str());
 }
 
 void setup(CLI::App& app) {

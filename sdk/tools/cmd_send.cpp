@@ -12,7 +12,10 @@
 // --transport nats publishes the same messages on NATS instead (docs/deploy.md, "NATS"): each
 // stream's on its own subject `<prefix>.in.<stream id as 16 hex digits>`, which the servers'
 // mapping puts in the stream's partition; --nats-server (repeatable) and --nats-creds say where and
-// as whom.
+// as whom. --results ENDPOINT (the server's [publish] endpoint) subscribes to the streams' results
+// topics: a definition the server refuses comes back there (kata_message_read_refusal), and the run
+// ends with its reason and a failure; without word from there by the end, the run waits up to
+// --connect-timeout for it.
 // A client of the public C ABI (kata.h) for what any third-party sender needs: the clip is read
 // with kata_clip_* and every message is written by kata_message_write_* (kata/runtime.h). The
 // sockets (ZeroMQ, CURVE, NATS) are this tool's own transport, not libkata's.
@@ -49,6 +52,7 @@ struct Options {
   double connect_timeout = 5.0;  // seconds to wait for a peer before the first message
   std::string key, server_key;  // CURVE: this sender's .secret, the server's .pub
   bool close = false;           // end each stream with a closing definition
+  std::string results;          // the server's results endpoint: hear whether it refused a stream
   bool live_clock = false;      // capture times from this host's clock, not the clip's
   // Practice (kata score's --teacher-start / --loop, but in teacher seconds from the teacher's
   // first frame, the axis of a result's matched_teacher_time: the sender does not know the
@@ -254,6 +258,54 @@ class PeerWatch {
   bool refused_auth_ = false;
 };
 
+// The server's verdict on the streams' definitions, heard on its results endpoint (--results): a
+// refusal (a skeleton message with `refused`, kata_message_read_refusal) or anything else on a
+// stream's topic (the accepted definition echoed to subscribers, a result).
+class Verdicts {
+ public:
+  Verdicts(void* context, const Options& o) {
+    socket_ = zmq_socket(context, ZMQ_SUB);
+    int linger = 0;
+    zmq_setsockopt(socket_, ZMQ_LINGER, &linger, sizeof linger);
+    for (int k = 0; k < o.streams; ++k) {
+      char topic[17];
+      std::snprintf(topic, sizeof topic, "%016llx", static_cast<unsigned long long>(o.stream_id + static_cast<uint64_t>(k)));
+      zmq_setsockopt(socket_, ZMQ_SUBSCRIBE, topic, 16);
+    }
+  }
+  ~Verdicts() { zmq_close(socket_); }
+  Verdicts(const Verdicts&) = delete;
+  Verdicts& operator=(const Verdicts&) = delete;
+  void* socket() const { return socket_; }
+
+  // Reads what arrived (never blocks): false once a refusal was heard (refusal() says it).
+  bool poll() {
+    for (int n; (n = zmq_recv(socket_, message_.data(), message_.size(), ZMQ_DONTWAIT)) >= 0;) {
+      if (static_cast<size_t>(n) > message_.size()) {  // a large result (ghost, features): the topic says enough
+        heard_ = true;
+        continue;
+      }
+      uint64_t id = 0;
+      char reason[1024];
+      const kata_status st = kata_message_read_refusal(message_.data(), static_cast<size_t>(n), &id, reason, sizeof reason);
+      if (st == KATA_OK) {
+        refusal_ = "kata serve refused stream " + std::to_string(id) + ": " + reason;
+        return false;
+      }
+      if (st == KATA_NO_DATA) heard_ = true;
+    }
+    return refusal_.empty();
+  }
+  bool heard() const { return heard_; }
+  const std::string& refusal() const { return refusal_; }
+
+ private:
+  void* socket_ = nullptr;
+  std::vector<uint8_t> message_ = std::vector<uint8_t>(1 << 16);  // a definition's size (a result may be cut)
+  bool heard_ = false;
+  std::string refusal_;
+};
+
 // The capture time of the frame with this sequence number, seconds: the clip's time, continuing
 // over loops (the source's clock), or this host's steady clock (--live-clock).
 double capture_time(const Options& o, const Clip& clip, uint64_t sequence) {
@@ -435,15 +487,38 @@ void run_send(const Options& o) {
     set_key(ZMQ_CURVE_PUBLICKEY, public_key, "ZMQ_CURVE_PUBLICKEY");
     set_key(ZMQ_CURVE_SECRETKEY, secret_key, "ZMQ_CURVE_SECRETKEY");
   }
+  std::unique_ptr<Verdicts> verdicts;
+  if (!o.results.empty()) {
+    verdicts = std::make_unique<Verdicts>(context, o);
+    // CURVE: the results endpoint is the same server's, with the same keys.
+    for (int option : {ZMQ_CURVE_SERVERKEY, ZMQ_CURVE_PUBLICKEY, ZMQ_CURVE_SECRETKEY}) {
+      char key[64];
+      size_t size = sizeof key;
+      if (zmq_getsockopt(socket, option, key, &size) == 0 && size == 41 && key[0] != '\0' && !o.key.empty())
+        zmq_setsockopt(verdicts->socket(), option, key, 40);
+    }
+    if (zmq_connect(verdicts->socket(), o.results.c_str()) != 0)
+      fail("send: cannot use --results " + o.results + ": " + zmq_strerror(zmq_errno()));
+  }
   const bool bind = o.endpoint.rfind("bind:", 0) == 0;
   const std::string endpoint = bind ? o.endpoint.substr(5) : o.endpoint;
   if ((bind ? zmq_bind(socket, endpoint.c_str()) : zmq_connect(socket, endpoint.c_str())) != 0)
     fail("send: cannot use " + o.endpoint + ": " + zmq_strerror(zmq_errno()));
-  auto give_up = [&](const std::string& what) {
+  auto close_all = [&] {
     watch.reset();
+    verdicts.reset();
     zmq_close(socket);
     zmq_ctx_term(context);
+  };
+  auto give_up = [&](const std::string& what) {
+    close_all();
     fail("send: " + o.endpoint + " took nothing: " + what);
+  };
+  // A refusal heard on --results ends the run: its frames are dropped by the server.
+  auto refused = [&] {
+    const std::string why = verdicts->refusal();
+    close_all();
+    fail("send: " + why + " (its frames were dropped)");
   };
   // Nothing goes out before someone takes it: wait for a peer (its handshake done; for pub, its
   // subscription).
@@ -478,11 +553,33 @@ void run_send(const Options& o) {
       [&] {
         watch->poll();
         someone = watch->ready();
+        if (verdicts && !verdicts->poll()) refused();
       });
+  if (verdicts) {
+    // No word yet (a short run, or the subscription still on its way when the definitions went):
+    // the definitions again every --definition-interval, until the server answers or
+    // --connect-timeout passes.
+    const auto until = std::chrono::steady_clock::now() + std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                                                              std::chrono::duration<double>(o.connect_timeout));
+    auto next = std::chrono::steady_clock::now();
+    while (verdicts->poll() && !verdicts->heard() && std::chrono::steady_clock::now() < until) {
+      if (std::chrono::steady_clock::now() >= next && !o.close) {
+        for (int k = 0; k < o.streams; ++k) {
+          w.definition.stream_id = o.stream_id + static_cast<uint64_t>(k);
+          send(w.skeleton());
+        }
+        next += std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+            std::chrono::duration<double>(o.definition_interval));
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    if (!verdicts->refusal().empty()) refused();
+    if (!verdicts->heard())
+      std::fprintf(stderr, "kata send: no word from %s in %g s (--results: the server's [publish] endpoint?)\n",
+                   o.results.c_str(), o.connect_timeout);
+  }
   const int connections = watch->connections();
-  watch.reset();
-  zmq_close(socket);
-  zmq_ctx_term(context);
+  close_all();
   // "Taken": queued to a peer past its handshake (push), or sent while a subscriber was there (pub).
   std::fprintf(stderr, "kata send: %llu of %llu frames (%d stream(s) from %llu) taken by a peer at %s (%d connection(s))%s\n",
                static_cast<unsigned long long>(taken), static_cast<unsigned long long>(taken + not_taken), o.streams,
@@ -527,6 +624,10 @@ void setup(CLI::App& app) {
       ->expected(2)
       ->excludes("--teacher-start");
   cmd->add_flag("--close", o->close, "close the streams at the end (a closing definition)");
+  cmd->add_option("--results", o->results,
+                  "the server's results endpoint ([publish], e.g. tcp://127.0.0.1:5556): a stream it refuses (an "
+                  "unknown layout, a skeleton that does not fit it) ends the run with its reason and a failure; "
+                  "ZeroMQ only");
   cmd->add_flag("--live-clock", o->live_clock, "capture times from this host's steady clock (stale frames judged)");
   cmd->callback([o] {
     if (o->transport == "zmq" && o->endpoint.empty()) throw CLI::RequiredError("--endpoint");

@@ -130,6 +130,26 @@ TEST(Aligner, FollowsTheTeachersOwnProjectionsAndRestarts) {
   EXPECT_THROW(metric::Aligner(nullptr), Error);
 }
 
+// A step far beyond the band (a teacher of a small frame time, a long pause): max_rate x the
+// expected advance overflowed an int (UBSan: align.cpp begin_step, found by fuzz_ingest); now the
+// step is bounded by the section before the cast, and the match stays inside the clip.
+TEST(Aligner, AStepOfBillionsOfTeacherFramesStaysInsideTheClip) {
+  const auto metric = test::test_metric();
+  const auto& rows = test::clip_rows("07_01.bvh");
+  const int frames = test::clip_frames("07_01.bvh");
+  for (const double frame_time : {1.0 / 120, 1e-4}) {  // 1e-4: a 10 kHz teacher; 9.9e5 s is 9.9e9 frames
+    const auto ref = std::make_shared<const metric::Reference>(metric, rows.data(), frames, frame_time);
+    metric::Aligner aligner(ref);
+    double t = 0.0;
+    for (const double step : {0.0, 1.0 / 120, 9.9e5, 1.0, 9.9e5}) {
+      t += step;
+      const int matched = aligner.align(ref->alignment_projection(10), t);
+      EXPECT_GE(matched, 0);
+      EXPECT_LT(matched, frames) << "frame time " << frame_time << ", t " << t;
+    }
+  }
+}
+
 TEST(Aligner, PoseReferenceAlwaysMatchesFrameZero) {
   const auto metric = test::test_metric();
   const auto ref = std::make_shared<const metric::Reference>(metric, test::clip_row("02_01.bvh", 5));

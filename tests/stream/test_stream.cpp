@@ -193,6 +193,12 @@ TEST(StreamRefusal, BadFramesReturnAStatusAndChangeNothing) {
       EXPECT_EQ(noisy.push(kTimes[i], p.data(), 16), Status::kTimestampNotIncreasing) << "equal timestamp";
       EXPECT_EQ(noisy.push(kTimes[i] - 0.01, p.data(), 16), Status::kTimestampNotIncreasing);
       EXPECT_NE(std::string(noisy.last_error()).find("does not increase"), std::string::npos);
+      // A step no live source has (a clock in other units, a restart without a reset): refused,
+      // naming the step and the bound (it would reach the alignment as millions of frames).
+      EXPECT_EQ(noisy.push(kTimes[i] + 1.001 * kata::kMaxTimeStep, p.data(), 16), Status::kInvalidArgument);
+      EXPECT_NE(std::string(noisy.last_error()).find("beyond the largest step 1e+06 s"), std::string::npos)
+          << noisy.last_error();
+      EXPECT_EQ(noisy.push(kTimes[i] + 1.15e9, p.data(), 16), Status::kInvalidArgument);
       ASSERT_EQ(clean.emitted_count(), noisy.emitted_count());
       if (clean.features()) {
         for (int d = 0; d < gpd::kDims; ++d) ASSERT_EQ(clean.features()[d], noisy.features()[d]) << "dim " << d;

@@ -46,6 +46,7 @@ from .runtime import Runtime, shard_of
 from .humanoid import (BONE_COUNT, BONE_NAMES, BONE_PARENTS, Bone, HumanoidFrame, HumanoidPose, HumanoidRig, bone_find,
                        bone_name, bone_parent)
 from .people import People, people_stream_id, write_people_frame
+from . import mediapipe  # kata.mediapipe after a plain `import kata` (it reads the names above at call time)
 
 #: The loaded libkata's version as "MAJOR.MINOR.PATCH" (the package is versioned with it).
 __version__ = "%d.%d.%d" % version

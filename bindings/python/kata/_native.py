@@ -368,6 +368,7 @@ _SIGNATURES = {
     "kata_message_write_repetition": (_st, [ctypes.POINTER(Repetition), _p, _sz, ctypes.POINTER(_sz)]),
     "kata_stream_read_repetitions": (_st, [_p, ctypes.POINTER(Repetition), _u32, ctypes.POINTER(_u32)]),
     "kata_stream_set_practice_section": (_st, [_p, _i32, _i32, _i32]),
+    "kata_message_read_refusal": (_st, [_p, _sz, ctypes.POINTER(ctypes.c_uint64), _p, _sz]),  # 1.1
     # since 1.1: the ingest message writers
     "kata_skeleton_message_init_sized": (None, [ctypes.POINTER(SkeletonMessage), _u32]),
     "kata_frame_message_init_sized": (None, [ctypes.POINTER(FrameMessage), _u32]),
@@ -455,7 +456,7 @@ def cue_phrase(rec: ResultRecord) -> str:
     """kata_cue_text of a record: "left knee: bend 30 deg more", "" without a cue."""
     buf = ctypes.create_string_buffer(64)
     globals()["cue_text"](ctypes.byref(rec), buf, len(buf))  # set by the loop above
-    return buf.value.decode()
+    return buf.value.decode("utf-8", "replace")
 
 
 def __getattr__(name: str) -> Any:

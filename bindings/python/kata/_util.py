@@ -10,7 +10,7 @@ import numpy as np
 
 
 def _text(b: Optional[bytes]) -> Optional[str]:
-    return b.decode("utf-8") if b is not None else None
+    return b.decode("utf-8", "replace") if b is not None else None  # a message is never lost to its bytes
 
 
 def _utf8(s: Any) -> Optional[bytes]:

@@ -45,7 +45,7 @@ class KataError(Exception):
             self.status = status
         self.message = message
         self.call = call
-        name = _n.status_string(int(status)).decode()
+        name = _n.status_string(int(status)).decode("utf-8", "replace")
         super().__init__("%s%s: %s" % (call + ": " if call else "", name, message))
 
 

@@ -1,7 +1,9 @@
 """MediaPipe Pose in, scores out: a recording (or a live feed) of Pose world landmarks scored
-against a teacher (a BVH clip) through the "mediapipe" layout (kata.h "Layouts": 33 landmarks,
-metres, camera axes x right / y down / z away; pelvis, chest, neck and head synthesised; smoothed
-by default) and kata_stream_push_confidence with each landmark's visibility as its confidence.
+against a teacher (a BVH clip, or a landmark recording) through the "mediapipe" layout (kata.h
+"Layouts": 33 landmarks, metres, camera axes x right / y down / z away; pelvis, chest, neck and
+head synthesised; smoothed by default) and kata_stream_push_confidence with each landmark's
+visibility as its confidence. Landmarks that are not a person in metres (pixels) or are upside
+down (y-up) raise ValueError naming the likely cause.
 
     import kata.mediapipe
     r = kata.mediapipe.score(landmarks, timestamps_ms, "teacher.bvh")    # units inferred
@@ -37,6 +39,8 @@ def _seconds(timestamps: np.ndarray, time_units: str) -> np.ndarray:
         try:
             fits = kata.detect_time_units(timestamps)
         except kata.KataError as e:
+            if "frame numbers" in e.message:
+                raise ValueError(e.message) from None
             if time_units == "auto":
                 raise ValueError("timestamps: the steps between frames fit neither seconds nor milliseconds at "
                                  "2..1000 Hz (%s); state time_units=\"s\" or \"ms\"" % e.message) from None
@@ -54,6 +58,31 @@ def _seconds(timestamps: np.ndarray, time_units: str) -> np.ndarray:
     return timestamps / 1000.0 if time_units == "ms" else timestamps
 
 __all__ = ["LANDMARKS", "landmarks_array", "Scorer", "Scores", "score"]
+
+#: The largest nose-to-ankles distance of a person in metres (the mediapipe layout's unit), as the
+#: C++ loader checks it: landmarks in pixels measure hundreds.
+MAX_PERSON_METRES = 3.0
+
+
+def _check_person(a: np.ndarray) -> None:
+    """(frames, 33, 5) landmarks show a person in metres, y down (as kata's loader checks a
+    "mediapipe" file): the median nose-to-ankles distance at most MAX_PERSON_METRES, and the nose
+    not below the ankles by more than half that. ValueError naming the figure and the likely cause."""
+    nose, ankles = a[:, 0, :], 0.5 * (a[:, 27, :] + a[:, 28, :])
+    seen = np.isfinite(a[:, [0, 27, 28], :3]).all(axis=(1, 2)) & (a[:, [0, 27, 28], 3:5].min(axis=(1, 2)) >= 0.5)
+    if not seen.any():
+        return
+    body = float(np.median(np.linalg.norm(ankles[seen, :3] - nose[seen, :3], axis=1)))
+    if not body <= MAX_PERSON_METRES:
+        raise ValueError("landmarks: the body measures %.4g from the nose to the ankles (the median over the frames "
+                         "that show them): not a person in metres, which MediaPipe's world landmarks are. Pixel "
+                         "coordinates (the image landmarks times the image's width and height)? Give "
+                         "pose_world_landmarks" % body)
+    below = float(np.median(nose[seen, 1] - ankles[seen, 1]))
+    if below > 0.5 * body:
+        raise ValueError("landmarks: the body is upside down: the nose is %.3g m below the ankles (the median over "
+                         "the frames that show them) in MediaPipe's axes, x right, y down, z away from the camera. "
+                         "The landmarks look y-up: negate y and z (MediaPipe's world landmarks have y down)" % below)
 
 
 def _frame_landmarks(result: Any) -> Optional[Sequence[Any]]:
@@ -105,36 +134,79 @@ class Scores:
         scoring = (results["scored"] != 0) & (scores["state"] == kata.ScoreState.SCORING)
         self.scored = scores[scoring]
         self.mean_score = float(self.scored["score"].mean()) if len(self.scored) else float("nan")
+        #: why nothing was scored ("" when something was): no frames, every frame without a person,
+        #: tracking lost, still calibrating, after the teacher ended (mean_score is then NaN)
+        self.unscored_reason = "" if len(self.scored) else self._unscored_reason()
+
+    def _unscored_reason(self) -> str:
+        states = self.scores["state"] if len(self.scores) else np.zeros(0, dtype=np.int32)
+        if not len(self.results) and not self.lost_frames and not self.skipped_frames:
+            return "no frames were pushed"
+        why = []
+        if self.skipped_frames:
+            why.append("%d frame(s) without a person (skipped)" % self.skipped_frames)
+        if self.lost_frames:
+            why.append("%d frame(s) tracking lost (fewer than 13 of the 16 body joints above the visibility "
+                       "threshold 0.5)" % self.lost_frames)
+        calibrating = int((states == kata.ScoreState.CALIBRATING).sum())
+        if calibrating:
+            why.append("%d frame(s) calibrating (the first 0.25 s after the start settle the alignment; give a "
+                       "longer recording, or check that the timestamps are times, not frame numbers)" % calibrating)
+        finished = int((states == kata.ScoreState.TEACHER_FINISHED).sum())
+        if finished:
+            why.append("%d frame(s) after the teacher clip ended" % finished)
+        other = len(self.results) - calibrating - finished - int((states == kata.ScoreState.TRACKING_LOST).sum())
+        if other > 0:
+            why.append("%d frame(s) without a score" % other)
+        return "nothing scored: " + ", ".join(why)
 
     def __len__(self) -> int:
         return len(self.results)
 
     def __repr__(self) -> str:
-        return "Scores(%d results, %d scored, mean %.1f)" % (len(self), len(self.scored), self.mean_score)
+        if not len(self.scored):
+            return "Scores(%d results, 0 scored, %d lost: %s)" % (len(self), self.lost_frames, self.unscored_reason)
+        return "Scores(%d results, %d scored, mean %.1f, %d lost)" % (len(self), len(self.scored), self.mean_score,
+                                                                     self.lost_frames)
 
 
 class Scorer:
     """A MediaPipe stream with a teacher attached: push landmarks (live or a recording), read
-    scores. teacher: a BVH path or a kata.Clip; model: a .kata path (default: the shipped one);
-    first_frame: the teacher's first frame (1 skips a CMU clip's T-pose); teacher_layout: the
-    teacher's layout ("cmu"). Owns its context; close() or a with block releases it. One thread
-    at a time."""
+    scores. teacher: a BVH path or a kata.Clip, or a landmark recording (a .npy / .csv path, read
+    as Context.load_landmarks reads it, with teacher_fps when it has no timestamps, or a
+    kata.Landmarks); model: a .kata path (default: the shipped one); first_frame: the teacher's
+    first frame (1 skips a CMU clip's T-pose); teacher_layout: the teacher's layout (default "cmu"
+    for a BVH, "mediapipe" for a landmark recording). Owns its context; close() or a with block
+    releases it. One thread at a time."""
 
-    def __init__(self, teacher: Union[str, "os.PathLike[str]", kata.Clip], model: Optional[str] = None,
-                 first_frame: int = 0, teacher_layout: str = "cmu", smoothing: bool = True,
-                 result_capacity: int = 1024, time_units: str = "ms") -> None:
+    def __init__(self, teacher: Union[str, "os.PathLike[str]", kata.Clip, kata.Landmarks], model: Optional[str] = None,
+                 first_frame: int = 0, teacher_layout: Optional[str] = None, smoothing: bool = True,
+                 result_capacity: int = 1024, time_units: str = "ms", teacher_fps: float = 0.0) -> None:
         self._ctx = kata.Context()
         self._model = self._ctx.load_model(model or kata.default_model_path())
-        clip = teacher if isinstance(teacher, kata.Clip) else self._ctx.load_clip(os.fspath(teacher))
+        path = "" if isinstance(teacher, (kata.Clip, kata.Landmarks)) else os.fspath(teacher)
+        landmark_teacher = isinstance(teacher, kata.Landmarks) or os.path.splitext(path)[1].lower() in (".npy", ".csv")
         with self._ctx.create_layout("mediapipe") as skeleton:
             self.stream = self._ctx.open_stream(skeleton, layout="mediapipe", stencil=self._model.stencil,
                                                 result_capacity=result_capacity)
         if not smoothing:
             self.stream.set_smoothing(False)
-        self.stream.attach_teacher(self._model, clip=clip, layout=teacher_layout, first_frame=first_frame,
-                                   ghost=False)
-        if clip is not teacher:
-            clip.close()
+        if landmark_teacher:
+            layout = teacher_layout or "mediapipe"
+            lm = teacher if isinstance(teacher, kata.Landmarks) else self._ctx.load_landmarks(path, layout,
+                                                                                              fps=teacher_fps)
+            with self._ctx.create_layout(layout) as teacher_skeleton:
+                self.stream.attach_teacher(self._model, skeleton=teacher_skeleton, positions=lm.positions,
+                                           frame_time=lm.frame_time, layout=layout, first_frame=first_frame,
+                                           ghost=False)
+            if lm is not teacher:
+                lm.close()
+        else:
+            clip = teacher if isinstance(teacher, kata.Clip) else self._ctx.load_clip(path)
+            self.stream.attach_teacher(self._model, clip=clip, layout=teacher_layout or "cmu",
+                                       first_frame=first_frame, ghost=False)
+            if clip is not teacher:
+                clip.close()
         self._buffer = self.stream.result_buffer(result_capacity, ghosts=False)
         self._results: list = []
         self._scores: list = []
@@ -143,6 +215,7 @@ class Scorer:
             raise ValueError('time_units of a live Scorer: "ms" (MediaPipe\'s) or "s", not %r' % (time_units,))
         self.time_units = time_units  #: what push's timestamps are in (push_many may say otherwise)
         self._last_time: Optional[float] = None
+        self._person_checked = False  # the first frame with a person is checked (_check_person)
 
     def push(self, landmarks: Any, timestamp: float) -> kata.Status:
         """One frame: a MediaPipe result object or a (33, 3..5) array, at timestamp in the Scorer's
@@ -154,6 +227,9 @@ class Scorer:
         if np.isnan(a[:, 0]).all():
             self.skipped_frames += 1
             return kata.Status.NO_DATA
+        if not self._person_checked:
+            _check_person(a[None])
+            self._person_checked = True
         seconds = float(timestamp) / (1000.0 if self.time_units == "ms" else 1.0)
         if self._last_time is not None and 0 < seconds - self._last_time < 0.001:
             step = float(timestamp) - self._last_time * (1000.0 if self.time_units == "ms" else 1.0)
@@ -178,6 +254,8 @@ class Scorer:
         present = ~np.isnan(a[:, :, 0]).all(axis=1)
         self.skipped_frames += int((~present).sum())
         a, t = a[present], t[present]
+        _check_person(a)
+        self._person_checked = self._person_checked or len(a) > 0
         positions = np.ascontiguousarray(a[:, :, :3])
         confidences = np.ascontiguousarray(np.minimum(a[:, :, 3], a[:, :, 4]))
         chunk = max(self._buffer.capacity // 2, 1)
@@ -218,9 +296,12 @@ class Scorer:
 
 
 def score(landmarks: Any, timestamps: Any, teacher: Union[str, "os.PathLike[str]"], model: Optional[str] = None,
-          first_frame: int = 0, teacher_layout: str = "cmu", time_units: str = "auto") -> Scores:
-    """Scores a MediaPipe recording (see the module) against a BVH teacher: a Scorer, every frame
-    pushed, every result read. time_units: "auto" (inferred from the steps), "ms" or "s"."""
-    with Scorer(teacher, model, first_frame=first_frame, teacher_layout=teacher_layout) as s:
+          first_frame: int = 0, teacher_layout: Optional[str] = None, time_units: str = "auto",
+          teacher_fps: float = 0.0) -> Scores:
+    """Scores a MediaPipe recording (see the module) against a teacher (a BVH clip or a landmark
+    recording, as Scorer takes it): a Scorer, every frame pushed, every result read. time_units:
+    "auto" (inferred from the steps), "ms" or "s"."""
+    with Scorer(teacher, model, first_frame=first_frame, teacher_layout=teacher_layout,
+                teacher_fps=teacher_fps) as s:
         s.push_many(landmarks, timestamps, time_units)
         return s.read()

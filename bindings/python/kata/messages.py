@@ -104,7 +104,7 @@ class ResultMessage:
 def _set_cue(out: Any, rec: "_n.ResultRecord") -> None:
     """The cue fields of a Python result from its record (ResultMessage, stream.ScoreRecord)."""
     name = _n.gpd_joint_name(rec.cue_joint) if rec.cue_joint >= 0 else None
-    out.cue_joint = name.decode() if name else ""
+    out.cue_joint = name.decode("utf-8", "replace") if name else ""
     out.cue_degrees = float(rec.cue_degrees) if name else 0.0
     out.cue_action = int(rec.cue_action) if name else -1
     out.cue = _n.cue_phrase(rec) if name else ""
@@ -270,7 +270,7 @@ class _Nats:
     def check(self, status: int, call: str) -> None:
         if status != self.OK:
             text = self.lib.natsStatus_GetText(status)
-            raise KataError(Status.E_IO, "%s: %s" % (call, text.decode() if text else status), "Subscriber")
+            raise KataError(Status.E_IO, "%s: %s" % (call, text.decode("utf-8", "replace") if text else status), "Subscriber")
 
     def next(self, timeout_ms: int) -> Tuple[int, Optional[Tuple[str, bytes]]]:
         """(status, (subject, data)) of the next message; status TIMEOUT or SLOW_CONSUMER with None."""
@@ -477,7 +477,7 @@ def _write(write: Callable[..., int], message: Any, call: str) -> bytes:
         status = write(ctypes.byref(message), buffer, size.value, ctypes.byref(size))
         if status == Status.OK:
             return buffer.raw[:size.value]
-    raise KataError(status, (_n.context_last_error(None) or b"").decode(), call)
+    raise KataError(status, (_n.context_last_error(None) or b"").decode("utf-8", "replace"), call)
 
 
 @_typed
@@ -560,7 +560,7 @@ def write_frame_batch(frames: Sequence[Any]) -> bytes:
         status = _n.message_write_frame_batch(pointers, len(messages), buffer, size.value, ctypes.byref(size))
         if status == Status.OK:
             return buffer.raw[:size.value]
-    raise KataError(status, (_n.context_last_error(None) or b"").decode(), "kata_message_write_frame_batch")
+    raise KataError(status, (_n.context_last_error(None) or b"").decode("utf-8", "replace"), "kata_message_write_frame_batch")
 
 
 def _per_joint(values: Any, joints: int, what: str) -> Optional[np.ndarray]:

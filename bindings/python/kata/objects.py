@@ -114,7 +114,7 @@ def layouts() -> List[str]:
         name = _n.layout_name(i)
         if name is None:
             return out
-        out.append(name.decode())
+        out.append(name.decode("utf-8", "replace"))
         i += 1
 
 

@@ -36,7 +36,7 @@ def gpd_joint_name(joint: int) -> str:
     """The GPD joint name of joint 0..15 ("LKnee"; kata_gpd_joint_name), e.g. of a result's
     cue_joint; "" out of range."""
     name = _n.gpd_joint_name(int(joint))
-    return name.decode() if name else ""
+    return name.decode("utf-8", "replace") if name else ""
 
 
 def gpd_joint_part(joint: int) -> int:
@@ -49,14 +49,14 @@ def body_part_name(part: int) -> str:
     """The short name of a BodyPart ("torso_head", "left_arm", "right_arm", "left_leg",
     "right_leg"; kata_body_part_name, 1.1), e.g. of a result's part_to_fix; "" out of range."""
     name = _n.body_part_name(int(part))
-    return name.decode() if name else ""
+    return name.decode("utf-8", "replace") if name else ""
 
 
 def gpd_joint_words(joint: int) -> str:
     """GPD joint 0..15 in the words cue_text starts its phrase with ("left knee", "lower back";
     kata_gpd_joint_words, 1.1); "" for the five end joints, which no cue names, and out of range."""
     words = _n.gpd_joint_words(int(joint))
-    return words.decode() if words else ""
+    return words.decode("utf-8", "replace") if words else ""
 
 
 def detect_time_units(timestamps: Any) -> str:
@@ -234,6 +234,8 @@ class Stream(_Handle):
     _joints = 0
     _result_capacity = 64  # set by Context.open_stream from the descriptor
     _dropped_seen = 0      # results_dropped at the previous read
+    _first_time: Optional[float] = None  # the first frame's timestamp, until the first step is checked
+    _units_checked = False  # the first step between frames was checked as seconds (_check_seconds)
     _on_drop = "warn"
 
     def _raise(self, status: int, call: str) -> NoReturn:
@@ -250,10 +252,14 @@ class Stream(_Handle):
         optionally one confidence per joint (e.g. MediaPipe visibility; below the gate's threshold
         or NaN: the joint is missing and held). Returns Status.OK, or Status.TRACKING_LOST (accepted
         without features: too many joints missing). A refused frame raises KataError and changes
-        nothing. Does not allocate in C. [stream owner: one thread at a time]"""
+        nothing; a first step between frames that fits milliseconds only (1..500, above 5 s) raises
+        ValueError (as the landmark path checks stated seconds). Does not allocate in C. [stream
+        owner: one thread at a time]"""
         a = positions
         if type(a) is not np.ndarray or a.dtype != np.float32 or not a.flags.c_contiguous:
             a = _positions_f32(a)
+        if not self._units_checked:
+            self._check_seconds(timestamp)
         try:  # free unless raised (3.11): a wrong timestamp type is a TypeError naming it, not ctypes'
             if confidences is None:
                 status = _n.stream_push(self.handle, timestamp, _address(a), a.size // 3)
@@ -268,7 +274,36 @@ class Stream(_Handle):
             raise _type_error(Stream.push, (self, timestamp, positions, confidences), {}, e) from None
         if status and status != Status.TRACKING_LOST:
             self._raise(status, "kata_stream_push_confidence" if confidences is not None else "kata_stream_push")
+        if not self._units_checked:
+            self._note_times([timestamp])
         return Status(status)
+
+    def _check_seconds(self, timestamps: Any) -> None:
+        """The landmark path's check of stated seconds (kata_time_units_detect's ranges) on the
+        stream's first steps: a median step that fits milliseconds only (1..500, above the 5 s a
+        slow webcam page makes) raises ValueError before anything is pushed. Only the first step
+        is checked, so a later pause is never taken for a unit slip."""
+        try:
+            t = np.atleast_1d(np.asarray(timestamps, dtype=np.float64))
+        except (TypeError, ValueError):
+            return  # the push itself names a wrong type
+        if self._first_time is not None:
+            t = np.concatenate((np.array([self._first_time], dtype=np.float64), t))
+        if len(t) < 2:
+            return
+        step = float(np.median(np.diff(t)))
+        if 1.0 <= step <= 500.0 and not step <= 5.0:
+            raise ValueError("timestamps: the step between frames is %.6g: %.4g Hz if milliseconds, a frame every "
+                             "%.4g s if seconds; Stream.push takes seconds: divide milliseconds (MediaPipe's) by "
+                             "1000, or push them with push_many(..., time_units=\"ms\")"
+                             % (step, 1000.0 / step, step))
+
+    def _note_times(self, timestamps: Any) -> None:
+        t = np.atleast_1d(np.asarray(timestamps, dtype=np.float64))
+        if self._first_time is None and len(t) == 1:
+            self._first_time = float(t[0])
+        elif len(t):
+            self._units_checked = True
 
     def push_landmarks(self, timestamp: float, values: Any, time_units: str = "s") -> Status:
         """kata_stream_push_landmarks: one frame in a landmark source's own shape, values
@@ -306,6 +341,8 @@ class Stream(_Handle):
         joints = self._joints
         if a.size != n * 3 * joints:
             raise ValueError("positions must be %d frames x %d joints x 3" % (n, joints))
+        if not self._units_checked:
+            self._check_seconds(ts)
         cbase = None
         if confidences is not None:
             c = np.ascontiguousarray(confidences, dtype=np.float32)
@@ -320,6 +357,8 @@ class Stream(_Handle):
         if status:
             raise KataError(status, "frame %d: %s" % (pushed.value, _text(_n.stream_last_error(self.handle))),
                             "kata_stream_push_many")
+        if not self._units_checked:
+            self._note_times(ts)
         return lost.value
 
     @_typed

@@ -50,6 +50,7 @@ KATA_API uint32_t kata_version(void);
 /* ==== Input limits ========================================================================= */
 /* The plausibility range of stream input (kata_stream_push): inside it every output is finite. */
 #define KATA_MIN_TIME_STEP 1e-5      /* seconds: frames closer than this are refused (100 kHz) */
+#define KATA_MAX_TIME_STEP 1e6       /* seconds (11.6 days): a frame later than this after the previous is refused */
 #define KATA_MAX_COORDINATE 1e9      /* input units: |x|, |y|, |z| of a mapped joint */
 #define KATA_MIN_BODY_HEIGHT 1e-6    /* input units: a smaller body height is refused */
 #define KATA_MAX_REACH 100.0         /* body heights: a mapped joint's distance from the hip */

@@ -467,6 +467,16 @@ KATA_API kata_status kata_message_read_result(const void* message, size_t size, 
  * [any thread] */
 KATA_API kata_status kata_message_read_repetition(const void* message, size_t size, kata_repetition* out);
 
+/* Reads a runtime's refusal of a stream's skeleton definition, which it publishes on the stream's
+ * results topic (a skeleton message with `refused` set, schemas/skeleton.fbs): the source learns
+ * that its stream was refused and why ("unknown layout 'cmuu' ..."); its frames are dropped until
+ * a definition is accepted. KATA_OK: *stream_id is the stream and `reason` holds the reason,
+ * NUL-terminated, cut to capacity - 1 bytes (capacity 0: reason may be NULL, not written);
+ * KATA_NO_DATA: a valid kata message that is not a refusal (a result, an accepted definition,
+ * stats); KATA_E_PARSE: refused (truncated, corrupt, unknown). Since 1.1. [any thread] */
+KATA_API kata_status kata_message_read_refusal(const void* message, size_t size, uint64_t* stream_id, char* reason,
+                                              size_t capacity);
+
 /* ##############################################################################################
  * Task 7 - write messages: a source of frames for a runtime's ingest, in C (kata send is one)
  *

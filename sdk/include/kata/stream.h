@@ -35,7 +35,7 @@ typedef struct kata_skeleton_s* kata_skeleton;
 KATA_API kata_status kata_skeleton_create(kata_context context, uint32_t joint_count, const char* const* names,
                                           const int32_t* parents, const double* rest_offsets,
                                           kata_skeleton* out);
-/* Reads the skeleton (HIERARCHY) of a BVH file. [any thread] */
+/* Reads the skeleton (HIERARCHY) of a BVH file (found as kata_clip_load_bvh finds it). [any thread] */
 KATA_API kata_status kata_skeleton_load_bvh(kata_context context, const char* path, kata_skeleton* out);
 /* Releases a skeleton. Streams opened on it keep their own copy. NULL is ignored. */
 KATA_API void kata_skeleton_destroy(kata_skeleton skeleton);
@@ -58,7 +58,9 @@ typedef struct kata_clip_s* kata_clip;
 
 /* Loads a BVH file. A malformed file is refused with KATA_E_PARSE and a message naming the
  * file and line; a directory, special file or a file over KATA_MAX_BVH_BYTES with KATA_E_IO.
- * [any thread] */
+ * A relative path not found from the current folder is looked for in the share/kata folder
+ * beside libkata (the shipped clips, "data/cmu/05_18.bvh", as the CLI finds them); found
+ * nowhere: KATA_E_IO naming every folder looked in. [any thread] */
 KATA_API kata_status kata_clip_load_bvh(kata_context context, const char* path, kata_clip* out);
 /* Releases a clip. NULL is ignored. */
 KATA_API void kata_clip_destroy(kata_clip clip);
@@ -229,7 +231,9 @@ KATA_API const char* kata_stream_last_error(kata_stream stream);
  * KATA_E_TIMESTAMP_NOT_INCREASING, KATA_E_INVALID_ARGUMENT) changes nothing; the stream stays
  * usable. Plausibility range (the message names the joint):
  * - the timestamp must be at least KATA_MIN_TIME_STEP after the previous accepted frame's
- *   (else KATA_E_TIMESTAMP_NOT_INCREASING; merge such frames before pushing);
+ *   (else KATA_E_TIMESTAMP_NOT_INCREASING; merge such frames before pushing) and at most
+ *   KATA_MAX_TIME_STEP after it (else KATA_E_INVALID_ARGUMENT: no live source pauses for 11.6
+ *   days; a clock in other units, or a source restarted without kata_stream_reset);
  * - every coordinate of a mapped joint (one of the 16 GPD joints' sources) must be within
  *   +-KATA_MAX_COORDINATE input units (else KATA_E_INVALID_ARGUMENT);
  * - once H is known, every mapped joint must be within KATA_MAX_REACH body heights of the hip
@@ -275,8 +279,9 @@ KATA_API kata_status kata_stream_push_landmarks(kata_stream stream, double times
                                                 const float* values, uint32_t joint_count, uint32_t channels);
 /* The units of a recorded source's timestamps (count >= 2, increasing) from the median step
  * between frames: plausible camera and mocap rates are 2..1000 Hz, i.e. a step of 0.001..0.5 in
- * seconds or 1..500 in milliseconds (the ranges do not overlap). A step that fits neither, or
- * timestamps that do not increase, is refused (KATA_E_INVALID_ARGUMENT, the reason in
+ * seconds or 1..500 in milliseconds (the ranges do not overlap). A step that fits neither,
+ * timestamps that do not increase, or frame numbers (0 or 1, then every step exactly 1) are
+ * refused (KATA_E_INVALID_ARGUMENT, the reason in
  * kata_context_last_error): state the units instead of guessing. Fewer than two timestamps:
  * KATA_TIME_SECONDS. [any thread] */
 KATA_API kata_status kata_time_units_detect(const double* timestamps, size_t count, kata_time_units* out);

@@ -63,7 +63,10 @@ typedef struct kata_model_s* kata_model;
  * |W| > 1e6), the checksum, and the canonical byte layout (so any flipped bit is refused); a refused file returns KATA_E_MODEL (KATA_E_IO when it
  * cannot be read, is a directory or special file, or is larger than KATA_MAX_MODEL_BYTES) with
  * the reason in kata_context_last_error. The 12-byte header (size prefix, identifier) is checked
- * against the file size before the rest is read. *out is owned by the caller. [any thread] */
+ * against the file size before the rest is read. A relative path not found from the current
+ * folder is looked for in the share/kata folder beside libkata ("models/default.kata" works from
+ * any folder, as in the CLI); found nowhere: KATA_E_IO naming every folder looked in. *out is
+ * owned by the caller. [any thread] */
 KATA_API kata_status kata_model_load(kata_context context, const char* path, kata_model* out);
 /* The same from a buffer in memory (size bytes, any alignment); the buffer is copied and may
  * be released after the call. [any thread] */

@@ -18,7 +18,7 @@
 #include "metric/model.hpp"
 
 // kata.h states the core's limits as macros; they must stay the same numbers.
-static_assert(KATA_MIN_TIME_STEP == kata::kMinTimeStep && KATA_MAX_COORDINATE == kata::kMaxCoordinate &&
+static_assert(KATA_MIN_TIME_STEP == kata::kMinTimeStep && KATA_MAX_TIME_STEP == kata::kMaxTimeStep && KATA_MAX_COORDINATE == kata::kMaxCoordinate &&
                   KATA_MIN_BODY_HEIGHT == kata::kMinBodyHeight && KATA_MAX_REACH == kata::kMaxReach &&
                   KATA_MAX_HISTORY == kata::kMaxHistory,
               "kata.h input limits differ from stream/stream.hpp");
@@ -218,7 +218,7 @@ KATA_API kata_status kata_skeleton_load_bvh(kata_context context, const char* pa
     return KATA_E_NULL_POINTER;
   }
   return guarded_context([&] {
-    kata::BvhClip clip = kata::load_bvh(path);
+    kata::BvhClip clip = kata::load_bvh(kata::capi::shipped_file(path));
     *out = new kata_skeleton_s{std::move(clip.skeleton)};
     return KATA_OK;
   });
@@ -260,7 +260,7 @@ KATA_API kata_status kata_clip_load_bvh(kata_context context, const char* path, 
     return KATA_E_NULL_POINTER;
   }
   return guarded_context([&] {
-    *out = new kata_clip_s{kata::load_bvh(path)};
+    *out = new kata_clip_s{kata::load_bvh(kata::capi::shipped_file(path))};
     return KATA_OK;
   });
 }

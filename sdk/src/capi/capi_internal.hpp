@@ -33,6 +33,12 @@ namespace kata::capi {
 // kata::Error), and its joint set name ("cmu", "gpd"). Defined in capi_retarget.cpp.
 kata::retarget::RetargetOptions retarget_options(const kata_retarget_desc* desc, std::string* joint_set);
 
+// A shipped file named relative to the checkout ("models/default.kata", "data/cmu/05_18.bvh"):
+// `path` when absolute or found from the current folder, else the share/kata beside libkata
+// (as the CLI and the Python binding look); none: kata::Error(kIo) naming every place looked in.
+// Defined in capi_paths.cpp.
+std::string shipped_file(const char* path);
+
 // Attaches the teacher a kata_teacher_desc describes to a stream (kata_stream_attach_teacher and
 // the deprecated reference calls); messages name `call`. Defined in capi_pipeline.cpp.
 kata_status attach_teacher(kata_stream stream, const kata_teacher_desc* desc, const char* call);

@@ -41,7 +41,7 @@ KATA_API kata_status kata_model_load(kata_context context, const char* path, kat
     return KATA_E_NULL_POINTER;
   }
   *out = nullptr;
-  return kata::capi::guarded_context([&] { return make_model(kata::metric::load_model(path), out); });
+  return kata::capi::guarded_context([&] { return make_model(kata::metric::load_model(kata::capi::shipped_file(path)), out); });
 }
 
 KATA_API kata_status kata_model_load_memory(kata_context context, const void* data, size_t size, kata_model* out) {

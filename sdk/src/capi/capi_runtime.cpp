@@ -522,6 +522,28 @@ KATA_API kata_status kata_message_read_repetition(const void* message, size_t si
   }
 }
 
+KATA_API kata_status kata_message_read_refusal(const void* message, size_t size, uint64_t* stream_id, char* reason,
+                                              size_t capacity) {
+  if (!message || !stream_id || (!reason && capacity > 0)) return KATA_E_NULL_POINTER;
+  try {
+    thread_local kata::transport::Decoder decoder(1 << 22, false);
+    const kata::transport::MessageKind kind = decoder.decode(message, size);
+    if (kind == kata::transport::MessageKind::kNone) return KATA_E_PARSE;
+    size_t length = 0;
+    const char* text = kind == kata::transport::MessageKind::kSkeleton ? decoder.skeleton_refused(&length) : nullptr;
+    if (!text) return KATA_NO_DATA;
+    *stream_id = decoder.stream_id();
+    if (capacity > 0) {
+      const size_t n = std::min(length, capacity - 1);  // cut at capacity - 1 bytes, NUL-terminated
+      std::memcpy(reason, text, n);
+      reason[n] = '\0';
+    }
+    return KATA_OK;
+  } catch (const std::bad_alloc&) {
+    return KATA_E_OUT_OF_MEMORY;
+  }
+}
+
 }  // extern "C"
 
 KATA_API uint32_t kata_shard_of(uint64_t stream_id, uint32_t shard_count) {

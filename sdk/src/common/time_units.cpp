@@ -44,6 +44,16 @@ TimeUnits resolve_time_units(const double* times, size_t count, TimeUnits stated
       throw Error(ErrorKind::kInvalidArgument, name + ": timestamp " + std::to_string(i) + " does not increase");
     steps[i - 1] = times[i] - times[i - 1];
   }
+  // 0, 1, 2, ... (or 1, 2, 3, ...): frame numbers, which read as a 1000 Hz recording in milliseconds
+  // (every result calibrating) or a 1 Hz one in seconds. Whatever the units stated.
+  if (count >= 3 && (times[0] == 0.0 || times[0] == 1.0) &&
+      std::all_of(steps.begin(), steps.end(), [](double d) { return d == 1.0; }))
+    throw Error(ErrorKind::kInvalidArgument,
+                name + ": the timestamps are " + std::to_string(static_cast<int>(times[0])) + ", " +
+                    std::to_string(static_cast<int>(times[0]) + 1) + ", " +
+                    std::to_string(static_cast<int>(times[0]) + 2) +
+                    ", ... (every step exactly 1): frame numbers, not times; give each frame's time (seconds or "
+                    "milliseconds), or the frame rate of a recording without times (--fps)");
   std::nth_element(steps.begin(), steps.begin() + static_cast<std::ptrdiff_t>(steps.size() / 2), steps.end());
   const double step = steps[steps.size() / 2];
   const bool as_seconds = plausible(step), as_ms = plausible(step * 1e-3);

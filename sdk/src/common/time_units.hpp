@@ -31,7 +31,8 @@ double seconds_per_unit(TimeUnits units);
 // step fits when `stated` is kAuto. Throws kata::Error(kInvalidArgument)
 // starting with `name` (the file) when kAuto's step is plausible for neither unit, when a stated
 // unit's step fits the other unit only (the message names it), or when the timestamps do not
-// increase. Fewer than two timestamps: `stated`, or seconds.
+// increase, or when they are frame numbers (0 or 1, then every step exactly 1; three or more).
+// Fewer than two timestamps: `stated`, or seconds.
 TimeUnits resolve_time_units(const double* times, size_t count, TimeUnits stated, const std::string& name);
 
 }  // namespace kata

@@ -94,7 +94,7 @@ std::vector<float> clip_positions(const BvhClip& clip, int first) {
 GpdMap resolve_gpd_map(const Skeleton& skeleton, const std::string& preset, const std::string& name_map_path) {
   // Both set is contradictory (which one wins would be a guess): refused.
   if (!preset.empty() && !name_map_path.empty())
-    throw Error(ErrorKind::kInvalidArgument, "give a preset or a name-map file, not both (preset '" + bounded(preset) +
+    throw Error(ErrorKind::kInvalidArgument, "give a layout or a name-map file, not both (layout '" + bounded(preset) +
                                                  "', name map " + bounded(name_map_path) + ")");
   if (!preset.empty()) {
     const auto names = preset_joint_names(preset);
@@ -120,7 +120,7 @@ GpdMap resolve_gpd_map(const Skeleton& skeleton, const std::string& preset, cons
       throw Error(e.kind(), bounded(name_map_path) + ":" + std::to_string(line) + ": " + e.what());
     }
   }
-  throw Error(ErrorKind::kInvalidArgument, "give a preset (--preset cmu) or a name-map file (--name-map FILE)");
+  throw Error(ErrorKind::kInvalidArgument, "give a layout (--layout cmu) or a name-map file (--name-map FILE)");
 }
 
 GpdMap resolve_gpd_map(const BvhClip& clip, const std::string& preset, const std::string& name_map_path) {

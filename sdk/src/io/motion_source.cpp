@@ -4,11 +4,13 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <fstream>
 #include <sstream>
 
 #include "common/error.hpp"
+#include "common/quote.hpp"
 #include "common/text.hpp"
 #include "io/bvh.hpp"
 #include "io/clip_features.hpp"
@@ -201,7 +203,55 @@ MotionSource load_motion(const std::string& path, const std::string& layout_name
     for (double& t : m.times) t -= t0;
   }
   m.frames -= first;
+  if (layout_name == "mediapipe") check_person_in_metres(m);
   return m;
+}
+
+void check_person_in_metres(const MotionSource& m) {
+  // MediaPipe Pose: 0 nose, 27/28 ankles; its world landmarks are metres with y down.
+  constexpr int kNose = 0, kLeftAnkle = 27, kRightAnkle = 28;
+  const int joints = m.skeleton.joint_count();
+  if (joints <= kRightAnkle) return;
+  std::vector<double> size, drop;  // per frame: nose to the ankles' midpoint; nose y - ankles' y
+  for (int f = 0; f < m.frames; ++f) {
+    const float* p = m.xyz.data() + static_cast<size_t>(f) * static_cast<size_t>(joints) * 3;
+    const float* c = m.confidence.empty() ? nullptr : m.confidence.data() + static_cast<size_t>(f) * joints;
+    bool seen = true;
+    for (int j : {kNose, kLeftAnkle, kRightAnkle}) {
+      for (int k = 0; k < 3; ++k) seen = seen && std::isfinite(p[3 * j + k]);
+      seen = seen && (!c || c[j] >= 0.5f);
+    }
+    if (!seen) continue;
+    double d2 = 0.0;
+    for (int k = 0; k < 3; ++k) {
+      const double d = 0.5 * (double(p[3 * kLeftAnkle + k]) + p[3 * kRightAnkle + k]) - p[3 * kNose + k];
+      d2 += d * d;
+    }
+    size.push_back(std::sqrt(d2));
+    drop.push_back(double(p[3 * kNose + 1]) - 0.5 * (double(p[3 * kLeftAnkle + 1]) + p[3 * kRightAnkle + 1]));
+  }
+  if (size.empty()) return;
+  const auto median = [](std::vector<double> v) {
+    std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2), v.end());
+    return v[v.size() / 2];
+  };
+  const double body = median(size), head_below = median(drop);
+  char figure[64];
+  std::snprintf(figure, sizeof figure, "%.4g", body);
+  if (!(body <= kMaxPersonMetres))
+    throw Error(ErrorKind::kInvalidArgument,
+                bounded(m.path) + ": the body measures " + figure +
+                    " from the nose to the ankles (the median over the frames that show them): not a person in "
+                    "metres, which the mediapipe layout reads. Pixel coordinates (the image landmarks times the "
+                    "image's width and height)? Give MediaPipe's world landmarks (pose_world_landmarks, metres)");
+  if (head_below > 0.5 * body) {
+    std::snprintf(figure, sizeof figure, "%.3g", head_below);
+    throw Error(ErrorKind::kInvalidArgument,
+                bounded(m.path) + ": the body is upside down: the nose is " + figure +
+                    " m below the ankles (the median over the frames that show them) in MediaPipe's axes, x right, "
+                    "y down, z away from the camera. The landmarks look y-up: negate y and z (MediaPipe's world "
+                    "landmarks have y down)");
+  }
 }
 
 MotionSource landmarks_from_values(const std::vector<double>& values, const std::vector<size_t>& shape,

@@ -43,6 +43,15 @@ struct MotionSource {
 MotionSource load_motion(const std::string& path, const std::string& layout, double fps, UpAxis up, int first = 0,
                          TimeUnits units = TimeUnits::kAuto);
 
+// A MediaPipe recording (the "mediapipe" layout: metres, y down) that shows a person: the median
+// distance from the nose to the ankles' midpoint at most kMaxPersonMetres (pixels are hundreds),
+// and the nose above the ankles (not below by more than half that distance). Else kata::Error(kInvalidArgument)
+// naming the file, the figure and the likely cause (pixel coordinates; y-up landmarks: "the body is
+// upside down"). load_motion applies it to every "mediapipe" array; frames without the nose and
+// both ankles (non-finite, confidence below 0.5) are not counted, none: nothing is checked.
+constexpr double kMaxPersonMetres = 3.0;
+void check_person_in_metres(const MotionSource& m);
+
 // The sidecar timestamps of a landmark .npy: "X.npy" -> "X.times.npy".
 std::string times_path_of(const std::string& npy_path);
 

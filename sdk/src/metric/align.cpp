@@ -153,8 +153,11 @@ Aligner::StepCosts Aligner::begin_step(Track& tr, int n, double t, int decimatio
   if (dt > 0.0) tr.student_dt += 0.1 * (std::min(dt, 0.1 * decimation) - tr.student_dt);
   const double advance = dt / (ref.frame_time() * tr.grid);  // expected teacher frames (grid frames)
   StepCosts step;
-  // Steps beyond the band are never needed: further moves are jumps.
-  step.k_max = std::min({std::max(1, static_cast<int>(std::ceil(options_.max_rate * advance))), tr.span, n - 1});
+  // Steps beyond the band are never needed: further moves are jumps. (The stream refuses a step
+  // above kMaxTimeStep, but a teacher of a tiny frame time can still make max_rate x advance
+  // exceed an int: bounded by n before the cast.)
+  const double k_wanted = std::min(std::ceil(options_.max_rate * advance), static_cast<double>(n));
+  step.k_max = std::min({std::max(1, static_cast<int>(k_wanted)), tr.span, n - 1});
   const double penalty = options_.step_penalty * ref.step_cost(), hold = options_.hold_penalty * ref.step_cost();
   for (int k = 0; k <= step.k_max; ++k)
     pk[k] = penalty * std::max(0.0, k - advance) + hold * std::max(0.0, advance - k);

@@ -283,7 +283,15 @@ void Scorer::update_part_to_fix(double t) {
   // a part was below 50 on 116). A named part gives way to another part, or to "none", only once
   // that has been the candidate for hold_time. 1 ns of slack: a hold of exactly k frame times
   // (frame index / rate) must not lose a frame to the rounding of t - since.
-  if (shown_ < 0 && candidate_ >= 0)
+  // The hold never keeps a part that scores at or above good in this frame while the candidate
+  // scores far below it (kOffsetBand under good): the student would read "fix the right leg"
+  // beside a right leg at 100 and arms at 2 (the candidate is named at once). Far below: with any
+  // candidate below good, parts near good traded places early and the part named most often
+  // left geometry's top 2 on a shipped pair (test_part_fix.cpp).
+  const double good = calibration_.good_score;
+  const bool shown_fine = shown_ >= 0 && candidate_ >= 0 && candidate_ != shown_ &&
+                          record_.part_scores[shown_] >= good && record_.part_scores[candidate_] < good - kOffsetBand;
+  if ((shown_ < 0 && candidate_ >= 0) || shown_fine)
     shown_ = candidate_;
   else if (candidate_ != shown_ && t - candidate_since_ >= feedback_.hold_time - 1e-9)
     shown_ = candidate_;

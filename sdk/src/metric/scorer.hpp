@@ -100,7 +100,8 @@ struct FeedbackOptions {
   // this long, seconds (the cue's joint within a part alike). 0.3 s, not the 0.5 s a person needs
   // to read and react: a walk or a run alternates its legs every 0.4-0.6 s, and with a 0.5 s hold
   // the part shown lagged the part that was wrong (docs/model/scores.md "The part to fix"). When
-  // no part is shown, a candidate is named at once.
+  // no part is shown, a candidate is named at once, and so it is when the part shown scores at or
+  // above good_score in this frame while the candidate scores kOffsetBand below good_score.
   double hold_time = 0.3;
   // The part scores the cue compares are averaged exponentially with this time constant,
   // seconds (0: this frame's alone), normalised by the weights summed since scoring started. A single frame's lowest part changes every few frames

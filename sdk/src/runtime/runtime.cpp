@@ -53,6 +53,18 @@ Runtime::Runtime(RuntimeConfig config) : config_(std::move(config)) {
       close_people(id);
       close_stream(id);
     };
+    // A refused definition goes back to its source on the stream's results topic (a skeleton
+    // message with `refused`): a sender watching its results learns it instead of sending into
+    // nothing. (Rare: once per definition received; the I/O thread's, holding the publisher.)
+    handlers.on_refused_definition = [this](const transport::SkeletonDefinition& d, const std::string& why) {
+      if (!publisher_) return;
+      transport::SkeletonDefinition refusal = d;
+      refusal.refused = why;
+      transport::Encoder encoder;
+      acquire_publisher();
+      publisher_->send(encoder.skeleton(refusal));
+      release_publisher();
+    };
     // A frame of an open stream the ingest refused is counted on the stream (kDropCauses).
     handlers.on_refused_frame = [this](uint64_t id, transport::TableVerdict cause) {
       StreamState* s = find(id);

@@ -150,6 +150,11 @@ Status Stream::check_input(double t, const float* xyz, const float* confidence, 
     return refuse(Status::kTimestampNotIncreasing,
                   "push: timestamp %.17g s is %.3g s after the previous one, below the minimum step %g s", t,
                   t - last_time_, kMinTimeStep);
+  if (seen_time_ && !(t - last_time_ <= kMaxTimeStep))
+    return refuse(Status::kInvalidArgument,
+                  "push: timestamp %.17g s is %.3g s after the previous one, beyond the largest step %g s (a clock "
+                  "in other units, or a source restarted without a reset)",
+                  t, t - last_time_, kMaxTimeStep);
   *input_bits = kInfBits;  // the largest |input coordinate|, when every one is read
   if (!confidence) {
     *input_bits = largest_magnitude_bits(xyz, 3 * joint_count);

@@ -18,6 +18,10 @@ namespace kata {
 // every feature is finite by construction: local coordinates stay below 2 kMaxCoordinate /
 // kMinBodyHeight = 2e15 body heights and the difference weights below 2 / kMinTimeStep^2.
 constexpr double kMinTimeStep = 1e-5;      // seconds between two accepted frames (100 kHz)
+// The largest step between two accepted frames, seconds (11.6 days): no live source pauses that
+// long; a later frame is a clock in other units or a restarted source, and its step would reach
+// the alignment as millions of teacher frames.
+constexpr double kMaxTimeStep = 1e6;
 constexpr double kMaxCoordinate = 1e9;     // |x|, |y|, |z| of a mapped joint, input units
 constexpr double kMinBodyHeight = 1e-6;    // input units
 constexpr double kMaxReach = 100.0;        // a mapped joint's distance from the hip, body heights

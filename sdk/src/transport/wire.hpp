@@ -58,6 +58,7 @@ struct SkeletonDefinition {
   float metres_per_unit = 0.0f;  // 0 = unknown
   float frame_rate = 0.0f;       // Hz, 0 = unknown
   bool closed = false;           // the source ends the stream (schemas/skeleton.fbs)
+  std::string refused;           // a receiver's refusal of it, on its results channel; empty otherwise
 };
 
 // A stream's practice setting as carried by a Practice message (schemas/practice.fbs documents
@@ -231,6 +232,9 @@ class Decoder {
   uint32_t skeleton_revision() const;
   int skeleton_joints() const;
   bool skeleton_closed() const;
+  // A skeleton message's refusal by a receiver (schemas/skeleton.fbs `refused`): its text, or
+  // null (absent, or not a skeleton). Valid while the message is.
+  const char* skeleton_refused(size_t* size) const;
   const ResultFields& result() const { return result_; }
   // The last decoded Repetition message (published_ns: its published time). Allocation-free.
   const kata_repetition& repetition() const { return repetition_; }

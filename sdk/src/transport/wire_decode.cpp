@@ -273,6 +273,7 @@ SkeletonDefinition Decoder::skeleton() const {
   d.metres_per_unit = k->metres_per_unit();
   d.frame_rate = k->frame_rate();
   d.closed = k->closed();
+  if (k->refused()) d.refused = k->refused()->str();
   return d;
 }
 
@@ -293,6 +294,13 @@ int Decoder::skeleton_joints() const {
   return static_cast<int>(fb::GetSkeletonDefinition(payload_)->joint_names()->size());
 }
 bool Decoder::skeleton_closed() const { return fb::GetSkeletonDefinition(payload_)->closed(); }
+
+const char* Decoder::skeleton_refused(size_t* size) const {
+  const auto* refused = fb::GetSkeletonDefinition(payload_)->refused();
+  if (!refused) return nullptr;
+  *size = refused->size();
+  return refused->c_str();
+}
 
 StatsFields Decoder::stats() const {
   const fb::Stats* k = fb::GetStats(payload_);

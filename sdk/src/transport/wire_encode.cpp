@@ -117,6 +117,8 @@ Bytes Encoder::skeleton(const SkeletonDefinition& d) {
   const auto layout = b.CreateString(d.layout);
   flatbuffers::Offset<flatbuffers::Vector<flatbuffers::Offset<flatbuffers::String>>> name_map;
   if (!d.name_map.empty()) name_map = b.CreateVectorOfStrings(d.name_map);
+  flatbuffers::Offset<flatbuffers::String> refused;
+  if (!d.refused.empty()) refused = b.CreateString(d.refused);
   fb::SkeletonDefinitionBuilder k(b);
   k.add_schema_version(kSkeletonVersion);
   k.add_stream_id(d.stream_id);
@@ -130,6 +132,7 @@ Bytes Encoder::skeleton(const SkeletonDefinition& d) {
   if (!d.name_map.empty()) k.add_name_map(name_map);
   k.add_frame_rate(d.frame_rate);
   if (d.closed) k.add_closed(true);
+  if (!d.refused.empty()) k.add_refused(refused);
   b.Finish(k.Finish(), fb::SkeletonDefinitionIdentifier());
   return finish(d.stream_id, fb::SkeletonDefinitionIdentifier());
 }

@@ -212,12 +212,15 @@ void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t n
         ++counters_.refused_skeletons;
         return;
       }
+      definition.refused.clear();  // a receiver's field: a source's is ignored
       bool accepted = false;
+      std::string why;
       try {
         if (is_new) accepted = handlers_.on_skeleton ? handlers_.on_skeleton(definition) : true;
         else accepted = handlers_.on_revision ? handlers_.on_revision(definition) : false;
       } catch (const Error& e) {
         accepted = false;
+        why = e.what();
         // Why, once per stream (the first 64 streams): a skeleton that does not fit its layout
         // would otherwise show only as dropped frames.
         if (log_refusals_ && logged_definition_refusals_.size() < 64 &&
@@ -232,6 +235,7 @@ void Ingest::handle(const void* data, size_t size, SenderToken sender, int64_t n
       }
       if (!accepted) {
         ++counters_.refused_skeletons;
+        if (!why.empty() && handlers_.on_refused_definition) handlers_.on_refused_definition(definition, why);
         return;
       }
       table_.commit_definition(sender, id, definition.revision, definition.skeleton.joint_count(), now_ns);

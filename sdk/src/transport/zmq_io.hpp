@@ -225,6 +225,10 @@ class Ingest {
     // A new revision of an open stream from its owner: the receiver restarts the stream with it.
     // Return false to refuse it (counted in refused_skeletons; the stream keeps the old one).
     std::function<bool(const SkeletonDefinition&)> on_revision;
+    // A definition on_skeleton or on_revision refused with a reason (kata::Error's message): the
+    // receiver tells the source (kata serve publishes it on the stream's results topic, a
+    // skeleton message with `refused` set). Once per definition received. [ingest's thread]
+    std::function<void(const SkeletonDefinition&, const std::string& why)> on_refused_definition;
     // The stream ended (its owner closed it, or it was idle past the limit). [ingest's thread]
     std::function<void(uint64_t stream_id)> on_close;
     // A frame of a known stream refused (stale, not its owner's, out of order or of the window,
