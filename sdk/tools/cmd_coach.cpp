@@ -447,7 +447,7 @@ void setup(CLI::App& app) {
   cmd->add_option("--window", a->lesson.window, "alignment window, teacher seconds (default 0.5)");
   cmd->add_option("--tolerance", a->lesson.tolerance,
                   "how far a part may be off: strict, normal (default), lenient, or the angle in degrees at which a "
-                  "part scores 50 (docs/model/tolerance.md)");
+                  "part scores 50 (" + kata::cli::doc_file("model/tolerance.md") + ")");
   cmd->add_option("--teacher-start", a->lesson.teacher_start,
                   "practice: start at this teacher clip frame (the teacher before it is not used)")
       ->check(CLI::NonNegativeNumber);
@@ -461,7 +461,7 @@ void setup(CLI::App& app) {
       ->expected(2);
   cmd->add_flag("--reps", a->lesson.reps,
                 "count repetitions: the teacher (the whole clip, or --rep-section) is one repetition, looped; a "
-                "counter, tempo and depth live and in the report (docs/coach/repetitions.md)");
+                "counter, tempo and depth live and in the report (" + kata::cli::doc_file("coach/repetitions.md") + ")");
   cmd->add_option_function<std::vector<double>>(
          "--rep-section",
          [a](const std::vector<double>& v) {
@@ -474,8 +474,8 @@ void setup(CLI::App& app) {
   cmd->add_option("--publish", a->lesson.publish,
                   "ZeroMQ endpoint the runtime publishes results on (default tcp://127.0.0.1:*, any free port)");
   cmd->add_option("--vmc", a->vmc,
-                  "send the ghost to a VMC receiver (an avatar in Unity, Unreal, Blender, Godot: docs/vmc.md) at "
-                  "HOST:PORT (its default port is 39539), one OSC bundle per frame over UDP");
+                  "send the ghost to a VMC receiver (an avatar in Unity, Unreal, Blender, Godot: " + kata::cli::doc_file("vmc.md") +
+                      ") at HOST:PORT (its default port is 39539), one OSC bundle per frame over UDP");
   cmd->add_option("--vmc-student", a->vmc_student, "send the student to a VMC receiver at HOST:PORT (a second avatar)");
   cmd->add_flag("--headless", a->headless, "no viewer, plain progress lines (CI)");
   cmd->add_flag("--no-viewer", a->no_viewer, "no browser viewer (the terminal view stays)");

@@ -426,12 +426,12 @@ void setup(CLI::App& app) {
   cmd->add_option("--tolerance", args->tolerance,
                   "how far a part may be off before its score falls: strict (a 30-degree error scores <= 50), normal "
                   "(default: a 45-degree error does), lenient (for beginners), or the angle in degrees (5..120) at "
-                  "which a part scores 50 (docs/model/tolerance.md)");
+                  "which a part scores 50 (" + kata::cli::doc_file("model/tolerance.md") + ")");
   cmd->add_option("--loop", args->loop, "practice: loop teacher clip frames A..B (two numbers: A B)")->expected(2);
   cmd->add_option("--reps", args->reps,
                   "also count repetitions: the teacher clip (or --rep-section) is one repetition, looped; one CSV "
                   "row per repetition: rep, start_time, end_time, tempo, score, part_to_fix, cue, partial, then "
-                  "range_<joint> and range_<joint>_teacher (degrees) per joint (docs/coach/repetitions.md)");
+                  "range_<joint> and range_<joint>_teacher (degrees) per joint (" + kata::cli::doc_file("coach/repetitions.md") + ")");
   cmd->add_option("--rep-section", args->rep_section,
                   "with --reps: the repetition is the teacher's seconds A to B (clip time, frame k at k x the frame "
                   "time; B is where the next repetition would start)")

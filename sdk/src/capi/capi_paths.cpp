@@ -20,7 +20,8 @@ namespace kata::capi {
 namespace {
 
 // The share/kata folders beside this library: <libdir>/../share/kata (a build tree, an install
-// into lib/) and the install's own relative path (lib/<multiarch>/ installs).
+// into lib/), the install's own relative path (lib/<multiarch>/ installs), and the library's own
+// folder (the Python wheel, which carries libkata.so beside models/ and data/).
 std::vector<std::filesystem::path> share_dirs() {
   std::vector<std::filesystem::path> dirs;
   Dl_info info{};
@@ -28,7 +29,7 @@ std::vector<std::filesystem::path> share_dirs() {
   std::error_code ec;
   const std::filesystem::path lib = std::filesystem::weakly_canonical(info.dli_fname, ec).parent_path();
   for (const std::filesystem::path& d : {(lib / KATA_SHARE_FROM_LIBDIR).lexically_normal(),
-                                         (lib / ".." / "share" / "kata").lexically_normal()})
+                                         (lib / ".." / "share" / "kata").lexically_normal(), lib.lexically_normal()})
     if (std::find(dirs.begin(), dirs.end(), d) == dirs.end()) dirs.push_back(d);
   return dirs;
 }
