@@ -104,7 +104,8 @@ std::vector<uint8_t> write_pose(const kata_humanoid_pose& p, double t, float sca
 
 // liblo's serialised bundle of the given messages (each added with its address), timetag immediate.
 std::vector<uint8_t> bundle_of(const std::vector<std::pair<const char*, lo_message>>& messages) {
-  lo_bundle b = lo_bundle_new(LO_TT_IMMEDIATE);
+  const lo_timetag immediately = {0U, 1U};  // LO_TT_IMMEDIATE, spelt out: its compound literal is C99-only in C++
+  lo_bundle b = lo_bundle_new(immediately);
   for (const auto& [address, m] : messages) lo_bundle_add_message(b, address, m);
   std::vector<uint8_t> out(lo_bundle_length(b));
   size_t n = 0;
