@@ -75,7 +75,8 @@ __attribute__((format(printf, 4, 5))) void append_line(char* line, size_t size, 
 // (frame in -> result published, over the lesson so far).
 class TerminalView {
  public:
-  TerminalView(bool interactive, size_t frames) : interactive_(interactive) {
+  // show_reps: the repetition counter is shown only when the lesson counts them (--reps).
+  TerminalView(bool interactive, size_t frames, bool show_reps) : interactive_(interactive), show_reps_(show_reps) {
     latencies_.reserve(frames);
     sorted_.reserve(frames);
   }
@@ -120,7 +121,7 @@ class TerminalView {
       char cue[64];
       append_line(line, sizeof line, at, " %-32s", cue_phrase(*r, cue, sizeof cue));
       if (r->state == FrameState::kTeacherFinished) append_line(line, sizeof line, at, " (teacher finished)");
-      if (r->repetition > 0)  // the repetition counter (docs/coach/repetitions.md)
+      if (show_reps_ && r->repetition > 0)  // the repetition counter (docs/coach/repetitions.md)
         append_line(line, sizeof line, at, " | rep %d %3.0f%%%s%s", r->repetition, 100.0 * r->repetition_progress,
                     last_rep_.empty() ? "" : " | last ", last_rep_.c_str());
     } else if (r) {
@@ -147,6 +148,7 @@ class TerminalView {
   double parts_time_ = -1.0;                  // the newest frame taken into parts_, -1: none yet
   std::vector<double> latencies_, sorted_;
   std::string last_rep_;
+  bool show_reps_ = false;
 };
 
 // VMC out of a clip lesson (or a replayed one): each settled frame's student joints and its ghost
@@ -314,7 +316,7 @@ void run_coach(CoachArgs a) {
                 data.settings.student.c_str(), data.settings.teacher.c_str(), frames, a.lesson.speed);
   std::fflush(stdout);
 
-  TerminalView view(!a.headless && isatty(STDOUT_FILENO), frames);
+  TerminalView view(!a.headless && isatty(STDOUT_FILENO), frames, a.lesson.reps);
   size_t published = 0;  // frames handed to the viewer (in order, once their record is final)
   size_t reps_shown = 0;  // repetitions handed to the viewer and the terminal
   auto publish_settled = [&](size_t settled) {
