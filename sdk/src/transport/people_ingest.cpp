@@ -16,21 +16,7 @@ void Ingest::handle_people(const void* data, size_t size, SenderToken sender, in
     return;
   }
   bool restarted = false;
-  uint64_t gap = 0;
-  int64_t age_ns = -1;
-  const TableVerdict v =
-      table_.judge_frame(sender, f.stream_id, f.sequence, f.capture_ns, f.joints, now_ns, &restarted, &gap, &age_ns);
-  if (v != TableVerdict::kAccepted) {
-    if (v != TableVerdict::kUnknownStream && handlers_.on_refused_frame) handlers_.on_refused_frame(f.stream_id, v);
-    return refused(sender, v, f.stream_id);
-  }
-  if (restarted) ++counters_.restarts;
-  counters_.sequence_gaps += gap;
-  if (age_ns >= 0) {
-    const int bucket = age_ns < 1 ? 0 : static_cast<int>(8.0 * std::log2(static_cast<double>(age_ns)));
-    ++counters_.age_histogram[std::min(std::max(bucket, 0), IngestCounters::kAgeBuckets - 1)];
-  }
-  ++counters_.frames;
+  if (!admit_frame(sender, f.stream_id, f.sequence, f.capture_ns, f.joints, now_ns, &restarted)) return;
   ++counters_.people_frames;
   counters_.people_poses += static_cast<uint64_t>(f.poses);
   if (handlers_.on_people) handlers_.on_people(f, restarted);

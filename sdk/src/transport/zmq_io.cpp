@@ -124,24 +124,31 @@ void Ingest::handle_practice(SenderToken sender, int64_t now_ns) {
   ++counters_.practices;
 }
 
-void Ingest::handle_frame(SenderToken sender, int64_t now_ns) {
-  const FrameView& f = decoder_.frame();
-  bool restarted = false;
+bool Ingest::admit_frame(SenderToken sender, uint64_t stream_id, uint64_t sequence, int64_t capture_ns, int joints,
+                         int64_t now_ns, bool* restarted) {
   uint64_t gap = 0;
   int64_t age_ns = -1;
   const TableVerdict v =
-      table_.judge_frame(sender, f.stream_id, f.sequence, f.capture_ns, f.joints, now_ns, &restarted, &gap, &age_ns);
+      table_.judge_frame(sender, stream_id, sequence, capture_ns, joints, now_ns, restarted, &gap, &age_ns);
   if (v != TableVerdict::kAccepted) {
-    if (v != TableVerdict::kUnknownStream && handlers_.on_refused_frame) handlers_.on_refused_frame(f.stream_id, v);
-    return refused(sender, v, f.stream_id);
+    if (v != TableVerdict::kUnknownStream && handlers_.on_refused_frame) handlers_.on_refused_frame(stream_id, v);
+    refused(sender, v, stream_id);
+    return false;
   }
-  if (restarted) ++counters_.restarts;
+  if (*restarted) ++counters_.restarts;
   counters_.sequence_gaps += gap;
   if (age_ns >= 0) {
     const int bucket = age_ns < 1 ? 0 : static_cast<int>(8.0 * std::log2(static_cast<double>(age_ns)));
     ++counters_.age_histogram[std::min(std::max(bucket, 0), IngestCounters::kAgeBuckets - 1)];
   }
   ++counters_.frames;
+  return true;
+}
+
+void Ingest::handle_frame(SenderToken sender, int64_t now_ns) {
+  const FrameView& f = decoder_.frame();
+  bool restarted = false;
+  if (!admit_frame(sender, f.stream_id, f.sequence, f.capture_ns, f.joints, now_ns, &restarted)) return;
   if (handlers_.on_frame) handlers_.on_frame(f, restarted);
 }
 

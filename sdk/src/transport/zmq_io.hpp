@@ -275,6 +275,11 @@ class Ingest {
   void refused(SenderToken sender, TableVerdict cause, uint64_t stream_id, const std::string& why = {});
   // The decoder's current frame (a Frame message's, or a batch's frame i): the table's rules, then on.
   void handle_frame(SenderToken sender, int64_t now_ns);
+  // One frame's judgement by the stream table and its counters (a Frame message's, a people
+  // frame's): true if accepted (*restarted: the source restarted its sequence); a refusal is
+  // counted by cause and reported (on_refused_frame, refused) here.
+  bool admit_frame(SenderToken sender, uint64_t stream_id, uint64_t sequence, int64_t capture_ns, int joints,
+                   int64_t now_ns, bool* restarted);
   void handle_batch(SenderToken sender, int64_t now_ns);
   void handle_practice(SenderToken sender, int64_t now_ns);
   // A people frame (people_ingest.cpp): verified by its own decoder, then judged as a frame.
