@@ -35,7 +35,7 @@ FUZZ_PACKAGES=(clang-14 libclang-rt-14-dev)
 # Only for `./build.sh clang` / `./build.sh aarch64` (arm64 multiarch: the arm64 builds of the
 # libraries the core links; header-only packages are shared with the host).
 CLANG_PACKAGES=(clang)
-AARCH64_PACKAGES=(g++-aarch64-linux-gnu qemu-user libzmq3-dev:arm64 liblo-dev:arm64 libgtest-dev:arm64 libflatbuffers-dev:arm64
+AARCH64_PACKAGES=(g++-aarch64-linux-gnu qemu-user libzmq3-dev:arm64 liblo7:arm64 libgtest-dev:arm64 libflatbuffers-dev:arm64
                   libcpp-httplib-dev:arm64 libzip-dev:arm64)  # the CLI's viewer server and .npz are configured (not built) here
 JOBS=${JOBS:-2}
 # ccache (CMakeLists.txt) keyed on paths relative to the checkout, so a fresh clone elsewhere (CI
