@@ -30,7 +30,9 @@ finds the people (MoveNet MultiPose) and each one's landmarks (MediaPipe on thei
 people tracker says who each pose is. Every person is scored on their own stream (each a stream
 of their own in /webcam/status, results on it), nobody swaps (a person's hips stay in their tile
 in every frame the page sent), no stray person appears, and the report has one section and one
-summary row per person. The page's cost per frame and per person is printed.
+summary row per person. The teacher is the man as the single-person page recorded him
+(tests/data/webcam: MediaPipe on the whole picture): every person, found on their crop, scores a
+median above 90 against it. The page's cost per frame and per person is printed.
 
 Usage: test_coach_webcam_browser.py --kata build/bin/kata --source-dir . [--screenshot FILE.png] [--people]
 Every wait is bounded; prints its wall time per phase.
@@ -97,7 +99,9 @@ def people_session(kata, source_dir, work, copies, started, screenshot=None):
     make_tiled_video(video, copies)
     tile = 320
     name = f"people{copies}"
-    coach, port, log = start_coach(kata, source_dir, work, name, ["--people", str(copies)])
+    teacher = os.path.join(os.path.abspath(source_dir), "tests", "data", "webcam", "basketball_man.npy")
+    coach, port, log = start_coach(kata, source_dir, work, name, ["--people", str(copies), "--teacher", teacher,
+                                                                  "--time-units", "s"])
     driver = make_driver(os.path.join(work, "profile_" + name), video)
     try:
         driver.set_page_load_timeout(120)
@@ -124,6 +128,9 @@ def people_session(kata, source_dir, work, copies, started, screenshot=None):
         assert len(persons) == copies, f"{len(persons)} people for {copies} in view: {persons}"
         assert len({p["stream"] for p in persons}) == copies and all(p["stream"] for p in persons), persons
         assert all(p["scored"] >= 2 and p["results"] >= p["scored"] for p in persons), persons
+        # Found on their crop, each is the man the single-person page recorded: high scores.
+        medians = {int(k): float(np.median([e["score"] for e in p["scores"]])) for k, p in h["persons"].items()}
+        assert all(m > 90 for m in medians.values()), f"median scores against the man's own recording: {medians}"
         assert sorted(int(k) for k in h["persons"]) == sorted(p["id"] for p in persons), (h["persons"], persons)
         # No swap: every pose the page sent with a person has its hips in that person's tile, the
         # same tile in every frame, and each person in a tile of their own.
@@ -137,7 +144,7 @@ def people_session(kata, source_dir, work, copies, started, screenshot=None):
         assert sorted(tile_of.values()) == list(range(copies)), f"tiles of the people: {tile_of}"
         frames = len(h["frames"])
         cost = h.get("costSummary")
-        print(f"{copies} people: {frames} frames, persons {[(p['id'], p['pushed'], p['scored'], round(p['mean_score'], 1)) for p in persons]} "
+        print(f"{copies} people: median scores {medians}; {frames} frames, persons {[(p['id'], p['pushed'], p['scored'], round(p['mean_score'], 1)) for p in persons]} "
               f"(id, frames, scored, mean score), tiles {tile_of}, backend {h.get('backend')}, page cost {json.dumps(cost)}, "
               f"tracker {json.dumps({k: v for k, v in people.items() if k != 'persons'})} [{time.monotonic() - started:.0f} s]")
     finally:
