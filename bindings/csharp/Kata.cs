@@ -208,6 +208,43 @@ namespace Kata
         public uint Reserved0;
     }
 
+    // kata_people_desc (kata/people.h, 1.1): how a people tracker tracks. Fill with People.DefaultDesc.
+    [StructLayout(LayoutKind.Sequential)]
+    public struct PeopleDesc
+    {
+        public uint StructSize;
+        public uint JointCount;            // joints per pose (1..4096); no default
+        public uint MaxPeople;             // streams open at once (1..64); 8
+        public uint MaxPoses;              // poses of a frame taken, the most confident first (1..64); 16
+        public double ForgetSeconds;       // a stream unseen for longer closes; 3
+        public double CoastSeconds;        // a hidden person's predicted motion runs this long; 1
+        public double Gate;                // body sizes a pose may lie from a stream seen the frame before; 1
+        public double GateGrowth;          // body sizes per second unseen the gate widens by; 2
+        public double SizeGate;            // a pose's size within [1/SizeGate, SizeGate] x the stream's; 1.5
+        public double ShapeWeight;         // weight of the shape term in the cost; 1
+        public double MinConfidence;       // joints less confident are ignored; 0.3
+    }
+
+    // kata_people_counters (1.1): what a tracker did since it was created, refusals by cause.
+    [StructLayout(LayoutKind.Sequential)]
+    public struct PeopleCounters
+    {
+        public uint StructSize;
+        public uint OpenStreams;           // streams open now (seen or hidden)
+        public ulong Frames;               // frames accepted
+        public ulong EmptyFrames;          // accepted frames without a pose
+        public ulong RefusedFrames;        // time not finite or not after the previous frame's
+        public ulong Poses;                // poses in accepted frames
+        public ulong Assigned;             // poses given a stream
+        public ulong Opened;               // streams opened
+        public ulong Closed;               // streams closed (unseen for longer than ForgetSeconds)
+        public ulong RefusedNonFinite;     // a NaN or infinite confident joint or confidence
+        public ulong RefusedOutOfRange;    // a confident joint beyond KATA_MAX_COORDINATE
+        public ulong RefusedFewJoints;     // fewer than 3 confident joints, or all on one point
+        public ulong RefusedTooManyPoses;  // beyond MaxPoses in a frame (the least confident)
+        public ulong RefusedTableFull;     // new people while MaxPeople streams were open
+    }
+
     // ---- errors ------------------------------------------------------------------------------------------
 
     public class KataException : Exception
@@ -358,6 +395,21 @@ namespace Kata
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_humanoid_rig_pose_ghost(HumanoidRigHandle rig, float[] ghost, uint ghostJointCount, int frame, IntPtr pose);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_humanoid_pose_joints(IntPtr pose, [Out] float[] positions, UIntPtr capacity, [Out] float[] rotations, UIntPtr rotationCapacity);
 
+        // the people tracker, kata/people.h
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_people_desc_init_sized(ref PeopleDesc desc, uint structSize);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_people_create(ContextHandle ctx, ref PeopleDesc desc, out PeopleHandle people);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_people_destroy(IntPtr people);
+        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_people_last_error(PeopleHandle people);
+        [DllImport(Lib, CallingConvention = CC)]
+        public static extern Status kata_people_track(PeopleHandle people, double time, float[] xyz, float[] confidence, uint poseCount,
+                                                      [Out] uint[] ids, UIntPtr capacity);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_people_opened(PeopleHandle people, [Out] uint[] ids, UIntPtr capacity, out uint count);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_people_closed(PeopleHandle people, [Out] uint[] ids, UIntPtr capacity, out uint count);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_people_streams(PeopleHandle people, [Out] uint[] ids, UIntPtr capacity, out uint count);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_people_predicted(PeopleHandle people, uint id, double time, [Out] double[] centroid);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_people_get_counters(PeopleHandle people, ref PeopleCounters counters);
+        [DllImport(Lib, CallingConvention = CC)] public static extern ulong kata_people_stream_id(ulong group, uint person);
+
         // ---- helpers: UTF-8 both ways (no reliance on CharSet, which differs between runtimes) ----
         public static byte[] Utf8(string s)
         {
@@ -465,6 +517,7 @@ namespace Kata
     public sealed class TeacherHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_teacher_destroy(h); } }
     public sealed class RetargeterHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_retargeter_destroy(h); } }
     public sealed class HumanoidRigHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_humanoid_rig_destroy(h); } }
+    public sealed class PeopleHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_people_destroy(h); } }
 
     // ---- objects ------------------------------------------------------------------------------------------
 
@@ -505,6 +558,14 @@ namespace Kata
             ClipHandle h;
             Status s = Native.kata_clip_load_bvh(Handle, Native.Utf8(path), out h);
             return new Clip(Check(s, h, "kata_clip_load_bvh"), this);
+        }
+
+        // kata_people_create (1.1): a people tracker (desc from People.DefaultDesc, then changed).
+        public People CreatePeople(PeopleDesc desc)
+        {
+            PeopleHandle h;
+            Status s = Native.kata_people_create(Handle, ref desc, out h);
+            return new People(Check(s, h, "kata_people_create"), desc.JointCount);
         }
 
         public Model LoadModel(string path)
@@ -1033,6 +1094,87 @@ namespace Kata
             Status s = Native.kata_humanoid_rig_rest_pose(Handle, (int)frame, pose);
             if (s != Status.Ok) Throw(s, "kata_humanoid_rig_rest_pose");
             return Read(null);
+        }
+    }
+
+    // Several people in one picture (kata_people, kata/people.h): which stream each unlabeled pose of a
+    // multi-person detector belongs to. Ids count up from 1 and are not reused; 0: the pose was refused
+    // (Counters says why). One thread at a time; Track into a caller's ids array allocates nothing.
+    public sealed class People : IDisposable
+    {
+        public readonly PeopleHandle Handle;
+        public readonly uint JointCount;
+        private readonly uint[] list = new uint[64];  // at most max_people (64) ids
+        internal People(PeopleHandle h, uint jointCount) { Handle = h; JointCount = jointCount; }
+        public void Dispose() { Handle.Dispose(); }
+        private void Throw(Status s, string call) { throw new KataException(s, Native.FromUtf8(Native.kata_people_last_error(Handle)), call); }
+
+        // kata_people_desc_init with joint_count set: the defaults (kata/people.h) for poses of `jointCount` joints.
+        public static PeopleDesc DefaultDesc(uint jointCount)
+        {
+            PeopleDesc d = new PeopleDesc();
+            Native.kata_people_desc_init_sized(ref d, (uint)Marshal.SizeOf(typeof(PeopleDesc)));
+            d.JointCount = jointCount;
+            return d;
+        }
+
+        // kata_people_stream_id: the stream a runtime (kata serve) scores person `person` of group stream `group` on.
+        public static ulong StreamId(ulong group, uint person) { return Native.kata_people_stream_id(group, person); }
+
+        // kata_people_track: one frame's poses (poseCount x JointCount x 3, in any order; poseCount may be 0)
+        // with their confidences (poseCount x JointCount in [0, 1], or null: all confident) -> each pose's
+        // stream id into ids[0 .. poseCount) (0: refused). Allocates nothing.
+        public void Track(double time, float[] poses, float[] confidences, uint poseCount, uint[] ids)
+        {
+            if (poses == null || ids == null) throw new ArgumentNullException(poses == null ? "poses" : "ids");
+            if (poses.Length < poseCount * JointCount * 3 || (confidences != null && confidences.Length < poseCount * JointCount))
+                throw new ArgumentException("poses must hold poseCount x " + JointCount + " x 3 floats, confidences poseCount x " + JointCount);
+            Status s = Native.kata_people_track(Handle, time, poses, confidences, poseCount, ids, (UIntPtr)ids.Length);
+            if (s != Status.Ok) Throw(s, "kata_people_track");
+        }
+
+        // Track for a frame of poses.Length / (JointCount x 3) poses; a new ids array.
+        public uint[] Track(double time, float[] poses, float[] confidences = null)
+        {
+            uint n = (uint)(poses.Length / (3 * JointCount));
+            uint[] ids = new uint[n];
+            Track(time, poses, confidences, n, ids);
+            return ids;
+        }
+
+        private uint[] List(Status s, uint count, string call)
+        {
+            if (s != Status.Ok) Throw(s, call);
+            uint[] ids = new uint[count];
+            Array.Copy(list, ids, (int)count);
+            return ids;
+        }
+
+        // The streams the last Track opened (new people), closed (unseen for longer than ForgetSeconds),
+        // and the streams open now (seen or hidden).
+        public uint[] Opened { get { uint n; Status s = Native.kata_people_opened(Handle, list, (UIntPtr)list.Length, out n); return List(s, n, "kata_people_opened"); } }
+        public uint[] Closed { get { uint n; Status s = Native.kata_people_closed(Handle, list, (UIntPtr)list.Length, out n); return List(s, n, "kata_people_closed"); } }
+        public uint[] Streams { get { uint n; Status s = Native.kata_people_streams(Handle, list, (UIntPtr)list.Length, out n); return List(s, n, "kata_people_streams"); } }
+
+        // kata_people_predicted: where stream `id`'s person is predicted at `time` (their centroid, 3 values).
+        public double[] Predicted(uint id, double time)
+        {
+            double[] c = new double[3];
+            Status s = Native.kata_people_predicted(Handle, id, time, c);
+            if (s != Status.Ok) Throw(s, "kata_people_predicted");
+            return c;
+        }
+
+        public PeopleCounters Counters
+        {
+            get
+            {
+                PeopleCounters c = new PeopleCounters();
+                c.StructSize = (uint)Marshal.SizeOf(typeof(PeopleCounters));
+                Status s = Native.kata_people_get_counters(Handle, ref c);
+                if (s != Status.Ok) Throw(s, "kata_people_get_counters");
+                return c;
+            }
         }
     }
 }

@@ -247,6 +247,8 @@ void run_webcam(CoachArgs a) {
     std::printf("webcam lesson: teacher %s; open the page, allow the camera\n", a.cam.teacher.c_str());
   else
     std::printf("recording a teacher from the webcam into %s; open the page, allow the camera\n", a.cam.record_teacher.c_str());
+  if (a.cam.people > 1)
+    std::printf("up to %d people: each is coached on their own stream\n", a.cam.people);
   std::printf("viewer: http://%s:%d/webcam.html?complexity=%d  (open it in a browser)\n", a.host.c_str(), coach.port(),
               a.cam.complexity);
   std::fflush(stdout);
@@ -436,6 +438,10 @@ void setup(CLI::App& app) {
   cmd->add_option("--record-teacher", a->cam.record_teacher,
                   "record the webcam's person as a teacher: landmarks .npy (frames x 33 x 4) + .times.npy; no scoring");
   cmd->add_option("--record-student", a->cam.record_student, "a webcam lesson also keeps the received landmarks here (.npy)");
+  cmd->add_option("--people", a->cam.people,
+                  "webcam: coach up to N people in front of the camera at once (1..4, default 1): each their own "
+                  "stream, score, ghost and report section (" + kata::cli::doc_file("people.md") + ")")
+      ->check(CLI::Range(1, kMaxWebcamPeople));
   cmd->add_option("--complexity", a->cam.complexity, "webcam: MediaPipe Pose model, 0 lite (default), 1 full, 2 heavy");
   cmd->add_option("--teacher-layout", a->cam.teacher_layout, "webcam: layout of a landmark teacher (default mediapipe)");
   cmd->add_option("--time-units", a->cam.time_units, "webcam: units of a landmark teacher's timestamps: s (default: what --record-teacher writes), ms or auto")

@@ -23,7 +23,18 @@ photograph, the wall and the door with nobody in it, is the camera with no perso
      loads it as its teacher (/webcam/setup says its frame count) and `kata score` scores the
      recorded student of 1. against it (the same photograph: the same pose, so the top scores).
 
-Usage: test_coach_webcam_browser.py --kata build/bin/kata --source-dir . [--screenshot FILE.png]
+With --people (a test of its own, coach_webcam_people_browser): several people in one camera
+(kata coach --webcam --people N). The camera plays two, then three copies of the photograph's man
+tiled side by side (ffmpeg's hstack), swaying left and right; one page session per video. The page
+finds the people (MoveNet MultiPose) and each one's landmarks (MediaPipe on their crop); kata's
+people tracker says who each pose is. Every person is scored on their own stream (each a stream
+of their own in /webcam/status, results on it), nobody swaps (a person's hips stay in their tile
+in every frame the page sent), no stray person appears, and the report has one section and one
+summary row per person. The teacher is the man as the single-person page recorded him
+(tests/data/webcam: MediaPipe on the whole picture): every person, found on their crop, scores a
+median above 90 against it. The page's cost per frame and per person is printed.
+
+Usage: test_coach_webcam_browser.py --kata build/bin/kata --source-dir . [--screenshot FILE.png] [--people]
 Every wait is bounded; prints its wall time per phase.
 """
 import argparse
@@ -71,6 +82,80 @@ def wait_for(what, predicate, timeout):
 def make_video(path, crop):
     subprocess.run(["ffmpeg", "-loglevel", "error", "-y", "-loop", "1", "-i", PHOTO, "-vf",
                     f"crop={crop},scale=320:640,format=yuv420p", "-t", "2", "-r", "10", path], check=True)
+
+
+def make_tiled_video(path, copies):
+    """`copies` copies of the man side by side (320 x 640 each), the row swaying +-24 px over 2 s."""
+    tiles = "".join(f"[t{k}]" for k in range(copies))
+    graph = (f"[0]crop=240:480:0:0,scale=320:640,split={copies}{tiles};{tiles}hstack=inputs={copies},"
+             f"pad=iw+48:ih:24:0,crop=iw-48:ih:'24+24*sin(PI*t)':0,format=yuv420p")
+    subprocess.run(["ffmpeg", "-loglevel", "error", "-y", "-loop", "1", "-i", PHOTO, "-filter_complex", graph,
+                    "-t", "2", "-r", "10", path], check=True)
+
+
+def people_session(kata, source_dir, work, copies, started, screenshot=None):
+    """A page session with `copies` people in view (kata coach --webcam --people copies)."""
+    video = os.path.join(work, f"people{copies}.y4m")
+    make_tiled_video(video, copies)
+    tile = 320
+    name = f"people{copies}"
+    teacher = os.path.join(os.path.abspath(source_dir), "tests", "data", "webcam", "basketball_man.npy")
+    coach, port, log = start_coach(kata, source_dir, work, name, ["--people", str(copies), "--teacher", teacher,
+                                                                  "--time-units", "s"])
+    driver = make_driver(os.path.join(work, "profile_" + name), video)
+    try:
+        driver.set_page_load_timeout(120)
+        driver.set_script_timeout(120)
+        driver.get(f"http://127.0.0.1:{port}/webcam.html")
+        hook = lambda: page_hook(driver)
+        wait_for("the people's first landmarks", lambda: (hook() or {}).get("personFrames", 0) > 0, 240)
+
+        def everyone_scored():
+            persons = (hook() or {}).get("persons") or {}
+            return len(persons) >= copies and all(p["scored"] >= 2 for p in persons.values())
+        wait_for(f"{copies} people scored", everyone_scored, 420)
+        h = hook()
+        assert not h["errors"], f"page errors: {h['errors']}"
+        errors = severe(driver)
+        assert not errors, f"console errors: {errors}"
+        if screenshot:
+            driver.save_screenshot(screenshot)
+        s = status(port)
+        assert s["refused"] == 0 and s["malformed"] == 0, s
+        people = s["people"]
+        persons = people["persons"]
+        # Each person their own stream, scored on it; nobody else appeared.
+        assert len(persons) == copies, f"{len(persons)} people for {copies} in view: {persons}"
+        assert len({p["stream"] for p in persons}) == copies and all(p["stream"] for p in persons), persons
+        assert all(p["scored"] >= 2 and p["results"] >= p["scored"] for p in persons), persons
+        # Found on their crop, each is the man the single-person page recorded: high scores.
+        medians = {int(k): float(np.median([e["score"] for e in p["scores"]])) for k, p in h["persons"].items()}
+        assert all(m > 90 for m in medians.values()), f"median scores against the man's own recording: {medians}"
+        assert sorted(int(k) for k in h["persons"]) == sorted(p["id"] for p in persons), (h["persons"], persons)
+        # No swap: every pose the page sent with a person has its hips in that person's tile, the
+        # same tile in every frame, and each person in a tile of their own.
+        tile_of = {}
+        for f in h["frames"]:
+            for pid, (x, _) in zip(f["ids"], f["hips"]):
+                if not pid:
+                    continue
+                k = int(x // tile)
+                assert tile_of.setdefault(pid, k) == k, f"person {pid} moved from tile {tile_of[pid]} to {k} (frame {f['seq']})"
+        assert sorted(tile_of.values()) == list(range(copies)), f"tiles of the people: {tile_of}"
+        frames = len(h["frames"])
+        cost = h.get("costSummary")
+        print(f"{copies} people: median scores {medians}; {frames} frames, persons {[(p['id'], p['pushed'], p['scored'], round(p['mean_score'], 1)) for p in persons]} "
+              f"(id, frames, scored, mean score), tiles {tile_of}, backend {h.get('backend')}, page cost {json.dumps(cost)}, "
+              f"tracker {json.dumps({k: v for k, v in people.items() if k != 'persons'})} [{time.monotonic() - started:.0f} s]")
+    finally:
+        driver.quit()
+    assert stop(coach) == 0, open(log).read()
+    summary = open(log).read()
+    report = open(os.path.join(work, name + ".html")).read()
+    assert report.count('<section class="person"') == copies, "the report has not one section per person"
+    assert report.count('<tr class="person"') == copies, "the report's summary has not one row per person"
+    for p in persons:
+        assert f"person {p['id']}:" in summary, f"the summary has no line for person {p['id']}: {summary}"
 
 
 def start_coach(kata, source_dir, work, name, extra):
@@ -126,6 +211,7 @@ def main():
     ap.add_argument("--kata", required=True)
     ap.add_argument("--source-dir", required=True)
     ap.add_argument("--screenshot", help="save the webcam page (scored, with the person) here")
+    ap.add_argument("--people", action="store_true", help="the several-people sessions only (two, then three)")
     a = ap.parse_args()
     if not os.path.exists(PHOTO) or not shutil.which("ffmpeg"):
         print("SKIP: needs opencv-doc (the photograph) and ffmpeg (./build.sh deps installs them)")
@@ -134,6 +220,14 @@ def main():
     work = tempfile.mkdtemp(prefix="kata_webcam_browser_")
     started = time.monotonic()
     procs, driver = [], None
+    if a.people:
+        try:
+            for copies in (2, 3):
+                people_session(kata, a.source_dir, work, copies, started, a.screenshot)
+            print(f"wall time {time.monotonic() - started:.1f} s")
+            return 0
+        finally:
+            shutil.rmtree(work, ignore_errors=True)
     try:
         person, nobody = os.path.join(work, "person.y4m"), os.path.join(work, "nobody.y4m")
         make_video(person, "240:480:0:0")      # the man on the left, head to feet

@@ -457,6 +457,133 @@ static class KataTests
         }
     }
 
+    // ---- the people tracker (kata/people.h) ----
+    const int PJ = 17;  // COCO keypoints
+
+    // A 1.7 m stick figure standing at x, every third joint swinging; written at pose slot `slot` of `into`.
+    static void Figure(float[] into, int slot, double x, double phase)
+    {
+        for (int j = 0; j < PJ; ++j)
+        {
+            double swing = j % 3 == 1 ? 0.2 * Math.Sin(phase + j) : 0.0;
+            into[(slot * PJ + j) * 3] = (float)(x + swing);
+            into[(slot * PJ + j) * 3 + 1] = (float)(1.7 * j / (PJ - 1));
+            into[(slot * PJ + j) * 3 + 2] = 0f;
+        }
+    }
+
+    // Two people walking past each other (one hidden 0.8 s), their poses in a random order every frame:
+    // each keeps their stream; nobody for longer than the forget time closes both; the prediction is
+    // the centroid of the confident joints (computed here) moved on at the measured velocity.
+    static void PeopleKeepTheirStreams(Context ctx)
+    {
+        PeopleDesc d = People.DefaultDesc(PJ);
+        d.MaxPeople = 4;
+        Random rng = new Random(3);
+        using (People people = ctx.CreatePeople(d))
+        {
+            float[] poses = new float[2 * PJ * 3], conf = new float[2 * PJ];
+            for (int k = 0; k < conf.Length; ++k) conf[k] = 0.9f;
+            uint[] ids = new uint[2], own = new uint[2];
+            bool kept = true;
+            for (int k = 0; k < 150; ++k)
+            {
+                double t = k / 30.0;
+                double[] xs = { -2.0 + 0.8 * t, 2.0 - 0.8 * t };
+                int[] order = Math.Abs(xs[0] - xs[1]) < 0.32 ? new[] { 0 } : rng.Next(2) == 0 ? new[] { 0, 1 } : new[] { 1, 0 };
+                for (int i = 0; i < order.Length; ++i) Figure(poses, i, xs[order[i]], 3 * t + order[i]);
+                people.Track(t, poses, conf, (uint)order.Length, ids);
+                for (int i = 0; i < order.Length; ++i)
+                {
+                    if (own[order[i]] == 0) own[order[i]] = ids[i];
+                    kept = kept && ids[i] != 0 && ids[i] == own[order[i]];
+                }
+                if (k == 0) Check(people.Opened.Length == 2, "people: the first frame opens two streams");
+            }
+            Check(kept && own[0] != own[1], "people: each kept their stream through the crossing, shuffled (" + own[0] + ", " + own[1] + ")");
+            PeopleCounters c = people.Counters;
+            Check(c.Opened == 2 && c.Poses == c.Assigned && c.OpenStreams == 2, "people: counters " + c.Opened + " opened, " + c.Assigned + " of " + c.Poses + " assigned");
+            Check(people.Streams.Length == 2, "people: two streams open");
+            uint[] none = people.Track(5.0 + 3.1, new float[0]);
+            uint[] closed = people.Closed;
+            Array.Sort(closed);
+            Check(none.Length == 0 && closed.Length == 2 && closed[0] == Math.Min(own[0], own[1]) && closed[1] == Math.Max(own[0], own[1]) &&
+                  people.Streams.Length == 0, "people: nobody for longer than the forget time closes both");
+        }
+        using (People people = ctx.CreatePeople(People.DefaultDesc(PJ)))
+        {
+            float[] pose = new float[PJ * 3], conf = new float[PJ];
+            Figure(pose, 0, 0.5, 1.0);
+            for (int j = 0; j < PJ; ++j) conf[j] = j == 2 || j == 5 ? 0.1f : 0.9f;  // below min_confidence: not counted
+            pose[2 * 3] = float.NaN;  // and may be anything
+            double[] expected = new double[3];
+            int n = 0;
+            for (int j = 0; j < PJ; ++j)
+                if (conf[j] >= 0.3f) { ++n; for (int a = 0; a < 3; ++a) expected[a] += pose[3 * j + a]; }
+            for (int a = 0; a < 3; ++a) expected[a] /= n;
+            uint id = people.Track(10.0, pose, conf)[0];
+            double[] at = people.Predicted(id, 10.0);
+            Check(Math.Abs(at[0] - expected[0]) < 1e-5 && Math.Abs(at[1] - expected[1]) < 1e-5 && Math.Abs(at[2]) < 1e-6,
+                  "people: the prediction is the centroid of the confident joints (" + at[0] + ", " + at[1] + ")");
+            for (int j = 0; j < PJ; ++j) pose[3 * j] += 0.05f;
+            people.Track(10.1, pose, conf);
+            at = people.Predicted(id, 11.1);  // the new centroid + 0.5 m/s x 1 s
+            Check(Math.Abs(at[0] - (expected[0] + 0.05 + 0.5)) < 1e-4, "people: predicted a second on at the measured velocity: " + at[0]);
+            try { people.Predicted(12345, 11.0); Check(false, "people: an unknown stream was predicted"); }
+            catch (KataException e) { Check(e.Status == Status.NotFound, "people: unknown stream: " + e.Message); }
+        }
+    }
+
+    // More poses than max_poses, a NaN pose, an empty frame, a time that does not increase: refused or
+    // handled and counted by cause; a bad desc refused with the field named.
+    static void PeopleBadInputIsCounted(Context ctx)
+    {
+        PeopleDesc d = People.DefaultDesc(PJ);
+        d.MaxPoses = 2;
+        using (People people = ctx.CreatePeople(d))
+        {
+            float[] poses = new float[4 * PJ * 3];
+            Figure(poses, 0, 0.0, 0.0);
+            Figure(poses, 1, 2.0, 0.0);
+            Figure(poses, 2, 4.0, 0.0);
+            Figure(poses, 3, -4.0, 0.0);
+            poses[(1 * PJ + 4) * 3 + 1] = float.NaN;
+            uint[] ids = people.Track(1.0, poses);
+            int placed = 0;
+            foreach (uint i in ids) if (i != 0) ++placed;
+            Check(ids[0] != 0 && ids[1] == 0 && placed == 2, "people: the NaN pose refused, two of three valid taken (max_poses 2)");
+            Check(people.Track(1.1, new float[0]).Length == 0, "people: an empty frame");
+            try { people.Track(1.1, poses); Check(false, "people: a repeated time was accepted"); }
+            catch (KataException e) { Check(e.Status == Status.TimestampNotIncreasing, "people: repeated time: " + e.Message); }
+            PeopleCounters c = people.Counters;
+            Check(c.Frames == 2 && c.EmptyFrames == 1 && c.RefusedFrames == 1 && c.RefusedNonFinite == 1 &&
+                  c.RefusedTooManyPoses == 1 && c.Assigned == 2, "people: refusals counted by cause");
+        }
+        PeopleDesc bad = People.DefaultDesc(PJ);
+        bad.MaxPeople = 0;
+        try { ctx.CreatePeople(bad).Dispose(); Check(false, "people: max_people 0 was accepted"); }
+        catch (KataException e) { Check(e.Status == Status.InvalidArgument && e.NativeMessage.Contains("max_people"), "people: bad desc: " + e.Message); }
+        PeopleDesc dd = People.DefaultDesc(PJ);
+        Check(dd.StructSize == System.Runtime.InteropServices.Marshal.SizeOf(typeof(PeopleDesc)) && dd.MaxPeople == 8 && dd.MaxPoses == 16 &&
+              dd.ForgetSeconds == 3 && dd.CoastSeconds == 1 && dd.MinConfidence == 0.3, "kata_people_desc size and defaults read through the struct");
+    }
+
+    // kata_people_stream_id is FNV-1a 64 over the group and the person (8 bytes each, little-endian),
+    // skipping the two top values: computed here.
+    static void PeopleStreamIdIsTheDocumentedHash()
+    {
+        ulong[][] cases = { new ulong[] { 500, 1 }, new ulong[] { 500, 2 }, new ulong[] { 0, 1 }, new ulong[] { ulong.MaxValue - 2, 7 },
+                            new ulong[] { 123456789, 4000000000 } };
+        foreach (ulong[] g in cases)
+        {
+            ulong h = 14695981039346656037UL;
+            foreach (ulong v in g)
+                for (int b = 0; b < 8; ++b) { h ^= (v >> (8 * b)) & 0xff; h = unchecked(h * 1099511628211UL); }
+            if (h >= ulong.MaxValue - 1) h -= 2;
+            Check(People.StreamId(g[0], (uint)g[1]) == h, "people: stream id of (" + g[0] + ", " + g[1] + ")");
+        }
+    }
+
     static int Main(string[] args)
     {
         if (args.Length == 1 && args[0] == "--expect-wrong-version")
@@ -484,7 +611,10 @@ static class KataTests
             SharedTeacherScoresAsAttachTeacher(ctx, repo);
             HumanoidRigOfAClip(ctx, repo);
             RepetitionsOfAWalkPlayedTwice(ctx, repo);
+            PeopleKeepTheirStreams(ctx);
+            PeopleBadInputIsCounted(ctx);
         }
+        PeopleStreamIdIsTheDocumentedHash();
         HandlesReleasedOnce(repo);
         Console.WriteLine(failures == 0 ? "all C# binding checks passed" : failures + " checks failed");
         return failures == 0 ? 0 : 1;

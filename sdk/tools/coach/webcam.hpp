@@ -19,6 +19,13 @@
 //   POST /webcam/latency  the page's latency summary per stage (JSON), kept for the report
 //   GET  /webcam/status   {"frames", "results", "pushed", "not_in_frame", "lost", "refused"}
 //
+// Several people (--people N, 2..4): the page finds the people (MoveNet MultiPose) and each one's
+// landmarks (MediaPipe Pose on their crop) and POSTs every pose of a camera frame, unordered and
+// unnamed (WebcamPeopleFrame); kata's people tracker (kata/people.h) says who each pose is, on the
+// poses' places in the image, and each person's world landmarks go to their own stream with the
+// teacher attached. The answer names each pose's person; every result event says its person;
+// the report has a section per person. One person (the default) is the single-stream path above.
+//
 // Threads: httplib's pool calls receive() (one mutex orders the pushes of the one stream: the
 // runtime wants one producer per stream); the runtime's thread calls the result callback, which
 // takes the same mutex to read the frame it answers. Neither lock is the runtime's. The HTTP side
@@ -57,7 +64,10 @@ struct WebcamSettings {
   bool reps = false;
   double rep_start = -1.0, rep_end = -1.0;
   std::string vmc, vmc_student;                // VMC receivers (HOST:PORT) of the ghost / the student
+  int people = 1;                              // people coached at once (1..kMaxWebcamPeople)
 };
+
+constexpr int kMaxWebcamPeople = 4;
 
 constexpr int kWebcamLandmarks = 33;
 constexpr int kWebcamChannels = 4;  // x, y, z (metres, MediaPipe world axes), visibility
@@ -75,6 +85,25 @@ struct WebcamFrame {
 };
 // Parses a POSTed body; false (and *why) for a malformed one.
 bool parse_webcam_frame(const std::string& body, WebcamFrame* out, std::string* why);
+
+// The most poses a people frame may carry (more than --people: the tracker takes the most
+// confident --people and counts the rest).
+constexpr int kMaxPagePoses = 16;
+constexpr int kWebcamPoseFloats = kWebcamLandmarks * (kWebcamChannels + 2);
+
+// One camera frame of several people (--people N): the 48-byte header of WebcamFrame with magic
+// "KWP1" (0x3150574b) and the pose count (0..kMaxPagePoses) in place of the landmark count, then
+// per pose 33 x 4 float32 (world landmarks and visibility, as WebcamFrame) and 33 x 2 float32 (the
+// landmarks' place in the camera image, pixels: the space the tracker follows people in).
+struct WebcamPeopleFrame {
+  uint64_t sequence = 0;
+  double capture_ms = 0.0, landmarks_ms = 0.0;
+  int poses = 0;
+  float values[kMaxPagePoses * kWebcamPoseFloats] = {};
+  const float* world(int pose) const { return values + kWebcamPoseFloats * pose; }
+  const float* image(int pose) const { return world(pose) + kWebcamLandmarks * kWebcamChannels; }
+};
+bool parse_webcam_people_frame(const std::string& body, WebcamPeopleFrame* out, std::string* why);
 
 class WebcamCoach {
  public:
