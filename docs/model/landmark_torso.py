@@ -12,7 +12,8 @@ MediaPipe path to the BVH one:
 
     /usr/bin/python3 docs/model/landmark_torso.py [build/bin/kata] [CMU_DIR] [models/default.kata]
 
-Work files in build/landmark-balance (the excerpts and turned copies landmark_balance.py makes).
+Work files in build/landmark-balance (the excerpts and turned copies of turned_clips.py, shared with
+landmark_balance.py).
 """
 import csv, os, subprocess, sys
 import numpy as np
@@ -20,11 +21,11 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 from bvh_landmarks import METRES_PER_UNIT, mediapipe, positions  # noqa: E402
+from turned_clips import excerpt, turned  # noqa: E402
 
 KATA = sys.argv[1] if len(sys.argv) > 1 else "build/bin/kata"
 DATA = sys.argv[2] if len(sys.argv) > 2 else "../shared/data/cmu"
 MODEL = sys.argv[3] if len(sys.argv) > 3 else "models/default.kata"
-BEND = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(DATA))), "tools", "bend-joint")
 WORK = os.path.join("build", "landmark-balance")
 ROWS = [("05_03", "LeftArm", 45, "Z"), ("05_03", "RightArm", 45, "Z"), ("05_03", "LeftLeg", 45, "X"),
         ("09_01", "LeftLeg", -45, "X"), ("02_01", "LeftForeArm", -45, "Y")]
@@ -36,17 +37,6 @@ GPD = ["Hips", "Spine1", "Neck1", "Head", "LeftArm", "LeftForeArm", "LeftHand", 
 # way from the Chest to the ears' midpoint (the BVH Head here: bvh_landmarks.py puts the ears at it
 # +- 7 cm).
 HIP_FRACTION, CHEST_FRACTION, HIP_OFFSET = 0.264, 0.868, -0.07
-
-
-def excerpt(c):
-    out = os.path.join(WORK, c + ".bvh")
-    if not os.path.exists(out):
-        lines = open(os.path.join(DATA, c + ".bvh")).read().splitlines()
-        i = next(k for k, l in enumerate(lines) if l.strip().startswith("MOTION"))
-        body = [l for l in lines[i + 3:] if l.strip()][:361]
-        lines[i + 1] = "Frames: %d" % len(body)
-        open(out, "w").write("\n".join(lines[:i + 3] + body) + "\n")
-    return out
 
 
 def gpd_joints(bvh, synthesise):
@@ -78,10 +68,8 @@ def main():
     print("| clip | joint | angle | bvh | gpd | torso | mp |")
     print("|---|---|---|---|---|---|---|")
     for c, j, deg, ax in ROWS:
-        t = excerpt(c)
-        s = os.path.join(WORK, "%s_%s_%d.bvh" % (c, j, deg))
-        if not os.path.exists(s):
-            subprocess.run([BEND, t, s, j, str(deg), ax], check=True, stdout=subprocess.DEVNULL)
+        t = excerpt(DATA, WORK, c)
+        s = turned(DATA, WORK, c, j, deg, ax, quiet=True)
         got = [score(t, s, "cmu")]
         for name, synth in (("gpd", False), ("torso", True)):
             path = s[:-4] + "." + name + ".npy"
