@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "kata/kata.h"
+#include "support/capi_fixture.hpp"
 
 namespace {
 
@@ -29,82 +30,64 @@ struct Played {
   double ft = 0.0;
 };
 
-void play(uint32_t plays_num, uint32_t plays_den, Played* out) {
-  kata_context ctx = nullptr;
-  ASSERT_EQ(kata_context_create(&ctx), KATA_OK);
-  kata_clip clip = nullptr;
-  ASSERT_EQ(kata_clip_load_bvh(ctx, KATA_DATA_DIR "/cmu/02_01.bvh", &clip), KATA_OK);
-  kata_model model = nullptr;
-  ASSERT_EQ(kata_model_load(ctx, KATA_SOURCE_DIR "/models/default.kata", &model), KATA_OK) << kata_context_last_error(ctx);
-  kata_skeleton skel = nullptr;
-  ASSERT_EQ(kata_clip_skeleton(clip, &skel), KATA_OK);
-  auto open = [&]() {
-    kata_stream_desc sd;
-    kata_stream_desc_init(&sd);
-    sd.layout = "cmu";
-    sd.stencil = kata_model_stencil(model);
-    sd.result_capacity = 1024;
-    kata_stream s = nullptr;
-    EXPECT_EQ(kata_stream_open(ctx, skel, &sd, &s), KATA_OK) << kata_context_last_error(ctx);
-    kata_teacher_desc td;
-    kata_teacher_desc_init(&td);
-    td.model = model;
-    td.clip = clip;
-    td.first_frame = 1;
+class reps_capi : public kata::test::CapiClips {
+ protected:
+  reps_capi() : CapiClips(KATA_DATA_DIR "/cmu/02_01.bvh", KATA_DATA_DIR "/cmu/02_01.bvh") {}
+
+  // A stream with the teacher attached (no ghost), the whole clip its practice section, looped.
+  kata_stream open_looped() {
+    kata_stream s = open(1024);
+    if (!s) return nullptr;
+    kata_teacher_desc td = kata::test::clip_teacher_desc(model, teacher);
     td.ghost = 0;
     EXPECT_EQ(kata_stream_attach_teacher(s, &td), KATA_OK) << kata_stream_last_error(s);
     EXPECT_EQ(kata_stream_set_practice_section(s, 0, -1, 1), KATA_OK) << kata_stream_last_error(s);
     return s;
-  };
-  kata_stream alone = open(), handed = open();
-  Got& got = out->got;
-  kata_runtime_desc rd;
-  kata_runtime_desc_init(&rd);
-  EXPECT_EQ(rd.on_repetition, nullptr);
-  rd.workers = 1;
-  rd.on_result = on_result;
-  rd.on_repetition = on_repetition;
-  rd.on_result_user = &got;
-  kata_runtime runtime = nullptr;
-  ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
-  ASSERT_EQ(kata_runtime_add_stream(runtime, 5, &handed, "cmu", 0), KATA_OK) << kata_context_last_error(ctx);
-  const uint32_t joints = kata_skeleton_joint_count(skel);
-  const uint32_t n = out->n = kata_clip_frame_count(clip) - 1;
-  const double ft = out->ft = kata_clip_frame_time(clip);
-  std::vector<float> p(3 * joints);
-  std::vector<kata_repetition>& read = out->read;
-  kata_repetition buf[4];
-  auto read_some = [&] {
-    buf[0].struct_size = sizeof buf[0];
-    uint32_t count = 0;
-    ASSERT_EQ(kata_stream_read_repetitions(alone, buf, 4, &count), KATA_OK);
-    read.insert(read.end(), buf, buf + count);
-  };
-  const uint32_t frames = plays_num * n / plays_den;
-  for (uint32_t k = 0; k < frames; ++k) {
-    ASSERT_EQ(kata_clip_positions(clip, 1 + k % n, p.data(), p.size()), KATA_OK);
-    ASSERT_EQ(kata_runtime_push(runtime, 5, k, k * ft, p.data(), joints), KATA_OK);
-    ASSERT_EQ(kata_stream_push(alone, k * ft, p.data(), joints), KATA_OK);
-    read_some();
   }
-  // The last repetition is still in progress when the frames stop; the end of the take ends it.
-  const size_t before_flush = read.size();
-  ASSERT_EQ(before_flush, static_cast<size_t>(plays_num / plays_den - (plays_num % plays_den == 0 ? 1 : 0)));
-  ASSERT_EQ(kata_stream_flush(alone), KATA_OK);
-  read_some();
-  ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);
-  kata_runtime_destroy(runtime);
-  kata_stream_destroy(alone);
-  kata_model_destroy(model);
-  kata_skeleton_destroy(skel);
-  kata_clip_destroy(clip);
-  kata_context_destroy(ctx);
-}
+
+  // plays_num / plays_den plays of the clip.
+  void play(uint32_t plays_num, uint32_t plays_den, Played* out) {
+    kata_stream alone = open_looped(), handed = open_looped();
+    ASSERT_TRUE(alone && handed);
+    Got& got = out->got;
+    kata_runtime_desc rd;
+    kata_runtime_desc_init(&rd);
+    EXPECT_EQ(rd.on_repetition, nullptr);
+    rd = kata::test::callback_runtime_desc(on_result, on_repetition, &got);
+    kata_runtime runtime = nullptr;
+    ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
+    ASSERT_EQ(kata_runtime_add_stream(runtime, 5, &handed, "cmu", 0), KATA_OK) << kata_context_last_error(ctx);
+    const uint32_t n = out->n = kata_clip_frame_count(student) - 1;
+    const double ft = out->ft = kata_clip_frame_time(student);
+    std::vector<kata_repetition>& read = out->read;
+    kata_repetition buf[4];
+    auto read_some = [&] {
+      buf[0].struct_size = sizeof buf[0];
+      uint32_t count = 0;
+      ASSERT_EQ(kata_stream_read_repetitions(alone, buf, 4, &count), KATA_OK);
+      read.insert(read.end(), buf, buf + count);
+    };
+    const uint32_t frames = plays_num * n / plays_den;
+    for (uint32_t k = 0; k < frames; ++k) {
+      const std::vector<float> p = frame(student, 1 + k % n);
+      ASSERT_EQ(kata_runtime_push(runtime, 5, k, k * ft, p.data(), joints), KATA_OK);
+      ASSERT_EQ(kata_stream_push(alone, k * ft, p.data(), joints), KATA_OK);
+      read_some();
+    }
+    // The last repetition is still in progress when the frames stop; the end of the take ends it.
+    ASSERT_EQ(read.size(), static_cast<size_t>(plays_num / plays_den - (plays_num % plays_den == 0 ? 1 : 0)));
+    ASSERT_EQ(kata_stream_flush(alone), KATA_OK);
+    read_some();
+    ASSERT_EQ(kata_runtime_stop(runtime), KATA_OK);
+    kata_runtime_destroy(runtime);
+    kata_stream_destroy(alone);
+  }
+};
 
 // Three whole plays: three complete repetitions at the teacher's tempo, each ending where its play
 // ended, the third closed by the end of the take (the stream's flush, the runtime's stop); the
 // runtime's callback and the stream alone see the same ones.
-TEST(reps_capi, ARuntimeAndAStreamAloneSeeTheSameRepetitions) {
+TEST_F(reps_capi, ARuntimeAndAStreamAloneSeeTheSameRepetitions) {
   Played played;
   play(3, 1, &played);
   const std::vector<kata_repetition>& read = played.read;
@@ -155,7 +138,7 @@ TEST(reps_capi, ARuntimeAndAStreamAloneSeeTheSameRepetitions) {
 // Two and a half plays: two complete repetitions, then the third abandoned halfway when the take
 // ends: reported partial (index 3, not counted), from where the third play began to its last
 // frame, covering about half of the section; the same through the runtime.
-TEST(reps_capi, TheEndOfATakeEndsAHalfRepetitionAsPartial) {
+TEST_F(reps_capi, TheEndOfATakeEndsAHalfRepetitionAsPartial) {
   Played played;
   play(5, 2, &played);
   const std::vector<kata_repetition>& read = played.read;
