@@ -25,11 +25,11 @@ HERE = os.path.dirname(os.path.abspath(__file__))
 KATA = sys.argv[1] if len(sys.argv) > 1 else "build/bin/kata"
 DATA = sys.argv[2] if len(sys.argv) > 2 else "../shared/data/cmu"
 MODEL = sys.argv[3] if len(sys.argv) > 3 else "models/default.kata"
-BEND = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(DATA))), "tools", "bend-joint")  # ../shared/tools
 WORK = os.path.join("build", "coaching-frontier")
 sys.path.insert(0, HERE)
 sys.argv = sys.argv[:1]
 from calibrate import PAIRS, MOTION  # noqa: E402  (the labelled pairs of the map's fit)
+from turned_clips import excerpt, turned  # noqa: E402
 
 PARTS = ["torso_head", "left_arm", "right_arm", "left_leg", "right_leg"]
 TURNS = [("LeftForeArm", "Y"), ("RightForeArm", "Y"), ("LeftArm", "Z"), ("RightArm", "Z"), ("LeftLeg", "X"),
@@ -49,17 +49,6 @@ def score(teacher, student, out):
     return d, angle, np.array([float(r["score"]) for r in rows])
 
 
-def excerpt(c):
-    out = os.path.join(WORK, c + ".bvh")
-    if not os.path.exists(out):
-        lines = open(os.path.join(DATA, c + ".bvh")).read().splitlines()
-        i = next(k for k, l in enumerate(lines) if l.strip().startswith("MOTION"))
-        body = [l for l in lines[i + 3:] if l.strip()][:361]
-        lines[i + 1] = "Frames: %d" % len(body)
-        open(out, "w").write("\n".join(lines[:i + 3] + body) + "\n")
-    return out
-
-
 def total(d, angle, a50, ak, d50, dk):
     return np.minimum(100.0 / (1.0 + (d / d50) ** dk), (100.0 / (1.0 + (angle / a50) ** ak)).min(1))
 
@@ -69,14 +58,12 @@ def main():
     pairs = [("%s vs %s" % tuple(sorted((MOTION[t], MOTION[s]))),) +
              score(os.path.join(DATA, t + ".bvh"), os.path.join(DATA, s + ".bvh"), os.path.join(WORK, "%s_vs_%s.csv" % (t, s)))
              for t, s in PAIRS]
-    turned = {}
+    copies = {}
     for c in CLIPS:
         for j, ax in TURNS:
             for deg in (30, -30, 45, -45):
-                s = os.path.join(WORK, "%s_%s_%d.bvh" % (c, j, deg))
-                if not os.path.exists(s):
-                    subprocess.run([BEND, excerpt(c), s, j, str(deg), ax], check=True)
-                turned[(c, j, deg)] = score(excerpt(c), s, s + ".csv")
+                s = turned(DATA, WORK, c, j, deg, ax)
+                copies[(c, j, deg)] = score(excerpt(DATA, WORK, c), s, s + ".csv")
     err = max(np.abs(total(d, a, 40, 5, 0.085, 10) - t).max() for _, d, a, t in pairs)
     print("shipped maps reproduce the CSV totals to %.1e\n" % err)
     print("| part map a50, slope | gate d50, slope | walk/walk | run/run | dance/dance | dance/walk | run/walk | dance/run "
@@ -89,7 +76,7 @@ def main():
         for k, d, a, _ in pairs:
             by.setdefault(k, []).append(total(d, a, a50, ak, d50, dk).mean())
         m = {k: np.mean(v) for k, v in by.items()}
-        t = {k: total(v[0], v[1], a50, ak, d50, dk).mean() for k, v in turned.items()}
+        t = {k: total(v[0], v[1], a50, ak, d50, dk).mean() for k, v in copies.items()}
         over = [k for k in t if abs(k[2]) == 45 and t[k] > (60 if k[0] == "05_18" else 50)]
         lr = max(abs(t[(c, l, g)] - t[(c, r, g)]) for c in CLIPS for l, r in PAIRS_LR for g in (30, -30))
         print("| %g, %g | %g, %g | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %d (%.0f) | %.1f |" % (

@@ -21,26 +21,15 @@ import numpy as np
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, HERE)
 from bvh_landmarks import mediapipe  # noqa: E402
+from turned_clips import excerpt, turned  # noqa: E402
 
 KATA = sys.argv[1] if len(sys.argv) > 1 else "build/bin/kata"
 DATA = sys.argv[2] if len(sys.argv) > 2 else "../shared/data/cmu"
 MODEL = sys.argv[3] if len(sys.argv) > 3 else "models/default.kata"
 CLIPS = sys.argv[4:] or ["01_01", "02_01", "05_03", "07_01", "05_18", "09_01"]
-BEND = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(DATA))), "tools", "bend-joint")
 WORK = os.path.join("build", "landmark-balance" + os.environ.get("REMATCH", ""))
 TURNS = [("LeftForeArm", "Y"), ("RightForeArm", "Y"), ("LeftArm", "Z"), ("RightArm", "Z"), ("LeftLeg", "X"),
          ("RightLeg", "X"), ("LeftUpLeg", "X"), ("RightUpLeg", "X")]
-
-
-def excerpt(c):
-    out = os.path.join(WORK, c + ".bvh")
-    if not os.path.exists(out):
-        lines = open(os.path.join(DATA, c + ".bvh")).read().splitlines()
-        i = next(k for k, l in enumerate(lines) if l.strip().startswith("MOTION"))
-        body = [l for l in lines[i + 3:] if l.strip()][:361]
-        lines[i + 1] = "Frames: %d" % len(body)
-        open(out, "w").write("\n".join(lines[:i + 3] + body) + "\n")
-    return out
 
 
 def score(teacher, student):
@@ -71,12 +60,11 @@ def main():
     caught = {"bvh": 0, "mp": 0}
     n = 0
     for c in CLIPS:
-        t = excerpt(c)
+        t = excerpt(DATA, WORK, c)
         _, base = score(t, landmarks(t))  # the landmark student's own match, no joint turned
         for j, ax in TURNS:
             for deg in (45, -45):
-                s = os.path.join(WORK, "%s_%s_%d.bvh" % (c, j, deg))
-                subprocess.run([BEND, t, s, j, str(deg), ax], check=True)
+                s = turned(DATA, WORK, c, j, deg, ax)
                 tb, mb = score(t, s)
                 tm, mm = score(t, landmarks(s))
                 ob = np.mean([abs(m - f) > 3 for f, m in mb.items()])

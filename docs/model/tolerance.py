@@ -45,10 +45,8 @@ def measure():
     for c in cf.CLIPS:
         for j, ax in cf.TURNS:
             for deg in (30, -30, 45, -45):
-                s = os.path.join(cf.WORK, "%s_%s_%d.bvh" % (c, j, deg))
-                if not os.path.exists(s):
-                    cf.subprocess.run([cf.BEND, cf.excerpt(c), s, j, str(deg), ax], check=True)
-                turned[(c, j, deg)] = cf.score(cf.excerpt(c), s, s + ".csv")
+                s = cf.turned(cf.DATA, cf.WORK, c, j, deg, ax)
+                turned[(c, j, deg)] = cf.score(cf.excerpt(cf.DATA, cf.WORK, c), s, s + ".csv")
     return pairs, turned
 
 

@@ -1,7 +1,8 @@
 /* csv-sink: every result as one CSV row (score, distance and its split over the parts, each part's score, the part
  * to fix, the state, the matched teacher frame and time, the practice section, the correction
- * cue, timestamps); the columns after right_leg need a host of plugin ABI minor 1, the cue's a
- * host whose record has them (KATA_RESULT_HAS; empty cells from an older host).
+ * cue, the repetition in progress and the progress through it, timestamps); the columns after
+ * right_leg need a host of plugin ABI minor 1, the cue's and the repetition's a host whose record
+ * has them (KATA_RESULT_HAS; empty cells from an older host).
  * Config: "path=FILE" (required). Public headers only (kata_plugin.h). */
 #include <stdio.h>
 #include <stdlib.h>
@@ -56,7 +57,7 @@ static void* activate(const kata_plugin_host* host, const char* config, char* er
           "distance,matched_teacher_frame,torso_head,left_arm,right_arm,left_leg,right_leg,"
           "torso_head_score,left_arm_score,right_arm_score,left_leg_score,right_leg_score,part_to_fix,state,"
           "matched_teacher_time,practice_start_time,practice_end_time,practice_loop,practice_revision,"
-          "cue_joint,cue_degrees,cue_action\n");
+          "cue_joint,cue_degrees,cue_action,repetition,repetition_progress\n");
   return s;
 }
 
@@ -83,7 +84,7 @@ static void on_result(void* instance, const kata_result_record* r) {
           (long long)r->arrival_ns, (long long)r->computed_ns, (int)r->scored, r->score, r->distance,
           (int)r->matched_teacher_frame, r->parts[0], r->parts[1], r->parts[2], r->parts[3], r->parts[4]);
   if (!KATA_RESULT_HAS(r, practice_loop)) { /* a host that does not fill them: empty cells */
-    fputs(",,,,,,,,,,,,,,,\n", s->file);
+    fputs(",,,,,,,,,,,,,,,,,\n", s->file);
     return;
   }
   fprintf(s->file, ",%.9g,%.9g,%.9g,%.9g,%.9g,%s,%s,%.9g", r->part_scores[0], r->part_scores[1], r->part_scores[2],
@@ -95,10 +96,16 @@ static void on_result(void* instance, const kata_result_record* r) {
   else
     fputs(",,,,", s->file);
   if (KATA_RESULT_HAS(r, cue_action) && r->cue_joint >= 0 && r->cue_joint < 16)
-    fprintf(s->file, ",%s,%.9g,%s\n", kJointNames[r->cue_joint], r->cue_degrees,
+    fprintf(s->file, ",%s,%.9g,%s", kJointNames[r->cue_joint], r->cue_degrees,
             r->cue_action >= 0 && r->cue_action < 5 ? kCueActions[r->cue_action] : "");
   else
-    fputs(",,,\n", s->file);
+    fputs(",,,", s->file);
+  /* The repetition in progress (0 without a clip teacher) and the progress through the teacher's
+   * section; a finished repetition itself is a Repetition message (kata_message_read_repetition). */
+  if (KATA_RESULT_HAS(r, repetition_progress))
+    fprintf(s->file, ",%d,%.9g\n", (int)r->repetition, r->repetition_progress);
+  else
+    fputs(",,\n", s->file);
 }
 
 static void flush(void* instance) { fflush(((csv_sink*)instance)->file); }

@@ -285,6 +285,9 @@ void progress_of(void* user, uint32_t done, uint32_t frames) {
 void publish_on_nats(void* user, const kata_result_record* record) {
   static_cast<kata::transport::nats::ServeBridge*>(user)->publish(*record);
 }
+void publish_repetition_on_nats(void* user, const kata_repetition* repetition) {
+  static_cast<kata::transport::nats::ServeBridge*>(user)->publish_repetition(*repetition);
+}
 #endif
 
 void run_serve(const std::string& file, const std::string& counters_path) {
@@ -407,6 +410,7 @@ void run_serve(const std::string& file, const std::string& counters_path) {
     rd.ingest_endpoints = nullptr;
     rd.direct_ingest = 1;
     rd.on_result = publish_on_nats;
+    rd.on_repetition = publish_repetition_on_nats;  // on the results' subject, as ZeroMQ's publisher
     rd.on_result_user = nats.get();
   }
 #else

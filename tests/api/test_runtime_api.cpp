@@ -227,9 +227,7 @@ TEST(runtime_capi, OnResultGetsEveryRecordAsTheStreamComputesIt) {
   kata_runtime_desc_init(&rd);
   EXPECT_EQ(rd.on_result, nullptr);
   EXPECT_EQ(rd.on_result_user, nullptr);
-  rd.workers = 1;
-  rd.on_result = receive;
-  rd.on_result_user = &got;
+  rd = kata::test::callback_runtime_desc(receive, nullptr, &got);
   kata_runtime runtime = nullptr;
   ASSERT_EQ(kata_runtime_create(ctx, &rd, &runtime), KATA_OK) << kata_context_last_error(ctx);
   ASSERT_EQ(kata_runtime_add_stream(runtime, 9, &handed, "cmu", 0), KATA_OK) << kata_context_last_error(ctx);

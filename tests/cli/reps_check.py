@@ -243,19 +243,40 @@ def main():
     walk.write(student, motion)
     rows = score(teacher, student, tmp)
     done = [r for r in rows if r["partial"] == "0"]
-    # The same live in kata coach: the terminal's summary and the report's table. A live stream's
-    # last repetition ends on the next wrap or a 0.5 s hold at the end, neither of which a clip that
-    # stops gives: 9 of the 10 here.
-    report = os.path.join(tmp, "report.html")
+    # The same live in kata coach: the terminal's summary and the report's table. The last
+    # repetition ends with the lesson (the end of the take), as kata score's ends with the clip.
+    report, record, frames_csv = (os.path.join(tmp, f) for f in ("report.html", "lesson.npz", "lesson.csv"))
     p = subprocess.run([KATA, "coach", "--model", MODEL, "--teacher", teacher, "--student", student, "--reps",
-                        "--headless", "--speed", "8", "--linger", "0", "--report", report],
-                       capture_output=True, text=True, timeout=120)
+                        "--headless", "--speed", "8", "--linger", "0", "--report", report, "--record", record,
+                        "--csv", frames_csv], capture_output=True, text=True, timeout=120)
     html = open(report).read() if os.path.exists(report) else ""
     table = html.split('<table class="reps">', 1)[-1].split("</table>", 1)[0] if '<table class="reps">' in html else ""
-    check(p.returncode == 0 and "repetitions: 9 repetitions" in p.stdout and table.count("<tr><td>") == 9
+    summary = [l for l in p.stdout.splitlines() if l.startswith("repetitions")]
+    check(p.returncode == 0 and "repetitions: 10 repetitions" in p.stdout and table.count("<tr><td>") == 10
           and html.count('<svg class="repplot"') == 3,
-          "coach: 9 repetitions in the summary and the report's table, 3 plots (%s)" %
-          [l for l in p.stdout.splitlines() if l.startswith("repetitions")])
+          "coach: 10 repetitions in the summary and the report's table, 3 plots (%s)" % summary)
+    # The recording keeps them (array 'repetitions': index, partial, start, end, tempo, ...), and
+    # the records' repetition column; a replay of it reports the same repetitions.
+    if os.path.exists(record):
+        z = np.load(record)
+        reps = z["repetitions"] if "repetitions" in z.files else np.zeros((0, 27))
+        ok = len(reps) == 10 and not reps[:, 1].any() and list(reps[:, 0]) == list(range(1, 11))
+        errors = [abs(t / f - 1) for t, f in zip(reps[:, 4], factors)] if ok else [1.0]
+        check(ok and max(errors) <= 0.05,
+              "coach: the recording's 10 repetitions, tempo within 5 %% of each factor (largest error %.1f %%)"
+              % (100 * max(errors)))
+        live = z["repetition"] if "repetition" in z.files else np.zeros(0)
+        check(len(live) and set(live.tolist()) - {0} == set(range(1, 11)) and (np.diff(live) >= 0).all(),
+              "coach: the recording's repetition per frame goes 1..10 (%s)" % sorted(set(live.tolist())))
+        with open(frames_csv) as f:
+            head = f.readline().strip().split(",")
+        check(head[-2:] == ["repetition", "repetition_progress"], "coach: --csv ends with %s" % head[-2:])
+        r = subprocess.run([KATA, "coach", "--headless", "--speed", "64", "--linger", "0", "--replay", record,
+                            "--report", os.path.join(tmp, "replay.html")], capture_output=True, text=True, timeout=120)
+        again = [l for l in r.stdout.splitlines() if l.startswith("repetitions")]
+        check(r.returncode == 0 and again == summary, "coach: a replay of the recording reports %s" % again)
+    else:
+        check(False, "coach: no recording at " + record)
     check(len(done) == 10, f"synthetic: {len(done)} repetitions counted (10), {len(rows) - len(done)} partial")
     if len(done) == 10:
         tempos = [float(r["tempo"]) for r in done]

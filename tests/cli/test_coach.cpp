@@ -67,7 +67,7 @@ std::vector<Row> read_csv(const std::string& path) {
     std::stringstream ss(line);
     for (std::string c; std::getline(ss, c, ',');) cells.push_back(c);
     if (line.back() == ',') cells.emplace_back();  // getline drops an empty last cell
-    if (cells.size() != 21) continue;
+    if (cells.size() != 23) continue;
     Row r;
     r.state = std::stoi(cells[2]);
     r.score = std::stof(cells[3]);
@@ -311,7 +311,8 @@ TEST(CliCoach, HeadlessLessonEqualsThePipelineRunInProcess) {
         "  matched=(\"<i4\", (F,)), latency_ns=(\"<i8\", (F,)), ghosts=(\"<f4\", (F, G, 3)), has_ghost=(\"|u1\", (F,)),\n"
         "  joint_parents=(\"<i4\", (J,)), joint_part=(\"<i4\", (J,)), ghost_sources=(\"<i4\", (G,)), hips=(\"<i4\", (2,)),\n"
         "  numbers=(\"<f8\", (9,)), text=(\"|u1\", (len(z[\"text\"]),)), matched_time=(\"<f8\", (F,)),\n"
-        "  practice=(\"<i4\", (3,)), cue_joint=(\"<i4\", (F,)), cue_degrees=(\"<f4\", (F,)), cue_action=(\"<i4\", (F,)))\n"
+        "  practice=(\"<i4\", (3,)), cue_joint=(\"<i4\", (F,)), cue_degrees=(\"<f4\", (F,)), cue_action=(\"<i4\", (F,)),\n"
+        "  repetition=(\"<i4\", (F,)), repetition_progress=(\"<f4\", (F,)), repetitions=(\"<f8\", (len(z[\"repetitions\"]), 27)))\n"
         "got = {k: (z[k].dtype.str, z[k].shape) for k in z.files}\n"
         "assert got == want, (got, want)\n"
         "lines = bytes(z[\"text\"]).decode().split(\"\\n\")\n"

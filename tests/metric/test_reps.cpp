@@ -115,6 +115,36 @@ TEST(Reps, HoldingAtTheEndEndsTheRepetitionWithoutTheNext) {
   EXPECT_NEAR(r.ended[1].tempo, 1.0, 0.03);
 }
 
+// The end of the stream (finish: kata score's clip end, a stream's flush, a runtime's stop or
+// close) ends the repetition in progress: complete when the student reached the section's end,
+// partial when it stopped halfway; after it the count goes on with the next take.
+TEST(Reps, TheEndOfTheStreamEndsTheLastRepetition) {
+  Rig r;
+  r.rep(1.0);
+  r.rep(1.1);
+  ASSERT_EQ(r.ended.size(), 1u);  // the second is in progress: no wrap, no hold after it
+  const double last = r.t - kDt;
+  ASSERT_EQ(r.counter.finish(r.t), 1);
+  const Repetition& done = r.counter.newest();
+  EXPECT_EQ(done.index, 2);
+  EXPECT_FALSE(done.partial);
+  EXPECT_NEAR(done.end_time, last, 1e-9);
+  EXPECT_NEAR(done.tempo, 1.1, 0.03);
+  EXPECT_EQ(r.counter.count(), 2);
+  EXPECT_EQ(r.counter.finish(r.t), 0);  // nothing in progress: nothing more
+  // A new take: half the section, then the end.
+  r.ended.clear();
+  for (int m = kFirst; m < kFirst + 50; ++m) r.frame(m);
+  ASSERT_EQ(r.counter.finish(r.t), 1);
+  const Repetition& half = r.counter.newest();
+  EXPECT_EQ(half.index, 3);
+  EXPECT_TRUE(half.partial);
+  EXPECT_NEAR(half.coverage, 0.5, 0.05);
+  EXPECT_NEAR(half.end_time, r.t - kDt, 1e-9);
+  EXPECT_EQ(r.counter.count(), 2);
+  EXPECT_TRUE(r.ended.empty());
+}
+
 TEST(Reps, AnAbandonedRepetitionIsPartialAndTheCountGoesOn) {
   Rig r;
   r.rep(1.0);

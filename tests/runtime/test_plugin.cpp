@@ -242,7 +242,8 @@ TEST(runtime_plugin, CsvSinkRowsCarryThePartScoresTheCueAndTheState) {
   std::map<std::string, size_t> column = columns_of(header);
   for (const char* name : {"torso_head_score", "left_arm_score", "right_arm_score", "left_leg_score", "right_leg_score",
                            "part_to_fix", "state", "matched_teacher_time", "practice_start_time", "practice_end_time",
-                           "practice_loop", "practice_revision", "cue_joint", "cue_degrees", "cue_action"})
+                           "practice_loop", "practice_revision", "cue_joint", "cue_degrees", "cue_action",
+                           "repetition", "repetition_progress"})
     ASSERT_TRUE(column.count(name)) << name << " missing from " << line;
   static const char* const kParts[] = {"torso_head", "left_arm", "right_arm", "left_leg", "right_leg"};
   static const char* const kStates[] = {"scoring", "calibrating", "tracking_lost", "teacher_finished"};
@@ -276,7 +277,13 @@ TEST(runtime_plugin, CsvSinkRowsCarryThePartScoresTheCueAndTheState) {
     EXPECT_NEAR(std::stod(cell[column["practice_end_time"]]), (frames - 1) * clip.frame_time, 1e-6) << line;
     EXPECT_EQ(cell[column["practice_loop"]], "0") << line;
     EXPECT_EQ(cell[column["practice_revision"]], "0") << line;
+    // The repetition in progress and the progress through the section, as the record has them:
+    // one pass of the clip is the first repetition, the progress where the student is in it.
+    EXPECT_EQ(cell[column["repetition"]], std::to_string(f.repetition)) << line;
+    EXPECT_FLOAT_EQ(std::stof(cell[column["repetition_progress"]]), f.repetition_progress) << line;
+    EXPECT_EQ(f.repetition, 1) << line;
     if (f.state == 0) {
+      EXPECT_NEAR(f.repetition_progress, static_cast<double>(f.frame_index) / (frames - 1), 5.0 / (frames - 1)) << line;
       ++scoring;
       score_sum += std::stod(cell[column["torso_head_score"]]);
       // The student is the teacher: matched at its own time, within a few frames.

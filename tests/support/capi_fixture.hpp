@@ -43,6 +43,19 @@ inline kata_runtime_desc hooked_direct_ingest_desc(kata_model model, kata_stream
   return rd;
 }
 
+// A runtime of one worker that hands every result and every repetition that ends to the
+// in-process callbacks (either may be null), `user` passed to both; nothing else set.
+inline kata_runtime_desc callback_runtime_desc(kata_result_callback on_result, kata_repetition_callback on_repetition,
+                                               void* user) {
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  rd.workers = 1;
+  rd.on_result = on_result;
+  rd.on_repetition = on_repetition;
+  rd.on_result_user = user;
+  return rd;
+}
+
 class CapiClips : public ::testing::Test {
  protected:
   CapiClips(std::string teacher_path, std::string student_path)

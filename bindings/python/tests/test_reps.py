@@ -1,6 +1,6 @@
 """Repetitions through the binding (kata_stream_read_repetitions, the record's repetition fields,
 kata_message_read/write_repetition): a walk played twice against itself, looped, is one
-repetition per play, each at the teacher's tempo."""
+repetition per play, each at the teacher's tempo, the last ended by the stream's flush."""
 import os
 
 import numpy as np
@@ -29,10 +29,12 @@ def test_a_clip_played_twice_against_itself_is_two_repetitions(data, model_path)
         s.flush()
         reps += s.read_repetitions()
         done = [r for r in reps if not r.partial]
-        # The first play ends where the second begins (the wrap); the second ends with the clip:
-        # the stream's counter ends it only once it holds at the end, which a stream that stops
-        # never does, so one is counted here and the second is in progress at its end.
-        assert len(done) == 1, reps
+        # The first play ends where the second begins (the wrap); the second with the take (the
+        # flush: the end of the stream's clip).
+        assert len(done) == 2, reps
+        assert done[1].index == 2
+        assert done[1].end_time == pytest.approx(2 * n * clip.frame_time, abs=0.05)
+        assert done[1].tempo == pytest.approx(1.0, abs=0.05)
         first = done[0]
         assert first.index == 1 and first.stream_id == 0
         assert first.start_time == pytest.approx(0.0, abs=0.05)

@@ -132,7 +132,8 @@ typedef enum kata_rom_joint {
 
 /* One repetition of the teacher's section by the student, complete or partial (1.1;
  * docs/coach/repetitions.md). A repetition ends when the match comes round from the section's end
- * to its start (or jumps back to its start, or holds at its end for 0.5 s); it is complete when
+ * to its start (or jumps back to its start, or holds at its end for 0.5 s, or the take ends:
+ * kata_stream_flush, the runtime's stream closed or the runtime stopped); it is complete when
  * the student went through at least 70 % of the section and reached its end, partial (reported,
  * not counted) when abandoned after 20 % or more. A pause between repetitions belongs to neither.
  * Growth as kata_result_record: fields only appended; the writer fills struct_size bytes. */

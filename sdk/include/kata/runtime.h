@@ -353,8 +353,9 @@ KATA_API kata_status kata_runtime_set_practice(kata_runtime runtime, uint64_t st
  * after kata_runtime_destroy has begun: stop the transport first. Never blocks, never allocates.
  * Since 1.1. */
 KATA_API kata_status kata_runtime_offer(kata_runtime runtime, const void* message, size_t size);
-/* Finishes every queued frame, flushes every stream, publishes every result, stops the threads
- * and closes the sockets. Idempotent. [any thread but the runtime's own]
+/* Finishes every queued frame, flushes every stream, publishes every result (and the repetition
+ * each stream's flush ended, after its last result), stops the threads and closes the sockets.
+ * Idempotent. [any thread but the runtime's own]
  * A kata_runtime_push racing stop on another thread is either taken (it returns KATA_OK and its
  * result is published before stop returns) or refused (it returns KATA_E_STOPPED); never lost.
  * Every push after stop began returns KATA_E_STOPPED. */

@@ -316,8 +316,9 @@ KATA_API int64_t kata_stream_lost_frames(kata_stream stream);
  * those 60 frames were seen. [stream owner] */
 KATA_API kata_status kata_stream_bone_lengths(kata_stream stream, double* lengths, double* spread, size_t capacity);
 /* Ends the current segment (end of a take): with the central stencil the held frame is
- * computed now with the backward formulas. The next frame starts a new segment. KATA_E_INTERNAL
- * as for kata_stream_push. [stream owner] */
+ * computed now with the backward formulas. The next frame starts a new segment. With a clip
+ * teacher it also ends the repetition in progress (complete if it reached the section's end, else
+ * partial: kata_stream_read_repetitions). KATA_E_INTERNAL as for kata_stream_push. [stream owner] */
 KATA_API kata_status kata_stream_flush(kata_stream stream);
 /* The next frame starts a new segment (kinetics restart). [stream owner] */
 KATA_API kata_status kata_stream_reset(kata_stream stream);

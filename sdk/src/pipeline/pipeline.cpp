@@ -132,6 +132,7 @@ void Pipeline::set_teacher(std::shared_ptr<const Teacher> teacher, const Teacher
   teacher_ = std::move(teacher);
   scorer_ = std::move(scorer);
   reps_ = std::move(reps);
+  flush_ended_repetition_ = false;
   retargeter_ = std::move(retargeter);
   selection_ = std::move(selection);
   ghost_joints_ = static_cast<int>(n);
@@ -160,6 +161,7 @@ void Pipeline::clear_teacher() {
   teacher_.reset();
   scorer_.reset();
   reps_.reset();
+  flush_ended_repetition_ = false;
   retargeter_.reset();
   mapped_.reset();
   across_ = false;
@@ -204,6 +206,8 @@ Status Pipeline::flush() {
   const int64_t before = stream_.emitted_count();
   const Status s = stream_.flush();
   process_emitted(before, now_ns());
+  const Result* last = newest();
+  flush_ended_repetition_ = reps_ && reps_->finish(last ? last->capture_time : 0.0) > 0;
   return s;
 }
 

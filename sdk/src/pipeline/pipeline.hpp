@@ -145,9 +145,13 @@ class Pipeline {
   Status push(double capture_time, const float* xyz, const float* confidence, int joint_count,
               int64_t arrival_ns = 0);
   // Stream::flush / reset, with any vector they emit processed like a push's. flush returns
-  // Stream::flush's status (kInternal when a non-finite vector was withheld).
+  // Stream::flush's status (kInternal when a non-finite vector was withheld). flush is the end
+  // of a take: it also ends the repetition in progress (metric::RepCounter::finish: complete if
+  // it reached the section's end, else partial), which no result carries: flush_ended_repetition()
+  // says so until the next flush, repetitions()->newest() says how it went.
   Status flush();
   void reset();
+  bool flush_ended_repetition() const { return flush_ended_repetition_; }
 
   // Moves every unread result (oldest first, at most `capacity`) into out[0..n); ghosts, when
   // not null, receives n x ghost_joint_count() x 3 floats (zeros for a result without a ghost);
@@ -189,6 +193,7 @@ class Pipeline {
   std::shared_ptr<const Teacher> teacher_;
   std::unique_ptr<metric::Scorer> scorer_;
   std::unique_ptr<metric::RepCounter> reps_;  // a clip teacher's repetitions (metric/reps.hpp)
+  bool flush_ended_repetition_ = false;        // the last flush() ended one
   std::unique_ptr<retarget::Retargeter> retargeter_;
   retarget::JointSelection selection_;   // ghost joints: index into student and teacher skeletons
   int ghost_joints_ = 0;

@@ -150,6 +150,15 @@ bool Runtime::drain_results(transport::Encoder& encoder) {
       const size_t k = tail & w.result_mask;
       const ResultCell& cell = w.results[k];
       auto& s = *static_cast<StreamState*>(cell.stream);
+      if (cell.repetition_only) {  // the repetition a stream's last flush ended (stop)
+        kata_repetition rep = cell.repetition;
+        rep.stream_id = s.id.load(std::memory_order_relaxed);
+        if (publisher_ && !publisher_->send(encoder.repetition(rep, pipeline::now_ns())))
+          s.counters.send_failed.fetch_add(1, std::memory_order_relaxed);
+        for (const RepetitionSink& sink : config_.repetition_sinks) sink(rep);
+        any = true;
+        continue;
+      }
       const pipeline::Result& r = cell.result;
       transport::ResultFields f;
       pipeline::fill_record(r, static_cast<uint32_t>(s.ghost_joints), &f);

@@ -141,6 +141,9 @@ struct ResultCell {
   transport::PracticeSection practice;
   bool has_repetition = false;  // the frame ended a repetition: published after the result
   kata_repetition repetition{};
+  // Not a result but the repetition a stream's last flush ended (the runtime's stop: the take's
+  // end); only `stream` and `repetition` are set.
+  bool repetition_only = false;
 };
 
 // The section a stream's scorer follows, in teacher seconds (has = false: no clip teacher).

@@ -2,6 +2,7 @@
 // push() reads without a lock (ids published with release stores; a closed slot is a tombstone,
 // its state retired once its worker is past its last frame, then reused); opening, revising and
 // closing under open_mutex_; a definition made into a pipeline setup; the counters.
+#include "pipeline/record.hpp"
 #include "runtime/runtime_internal.hpp"
 
 namespace kata::runtime {
@@ -197,6 +198,19 @@ void Runtime::retire_closed(transport::Encoder& encoder) {
   // Their last results are in the rings or being sent by a worker: the holder's sends finish first.
   acquire_publisher();
   drain_results(encoder);
+  // A close is the end of the take: the repetition in progress ends (Pipeline::flush, on this
+  // thread: the worker is past the stream's last frame and no longer owns it) and goes out
+  // after the stream's last result.
+  for (StreamState* s : ready) {
+    if (!s->pipeline) continue;
+    s->pipeline->flush();
+    if (!s->pipeline->flush_ended_repetition()) continue;
+    kata_repetition rep;
+    pipeline::fill_repetition(s->pipeline->repetitions()->newest(), s->id.load(std::memory_order_relaxed), &rep);
+    if (publisher_ && !publisher_->send(encoder.repetition(rep, pipeline::now_ns())))
+      s->counters.send_failed.fetch_add(1, std::memory_order_relaxed);
+    for (const RepetitionSink& sink : config_.repetition_sinks) sink(rep);
+  }
   release_publisher();
   std::lock_guard<std::mutex> lock(open_mutex_);
   for (StreamState* s : ready) {

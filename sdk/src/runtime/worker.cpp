@@ -181,6 +181,7 @@ void Runtime::worker_loop(Worker& w) {
         cell.computed_ns = r.computed_ns ? r.computed_ns : computed;  // the pipeline's stamp
         cell.has_practice = s.has_practice;
         cell.practice = s.practice;
+        cell.repetition_only = false;
         cell.has_repetition = r.repetition_ended && p.repetitions() && ended_after < metric::RepCounter::kKept;
         if (cell.has_repetition) pipeline::fill_repetition(p.repetitions()->newest(ended_after), 0, &cell.repetition);
         const size_t ring = static_cast<size_t>(r.frame_index) % s.sequence_ring.size();
@@ -245,6 +246,21 @@ void Runtime::worker_loop(Worker& w) {
           for (StreamState* s : w.owned) {
             s->pipeline->flush();
             move_results(*s);
+            // The flush ended the repetition in progress (the take's end): published after the
+            // stream's last result, as a repetition alone.
+            if (s->pipeline->flush_ended_repetition()) {
+              const size_t head = w.result_head.load(std::memory_order_relaxed);
+              if (head - w.result_tail.load(std::memory_order_acquire) > w.result_mask) {
+                s->counters.result_queue_full.fetch_add(1, std::memory_order_relaxed);
+              } else {
+                ResultCell& cell = w.results[head & w.result_mask];
+                cell.stream = s;
+                cell.repetition_only = cell.has_repetition = true;
+                pipeline::fill_repetition(s->pipeline->repetitions()->newest(), 0, &cell.repetition);
+                w.result_head.store(head + 1, std::memory_order_release);
+                signalled = true;
+              }
+            }
           }
           send_results();
           workers_done_.fetch_add(1, std::memory_order_release);

@@ -53,7 +53,7 @@ struct LessonSettings {
   int loop_first = -1, loop_last = -1;
   // Repetitions (docs/coach/repetitions.md): the teacher (the whole clip from first_frame, or its
   // seconds rep_start..rep_end, clip time) is one repetition, looped; the counter, tempo and depth
-  // are shown live and in the report. Not kept in recordings.
+  // are shown live and in the report. The settings are not kept in recordings (the repetitions are).
   bool reps = false;
   double rep_start = -1.0, rep_end = -1.0;
   // Where the runtime publishes results (ZeroMQ PUB, bound); "*" as the port: any free one.
@@ -81,7 +81,8 @@ struct FrameRecord {
   int64_t latency_ns = 0;     // frame in -> result published, steady clock
   bool has_ghost = false;
   // The repetition in progress (1 + the complete ones; 0 without a clip teacher or in a
-  // recording) and the progress through the teacher's section, 0..1 (kata/result.h).
+  // recording from before repetitions) and the progress through the teacher's section, 0..1
+  // (kata/result.h).
   int32_t repetition = 0;
   float repetition_progress = 0.0f;
 };
@@ -118,7 +119,7 @@ struct LessonData {
   std::vector<float> positions;          // frames x joints x 3: the pushed student frames
   std::vector<float> ghosts;             // frames x ghost_joints x 3 (zeros without a ghost)
   std::vector<kata_repetition> repetitions;  // every repetition that ended (complete or partial),
-                                             // in order: Lesson::finish fills it (not recorded)
+                                             // in order: Lesson::finish fills it (recorded)
 
   const float* frame_positions(size_t i) const { return positions.data() + i * 3 * static_cast<size_t>(joints); }
   const float* frame_ghost(size_t i) const { return ghosts.data() + i * 3 * static_cast<size_t>(ghost_joints); }

@@ -26,6 +26,45 @@ std::vector<T> take(const std::map<std::string, NpyArray>& arrays, const std::st
   return npy_values<T>(a, path + ": array '" + name + "'");
 }
 
+// A repetition's row in the array 'repetitions' (recording.hpp).
+constexpr size_t kRepetitionColumns = 11 + 2 * KATA_ROM_JOINT_COUNT;
+
+void repetition_row(const kata_repetition& r, double* row) {
+  const double head[11] = {static_cast<double>(r.index), static_cast<double>(r.partial), r.start_time, r.end_time,
+                           r.tempo, r.score, static_cast<double>(r.part_to_fix), static_cast<double>(r.cue_joint),
+                           static_cast<double>(r.cue_action), r.cue_degrees, r.coverage};
+  std::copy(head, head + 11, row);
+  std::copy(r.range, r.range + KATA_ROM_JOINT_COUNT, row + 11);
+  std::copy(r.teacher_range, r.teacher_range + KATA_ROM_JOINT_COUNT, row + 11 + KATA_ROM_JOINT_COUNT);
+}
+
+// The row back, checked (finite, the integers in range); false for a row that is not a repetition.
+bool repetition_of_row(const double* row, kata_repetition* out) {
+  for (size_t k = 0; k < kRepetitionColumns; ++k)
+    if (!std::isfinite(row[k])) return false;
+  const auto integer = [&](size_t k, double lo, double hi) { return row[k] == std::floor(row[k]) && row[k] >= lo && row[k] <= hi; };
+  if (!integer(0, 0, 1e9) || !integer(1, 0, 1) || !integer(6, -1, KATA_PART_COUNT - 1) ||
+      !integer(7, -1, KATA_GPD_JOINTS - 1) || !integer(8, -1, 4) || !(row[3] >= row[2]) || !(row[4] >= 0.0))
+    return false;
+  kata_repetition r{};
+  r.struct_size = sizeof r;
+  r.index = static_cast<int32_t>(row[0]);
+  r.partial = static_cast<int32_t>(row[1]);
+  r.start_time = row[2], r.end_time = row[3], r.tempo = row[4];
+  r.score = static_cast<float>(row[5]);
+  r.part_to_fix = static_cast<int32_t>(row[6]);
+  r.cue_joint = static_cast<int32_t>(row[7]);
+  r.cue_action = static_cast<int32_t>(row[8]);
+  r.cue_degrees = static_cast<float>(row[9]);
+  r.coverage = static_cast<float>(row[10]);
+  for (int j = 0; j < KATA_ROM_JOINT_COUNT; ++j) {
+    r.range[j] = static_cast<float>(row[11 + j]);
+    r.teacher_range[j] = static_cast<float>(row[11 + KATA_ROM_JOINT_COUNT + j]);
+  }
+  *out = r;
+  return true;
+}
+
 // Every array of a recording, in the order of the file (the list in recording.hpp).
 NpzArrays recording_arrays(const LessonData& d) {
   const size_t F = static_cast<size_t>(d.pushed), J = static_cast<size_t>(d.joints), G = static_cast<size_t>(d.ghost_joints);
@@ -38,8 +77,11 @@ NpzArrays recording_arrays(const LessonData& d) {
   std::vector<double> matched_time(F);
   std::vector<int32_t> cue_joint(F), cue_action(F);
   std::vector<float> cue_degrees(F);
+  std::vector<int32_t> repetition(F);
+  std::vector<float> repetition_progress(F);
   for (size_t i = 0; i < F; ++i) {
     const FrameRecord& r = d.frames[i];
+    repetition[i] = r.repetition, repetition_progress[i] = r.repetition_progress;
     cue_joint[i] = r.cue_joint, cue_degrees[i] = r.cue_degrees, cue_action[i] = r.cue_action;
     matched_time[i] = r.matched_time;
     time[i] = r.time, state[i] = static_cast<uint8_t>(r.state), has_ghost[i] = r.has_ghost;
@@ -58,6 +100,9 @@ NpzArrays recording_arrays(const LessonData& d) {
   std::string text = d.settings.model + "\n" + d.settings.teacher + "\n" + d.settings.student + "\n" + d.settings.preset + "\n";
   for (const std::string& n : d.joint_names) text += n + "\n";
   const int32_t practice[3] = {d.settings.teacher_start, d.settings.loop_first, d.settings.loop_last};
+  const size_t R = d.repetitions.size();
+  std::vector<double> repetitions(R * kRepetitionColumns);
+  for (size_t i = 0; i < R; ++i) repetition_row(d.repetitions[i], repetitions.data() + i * kRepetitionColumns);
   return {
       {"positions", npy_array({F, J, 3}, d.positions.data())},
       {"time", npy_array({F}, time.data())},
@@ -84,6 +129,10 @@ NpzArrays recording_arrays(const LessonData& d) {
       {"cue_joint", npy_array({F}, cue_joint.data())},
       {"cue_degrees", npy_array({F}, cue_degrees.data())},
       {"cue_action", npy_array({F}, cue_action.data())},
+      // Added with repetitions; optional on read.
+      {"repetition", npy_array({F}, repetition.data())},
+      {"repetition_progress", npy_array({F}, repetition_progress.data())},
+      {"repetitions", npy_array({R, kRepetitionColumns}, repetitions.data())},
   };
 }
 
@@ -139,6 +188,18 @@ LessonData read_recording(const std::string& path) {
   const auto cue_joint = has_cue ? take<int32_t>(arrays, path, "cue_joint", {F}) : std::vector<int32_t>(F, -1);
   const auto cue_degrees = has_cue ? take<float>(arrays, path, "cue_degrees", {F}) : std::vector<float>(F, 0.0f);
   const auto cue_action = has_cue ? take<int32_t>(arrays, path, "cue_action", {F}) : std::vector<int32_t>(F, -1);
+  const bool has_reps = arrays.count("repetition") != 0;
+  const auto repetition = has_reps ? take<int32_t>(arrays, path, "repetition", {F}) : std::vector<int32_t>(F, 0);
+  const auto repetition_progress =
+      has_reps ? take<float>(arrays, path, "repetition_progress", {F}) : std::vector<float>(F, 0.0f);
+  if (arrays.count("repetitions")) {
+    const auto rows = take<double>(arrays, path, "repetitions", {0, kRepetitionColumns});
+    d.repetitions.resize(rows.size() / kRepetitionColumns);
+    for (size_t i = 0; i < d.repetitions.size(); ++i)
+      if (!repetition_of_row(rows.data() + i * kRepetitionColumns, &d.repetitions[i]))
+        fail(path + ": repetitions row " + std::to_string(i) + " is not a repetition (a non-finite value, or an index, "
+                    "part, joint or action out of range)");
+  }
   if (arrays.count("practice")) {
     const auto practice = take<int32_t>(arrays, path, "practice", {3});
     d.settings.teacher_start = practice[0], d.settings.loop_first = practice[1], d.settings.loop_last = practice[2];
@@ -167,6 +228,9 @@ LessonData read_recording(const std::string& path) {
         !(cue_degrees[i] >= 0.0f && cue_degrees[i] <= 180.0f))
       fail(path + ": frame " + std::to_string(i) + ": the cue is out of range");
     r.cue_joint = cue_joint[i], r.cue_degrees = cue_degrees[i], r.cue_action = cue_action[i];
+    if (repetition[i] < 0 || !(repetition_progress[i] >= 0.0f && repetition_progress[i] <= 1.0f))
+      fail(path + ": frame " + std::to_string(i) + ": the repetition is out of range");
+    r.repetition = repetition[i], r.repetition_progress = repetition_progress[i];
     std::copy(parts.begin() + static_cast<ptrdiff_t>(i * KATA_PART_COUNT),
               parts.begin() + static_cast<ptrdiff_t>((i + 1) * KATA_PART_COUNT), r.parts);
     std::copy(part_scores.begin() + static_cast<ptrdiff_t>(i * KATA_PART_COUNT),
@@ -181,7 +245,8 @@ void write_results_csv(const LessonData& d, const std::string& path) {
   std::fprintf(out, "frame,time,state,score,distance");
   for (int p = 0; p < KATA_PART_COUNT; ++p) std::fprintf(out, ",%s", part_name(p));
   for (int p = 0; p < KATA_PART_COUNT; ++p) std::fprintf(out, ",%s_score", part_name(p));
-  std::fprintf(out, ",part_to_fix,matched_teacher_frame,matched_teacher_time,cue_joint,cue_degrees,cue\n");
+  std::fprintf(out, ",part_to_fix,matched_teacher_frame,matched_teacher_time,cue_joint,cue_degrees,cue,repetition,"
+                   "repetition_progress\n");
   for (size_t i = 0; i < static_cast<size_t>(d.pushed); ++i) {
     const FrameRecord& r = d.frames[i];
     std::fprintf(out, "%lld,%.6f,%d,%.9g,%.9g", static_cast<long long>(r.frame), r.time, static_cast<int>(r.state), r.score,
@@ -191,10 +256,11 @@ void write_results_csv(const LessonData& d, const std::string& path) {
     std::fprintf(out, ",%d,%d,%.6f", r.part_to_fix, r.matched, r.matched_time);
     if (r.cue_joint >= 0 && r.cue_joint < KATA_GPD_JOINTS) {
       char cue[64];
-      std::fprintf(out, ",%s,%.2f,%s\n", kata_gpd_joint_name(r.cue_joint), r.cue_degrees, cue_phrase(r, cue, sizeof cue));
+      std::fprintf(out, ",%s,%.2f,%s", kata_gpd_joint_name(r.cue_joint), r.cue_degrees, cue_phrase(r, cue, sizeof cue));
     } else {
-      std::fputs(",,,\n", out);
+      std::fputs(",,,", out);
     }
+    std::fprintf(out, ",%d,%.4f\n", r.repetition, r.repetition_progress);
   }
   const bool ok = std::fflush(out) == 0 && !std::ferror(out);
   std::fclose(out);

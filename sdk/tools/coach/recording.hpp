@@ -28,6 +28,13 @@
 //   cue_joint     int32   (F)        the correction cue's GPD joint (-1: none; optional on read)
 //   cue_degrees   float32 (F)        its angle, degrees (0: none; optional on read)
 //   cue_action    int32   (F)        its kata_cue_action (-1: none; optional on read)
+//   repetition    int32   (F)        the repetition in progress (kata_result_record.repetition; 0:
+//                                    none; optional on read)
+//   repetition_progress float32 (F)  the progress through the teacher's section, 0..1 (optional)
+//   repetitions   float64 (R, 27)    every repetition that ended (kata_repetition), one row each:
+//                                    index, partial, start_time, end_time, tempo, score,
+//                                    part_to_fix, cue_joint, cue_action, cue_degrees, coverage, then
+//                                    range[8] and teacher_range[8] (kata_rom_joint order; optional)
 #pragma once
 
 #include <string>
@@ -45,7 +52,8 @@ LessonData read_recording(const std::string& path);
 // Every frame's result as CSV: frame, time, state, score, distance, the five parts (split of
 // distance^2), the five part scores (<part>_score), part_to_fix, matched_teacher_frame,
 // matched_teacher_time, then the cue as `kata score` writes it: cue_joint (GPD name, "" for
-// none), cue_degrees, cue (the phrase). Throws kata::Error(kIo).
+// none), cue_degrees, cue (the phrase), then repetition and repetition_progress (the record's).
+// Throws kata::Error(kIo).
 void write_results_csv(const LessonData& data, const std::string& path);
 
 }  // namespace kata::coach

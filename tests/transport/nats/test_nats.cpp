@@ -750,6 +750,79 @@ TEST(NatsCluster, ServeDirectIngestCountsHostileMessagesByCause) {
   EXPECT_NE(text.find(" 0 not taken by the ingest"), std::string::npos) << text;
 }
 
+// Repetitions reach a NATS consumer as results do: one kata serve shard (a single server) scores
+// 02_01 played twice by kata send over NATS against the same clip, its whole length the practice
+// section, looped; the stream is closed at the end (the take's end). The consumer of the stream's
+// result subject gets a Repetition message (the bytes a ZeroMQ publisher sends) for each play: the
+// first when the second begins, the second when the stream closes; both complete, at the
+// teacher's tempo, ending where their play ended.
+TEST(NatsCluster, ServeRepetitionsPassThrough) {
+  TempDir dir;
+  NatsCluster cluster(dir.path().string(), 1);
+  ASSERT_EQ(cluster.problem(), "");
+  const std::string config = dir.file("solo.toml");
+  std::ofstream(config) << "[transport]\nkind = \"nats\"\nservers = [\"" << cluster.url(0)
+                        << "\"]\nshard = \"solo\"\nlease_replicas = 1\n[ingest]\nmax_frame_age_ms = 0\n"
+                        << "[runtime]\nworkers = 1\nframe_queue_capacity = 16384\n[scoring]\nmodel = \"models/default.kata\"\n"
+                        << "teacher = \"" KATA_DATA_DIR "/cmu/02_01.bvh\"\nghost = false\n";
+  Children children;
+  children.pids.push_back(spawn({KATA_CLI, "serve", "--config", config}, dir.file("solo.log")));
+  kn::ConnectionOptions co;
+  co.servers = cluster.urls();
+  kn::Connection consumer(co);
+  natsSubscription* sub = nullptr;
+  ASSERT_EQ(natsConnection_SubscribeSync(&sub, consumer.get(), "kata.out.>"), NATS_OK);
+  natsSubscription_SetPendingLimits(sub, -1, -1);
+  ASSERT_TRUE(consumer.flush(2000));
+  ASSERT_TRUE(wait_for([&] { return at_rendezvous_holders(consumer, {"solo"}); }, 20000))
+      << "the shard never held every partition";
+  // 02_01 from frame 1: 343 frames at 120 Hz, one play 343 / 120 s; the section its whole length.
+  const int n = 343;
+  const double ft = 1.0 / 120.0;
+  const std::string command = std::string(KATA_CLI) + " send --transport nats --nats-server " + cluster.url(0) +
+                              " --bvh " KATA_DATA_DIR "/cmu/02_01.bvh --streams 1 --stream-id 600 --loops 2 --speed 4"
+                              " --loop 0 " + std::to_string((n - 1) * ft) + " --close --warmup 0.5";
+  const pid_t sender = spawn({"/bin/sh", "-c", command}, dir.file("send.log"));
+  Children send_process{{sender}};
+  transport::Decoder decoder;
+  std::vector<kata_repetition> reps;
+  int results = 0;
+  const int64_t deadline = steady_ns() + 60'000 * kMs;
+  while (reps.size() < 2 && steady_ns() < deadline) {
+    natsMsg* msg = nullptr;
+    if (natsSubscription_NextMsg(&msg, sub, 5000) != NATS_OK) break;
+    uint64_t id = 0, epoch = 0;
+    const char* owner = nullptr;
+    EXPECT_TRUE(kn::parse_result_subject("kata", natsMsg_GetSubject(msg), &id, &epoch, &owner));
+    const auto kind = decoder.decode(natsMsg_GetData(msg), static_cast<size_t>(natsMsg_GetDataLength(msg)));
+    if (kind == transport::MessageKind::kResult) ++results;
+    if (kind == transport::MessageKind::kRepetition) {
+      EXPECT_EQ(id, 600u);
+      EXPECT_EQ(decoder.repetition().stream_id, 600u);
+      reps.push_back(decoder.repetition());
+    }
+    natsMsg_Destroy(msg);
+  }
+  natsSubscription_Destroy(sub);
+  int status = -1;
+  ::waitpid(sender, &status, 0);
+  send_process.pids.clear();
+  EXPECT_EQ(status, 0) << "kata send (NATS)";
+  ::kill(children.pids[0], SIGTERM);
+  ::waitpid(children.pids[0], nullptr, 0);
+  children.pids.clear();
+  std::ifstream log(dir.file("solo.log"));
+  const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+  ASSERT_EQ(reps.size(), 2u) << results << " results\n" << text;
+  EXPECT_EQ(results, 2 * n);
+  for (size_t i = 0; i < reps.size(); ++i) {
+    EXPECT_EQ(reps[i].index, static_cast<int32_t>(i + 1));
+    EXPECT_EQ(reps[i].partial, 0) << i;
+    EXPECT_NEAR(reps[i].tempo, 1.0, 0.05) << i;
+    EXPECT_NEAR(reps[i].end_time, (i + 1) * n * ft, 0.05) << i;
+  }
+}
+
 // kill -9 of one kata serve shard while frames flow (issue 38's failover test with scoring): three
 // shards score 24 streams at 60 Hz fed by kata send over NATS; once every stream's results flow
 // from its partition's holder, the shard holding the most of them is killed. Its partitions are

@@ -35,6 +35,24 @@ void ServeBridge::publish(const kata_result_record& record) {
   shard->publish_result(record.stream_id, message_.data(), size);
 }
 
+void ServeBridge::publish_repetition(const kata_repetition& repetition) {
+  Shard* shard = live_shard_.load(std::memory_order_acquire);
+  if (shard == nullptr) return;
+  kata_repetition r = repetition;
+  r.struct_size = sizeof r;  // the runtime's is at least this kata.h's
+  size_t size = 0;
+  kata_status status = kata_message_write_repetition(&r, message_.data(), message_.size(), &size);
+  if (status == KATA_E_BUFFER_TOO_SMALL) {
+    message_.resize(size);
+    status = kata_message_write_repetition(&r, message_.data(), message_.size(), &size);
+  }
+  if (status != KATA_OK) {
+    write_failed_.fetch_add(1, std::memory_order_relaxed);
+    return;
+  }
+  shard->publish_result(r.stream_id, message_.data(), size);
+}
+
 void ServeBridge::start(Offer offer) {
   offer_ = std::move(offer);  // before the Shard exists: its lease thread subscribes after this
   Shard::Handlers h;

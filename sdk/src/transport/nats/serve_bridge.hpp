@@ -19,7 +19,8 @@
 // Results: publish() encodes each one with kata_message_write_result (the same FlatBuffers Result
 // as ZeroMQ's, byte for byte) and publishes it on
 // the stream's result subject under this shard's lease epoch, or drops it (counted) when the
-// stream's partition is not held. Skeleton definitions of the held streams are forwarded to the
+// stream's partition is not held; publish_repetition() does the same with a Repetition message
+// (kata_runtime_desc.on_repetition), as the runtime's ZeroMQ publisher sends it beside the results. Skeleton definitions of the held streams are forwarded to the
 // same subjects, so that a consumer learns each stream's skeleton on NATS as on ZeroMQ.
 //
 // A stream whose partition moves away stays open in this runtime, idle, until the ingest's
@@ -58,6 +59,11 @@ class ServeBridge {
   // Publishes one result of the runtime (its on_result record, valid during the call) on the
   // stream's result subject, or drops it (counted) when the stream's partition is not held.
   void publish(const kata_result_record& record);
+  // Publishes one repetition (the runtime's on_repetition, called right after the result of the
+  // frame that ended it, or at the stream's end) on the same subject as the stream's results, as
+  // the Repetition message a ZeroMQ publisher sends (kata_message_write_repetition), or drops it
+  // as publish() does. Called on on_result's thread.
+  void publish_repetition(const kata_repetition& repetition);
   // Connects to NATS and starts taking partitions; their messages go to offer. Throws Error
   // (connection.hpp).
   void start(Offer offer);
@@ -68,8 +74,8 @@ class ServeBridge {
   const Shard* shard() const { return shard_.get(); }
   // Messages the runtime's ring would not take (full: the runtime fell behind; or it was stopping).
   uint64_t bridge_dropped() const { return bridge_dropped_.load(std::memory_order_relaxed); }
-  // Results kata_message_write_result refused (a record with a non-finite value: none from a
-  // runtime), not published.
+  // Results (and repetitions) the message writers refused (a record with a non-finite value:
+  // none from a runtime), not published.
   uint64_t results_refused() const { return write_failed_.load(std::memory_order_relaxed); }
 
  private:
