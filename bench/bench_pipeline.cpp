@@ -354,6 +354,77 @@ void BM_PipelinePushStreams(benchmark::State& state) {
 }
 BENCHMARK(BM_PipelinePushStreams)->ArgName("streams")->Arg(1)->Arg(4)->Arg(16)->Arg(64)->Arg(256)->Unit(benchmark::kMillisecond);
 
+// A burst: one frame of each of K streams (K pipelines of the same teacher, each at its own place
+// in the student clip) drained together, as a live worker finds them after a 120 Hz tick, with the
+// caches taken between bursts as BM_PipelinePushPaced takes them between frames (pacing: hot0,
+// evict2, evictall3). path 0 pushes the K frames one after the other (push(), the per-frame path),
+// path 1 as one Pipeline::push_burst (stage by stage: features of all, the scores of all with one
+// pass over W per 8 frames, then ghosts and results). Each burst is timed alone on the wall clock;
+// counter us_per_frame is the median burst's time / K (the benchmark's own time is the mean burst).
+void BM_PipelinePushBurst(benchmark::State& state) {
+  const Setup& s = Setup::get(false);
+  const int k = static_cast<int>(state.range(0));
+  const bool burst = state.range(1) == 1;
+  const auto pacing = static_cast<Pacing>(state.range(2));
+  std::vector<std::unique_ptr<kata::pipeline::Pipeline>> streams;
+  std::vector<kata::pipeline::Result> out(256);
+  for (int j = 0; j < k; ++j) {
+    streams.push_back(std::make_unique<kata::pipeline::Pipeline>(s.config));
+    streams.back()->set_teacher(s.teacher, teacher_options(false));
+  }
+  const int stride = std::max(1, s.frame_count / k);
+  std::vector<kata::pipeline::Pipeline::BurstFrame> frames(static_cast<size_t>(k));
+  auto push_all = [&](int64_t i) {
+    const double t = static_cast<double>(i) * s.frame_time;
+    if (!burst) {
+      for (int j = 0; j < k; ++j)
+        streams[static_cast<size_t>(j)]->push(t, s.frame(static_cast<int>(i) + j * stride), s.joints);
+      return;
+    }
+    for (int j = 0; j < k; ++j) {
+      kata::pipeline::Pipeline::BurstFrame& f = frames[static_cast<size_t>(j)];
+      f.pipeline = streams[static_cast<size_t>(j)].get();
+      f.capture_time = t;
+      f.xyz = s.frame(static_cast<int>(i) + j * stride);
+      f.joint_count = s.joints;
+      f.arrival_ns = 0;
+    }
+    kata::pipeline::Pipeline::push_burst(frames.data(), k);
+  };
+  auto drain = [&] {
+    for (auto& p : streams)
+      if (p->pending() >= 128) p->read(out.data(), nullptr, nullptr, out.size());
+  };
+  int64_t i = 0;
+  for (; i < 120; ++i) {
+    push_all(i);
+    drain();
+  }
+  std::vector<char> l2, l3;
+  char sink = 0;
+  std::vector<double> took;
+  took.reserve(static_cast<size_t>(state.max_iterations));
+  for (auto _ : state) {
+    sink = static_cast<char>(sink + between_pushes(pacing, l2, l3));
+    const double t0 = wall_seconds();
+    push_all(i);
+    const double dt = wall_seconds() - t0;
+    state.SetIterationTime(dt);
+    took.push_back(dt);
+    drain();
+    ++i;
+  }
+  benchmark::DoNotOptimize(sink);
+  state.counters["us_per_frame"] = median_us(took) / k;
+  state.SetItemsProcessed(state.iterations() * k);
+}
+BENCHMARK(BM_PipelinePushBurst)
+    ->ArgNames({"K", "burst", "hot0_evict2_evictall3"})
+    ->ArgsProduct({{1, 8, 16, 64}, {0, 1}, {0, 2, 3}})
+    ->UseManualTime()
+    ->Iterations(240)
+    ->Unit(benchmark::kMicrosecond);
+
 void BM_PipelineVsStages(benchmark::State& state) {
   const Setup& s = Setup::get();
   kata::pipeline::Pipeline p(s.config);
