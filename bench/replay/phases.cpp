@@ -71,6 +71,7 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
   kata::runtime::RuntimeConfig config;
   config.workers = o.workers;
   config.result_batch = o.result_batch;
+  config.drain_burst = o.drain_burst;
   config.max_streams = std::max(streams, 1);
   config.publish.endpoints = {endpoint_for(o, "kata")};
   config.publish.send_hwm = 100000;

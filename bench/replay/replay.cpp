@@ -29,6 +29,7 @@ json run_once(const Options& o, const Clips& c, int streams) {
   j["transport"] = o.transport;
   j["workers"] = o.workers;
   j["result_batch"] = o.result_batch;
+  j["drain_burst"] = o.drain_burst;
   j["idle"] = o.idle;
   j["curve"] = o.curve;
   j["kata"] = kata_result;
@@ -362,6 +363,9 @@ void setup(CLI::App& app) {
   cmd->add_option("--result-batch", o->result_batch,
                   "a worker sends its results after this many frames or when no frame waits (1: after every frame)")
       ->check(CLI::Range(1, 4096))->capture_default_str();
+  cmd->add_option("--drain-burst", o->drain_burst,
+                  "a worker drains up to this many waiting frames of distinct streams as one burst (1: frame by frame)")
+      ->check(CLI::Range(1, 64))->capture_default_str();
   cmd->add_option("--idle", o->idle, "the runtime's idle strategy: park (sleep at once) or backoff (spin, yield, park)")
       ->check(CLI::IsMember({"park", "backoff"}))
       ->capture_default_str();

@@ -137,6 +137,11 @@ struct RuntimeConfig {
   // frame halved at 64 streams; 1 sends after every frame; docs/runtime.md has the trade).
   // A lone stream never waits: its worker has no next frame, so it sends at once.
   int result_batch = 8;
+  // A worker drains the frames already waiting for it (never waiting for more), up to this many
+  // of distinct streams, as one burst (pipeline::Pipeline::push_burst: the features of all, the
+  // scores of all with one pass over the model's W per 8 frames, then ghosts and results); the
+  // results equal the frame-by-frame path's. 1: frame by frame. At most Pipeline::kMaxBurst.
+  int drain_burst = 16;
   std::vector<Sink> sinks;               // in-process consumers of every result
   std::vector<RepetitionSink> repetition_sinks;  // and of every repetition that ends
 };
@@ -266,6 +271,9 @@ class Runtime {
 
   // A snapshot of the counters. [any thread]
   RuntimeCounters counters() const;
+  // Frames the workers drained in bursts of two or more (RuntimeConfig::drain_burst) since the
+  // start. [any thread]
+  uint64_t burst_frames() const;
   std::optional<StreamCounters> stream_counters(uint64_t stream_id) const;
   // Every stream's counters, by stream id, in the order they were opened (allocates). [any thread]
   std::vector<std::pair<uint64_t, StreamCounters>> all_stream_counters() const;
