@@ -313,6 +313,25 @@ BENCHMARK(BM_PipelinePushPacedLesson)
     ->Iterations(240)
     ->Unit(benchmark::kMicrosecond);
 
+// KB of the process's pages referenced since the accessed bits were last cleared (clear: clear them
+// now and return what the reads themselves referenced); -1 where /proc does not allow it.
+double referenced_kb(bool clear) {
+  if (clear) {
+    FILE* c = std::fopen("/proc/self/clear_refs", "w");
+    if (!c) return -1.0;
+    std::fputs("1", c);
+    std::fclose(c);
+  }
+  FILE* f = std::fopen("/proc/self/smaps_rollup", "r");
+  if (!f) return -1.0;
+  char line[256];
+  double kb = -1.0;
+  while (std::fgets(line, sizeof line, f))
+    if (std::sscanf(line, "Referenced: %lf kB", &kb) == 1) break;
+  std::fclose(f);
+  return kb;
+}
+
 // A burst over K streams, as the live runtime's worker sees it (issue 39): K pipelines of the same
 // teacher, each fed its own place in the student clip, pushed one frame each in turn, hot (no
 // sleep). Against K = 1 this is what a stream's own state costs when K-1 other streams ran since
@@ -337,6 +356,15 @@ void BM_PipelinePushStreams(benchmark::State& state) {
       if (streams[static_cast<size_t>(j)]->pending() >= 128) streams[static_cast<size_t>(j)]->read(out.data(), nullptr, nullptr, out.size());
     }
   const double heap_per_stream = static_cast<double>(mallinfo2().uordblks - heap_before) / k;
+  // What one round (a frame of each stream) touches: the pages referenced between two reads of
+  // the kernel's accessed bits (/proc/self/clear_refs, smaps_rollup's Referenced; 4 KB pages, so
+  // an upper bound), the process's code and the teacher included. Against K: the slope is what
+  // one more stream's frame touches of its own.
+  const double touched_before = referenced_kb(true);
+  for (int j = 0; j < k; ++j)
+    streams[static_cast<size_t>(j)]->push(static_cast<double>(i) * s.frame_time, s.frame(static_cast<int>(i) + j * stride), s.joints);
+  const double touched_round = referenced_kb(false) - touched_before;
+  ++i;
   const double t0 = thread_cpu_seconds();
   int64_t frames = 0;
   for (auto _ : state) {
@@ -350,6 +378,7 @@ void BM_PipelinePushStreams(benchmark::State& state) {
   }
   state.counters["us_per_frame"] = 1e6 * (thread_cpu_seconds() - t0) / static_cast<double>(std::max<int64_t>(frames, 1));
   state.counters["heap_kb_per_stream"] = heap_per_stream / 1024.0;
+  state.counters["touched_kb_round"] = touched_round;
   state.SetItemsProcessed(frames);
 }
 BENCHMARK(BM_PipelinePushStreams)->ArgName("streams")->Arg(1)->Arg(4)->Arg(16)->Arg(64)->Arg(256)->Unit(benchmark::kMillisecond);

@@ -93,6 +93,9 @@ void print_line(const json& r) {
     std::printf("  CPU per frame %.1f us (every thread of the kata process), push %.1f us: the runtime's own %.1f us\n",
                 r["kata"]["cpu_us_per_frame"].get<double>(), r["push_us"].get<double>(),
                 r["runtime_cpu_us_per_frame_beyond_push"].get<double>());
+  if (r["kata"].contains("burst_frames") && r["kata"]["sent"].get<double>() > 0)
+    std::printf("  drained in bursts (--drain-burst %d): %.0f %% of the frames\n", r.value("drain_burst", 1),
+                100.0 * r["kata"]["burst_frames"].get<double>() / r["kata"]["sent"].get<double>());
   if (r["kata"].contains("cpu_us_per_frame_by_thread")) {
     // The stages beyond the push: the workers' CPU less the push, the I/O thread (ingest, definitions,
     // stats), libzmq's threads, the rest (the pacer, the ZAP handler).
