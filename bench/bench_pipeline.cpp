@@ -449,7 +449,7 @@ void BM_PipelinePushBurst(benchmark::State& state) {
 }
 BENCHMARK(BM_PipelinePushBurst)
     ->ArgNames({"K", "burst", "hot0_evict2_evictall3"})
-    ->ArgsProduct({{1, 8, 16, 64}, {0, 1}, {0, 2, 3}})
+    ->ArgsProduct({{1, 8, 16, 32, 64}, {0, 1}, {0, 2, 3}})
     ->UseManualTime()
     ->Iterations(240)
     ->Unit(benchmark::kMicrosecond);
