@@ -211,7 +211,10 @@ void Pipeline::push_burst(BurstFrame* frames, int n) {
   double times[kMaxBurst];
   bool done[kMaxBurst];
   int m = 0;
-  n = std::min(n, kMaxBurst);
+  if (n > kMaxBurst) {  // in bursts of kMaxBurst
+    for (int f0 = 0; f0 < n; f0 += kMaxBurst) push_burst(frames + f0, std::min(kMaxBurst, n - f0));
+    return;
+  }
   // Stage 1: every frame's features (and push()'s path for a frame the batch does not take).
   for (int f = 0; f < n; ++f) {
     BurstFrame& b = frames[f];

@@ -157,7 +157,7 @@ class Pipeline {
   };
   // The most frames one push_burst call takes.
   static constexpr int kMaxBurst = 64;
-  // Pushes one frame on each of n distinct pipelines (n <= kMaxBurst), stage by stage: the
+  // Pushes one frame on each of n distinct pipelines (kMaxBurst at a time), stage by stage: the
   // features of all, then the frames scored against the same model together (one pass over W
   // for up to metric::detail::kBatch of them, Scorer::score_batch: every alignment, then every
   // part split), then each frame's repetitions, ghost and result. Every result, ring and

@@ -8,7 +8,8 @@
 //       it on its stream. No lock is shared between streams on this path. The worker's semaphore
 //       is posted only while it is parked: a burst costs one wake-up, not a call per frame.
 //   workers (N threads) -> each owns the pipelines of its shard, so a pipeline is only ever
-//       touched by one thread (no lock); it pushes the frame through features -> score -> ghost,
+//       touched by one thread (no lock); it pushes the frame through features -> score -> ghost
+//       (the frames waiting for it, of distinct streams, as one burst stage by stage: drain_burst),
 //       moves every result (with its ghost) into its own single-producer ring and sends it
 //       itself (run to completion: no hand-off to another thread, no wake-up per result), after
 //       RuntimeConfig::result_batch frames or as soon as no frame waits, if it can take the
