@@ -313,6 +313,25 @@ BENCHMARK(BM_PipelinePushPacedLesson)
     ->Iterations(240)
     ->Unit(benchmark::kMicrosecond);
 
+// KB of the process's pages referenced since the accessed bits were last cleared (clear: clear them
+// now and return what the reads themselves referenced); -1 where /proc does not allow it.
+double referenced_kb(bool clear) {
+  if (clear) {
+    FILE* c = std::fopen("/proc/self/clear_refs", "w");
+    if (!c) return -1.0;
+    std::fputs("1", c);
+    std::fclose(c);
+  }
+  FILE* f = std::fopen("/proc/self/smaps_rollup", "r");
+  if (!f) return -1.0;
+  char line[256];
+  double kb = -1.0;
+  while (std::fgets(line, sizeof line, f))
+    if (std::sscanf(line, "Referenced: %lf kB", &kb) == 1) break;
+  std::fclose(f);
+  return kb;
+}
+
 // A burst over K streams, as the live runtime's worker sees it (issue 39): K pipelines of the same
 // teacher, each fed its own place in the student clip, pushed one frame each in turn, hot (no
 // sleep). Against K = 1 this is what a stream's own state costs when K-1 other streams ran since
@@ -337,6 +356,15 @@ void BM_PipelinePushStreams(benchmark::State& state) {
       if (streams[static_cast<size_t>(j)]->pending() >= 128) streams[static_cast<size_t>(j)]->read(out.data(), nullptr, nullptr, out.size());
     }
   const double heap_per_stream = static_cast<double>(mallinfo2().uordblks - heap_before) / k;
+  // What one round (a frame of each stream) touches: the pages referenced between two reads of
+  // the kernel's accessed bits (/proc/self/clear_refs, smaps_rollup's Referenced; 4 KB pages, so
+  // an upper bound), the process's code and the teacher included. Against K: the slope is what
+  // one more stream's frame touches of its own.
+  const double touched_before = referenced_kb(true);
+  for (int j = 0; j < k; ++j)
+    streams[static_cast<size_t>(j)]->push(static_cast<double>(i) * s.frame_time, s.frame(static_cast<int>(i) + j * stride), s.joints);
+  const double touched_round = referenced_kb(false) - touched_before;
+  ++i;
   const double t0 = thread_cpu_seconds();
   int64_t frames = 0;
   for (auto _ : state) {
@@ -350,9 +378,88 @@ void BM_PipelinePushStreams(benchmark::State& state) {
   }
   state.counters["us_per_frame"] = 1e6 * (thread_cpu_seconds() - t0) / static_cast<double>(std::max<int64_t>(frames, 1));
   state.counters["heap_kb_per_stream"] = heap_per_stream / 1024.0;
+  state.counters["touched_kb_round"] = touched_round;
   state.SetItemsProcessed(frames);
 }
 BENCHMARK(BM_PipelinePushStreams)->ArgName("streams")->Arg(1)->Arg(4)->Arg(16)->Arg(64)->Arg(256)->Unit(benchmark::kMillisecond);
+
+// A burst: one frame of each of K streams (K pipelines of the same teacher, each at its own place
+// in the student clip) drained together, as a live worker finds them after a 120 Hz tick, with the
+// caches taken between bursts as BM_PipelinePushPaced takes them between frames (pacing: hot0,
+// evict2, evictall3). path 0 pushes the K frames one after the other (push(), the per-frame path),
+// path 1 as one Pipeline::push_burst (stage by stage: features of all, the scores of all with one
+// pass over W per 8 frames, then ghosts and results). Each burst is timed alone on the wall clock;
+// counter us_per_frame is the median burst's time / K (the benchmark's own time is the mean burst),
+// cpu_us_per_frame the same on the thread's CPU clock.
+void BM_PipelinePushBurst(benchmark::State& state) {
+  const Setup& s = Setup::get(false);
+  const int k = static_cast<int>(state.range(0));
+  const bool burst = state.range(1) == 1;
+  const auto pacing = static_cast<Pacing>(state.range(2));
+  std::vector<std::unique_ptr<kata::pipeline::Pipeline>> streams;
+  std::vector<kata::pipeline::Result> out(256);
+  for (int j = 0; j < k; ++j) {
+    streams.push_back(std::make_unique<kata::pipeline::Pipeline>(s.config));
+    streams.back()->set_teacher(s.teacher, teacher_options(false));
+  }
+  const int stride = std::max(1, s.frame_count / k);
+  std::vector<kata::pipeline::Pipeline::BurstFrame> frames(static_cast<size_t>(k));
+  auto push_all = [&](int64_t i) {
+    const double t = static_cast<double>(i) * s.frame_time;
+    if (!burst) {
+      for (int j = 0; j < k; ++j)
+        streams[static_cast<size_t>(j)]->push(t, s.frame(static_cast<int>(i) + j * stride), s.joints);
+      return;
+    }
+    for (int j = 0; j < k; ++j) {
+      kata::pipeline::Pipeline::BurstFrame& f = frames[static_cast<size_t>(j)];
+      f.pipeline = streams[static_cast<size_t>(j)].get();
+      f.capture_time = t;
+      f.xyz = s.frame(static_cast<int>(i) + j * stride);
+      f.joint_count = s.joints;
+      f.arrival_ns = 0;
+    }
+    kata::pipeline::Pipeline::push_burst(frames.data(), k);
+  };
+  auto drain = [&] {
+    for (auto& p : streams)
+      if (p->pending() >= 128) p->read(out.data(), nullptr, nullptr, out.size());
+  };
+  int64_t i = 0;
+  for (; i < 120; ++i) {
+    push_all(i);
+    drain();
+  }
+  std::vector<char> l2, l3;
+  char sink = 0;
+  std::vector<double> took, cpu;
+  took.reserve(static_cast<size_t>(state.max_iterations));
+  cpu.reserve(static_cast<size_t>(state.max_iterations));
+  for (auto _ : state) {
+    sink = static_cast<char>(sink + between_pushes(pacing, l2, l3));
+    const double c0 = thread_cpu_seconds();
+    const double t0 = wall_seconds();
+    push_all(i);
+    const double dt = wall_seconds() - t0;
+    cpu.push_back(thread_cpu_seconds() - c0);
+    state.SetIterationTime(dt);
+    took.push_back(dt);
+    drain();
+    ++i;
+  }
+  benchmark::DoNotOptimize(sink);
+  state.counters["us_per_frame"] = median_us(took) / k;
+  // The same on the thread's CPU clock (two clock reads a burst, a few us under KVM): what a
+  // preemption within the burst adds to the wall clock is not in it.
+  state.counters["cpu_us_per_frame"] = median_us(cpu) / k;
+  state.SetItemsProcessed(state.iterations() * k);
+}
+BENCHMARK(BM_PipelinePushBurst)
+    ->ArgNames({"K", "burst", "hot0_evict2_evictall3"})
+    ->ArgsProduct({{1, 8, 16, 32, 64}, {0, 1}, {0, 2, 3}})
+    ->UseManualTime()
+    ->Iterations(240)
+    ->Unit(benchmark::kMicrosecond);
 
 void BM_PipelineVsStages(benchmark::State& state) {
   const Setup& s = Setup::get();

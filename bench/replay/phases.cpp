@@ -71,6 +71,7 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
   kata::runtime::RuntimeConfig config;
   config.workers = o.workers;
   config.result_batch = o.result_batch;
+  config.drain_burst = o.drain_burst;
   config.max_streams = std::max(streams, 1);
   config.publish.endpoints = {endpoint_for(o, "kata")};
   config.publish.send_hwm = 100000;
@@ -172,6 +173,8 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
   j["cpu_us_per_frame_by_thread"] = per_thread;
   j["wakeups_per_frame_by_thread"] = wakes;
   const auto counters = runtime.counters();
+  // The share of the frames the workers drained in bursts (RuntimeConfig::drain_burst).
+  j["burst_frames"] = runtime.burst_frames();
   j["sent"] = sent + refused_push;
   j["lost"] = static_cast<int64_t>(sent + refused_push) - j["received"].get<int64_t>();
   // Every drop cause the runtime counts per stream (runtime::kDropCauses: queues, pipeline,

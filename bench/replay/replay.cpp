@@ -29,6 +29,7 @@ json run_once(const Options& o, const Clips& c, int streams) {
   j["transport"] = o.transport;
   j["workers"] = o.workers;
   j["result_batch"] = o.result_batch;
+  j["drain_burst"] = o.drain_burst;
   j["idle"] = o.idle;
   j["curve"] = o.curve;
   j["kata"] = kata_result;
@@ -92,6 +93,9 @@ void print_line(const json& r) {
     std::printf("  CPU per frame %.1f us (every thread of the kata process), push %.1f us: the runtime's own %.1f us\n",
                 r["kata"]["cpu_us_per_frame"].get<double>(), r["push_us"].get<double>(),
                 r["runtime_cpu_us_per_frame_beyond_push"].get<double>());
+  if (r["kata"].contains("burst_frames") && r["kata"]["sent"].get<double>() > 0)
+    std::printf("  drained in bursts (--drain-burst %d): %.0f %% of the frames\n", r.value("drain_burst", 1),
+                100.0 * r["kata"]["burst_frames"].get<double>() / r["kata"]["sent"].get<double>());
   if (r["kata"].contains("cpu_us_per_frame_by_thread")) {
     // The stages beyond the push: the workers' CPU less the push, the I/O thread (ingest, definitions,
     // stats), libzmq's threads, the rest (the pacer, the ZAP handler).
@@ -362,6 +366,9 @@ void setup(CLI::App& app) {
   cmd->add_option("--result-batch", o->result_batch,
                   "a worker sends its results after this many frames or when no frame waits (1: after every frame)")
       ->check(CLI::Range(1, 4096))->capture_default_str();
+  cmd->add_option("--drain-burst", o->drain_burst,
+                  "a worker drains up to this many waiting frames of distinct streams as one burst (1: frame by frame)")
+      ->check(CLI::Range(1, 64))->capture_default_str();
   cmd->add_option("--idle", o->idle, "the runtime's idle strategy: park (sleep at once) or backoff (spin, yield, park)")
       ->check(CLI::IsMember({"park", "backoff"}))
       ->capture_default_str();

@@ -207,5 +207,202 @@ TEST(Pipeline, TheWholePushAllocatesNothingAfterOpen) {
   EXPECT_EQ(test::disarm_alloc_counter(), 0);
 }
 
+
+// A replay's tick through Pipeline::push_burst: every stream's results equal push()'s, field for
+// field and bit for bit (computed_ns, a clock, aside), ghosts and features included, over streams
+// of several students and two teachers, one stream without a teacher, a tracking-lost frame and a
+// refused frame among them.
+struct BurstStreams {
+  struct One {
+    std::unique_ptr<pipeline::Pipeline> p;
+    const std::vector<float>* pos = nullptr;
+    int joints = 0, frames = 0, offset = 0;
+    double frame_time = 0.0;
+  };
+  std::vector<One> streams;
+  static std::shared_ptr<const pipeline::Teacher> teacher_05_18() {
+    static const auto t = [] {
+      const BvhClip& c = test::clip("05_18");
+      const std::vector<float>& pos = test::clip_positions("05_18", 1);
+      return pipeline::Teacher::from_positions(
+          shipped_metric(), c.skeleton,
+          stream_config_for(c.skeleton, make_gpd_map(c.skeleton, preset_joint_names("cmu")), gpd::Stencil::kBackward),
+          pos.data(), c.frame_count() - 1, c.frame_time);
+    }();
+    return t;
+  }
+  explicit BurstStreams(int k) {
+    static const auto walk = teacher_02_01();
+    const char* students[] = {"07_01", "02_02", "09_01", "05_19_on_02", "05_02"};
+    for (int j = 0; j < k; ++j) {
+      const std::string name = students[j % 5];
+      const BvhClip& c = test::clip(name);
+      One o;
+      pipeline::PipelineConfig pc =
+          student_config(c, make_gpd_map(c.skeleton, preset_joint_names("cmu")), 64);
+      pc.keep_features = j % 3 == 0;
+      o.p = std::make_unique<pipeline::Pipeline>(pc);
+      if (j % 7 != 6) o.p->set_teacher(j % 2 ? teacher_05_18() : walk);
+      o.pos = &test::clip_positions(name, 1);
+      o.joints = c.skeleton.joint_count();
+      o.frames = c.frame_count() - 1;
+      o.offset = (j * 37) % o.frames;
+      o.frame_time = c.frame_time;
+      streams.push_back(std::move(o));
+    }
+  }
+  // Frame i of stream j (tick i): the clip's frame, zeros (tracking lost) at tick 50 on stream 1.
+  const float* frame(size_t j, int i, std::vector<float>& scratch) const {
+    const One& o = streams[j];
+    const float* xyz = o.pos->data() + static_cast<size_t>((o.offset + i) % o.frames) * 3 * static_cast<size_t>(o.joints);
+    if (j == 1 && i == 50) {
+      scratch.assign(3 * static_cast<size_t>(o.joints), 0.0f);
+      return scratch.data();
+    }
+    return xyz;
+  }
+  int joints_of(size_t j, int i) const { return j == 2 && i == 70 ? streams[j].joints - 1 : streams[j].joints; }
+};
+
+void expect_same_results(pipeline::Pipeline& a, pipeline::Pipeline& b, size_t stream) {
+  std::vector<pipeline::Result> ra(64), rb(64);
+  const size_t g = 3 * static_cast<size_t>(a.ghost_joint_count());
+  std::vector<float> ga(64 * std::max<size_t>(g, 1)), gb(ga.size()), fa(64 * gpd::kDims), fb(fa.size());
+  ASSERT_EQ(a.pending(), b.pending()) << "stream " << stream;
+  const size_t na = a.read(ra.data(), ga.data(), fa.data(), ra.size());
+  const size_t nb = b.read(rb.data(), gb.data(), fb.data(), rb.size());
+  ASSERT_EQ(na, nb);
+  for (size_t i = 0; i < na; ++i) {
+    const pipeline::Result& x = ra[i];
+    const pipeline::Result& y = rb[i];
+    SCOPED_TRACE("stream " + std::to_string(stream) + " result " + std::to_string(x.sequence));
+    EXPECT_EQ(x.sequence, y.sequence);
+    EXPECT_EQ(x.frame_index, y.frame_index);
+    EXPECT_EQ(x.capture_time, y.capture_time);
+    EXPECT_EQ(x.arrival_ns, y.arrival_ns);
+    EXPECT_EQ(x.scored, y.scored);
+    EXPECT_EQ(x.matched_frame, y.matched_frame);
+    EXPECT_EQ(x.has_ghost, y.has_ghost);
+    EXPECT_EQ(x.repetition, y.repetition);
+    EXPECT_EQ(x.repetition_progress, y.repetition_progress);
+    EXPECT_EQ(x.repetition_ended, y.repetition_ended);
+    const metric::ScoreRecord& s = x.score;
+    const metric::ScoreRecord& t = y.score;
+    EXPECT_EQ(s.time, t.time);
+    EXPECT_EQ(s.frame, t.frame);
+    EXPECT_EQ(s.distance, t.distance);
+    EXPECT_EQ(s.score, t.score);
+    EXPECT_EQ(s.model_score, t.model_score);
+    EXPECT_EQ(s.matched, t.matched);
+    EXPECT_EQ(s.part_to_fix, t.part_to_fix);
+    EXPECT_EQ(s.cue_joint, t.cue_joint);
+    EXPECT_EQ(s.cue_degrees, t.cue_degrees);
+    EXPECT_EQ(s.cue_action, t.cue_action);
+    EXPECT_EQ(s.state, t.state);
+    EXPECT_EQ(s.matched_time, t.matched_time);
+    for (int q = 0; q < metric::kParts; ++q) {
+      EXPECT_EQ(s.parts[q], t.parts[q]);
+      EXPECT_EQ(s.part_distance[q], t.part_distance[q]);
+      EXPECT_EQ(s.part_degrees[q], t.part_degrees[q]);
+      EXPECT_EQ(s.part_joint[q], t.part_joint[q]);
+      EXPECT_EQ(s.part_offset[q], t.part_offset[q]);
+      EXPECT_EQ(s.part_scores[q], t.part_scores[q]);
+    }
+    for (size_t c = 0; c < g; ++c) EXPECT_EQ(ga[i * g + c], gb[i * g + c]);
+    for (size_t c = 0; c < gpd::kDims; ++c) EXPECT_EQ(fa[i * gpd::kDims + c], fb[i * gpd::kDims + c]);
+  }
+  const bool reps = a.repetitions() != nullptr;
+  ASSERT_EQ(reps, b.repetitions() != nullptr);
+  if (reps) {
+    EXPECT_EQ(a.repetitions()->ended(), b.repetitions()->ended());
+  }
+}
+
+TEST(Pipeline, ABurstEqualsItsFramesPushedOneByOne) {
+  constexpr int kStreams = 14;
+  BurstStreams one(kStreams), burst(kStreams);
+  std::vector<pipeline::Pipeline::BurstFrame> frames(kStreams);
+  std::vector<float> scratch;
+  int64_t scored_results = 0;
+  for (int i = 0; i < 2 * kFrames; ++i) {
+    for (size_t j = 0; j < kStreams; ++j) {
+      const double t = i * one.streams[j].frame_time;
+      const int64_t arrival = 1000 + i;
+      const Status st = one.streams[j].p->push(t, one.frame(j, i, scratch), one.joints_of(j, i), arrival);
+      pipeline::Pipeline::BurstFrame& f = frames[j];
+      f = {};
+      f.pipeline = burst.streams[j].p.get();
+      f.capture_time = t;
+      f.xyz = burst.frame(j, i, scratch);
+      f.joint_count = burst.joints_of(j, i);
+      f.arrival_ns = arrival;
+      (void)st;
+    }
+    pipeline::Pipeline::push_burst(frames.data(), kStreams);
+    for (size_t j = 0; j < kStreams; ++j) {
+      if (const pipeline::Result* r = one.streams[j].p->newest(); r && r->scored) ++scored_results;
+      expect_same_results(*one.streams[j].p, *burst.streams[j].p, j);
+    }
+    if (::testing::Test::HasFailure()) return;
+  }
+  EXPECT_GT(scored_results, 100 * kStreams);
+  int64_t repetitions = 0;  // the repetition counters were exercised, not only equal at zero
+  for (const auto& s : burst.streams)
+    if (s.p->repetitions()) repetitions += s.p->repetitions()->ended();
+  EXPECT_GT(repetitions, 0);
+  EXPECT_EQ(frames[2].status, Status::kOk);
+}
+
+TEST(Pipeline, ABurstReturnsEachFramesPushStatus) {
+  BurstStreams one(3), burst(3);
+  std::vector<float> scratch;
+  for (int i = 0; i < 71; ++i) {
+    pipeline::Pipeline::BurstFrame frames[3];
+    Status want[3];
+    for (size_t j = 0; j < 3; ++j) {
+      want[j] = one.streams[j].p->push(i / 120.0, one.frame(j, i, scratch), one.joints_of(j, i));
+      frames[j].pipeline = burst.streams[j].p.get();
+      frames[j].capture_time = i / 120.0;
+      frames[j].xyz = burst.frame(j, i, scratch);
+      frames[j].joint_count = burst.joints_of(j, i);
+    }
+    pipeline::Pipeline::push_burst(frames, 3);
+    for (size_t j = 0; j < 3; ++j) EXPECT_EQ(frames[j].status, want[j]) << "stream " << j << " tick " << i;
+  }
+  // Tick 70 gave stream 2 a wrong joint count: refused in both, the stream usable after it.
+  EXPECT_NE(one.streams[2].p->push(71 / 120.0, one.frame(2, 80, scratch), one.joints_of(2, 70)), Status::kOk);
+  pipeline::Pipeline::BurstFrame next;
+  next.pipeline = burst.streams[2].p.get();
+  next.capture_time = 71 / 120.0;
+  next.xyz = burst.frame(2, 71, scratch);
+  next.joint_count = burst.streams[2].joints;
+  pipeline::Pipeline::push_burst(&next, 1);
+  EXPECT_EQ(next.status, Status::kOk);
+}
+
+TEST(Pipeline, ABurstAllocatesNothingAfterOpen) {
+  if (!test::kAllocCounting) GTEST_SKIP() << "allocation counting is off under the sanitizers";
+  constexpr int kStreams = 16;
+  BurstStreams b(kStreams);
+  std::vector<pipeline::Pipeline::BurstFrame> frames(kStreams);
+  std::vector<pipeline::Result> out(64);
+  std::vector<float> ghosts(64 * 3 * 64), features(64 * gpd::kDims);
+  std::vector<float> scratch(3 * 64, 0.0f);
+  test::arm_alloc_counter();
+  for (int i = 0; i < kFrames; ++i) {
+    for (size_t j = 0; j < kStreams; ++j) {
+      frames[j] = {};
+      frames[j].pipeline = b.streams[j].p.get();
+      frames[j].capture_time = i * b.streams[j].frame_time;
+      frames[j].xyz = b.frame(j, i, scratch);
+      frames[j].joint_count = b.streams[j].joints;
+    }
+    pipeline::Pipeline::push_burst(frames.data(), kStreams);
+    if (i % 3 == 0)
+      for (auto& s : b.streams) s.p->read(out.data(), ghosts.data(), features.data(), out.size());
+  }
+  EXPECT_EQ(test::disarm_alloc_counter(), 0);
+}
+
 }  // namespace
 }  // namespace kata

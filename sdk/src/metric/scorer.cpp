@@ -141,19 +141,34 @@ void Scorer::score_batch(Scorer* const* scorers, const float* const* x, const do
       p[f] = scorers[f0 + f]->p_.data();
     }
     scorers[f0]->reference_->metric().part_projections_batch(x + f0, ws, p, m);
-    for (int f = 0; f < m; ++f) scorers[f0 + f]->finish(x[f0 + f], t[f0 + f]);
+    // Stage by stage: every frame's alignment pass, then every frame's part split, angles and
+    // feedback (each scorer's own state: the order across scorers changes nothing).
+    for (int f = 0; f < m; ++f) scorers[f0 + f]->align_frame(t[f0 + f]);
+    for (int f = 0; f < m; ++f) scorers[f0 + f]->finish_aligned(x[f0 + f], t[f0 + f], false);
   }
 }
 
 void Scorer::finish(const float* x, double t, int matched) {
+  if (matched >= 0)
+    aligned_ = matched;
+  else
+    align_frame(t);
+  finish_aligned(x, t, matched >= 0);
+}
+
+void Scorer::align_frame(double t) {
+  const int stride = reference_->metric().stride();
+  aligned_ = aligner_.align(p_.data() + static_cast<size_t>(kParts) * stride, t);
+}
+
+void Scorer::finish_aligned(const float* x, double t, bool given) {
   const Reference& ref = *reference_;
   const Metric& m = ref.metric();
   const int stride = m.stride();
   float* p = p_.data();
-  aligned_ = matched >= 0 ? matched : aligner_.align(p + static_cast<size_t>(kParts) * stride, t);
   pose_frames(x, pose_);
   int j = aligned_;
-  if (matched < 0 && rematch_frames_ > 0) {
+  if (!given && rematch_frames_ > 0) {
     bone_directions(pose_, bones_);
     j = rematch(j);
   }

@@ -165,6 +165,11 @@ class Scorer {
 
  private:
   void finish(const float* x, double t, int matched = -1);  // matched >= 0: that frame, not the alignment's
+  // finish() in two stages (score_batch runs each over all its frames): the alignment's match of
+  // this frame's projections (aligned_), then everything after it (given: aligned_ was the
+  // caller's match, not the alignment's, so no re-match).
+  void align_frame(double t);
+  void finish_aligned(const float* x, double t, bool given);
   void feedback(double t);
   // The re-match of the alignment's match j (AlignmentOptions::rematch_time): the frame within
   // +-rematch_time of j, inside the section, with the smallest trimmed pose distance to this

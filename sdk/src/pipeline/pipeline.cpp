@@ -179,17 +179,23 @@ void Pipeline::restart_teacher() {
 Status Pipeline::push(double capture_time, const float* xyz, const float* confidence, int joint_count,
                       int64_t arrival_ns) {
   if (arrival_ns == 0) arrival_ns = now_ns();
-  const int64_t frame = stream_.accepted_count();
-  const int64_t before = stream_.emitted_count();
-  const Status s = stream_.push(capture_time, xyz, confidence, joint_count);
+  int64_t before = 0;
+  const Status s = push_features(capture_time, xyz, confidence, joint_count, &before);
   // kInternal: the frame was accepted but a non-finite vector was withheld (a bug, reported);
   // kTrackingLost: the frame ended the segment (which may emit its held vector). Either way
   // the vectors emitted with it are still processed.
   if (s != Status::kOk && s != Status::kInternal && s != Status::kTrackingLost) return s;
-  if (stream_.accepted_count() == frame) {  // tracking lost: no frame to keep for the ghost
-    process_emitted(before, arrival_ns);
-    return s;
-  }
+  process_emitted(before, arrival_ns);
+  return s;
+}
+
+Status Pipeline::push_features(double capture_time, const float* xyz, const float* confidence, int joint_count,
+                               int64_t* before) {
+  const int64_t frame = stream_.accepted_count();
+  *before = stream_.emitted_count();
+  const Status s = stream_.push(capture_time, xyz, confidence, joint_count);
+  if (s != Status::kOk && s != Status::kInternal && s != Status::kTrackingLost) return s;
+  if (stream_.accepted_count() == frame) return s;  // tracking lost: no frame to keep for the ghost
   const size_t input_floats = 3 * static_cast<size_t>(joint_count);
   float* slot = student_ring_.data() + static_cast<size_t>(frame % history_) * input_floats;
   std::memcpy(slot, xyz, input_floats * sizeof(float));
@@ -198,8 +204,61 @@ Status Pipeline::push(double capture_time, const float* xyz, const float* confid
     for (size_t i = 0; i < input_floats; ++i)
       if (!std::isfinite(slot[i])) slot[i] = std::isfinite(previous[i]) ? previous[i] : 0.0f;
   }
-  process_emitted(before, arrival_ns);
   return s;
+}
+
+void Pipeline::push_burst(BurstFrame* frames, int n) {
+  // Frames scored together: the pipeline and the time of its one emitted vector.
+  int scored[kMaxBurst];
+  double times[kMaxBurst];
+  bool done[kMaxBurst];
+  int m = 0;
+  if (n > kMaxBurst) {  // in bursts of kMaxBurst
+    for (int f0 = 0; f0 < n; f0 += kMaxBurst) push_burst(frames + f0, std::min(kMaxBurst, n - f0));
+    return;
+  }
+  // Stage 1: every frame's features (and push()'s path for a frame the batch does not take).
+  for (int f = 0; f < n; ++f) {
+    BurstFrame& b = frames[f];
+    Pipeline& p = *b.pipeline;
+    if (b.arrival_ns == 0) b.arrival_ns = now_ns();
+    int64_t before = 0;
+    b.status = p.push_features(b.capture_time, b.xyz, b.confidence, b.joint_count, &before);
+    if (b.status != Status::kOk && b.status != Status::kInternal && b.status != Status::kTrackingLost) continue;
+    const int64_t frame = p.stream_.feature_frame();
+    if (p.scorer_ && p.stream_.emitted_count() - before == 1 &&
+        !metric::tracking_lost(p.stream_.joints_of(frame))) {
+      times[m] = p.stream_.time_of(frame);
+      scored[m++] = f;
+    } else {
+      p.process_emitted(before, b.arrival_ns);
+    }
+  }
+  // Stage 2: the scores, the frames of one model together (W read once per group of kBatch).
+  metric::Scorer* scorers[kMaxBurst];
+  const float* xs[kMaxBurst];
+  double ts[kMaxBurst];
+  std::fill(done, done + m, false);
+  for (int i = 0; i < m; ++i) {
+    if (done[i]) continue;
+    const metric::Metric* model = &frames[scored[i]].pipeline->scorer_->reference().metric();
+    int k = 0;
+    for (int j = i; j < m; ++j) {
+      Pipeline& p = *frames[scored[j]].pipeline;
+      if (done[j] || &p.scorer_->reference().metric() != model) continue;
+      scorers[k] = p.scorer_.get();
+      xs[k] = p.stream_.vector_of(p.stream_.feature_frame());
+      ts[k] = times[j];
+      ++k;
+      done[j] = true;
+    }
+    metric::Scorer::score_batch(scorers, xs, ts, k);
+  }
+  // Stage 3: repetitions, ghosts and results.
+  for (int i = 0; i < m; ++i) {
+    BurstFrame& b = frames[scored[i]];
+    b.pipeline->produce(b.pipeline->stream_.feature_frame(), b.arrival_ns, true);
+  }
 }
 
 Status Pipeline::flush() {
@@ -225,7 +284,7 @@ void Pipeline::process_emitted(int64_t before, int64_t arrival_ns) {
   for (int64_t f = last - count + 1; f <= last; ++f) produce(f, arrival_ns);
 }
 
-void Pipeline::produce(int64_t frame, int64_t arrival_ns) {
+void Pipeline::produce(int64_t frame, int64_t arrival_ns, bool prescored) {
   if (written_ - read_ == static_cast<uint64_t>(capacity_)) {  // full: the oldest unread result goes
     ++read_;
     ++dropped_;
@@ -242,7 +301,7 @@ void Pipeline::produce(int64_t frame, int64_t arrival_ns) {
   if (config_.keep_features) std::memcpy(feature_ring_.data() + k * gpd::kDims, x, gpd::kDims * sizeof(float));
   float* ghost = ghost_ring_.data() + k * static_cast<size_t>(ghost_stride_);
   if (scorer_) {
-    r.score = score_frame(frame, r.capture_time);
+    r.score = prescored ? scorer_->last() : score_frame(frame, r.capture_time);
     r.scored = true;
     r.matched_frame = r.score.matched;
     if (reps_) {

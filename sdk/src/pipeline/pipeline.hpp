@@ -144,6 +144,28 @@ class Pipeline {
   // A non-finite coordinate kept for the ghost's placement is replaced by the previous frame's.
   Status push(double capture_time, const float* xyz, const float* confidence, int joint_count,
               int64_t arrival_ns = 0);
+
+  // One frame of a burst (push_burst): the arguments of push() and, after the call, its status.
+  struct BurstFrame {
+    Pipeline* pipeline = nullptr;
+    double capture_time = 0.0;
+    const float* xyz = nullptr;
+    const float* confidence = nullptr;
+    int joint_count = 0;
+    int64_t arrival_ns = 0;
+    Status status = Status::kOk;  // out: what push() would have returned
+  };
+  // The most frames one push_burst call takes.
+  static constexpr int kMaxBurst = 64;
+  // Pushes one frame on each of n distinct pipelines (kMaxBurst at a time), stage by stage: the
+  // features of all, then the frames scored against the same model together (one pass over W
+  // for up to metric::detail::kBatch of them, Scorer::score_batch: every alignment, then every
+  // part split), then each frame's repetitions, ghost and result. Every result, ring and
+  // state equals what n push() calls in any order leave, bit for bit (computed_ns aside, a clock):
+  // the pipelines share nothing but immutable data. A frame that emits other than one vector, is
+  // tracking-lost, or has no teacher takes push()'s path. Allocation-free. Throws nothing the
+  // pushes would not; frames[f].status is push()'s.
+  static void push_burst(BurstFrame* frames, int n);
   // Stream::flush / reset, with any vector they emit processed like a push's. flush returns
   // Stream::flush's status (kInternal when a non-finite vector was withheld). flush is the end
   // of a take: it also ends the repetition in progress (metric::RepCounter::finish: complete if
@@ -178,8 +200,13 @@ class Pipeline {
   const char* last_error() const { return stream_.last_error(); }
 
  private:
+  // push() up to the scoring: the stream's push and the raw frame kept for the ghost. *before:
+  // the stream's emitted count before it. Returns push()'s status.
+  Status push_features(double capture_time, const float* xyz, const float* confidence, int joint_count,
+                       int64_t* before);
   void process_emitted(int64_t before, int64_t arrival_ns);
-  void produce(int64_t frame, int64_t arrival_ns);
+  // prescored: the scorer already scored `frame` (push_burst); its record is scorer_->last().
+  void produce(int64_t frame, int64_t arrival_ns, bool prescored = false);
   // Scores emitted frame `frame`; too few tracked joints give a tracking-lost record instead.
   const metric::ScoreRecord& score_frame(int64_t frame, double t);
   size_t slot(uint64_t sequence) const { return static_cast<size_t>(sequence % static_cast<uint64_t>(capacity_)); }

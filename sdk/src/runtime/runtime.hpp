@@ -8,7 +8,8 @@
 //       it on its stream. No lock is shared between streams on this path. The worker's semaphore
 //       is posted only while it is parked: a burst costs one wake-up, not a call per frame.
 //   workers (N threads) -> each owns the pipelines of its shard, so a pipeline is only ever
-//       touched by one thread (no lock); it pushes the frame through features -> score -> ghost,
+//       touched by one thread (no lock); it pushes the frame through features -> score -> ghost
+//       (the frames waiting for it, of distinct streams, as one burst stage by stage: drain_burst),
 //       moves every result (with its ghost) into its own single-producer ring and sends it
 //       itself (run to completion: no hand-off to another thread, no wake-up per result), after
 //       RuntimeConfig::result_batch frames or as soon as no frame waits, if it can take the
@@ -137,6 +138,11 @@ struct RuntimeConfig {
   // frame halved at 64 streams; 1 sends after every frame; docs/runtime.md has the trade).
   // A lone stream never waits: its worker has no next frame, so it sends at once.
   int result_batch = 8;
+  // A worker drains the frames already waiting for it (never waiting for more), up to this many
+  // of distinct streams, as one burst (pipeline::Pipeline::push_burst: the features of all, the
+  // scores of all with one pass over the model's W per 8 frames, then ghosts and results); the
+  // results equal the frame-by-frame path's. 1: frame by frame. At most Pipeline::kMaxBurst.
+  int drain_burst = 16;
   std::vector<Sink> sinks;               // in-process consumers of every result
   std::vector<RepetitionSink> repetition_sinks;  // and of every repetition that ends
 };
@@ -266,6 +272,9 @@ class Runtime {
 
   // A snapshot of the counters. [any thread]
   RuntimeCounters counters() const;
+  // Frames the workers drained in bursts of two or more (RuntimeConfig::drain_burst) since the
+  // start. [any thread]
+  uint64_t burst_frames() const;
   std::optional<StreamCounters> stream_counters(uint64_t stream_id) const;
   // Every stream's counters, by stream id, in the order they were opened (allocates). [any thread]
   std::vector<std::pair<uint64_t, StreamCounters>> all_stream_counters() const;

@@ -183,6 +183,9 @@ struct Runtime::Worker {
   std::thread thread;
   // The worker sends results itself when it holds the publisher (Runtime::flush_results).
   std::unique_ptr<transport::Encoder> encoder;
+  // Frames this worker drained in bursts of two or more (RuntimeConfig::drain_burst); written
+  // by the worker only.
+  std::atomic<uint64_t> burst_frames{0};
   // Scratch for Pipeline::read.
   std::vector<pipeline::Result> read_buffer;
   std::vector<float> read_ghosts, read_features;

@@ -6,6 +6,7 @@
 #include "runtime/runtime_internal.hpp"
 #include "pipeline/record.hpp"
 
+#include <algorithm>
 #include <cstdio>
 
 namespace kata::runtime {
@@ -153,6 +154,12 @@ transport::TableVerdict Runtime::set_practice(const transport::PracticeSetting& 
   return TableVerdict::kAccepted;
 }
 
+uint64_t Runtime::burst_frames() const {
+  uint64_t n = 0;
+  for (const auto& w : workers_) n += w->burst_frames.load(std::memory_order_relaxed);
+  return n;
+}
+
 void Runtime::worker_loop(Worker& w) {
   bool signalled = false;
   auto move_results = [&](StreamState& s) {
@@ -209,6 +216,45 @@ void Runtime::worker_loop(Worker& w) {
   };
   auto frame_ready = [&] {
     return w.cells[w.dequeue_pos & w.mask].turn.load(std::memory_order_acquire) == w.dequeue_pos + 1;
+  };
+
+  // A burst (RuntimeConfig::drain_burst): the frames waiting in turn, of distinct streams, none
+  // a practice setting or a restart, drained stage by stage in one Pipeline::push_burst.
+  const int bound = std::clamp(config_.drain_burst, 1, pipeline::Pipeline::kMaxBurst);
+  FrameCell* burst_cells[pipeline::Pipeline::kMaxBurst];
+  pipeline::Pipeline::BurstFrame burst_frames[pipeline::Pipeline::kMaxBurst];
+  const auto plain = [](const FrameCell& c) { return !c.practice && !(c.restart && c.stream->accepted > 0); };
+  const auto gather = [&]() {
+    int n = 1;
+    burst_cells[0] = &w.cells[w.dequeue_pos & w.mask];
+    for (; n < bound; ++n) {
+      const size_t pos = w.dequeue_pos + static_cast<size_t>(n);
+      FrameCell& c = w.cells[pos & w.mask];
+      if (c.turn.load(std::memory_order_acquire) != pos + 1 || !plain(c)) break;
+      bool repeated = false;
+      for (int f = 0; f < n && !repeated; ++f) repeated = burst_cells[f]->stream == c.stream;
+      if (repeated) break;
+      burst_cells[n] = &c;
+    }
+    return n;
+  };
+  // After a frame's push: its source sequence and time kept, its cell given back, its results out.
+  const auto after_push = [&](FrameCell& cell, StreamState& s, Status st, double t) {
+    // kInternal: the pipeline kept the frame (its frame index moved on) but withheld a non-finite
+    // vector; the frame keeps its sequence slot so that later results map to their own frames.
+    if (st == Status::kOk || st == Status::kInternal) {
+      const size_t ring = static_cast<size_t>(s.accepted) % s.sequence_ring.size();
+      s.sequence_ring[ring] = cell.sequence;
+      s.capture_ring[ring] = cell.capture_time;
+      s.last_time = t;
+      ++s.accepted;
+    }
+    if (st != Status::kOk && st != Status::kTrackingLost) {  // tracking lost: accepted, no features (the confidence gate)
+      s.counters.refused.fetch_add(1, std::memory_order_relaxed);
+    }
+    cell.turn.store(w.dequeue_pos + w.mask + 1, std::memory_order_release);
+    ++w.dequeue_pos;
+    move_results(s);
   };
 
   const IdleStrategy& idle = config_.idle;
@@ -290,6 +336,34 @@ void Runtime::worker_loop(Worker& w) {
       w.done_pos.store(w.dequeue_pos, std::memory_order_release);
       continue;
     }
+    if (bound > 1 && plain(cell)) {
+      const int n = gather();
+      if (n > 1) {
+        for (int f = 0; f < n; ++f) {
+          const FrameCell& c = *burst_cells[f];
+          StreamState& bs = *c.stream;
+          pipeline::Pipeline::BurstFrame& b = burst_frames[f];
+          b.pipeline = bs.pipeline.get();
+          b.capture_time = c.capture_time + bs.time_offset;
+          b.xyz = c.xyz;
+          b.confidence = c.has_confidence ? c.confidence : nullptr;
+          b.joint_count = c.joints;
+          b.arrival_ns = c.arrival_ns;
+        }
+        pipeline::Pipeline::push_burst(burst_frames, n);
+        w.burst_frames.store(w.burst_frames.load(std::memory_order_relaxed) + static_cast<uint64_t>(n),
+                             std::memory_order_relaxed);
+        for (int f = 0; f < n; ++f) {
+          after_push(*burst_cells[f], *burst_cells[f]->stream, burst_frames[f].status, burst_frames[f].capture_time);
+          if (++unsent >= batch || !frame_ready()) {
+            unsent = 0;
+            send_results();
+          }
+          w.done_pos.store(w.dequeue_pos, std::memory_order_release);
+        }
+        continue;
+      }
+    }
     if (cell.restart && s.accepted > 0) {
       p.reset();
       p.restart_teacher();
@@ -299,21 +373,7 @@ void Runtime::worker_loop(Worker& w) {
     }
     const double t = cell.capture_time + s.time_offset;
     const Status st = p.push(t, cell.xyz, cell.has_confidence ? cell.confidence : nullptr, cell.joints, cell.arrival_ns);
-    // kInternal: the pipeline kept the frame (its frame index moved on) but withheld a non-finite
-    // vector; the frame keeps its sequence slot so that later results map to their own frames.
-    if (st == Status::kOk || st == Status::kInternal) {
-      const size_t ring = static_cast<size_t>(s.accepted) % s.sequence_ring.size();
-      s.sequence_ring[ring] = cell.sequence;
-      s.capture_ring[ring] = cell.capture_time;
-      s.last_time = t;
-      ++s.accepted;
-    }
-    if (st != Status::kOk && st != Status::kTrackingLost) {  // tracking lost: accepted, no features (the confidence gate)
-      s.counters.refused.fetch_add(1, std::memory_order_relaxed);
-    }
-    cell.turn.store(w.dequeue_pos + w.mask + 1, std::memory_order_release);
-    ++w.dequeue_pos;
-    move_results(s);
+    after_push(cell, s, st, t);
     if (++unsent >= batch || !frame_ready()) {
       unsent = 0;
       send_results();
