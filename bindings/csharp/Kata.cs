@@ -102,6 +102,15 @@ namespace Kata
         public double MetresPerUnit;   // 0: the layout's
     }
 
+    // kata_vmc_counters (kata/vmc.h): what a VmcReader counted; a refused datagram once more by its cause.
+    [StructLayout(LayoutKind.Sequential)]
+    public struct VmcCounters
+    {
+        public uint StructSize;
+        public uint Reserved;
+        public ulong Packets, Frames, Malformed, Oversized, WrongType, UnknownBone, BadValue, OutOfOrder, Ignored;
+    }
+
     [StructLayout(LayoutKind.Sequential)]
     public struct TeacherDesc
     {
@@ -394,6 +403,15 @@ namespace Kata
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_humanoid_rig_pose(HumanoidRigHandle rig, float[] positions, uint jointCount, int frame, IntPtr pose);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_humanoid_rig_pose_ghost(HumanoidRigHandle rig, float[] ghost, uint ghostJointCount, int frame, IntPtr pose);
         [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_humanoid_pose_joints(IntPtr pose, [Out] float[] positions, UIntPtr capacity, [Out] float[] rotations, UIntPtr rotationCapacity);
+        // the VMC protocol, kata/vmc.h
+        [DllImport(Lib, CallingConvention = CC, EntryPoint = "kata_context_last_error")] public static extern IntPtr kata_thread_last_error(IntPtr ctx);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_vmc_write_pose(IntPtr pose, double time, float metresPerUnit, [Out] byte[] buffer, UIntPtr capacity, out UIntPtr size);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_vmc_reader_create(ContextHandle ctx, uint maxPacketBytes, out VmcReaderHandle reader);
+        [DllImport(Lib, CallingConvention = CC)] public static extern void kata_vmc_reader_destroy(IntPtr reader);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_vmc_reader_read(VmcReaderHandle reader, byte[] packet, UIntPtr size, double arrivalTime, out int frame);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_vmc_reader_positions(VmcReaderHandle reader, [Out] float[] positions, UIntPtr capacity, out double captureTime);
+        [DllImport(Lib, CallingConvention = CC)] public static extern Status kata_vmc_reader_get_counters(VmcReaderHandle reader, ref VmcCounters counters);
+        [DllImport(Lib, CallingConvention = CC)] public static extern IntPtr kata_vmc_reader_last_error(VmcReaderHandle reader);
 
         // the people tracker, kata/people.h
         [DllImport(Lib, CallingConvention = CC)] public static extern void kata_people_desc_init_sized(ref PeopleDesc desc, uint structSize);
@@ -518,6 +536,7 @@ namespace Kata
     public sealed class RetargeterHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_retargeter_destroy(h); } }
     public sealed class HumanoidRigHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_humanoid_rig_destroy(h); } }
     public sealed class PeopleHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_people_destroy(h); } }
+    public sealed class VmcReaderHandle : KataHandle { protected override void Destroy(IntPtr h) { Native.kata_vmc_reader_destroy(h); } }
 
     // ---- objects ------------------------------------------------------------------------------------------
 
@@ -700,6 +719,15 @@ namespace Kata
                 return new HumanoidRig(Check(s, h, "kata_humanoid_rig_create"));
             }
             finally { pin.Free(); }
+        }
+
+        // kata_vmc_reader_create: datagrams above maxPacketBytes (0: VmcReader.DefaultMaxPacket; at most 1 MiB)
+        // are counted as oversized.
+        public VmcReader CreateVmcReader(uint maxPacketBytes = 0)
+        {
+            VmcReaderHandle h;
+            Status s = Native.kata_vmc_reader_create(Handle, maxPacketBytes, out h);
+            return new VmcReader(Check(s, h, "kata_vmc_reader_create"));
         }
 
         // kata_humanoid_rig_create_for_stream: the stream's skeleton, layout and axes, and its ghost (attach
@@ -1094,6 +1122,78 @@ namespace Kata
             Status s = Native.kata_humanoid_rig_rest_pose(Handle, (int)frame, pose);
             if (s != Status.Ok) Throw(s, "kata_humanoid_rig_rest_pose");
             return Read(null);
+        }
+
+        // kata_vmc_write_pose: `p` (a pose of any rig) as one VMC bundle into buffer, for the caller to send as
+        // one UDP datagram; returns its size in bytes. Its timetag the wall clock now; /VMC/Ext/Root/Pos,
+        // /VMC/Ext/Bone/Pos per placed bone in Unity's frame (a RightHanded pose is mirrored), /VMC/Ext/OK 1,
+        // /VMC/Ext/T `time` (seconds, the caller's clock). metresPerUnit scales positions (1 for a rig's poses).
+        // A buffer of 2048 bytes holds every bone; a smaller one throws BufferTooSmall with the size needed.
+        // Allocates nothing in C# (the pose crosses through the rig's buffer; liblo allocates inside).
+        public int WriteVmc(HumanoidPose p, double time, byte[] buffer, float metresPerUnit = 1.0f)
+        {
+            Begin();
+            Marshal.WriteInt32(pose, 4, (int)p.Placed);
+            Marshal.WriteInt32(pose, 8, (int)p.Frame);
+            Marshal.WriteInt32(pose, DegenerateAt, (int)p.Degenerate);
+            Marshal.WriteInt32(pose, DegenerateAt + 4, 0);
+            Marshal.Copy(p.HipsPosition, 0, pose + HipsAt, 3);
+            Marshal.Copy(p.Rotation, 0, pose + RotationAt, 4 * HumanoidPose.BoneCount);
+            Marshal.Copy(p.Offset, 0, pose + OffsetAt, 3 * HumanoidPose.BoneCount);
+            UIntPtr size;
+            Status s = Native.kata_vmc_write_pose(pose, time, metresPerUnit, buffer, (UIntPtr)(buffer == null ? 0 : buffer.Length), out size);
+            if (s == Status.BufferTooSmall)
+                throw new KataException(s, "the bundle needs " + size + " bytes", "kata_vmc_write_pose");
+            if (s != Status.Ok) throw new KataException(s, Native.FromUtf8(Native.kata_thread_last_error(IntPtr.Zero)), "kata_vmc_write_pose");
+            return (int)size;
+        }
+    }
+
+    // A VMC performer's datagrams into the joints of the "vrm" layout (kata_vmc_reader; kata/vmc.h); one thread
+    // at a time. Bad input is never an error: it is counted (Counters) and changes nothing.
+    public sealed class VmcReader : IDisposable
+    {
+        public const int Joints = 22;               // KATA_VMC_JOINTS: the "vrm" layout's
+        public const int DefaultPort = 39539;        // KATA_VMC_PORT
+        public const int DefaultMaxPacket = 65536;   // KATA_VMC_DEFAULT_MAX_PACKET
+        public readonly VmcReaderHandle Handle;
+        internal VmcReader(VmcReaderHandle h) { Handle = h; }
+        public void Dispose() { Handle.Dispose(); }
+        private void Throw(Status s, string call) { throw new KataException(s, Native.FromUtf8(Native.kata_vmc_reader_last_error(Handle)), call); }
+
+        // kata_vmc_reader_read: one datagram (the first `length` bytes of packet, as received); true when it
+        // ended a frame (then read it with Positions). arrivalTime: seconds on the caller's clock, the frame's
+        // time when the datagram carries neither /VMC/Ext/T nor a bundle timetag.
+        public bool Read(byte[] packet, int length, double arrivalTime = 0.0)
+        {
+            if (packet == null || length < 0 || length > packet.Length) throw new ArgumentException("length must be within packet");
+            int frame;
+            Status s = Native.kata_vmc_reader_read(Handle, packet, (UIntPtr)length, arrivalTime, out frame);
+            if (s != Status.Ok) Throw(s, "kata_vmc_reader_read");
+            return frame != 0;
+        }
+
+        // kata_vmc_reader_positions: the newest frame's joints (Joints x 3 floats into `into`, metres, kata's
+        // right-handed frame: Unity's x negated) and its time; false before the first frame.
+        public bool Positions(float[] into, out double captureTime)
+        {
+            Status s = Native.kata_vmc_reader_positions(Handle, into, (UIntPtr)(into == null ? 0 : into.Length), out captureTime);
+            if (s == Status.NoData) return false;
+            if (s != Status.Ok) Throw(s, "kata_vmc_reader_positions");
+            return true;
+        }
+
+        // kata_vmc_reader_get_counters.
+        public VmcCounters Counters
+        {
+            get
+            {
+                VmcCounters c = new VmcCounters();
+                c.StructSize = (uint)Marshal.SizeOf(typeof(VmcCounters));
+                Status s = Native.kata_vmc_reader_get_counters(Handle, ref c);
+                if (s != Status.Ok) Throw(s, "kata_vmc_reader_get_counters");
+                return c;
+            }
         }
     }
 

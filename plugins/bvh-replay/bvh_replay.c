@@ -12,6 +12,7 @@
 
 #include "kata/kata.h"
 #include "kata/kata_plugin.h"
+#include "plugin_config.h"
 
 typedef struct replay {
   const kata_plugin_host* host;
@@ -29,24 +30,6 @@ typedef struct replay {
   atomic_int stop;
   int running;
 } replay;
-
-static int config_value(const char* config, const char* key, char* out, size_t capacity) {
-  const size_t key_length = strlen(key);
-  const char* p = config;
-  while (p && *p) {
-    const char* end = strchr(p, ';');
-    const size_t length = end ? (size_t)(end - p) : strlen(p);
-    if (length > key_length && strncmp(p, key, key_length) == 0 && p[key_length] == '=') {
-      size_t n = length - key_length - 1;
-      if (n >= capacity) n = capacity - 1;
-      memcpy(out, p + key_length + 1, n);
-      out[n] = '\0';
-      return 1;
-    }
-    p = end ? end + 1 : NULL;
-  }
-  return 0;
-}
 
 static void free_replay(replay* r) {
   uint32_t i;
@@ -72,15 +55,15 @@ static void* activate(const kata_plugin_host* host, const char* config, char* er
   r->host = host;
   r->loops = 1;
   strcpy(r->preset, "cmu");
-  if (!config_value(config, "path", path, sizeof path)) {
+  if (!plugin_config_value(config, "path", path, sizeof path)) {
     snprintf(error, capacity, "bvh-replay: config needs path=CLIP.bvh");
     goto fail;
   }
-  if (config_value(config, "stream", value, sizeof value)) r->stream_id = strtoull(value, NULL, 10);
-  if (config_value(config, "speed", value, sizeof value)) speed = atof(value);
-  if (config_value(config, "loops", value, sizeof value)) r->loops = atoi(value);
-  if (config_value(config, "first_frame", value, sizeof value)) first = (uint32_t)atoi(value);
-  config_value(config, "preset", r->preset, sizeof r->preset);
+  if (plugin_config_value(config, "stream", value, sizeof value)) r->stream_id = strtoull(value, NULL, 10);
+  if (plugin_config_value(config, "speed", value, sizeof value)) speed = atof(value);
+  if (plugin_config_value(config, "loops", value, sizeof value)) r->loops = atoi(value);
+  if (plugin_config_value(config, "first_frame", value, sizeof value)) first = (uint32_t)atoi(value);
+  plugin_config_value(config, "preset", r->preset, sizeof r->preset);
   if (!(speed > 0.0) || r->loops < 1) {
     snprintf(error, capacity, "bvh-replay: speed must be > 0 and loops >= 1");
     goto fail;

@@ -9,36 +9,18 @@
 #include <string.h>
 
 #include "kata/kata_plugin.h"
+#include "plugin_config.h"
 
 typedef struct csv_sink {
   FILE* file;
   char* buffer; /* stdio buffer, allocated at activate: rows are written without allocating */
 } csv_sink;
 
-/* Copies the value of `key` from "k=v;k=v" into out (terminated); 0 when absent. */
-static int config_value(const char* config, const char* key, char* out, size_t capacity) {
-  const size_t key_length = strlen(key);
-  const char* p = config;
-  while (p && *p) {
-    const char* end = strchr(p, ';');
-    const size_t length = end ? (size_t)(end - p) : strlen(p);
-    if (length > key_length && strncmp(p, key, key_length) == 0 && p[key_length] == '=') {
-      size_t n = length - key_length - 1;
-      if (n >= capacity) n = capacity - 1;
-      memcpy(out, p + key_length + 1, n);
-      out[n] = '\0';
-      return 1;
-    }
-    p = end ? end + 1 : NULL;
-  }
-  return 0;
-}
-
 static void* activate(const kata_plugin_host* host, const char* config, char* error, size_t capacity) {
   char path[4096];
   csv_sink* s;
   (void)host;
-  if (!config_value(config ? config : "", "path", path, sizeof path)) {
+  if (!plugin_config_value(config ? config : "", "path", path, sizeof path)) {
     snprintf(error, capacity, "csv-sink: config needs path=FILE");
     return NULL;
   }

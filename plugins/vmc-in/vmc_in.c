@@ -2,7 +2,7 @@
  * source. Listens for the VMC protocol (OSC over UDP, kata/vmc.h) and pushes each frame it reads
  * as the joints of the "vrm" layout (22 VRM humanoid bones, metres), scored, retargeted and
  * published like any other stream.
- * Config: "port=39539;bind=127.0.0.1;stream=ID;max_packet=65536;max_rate=250".
+ * Config: "port=39539;bind=127.0.0.1;stream=ID;max_packet=65536;max_rate=250;max_datagrams=16000".
  *   port        UDP port (default 39539, the protocol's)
  *   bind        address to listen on (default 127.0.0.1: this host only; 0.0.0.0 for every
  *               interface: a tracker on another machine)
@@ -12,10 +12,15 @@
  *               second's worth pass): a sender faster than this (a flood) has its extra frames
  *               counted and not pushed, so it cannot crowd the runtime's other streams; the newest
  *               pose goes with the next frame pushed
+ *   max_datagrams datagrams read per second at most, on average (default 64 x max_rate; bursts of
+ *               a tenth of a second's worth pass): beyond it a datagram is taken off the socket
+ *               unread and counted (over_budget), so a flood costs the receiving thread a recv
+ *               per datagram, not a parse, and leaves the CPU to the runtime's streams
  * On stop it logs what it counted: datagrams, frames pushed, and each cause of a refusal
- * (kata_vmc_counters), frames over max_rate, frames the runtime's queue refused.
+ * (kata_vmc_counters), datagrams over max_datagrams, frames over max_rate, frames the runtime's
+ * queue refused.
  * Public headers only: kata_plugin.h, and kata.h for the VMC reader. */
-#define _POSIX_C_SOURCE 200809L
+#define _GNU_SOURCE /* recvmmsg */
 #include <arpa/inet.h>
 #include <errno.h>
 #include <netinet/in.h>
@@ -31,6 +36,7 @@
 
 #include "kata/kata.h"
 #include "kata/kata_plugin.h"
+#include "plugin_config.h"
 
 typedef struct vmc_in {
   const kata_plugin_host* host;
@@ -40,6 +46,8 @@ typedef struct vmc_in {
   uint32_t max_packet;
   double max_rate;     /* frames pushed per second at most, on average (a token bucket) */
   double burst;        /* frames pushed at once at most (a tenth of a second's worth, at least 2) */
+  double max_datagrams; /* datagrams read per second at most, on average (a token bucket) */
+  double datagram_burst; /* datagrams read at once at most (a tenth of a second's worth, at least 16) */
   kata_context context;
   kata_vmc_reader reader;
   kata_skeleton skeleton;
@@ -50,26 +58,8 @@ typedef struct vmc_in {
   pthread_t thread;
   atomic_int stop;
   int running;
-  uint64_t pushed, over_rate, push_refused, sequence;
+  uint64_t pushed, over_rate, push_refused, over_budget, sequence;
 } vmc_in;
-
-static int config_value(const char* config, const char* key, char* out, size_t capacity) {
-  const size_t key_length = strlen(key);
-  const char* p = config;
-  while (p && *p) {
-    const char* end = strchr(p, ';');
-    const size_t length = end ? (size_t)(end - p) : strlen(p);
-    if (length > key_length && strncmp(p, key, key_length) == 0 && p[key_length] == '=') {
-      size_t n = length - key_length - 1;
-      if (n >= capacity) n = capacity - 1;
-      memcpy(out, p + key_length + 1, n);
-      out[n] = '\0';
-      return 1;
-    }
-    p = end ? end + 1 : NULL;
-  }
-  return 0;
-}
 
 static double now_seconds(void) {
   struct timespec ts;
@@ -90,7 +80,7 @@ static void free_vmc_in(vmc_in* v) {
 static void* activate(const kata_plugin_host* host, const char* config, char* error, size_t capacity) {
   char value[64];
   struct sockaddr_in address;
-  double max_rate = 250.0;
+  double max_rate = 250.0, max_datagrams = 0.0;
   uint32_t i;
   int size = 4 << 20;
   vmc_in* v = (vmc_in*)calloc(1, sizeof *v);
@@ -100,17 +90,22 @@ static void* activate(const kata_plugin_host* host, const char* config, char* er
   v->port = KATA_VMC_PORT;
   v->max_packet = KATA_VMC_DEFAULT_MAX_PACKET;
   strcpy(v->bind, "127.0.0.1");
-  config_value(config, "bind", v->bind, sizeof v->bind);
-  if (config_value(config, "port", value, sizeof value)) v->port = atoi(value);
-  if (config_value(config, "stream", value, sizeof value)) v->stream_id = strtoull(value, NULL, 10);
-  if (config_value(config, "max_packet", value, sizeof value)) v->max_packet = (uint32_t)strtoul(value, NULL, 10);
-  if (config_value(config, "max_rate", value, sizeof value)) max_rate = atof(value);
-  if (v->port < 1 || v->port > 65535 || !(max_rate > 0.0) || v->max_packet < 16 || v->max_packet > (1u << 20)) {
-    snprintf(error, capacity, "vmc-in: port must be 1..65535, max_rate > 0, max_packet 16..1048576");
+  plugin_config_value(config, "bind", v->bind, sizeof v->bind);
+  if (plugin_config_value(config, "port", value, sizeof value)) v->port = atoi(value);
+  if (plugin_config_value(config, "stream", value, sizeof value)) v->stream_id = strtoull(value, NULL, 10);
+  if (plugin_config_value(config, "max_packet", value, sizeof value)) v->max_packet = (uint32_t)strtoul(value, NULL, 10);
+  if (plugin_config_value(config, "max_rate", value, sizeof value)) max_rate = atof(value);
+  if (plugin_config_value(config, "max_datagrams", value, sizeof value)) max_datagrams = atof(value);
+  else max_datagrams = 64.0 * max_rate;
+  if (v->port < 1 || v->port > 65535 || !(max_rate > 0.0) || !(max_datagrams >= max_rate) || v->max_packet < 16 ||
+      v->max_packet > (1u << 20)) {
+    snprintf(error, capacity, "vmc-in: port must be 1..65535, max_rate > 0, max_datagrams >= max_rate, max_packet 16..1048576");
     goto fail;
   }
   v->max_rate = max_rate;
   v->burst = max_rate / 10.0 < 2.0 ? 2.0 : max_rate / 10.0;
+  v->max_datagrams = max_datagrams;
+  v->datagram_burst = max_datagrams / 10.0 < 16.0 ? 16.0 : max_datagrams / 10.0;
   if (kata_context_create(&v->context) != KATA_OK ||
       kata_vmc_reader_create(v->context, v->max_packet, &v->reader) != KATA_OK ||
       kata_skeleton_create_layout(v->context, "vrm", &v->skeleton) != KATA_OK) {
@@ -148,6 +143,7 @@ static void* receive(void* arg) {
   vmc_in* v = (vmc_in*)arg;
   float xyz[3 * KATA_VMC_JOINTS];
   double tokens = v->burst, last = now_seconds();
+  double datagram_tokens = v->datagram_burst, datagram_last = last;
   struct pollfd p;
   p.fd = v->fd;
   p.events = POLLIN;
@@ -155,11 +151,32 @@ static void* receive(void* arg) {
     if (poll(&p, 1, 50) <= 0) continue;
     for (;;) { /* every datagram waiting, then poll again */
       int32_t frame = 0;
-      double t = 0.0, arrival;
+      double t = 0.0, arrival = now_seconds();
+      ssize_t n;
+      datagram_tokens += (arrival - datagram_last) * v->max_datagrams; /* refills at max_datagrams */
+      if (datagram_tokens > v->datagram_burst) datagram_tokens = v->datagram_burst;
+      datagram_last = arrival;
+      if (datagram_tokens < 1.0) { /* over the budget: taken off the socket unread, 64 a call */
+        unsigned char scratch[64];
+        struct iovec io[64];
+        struct mmsghdr m[64];
+        int k, got;
+        memset(m, 0, sizeof m);
+        for (k = 0; k < 64; ++k) {
+          io[k].iov_base = &scratch[k];
+          io[k].iov_len = 1;
+          m[k].msg_hdr.msg_iov = &io[k];
+          m[k].msg_hdr.msg_iovlen = 1;
+        }
+        got = recvmmsg(v->fd, m, 64, MSG_DONTWAIT, NULL);
+        if (got <= 0) break;
+        v->over_budget += (uint64_t)got;
+        continue;
+      }
       /* MSG_TRUNC: the datagram's real length, so an oversized one is seen as such. */
-      const ssize_t n = recv(v->fd, v->buffer, (size_t)v->max_packet + 1, MSG_DONTWAIT | MSG_TRUNC);
+      n = recv(v->fd, v->buffer, (size_t)v->max_packet + 1, MSG_DONTWAIT | MSG_TRUNC);
       if (n < 0) break;
-      arrival = now_seconds();
+      datagram_tokens -= 1.0;
       kata_vmc_reader_read(v->reader, v->buffer, (size_t)n, arrival, &frame);
       if (!frame || kata_vmc_reader_positions(v->reader, xyz, 3 * KATA_VMC_JOINTS, &t) != KATA_OK) continue;
       tokens += (arrival - last) * v->max_rate; /* the bucket refills at max_rate, up to burst */
@@ -194,7 +211,7 @@ static int32_t start(void* instance) {
 static void stop(void* instance) {
   vmc_in* v = (vmc_in*)instance;
   kata_vmc_counters c;
-  char line[512];
+  char line[640];
   if (!v->running) return;
   atomic_store(&v->stop, 1);
   pthread_join(v->thread, NULL);
@@ -204,11 +221,11 @@ static void stop(void* instance) {
   kata_vmc_reader_get_counters(v->reader, &c);
   snprintf(line, sizeof line,
            "vmc-in: stream %llu on %s:%d: packets %llu, frames %llu, pushed %llu, over_rate %llu, push_refused %llu, "
-           "malformed %llu, oversized %llu, wrong_type %llu, unknown_bone %llu, bad_value %llu, out_of_order %llu, "
+           "over_budget %llu, malformed %llu, oversized %llu, wrong_type %llu, unknown_bone %llu, bad_value %llu, out_of_order %llu, "
            "ignored %llu",
            (unsigned long long)v->stream_id, v->bind, v->port, (unsigned long long)c.packets,
            (unsigned long long)c.frames, (unsigned long long)v->pushed, (unsigned long long)v->over_rate,
-           (unsigned long long)v->push_refused, (unsigned long long)c.malformed, (unsigned long long)c.oversized,
+           (unsigned long long)v->push_refused, (unsigned long long)v->over_budget, (unsigned long long)c.malformed, (unsigned long long)c.oversized,
            (unsigned long long)c.wrong_type, (unsigned long long)c.unknown_bone, (unsigned long long)c.bad_value,
            (unsigned long long)c.out_of_order, (unsigned long long)c.ignored);
   v->host->log(v->host->host_data, line);
@@ -216,7 +233,7 @@ static void stop(void* instance) {
 
 static const kata_plugin table = {KATA_PLUGIN_ABI_VERSION, sizeof(kata_plugin), "vmc-in",
                                   "a VMC performer (OSC over UDP) as a live stream of the vrm layout "
-                                  "(config: port=39539;bind=127.0.0.1;stream=ID;max_packet;max_rate)",
+                                  "(config: port=39539;bind=127.0.0.1;stream=ID;max_packet;max_rate;max_datagrams)",
                                   KATA_PLUGIN_SOURCE, activate, deactivate, start, stop, NULL, NULL};
 
 KATA_PLUGIN_EXPORT const kata_plugin* kata_plugin_entry(void) { return &table; }

@@ -45,6 +45,10 @@
 //   [[plugins]]                                # any number: sources and sinks (kata_plugin.h)
 //   path = "build/plugins/csv-sink.so"
 //   config = "path=scores.csv"
+//   [vmc]                                      # optional: streams as VMC performers (docs/vmc.md)
+//   rate = 60                                  # bundles a second per performer at most (0: every frame)
+//   [vmc.streams]                              # per stream id: its ghost and / or its student, each
+//   "7" = { ghost = "127.0.0.1:39539", student = "127.0.0.1:39540" }  # to a VMC receiver
 //   [transport]                                # optional: frames and results over a NATS cluster
 //   kind = "nats"                              #   instead of [ingest] endpoints and [publish]
 //   servers = ["nats://10.0.0.1:4222", "nats://10.0.0.2:4222"]  # or "nats://10.0.0.1:4222,nats://..."
@@ -70,6 +74,7 @@
 
 #include <zmq.h>
 
+#include "coach/vmc_out.hpp"
 #include "data_files.hpp"
 #include "command.hpp"
 #include "failure.hpp"
@@ -219,6 +224,7 @@ struct StreamSetup {
   const ServeConfig* config = nullptr;
   const std::map<std::string, kata_teacher>* teachers = nullptr;
   bool scoring = false;  // a model: streams are scored against their teacher
+  kata::coach::VmcStreams* vmc = nullptr;  // [vmc]: each listed stream's rig, once it opens
   const TeacherSource& teacher_of(uint64_t id) const {
     const auto it = config->teachers.find(id);
     return it != config->teachers.end() ? it->second : config->default_teacher;
@@ -256,8 +262,7 @@ Rows rows_for(const kata::serve::Practice& p, const TeacherSource& t, kata_teach
 
 // Each stream a definition opens: its teacher (shared, built at start) with a ghost when the
 // definition has a rest pose, and its practice section; on the runtime's I/O thread.
-kata_status on_stream_open(void* user, const kata_stream_open_info* info, kata_stream stream) {
-  const StreamSetup& s = *static_cast<const StreamSetup*>(user);
+kata_status attach_teacher(const StreamSetup& s, const kata_stream_open_info* info, kata_stream stream) {
   if (!s.scoring) return KATA_OK;  // no model: features only, and nothing to say per stream
   const TeacherSource& source = s.teacher_of(info->stream_id);
   const std::string& path = source.path;
@@ -277,18 +282,68 @@ kata_status on_stream_open(void* user, const kata_stream_open_info* info, kata_s
   return KATA_OK;
 }
 
+// ... then, for a stream [vmc] sends, its humanoid rig (after the teacher: the rig reads its ghosts).
+kata_status on_stream_open(void* user, const kata_stream_open_info* info, kata_stream stream) {
+  const StreamSetup& s = *static_cast<const StreamSetup*>(user);
+  if (const kata_status status = attach_teacher(s, info, stream)) return status;
+  if (s.vmc) s.vmc->open(info->stream_id, stream);
+  return KATA_OK;
+}
+
+// What the runtime hands over inside the process: every result (to NATS, and each ghost to [vmc])
+// and, for [vmc], every student frame queued. Never blocks (VmcStreams copies into its ring).
+struct InProcess {
+#ifdef KATA_HAVE_NATS
+  kata::transport::nats::ServeBridge* nats = nullptr;
+#endif
+  kata::coach::VmcStreams* vmc = nullptr;
+};
+void on_result(void* user, const kata_result_record* r) {
+  const InProcess& p = *static_cast<const InProcess*>(user);
+#ifdef KATA_HAVE_NATS
+  if (p.nats) p.nats->publish(*r);
+#endif
+  if (p.vmc && r->ghost) p.vmc->offer_ghost(r->stream_id, r->capture_time, r->ghost, r->ghost_joint_count);
+}
+#ifdef KATA_HAVE_NATS
+void on_repetition(void* user, const kata_repetition* repetition) {
+  const InProcess& p = *static_cast<const InProcess*>(user);
+  if (p.nats) p.nats->publish_repetition(*repetition);
+}
+#endif
+void on_frame(void* user, uint64_t stream_id, uint64_t, double capture_time, const float* xyz, uint32_t joints) {
+  static_cast<kata::coach::VmcStreams*>(user)->offer_student(stream_id, capture_time, xyz, joints);
+}
+
+// [vmc]'s figures at the stop: a line on stderr per stream, and for --counters a JSON member.
+std::string vmc_report(kata::coach::VmcStreams& vmc) {
+  vmc.close();  // what is in its ring is sent first
+  std::string json = ",\n \"vmc\": {";
+  const char* sep = "";
+  for (const auto& c : vmc.counters()) {
+    std::fprintf(stderr, "kata serve: vmc stream %llu: %llu offered, %llu bundles sent, %llu sends failed, %llu thinned "
+                         "to the rate, %llu dropped (queue full), %llu not posed\n",
+                 static_cast<unsigned long long>(c.stream_id), static_cast<unsigned long long>(c.offered),
+                 static_cast<unsigned long long>(c.sent), static_cast<unsigned long long>(c.send_failed),
+                 static_cast<unsigned long long>(c.thinned), static_cast<unsigned long long>(c.dropped),
+                 static_cast<unsigned long long>(c.pose_failed));
+    char one[320];
+    std::snprintf(one, sizeof one,
+                  "%s\"%llu\": {\"offered\": %llu, \"sent\": %llu, \"send_failed\": %llu, \"thinned\": %llu, "
+                  "\"dropped\": %llu, \"pose_failed\": %llu}",
+                  sep, static_cast<unsigned long long>(c.stream_id), static_cast<unsigned long long>(c.offered),
+                  static_cast<unsigned long long>(c.sent), static_cast<unsigned long long>(c.send_failed),
+                  static_cast<unsigned long long>(c.thinned), static_cast<unsigned long long>(c.dropped),
+                  static_cast<unsigned long long>(c.pose_failed));
+    json += one;
+    sep = ", ";
+  }
+  return json + "}";
+}
+
 void progress_of(void* user, uint32_t done, uint32_t frames) {
   (*static_cast<kata::tools::LoadProgress*>(user))(static_cast<int>(done), static_cast<int>(frames));
 }
-
-#ifdef KATA_HAVE_NATS
-void publish_on_nats(void* user, const kata_result_record* record) {
-  static_cast<kata::transport::nats::ServeBridge*>(user)->publish(*record);
-}
-void publish_repetition_on_nats(void* user, const kata_repetition* repetition) {
-  static_cast<kata::transport::nats::ServeBridge*>(user)->publish_repetition(*repetition);
-}
-#endif
 
 void run_serve(const std::string& file, const std::string& counters_path) {
   ServeConfig config = parse_config(file);
@@ -302,6 +357,9 @@ void run_serve(const std::string& file, const std::string& counters_path) {
       setrlimit(RLIMIT_NOFILE, &limit);
     }
   }
+  // [vmc]: declared before the handles, so it outlives the runtime that calls it.
+  std::unique_ptr<kata::coach::VmcStreams> vmc;
+  InProcess in_process;
   Handles h;
   if (kata_context_create(&h.context) != KATA_OK) fail("serve: cannot create a kata context");
   if (!config.model.empty() && kata_model_load(h.context, config.model.c_str(), &h.model) != KATA_OK)
@@ -368,6 +426,22 @@ void run_serve(const std::string& file, const std::string& counters_path) {
   rd.sequence_window = rs.sequence_window;
   rd.on_stream_open = on_stream_open;
   rd.on_stream_open_user = &setup;
+  if (!config.vmc.empty()) {
+    std::vector<kata::coach::VmcStreamTarget> targets;
+    for (const kata::serve::VmcStream& v : config.vmc)
+      targets.push_back({v.stream_id, v.ghost, v.student, v.rate, v.where});
+    vmc = std::make_unique<kata::coach::VmcStreams>(targets, rd.max_joints);
+    setup.vmc = vmc.get();
+    in_process.vmc = vmc.get();
+    rd.on_result = on_result;
+    rd.on_result_user = &in_process;
+    rd.on_frame = on_frame;
+    rd.on_frame_user = vmc.get();
+    for (const kata::serve::VmcStream& v : config.vmc)
+      std::fprintf(stderr, "kata serve: vmc: stream %llu%s%s%s%s\n", static_cast<unsigned long long>(v.stream_id),
+                   v.ghost.empty() ? "" : ", its ghost to ", v.ghost.c_str(), v.student.empty() ? "" : ", its student to ",
+                   v.student.c_str());
+  }
   if (h.model) rd.stream_stencil = kata_model_stencil(h.model);
   // Plugins: hosted by the runtime; every refusal names its file.
   std::vector<kata_runtime_plugin> plugins;
@@ -409,9 +483,10 @@ void run_serve(const std::string& file, const std::string& counters_path) {
     nats = std::make_unique<kata::transport::nats::ServeBridge>(so);
     rd.ingest_endpoints = nullptr;
     rd.direct_ingest = 1;
-    rd.on_result = publish_on_nats;
-    rd.on_repetition = publish_repetition_on_nats;  // on the results' subject, as ZeroMQ's publisher
-    rd.on_result_user = nats.get();
+    in_process.nats = nats.get();
+    rd.on_result = on_result;
+    rd.on_repetition = on_repetition;  // on the results' subject, as ZeroMQ's publisher
+    rd.on_result_user = &in_process;
   }
 #else
   if (config.nats.enabled) fail("serve: [transport] kind = \"nats\": this kata was built without libnats");
@@ -521,8 +596,9 @@ void run_serve(const std::string& file, const std::string& counters_path) {
   }
   // Stops the source plugins, finishes queued frames, sends every result, flushes the sink plugins.
   if (kata_runtime_stop(runtime) != KATA_OK) fail(kata_context_last_error(h.context));
+  std::string counters_more;  // --counters: [vmc]'s figures; on NATS, each partition's pauses and why
+  if (vmc) counters_more += vmc_report(*vmc);
 #ifdef KATA_HAVE_NATS
-  std::string counters_more;  // --counters: on NATS, each partition's pauses and why
   if (nats) {
     const auto sc = nats->shard()->counters();
     const auto pauses = nats->shard()->leases().pauses();
@@ -544,7 +620,7 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                  static_cast<unsigned long long>(sc.leases.paused), static_cast<unsigned long long>(sc.reconnects));
     // How long each partition went without results from here, and why (lease lapsed, election, moved).
     std::fprintf(stderr, "kata serve: NATS partition pauses: %s\n", kata::transport::nats::describe_pauses(pauses).c_str());
-    counters_more = ",\n \"nats_partitions\": " + kata::transport::nats::pauses_json(pauses);
+    counters_more += ",\n \"nats_partitions\": " + kata::transport::nats::pauses_json(pauses);
   }
 #endif
   const kata_runtime_counters c = counters_of(runtime);
@@ -573,11 +649,7 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                static_cast<unsigned long long>(c.queue_full + c.result_queue_full + c.send_failed),
                static_cast<unsigned long long>(c.ingest_connections), static_cast<unsigned long long>(c.ingest_connections_refused),
                static_cast<unsigned long long>(c.ingest_handshake_failures));
-#ifdef KATA_HAVE_NATS
   if (!counters_path.empty()) write_counters(counters_path, runtime, counters_more);
-#else
-  if (!counters_path.empty()) write_counters(counters_path, runtime);
-#endif
 }
 
 void setup(CLI::App& app) {

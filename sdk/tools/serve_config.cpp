@@ -12,6 +12,7 @@
 
 #include <toml++/toml.h>
 
+#include "coach/vmc_out.hpp"  // parse_vmc_target (inline)
 #include "common/quote.hpp"  // bounded, closest_name: std-only, shared with the core
 #include "data_files.hpp"
 #include "failure.hpp"
@@ -166,7 +167,7 @@ std::string read_tolerance(const std::string& file, const toml::table& table) {
 }  // namespace
 
 ServeConfig parse_root(const std::string& file, const toml::table& root) {
-  check_keys(file, root, {"ingest", "publish", "runtime", "scoring", "status", "plugins", "shard", "security", "transport"},
+  check_keys(file, root, {"ingest", "publish", "runtime", "scoring", "status", "plugins", "shard", "security", "transport", "vmc"},
              "top level");
   const std::filesystem::path base = std::filesystem::path(file).parent_path();
   // Key files and directories: relative paths from the config file's directory.
@@ -466,6 +467,47 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
       const std::string path = read<std::string>(file, *t, "path", "");
       if (path.empty()) refuse(file, e.source(), "a plugin needs path");
       c.plugins.push_back({resolve_plugin(*t->get("path"), path), read<std::string>(file, *t, "config", "")});
+    }
+  }
+  // [vmc]: streams sent as VMC performers (docs/vmc.md). Targets are checked here (HOST:PORT);
+  // names are resolved at start.
+  const toml::table& vmc = section(file, root, "vmc", false);
+  check_keys(file, vmc, {"rate", "streams"}, "vmc");
+  auto read_rate = [&](const toml::table& t, double fallback) {
+    const toml::node* n = t.get("rate");
+    if (!n) return fallback;
+    const double v = read<double>(file, t, "rate", fallback);
+    if (!(v >= 0.0 && v <= 1000.0))
+      refuse(file, n->source(), "'rate' must be 0..1000 (bundles a second per performer; 0: every frame)");
+    return v;
+  };
+  const double vmc_rate = read_rate(vmc, 0.0);
+  if (const toml::node* t = vmc.get("streams")) {
+    if (!t->is_table()) refuse(file, t->source(), "[vmc.streams] must be a table: \"ID\" = { ghost = \"HOST:PORT\" }");
+    for (const auto& [key, node] : *t->as_table()) {
+      const toml::table* one = node.as_table();
+      if (!one)
+        refuse(file, node.source(), "a [vmc.streams] entry is a table: { ghost = \"HOST:PORT\", student = \"HOST:PORT\" }");
+      check_keys(file, *one, {"ghost", "student", "rate"}, "vmc.streams");
+      char* end = nullptr;
+      const std::string id_text(key.str());
+      const unsigned long long id = std::strtoull(id_text.c_str(), &end, 10);
+      if (id_text.empty() || *end) refuse(file, node.source(), "[vmc.streams] keys are stream ids (decimal)");
+      VmcStream v;
+      v.stream_id = id;
+      v.where = file + ":" + std::to_string(node.source().begin.line);
+      for (const char* performer : {"ghost", "student"}) {
+        const std::string target = read<std::string>(file, *one, performer, "");
+        std::string host, why;
+        int port = 0;
+        if (one->get(performer) && !coach::parse_vmc_target(target, &host, &port, &why))
+          refuse(file, one->get(performer)->source(), std::string("'") + performer + "': " + why);
+        (std::string(performer) == "ghost" ? v.ghost : v.student) = target;
+      }
+      if (v.ghost.empty() && v.student.empty())
+        refuse(file, node.source(), "stream " + id_text + " in [vmc.streams] sends nothing: give ghost and / or student");
+      v.rate = read_rate(*one, vmc_rate);
+      c.vmc.push_back(v);
     }
   }
   const toml::table& status = section(file, root, "status", false);

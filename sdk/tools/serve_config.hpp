@@ -68,6 +68,14 @@ struct RuntimeSettings {
   std::string key_file, client_keys_dir, ingest_server_key_file, publish_server_key_file;
 };
 
+// [vmc] (docs/vmc.md, "kata serve"): a stream's ghost and / or student sent as VMC performers.
+struct VmcStream {
+  uint64_t stream_id = 0;
+  std::string ghost, student;  // "HOST:PORT" (checked), "" : not sent
+  double rate = 0.0;           // bundles a second per performer at most; 0: every frame
+  std::string where;           // "FILE:LINE" of the stream's entry
+};
+
 struct ServeConfig {
   NatsTransport nats;
   RuntimeSettings runtime;
@@ -84,6 +92,7 @@ struct ServeConfig {
     std::string path, config;
   };
   std::vector<Plugin> plugins;
+  std::vector<VmcStream> vmc;        // [vmc.streams], by stream id
   bool insecure = false;              // [security] insecure = true
   std::vector<std::string> warnings;  // printed at start (an insecure endpoint beyond this host)
   // Where the ingest's kind is set ("FILE:LINE: kind = \"pull\""), or that it is the default:

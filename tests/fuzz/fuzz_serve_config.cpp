@@ -2,7 +2,7 @@
 // (sdk/tools/serve_config.cpp), which checks everything before anything starts.
 // Asserts: only the CLI's refusal (kata::cli::Failure) escapes, and it names the file and a line
 // ("fuzz.toml:N: ..."); an accepted config has ingest and publish endpoints, 1..64 workers and a
-// shard index below its count.
+// shard index below its count, and each [vmc] stream sends a performer at a rate in 0..1000.
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -20,6 +20,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     if (r.ingest_endpoints.empty() || r.publish_endpoints.empty()) std::abort();
     if (r.workers < 1 || r.workers > 64) std::abort();
     if (r.shard_count < 1 || r.shard_index >= r.shard_count) std::abort();
+    for (const auto& v : c.vmc)  // [vmc]: each stream sends something, at a rate in 0..1000
+      if ((v.ghost.empty() && v.student.empty()) || !(v.rate >= 0.0 && v.rate <= 1000.0)) std::abort();
   } catch (const kata::cli::Failure& e) {
     constexpr char kFile[] = "fuzz.toml:";
     const char* what = e.what();

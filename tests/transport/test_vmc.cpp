@@ -431,4 +431,66 @@ TEST(Vmc, ReaderRefusesMisuse) {
   kata_vmc_reader_destroy(nullptr);
 }
 
+// What kata serve's [vmc] sends the student from: kata_runtime_desc.on_frame hands over every frame
+// a runtime queues, with its stream, sequence, time and joints as pushed, and nothing for a frame
+// it did not queue (an unknown stream).
+struct Frames {
+  std::vector<uint64_t> ids, sequences;
+  std::vector<double> times;
+  std::vector<float> xyz;
+  std::vector<uint32_t> joints;
+};
+void on_frame(void* user, uint64_t id, uint64_t sequence, double t, const float* xyz, uint32_t joints) {
+  auto& f = *static_cast<Frames*>(user);
+  f.ids.push_back(id);
+  f.sequences.push_back(sequence);
+  f.times.push_back(t);
+  f.joints.push_back(joints);
+  f.xyz.insert(f.xyz.end(), xyz, xyz + 3 * joints);
+}
+
+TEST(vmc, TheRuntimeHandsEveryQueuedFrameToOnFrame) {
+  Context c;
+  kata_skeleton skel = nullptr;
+  ASSERT_EQ(kata_skeleton_create_layout(c.ctx, "vrm", &skel), KATA_OK);
+  const uint32_t joints = kata_skeleton_joint_count(skel);
+  kata_stream_desc sd;
+  kata_stream_desc_init(&sd);
+  sd.layout = "vrm";
+  kata_stream s = nullptr;
+  ASSERT_EQ(kata_stream_open(c.ctx, skel, &sd, &s), KATA_OK) << kata_context_last_error(c.ctx);
+  Frames got;
+  kata_runtime_desc rd;
+  kata_runtime_desc_init(&rd);
+  EXPECT_EQ(rd.on_frame, nullptr);
+  EXPECT_EQ(rd.on_frame_user, nullptr);
+  rd.workers = 1;
+  rd.on_frame = on_frame;
+  rd.on_frame_user = &got;
+  kata_runtime rt = nullptr;
+  ASSERT_EQ(kata_runtime_create(c.ctx, &rd, &rt), KATA_OK) << kata_context_last_error(c.ctx);
+  ASSERT_EQ(kata_runtime_add_stream(rt, 9, &s, "vrm", 0), KATA_OK) << kata_context_last_error(c.ctx);
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> u(-1.0f, 1.0f);
+  std::vector<float> sent;
+  for (uint64_t k = 0; k < 5; ++k) {
+    std::vector<float> p(3 * joints);
+    for (float& v : p) v = u(rng);
+    ASSERT_EQ(kata_runtime_push(rt, 9, 100 + k, 0.5 * static_cast<double>(k), p.data(), joints), KATA_OK);
+    sent.insert(sent.end(), p.begin(), p.end());
+    EXPECT_NE(kata_runtime_push(rt, 10, k, 0.0, p.data(), joints), KATA_OK);  // no such stream: not handed over
+  }
+  ASSERT_EQ(kata_runtime_stop(rt), KATA_OK);
+  ASSERT_EQ(got.ids.size(), 5u);
+  for (size_t k = 0; k < 5; ++k) {
+    EXPECT_EQ(got.ids[k], 9u);
+    EXPECT_EQ(got.sequences[k], 100 + k);
+    EXPECT_EQ(got.times[k], 0.5 * static_cast<double>(k));
+    EXPECT_EQ(got.joints[k], joints);
+  }
+  EXPECT_EQ(got.xyz, sent);
+  kata_runtime_destroy(rt);
+  kata_skeleton_destroy(skel);
+}
+
 }  // namespace

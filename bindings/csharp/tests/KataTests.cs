@@ -581,6 +581,93 @@ static class KataTests
                 for (int b = 0; b < 8; ++b) { h ^= (v >> (8 * b)) & 0xff; h = unchecked(h * 1099511628211UL); }
             if (h >= ulong.MaxValue - 1) h -= 2;
             Check(People.StreamId(g[0], (uint)g[1]) == h, "people: stream id of (" + g[0] + ", " + g[1] + ")");
+    // OSC 1.0 read here (big-endian; written from the spec, not kata's or liblo's reader): one bundle's
+    // messages as (address, type tags, arguments).
+    static List<Tuple<string, string, object[]>> OscBundle(byte[] b, int n)
+    {
+        Func<int, int> be32 = i => (b[i] << 24) | (b[i + 1] << 16) | (b[i + 2] << 8) | b[i + 3];
+        Func<int, int> pad = len => (len + 4) & ~3;  // a string, its NUL and the padding to 4
+        var out_ = new List<Tuple<string, string, object[]>>();
+        Check(n >= 16 && Encoding.ASCII.GetString(b, 0, 8) == "#bundle\0", "VMC: an OSC bundle");
+        int at = 16;  // after "#bundle\0" and the timetag
+        while (at + 4 <= n)
+        {
+            int size = be32(at), m = at + 4;
+            at = m + size;
+            int end = Array.IndexOf(b, (byte)0, m);
+            string address = Encoding.ASCII.GetString(b, m, end - m);
+            m += pad(end - m);
+            end = Array.IndexOf(b, (byte)0, m);
+            string tags = Encoding.ASCII.GetString(b, m + 1, end - m - 1);
+            m += pad(end - m);
+            var args = new List<object>();
+            foreach (char t in tags)
+            {
+                if (t == 's') { end = Array.IndexOf(b, (byte)0, m); args.Add(Encoding.UTF8.GetString(b, m, end - m)); m += pad(end - m); }
+                else if (t == 'i') { args.Add(be32(m)); m += 4; }
+                else if (t == 'f') { args.Add(BitConverter.ToSingle(BitConverter.GetBytes(be32(m)), 0)); m += 4; }
+            }
+            out_.Add(Tuple.Create(address, tags, args.ToArray()));
+        }
+        return out_;
+    }
+
+    // The VMC protocol from C#: HumanoidRig.WriteVmc's bundle read with the OSC reader above (the pose's numbers
+    // in Unity's frame), and a VmcReader reading it back onto the clip's GPD joints; bad datagrams counted.
+    static void VmcOfAClip(Context ctx, string repo)
+    {
+        string[] gpdCmu = { "Hips", "Spine1", "Neck1", "Head", "LeftArm", "LeftForeArm", "LeftHand", "RightArm",
+                            "RightForeArm", "RightHand", "LeftUpLeg", "LeftLeg", "LeftFoot", "RightUpLeg", "RightLeg", "RightFoot" };
+        int[] gpdVrm = { 0, 3, 4, 5, 7, 8, 9, 11, 12, 13, 14, 15, 16, 18, 19, 20 };  // the vrm layout's joints (kata/vmc.h)
+        using (Clip clip = ctx.LoadClip(Path.Combine(repo, "data/cmu/07_01.bvh")))
+        using (Skeleton sk = clip.Skeleton())
+        using (HumanoidRig rig = ctx.CreateHumanoidRig(sk))
+        using (VmcReader reader = ctx.CreateVmcReader())
+        {
+            float[] xyz = new float[3 * (int)sk.JointCount];
+            clip.Positions(40, xyz);
+            HumanoidPose p = rig.Pose(xyz);
+            byte[] buffer = new byte[2048];
+            int n = rig.WriteVmc(p, 1.25, buffer);
+            var msgs = OscBundle(buffer, n);
+            Check(msgs[0].Item1 == "/VMC/Ext/Root/Pos" && msgs[0].Item2 == "sfffffff" && (string)msgs[0].Item3[0] == "root",
+                  "VMC: Root/Pos first");
+            Check(msgs[msgs.Count - 2].Item1 == "/VMC/Ext/OK" && (int)msgs[msgs.Count - 2].Item3[0] == 1, "VMC: OK 1");
+            Check(msgs[msgs.Count - 1].Item1 == "/VMC/Ext/T" && (float)msgs[msgs.Count - 1].Item3[0] == 1.25f, "VMC: T 1.25");
+            int bones = 0, wrong = 0;
+            foreach (var m in msgs)
+            {
+                if (m.Item1 != "/VMC/Ext/Bone/Pos") continue;
+                Check(m.Item2 == "sfffffff", "VMC: Bone/Pos types " + m.Item2);
+                int b = HumanoidPose.FindBone((string)m.Item3[0]);
+                if (b < 0 || !p.IsPlaced((HumanoidBone)b)) { ++wrong; continue; }
+                ++bones;
+                float[] at = b == 0 ? p.HipsPosition : new[] { p.Offset[3 * b], p.Offset[3 * b + 1], p.Offset[3 * b + 2] };
+                float[] want = { -at[0], at[1], at[2], p.Rotation[4 * b], -p.Rotation[4 * b + 1], -p.Rotation[4 * b + 2], p.Rotation[4 * b + 3] };
+                for (int k = 0; k < 7; ++k)
+                    if ((float)m.Item3[1 + k] != want[k]) ++wrong;
+            }
+            Check(bones == 22 && wrong == 0, "VMC: every bone in Unity's frame (" + bones + " bones, " + wrong + " values differ)");
+            try { rig.WriteVmc(p, 0.0, new byte[64]); Check(false, "a 64-byte buffer took a bundle"); }
+            catch (KataException e) { Check(e.Status == Status.BufferTooSmall, "VMC: small buffer: " + e.Message); }
+
+            // Read back: the vrm joints on the clip's GPD joints (metres) within 1 mm.
+            float[] got = new float[3 * VmcReader.Joints];
+            double t;
+            Check(!reader.Positions(got, out t), "VmcReader: no frame before the first");
+            Check(reader.Read(buffer, n, 100.0), "VmcReader: the bundle ends a frame");
+            Check(reader.Positions(got, out t) && Math.Abs(t - 1.25) < 1e-6, "VmcReader: its time " + t);
+            double worst = 0;
+            for (int g = 0; g < 16; ++g)
+            {
+                uint j = 0;
+                while (sk.JointName(j) != gpdCmu[g]) ++j;
+                for (int k = 0; k < 3; ++k) worst = Math.Max(worst, Math.Abs(got[3 * gpdVrm[g] + k] - 0.056444 * xyz[3 * j + k]));
+            }
+            Check(worst < 1e-3, "VmcReader: GPD joints within " + worst + " m of the clip's");
+            Check(!reader.Read(buffer, n - 5) && !reader.Read(Encoding.ASCII.GetBytes("not osc at all!!"), 16), "VmcReader: bad datagrams end no frame");
+            VmcCounters c = reader.Counters;
+            Check(c.Packets == 3 && c.Frames == 1 && c.Malformed == 2, "VmcReader counters: " + c.Packets + " packets, " + c.Malformed + " malformed");
         }
     }
 
@@ -610,6 +697,7 @@ static class KataTests
             OnePointOneTeacherAndJoints(ctx, repo);
             SharedTeacherScoresAsAttachTeacher(ctx, repo);
             HumanoidRigOfAClip(ctx, repo);
+            VmcOfAClip(ctx, repo);
             RepetitionsOfAWalkPlayedTwice(ctx, repo);
             PeopleKeepTheirStreams(ctx);
             PeopleBadInputIsCounted(ctx);

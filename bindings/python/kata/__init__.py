@@ -16,7 +16,8 @@ warning), objects (Context, Skeleton, Clip, Model, Landmarks, the enums, find_da
 (Stream, Results, gpd_joint_name / gpd_joint_part / body_part_name / gpd_joint_words), retarget
 (Retargeter), people (People: identity of unlabeled multi-person poses), messages (Subscriber,
 read_message, write_skeleton / write_frame / write_practice), runtime (Runtime), humanoid
-(HumanoidRig: the student and the ghost as VRM bone rotations). Not re-exported: mediapipe
+(HumanoidRig: the student and the ghost as VRM bone rotations), vmc (vmc_write_pose, VmcReader:
+the VMC protocol). Not re-exported: mediapipe
 (MediaPipe Pose recordings and live feeds scored against a BVH teacher; `import kata.mediapipe`).
 _native holds every ctypes declaration. The C header kata.h is the manual: units, ownership and
 thread rules are its.
@@ -46,6 +47,7 @@ from .runtime import Runtime, shard_of
 from .humanoid import (BONE_COUNT, BONE_NAMES, BONE_PARENTS, Bone, HumanoidFrame, HumanoidPose, HumanoidRig, bone_find,
                        bone_name, bone_parent)
 from .people import People, people_stream_id, write_people_frame
+from .vmc import VMC_DEFAULT_MAX_PACKET, VMC_JOINTS, VMC_PORT, VmcCounters, VmcReader, vmc_write_pose
 from . import mediapipe  # kata.mediapipe after a plain `import kata` (it reads the names above at call time)
 
 #: The loaded libkata's version as "MAJOR.MINOR.PATCH" (the package is versioned with it).
@@ -62,6 +64,7 @@ __all__ = ["Context", "Skeleton", "Clip", "Model", "Teacher", "Landmarks", "Stre
            "bone_name", "bone_parent", "bone_find"]
 __all__ += ["People", "people_stream_id", "write_people_frame"]
 __all__ += ["Repetition", "read_repetition", "write_repetition", "ROM_JOINTS"]
+__all__ += ["vmc_write_pose", "VmcReader", "VmcCounters", "VMC_PORT", "VMC_JOINTS", "VMC_DEFAULT_MAX_PACKET"]
 
 # kata.fb: the readers flatc generates from schemas/*.fbs (kata.fb.Result, ...) ship inside the
 # installed package; used from a checkout, they are the build's (<repo>/build/python/kata/fb).

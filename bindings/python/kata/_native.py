@@ -278,6 +278,17 @@ class HumanoidPose(ctypes.Structure):
                 ("reserved", ctypes.c_uint32)]
 
 
+class VmcCounters(ctypes.Structure):
+    """kata_vmc_counters (kata/vmc.h, 1.1)."""
+    _fields_ = [("struct_size", ctypes.c_uint32), ("reserved", ctypes.c_uint32)] + [
+        (name, ctypes.c_uint64) for name in (
+            "packets", "frames", "malformed", "oversized", "wrong_type", "unknown_bone", "bad_value",
+            "out_of_order", "ignored")]
+
+
+VMC_JOINTS = 22  # KATA_VMC_JOINTS
+
+
 # ---- functions -------------------------------------------------------------------------------------
 
 _u32, _i32, _i64, _u64 = ctypes.c_uint32, ctypes.c_int32, ctypes.c_int64, ctypes.c_uint64
@@ -443,6 +454,14 @@ _SIGNATURES = {
     "kata_people_frame_message_init_sized": (None, [ctypes.POINTER(PeopleFrameMessage), _u32]),
     "kata_message_write_people_frame": (_st, [ctypes.POINTER(PeopleFrameMessage), _p, _sz, ctypes.POINTER(_sz)]),
     "kata_people_stream_id": (_u64, [_u64, _u32]),
+    # since 1.1: the VMC protocol, kata/vmc.h
+    "kata_vmc_write_pose": (_st, [ctypes.POINTER(HumanoidPose), _d, ctypes.c_float, _p, _sz, ctypes.POINTER(_sz)]),
+    "kata_vmc_reader_create": (_st, [_p, _u32, _pp]),
+    "kata_vmc_reader_destroy": (None, [_p]),
+    "kata_vmc_reader_read": (_st, [_p, _p, _sz, _d, ctypes.POINTER(_i32)]),
+    "kata_vmc_reader_positions": (_st, [_p, _p, _sz, ctypes.POINTER(_d)]),
+    "kata_vmc_reader_get_counters": (_st, [_p, ctypes.POINTER(VmcCounters)]),
+    "kata_vmc_reader_last_error": (_s, [_p]),
 }
 
 for _name, (_restype, _argtypes) in _SIGNATURES.items():

@@ -118,7 +118,7 @@ def test_the_package_surface_reads_like_a_library():
     assert isinstance(kata.__version__, str) and kata.__version__ == "%d.%d.%d" % kata.version
     assert isinstance(kata.version, tuple) and isinstance(kata.library_path, str)  # both plain values
     public = {n for n in dir(kata) if not n.startswith("_")}
-    modules = {"errors", "objects", "stream", "retarget", "messages", "runtime", "mediapipe", "humanoid", "people", "fb"}
+    modules = {"errors", "objects", "stream", "retarget", "messages", "runtime", "mediapipe", "humanoid", "people", "vmc", "fb"}
     assert public - modules == set(kata.__all__), sorted(public - modules ^ set(kata.__all__))
     assert not {"np", "os", "time", "ctypes", "enum"} & public
     for name in kata.__all__:

@@ -62,6 +62,19 @@ typedef void (*kata_result_callback)(void* user, const kata_result_record* resul
  * is on_result_user. */
 typedef void (*kata_repetition_callback)(void* user, const kata_repetition* repetition);
 
+/* A consumer of every frame a runtime queues for a stream (1.1; kata_runtime_desc.on_frame): the
+ * frame's joints as queued (by kata_runtime_push, an ingest Frame message or a source plugin), e.g.
+ * to send the student's pose on (kata serve's [vmc]), where results carry only the ghost. Called on
+ * the pushing thread right after the frame was queued (the I/O thread for ingest frames, a source
+ * plugin's own thread, the app's for kata_runtime_push), so calls for different streams may run at
+ * once; one stream's come in its order when it has one producer. A frame that was not queued (full
+ * queue, unknown stream) is not handed over. xyz (joint_count x 3 floats, the stream's units and
+ * axes) is valid only during the call. It must return quickly, must neither block nor allocate
+ * (it is on the live path) and must not call kata_runtime_* on its runtime. `user` is
+ * on_frame_user. */
+typedef void (*kata_frame_callback)(void* user, uint64_t stream_id, uint64_t sequence, double capture_time,
+                                    const float* xyz, uint32_t joint_count);
+
 /* What a skeleton definition says of the stream it opens (1.1; kata_runtime_desc.on_stream_open).
  * Written by the library: struct_size is this library's sizeof(kata_stream_open_info) (a caller
  * built against an older kata.h reads the fields it knows); valid only during the call. */
@@ -175,6 +188,9 @@ typedef struct kata_runtime_desc {
   /* ---- 1.1, later ---- */
   kata_repetition_callback on_repetition; /* every repetition that ends, in the process (above), or
                                              NULL (default). Since 1.1 */
+  kata_frame_callback on_frame;     /* every frame queued, in the process (above), or NULL
+                                       (default). Since 1.1 */
+  void* on_frame_user;              /* passed to on_frame as is. Default NULL. Since 1.1 */
 } kata_runtime_desc;
 
 /* Counters since the runtime was created (sums over streams). */

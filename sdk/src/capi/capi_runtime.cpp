@@ -149,6 +149,8 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
       void* const user = d.on_result_user;
       config.repetition_sinks.push_back([callback, user](const kata_repetition& r) { callback(user, &r); });
     }
+    config.on_frame = d.on_frame;
+    config.on_frame_user = d.on_frame_user;
     if (d.max_streams_per_sender < 1 || !(d.max_frame_age_seconds >= 0.0) || !(d.idle_stream_seconds >= 0.0) ||
         d.max_frame_age_seconds > 3600.0 || d.idle_stream_seconds > 1e7)
       throw kata::Error(kata::ErrorKind::kInvalidArgument,

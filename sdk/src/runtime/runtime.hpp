@@ -144,6 +144,11 @@ struct RuntimeConfig {
   // results equal the frame-by-frame path's. 1: frame by frame. At most Pipeline::kMaxBurst.
   int drain_burst = 16;
   std::vector<Sink> sinks;               // in-process consumers of every result
+  // A consumer of every frame queued (kata_runtime_desc.on_frame): called by push() on the pushing
+  // thread right after the frame was queued; must neither block nor allocate. Null: none.
+  void (*on_frame)(void* user, uint64_t stream_id, uint64_t sequence, double capture_time, const float* xyz,
+                   uint32_t joints) = nullptr;
+  void* on_frame_user = nullptr;
   std::vector<RepetitionSink> repetition_sinks;  // and of every repetition that ends
 };
 

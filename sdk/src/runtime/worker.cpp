@@ -88,6 +88,8 @@ Status Runtime::push(uint64_t stream_id, uint64_t sequence, double capture_time,
   if (confidence) std::memcpy(cell->confidence, confidence, sizeof(float) * static_cast<size_t>(joints));
   stream->counters.frames_in.fetch_add(1, std::memory_order_relaxed);  // before the worker can see it
   publish_cell(*stream, *cell, pos);
+  if (config_.on_frame)  // the caller's copy: the worker may already be reading the cell's
+    config_.on_frame(config_.on_frame_user, stream_id, sequence, capture_time, xyz, static_cast<uint32_t>(joints));
   return Status::kOk;
 }
 
