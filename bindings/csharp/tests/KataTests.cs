@@ -581,6 +581,9 @@ static class KataTests
                 for (int b = 0; b < 8; ++b) { h ^= (v >> (8 * b)) & 0xff; h = unchecked(h * 1099511628211UL); }
             if (h >= ulong.MaxValue - 1) h -= 2;
             Check(People.StreamId(g[0], (uint)g[1]) == h, "people: stream id of (" + g[0] + ", " + g[1] + ")");
+        }
+    }
+
     // OSC 1.0 read here (big-endian; written from the spec, not kata's or liblo's reader): one bundle's
     // messages as (address, type tags, arguments).
     static List<Tuple<string, string, object[]>> OscBundle(byte[] b, int n)
