@@ -516,10 +516,81 @@ ServeConfig parse_root(const std::string& file, const toml::table& root) {
   return c;
 }
 
+namespace {
+
+// toml++ 3.3 (Debian's) reaches __builtin_unreachable in its character classes for some code points
+// (U+00A1..U+0499, U+2CEE..U+30E7, U+FB26..U+FEFE) and for malformed UTF-8: undefined behaviour,
+// which fuzzing finds upstream too. So toml++ is given ASCII only: a code point in a basic string
+// or a comment becomes its \u escape (the same value; a comment is ignored anyway); malformed UTF-8,
+// and a code point anywhere else (a bare key, or a literal string, whose text has no escapes), is
+// refused with its line. The states below are TOML's lexical ones; on a malformed file they may be
+// wrong, which only changes which error is given: what toml++ reads is ASCII either way.
+std::string ascii_toml(const std::string& text, const std::string& name) {
+  enum class In { kCode, kComment, kBasic, kLiteral, kMultiBasic, kMultiLiteral } in = In::kCode;
+  std::string out;
+  out.reserve(text.size() + 16);
+  std::size_t i = 0, line = 1;
+  if (text.compare(0, 3, "\xEF\xBB\xBF") == 0) i = 3;  // a byte order mark
+  const auto starts = [&](const char* s) { return text.compare(i, std::char_traits<char>::length(s), s) == 0; };
+  const auto refuse_here = [&](const char* what) { throw cli::Failure(name + ":" + std::to_string(line) + ": " + what); };
+  while (i < text.size()) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    if (c >= 0x80) {
+      // One UTF-8 sequence: its length from the lead byte, continuation bytes, no overlong form,
+      // no surrogate, at most U+10FFFF.
+      const std::size_t n = c >= 0xF0 && c <= 0xF4 ? 4 : c >= 0xE0 && c < 0xF0 ? 3 : c >= 0xC2 && c < 0xE0 ? 2 : 0;
+      char32_t cp = n == 4 ? c & 0x07u : n == 3 ? c & 0x0Fu : c & 0x1Fu;
+      bool ok = n != 0 && i + n <= text.size();
+      for (std::size_t k = 1; ok && k < n; ++k) {
+        const auto b = static_cast<unsigned char>(text[i + k]);
+        ok = (b & 0xC0u) == 0x80u;
+        cp = (cp << 6) | (b & 0x3Fu);
+      }
+      ok = ok && !(n == 3 && cp < 0x800) && !(n == 4 && (cp < 0x10000 || cp > 0x10FFFF)) && !(cp >= 0xD800 && cp <= 0xDFFF);
+      if (!ok) refuse_here("not UTF-8 text");
+      if (in == In::kCode) refuse_here("a character outside ASCII outside a string (TOML's bare keys are ASCII)");
+      if (in == In::kLiteral || in == In::kMultiLiteral)
+        refuse_here("a character outside ASCII in a literal string ('...'): write it in a basic string (\"...\")");
+      char escape[16];
+      std::snprintf(escape, sizeof escape, cp > 0xFFFF ? "\\U%08X" : "\\u%04X", static_cast<unsigned>(cp));
+      out += escape;
+      i += n;
+      continue;
+    }
+    std::size_t take = 1;
+    switch (in) {
+      case In::kCode:
+        if (c == '#') in = In::kComment;
+        else if (starts("\"\"\"")) in = In::kMultiBasic, take = 3;
+        else if (starts("'''")) in = In::kMultiLiteral, take = 3;
+        else if (c == '"') in = In::kBasic;
+        else if (c == '\'') in = In::kLiteral;
+        break;
+      case In::kComment: if (c == '\n') in = In::kCode; break;
+      case In::kBasic:
+        if (c == '\\') take = i + 1 < text.size() && static_cast<unsigned char>(text[i + 1]) < 0x80 ? 2 : 1;
+        else if (c == '"' || c == '\n') in = In::kCode;
+        break;
+      case In::kLiteral: if (c == '\'' || c == '\n') in = In::kCode; break;
+      case In::kMultiBasic:
+        if (c == '\\') take = i + 1 < text.size() && static_cast<unsigned char>(text[i + 1]) < 0x80 ? 2 : 1;
+        else if (starts("\"\"\"")) in = In::kCode, take = 3;
+        break;
+      case In::kMultiLiteral: if (starts("'''")) in = In::kCode, take = 3; break;
+    }
+    for (std::size_t k = 0; k < take; ++k) line += text[i + k] == '\n';
+    out.append(text, i, take);
+    i += take;
+  }
+  return out;
+}
+
+}  // namespace
+
 ServeConfig parse_config_text(const std::string& text, const std::string& name) {
   toml::table root;
   try {
-    root = toml::parse(text, name);
+    root = toml::parse(ascii_toml(text, name), name);
   } catch (const toml::parse_error& e) {
     throw cli::Failure(name + ":" + std::to_string(e.source().begin.line) + ": " + std::string(e.description()));
   }

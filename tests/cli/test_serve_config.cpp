@@ -114,5 +114,30 @@ TEST(serve_config, AToleranceIsALevelOrDegreesAndAnythingElseIsRefusedWithItsLin
         << bad;
 }
 
+// Text outside ASCII: toml++ reaches undefined behaviour on some code points and on malformed
+// UTF-8, so the config reader gives it ASCII (serve_config.cpp, ascii_toml): a basic string keeps
+// its value, a comment is free, and what cannot be kept is refused with its line.
+TEST(serve_config, TextOutsideAsciiKeepsItsValueOrIsRefusedWithItsLine) {
+  const std::string config =
+      "[security]\ninsecure = true\n# caf\u00e9 \u2ff0 \uff01 \U0001F600 (a comment)\n[ingest]\nendpoints = [\"bind:tcp://127.0.0.1:5555\"]\n"
+      "[publish]\nendpoints = [\"tcp://h\u00f4te-\u30e6\u0400:5556\", \"tcp://a\\\\\u00e9\\\"b:1\"]\n";
+  const ServeConfig c = parse_config_text("\xEF\xBB\xBF" + config, "stage.toml");
+  ASSERT_EQ(c.runtime.publish_endpoints.size(), 2u);
+  EXPECT_EQ(c.runtime.publish_endpoints[0], "tcp://h\u00f4te-\u30e6\u0400:5556");
+  EXPECT_EQ(c.runtime.publish_endpoints[1], "tcp://a\\\u00e9\"b:1");
+  EXPECT_EQ(refusal([&] { parse_config_text(config + "[status]\ninterval_seconds = 1\n'\u00e9' = 2\n", "stage.toml"); }),
+            "stage.toml:10: a character outside ASCII in a literal string ('...'): write it in a basic string (\"...\")");
+  EXPECT_EQ(refusal([&] { parse_config_text(config + "\n\u00e9 = 2\n", "stage.toml"); }),
+            "stage.toml:9: a character outside ASCII outside a string (TOML's bare keys are ASCII)");
+  // Malformed UTF-8: a lone continuation byte, a cut sequence, an overlong '/', a surrogate; and
+  // the inputs that reached toml++'s unreachable code (a fuzzer's, and upstream's).
+  for (const std::string bad : {"\x80", "\xC3", "\xC0\xAF", "\xED\xA0\x80", "\xF5\x80\x80\x80"})
+    EXPECT_EQ(refusal([&] { parse_config_text(config + "x = \"" + bad + "\"\n", "stage.toml"); }), "stage.toml:8: not UTF-8 text");
+  EXPECT_EQ(refusal([&] { parse_config_text(std::string("\xEF\xBB\x94\x40\x01\x22", 6), "fuzz.toml"); }),
+            "fuzz.toml:1: a character outside ASCII outside a string (TOML's bare keys are ASCII)");
+  EXPECT_EQ(refusal([&] { parse_config_text("\xCC\xAA", "fuzz.toml"); }),
+            "fuzz.toml:1: a character outside ASCII outside a string (TOML's bare keys are ASCII)");
+}
+
 }  // namespace
 }  // namespace kata::serve
