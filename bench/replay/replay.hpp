@@ -82,7 +82,7 @@ struct Options {
   bool ingest = false;          // the frames come from a sender process over ZeroMQ through Ingest
   bool batch = false;           // --ingest: the sender sends each tick's frames as frame batches
   int result_batch = 8;         // RuntimeConfig::result_batch
-  int drain_burst = 16;         // RuntimeConfig::drain_burst
+  int drain_burst = 1;         // RuntimeConfig::drain_burst
   std::string sender;           // internal: the sender process (PUSH to this endpoint)
   int nats_servers = 3;         // --transport nats: servers in the cluster (1: no route hop, R1 leases)
   bool curve = false;           // CURVE on every socket of both phases (issue 39 item 2)

@@ -142,7 +142,7 @@ struct RuntimeConfig {
   // of distinct streams, as one burst (pipeline::Pipeline::push_burst: the features of all, the
   // scores of all with one pass over the model's W per 8 frames, then ghosts and results); the
   // results equal the frame-by-frame path's. 1: frame by frame. At most Pipeline::kMaxBurst.
-  int drain_burst = 16;
+  int drain_burst = 1;
   std::vector<Sink> sinks;               // in-process consumers of every result
   // A consumer of every frame queued (kata_runtime_desc.on_frame): called by push() on the pushing
   // thread right after the frame was queued; must neither block nor allocate. Null: none.
