@@ -44,6 +44,7 @@ import os
 import re
 import shutil
 import signal
+import socket
 import subprocess
 import sys
 import tempfile
@@ -235,7 +236,19 @@ def main():
         recorded = os.path.join(work, "student.npy")
 
         # 1. A person in front of the camera.
-        coach, port, log = start_coach(kata, a.source_dir, work, "person", ["--record-student", recorded])
+        # The ghost and the student also go out as VMC performers (--vmc, --vmc-student) to two UDP
+        # sockets of the test's, read after the session: one OSC bundle a datagram.
+        vmc_sockets = []
+        for _ in range(2):
+            u = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+            u.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 8 << 20)
+            u.bind(("127.0.0.1", 0))
+            u.setblocking(False)
+            vmc_sockets.append(u)
+        coach, port, log = start_coach(kata, a.source_dir, work, "person",
+                                       ["--record-student", recorded,
+                                        "--vmc", f"127.0.0.1:{vmc_sockets[0].getsockname()[1]}",
+                                        "--vmc-student", f"127.0.0.1:{vmc_sockets[1].getsockname()[1]}"])
         procs.append(coach)
         driver = make_driver(os.path.join(work, "profile1"), person)
         driver.set_page_load_timeout(120)
@@ -283,6 +296,23 @@ def main():
         assert "webcam:" in summary and "report:" in summary, summary
         # Item 4: the page's latency per stage reached kata and its report.
         assert "latency per stage (page)" in summary, summary
+        # VMC out from the webcam lesson: every datagram one bundle with the root, the humanoid
+        # bones and the frame's OK (tests/transport/vmc_peers_check.py reads the values themselves);
+        # the student from the first landmarks on, the ghost once the ghost came (above).
+        for who, u, least in (("ghost", vmc_sockets[0], 1), ("student", vmc_sockets[1], 12)):
+            bundles = []
+            while True:
+                try:
+                    bundles.append(u.recv(65536))
+                except BlockingIOError:
+                    break
+            u.close()
+            assert len(bundles) >= least, f"vmc {who}: {len(bundles)} bundles"
+            for b in bundles:
+                assert b.startswith(b"#bundle\0"), b[:16]
+                for part in (b"/VMC/Ext/Root/Pos", b"/VMC/Ext/Bone/Pos", b"LeftUpperArm", b"RightLowerLeg", b"/VMC/Ext/OK"):
+                    assert part in b, (who, part)
+            print(f"vmc {who}: {len(bundles)} bundles")
         report = open(os.path.join(work, "person.html")).read()
         for stage in ("capture-&gt;landmarks", "landmarks-&gt;received", "received-&gt;result", "result-&gt;drawn",
                       "capture-&gt;drawn"):
