@@ -209,7 +209,9 @@ Lesson::Lesson(const LessonSettings& settings) {
     rd.queue_capacity = 1024;
     rd.publish_endpoints = settings.publish.c_str();
     rd.on_result = &Lesson::on_result;
-    rd.on_repetition = &Lesson::on_repetition;
+    // Repetitions only for a lesson that counts them (--reps): the end of any lesson closes the
+    // repetition in progress, which on a dance would be one partial "repetition" of nothing.
+    rd.on_repetition = settings.reps ? &Lesson::on_repetition : nullptr;
     rd.on_result_user = this;
     repetitions_.resize(kMaxRepetitions);
     check(kata_runtime_create(context_, &rd, &runtime_));

@@ -249,6 +249,7 @@ struct WebcamCoach::Impl {
   }
 
   void on_repetition(const kata_repetition& r) {  // the runtime's thread, after its frame's result
+    if (!settings.reps) return;  // only a lesson that counts them (--reps) shows repetitions
     std::lock_guard<std::mutex> lock(mutex);
     if (settings.people > 1) {
       Person* p = person_of_stream(r.stream_id);
