@@ -1,4 +1,4 @@
-// The re-localising alignment's cost per frame (issue 21) on the default lesson's teacher, CMU
+// The re-localising alignment's cost per frame on the default lesson's teacher, CMU
 // 05_18 (1,829 frames, rank-50 shipped model): the Aligner alone, fed the student's (05_19 on
 // subject 2's body) static-blocks projections, with re-localisation (a pass over the whole clip
 // every frame) and without it (relocate_time 0: the same DP, the same pass, no moves), and the
@@ -32,7 +32,7 @@ struct AlignFixture {
   int n = 0, stride = 0;
 };
 
-// times: the teacher is the clip's frames repeated that many times (issue 36's long teachers:
+// times: the teacher is the clip's frames repeated that many times (long teachers:
 // 16x is 4 minutes, 64x 16 minutes); each fixture is built once.
 const AlignFixture& align_fixture(int times = 1) {
   static std::map<int, AlignFixture> fixtures;
@@ -89,7 +89,7 @@ void Align_Relocating(benchmark::State& state) { run_aligner(state, 0.2); }
 BENCHMARK(Align_Relocating);
 void Align_NoRelocation(benchmark::State& state) { run_aligner(state, 0.0); }
 BENCHMARK(Align_NoRelocation);
-// Issue 36: the same with the teacher 1, 16 and 64 times as long (counter search_rows: the rows
+// The same with the teacher 1, 16 and 64 times as long (counter search_rows: the rows
 // the search reads per frame, window excluded).
 void Align_RelocatingLong(benchmark::State& state) {
   run_aligner(state, 0.2, static_cast<int>(state.range(0)));
@@ -175,7 +175,7 @@ BENCHMARK(Align_RelocatingPaced)
     ->UseManualTime()
     ->Iterations(240)
     ->Unit(benchmark::kMicrosecond);
-// Issue 36: the paced aligner (8.3 ms sleeps) with the teacher 1, 16 and 64 times as long.
+// The paced aligner (8.3 ms sleeps) with the teacher 1, 16 and 64 times as long.
 void Align_RelocatingPacedLong(benchmark::State& state) {
   state.SetLabel("sleep");
   run_aligner_paced(state, static_cast<int>(state.range(0)), false);
@@ -204,7 +204,7 @@ void Align_DistancePass(benchmark::State& state) {
 }
 BENCHMARK(Align_DistancePass);
 
-// Loading a long teacher from its file (issue 36 item 3: under a second per 10 minutes of
+// Loading a long teacher from its file (under a second per 10 minutes of
 // teacher): load_bvh, then its Reference from features made and projected chunk by chunk, as
 // `kata score`, `kata coach` and `kata serve` load one. The teacher is 05_18 repeated (16x: 4
 // minutes, 29,264 frames; 64x: 16 minutes), written once to a temporary file. Real time: the

@@ -1,4 +1,4 @@
-// Cost per frame of the "any body" steps (issue 11), side by side in one run: MediaPipe landmark
+// Cost per frame of the "any body" steps, side by side in one run: MediaPipe landmark
 // synthesis, the confidence gate, One-Euro smoothing (each as a whole stream push, so the ratio
 // to the plain push is the step's cost), a cross-layout retarget onto the 16 GPD joints, and the
 // ghost as local rotations on a CMU hierarchy.

@@ -1,5 +1,5 @@
 // The per-stream pipeline's push (features + score + ghost) against the sum of its three stages
-// run alone on the same frames, side by side in one run (issue 8: the pipeline may add <= 5%).
+// run alone on the same frames, side by side in one run (the pipeline may add <= 5%).
 //
 // Student 07_01 (CMU, 31 joints, ghost on the 21 joints that carry a bone) against teacher 02_01
 // with the shipped model. Each benchmark iteration runs one block of 120 frames through
@@ -9,10 +9,10 @@
 // ratio.
 // BM_Pipeline* alone gives the plain per-frame figure. The *Lesson variants run the same push on
 // the default lesson's pair (kata coach: teacher 05_18, 1,829 frames; student 05_19 on subject 2's
-// body), where the alignment's section is five times longer (issue 23, cold4).
+// body), where the alignment's section is five times longer (cold4).
 //
 // BM_PipelinePushPaced: the same push when the caches are cold, as they are in a live stream at
-// 120 Hz whose thread sleeps between frames while other work runs (issue 23). Each push is timed
+// 120 Hz whose thread sleeps between frames while other work runs. Each push is timed
 // alone on the wall clock (steady_clock: a thread-CPU-clock read is a system call under KVM, a
 // few microseconds of its own) and the median is reported (counter p50_us: robust to the
 // preemptions of a loaded machine; the benchmark's own time is the mean); between pushes the thread either sleeps one 120 Hz period
@@ -332,7 +332,7 @@ double referenced_kb(bool clear) {
   return kb;
 }
 
-// A burst over K streams, as the live runtime's worker sees it (issue 39): K pipelines of the same
+// A burst over K streams, as the live runtime's worker sees it: K pipelines of the same
 // teacher, each fed its own place in the student clip, pushed one frame each in turn, hot (no
 // sleep). Against K = 1 this is what a stream's own state costs when K-1 other streams ran since
 // its last frame: the per-stream working set (stream history, aligner, scorer, ghost, result ring)

@@ -1,4 +1,4 @@
-// The cold frame (issue 20): a push paced at 120 Hz (a sleep between frames, as live frames come),
+// The cold frame: a push paced at 120 Hz (a sleep between frames, as live frames come),
 // once through the runtime and once straight into a Pipeline on the benchmark thread, side by
 // side in one run, so the runtime's addition to the paced push is its own figure.
 //

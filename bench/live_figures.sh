@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 39's figures in one go, base and new alternately (run it in a quiet window: nothing else on
+# The live figures in one go, base and new alternately (run it in a quiet window: nothing else on
 # the machine). BASE_BIN and NEW_BIN are build/bin directories: each holds kata, kata-replay (or a
 # kata whose `replay` is built in) and kata_bench. Every run's output goes to OUT_DIR, with the load
 # average before and after it; summary.txt collects the lines the issue's targets are read from.

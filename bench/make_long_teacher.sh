@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Writes a long teacher (issue 36): the BVH clip $1 with its frames repeated $2 times, to $3.
+# Writes a long teacher: the BVH clip $1 with its frames repeated $2 times, to $3.
 # The figures in docs/model/alignment.md use CMU clips repeated 16 and 64 times; the files run to
 # hundreds of MB, so they are made on demand, never committed.
 set -euo pipefail

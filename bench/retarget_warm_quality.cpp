@@ -5,7 +5,7 @@
 // the tight solve (negative: a lower basin), mean and largest joint deviation (mm; the largest
 // are basin differences where the two streams follow different minima), frames with a joint
 // more than 5 mm off, and the ghost's largest per-frame joint jump (the teacher's in brackets).
-// Run: build/bin/kata_retarget_warm_quality ../shared/data/cmu (docs/performance.md, issue 23).
+// Run: build/bin/kata_retarget_warm_quality ../shared/data/cmu (docs/performance.md).
 #include <algorithm>
 #include <cmath>
 #include <cstdio>

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Issue 23's final figures: two kata_bench binaries (say, one built from an older commit in its own
+# Side-by-side figures: two kata_bench binaries (say, one built from an older commit in its own
 # worktree and one from main) run alternately, twice, with the per-frame benchmarks of the live path
 # (and the scoring ones again on the AVX2 kernels), then the paced pushes of the second binary three
 # times. CPU-time medians of 5 repetitions, as JSON in OUT_DIR with the load average before and after

@@ -25,7 +25,7 @@ void eigen_native_wtx(const float* w, int rows, int cols, const float* x, float*
 
 namespace kata_bench {
 
-// Not shipped: what a half-precision W would buy (issue 13's "reduced precision" option,
+// Not shipped: what a half-precision W would buy (the "reduced precision" option,
 // measured before it is built). W row-major rows x cols in IEEE fp16, fp32 accumulation; the
 // conversion (vcvtph2ps) is the compiler's, for this machine.
 void fp16_wtx(const uint16_t* w, int rows, int cols, const float* x, float* y) {

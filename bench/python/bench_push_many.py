@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Python's chunked push against C, side by side in one run (issue 25: <= 1 us per frame over C).
+"""Python's chunked push against C, side by side in one run (<= 1 us per frame over C).
 
 Each repetition opens two fresh streams on the same clip and pushes the same N frames into both:
   C       one kata_stream_push_many call through ctypes for the whole chunk (the C loop; the one

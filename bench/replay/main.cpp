@@ -1,5 +1,5 @@
 // kata-replay: the live path's measurement tool (docs/runtime.md, "kata replay"), moved out of the
-// CLI's binary (issue 35): `kata replay ARGS` runs `kata-replay ARGS` from beside it. The tool is
+// CLI's binary: `kata replay ARGS` runs `kata-replay ARGS` from beside it. The tool is
 // replay.cpp's one subcommand; "replay" is put first when the caller left it out, so both
 // `kata-replay --streams 64` and the children it spawns (`kata-replay replay --subscriber ...`) parse.
 #include <cstdio>

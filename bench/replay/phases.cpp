@@ -157,7 +157,7 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
   const auto threads1 = thread_cpu_ns();
   runtime.stop();
   json j = finish_child(child);
-  // Per thread (issue 39): where the process's CPU per frame goes. The workers' share holds the
+  // Per thread: where the process's CPU per frame goes. The workers' share holds the
   // push (the pose's compute); the rest is the runtime's plumbing (ingest: the I/O thread reads
   // and verifies; libzmq's own threads move the bytes).
   json per_thread = json::object(), wakes = json::object(), preempted = json::object();
@@ -186,7 +186,7 @@ json run_kata(const Options& o, const Clips& c, int streams, double* message_byt
     by_cause[cause.name] = counters.total.*cause.count;
   }
   j["runtime_drops"] = runtime_drops;
-  // Per stream (issue 28; the in-process path, where this process knows what each stream was
+  // Per stream (the in-process path, where this process knows what each stream was
   // sent): frames pushed = results the subscriber received + every drop cause counted on it.
   j["unaccounted"] = json::array();
   if (!o.ingest)
@@ -261,7 +261,7 @@ json run_bare(const Options& o, int streams, size_t message_bytes) {
   j["sent"] = sent;
   j["lost"] = static_cast<int64_t>(sent) - j["received"].get<int64_t>();
   j["publisher_cpu_percent_of_one_core"] = 100.0 * cpu / wall;
-  // The floor of ZeroMQ's own share of kata's CPU per frame (issue 39): what bare ZeroMQ spends
+  // The floor of ZeroMQ's own share of kata's CPU per frame: what bare ZeroMQ spends
   // per message sending (this process, libzmq's thread included) and receiving (the subscriber).
   j["cpu_us_per_message"] = sent ? 1e6 * cpu / static_cast<double>(sent) : 0.0;
   if (j.contains("subscriber_cpu_seconds") && j["received"].get<int64_t>() > 0)

@@ -297,7 +297,7 @@ void run_replay(const Options& o) {
     report["trials"] = trials;
     std::printf("find-max: %d streams at %.0f Hz\n", good, o.rate);
     if (!worst.is_null()) {
-      // What bounded it (issue 39): the failing count's cause, and each stage's p99 there against
+      // What bounded it: the failing count's cause, and each stage's p99 there against
       // the largest passing count's, the stage that grew most first.
       const json& w = worst["kata"];
       std::string why;

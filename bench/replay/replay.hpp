@@ -14,7 +14,7 @@
 // windows' p50 and p99 are within --p50-growth (1.15) and --p99-growth (1.25) x the first windows'
 // (medians over --judge-windows windows at each end; 0: reported, not judged).
 //
-// --transport nats --shards N (issue 38): N `kata serve` shards over ZeroMQ (one host's
+// --transport nats --shards N: N `kata serve` shards over ZeroMQ (one host's
 // deployment) and then over a NATS cluster this process starts on loopback (across hosts'), the
 // same source and subscriber, then bare ZeroMQ: latency per hop (send -> arrival -> computed ->
 // published -> received) and CPU per process, and what NATS adds at p50 / p99 (run_shard_processes).
@@ -85,7 +85,7 @@ struct Options {
   int drain_burst = 1;         // RuntimeConfig::drain_burst
   std::string sender;           // internal: the sender process (PUSH to this endpoint)
   int nats_servers = 3;         // --transport nats: servers in the cluster (1: no route hop, R1 leases)
-  bool curve = false;           // CURVE on every socket of both phases (issue 39 item 2)
+  bool curve = false;           // CURVE on every socket of both phases
 };
 
 

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The coaching total (issue 34): stores the model map's gate and reports what the shipped scorer
+"""The coaching total: stores the model map's gate and reports what the shipped scorer
 says on real cross-subject clip pairs.
     /usr/bin/python3 docs/model/coaching.py [build/bin/kata] [../shared/data/cmu] [models/default.kata] [OUT_DIR]
 regenerate.sh runs it after calibrate.py and part_fix.py (whose total map it replaces; the part

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The trade of the coaching total's maps (issue 34 item 5 against items 1 and 4): same motion by
+"""The trade of the coaching total's maps (the same-motion target against the 45-degree catch): same motion by
 another subject >= 70, different motions <= 20, a 45-degree turn <= 50. Recomputes the total of
 every scoring frame for other maps from one `kata score` run per pair, without rebuilding:
 

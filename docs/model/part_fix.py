@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The part to fix against plain geometry (issue 21 item 4): fits the per-part score maps of a .kata
+"""The part to fix against plain geometry: fits the per-part score maps of a .kata
 model so that the part named is the part whose joints are farthest from the teacher's, and measures
 how often it agrees with geometry on real pairs of different subjects.
 
@@ -22,7 +22,7 @@ joints of the distance between student and teacher joint in the local frame (blo
 1..15 relative to the hip, yaw removed, body heights; the hip itself by its height), the issue's
 "local-frame MJD". Its two largest parts are "geometry's top 2".
 
-The model's part to fix over a pair (issue 34): the part the scorer names (part_to_fix, after its
+The model's part to fix over a pair: the part the scorer names (part_to_fix, after its
 averaging, ranking and hold) on the most scoring frames; the lowest mean part score when none is
 named. Also printed: the part that is the lowest on the most frames (the per-frame lowest part
 score, before averaging and hold). docs/model/part_fix_rules.py replays other rules on the same CSVs.
@@ -116,7 +116,7 @@ def judge(p):
     """The model's part over the pair, geometry's ranking, and the two checks of the issue."""
     g = p["geo"].mean(0)
     rank = list(np.argsort(-g))
-    # The product's part to fix over the pair (issue 34): the part named on the most scoring frames
+    # The product's part to fix over the pair: the part named on the most scoring frames
     # (the scorer's part_to_fix, after its averaging and hysteresis); the lowest mean part score
     # when no part is ever named.
     named_frames = np.bincount(p["shown"][p["shown"] >= 0], minlength=5)

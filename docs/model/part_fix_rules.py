@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Which rule for the part to fix can agree with geometry on real pairs (issue 34 item 3) and still name a
+"""Which rule for the part to fix can agree with geometry on real pairs and still name a
 turned joint: replays the scorer's averaging and hysteresis (sdk/src/metric/scorer.cpp
 Scorer::update_part_to_fix) in Python, with other ranking keys and holds, on two sets of per-frame CSVs:
 the 98 real pairs of `part_fix.py measure` (`--align dtw`; counted: pairs whose part named on the most

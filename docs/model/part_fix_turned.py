@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The turned-joint side of the part-to-fix rules (issue 34 item 3): the balance test's copies (3 s of
+"""The turned-joint side of the part-to-fix rules: the balance test's copies (3 s of
 02_01, 05_18, 09_01; the ten joints of ../shared/tools/balance-table turned by +-30 and +-45 deg on every
 frame after frame 0) scored against their own clip by `kata score` with the online alignment, written as
 per-frame CSVs with the local-frame part offsets at the matched frame (part_fix.py's geometry), so that

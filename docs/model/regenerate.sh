@@ -26,20 +26,20 @@ $KATA calibrate --model models/default.kata --out models/default.kata --delta-st
 # The score map (total and per part), fitted on real cross-subject clip pairs, chosen by
 # leave-one-subject-out (calibrate.py; report in eval-calibration/calibration.md).
 /usr/bin/python3 docs/model/calibrate.py $KATA $DATA models/default.kata docs/model/eval-calibration
-# The part maps on the joint-position part distances (issue 21: one map on each part's distance
+# The part maps on the joint-position part distances (one map on each part's distance
 # put in body heights of joint displacement; replaces calibrate.py's part maps, keeps its total),
 # then the part to fix against local-frame geometry on real pairs of different subjects (report
 # in eval-part-fix/part_fix.md).
 /usr/bin/python3 docs/model/part_fix.py fit $KATA $DATA models/default.kata
-# The coaching total (issue 34): total = min(model map, worst part's joint-angle score). The model
+# The coaching total: total = min(model map, worst part's joint-angle score). The model
 # map becomes the gate that keeps another motion low (d50 0.085, slope 10, good 92; coaching.py
 # says why), then the totals on calibrate.py's real pairs (eval-calibration/coaching.md). Runs
 # before part_fix.py measure: the part to fix is gated by good_score.
 /usr/bin/python3 docs/model/coaching.py $KATA $DATA models/default.kata docs/model/eval-calibration
 /usr/bin/python3 docs/model/part_fix.py measure $KATA $DATA models/default.kata docs/model/eval-part-fix
-# The transition model (issue 27, docs/model/transition.md): the joint form (kata train --method
+# The transition model (docs/model/transition.md): the joint form (kata train --method
 # joint-form: one quadratic form per axis on each joint's position, velocity and acceleration
-# differences, fitted to the labels by logistic regression), on within-subject pairs of issue 27's
+# differences, fitted to the labels by logistic regression), on within-subject pairs of the independent
 # protocol from each training subject (the files transition_protocols.sh also uses): the best
 # leave-one-subject-out mean under both protocols. No calibration stored: the default map. Then
 # run transition_protocols.sh for its held-out figures.

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Can one score meet issue 34's item 5 (same motion by another subject >= 70, no pair below 50)
+"""Can one score meet the same-motion target (same motion by another subject >= 70, no pair below 50)
 and the 45-degree catch (one joint turned 45 degrees on every frame -> total <= 50) at once?
 (docs/model/scores.md, "Can item 5 and the 45-degree catch both hold? (measured)").
 

@@ -1,6 +1,6 @@
 #!/bin/sh
 # Both transition protocols, leave one subject out, for the transition recipes of
-# docs/model/transition.md (issue 27), and the shipped model's held-out figures. One command:
+# docs/model/transition.md, and the shipped model's held-out figures. One command:
 #   docs/model/transition_protocols.sh [build/bin/kata] [../shared/data/cmu] [OUT]
 # OUT (default docs/model/eval-transition-protocols) gets pairs/, one kata eval report per fold,
 # protocol and recipe (fold-S/<recipe>-<protocol>/eval.md), and tables.md (transition_tables.py).
@@ -8,7 +8,7 @@
 # Protocols (kata pairs --help):
 #   transition          the project's own: i uniform, j uniform among i's matches (MJD < 0.06),
 #                       future over 1 s including k = 0, positive < 0.06, negative > 0.12
-#   transition-uniform  issue 27's independent protocol: i, j uniform in [2, length - 120) of the
+#   transition-uniform  the independent protocol: i, j uniform in [2, length - 120) of the
 #                       clips without frame 0, kept if MJD < 0.06, f = mean MJD over k = 1..120,
 #                       positive < 0.06, negative > 0.12
 # Test pairs of a fold: both clips of the held-out subject, 500 per label (seed 2). Training pairs
@@ -64,29 +64,29 @@ for s in $SUBJECTS; do
   pairs $P/train-transition-uniform-$s.csv --subjects $s --protocol transition-uniform --per-class 1000 --seed 1 --max-draws 5000000
 done
 
-# Recipes. `old`: how models/transition.kata was made until issue 27's second session (the old
+# Recipes. `old`: how models/transition.kata was made until the second round (the old
 # protocol's pairs over the pooled training subjects, plain min/max). `uniform-kG[-nB][-bXY][-rR]`:
 # within-subject uniform pairs of each training subject, kinetics x G in the normalisation (kata
 # train --kinetic-weight), with -nB the negative pairs' scatter in the numerator (--negative-weight
 # B), -bXY W restricted to GPD blocks X, Y (--blocks X,Y), -rR rank R. Every fold runs RECIPES
-# (both protocols) and ABLATION (issue 27's protocol); the walking fold (subject 7) also runs
+# (both protocols) and ABLATION (the independent protocol); the walking fold (subject 7) also runs
 # WHAT_IT_TAKES. Re-running reuses every eval.csv present; a model is trained only when one of
 # its evaluations is missing.
 # Time: adding the shipped recipe's missing evaluations and the shipped model's took 7 min 40 s at
 # load ~17 on 2 shared cores; from scratch about 50 trainings (18-20 s each at load ~9) and 85
 # evaluations (13 s) plus the pair files: about 45 min at load ~9, estimated, not timed (docs/model/transition.md).
 # RECIPES' form-pva is the shipped recipe (regenerate.sh); uniform-k10-n1000-b19 was, before it.
-# ABLATION (every fold; issue 27's ablation of what bounds the model, docs/model/transition.md):
+# ABLATION (every fold; the ablation of what bounds the model, docs/model/transition.md):
 # -b9 W on the kinetics block alone, -n1000 the negatives' scatter dominating the numerator (a
 # discriminative objective), -b19 joint coordinates + kinetics (JCD's own features), -r138 full
 # rank on them (no subspace chosen: a weighted L2), -k30 kinetics x 30, own- the ceiling with the held-out subject's
 # own pairs (not held out; folds 5 and 7 only).
-# form-pva (shipped since issue 27's third session) / form-pv: the joint form (kata train --method
+# form-pva (shipped since the third round) / form-pv: the joint form (kata train --method
 # joint-form --form-terms p,v,a | p,v) on the same within-subject uniform pairs; no RDSR.
 RECIPES=${RECIPES:-"old uniform-k1 uniform-k4 uniform-k10-n1000-b19 form-pva form-pv"}
 ABLATION=${ABLATION:-"uniform-k1-b9 uniform-k1-n1000-b9 uniform-k10-n1000-b19-r138 uniform-k30-n1000-b19 own-uniform-k1-n1000-b9"}
 WHAT_IT_TAKES=${WHAT_IT_TAKES:-"uniform-k10 uniform-k30 uniform-k100 uniform-k1-n1 uniform-k10-n1 uniform-k10-n10 uniform-k10-n1000 uniform-k1-n1000-b9-r10 uniform-k1-n1000-b9-r80"}
-# The ablation is evaluated under issue 27's protocol only (its target's); the other recipes
+# The ablation is evaluated under the independent protocol only (its target's); the other recipes
 # under both. Subject 9's fold (too few test negatives, not in the means) skips the ablation.
 protocols_of() {
   case " $ABLATION " in *" $1 "*) echo transition-uniform ;; *) echo transition transition-uniform ;; esac
@@ -133,7 +133,7 @@ done
 # model's metadata, named by protocol. A model's folder is redone whenever it was retrained (its date).
 #   shipped/         models/transition.kata: recipe form-pva, the best leave-one-subject-out mean
 #                    under both protocols
-#   shipped-static/  models/transition-static.kata: recipe old (last session's static W), for
+#   shipped-static/  models/transition-static.kata: recipe old (the earlier static W), for
 #                    candidates between clips of different motions
 pairs $P/test-transition-19.csv --subjects 1,9 --protocol transition --per-class 500 --seed 2
 pairs $P/test-transition-uniform-19.csv --subjects 1,9 --protocol transition-uniform --per-class 500 --seed 2 --max-draws 5000000

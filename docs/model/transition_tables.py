@@ -13,7 +13,7 @@ import os
 import re
 import sys
 
-PROTOCOLS = [("transition-uniform", "issue 27's independent protocol (transition-uniform)"),
+PROTOCOLS = [("transition-uniform", "the independent protocol (transition-uniform)"),
              ("transition", "the project's own protocol (transition)")]
 
 
@@ -91,7 +91,7 @@ def main():
         print("| method | recipe | " + " | ".join("subject %d (%d/label)" % (s, pairs_per_label(s, proto)) for s in folds)
               + " | mean (%s) |" % ",".join(map(str, full)))
         print("|---|---|" + "---|" * (len(folds) + 1))
-        rows = [("JCD (issue 27)", "old"), ("JCD", "old"), ("GPD+L2", "old")]
+        rows = [("JCD (local)", "old"), ("JCD", "old"), ("GPD+L2", "old")]
         for r in recipes:
             if r.endswith("k1") or r == "old":
                 rows.append(("RDSR N'=0 (eq. 46)", r))
@@ -116,7 +116,7 @@ def main():
         cols = [(p, t) for p, _ in PROTOCOLS for t in ("19", "1", "9")]
         print("| method | " + " | ".join("%s, %s" % (p, "1+9" if t == "19" else t) for p, t in cols) + " |")
         print("|---|" + "---|" * len(cols))
-        for method in ("JCD (issue 27)", "JCD", "GPD+L2", "GPD+RDSR"):
+        for method in ("JCD (local)", "JCD", "GPD+L2", "GPD+RDSR"):
             vals = []
             for p, t in cols:
                 f = os.path.join(shipped, "%s-%s" % (p, t), "eval.csv")
@@ -129,7 +129,7 @@ def main():
             print("| %s | %s |" % (method, " | ".join(vals)))
         print()
 
-    print("## What each distance weighs (issue 27's protocol)\n")
+    print("## What each distance weighs (the independent protocol)\n")
     print("Per fold: the share of d^2 from the kinetics block (positives / negatives) and the precision of "
           "the static part (blocks 1-8) and of the kinetic part (block 9) alone (kata eval, weighs.csv).\n")
     print("| method | recipe | subject | kinetic share pos / neg | static part alone | kinetic part alone | whole |")

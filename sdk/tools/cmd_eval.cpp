@@ -177,7 +177,7 @@ void run_eval(const EvalArgs& a) {
       dvel[i] = d[i] - dpos[i];
     }
     add("JCD", "-", "raw", d);
-    add("JCD (issue 27)", "-", "raw", dl);
+    add("JCD (local)", "-", "raw", dl);
     add("WJCD", "-", "raw", dw);
     weigh.push_back(weigh_row("JCD", "-", dpos, dvel));
     if (a.retrieval) {

@@ -1,4 +1,4 @@
-// Any body, any source (issue 11), through the public C ABI only: MediaPipe world landmarks made
+// Any body, any source, through the public C ABI only: MediaPipe world landmarks made
 // from a CMU clip by a converter written here, per-joint confidence with dropped joints, One-Euro
 // smoothing, bone lengths from live frames, and a CMU teacher retargeted onto a MediaPipe student.
 #include <gtest/gtest.h>
@@ -624,13 +624,13 @@ void write_turned_bvh(const std::string& in, const std::string& joint, const std
   }
 }
 
-// Issue 34's "done when", on the webcam's path: a student bends a knee in front of the camera and
+// The 45-degree catch, on the webcam's path: a student bends a knee in front of the camera and
 // the coach sees the score drop and the cue name the knee. The student is MediaPipe landmarks of the
 // teacher's own walk (the converter above) with the left knee turned on every frame (the BVH's
-// LeftLeg X channel: + flexes it, +45 by 42 deg on 02_01, issue 34), at the webcam's 30 frames a
+// LeftLeg X channel: + flexes it, +45 by 42 deg on 02_01), at the webcam's 30 frames a
 // second, with the layout's default smoothing, against the unturned CMU clip as the teacher
 // through the online alignment, all through the C ABI; the same landmarks unturned are the
-// control. Asserted, with issue 34's criteria: at +-45 deg the mean total is <= 50 (the control
+// control. Asserted, with the coach's criteria: at +-45 deg the mean total is <= 50 (the control
 // >= 90); at +-30 deg the cue names LKnee on >= 70 % of scoring frames with a median angle within
 // 30 +- 8 deg, saying "straighten" on most of them when the student's knee is the more bent one
 // (+), "bend" when it is the straighter one (-).

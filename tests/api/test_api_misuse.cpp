@@ -1,4 +1,4 @@
-// C ABI misuse and hostile input (issue 12): every reproducer of a non-finite output, an
+// C ABI misuse and hostile input: every reproducer of a non-finite output, an
 // INTERNAL status or an unbounded read is a test here, through libkata only.
 #include <gtest/gtest.h>
 
@@ -494,7 +494,7 @@ TEST(Misuse, PushManyStopsAtTheFirstRefusedFrameWithItsIndex) {
 TEST(Misuse, EnumFieldsOutsideTheirValuesAreRefused) {
   Fixture c;
   kata_stream s = nullptr;
-  for (const int32_t raw : {3, 7, -1, INT32_MIN}) {  // 2 is KATA_UP_Y_DOWN (issue 11)
+  for (const int32_t raw : {3, 7, -1, INT32_MIN}) {  // 2 is KATA_UP_Y_DOWN
     for (int field = 0; field < 2; ++field) {
       kata_stream_desc d;
       kata_stream_desc_init(&d);

@@ -1,4 +1,4 @@
-// MediaPipe's own frame shape through the C ABI (issue 26): kata_stream_push_landmarks with five
+// MediaPipe's own frame shape through the C ABI: kata_stream_push_landmarks with five
 // channels (x, y, z, visibility, presence) and millisecond timestamps gives, frame by frame, the
 // features kata_stream_push_confidence gives the same frames in seconds with confidence = the
 // smaller of visibility and presence; kata_time_units_detect names the units of recorded

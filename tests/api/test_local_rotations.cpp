@@ -1,4 +1,4 @@
-// The ghost as local rotations on the student's hierarchy (issue 11, item 8), through the C ABI:
+// The ghost as local rotations on the student's hierarchy, through the C ABI:
 // forward kinematics computed here, from the quaternions and kata_skeleton_joint_offset, must put
 // every ghost joint back on the ghost. On a CMU student (a real retarget of another subject's
 // clip) and on a game-style rig whose hips and chest carry several bones each.

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""No silences (issue 25): every "nothing arrived" case of kata send / kata serve says why.
+"""No silences: every "nothing arrived" case of kata send / kata serve says why.
 - kata send to an endpoint where nobody listens fails naming that, instead of "sent" and exit 0;
 - kata send (push) into a serve whose ingest is left at its default kind (sub): both sides say the
   socket kinds cannot talk, naming the config's kind and what to write;

@@ -206,7 +206,7 @@ TEST(CliScore, AClipWithNothingScoredSaysWhyInsteadOfAMeanOfZero) {
   std::remove(csv.c_str());
 }
 
-// The correction cue in `kata score`'s CSV (issue 34 item 4): a copy of 02_01 with the left knee
+// The correction cue in `kata score`'s CSV: a copy of 02_01 with the left knee
 // (BVH LeftLeg, X rotation) turned by 30 degrees on every frame, scored against the original by
 // the online alignment, names LKnee in cue_joint on >= 70 % of the scoring rows, with a median
 // cue_degrees of 30 +- 8 and the phrase "left knee: ..."; the columns are named exactly so, and
@@ -276,7 +276,7 @@ TEST(CliScore, ABentKneeCopyNamesTheLeftKneeInTheCueColumns) {
 
 }  // namespace
 
-// Issue 27's tool path as a user runs it: pairs by the independent protocol, `kata eval` with
+// The transition protocol's tool path as a user runs it: pairs by the independent protocol, `kata eval` with
 // the figures stored in a copy of a model under a name that says the protocol, `model-info`
 // listing them, and `kata score` warning that a model evaluated on a transition protocol is not
 // a coaching model.
@@ -291,12 +291,12 @@ TEST(CliTransition, ProtocolPairsEvalStoresNamedFiguresScoreNotes) {
   r = run("eval --data " + data + " --pairs " + pairs + " --model " + std::string(KATA_SOURCE_DIR) +
           "/models/default.kata --label m --store-in " + model + " --figure-prefix 'test, protocol transition-uniform'");
   ASSERT_EQ(r.code, 0) << r.output;
-  EXPECT_NE(r.output.find("JCD (issue 27)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("JCD (local)"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("weighs GPD+RDSR"), std::string::npos) << r.output;
   r = run("model-info " + model);
   ASSERT_EQ(r.code, 0) << r.output;
   EXPECT_NE(r.output.find("test, protocol transition-uniform: GPD+RDSR"), std::string::npos) << r.output;
-  EXPECT_NE(r.output.find("test, protocol transition-uniform: JCD (issue 27)"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("test, protocol transition-uniform: JCD (local)"), std::string::npos) << r.output;
   const std::string csv = kata::test::temp_path("kata_cli_transition_scores.csv");
   r = run("score --model " + model + " --teacher " + data + "/02_01.bvh --student " + data +
           "/02_02.bvh --preset cmu --out " + csv);

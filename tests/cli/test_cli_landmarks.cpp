@@ -1,4 +1,4 @@
-// Landmark files in the CLI (issue 11): the 16 GPD joints of a CMU clip written as a "gpd"-layout
+// Landmark files in the CLI: the 16 GPD joints of a CMU clip written as a "gpd"-layout
 // .npy (frames, 16, 4 with confidence) and as a .csv score against the clip's own BVH with the
 // default model as the exact joints do, and the two file forms give the same features.
 #include <gtest/gtest.h>
@@ -226,7 +226,7 @@ TEST(CliLandmarks, LostFramesKeepTheirRowsAsTrackingLost) {
   EXPECT_GT(scored_rows, frames - 40 - 80);  // calibrating after each restart: 0.25 s
 }
 
-// MediaPipe's shapes (issue 26): timestamps in milliseconds (performance.now()-like, far from 0),
+// MediaPipe's shapes: timestamps in milliseconds (performance.now()-like, far from 0),
 // with capture jitter, beside the .npy (X.times.npy) or as a CSV's first column, with five channels
 // (x, y, z, visibility, presence). Read with --time-units ms they give the features of the same
 // frames in seconds (to rounding), which differ from a uniform --fps run (the timestamps are used);

@@ -1,4 +1,4 @@
-// The long teacher's progress line (sdk/tools/load_progress.hpp, issue 36): its text, and that it
+// The long teacher's progress line (sdk/tools/load_progress.hpp): its text, and that it
 // is shown only once loading has taken longer than the delay, ending with a newline.
 #include <gtest/gtest.h>
 

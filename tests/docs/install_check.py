@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""The install matches the docs (issue 37), from `cmake --install` into a fresh prefix, each check
+"""The install matches the docs, from `cmake --install` into a fresh prefix, each check
 in an empty folder with nothing of the checkout on PATH or PYTHONPATH:
 - installed executables carry a RUNPATH to the library folder; kata.pc says how to get an rpath;
 - the samples are installed under share/kata/samples; the installed Python package finds

@@ -1,4 +1,4 @@
-// The coach's test of the score (issue 34): turn one joint of a real clip by a fixed angle on
+// The coach's test of the score: turn one joint of a real clip by a fixed angle on
 // every frame (its BVH rotation channel plus N degrees, as ../shared/tools/bend-joint does) and
 // score the copy against the original with the shipped model, the online alignment and the
 // Scorer a lesson uses. The same error at any major joint, either way, left or right, must move
@@ -154,7 +154,7 @@ TEST(Balance, EveryJointCountsAlikeLeftAndRight) {
   }
 }
 
-// The correction cue (issue 34 item 4) on the same turned copies: the GPD joint whose BVH channel
+// The correction cue on the same turned copies: the GPD joint whose BVH channel
 // is turned (the cue names the joint to move, cue.hpp), per kTurns entry.
 constexpr int kCueJoint[] = {5, 8, 4, 7, 11, 14, 10, 13, 1, 2};  // LElbow RElbow LShoulder ... Chest Neck
 

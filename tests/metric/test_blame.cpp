@@ -4,7 +4,7 @@
 // columns: the part with the lowest score).
 //
 // The bent spine (everything above the chest turned about the chest) is judged by geometry, as
-// the part to fix is everywhere else (issue 21, docs/model/part_fix.py): the part named must be
+// the part to fix is everywhere else (docs/model/part_fix.py): the part named must be
 // one of the two parts whose joints moved farthest in the local frame. Why not "the torso": the
 // turn carries the shoulders, elbows and hands, farther from the chest than the neck and head,
 // so in the local frame (hip-relative, yaw from the shoulder and hip lines) the arms' joints are
@@ -171,7 +171,7 @@ TEST(Blame, RotatingOneJointBlamesItsPart) {
     for (int q = 0; q < kParts; ++q) total += confusion[p][q];
     EXPECT_GE(double(confusion[p][p]) / total, 0.9) << metric::part_name(p);
   }
-  // The bent spine (issue 34): the torso's own angle is what changed, and the part scores read
+  // The bent spine: the torso's own angle is what changed, and the part scores read
   // the arms in the chest frame, so the torso is the lowest part: measured 36 of 54; the 18
   // others are all the twists about the vertical, which turn the local frame (its yaw comes from
   // the shoulder and hip lines) and so turn the legs in it as far (named 11 / 7 legs).

@@ -1,5 +1,5 @@
 // The calibrated score, per-part scores, the part to fix with its hysteresis and the feedback
-// states (issue 10), through the C++ Scorer (the C ABI: tests/api/test_feedback_capi.cpp). Values are checked against the
+// states, through the C++ Scorer (the C ABI: tests/api/test_feedback_capi.cpp). Values are checked against the
 // documented map 100 / (1 + (d / d50)^slope) evaluated here from the record's own distances.
 #include <gtest/gtest.h>
 
@@ -52,7 +52,7 @@ TEST(Calibration, RoundTripAndDocumentedDefault) {
   EXPECT_EQ(back.calibration->method, "test");
   EXPECT_EQ(metric::Metric(back).calibration().d50, 0.05);
 
-  // A file written without a calibration (every model before issue 10) loads with the default:
+  // A file written without a calibration (every model made before calibrations) loads with the default:
   // d50 = delta*, slope 2 for the total and every part, good score 75.
   const metric::Model& without = test::test_model();
   ASSERT_FALSE(without.calibration.has_value());

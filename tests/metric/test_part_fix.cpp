@@ -1,4 +1,4 @@
-// The part to fix over a whole clip against plain geometry (issue 21 item 4), with the shipped
+// The part to fix over a whole clip against plain geometry, with the shipped
 // model and its maps, through the Scorer a lesson uses:
 // - a student made from the teacher's own frames with one part visibly wrong on every frame (an
 //   elbow or knee bent 45 degrees more, the head turned on the neck): the part named is that part;

@@ -49,7 +49,7 @@ void expect_identical(const metric::Reference& a, const metric::Reference& b) {
     ASSERT_EQ(0, std::memcmp(a.search_rows_half(i), b.search_rows_half(i), stride * sizeof(uint16_t))) << i;
 }
 
-// Issue 36: a teacher's Reference made from features streamed chunk by chunk from its BVH (never
+// A teacher's Reference made from features streamed chunk by chunk from its BVH (never
 // all held) is the one made from the whole feature matrix, on a real clip.
 TEST(Reference, StreamedClipIsTheOneShotClip) {
   const auto metric = test::test_metric();
@@ -133,7 +133,7 @@ TEST(Reference, NaNInAStreamedChunkIsRefused) {
   }
 }
 
-// What a Reference keeps (issue 36): the part and joint-position rows within half a step (the
+// What a Reference keeps: the part and joint-position rows within half a step (the
 // row's largest |value| / 32767) of the float projection, the static row as it is, and at most
 // 2 KB a teacher frame.
 TEST(Reference, KeptRowsAreWithinTheirRoundingAndTwoKilobytesAFrame) {

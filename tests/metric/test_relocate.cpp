@@ -1,4 +1,4 @@
-// The re-localising alignment (issue 21): students made from the teacher's own frames on a
+// The re-localising alignment: students made from the teacher's own frames on a
 // rescaled and turned body (x 1.3, 40 degrees about the vertical, moved), so the truth is known,
 // who join late, skip ahead or back, pause, change tempo, or walk a 20-cycle loop. Scored with
 // the shipped model and its calibration, pushed frame by frame through a live Stream.
@@ -323,7 +323,7 @@ TEST_F(Relocate, LoopedSectionFollowsEveryRepetition) {
   EXPECT_EQ(r.relocations, 0);
 }
 
-// Long teachers (issue 36): the same students against the clip repeated 16 times (29,264
+// Long teachers: the same students against the clip repeated 16 times (29,264
 // frames, 4 minutes: the search on a grid of every 9th frame, align.hpp "Long teachers"). Every
 // copy is the same motion, so the match is judged by its place in the clip (frame mod the
 // clip's length), with the same criterion as above: found within 1.5 s of each event.

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""kata serve's practice settings (issue 21): [scoring] loop = [A, B] and a per-stream
+"""kata serve's practice settings: [scoring] loop = [A, B] and a per-stream
 [scoring.practice] teacher_start. A clip sent as two streams against the teacher 07_01 (frames from 1):
 stream 1 loops clip frames 100..220 (every matched teacher row in 99..219), stream 2 starts at clip
 frame 200 (no row before 199). A section outside the clip, or both settings in one table, is refused

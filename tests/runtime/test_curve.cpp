@@ -1,4 +1,4 @@
-// CURVE on the runtime's sockets (issue 22): a server key pair, an allow-list read from a key
+// CURVE on the runtime's sockets: a server key pair, an allow-list read from a key
 // directory; a sender with a known key gets its stream in and a subscriber with a known key reads
 // its results; an unknown key gets nothing in and nothing out; a subscriber without a key reads
 // nothing; keys round-trip through their files. Loopback TCP, every wait bounded.

@@ -1,4 +1,4 @@
-// The direct ingest (issue 38's follow-up): a NATS shard's delivery thread hands messages to
+// The direct ingest: a NATS shard's delivery thread hands messages to
 // Runtime::offer, a ring the I/O thread reads, instead of a private ipc socket. Here a thread of
 // the test is that producer (no NATS needed: the bridge only forwards the bytes). The ring itself
 // (wrap-around, full, order); a real stream beside hostile messages (each counted by cause, the

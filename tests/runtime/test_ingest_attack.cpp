@@ -1,4 +1,4 @@
-// Attacks on the ingest (issue 22), each against a real stream beside it, over loopback TCP: a
+// Attacks on the ingest, each against a real stream beside it, over loopback TCP: a
 // runtime with a PULL ingest in this process, the real source and the attackers on their own
 // PUSH sockets (so their own connections), a SUB reading the results. The real stream must keep
 // every result, the forged messages must be counted by cause, and the ingest's counters must add

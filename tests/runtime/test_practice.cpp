@@ -1,4 +1,4 @@
-// Practice settings in the runtime's messages (issue 21 item 2; schemas/practice.fbs): a source
+// Practice settings in the runtime's messages (schemas/practice.fbs): a source
 // sets, for its own stream, where the teacher starts or a section looped, and changes it
 // mid-stream; every result says the setting it was computed under beside its matched teacher
 // time. Over loopback TCP: a runtime with a PULL ingest in this process, each sender on its own

@@ -1,4 +1,4 @@
-// Streams announced to the runtime (ingest, kata serve) by a built-in layout name (issue 11): a
+// Streams announced to the runtime (ingest, kata serve) by a built-in layout name: a
 // MediaPipe source's definition sets up its synthesised joints, its camera axes and smoothing, and
 // its frames give the same features as a stream opened by hand with that layout.
 #include <gtest/gtest.h>

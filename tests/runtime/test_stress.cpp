@@ -249,7 +249,7 @@ TEST(runtime_stress, PluginsLoadedAndUnloadedAroundRunningRuntimes) {
   }
 }
 
-// stop() while several threads push (issue 28), 1,000 times: each push is either taken (kOk, and
+// stop() while several threads push, 1,000 times: each push is either taken (kOk, and
 // its result reaches the sink before stop() returns) or refused (kStopped, counted per stream);
 // once a thread saw kStopped it never sees kOk again; every frame is accounted for. Eight lanes of
 // 125 runtimes each run side by side (a stop waits for the workers' 50 ms idle wake-up).

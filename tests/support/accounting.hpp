@@ -1,4 +1,4 @@
-// Nothing lost, and proven so (issue 28): the check at the end of every live test that each frame
+// Nothing lost, and proven so: the check at the end of every live test that each frame
 // handed to a runtime became a result the test received or one count of one drop cause, per
 // stream:
 //

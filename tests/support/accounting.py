@@ -1,4 +1,4 @@
-"""Nothing lost, and proven so (issue 28): the Python twin of tests/support/accounting.hpp for the
+"""Nothing lost, and proven so: the Python twin of tests/support/accounting.hpp for the
 CLI tests (kata serve behind kata send, shards). Per stream:
 
   frames sent = results received + every drop cause kata serve --counters wrote + consumer gaps

@@ -401,7 +401,7 @@ TEST(Pairs, TransitionIsReproducibleBalancedAndFileRoundTrips) {
   }
 }
 
-// Issue 27's independent protocol, checked against its own definition computed here from the
+// The independent protocol, checked against its own definition computed here from the
 // block-1 joint coordinates (hip at the origin, so MJD is the mean over 16 joints of which the
 // hip adds 0).
 TEST(Pairs, UniformTransitionFollowsTheIndependentProtocol) {

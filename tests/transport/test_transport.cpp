@@ -88,7 +88,7 @@ TEST(runtime_wire, FrameRoundTrip) {
   EXPECT_EQ(f.confidence[1], 0.5f);
 }
 
-// MediaPipe's presence (frame.fbs field 7, issue 26): the reader sees each joint's confidence as
+// MediaPipe's presence (frame.fbs field 7): the reader sees each joint's confidence as
 // the smaller of confidence and presence (presence alone without confidence), the checksum
 // covers presence, and a frame without it reads as before.
 TEST(runtime_wire, PresenceIsReadAsConfidenceWithVisibility) {
@@ -515,7 +515,7 @@ TEST(runtime_ingest, UnknownStreamsGapsAndRestartsAreCounted) {
   EXPECT_EQ(received.sequences, (std::vector<uint64_t>{0, 1, 2, 5, 6, 0, 1}));
 }
 
-// Issue 28: a keyless sender that closes right after its last frames, read by a busy ingest that
+// A keyless sender that closes right after its last frames, read by a busy ingest that
 // sees the close first. Its streams are its connection's; they used to be orphaned at the close,
 // and the frames still waiting in the socket were then refused as another sender's ("not owner":
 // the last frame of every stream lost under ASan). They stay the sender's until read; then the

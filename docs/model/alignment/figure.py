@@ -1,7 +1,7 @@
 #!/usr/bin/python3
 """The alignment figure of docs/model/alignment.md: the default lesson (teacher CMU 05_18, student
 05_19 on subject 2's body) scored by kata score three ways: the re-localising online alignment,
-the band-only online alignment (--relocate-time 0, issue 3's behaviour) and the offline
+the band-only online alignment (--relocate-time 0, the first behaviour) and the offline
 subsequence DTW (--align dtw). Plots the matched teacher frame and the score of each student frame.
 
     /usr/bin/python3 docs/model/alignment/figure.py build/bin/kata

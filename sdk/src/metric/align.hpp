@@ -1,4 +1,4 @@
-// Online alignment of a student stream to a teacher clip (issues 3 and 21): a streaming DTW over
+// Online alignment of a student stream to a teacher clip: a streaming DTW over
 // the whole clip (or a practice section of it) with a jump transition, so that the match follows
 // a student who joins anywhere, skips ahead or back, repeats, pauses or changes tempo.
 //

@@ -157,7 +157,7 @@ double ClipData::joint_distance(const float* fa, const float* fb) {
 
 std::vector<float> clip_feature_rows(const BvhClip& clip, const std::string& preset, gpd::Stencil stencil) {
   const GpdMap map = make_gpd_map(clip.skeleton, preset_joint_names(preset));
-  // The lead's offline helper streams frames 1..F-1 through a kata::Stream (the live path).
+  // kata::clip_features streams frames 1..F-1 through a kata::Stream (the live path).
   const std::vector<float> rows = kata::clip_features(clip, map, stencil, 1);
   std::vector<float> out(static_cast<size_t>(gpd::kDims), 0.0f);  // row 0: the T-pose, unused
   out.insert(out.end(), rows.begin(), rows.end());

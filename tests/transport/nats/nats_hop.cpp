@@ -9,7 +9,7 @@
 // message on as a `kata serve` shard does (serve_bridge.cpp: from libnats' delivery thread over
 // an ipc PUSH to a PULL in another ZeroMQ context, read by a thread of its own as the runtime's
 // ingest reads), stamped where the PULL reader gets it: the bridge's share of a frame's hop until
-// issue 38's follow-up. A fourth subscriber on n0 hands each message on as the shard does now
+// the direct ingest. A fourth subscriber on n0 hands each message on as the shard does now
 // (Runtime::offer: copied into a MessageRing, an eventfd written; a thread of its own sleeping in
 // zmq_poll on that eventfd, as the runtime's I/O thread, drains the ring), stamped where that
 // reader gets it. A measurement tool, not a test.

@@ -1,5 +1,5 @@
 #!/usr/bin/python3
-"""Python's kata.Subscriber reads either transport (issue 38, item 3): kata send feeds 4 streams x
+"""Python's kata.Subscriber reads either transport: kata send feeds 4 streams x
 60 frames of 05_18 to one kata serve over ZeroMQ and then to a kata serve shard over NATS (one
 nats-server with JetStream and the partition mapping, started here on its own port and
 directory); kata.Subscriber("tcp://...") and kata.Subscriber("nats://...") each read every result

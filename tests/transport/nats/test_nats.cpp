@@ -823,7 +823,7 @@ TEST(NatsCluster, ServeRepetitionsPassThrough) {
   }
 }
 
-// kill -9 of one kata serve shard while frames flow (issue 38's failover test with scoring): three
+// kill -9 of one kata serve shard while frames flow (the failover test with scoring): three
 // shards score 24 streams at 60 Hz fed by kata send over NATS; once every stream's results flow
 // from its partition's holder, the shard holding the most of them is killed. Its partitions are
 // held again (the lease bucket's view) within 5 s, each of its streams resumes at its new holder
