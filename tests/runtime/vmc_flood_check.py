@@ -19,11 +19,13 @@ checked:
 
 (ctest runs 2 s at 100,000 a second; docs/vmc.md has a 10 s run.) Ports: free UDP ports from the
 kernel; paths: a temporary directory."""
-import json, os, signal, socket, struct, subprocess, sys, tempfile, threading, time
+import json, os, signal, socket, struct, subprocess, sys, tempfile, time
 
 import liblo
 
 kata_cli, source, plugin_dir = (os.path.abspath(a) for a in sys.argv[1:4])
+sys.path.insert(0, os.path.join(source, "tests", "transport"))
+from vmc_peer import free_udp_port, liblo_bytes, rss_kib  # noqa: E402
 SECONDS = float(sys.argv[4]) if len(sys.argv) > 4 else 2.0
 RATE = float(sys.argv[5]) if len(sys.argv) > 5 else 100000.0
 LOOPS = max(1, -int(-SECONDS // 2.5))  # stream 7 plays 300 frames (2.5 s) this often: as long as the flood
@@ -31,32 +33,6 @@ FRAMES = 300 * LOOPS
 BONES = ["Hips", "Spine", "Chest", "UpperChest", "Neck", "Head", "LeftShoulder", "LeftUpperArm", "LeftLowerArm",
          "LeftHand", "RightShoulder", "RightUpperArm", "RightLowerArm", "RightHand", "LeftUpperLeg", "LeftLowerLeg",
          "LeftFoot", "LeftToes", "RightUpperLeg", "RightLowerLeg", "RightFoot", "RightToes"]
-
-
-def free_udp_port():
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
-
-
-def liblo_bytes(bundle):
-    """The bytes liblo sends for a bundle (caught on a plain UDP socket)."""
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind(("127.0.0.1", 0))
-    s.settimeout(5)
-    liblo.send(liblo.Address("127.0.0.1", s.getsockname()[1], liblo.UDP), bundle)
-    data = s.recv(65536)
-    s.close()
-    return data
-
-
-def rss_kib(pid):
-    for line in open("/proc/%d/status" % pid):
-        if line.startswith("VmRSS:"):
-            return int(line.split()[1])
-    return 0
 
 
 def cpu_seconds(pid):

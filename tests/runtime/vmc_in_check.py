@@ -25,6 +25,8 @@ import liblo
 kata_cli, source, python_dir, plugin_dir, vmc_send_clip = sys.argv[1:6]
 sys.path.insert(0, python_dir)
 import kata  # noqa: E402  (the clip's joint positions only)
+sys.path.insert(0, os.path.join(source, "tests", "transport"))
+from vmc_peer import free_udp_port, liblo_bytes, rss_kib  # noqa: E402
 
 CMU_TO_METRES = 0.056444  # the CMU BVH's units (inches / 0.45 ...: cgspeed's conversion)
 VRM = ["Hips", "Spine", "Chest", "UpperChest", "Neck", "Head", "LeftShoulder", "LeftUpperArm", "LeftLowerArm",
@@ -127,32 +129,6 @@ def bundle(bones, t):
     return liblo.Bundle(*msgs)
 
 
-def free_udp_port():
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind(("127.0.0.1", 0))
-    port = s.getsockname()[1]
-    s.close()
-    return port
-
-
-def captured(messages_or_bundle):
-    """The bytes liblo sends for a bundle or message (received here on a plain UDP socket)."""
-    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
-    s.bind(("127.0.0.1", 0))
-    s.settimeout(5)
-    liblo.send(liblo.Address("127.0.0.1", s.getsockname()[1], liblo.UDP), messages_or_bundle)
-    data = s.recv(65536)
-    s.close()
-    return data
-
-
-def rss_kib(pid):
-    for line in open("/proc/%d/status" % pid):
-        if line.startswith("VmRSS:"):
-            return int(line.split()[1])
-    return 0
-
-
 def run(frames, frame_time, hostile, kata_sender=False):
     """kata serve with one clean vmc-in stream (7) and, with hostile, a second one (8) under attack.
     Returns (scores of stream 7 by sequence, serve's stderr, RSS growth KiB under the flood, flood rate)."""
@@ -213,16 +189,16 @@ def hostile_traffic(port, serve_pid, some_bones):
     """Every kind of bad datagram, then a flood; returns (RSS growth KiB, datagrams per second)."""
     s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     to = ("127.0.0.1", port)
-    good = captured(bundle(some_bones, 1.0))
+    good = liblo_bytes(bundle(some_bones, 1.0))
     bad = []
     bad += [good[:n] for n in range(1, len(good), 7)]  # truncated at every 7th byte
-    bad.append(captured(liblo.Bundle(liblo.Message("/VMC/Ext/Bone/Pos", "Hips", 1, 2, 3, 4, 5, 6, 7))))
-    bad.append(captured(liblo.Bundle(liblo.Message("/VMC/Ext/Bone/Pos", "Hips", 1.0))))
-    bad.append(captured(liblo.Bundle(*[liblo.Message("/VMC/Ext/Bone/Pos", "Tail%d" % i, *([0.0] * 6), 1.0)
+    bad.append(liblo_bytes(liblo.Bundle(liblo.Message("/VMC/Ext/Bone/Pos", "Hips", 1, 2, 3, 4, 5, 6, 7))))
+    bad.append(liblo_bytes(liblo.Bundle(liblo.Message("/VMC/Ext/Bone/Pos", "Hips", 1.0))))
+    bad.append(liblo_bytes(liblo.Bundle(*[liblo.Message("/VMC/Ext/Bone/Pos", "Tail%d" % i, *([0.0] * 6), 1.0)
                                        for i in range(50)])))
-    bad.append(captured(liblo.Bundle(liblo.Message("/VMC/Ext/Bone/Pos", "Hips", float("nan"), 0.0, 0.0, 0.0, 0.0,
+    bad.append(liblo_bytes(liblo.Bundle(liblo.Message("/VMC/Ext/Bone/Pos", "Hips", float("nan"), 0.0, 0.0, 0.0, 0.0,
                                                    0.0, 1.0))))
-    bad.append(captured(bundle(some_bones, 0.5)))  # a time going back
+    bad.append(liblo_bytes(bundle(some_bones, 0.5)))  # a time going back
     bad.append(b"\0" * 5000)                          # oversized for max_packet=4096
     bad.append(b"not osc at all!!")
     for b in bad:
@@ -230,7 +206,7 @@ def hostile_traffic(port, serve_pid, some_bones):
     rss0 = rss_kib(serve_pid)
     # The flood: bundles with increasing times (frames over max_rate are counted, not pushed),
     # interleaved with malformed ones, as fast as this thread sends, for 2 s.
-    floods = [captured(bundle(some_bones, 2.0 + k * 1e-3)) for k in range(200)]
+    floods = [liblo_bytes(bundle(some_bones, 2.0 + k * 1e-3)) for k in range(200)]
     sent, t0 = 0, time.monotonic()
     while time.monotonic() - t0 < 2.0:
         for b in floods:

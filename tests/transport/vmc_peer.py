@@ -2,13 +2,12 @@
 bones' hierarchy, forward kinematics of received local rotations over received local positions
 (Unity's frame mirrored back into kata's), a marionette that keeps each frame's bones, and the
 GPD joints of a CMU clip to check them against. Shared by tests/transport/vmc_peers_check.py and
-tests/runtime/vmc_serve_check.py; `kata` (the Python bindings) must be importable for clip_gpd."""
+tests/runtime/vmc_serve_check.py, vmc_in_check.py and vmc_flood_check.py; `kata` (the Python bindings)
+must be importable for clip_gpd."""
 import socket, threading
 
 import numpy as np
 import liblo
-
-import kata
 
 VRM = ["Hips", "Spine", "Chest", "UpperChest", "Neck", "Head", "LeftShoulder", "LeftUpperArm", "LeftLowerArm",
        "LeftHand", "RightShoulder", "RightUpperArm", "RightLowerArm", "RightHand", "LeftUpperLeg", "LeftLowerLeg",
@@ -36,6 +35,24 @@ def free_udp_port():
     port = s.getsockname()[1]
     s.close()
     return port
+
+
+def liblo_bytes(message_or_bundle):
+    """The bytes liblo sends for a bundle or message (caught on a plain UDP socket)."""
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind(("127.0.0.1", 0))
+    s.settimeout(5)
+    liblo.send(liblo.Address("127.0.0.1", s.getsockname()[1], liblo.UDP), message_or_bundle)
+    data = s.recv(65536)
+    s.close()
+    return data
+
+
+def rss_kib(pid):
+    for line in open("/proc/%d/status" % pid):
+        if line.startswith("VmRSS:"):
+            return int(line.split()[1])
+    return 0
 
 
 def qmul(a, b):
@@ -102,6 +119,7 @@ class Receiver:
 
 def clip_gpd(path, first, count):
     """The clip's 16 GPD joints (cmu layout) per frame, metres."""
+    import kata  # here, so that checks without the bindings can use the rest
     with kata.Context() as ctx, ctx.load_clip(path) as clip:
         with clip.skeleton() as sk:
             names = list(sk.names)
