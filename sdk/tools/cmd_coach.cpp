@@ -391,9 +391,9 @@ void run_coach(CoachArgs a) {
   if (!live) replayed.pushed = static_cast<int>(played);  // an interrupted replay reports what was shown
   publish_settled(done);
   // The repetitions that ended with the lesson (kata_runtime_stop closes the one in progress, after
-  // every frame's result) ride on the end event; the terminal's last line counts them too.
-  const std::string final_reps =
-      take_repetitions(live ? live->repetitions_ended() : g_interrupted ? reps_shown : replayed.repetitions.size());
+  // every frame's result; a replay's recorded ones) ride on the end event; the terminal's last line
+  // counts them too, as the summary does.
+  const std::string final_reps = take_repetitions(live ? live->repetitions_ended() : replayed.repetitions.size());
   view.set_finished();
   view.update(data, published, fps, true);
   view.close();
