@@ -177,15 +177,24 @@ const stateBanner = {
 };
 // The repetition counter (docs/coach/repetitions.md): the repetition in progress and how far
 // through the teacher's section it is; the newest repetition's tempo, score and depth (knee range
-// against the teacher's). kata.reps keeps every repetition the lesson sent.
+// against the teacher's). kata.reps keeps every repetition the lesson sent; at the end (f.ended:
+// the end event, which carries the repetition the lesson's end closed and the summary's count)
+// the counter shows the completed ones, kata.repsDone.
 kata.reps = [];
+kata.repsDone = 0;
 function showRepetitions(f) {
   if (f.reps) kata.reps.push(...f.reps);
+  kata.repsDone = kata.reps.filter((r) => !r.partial).length;
   if (!f.rep && !kata.reps.length) return;
   $('reps').style.display = '';
-  if (f.rep) {
+  if (f.ended) {
+    $('rep-label').textContent = 'repetitions';
+    $('rep-count').textContent = f.reps_done !== undefined ? f.reps_done : kata.repsDone;
+    $('rep-progress').textContent = f.reps_partial ? `(${f.reps_partial} partial)` : '';
+  } else if (f.rep) {
+    $('rep-label').textContent = 'repetition';
     $('rep-count').textContent = f.rep;
-    $('rep-progress').textContent = Math.round(100 * f.rep_progress) + '%';
+    $('rep-progress').textContent = Math.round(100 * f.rep_progress) + '%' + (kata.repsDone ? `, ${kata.repsDone} done` : '');
   }
   const last = kata.reps[kata.reps.length - 1];
   if (last)
@@ -274,7 +283,7 @@ function connect() {
   source.addEventListener('setup', (e) => {
     const s = JSON.parse(e.data);
     const fresh = !setup || JSON.stringify(s.parents) !== JSON.stringify(setup.parents) || s.frames !== setup.frames;
-    if (setup && s.lesson !== setup.lesson && kata.lastId < 0) { scores.length = 0; scoreSum = 0; scoreCount = 0; }
+    if (setup && s.lesson !== setup.lesson && kata.lastId < 0) { scores.length = 0; scoreSum = 0; scoreCount = 0; kata.reps.length = 0; }
     setup = s;
     if (fresh) { buildSkeletons(); buildPanel(); resize(); }
   });
@@ -291,6 +300,7 @@ function connect() {
   source.addEventListener('end', (e) => {
     const s = JSON.parse(e.data);
     kata.ended = true;
+    if (s.reps) showRepetitions({ ...s, ended: true });
     const st = $('state');
     st.textContent = `lesson over: mean score ${s.mean_score.toFixed(1)}`;
     st.className = 'badge finished';

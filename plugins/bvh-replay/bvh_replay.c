@@ -157,6 +157,6 @@ static void stop(void* instance) {
 
 static const kata_plugin table = {KATA_PLUGIN_ABI_VERSION, sizeof(kata_plugin), "bvh-replay",
                                   "a BVH clip as a live source (config: path=CLIP;stream=ID;speed;loops)",
-                                  KATA_PLUGIN_SOURCE, activate, deactivate, start, stop, NULL, NULL};
+                                  KATA_PLUGIN_SOURCE, activate, deactivate, start, stop, NULL, NULL, NULL};
 
 KATA_PLUGIN_EXPORT const kata_plugin* kata_plugin_entry(void) { return &table; }

@@ -3,18 +3,30 @@
  * cue, the repetition in progress and the progress through it, timestamps); the columns after
  * right_leg need a host of plugin ABI minor 1, the cue's and the repetition's a host whose record
  * has them (KATA_RESULT_HAS; empty cells from an older host).
- * Config: "path=FILE" (required). Public headers only (kata_plugin.h). */
+ * With "repetitions=FILE", every repetition that ended (plugin ABI 2.1 on_repetition) as one row of
+ * the columns and formats of `kata score --reps`: rep, start_time, end_time, tempo, score,
+ * part_to_fix, cue, partial, then range_<joint> and range_<joint>_teacher per joint, and the
+ * stream_id last (`kata score` has one stream).
+ * Config: "path=FILE" (required), "repetitions=FILE" (optional). Public headers only (kata_plugin.h,
+ * kata.h for the cue's words). */
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
+#include "kata/kata.h"
 #include "kata/kata_plugin.h"
 #include "plugin_config.h"
 
 typedef struct csv_sink {
   FILE* file;
   char* buffer; /* stdio buffer, allocated at activate: rows are written without allocating */
+  FILE* reps;   /* the repetitions' file, or NULL */
+  char* reps_buffer;
 } csv_sink;
+
+/* kata_rom_joint order, as kata score --reps names them. */
+static const char* const kRomNames[KATA_ROM_JOINT_COUNT] = {"left_knee",  "right_knee",  "left_hip",      "right_hip",
+                                                           "left_elbow", "right_elbow", "left_shoulder", "right_shoulder"};
 
 static void* activate(const kata_plugin_host* host, const char* config, char* error, size_t capacity) {
   char path[4096];
@@ -40,6 +52,22 @@ static void* activate(const kata_plugin_host* host, const char* config, char* er
           "torso_head_score,left_arm_score,right_arm_score,left_leg_score,right_leg_score,part_to_fix,state,"
           "matched_teacher_time,practice_start_time,practice_end_time,practice_loop,practice_revision,"
           "cue_joint,cue_degrees,cue_action,repetition,repetition_progress\n");
+  if (plugin_config_value(config ? config : "", "repetitions", path, sizeof path)) {
+    int j;
+    s->reps = fopen(path, "w");
+    if (!s->reps) {
+      snprintf(error, capacity, "csv-sink: cannot write %s", path);
+      fclose(s->file);
+      free(s->buffer);
+      free(s);
+      return NULL;
+    }
+    s->reps_buffer = (char*)malloc(1 << 14);
+    if (s->reps_buffer) setvbuf(s->reps, s->reps_buffer, _IOFBF, 1 << 14);
+    fputs("rep,start_time,end_time,tempo,score,part_to_fix,cue,partial", s->reps);
+    for (j = 0; j < KATA_ROM_JOINT_COUNT; ++j) fprintf(s->reps, ",range_%s,range_%s_teacher", kRomNames[j], kRomNames[j]);
+    fputs(",stream_id\n", s->reps);
+  }
   return s;
 }
 
@@ -47,6 +75,8 @@ static void deactivate(void* instance) {
   csv_sink* s = (csv_sink*)instance;
   fclose(s->file);
   free(s->buffer);
+  if (s->reps) fclose(s->reps);
+  free(s->reps_buffer);
   free(s);
 }
 
@@ -90,10 +120,45 @@ static void on_result(void* instance, const kata_result_record* r) {
     fputs(",,\n", s->file);
 }
 
-static void flush(void* instance) { fflush(((csv_sink*)instance)->file); }
+/* One repetition that ended: a row as kata score --reps writes it (its cue in kata_cue_text's words). */
+static void on_repetition(void* instance, const kata_repetition* r) {
+  csv_sink* s = (csv_sink*)instance;
+  kata_result_record cue_of;
+  char cue[64] = "";
+  int j;
+  if (!s->reps) return;
+  if (r->cue_joint >= 0) {
+    memset(&cue_of, 0, sizeof cue_of);
+    cue_of.struct_size = sizeof cue_of;
+    cue_of.part_to_fix = r->part_to_fix;
+    cue_of.cue_joint = r->cue_joint;
+    cue_of.cue_degrees = r->cue_degrees;
+    cue_of.cue_action = r->cue_action;
+    kata_cue_text(&cue_of, cue, sizeof cue);
+  }
+  fprintf(s->reps, "%d,%.6f,%.6f,%.4f,%.2f,%s,%s,%d", (int)r->index, r->start_time, r->end_time, r->tempo, r->score,
+          r->part_to_fix >= 0 && r->part_to_fix < 5 ? kPartNames[r->part_to_fix] : "", cue, r->partial ? 1 : 0);
+  for (j = 0; j < KATA_ROM_JOINT_COUNT; ++j) fprintf(s->reps, ",%.2f,%.2f", r->range[j], r->teacher_range[j]);
+  fprintf(s->reps, ",%llu\n", (unsigned long long)r->stream_id);
+}
 
-static const kata_plugin table = {
-    KATA_PLUGIN_ABI_VERSION, sizeof(kata_plugin), "csv-sink", "every result as a CSV row (config: path=FILE)",
-    KATA_PLUGIN_SINK,        activate,            deactivate, NULL, NULL, on_result, flush};
+static void flush(void* instance) {
+  csv_sink* s = (csv_sink*)instance;
+  fflush(s->file);
+  if (s->reps) fflush(s->reps);
+}
+
+static const kata_plugin table = {KATA_PLUGIN_ABI_VERSION,
+                                  sizeof(kata_plugin),
+                                  "csv-sink",
+                                  "every result as a CSV row (config: path=FILE; repetitions=FILE for the repetitions)",
+                                  KATA_PLUGIN_SINK,
+                                  activate,
+                                  deactivate,
+                                  NULL,
+                                  NULL,
+                                  on_result,
+                                  flush,
+                                  on_repetition};
 
 KATA_PLUGIN_EXPORT const kata_plugin* kata_plugin_entry(void) { return &table; }

@@ -234,6 +234,6 @@ static void stop(void* instance) {
 static const kata_plugin table = {KATA_PLUGIN_ABI_VERSION, sizeof(kata_plugin), "vmc-in",
                                   "a VMC performer (OSC over UDP) as a live stream of the vrm layout "
                                   "(config: port=39539;bind=127.0.0.1;stream=ID;max_packet;max_rate;max_datagrams)",
-                                  KATA_PLUGIN_SOURCE, activate, deactivate, start, stop, NULL, NULL};
+                                  KATA_PLUGIN_SOURCE, activate, deactivate, start, stop, NULL, NULL, NULL};
 
 KATA_PLUGIN_EXPORT const kata_plugin* kata_plugin_entry(void) { return &table; }

@@ -121,12 +121,17 @@ class TerminalView {
       char cue[64];
       append_line(line, sizeof line, at, " %-32s", cue_phrase(*r, cue, sizeof cue));
       if (r->state == FrameState::kTeacherFinished) append_line(line, sizeof line, at, " (teacher finished)");
-      if (show_reps_ && r->repetition > 0)  // the repetition counter (docs/coach/repetitions.md)
-        append_line(line, sizeof line, at, " | rep %d %3.0f%%%s%s", r->repetition, 100.0 * r->repetition_progress,
-                    last_rep_.empty() ? "" : " | last ", last_rep_.c_str());
     } else if (r) {
       append_line(line, sizeof line, at, " | %-16s", state_name(r->state));
     }
+    // The repetition counter (docs/coach/repetitions.md): the one in progress while the lesson
+    // runs, the completed ones (as the summary counts them) once it is over.
+    if (show_reps_ && finished_)
+      append_line(line, sizeof line, at, " | %d repetitions (%d partial)%s%s", counted_, partial_,
+                  last_rep_.empty() ? "" : " | last ", last_rep_.c_str());
+    else if (show_reps_ && r && scored(*r) && r->repetition > 0)
+      append_line(line, sizeof line, at, " | rep %d %3.0f%% | %d done%s%s", r->repetition, 100.0 * r->repetition_progress,
+                  counted_, last_rep_.empty() ? "" : " | last ", last_rep_.c_str());
     append_line(line, sizeof line, at, " | %4.0f frames/s | latency p50 %.2f p99 %.2f ms", fps, pct(0.5), pct(0.99));
     if (interactive_) std::printf("\r%s\033[K", line);
     else std::printf("%s\n", line);
@@ -135,8 +140,14 @@ class TerminalView {
   void close() {
     if (interactive_) std::printf("\n");
   }
-  // The newest repetition's words for the line ("rep 3: tempo 1.12, ..."), set as one ends.
-  void set_last_repetition(std::string words) { last_rep_ = std::move(words); }
+  // A repetition that ended (complete or partial, in order): counted, and its words ("rep 3: tempo
+  // 1.12, ...") shown as the newest.
+  void add_repetition(const kata_repetition& r) {
+    ++(r.partial ? partial_ : counted_);
+    last_rep_ = repetition_words(r);
+  }
+  // The lesson is over (every repetition added): the line shows the count instead of the one in progress.
+  void set_finished() { finished_ = true; }
 
  private:
   bool interactive_;
@@ -149,6 +160,8 @@ class TerminalView {
   std::vector<double> latencies_, sorted_;
   std::string last_rep_;
   bool show_reps_ = false;
+  int counted_ = 0, partial_ = 0;  // repetitions added: complete, partial
+  bool finished_ = false;
 };
 
 // VMC out of a clip lesson (or a replayed one): each settled frame's student joints and its ghost
@@ -318,21 +331,36 @@ void run_coach(CoachArgs a) {
                 data.settings.student.c_str(), data.settings.teacher.c_str(), frames, a.lesson.speed);
   std::fflush(stdout);
 
-  TerminalView view(!a.headless && isatty(STDOUT_FILENO), frames, a.lesson.reps);
+  TerminalView view(!a.headless && isatty(STDOUT_FILENO), frames, a.lesson.reps || !data.repetitions.empty());
   size_t published = 0;  // frames handed to the viewer (in order, once their record is final)
   size_t reps_shown = 0;  // repetitions handed to the viewer and the terminal
+  // The repetitions that ended by `settled` frames: a live lesson's as the runtime reports them (the
+  // last one closed by the lesson's end), a replay's those that ended by the newest frame shown.
+  auto repetitions_ended = [&](size_t settled) -> size_t {
+    if (live) return live->repetitions_ended();
+    size_t n = 0;
+    const double shown_time = settled ? replayed.frames[settled - 1].time : -1.0;
+    while (n < replayed.repetitions.size() && replayed.repetitions[n].end_time <= shown_time + 1e-9) ++n;
+    return n;
+  };
+  auto repetition = [&](size_t k) -> const kata_repetition& {
+    return live ? live->repetition(k) : replayed.repetitions[k];
+  };
+  // The repetitions ended and not yet handed on, as JSON ("" for none), each added to the terminal's counter.
+  auto take_repetitions = [&](size_t ended) {
+    std::string reps;
+    for (; reps_shown < ended; ++reps_shown) {
+      reps += (reps.empty() ? "" : ",") + repetition_json(repetition(reps_shown));
+      view.add_repetition(repetition(reps_shown));
+    }
+    return reps;
+  };
   auto publish_settled = [&](size_t settled) {
     for (; published < settled; ++published) {
       std::string json = viewer ? frame_json(data, published) : std::string();
       // The repetitions that ended by now ride on the next frame event ("reps": [...]).
-      if (live && live->repetitions_ended() > reps_shown) {
-        std::string reps;
-        for (; reps_shown < live->repetitions_ended(); ++reps_shown) {
-          reps += (reps.empty() ? "" : ",") + repetition_json(live->repetition(reps_shown));
-          view.set_last_repetition(repetition_words(live->repetition(reps_shown)));
-        }
-        if (viewer) json.insert(json.size() - 1, ",\"reps\":[" + reps + "]");
-      }
+      const std::string reps = take_repetitions(repetitions_ended(published + 1));
+      if (viewer && !reps.empty()) json.insert(json.size() - 1, ",\"reps\":[" + reps + "]");
       if (viewer) viewer->publish(std::move(json));
       vmc.offer(data, published);
     }
@@ -362,6 +390,11 @@ void run_coach(CoachArgs a) {
   const size_t done = played;
   if (!live) replayed.pushed = static_cast<int>(played);  // an interrupted replay reports what was shown
   publish_settled(done);
+  // The repetitions that ended with the lesson (kata_runtime_stop closes the one in progress, after
+  // every frame's result; a replay's recorded ones) ride on the end event; the terminal's last line
+  // counts them too, as the summary does.
+  const std::string final_reps = take_repetitions(live ? live->repetitions_ended() : replayed.repetitions.size());
+  view.set_finished();
   view.update(data, published, fps, true);
   view.close();
   const double wall = std::chrono::duration<double>(Clock::now() - start).count();
@@ -414,7 +447,14 @@ void run_coach(CoachArgs a) {
   if (viewer) {
     // Only a finished lesson ends the page's stream; an interrupted coach just goes away, so a
     // page keeps trying to reconnect (and resumes when a coach is back on the port).
-    if (!g_interrupted) viewer->end(end_json(data));
+    if (!g_interrupted) {
+      // The end event: the summary, the repetitions no frame carried and the count ("reps_done",
+      // "reps_partial": the summary's).
+      std::string end = end_json(data);
+      if (a.lesson.reps || !data.repetitions.empty())
+        end.insert(end.size() - 1, ",\"reps\":[" + final_reps + "]," + repetitions_count_json(data.repetitions));
+      viewer->end(std::move(end));
+    }
     if (a.linger < 0) std::printf("viewer: still at http://%s:%d/ (Ctrl-C to quit)\n", a.host.c_str(), viewer->port());
     std::fflush(stdout);
     const auto until = Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(std::max(a.linger, 0.0)));

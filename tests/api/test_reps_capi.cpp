@@ -162,4 +162,50 @@ TEST_F(reps_capi, TheEndOfATakeEndsAHalfRepetitionAsPartial) {
   EXPECT_EQ(got.record_reps.back(), 3);
 }
 
+// A stream alone restarted mid-repetition (kata_stream_restart_teacher) after two and a half
+// plays: the third repetition ends there, partial (index 3, about half the section), readable at
+// once; the count then starts again: the next whole play is repetition 1, complete.
+TEST_F(reps_capi, ARestartEndsTheRepetitionInProgressThenCountsFromOne) {
+  kata_stream s = open_looped();
+  ASSERT_TRUE(s);
+  const uint32_t n = kata_clip_frame_count(student) - 1;
+  const double ft = kata_clip_frame_time(student);
+  std::vector<kata_repetition> read;
+  kata_repetition buf[4];
+  auto read_some = [&] {
+    buf[0].struct_size = sizeof buf[0];
+    uint32_t count = 0;
+    ASSERT_EQ(kata_stream_read_repetitions(s, buf, 4, &count), KATA_OK);
+    read.insert(read.end(), buf, buf + count);
+  };
+  const uint32_t before = 5 * n / 2;
+  for (uint32_t k = 0; k < before; ++k) {
+    const std::vector<float> p = frame(student, 1 + k % n);
+    ASSERT_EQ(kata_stream_push(s, k * ft, p.data(), joints), KATA_OK);
+    read_some();
+  }
+  ASSERT_EQ(read.size(), 2u);
+  ASSERT_EQ(kata_stream_restart_teacher(s), KATA_OK);
+  read_some();
+  ASSERT_EQ(read.size(), 3u);
+  EXPECT_EQ(read[2].index, 3);
+  EXPECT_EQ(read[2].partial, 1);
+  EXPECT_NEAR(read[2].start_time, 2 * n * ft, 0.05);
+  EXPECT_NEAR(read[2].end_time, (before - 1) * ft, 0.05);
+  EXPECT_NEAR(read[2].coverage, 0.5, 0.1);
+  // The source goes on (its clock too: a stream's time only increases) with a whole play.
+  for (uint32_t k = 0; k < n; ++k) {
+    const std::vector<float> p = frame(student, 1 + k);
+    ASSERT_EQ(kata_stream_push(s, (before + 100 + k) * ft, p.data(), joints), KATA_OK);
+    read_some();
+  }
+  ASSERT_EQ(kata_stream_flush(s), KATA_OK);
+  read_some();
+  ASSERT_EQ(read.size(), 4u);
+  EXPECT_EQ(read[3].index, 1);
+  EXPECT_EQ(read[3].partial, 0);
+  EXPECT_NEAR(read[3].tempo, 1.0, 0.05);
+  kata_stream_destroy(s);
+}
+
 }  // namespace

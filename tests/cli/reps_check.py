@@ -17,11 +17,15 @@ from the BVH files themselves, never by kata (docs/coach/repetitions.md has the 
   reps_check.py KATA_CLI SOURCE_DIR [--verbose]
 """
 import csv
+import json
 import os
+import re
+import signal
 import shutil
 import subprocess
 import sys
 import tempfile
+import urllib.request
 
 import numpy as np
 
@@ -194,6 +198,63 @@ def score(teacher, student, tmp, extra=()):
     return rows
 
 
+class Ran:
+    def __init__(self, returncode, stdout):
+        self.returncode, self.stdout = returncode, stdout
+
+
+def coach_with_viewer(args):
+    """Runs kata coach with its viewer on a free port; once the lesson is over (the report
+    written), reads the viewer's whole event stream as a page that connects then would (setup,
+    every frame, end) and stops the coach. Returns (the run, [(event, data)])."""
+    proc = subprocess.Popen([KATA, "coach", "--port", "0", "--linger", "60", "--viewer-dir", os.path.join(SRC, "viewer"),
+                             *args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    out, port, events = [], None, []
+    try:
+        for line in proc.stdout:
+            out.append(line)
+            m = re.match(r"viewer: http://[^:]+:(\d+)/", line)
+            port = int(m.group(1)) if m and port is None else port
+            if line.startswith("report:"):
+                break
+        if port is not None and out and out[-1].startswith("report:"):
+            with urllib.request.urlopen(f"http://127.0.0.1:{port}/events", timeout=30) as stream:
+                event, data = None, []
+                for raw in stream:
+                    line = raw.decode().rstrip("\n")
+                    if line.startswith("event: "):
+                        event = line[7:]
+                    elif line.startswith("data: "):
+                        data.append(line[6:])
+                    elif not line and event:
+                        events.append((event, json.loads("".join(data))))
+                        if event == "end":
+                            break
+                        event, data = None, []
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        rest, _ = proc.communicate(timeout=60)
+    return Ran(proc.returncode if any(e == "end" for e, _ in events) else -1, "".join(out) + rest), events
+
+
+def check_counters(stdout, events, what):
+    """The terminal's and the viewer's repetition counters end on the summary's count: the
+    terminal's last line, the repetitions the viewer's events carried (frames and end) and the
+    end event's count, with the last repetition (closed by the lesson's end) among them."""
+    summary = re.search(r"^repetitions: (\d+) repetitions", stdout, re.M)
+    lines = [l for l in stdout.splitlines() if l.startswith("[")]
+    terminal = re.search(r"\| (\d+) repetitions \((\d+) partial\)", lines[-1]) if lines else None
+    reps = [r for _, e in events for r in e.get("reps", [])]
+    end = [e for name, e in events if name == "end"]
+    done = [r["index"] for r in reps if not r["partial"]]
+    n = int(summary.group(1)) if summary else -1
+    check(summary is not None and terminal is not None and int(terminal.group(1)) == n,
+          f"{what}: the terminal's last line counts {terminal.group(0) if terminal else None}, the summary {n}")
+    check(len(end) == 1 and end[0].get("reps_done") == n and done == list(range(1, n + 1)),
+          f"{what}: the viewer's events carry repetitions {done} and the end event counts "
+          f"{end[0].get('reps_done') if end else None} (the summary: {n})")
+
+
 def resample(motion, first, n, factor, rotation_cols):
     """One repetition: clip frames first..first+n (n frames, first+n the next cycle's start),
     played `factor` times as long, linearly interpolated (rotations unwrapped first)."""
@@ -246,9 +307,9 @@ def main():
     # The same live in kata coach: the terminal's summary and the report's table. The last
     # repetition ends with the lesson (the end of the take), as kata score's ends with the clip.
     report, record, frames_csv = (os.path.join(tmp, f) for f in ("report.html", "lesson.npz", "lesson.csv"))
-    p = subprocess.run([KATA, "coach", "--model", MODEL, "--teacher", teacher, "--student", student, "--reps",
-                        "--headless", "--speed", "8", "--linger", "0", "--report", report, "--record", record,
-                        "--csv", frames_csv], capture_output=True, text=True, timeout=120)
+    p, events = coach_with_viewer(["--model", MODEL, "--teacher", teacher, "--student", student, "--reps", "--speed",
+                                   "8", "--report", report, "--record", record, "--csv", frames_csv])
+    check_counters(p.stdout, events, "coach")
     html = open(report).read() if os.path.exists(report) else ""
     table = html.split('<table class="reps">', 1)[-1].split("</table>", 1)[0] if '<table class="reps">' in html else ""
     summary = [l for l in p.stdout.splitlines() if l.startswith("repetitions")]
@@ -271,10 +332,10 @@ def main():
         with open(frames_csv) as f:
             head = f.readline().strip().split(",")
         check(head[-2:] == ["repetition", "repetition_progress"], "coach: --csv ends with %s" % head[-2:])
-        r = subprocess.run([KATA, "coach", "--headless", "--speed", "64", "--linger", "0", "--replay", record,
-                            "--report", os.path.join(tmp, "replay.html")], capture_output=True, text=True, timeout=120)
+        r, events = coach_with_viewer(["--speed", "64", "--replay", record, "--report", os.path.join(tmp, "replay.html")])
         again = [l for l in r.stdout.splitlines() if l.startswith("repetitions")]
         check(r.returncode == 0 and again == summary, "coach: a replay of the recording reports %s" % again)
+        check_counters(r.stdout, events, "replay")
     else:
         check(False, "coach: no recording at " + record)
     check(len(done) == 10, f"synthetic: {len(done)} repetitions counted (10), {len(rows) - len(done)} partial")

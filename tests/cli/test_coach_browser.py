@@ -11,7 +11,10 @@ While a recorded lesson is replayed into the viewer (loopback only):
   4. it survives a server restart: the coach is killed, the page notices, a new coach starts on
      the same port, and the page reconnects by itself and receives more frames,
   5. after that lesson ends, a new live lesson on the same port (teacher CMU 09_01, 1.2 s, against
-     a longer student, 07_01) is picked up by the page, which shows "teacher finished".
+     a longer student, 07_01) is picked up by the page, which shows "teacher finished",
+  6. after that one, a lesson counting repetitions (--reps): at its end the page's repetition
+     counter shows the count the coach's summary prints (the last repetition, closed by the
+     lesson's end, included).
 Then the HTML report renders in headless Chromium without a console error, its two uPlot charts drawn.
 
 Usage: test_coach_browser.py --kata build/bin/kata --source-dir . [--screenshots DIR]
@@ -176,6 +179,30 @@ def main():
                  lambda: driver.execute_script("return window.kata.states['teacher finished'] || 0") > 0, 30)
         wait_for("the banner", lambda: "teacher finished" in driver.find_element("id", "banner").text, 10)
         print(f"new lesson: states seen {driver.execute_script('return window.kata.states')}")
+
+        # A lesson that counts repetitions (--reps), 02_01 against itself: its one repetition is
+        # closed by the lesson's end, after the last frame event; the page's counter then shows the
+        # completed ones, the count the coach's summary prints.
+        wait_for("the end of the new lesson", lambda: driver.execute_script("return window.kata.ended"), 60)
+        servers[2].send_signal(signal.SIGTERM)
+        servers[2].wait(timeout=20)
+        log.flush()
+        reps_log_path = os.path.join(work, "reps.log")
+        reps_log = open(reps_log_path, "w")
+        servers.append(subprocess.Popen(
+            [kata, "coach", "--teacher", "data/cmu/02_01.bvh", "--student", "data/cmu/02_01.bvh", "--reps", "--speed", "4",
+             "--port", str(port), "--linger", "60", "--report", ""],
+            cwd=a.source_dir, stdout=reps_log, stderr=subprocess.STDOUT))
+        summary = lambda: re.search(r"^repetitions: (\d+) repetitions", open(reps_log_path).read(), re.M)
+        counted = int(wait_for("the --reps lesson's summary", summary, 60).group(1))
+        wait_for("the page to see the --reps lesson end", lambda: driver.execute_script(
+            "return window.kata.ended && window.kata.reps.length > 0"), 30)
+        counter = driver.execute_script(
+            "return {label: document.getElementById('rep-label').textContent, "
+            "count: document.getElementById('rep-count').textContent, done: window.kata.repsDone}")
+        assert counter == {"label": "repetitions", "count": str(counted), "done": counted}, \
+            f"the page's repetition counter {counter}, the summary {counted}"
+        print(f"repetitions: the page's counter shows {counter['count']} at the end, the summary {counted}")
         driver.get_log("browser")  # drop the viewer's messages (refused connections while the server was down)
 
         # The report renders without console errors.

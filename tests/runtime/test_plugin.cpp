@@ -55,6 +55,30 @@ TEST(runtime_plugin, RefusalsNameTheFileAndTheReason) {
   EXPECT_NE(refusal(text).find("plugin " + text + ": cannot load: "), std::string::npos) << refusal(text);
 }
 
+// A sink built against plugin ABI 2.0 (its table ends before on_repetition) still loads, and the
+// host hands it no repetition (no RepetitionSink), while the shipped csv-sink (2.1) takes them.
+TEST(runtime_plugin, ASinkOfAbi20LoadsWithoutRepetitions) {
+  const std::string old = std::string(KATA_TEST_PLUGIN_DIR) + "/broken_old_minor.so";
+  EXPECT_EQ(refusal(old), "");
+  std::shared_ptr<LoadedPlugin> plugin = LoadedPlugin::load(old);
+  EXPECT_TRUE(plugin->is_sink());
+  EXPECT_EQ(plugin->table().struct_size, offsetof(kata_plugin, on_repetition));
+  EXPECT_EQ(plugin->table().on_repetition, nullptr);
+  PluginInstance instance(plugin, "", std::make_shared<PluginHostTarget>());
+  EXPECT_FALSE(static_cast<bool>(instance.repetition_sink()));
+  EXPECT_TRUE(static_cast<bool>(instance.sink().on_result));
+  std::shared_ptr<LoadedPlugin> csv = LoadedPlugin::load(std::string(KATA_PLUGIN_DIR) + "/csv-sink.so");
+  EXPECT_EQ(csv->table().struct_size, sizeof(kata_plugin));
+  EXPECT_NE(csv->table().on_repetition, nullptr);
+  // Without repetitions=FILE it takes them and writes nothing (no file to write).
+  kata::test::TempDir tmp;
+  PluginInstance sink(csv, "path=" + tmp.file("results.csv"), std::make_shared<PluginHostTarget>());
+  kata_repetition r{};
+  r.struct_size = sizeof r;
+  r.index = 1;
+  sink.repetition_sink()(r);
+}
+
 TEST(runtime_plugin, ShippedPluginsLoadFromTheirDirectory) {
   const auto plugins = LoadedPlugin::load_directory(KATA_PLUGIN_DIR);
   ASSERT_GE(plugins.size(), 2u);

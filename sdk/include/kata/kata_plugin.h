@@ -23,7 +23,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "result.h" /* kata_result_record: what a sink receives */
+#include "result.h" /* kata_result_record and kata_repetition: what a sink receives */
 
 #ifdef __cplusplus
 extern "C" {
@@ -31,7 +31,7 @@ extern "C" {
 
 #define KATA_PLUGIN_ABI_MAJOR 2u /* a host refuses a plugin of another major (2: on_result takes the
                                     one kata_result_record of kata/result.h) */
-#define KATA_PLUGIN_ABI_MINOR 0u /* + 1 when fields are added at the end of a table */
+#define KATA_PLUGIN_ABI_MINOR 1u /* + 1 when fields are added at the end of a table (1: on_repetition) */
 #define KATA_PLUGIN_ABI_VERSION ((KATA_PLUGIN_ABI_MAJOR << 16) | KATA_PLUGIN_ABI_MINOR) /* kata_plugin.abi_version */
 #define KATA_PLUGIN_ENTRY "kata_plugin_entry" /* the one exported symbol's name */
 
@@ -43,7 +43,7 @@ extern "C" {
 
 /* kata_plugin.kinds */
 #define KATA_PLUGIN_SOURCE 1u /* produces frames (start / stop required) */
-#define KATA_PLUGIN_SINK 2u   /* consumes results (on_result required) */
+#define KATA_PLUGIN_SINK 2u   /* consumes results (on_result required; on_repetition optional) */
 
 /* A sink receives each result as a kata_result_record (kata/result.h), struct_size set by the
  * host: read a field added after 1.0 only when KATA_RESULT_HAS(r, field). Its ghost pointer is
@@ -88,6 +88,14 @@ typedef struct kata_plugin {
   void (*on_result)(void* instance, const kata_result_record* result);
   /* Sinks: optional. Writes out what is buffered (at shutdown, after the last result). [io] */
   void (*flush)(void* instance);
+  /* Sinks: optional (ABI 2.1; a table of 2.0 ends before it and is read as without it). One
+   * repetition that ended (kata/result.h kata_repetition), complete or partial, as the runtime
+   * publishes its Repetition message: right after the result of the frame that ended it, or
+   * alone when the end of a take (a stream closed, a restart, the runtime stopped) ended it;
+   * stream_id is the runtime's. struct_size is the host's sizeof(kata_repetition): read a field
+   * appended later only when struct_size covers it. The pointer is valid during the call only.
+   * Must neither block nor allocate. [io] */
+  void (*on_repetition)(void* instance, const kata_repetition* repetition);
 } kata_plugin;
 
 /* The type of the entry symbol. */

@@ -200,7 +200,9 @@ KATA_API kata_status kata_stream_attach_teacher(kata_stream stream, const kata_t
  * no ghost. KATA_OK without one too. [stream owner] */
 KATA_API kata_status kata_stream_detach_teacher(kata_stream stream);
 /* Restarts the teacher: the next frame is matched from the teacher's first frame, the ghost's
- * solve starts cold and the score calibrates again (KATA_SCORE_CALIBRATING). KATA_E_STATE
+ * solve starts cold and the score calibrates again (KATA_SCORE_CALIBRATING). A clip teacher's
+ * repetition in progress ends first, as at kata_stream_flush (complete or partial:
+ * kata_stream_read_repetitions returns it), then the count starts again from 1 (1.1). KATA_E_STATE
  * without a teacher. [stream owner] */
 KATA_API kata_status kata_stream_restart_teacher(kata_stream stream);
 

@@ -224,8 +224,10 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
       throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_runtime_create: plugin_count without plugins");
     if (d.plugin_count > 1024)
       throw kata::Error(kata::ErrorKind::kInvalidArgument, "kata_runtime_create: plugin_count above 1024");
-    // Each plugin sink gets every result before on_result (as kata serve hands them on).
+    // Each plugin sink gets every result before on_result (as kata serve hands them on), and
+    // every repetition before on_repetition when it takes them (plugin ABI 2.1).
     std::vector<kata::runtime::Sink> plugin_sinks;
+    std::vector<kata::runtime::RepetitionSink> plugin_repetition_sinks;
     for (uint32_t i = 0; i < d.plugin_count; ++i) {
       const kata_runtime_plugin& p = d.plugins[i];
       if (!p.path || !p.path[0])
@@ -236,9 +238,12 @@ KATA_API kata_status kata_runtime_create(kata_context context, const kata_runtim
       auto instance = std::make_unique<kata::runtime::PluginInstance>(
           loaded, p.config ? kata::c_string(p.config, "plugin config") : std::string(), r->plugin_target);
       if (loaded->is_sink()) plugin_sinks.push_back(instance->sink());
+      if (kata::runtime::RepetitionSink r_sink = instance->repetition_sink()) plugin_repetition_sinks.push_back(r_sink);
       (loaded->is_source() ? r->plugin_sources : r->plugin_sinks).push_back(std::move(instance));
     }
     config.sinks.insert(config.sinks.begin(), plugin_sinks.begin(), plugin_sinks.end());
+    config.repetition_sinks.insert(config.repetition_sinks.begin(), plugin_repetition_sinks.begin(),
+                                   plugin_repetition_sinks.end());
     r->runtime = std::make_unique<kata::runtime::Runtime>(std::move(config));
     r->plugin_target->runtime = r->runtime.get();
     {

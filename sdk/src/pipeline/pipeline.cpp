@@ -170,6 +170,10 @@ void Pipeline::clear_teacher() {
 }
 
 void Pipeline::restart_teacher() {
+  // The repetition in progress ends before the count restarts (its frames are in the counter's
+  // running figures; a reset would drop them unreported).
+  const Result* last = newest();
+  flush_ended_repetition_ = reps_ && reps_->finish(last ? last->capture_time : 0.0) > 0;
   if (scorer_) scorer_->reset();
   if (reps_) reps_->reset();
   if (retargeter_) retargeter_->reset();

@@ -126,6 +126,8 @@ class Pipeline {
   void set_teacher(std::shared_ptr<const Teacher> teacher, const TeacherOptions& options = {});
   void clear_teacher();
   // Restarts the alignment (next frame matched from the clip's start) and the ghost's warm start.
+  // A restart is the end of a take too: the repetition in progress ends first (as at flush(),
+  // complete or partial; flush_ended_repetition() says so), then the counter starts again from 1.
   void restart_teacher();
   bool has_teacher() const { return teacher_ != nullptr; }
   bool has_ghost() const { return retargeter_ != nullptr || across_; }
@@ -170,7 +172,7 @@ class Pipeline {
   // Stream::flush's status (kInternal when a non-finite vector was withheld). flush is the end
   // of a take: it also ends the repetition in progress (metric::RepCounter::finish: complete if
   // it reached the section's end, else partial), which no result carries: flush_ended_repetition()
-  // says so until the next flush, repetitions()->newest() says how it went.
+  // says so until the next flush or restart_teacher(), repetitions()->newest() says how it went.
   Status flush();
   void reset();
   bool flush_ended_repetition() const { return flush_ended_repetition_; }

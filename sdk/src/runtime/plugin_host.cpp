@@ -83,6 +83,13 @@ Sink PluginInstance::sink() {
   return s;
 }
 
+RepetitionSink PluginInstance::repetition_sink() {
+  const kata_plugin* table = &plugin_->table();
+  if (!plugin_->is_sink() || !table->on_repetition) return {};
+  void* instance = instance_;
+  return [table, instance](const kata_repetition& r) { table->on_repetition(instance, &r); };
+}
+
 void PluginInstance::start() {
   if (!plugin_->is_source() || started_) return;
   if (plugin_->table().start(instance_) != 0)

@@ -29,6 +29,9 @@ class PluginInstance {
 
   // The runtime Sink of a sink plugin (on_result hands the published kata_result_record over on the I/O thread).
   Sink sink();
+  // The runtime RepetitionSink of a sink plugin with on_repetition (plugin ABI 2.1); empty (no
+  // target) for one without.
+  RepetitionSink repetition_sink();
   // Starts / stops a source plugin. Throws kata::Error naming the file when start fails.
   void start();
   void stop();

@@ -368,8 +368,22 @@ void Runtime::worker_loop(Worker& w) {
     }
     if (cell.restart && s.accepted > 0) {
       p.reset();
-      p.restart_teacher();
+      p.restart_teacher();  // ends the repetition in progress, then restarts the count
       move_results(s);
+      // That repetition goes out after the results the reset emitted, as a repetition alone.
+      if (p.flush_ended_repetition()) {
+        const size_t head = w.result_head.load(std::memory_order_relaxed);
+        if (head - w.result_tail.load(std::memory_order_acquire) > w.result_mask) {
+          s.counters.result_queue_full.fetch_add(1, std::memory_order_relaxed);
+        } else {
+          ResultCell& rc = w.results[head & w.result_mask];
+          rc.stream = &s;
+          rc.repetition_only = rc.has_repetition = true;
+          pipeline::fill_repetition(p.repetitions()->newest(), 0, &rc.repetition);
+          w.result_head.store(head + 1, std::memory_order_release);
+          signalled = true;
+        }
+      }
       // One second after the newest time: past any gap that still joins segments.
       s.time_offset = s.last_time + 1.0 - cell.capture_time;
     }

@@ -97,6 +97,12 @@ std::string repetition_json(const kata_repetition& r) {
          ",\"cue\":" + json_text(cue_of(r)) + "}";
 }
 
+std::string repetitions_count_json(const std::vector<kata_repetition>& reps) {
+  const auto partial = std::count_if(reps.begin(), reps.end(), [](const kata_repetition& r) { return r.partial != 0; });
+  return "\"reps_done\":" + std::to_string(static_cast<long>(reps.size()) - partial) +
+         ",\"reps_partial\":" + std::to_string(partial);
+}
+
 std::string repetition_words(const kata_repetition& r) {
   char buf[128];
   std::snprintf(buf, sizeof buf, "rep %d%s: tempo %.2f, score %.0f, depth %.0f/%.0f deg", r.index,

@@ -17,6 +17,8 @@ double repetition_depth(const kata_repetition& r, bool teacher = false);
 // The viewer's JSON of one repetition: index, partial, start, end, tempo, score, depth,
 // teacher_depth, part_to_fix, cue.
 std::string repetition_json(const kata_repetition& r);
+// The count as the summary gives it, JSON members for an event: "reps_done":8,"reps_partial":1.
+std::string repetitions_count_json(const std::vector<kata_repetition>& reps);
 // The terminal's few words of the newest repetition: "rep 3: tempo 1.12, score 74, depth 61/65 deg".
 std::string repetition_words(const kata_repetition& r);
 // The summary's line: "8 repetitions (1 partial), tempo 0.93-1.21 (mean 1.05), score ..." ("" for none).
