@@ -70,6 +70,7 @@
 #include <memory>
 #include <string>
 #include <thread>
+#include <utility>
 #include <vector>
 
 #include <zmq.h>
@@ -120,8 +121,26 @@ kata_runtime_counters counters_of(kata_runtime runtime) {
   return c;
 }
 
+// The people frames' counters (kata_runtime_counters.people_*) by their names without "people_".
+std::vector<std::pair<const char*, uint64_t>> people_counts(const kata_runtime_counters& c) {
+  return {{"frames", c.people_frames},
+          {"empty_frames", c.people_empty_frames},
+          {"refused_frames", c.people_refused_frames},
+          {"poses", c.people_poses},
+          {"poses_tracked", c.people_poses_tracked},
+          {"refused_non_finite", c.people_refused_non_finite},
+          {"refused_out_of_range", c.people_refused_out_of_range},
+          {"refused_few_joints", c.people_refused_few_joints},
+          {"refused_too_many_poses", c.people_refused_too_many_poses},
+          {"refused_table_full", c.people_refused_table_full},
+          {"streams_opened", c.people_streams_opened},
+          {"streams_closed", c.people_streams_closed},
+          {"streams_refused", c.people_streams_refused},
+          {"poses_unopened", c.people_poses_unopened}};
+}
+
 // --counters FILE: every stream's counters after the stop, as JSON ({"streams": {"<id>": {name:
-// count}}, "ingest": {...}}), by the names of the runtime's drop causes plus frames_in, results and
+// count}}, "people": {...}, "ingest": {...}}), by the names of the runtime's drop causes plus frames_in, results and
 // published: what tests/support/accounting.py balances against the frames a test sent.
 void write_counters(const std::string& path, kata_runtime runtime, const std::string& more = "") {
   uint32_t count = 0;
@@ -151,6 +170,12 @@ void write_counters(const std::string& path, kata_runtime runtime, const std::st
     sep = ",";
   }
   const kata_runtime_counters i = counters_of(runtime);
+  std::fprintf(f, "},\n \"people\": {");
+  sep = "";
+  for (const auto& [name, n] : people_counts(i)) {
+    std::fprintf(f, "%s\"%s\": %llu", sep, name, static_cast<unsigned long long>(n));
+    sep = ", ";
+  }
   std::fprintf(f, "},\n \"ingest\": {\"received\": %llu, \"frames\": %llu, \"dropped\": %llu, \"unknown_stream\": %llu, "
                "\"out_of_order\": %llu, \"sequence_gaps\": %llu, \"other_shard\": %llu, \"batches\": %llu, "
                "\"batch_frames\": %llu}%s}\n",
@@ -649,6 +674,24 @@ void run_serve(const std::string& file, const std::string& counters_path) {
                static_cast<unsigned long long>(c.queue_full + c.result_queue_full + c.send_failed),
                static_cast<unsigned long long>(c.ingest_connections), static_cast<unsigned long long>(c.ingest_connections_refused),
                static_cast<unsigned long long>(c.ingest_handshake_failures));
+  if (c.people_frames + c.people_refused_frames > 0)
+    std::fprintf(stderr,
+                 "kata serve: people frames %llu tracked (%llu empty) + %llu refused; poses %llu = %llu tracked + "
+                 "%llu refused (non-finite %llu, out of range %llu, too few joints %llu, too many poses %llu, table "
+                 "full %llu); person streams %llu opened, %llu closed, %llu refused (%llu poses dropped)\n",
+                 static_cast<unsigned long long>(c.people_frames), static_cast<unsigned long long>(c.people_empty_frames),
+                 static_cast<unsigned long long>(c.people_refused_frames), static_cast<unsigned long long>(c.people_poses),
+                 static_cast<unsigned long long>(c.people_poses_tracked),
+                 static_cast<unsigned long long>(c.people_poses - c.people_poses_tracked),
+                 static_cast<unsigned long long>(c.people_refused_non_finite),
+                 static_cast<unsigned long long>(c.people_refused_out_of_range),
+                 static_cast<unsigned long long>(c.people_refused_few_joints),
+                 static_cast<unsigned long long>(c.people_refused_too_many_poses),
+                 static_cast<unsigned long long>(c.people_refused_table_full),
+                 static_cast<unsigned long long>(c.people_streams_opened),
+                 static_cast<unsigned long long>(c.people_streams_closed),
+                 static_cast<unsigned long long>(c.people_streams_refused),
+                 static_cast<unsigned long long>(c.people_poses_unopened));
   if (!counters_path.empty()) write_counters(counters_path, runtime, counters_more);
 }
 

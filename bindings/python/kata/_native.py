@@ -238,7 +238,14 @@ class RuntimeCounters(ctypes.Structure):
                                              "ingest_out_of_order", "ingest_other_kind", "ingest_connections",
                                              "ingest_disconnections", "ingest_connections_refused",
                                              "ingest_handshake_failures", "ingest_last_handshake_error",
-                                             "pipeline_dropped", "result_queue_full", "send_failed")]
+                                             "pipeline_dropped", "result_queue_full", "send_failed",
+                                             # since 1.1: people frames (kata/people.h)
+                                             "people_frames", "people_empty_frames", "people_refused_frames",
+                                             "people_poses", "people_poses_tracked", "people_refused_non_finite",
+                                             "people_refused_out_of_range", "people_refused_few_joints",
+                                             "people_refused_too_many_poses", "people_refused_table_full",
+                                             "people_streams_opened", "people_streams_closed",
+                                             "people_streams_refused", "people_poses_unopened")]
 
 
 class SkeletonMessage(ctypes.Structure):

@@ -130,7 +130,7 @@ class Runtime(_Handle):
 
     def counters(self) -> dict:
         """kata_runtime_get_counters as a dict (streams, frames_in, queue_full, refused, results,
-        results_dropped, published, ingest_*). [any thread]"""
+        results_dropped, published, ingest_*, people_*: the people frames, kata/runtime.h). [any thread]"""
         c = _n.RuntimeCounters()
         c.struct_size = ctypes.sizeof(c)
         status = _n.runtime_get_counters(self.handle, ctypes.byref(c))

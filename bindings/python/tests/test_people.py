@@ -108,3 +108,35 @@ def test_write_people_frame_carries_the_poses_as_given():
     with pytest.raises(kata.KataError) as e:
         kata.write_people_frame(77, 7, float("nan"), poses)
     assert e.value.status == kata.Status.E_NON_FINITE
+
+
+def test_a_runtime_counts_its_people_frames_by_cause():
+    """kata_runtime_counters' people_* (Runtime.counters()): a group stream's people frames through
+    a runtime, with more people than the group's table holds (8), a NaN pose and an empty frame."""
+    n = 33  # the group is a MediaPipe skeleton
+
+    def person(i, k):
+        h = np.linspace(0.0, 1.7, n)
+        return np.stack([3.0 * i + 0.01 * k + 0.1 * np.sin(np.arange(n)), h, np.zeros(n)], axis=1).astype(np.float32)
+
+    nan_pose = person(0, 2)
+    nan_pose[5, 1] = np.nan
+    frames = [np.stack([person(i, 0) for i in range(2)]),
+              np.stack([person(i, 1) for i in range(10)]),  # 6 new people fill the 8, 2 more are refused
+              np.stack([person(i, 2) for i in range(8)] + [nan_pose]),
+              np.zeros((0, n, 3), np.float32)]
+    with kata.Context() as ctx, ctx.create_layout("mediapipe") as mp, \
+            ctx.create_runtime(workers=1, direct_ingest=True, max_frame_age_seconds=0.0) as rt:
+        rt.offer(kata.write_skeleton(40, mp, layout="mediapipe"))
+        for k, poses in enumerate(frames):
+            rt.offer(kata.write_people_frame(40, k, 5.0 + k / 30.0, poses))
+        rt.stop()
+        c = rt.counters()
+    sent = sum(len(p) for p in frames)
+    assert (c["people_frames"], c["people_empty_frames"], c["people_refused_frames"]) == (4, 1, 0)
+    assert c["people_poses"] == sent == 21
+    assert c["people_refused_table_full"] == 2 and c["people_refused_non_finite"] == 1
+    assert c["people_refused_out_of_range"] == c["people_refused_few_joints"] == c["people_refused_too_many_poses"] == 0
+    assert c["people_poses_tracked"] == sent - 3 == c["frames_in"]
+    assert c["people_streams_opened"] == 8 and c["people_streams_closed"] == c["people_streams_refused"] == 0
+    assert c["people_poses_unopened"] == 0 and c["streams"] == 1 + 8

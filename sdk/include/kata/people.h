@@ -141,7 +141,9 @@ KATA_API kata_status kata_people_get_counters(kata_people people, kata_people_co
  * the group closes. The group stream's own frames, if any, are scored as usual. A pose the
  * tracker refuses (a NaN joint, too few confident joints, beyond max_people) is dropped while the
  * frame's other poses go on; a malformed message is counted by cause in the ingest's counters, a
- * good one as a frame of the group stream (kata_runtime_counters.ingest_frames). */
+ * good one as a frame of the group stream (kata_runtime_counters.ingest_frames). What becomes of
+ * every people frame and pose (tracked, refused by cause) is counted in
+ * kata_runtime_counters.people_*. */
 
 /* The most poses one people frame message carries. */
 #define KATA_MAX_PEOPLE_POSES 64

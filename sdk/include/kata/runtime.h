@@ -254,6 +254,33 @@ typedef struct kata_runtime_counters {
   uint64_t pipeline_dropped;            /* results overwritten in a stream's ring before they were read */
   uint64_t result_queue_full;           /* results dropped: the queue to the publisher was full */
   uint64_t send_failed;                 /* results ZeroMQ refused to take (never blocks) */
+  /* ---- 1.1: people frames (kata/people.h, "Several people through a runtime"), over every group
+   * stream since the start (a closed group's counts stay). A people frame handed to its group
+   * (within ingest_frames) is tracked or refused: people_frames + people_refused_frames. Every pose
+   * of a tracked frame ends as exactly one of: people_poses = people_poses_tracked +
+   * people_refused_non_finite + people_refused_out_of_range + people_refused_few_joints +
+   * people_refused_too_many_poses + people_refused_table_full. A tracked pose is pushed to its
+   * person's stream as a frame of it (frames_in and the stream's counters take it from there), or
+   * counted in people_poses_unopened. */
+  uint64_t people_frames;                 /* people frames tracked (empty ones included) */
+  uint64_t people_empty_frames;           /* tracked people frames without a pose */
+  uint64_t people_refused_frames;         /* people frames not tracked: capture time not after the group's
+                                             previous one, or the group stream closed by the app */
+  uint64_t people_poses;                  /* poses in tracked people frames */
+  uint64_t people_poses_tracked;          /* poses given a person (one seen before or a new one) */
+  uint64_t people_refused_non_finite;     /* poses with a NaN or infinite confident joint or confidence */
+  uint64_t people_refused_out_of_range;   /* poses with a confident joint beyond KATA_MAX_COORDINATE */
+  uint64_t people_refused_few_joints;     /* poses with fewer than 3 confident joints, or all on one point */
+  uint64_t people_refused_too_many_poses; /* poses beyond the tracker's max_poses in a frame (the least
+                                             confident; a runtime's tracker takes KATA_MAX_PEOPLE_POSES) */
+  uint64_t people_refused_table_full;     /* new people while a group had 8 persons (kata_people_desc's
+                                             default max_people) */
+  uint64_t people_streams_opened;         /* person streams opened (announced like any stream; counted in
+                                             streams while open, then in closed_streams) */
+  uint64_t people_streams_closed;         /* person streams closed: the tracker forgot the person, or their
+                                             group stream closed */
+  uint64_t people_streams_refused;        /* new persons whose stream could not be opened (max_streams) */
+  uint64_t people_poses_unopened;         /* tracked poses dropped: their person's stream could not be opened */
 } kata_runtime_counters;
 
 /* One stream's counters (1.1; kata_runtime_get_stream_counters): every frame pushed or ingested

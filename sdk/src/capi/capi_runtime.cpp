@@ -412,6 +412,21 @@ KATA_API kata_status kata_runtime_get_counters(kata_runtime runtime, kata_runtim
   k.pipeline_dropped = c.total.pipeline_dropped;
   k.result_queue_full = c.total.result_queue_full;
   k.send_failed = c.total.send_failed;
+  const kata::runtime::PeopleCounters p = runtime->runtime->people_counters();
+  k.people_frames = p.frames;
+  k.people_empty_frames = p.empty_frames;
+  k.people_refused_frames = p.refused_frames;
+  k.people_poses = p.poses;
+  k.people_poses_tracked = p.assigned;
+  k.people_refused_non_finite = p.refused_non_finite;
+  k.people_refused_out_of_range = p.refused_out_of_range;
+  k.people_refused_few_joints = p.refused_few_joints;
+  k.people_refused_too_many_poses = p.refused_too_many_poses;
+  k.people_refused_table_full = p.refused_table_full;
+  k.people_streams_opened = p.streams_opened;
+  k.people_streams_closed = p.streams_closed;
+  k.people_streams_refused = p.streams_refused;
+  k.people_poses_unopened = p.unopened;
   kata::capi::write_sized(k, kata::capi::kRuntimeCounters10, out);  // size checked above
   return KATA_OK;
 }

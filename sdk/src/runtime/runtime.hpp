@@ -209,6 +209,29 @@ struct RuntimeCounters {
   uint64_t skeletons_sent = 0;    // definitions published (on open, on join, periodic)
 };
 
+// People frames (kata/people.h; people_streams.cpp) since the start, over every group stream (a
+// closed group's counts stay). A people frame handed to its group is tracked or refused: every
+// pose of a tracked frame is assigned a person or refused by one cause (poses = assigned +
+// refused_*); an assigned pose is pushed to its person's stream, or dropped in unopened when the
+// runtime could not open that stream (opened + streams_refused = the persons the trackers found).
+struct PeopleCounters {
+  uint64_t frames = 0;                  // tracked (empty ones included)
+  uint64_t empty_frames = 0;            // tracked without a pose
+  uint64_t refused_frames = 0;          // not tracked: time not finite or not after the group's previous,
+                                        // the group stream gone, the group's joint count changed
+  uint64_t poses = 0;                   // in tracked frames
+  uint64_t assigned = 0;                // given a person (an open one or a new one)
+  uint64_t refused_non_finite = 0;      // a confident joint (or a confidence) NaN or infinite
+  uint64_t refused_out_of_range = 0;    // a confident joint beyond KATA_MAX_COORDINATE
+  uint64_t refused_few_joints = 0;      // fewer than 3 confident joints, or all on one point
+  uint64_t refused_too_many_poses = 0;  // beyond the tracker's max_poses in a frame
+  uint64_t refused_table_full = 0;      // a new person while the group's max_people were open
+  uint64_t streams_opened = 0;          // person streams opened
+  uint64_t streams_closed = 0;          // person streams closed (forgotten, or their group closed)
+  uint64_t streams_refused = 0;         // new persons whose stream could not be opened (max_streams)
+  uint64_t unopened = 0;                // assigned poses dropped: their person's stream is not open
+};
+
 class Runtime {
  public:
   // Binds / connects the sockets and starts the threads. Throws kata::Error.
@@ -281,6 +304,8 @@ class Runtime {
   // start. [any thread]
   uint64_t burst_frames() const;
   std::optional<StreamCounters> stream_counters(uint64_t stream_id) const;
+  // The people frames' counters (people_streams.cpp). [any thread] Lock-free.
+  PeopleCounters people_counters() const;
   // Every stream's counters, by stream id, in the order they were opened (allocates). [any thread]
   std::vector<std::pair<uint64_t, StreamCounters>> all_stream_counters() const;
   // The resolved endpoint the publisher bound last ("" without one) and the ingest's.
@@ -377,6 +402,10 @@ class Runtime {
   void push_people(const transport::PeopleFrameView& frame, bool restarted);
   void close_people(uint64_t group_id);
   std::vector<std::shared_ptr<PeopleGroup>> people_groups_;  // I/O thread; one per live group stream
+  // PeopleCounters' fields, in order: written by the I/O thread only (no read-modify-write), read by any.
+  static constexpr int kPeopleCounts = static_cast<int>(sizeof(PeopleCounters) / sizeof(uint64_t));
+  std::atomic<uint64_t> people_counts_[kPeopleCounts] = {};
+  void count_people(int index, uint64_t n);
 };
 
 }  // namespace kata::runtime
