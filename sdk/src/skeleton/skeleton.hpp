@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 namespace kata {
 
@@ -110,6 +111,20 @@ struct Layout {
   bool fixed_axes = false;    // true when the layout defines its axes (MediaPipe)
   bool smooth = false;        // One-Euro smoothing on by default (landmark estimators jitter)
 };
+// A teacher's map read with a student layout's trunk. A layout with no pelvis, spine or neck
+// point ("mediapipe") synthesises Hip, Chest and Neck from its hip, shoulder and head points; a
+// teacher whose layout has those joints (a BVH through "cmu") would otherwise be compared on
+// another trunk, and the difference (the synthesised chest sits 0.5-4 % of the body height from
+// CMU's Spine1, by subject) adds to or dilutes the error at any one joint. Returns `teacher` with
+// every GPD joint that `student` synthesises and `teacher` reads as a joint of its own remade by
+// the student's rule from the teacher's joints: a term that is the student's source of a GPD
+// joint becomes the teacher's source of it, a group of terms in the proportions of another
+// synthesised joint's blend (the ears of MediaPipe's Head in its Neck) becomes the teacher's
+// source of that joint, and the out-of-plane offset's points are read the same way. A joint whose
+// rule cannot be read so (MediaPipe's Head: the ears) stays the teacher's own. When `student`
+// synthesises nothing, or `teacher` synthesises the same joints, returns `teacher` unchanged (a
+// student of the teacher's own layout is scored as before, bit for bit).
+GpdMap trunk_as_student(const GpdMap& teacher, const GpdMap& student);
 // Names of every built-in layout: the presets, then "mediapipe".
 std::vector<std::string> layout_names();
 // The layout `name` on a skeleton (its joints found by name). Throws kata::Error(kNotFound) for an
@@ -162,7 +177,8 @@ GpdMap make_gpd_map(const Skeleton& skeleton, const std::array<std::string, kGpd
 // consistent units): |Head-Neck| + |Neck-Chest| + |Chest-Hip| + mean over sides of
 // (|Hip_s-Knee_s| + |Knee_s-Foot_s|).
 double body_height(const Eigen::Matrix<double, kGpdJoints, 3>& joints);
-// H of a skeleton's rest pose under a map. Requires skeleton.has_rest_pose.
+// H of a skeleton's rest pose under a map (a synthesised joint: its blend of the rest positions,
+// e.g. a teacher read through trunk_as_student). Requires skeleton.has_rest_pose.
 double rest_body_height(const Skeleton& skeleton, const GpdMap& map);
 
 }  // namespace kata
