@@ -397,8 +397,13 @@ TEST(TrunkAsStudent, ACmuTeacherGetsTheMediaPipeTrunkFromItsOwnJoints) {
     // The other joints are the teacher's own.
     for (int k = 0; k < 3; ++k) EXPECT_FLOAT_EQ(got[9 + k], static_cast<float>(head[k]));
   }
-  // The rest height now reads the synthesised trunk: finite, and within a tenth of the joints'.
-  const double h_joints = kata::rest_body_height(clip.skeleton, cmu), h_trunk = kata::rest_body_height(clip.skeleton, t);
+  // The teacher keeps the rest height of its own joints; without rest_joint the blends' rest
+  // positions give another, finite, within a tenth of it.
+  const double h_joints = kata::rest_body_height(clip.skeleton, cmu);
+  EXPECT_EQ(kata::rest_body_height(clip.skeleton, t), h_joints);
+  kata::GpdMap blends = t;
+  for (int g = 0; g < 3; ++g) blends.blend[static_cast<size_t>(g)].rest_joint = -1;
+  const double h_trunk = kata::rest_body_height(clip.skeleton, blends);
   EXPECT_TRUE(std::isfinite(h_trunk));
   EXPECT_NE(h_trunk, h_joints);
   EXPECT_NEAR(h_trunk, h_joints, 0.1 * h_joints);
@@ -409,7 +414,7 @@ TEST(TrunkAsStudent, ACmuTeacherGetsTheMediaPipeTrunkFromItsOwnJoints) {
     for (int g = 0; g < kGpdJoints; ++g) {
       const kata::GpdBlend &x = a.blend[static_cast<size_t>(g)], &y = b.blend[static_cast<size_t>(g)];
       if (x.count != y.count || x.joint != y.joint || x.weight != y.weight || x.offset != y.offset ||
-          x.offset_joint != y.offset_joint)
+          x.offset_joint != y.offset_joint || x.rest_joint != y.rest_joint)
         return false;
     }
     return true;

@@ -283,6 +283,7 @@ GpdMap trunk_as_student(const GpdMap& teacher, const GpdMap& student) {
         t.offset = b.offset;
       }
       if (!ok) continue;
+      t.rest_joint = teacher.source[gi];
       out.source[gi] = -1;
       out.blend[gi] = t;
       remade[gi] = true;

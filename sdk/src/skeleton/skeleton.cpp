@@ -133,6 +133,11 @@ double rest_body_height(const Skeleton& skeleton, const GpdMap& map) {
   Eigen::Matrix<double, kGpdJoints, 3> joints;
   for (int g = 0; g < kGpdJoints; ++g) {
     const int src = map.source[static_cast<size_t>(g)];
+    const int rj = map.blend[static_cast<size_t>(g)].rest_joint;
+    if (src < 0 && rj >= 0 && rj < skeleton.joint_count()) {
+      joints.row(g) = rest.row(rj);
+      continue;
+    }
     if (src < 0 && synthesised_from(map, g, skeleton.joint_count())) {
       joints.row(g) = blend_of(map.blend[static_cast<size_t>(g)], rest);
       continue;

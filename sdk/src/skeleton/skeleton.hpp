@@ -51,6 +51,9 @@ struct GpdBlend {
   // landmarks it is made of (the pelvis behind the hip joints).
   float offset = 0.0f;
   std::array<int, 4> offset_joint{};            // a, b, c, d
+  // The input joint whose rest position stands for this joint in rest_body_height (-1: the
+  // blend's own): a teacher read through trunk_as_student keeps its own joints' body height.
+  int rest_joint = -1;
 };
 struct GpdMap {
   std::array<int, kGpdJoints> source{};         // input joint, or -1 when synthesised (blend)
@@ -121,7 +124,9 @@ struct Layout {
 // joint becomes the teacher's source of it, a group of terms in the proportions of another
 // synthesised joint's blend (the ears of MediaPipe's Head in its Neck) becomes the teacher's
 // source of that joint, and the out-of-plane offset's points are read the same way. A joint whose
-// rule cannot be read so (MediaPipe's Head: the ears) stays the teacher's own. When `student`
+// rule cannot be read so (MediaPipe's Head: the ears) stays the teacher's own. A remade joint's
+// rest_joint is the teacher's joint it replaces, so the teacher's rest body height is unchanged
+// (measured: the synthesised trunk's H lowered same-motion pairs). When `student`
 // synthesises nothing, or `teacher` synthesises the same joints, returns `teacher` unchanged (a
 // student of the teacher's own layout is scored as before, bit for bit).
 GpdMap trunk_as_student(const GpdMap& teacher, const GpdMap& student);
@@ -177,8 +182,9 @@ GpdMap make_gpd_map(const Skeleton& skeleton, const std::array<std::string, kGpd
 // consistent units): |Head-Neck| + |Neck-Chest| + |Chest-Hip| + mean over sides of
 // (|Hip_s-Knee_s| + |Knee_s-Foot_s|).
 double body_height(const Eigen::Matrix<double, kGpdJoints, 3>& joints);
-// H of a skeleton's rest pose under a map (a synthesised joint: its blend of the rest positions,
-// e.g. a teacher read through trunk_as_student). Requires skeleton.has_rest_pose.
+// H of a skeleton's rest pose under a map (a synthesised joint: its rest_joint's rest position,
+// else its blend of the rest positions; a teacher read through trunk_as_student keeps the H of
+// its own joints). Requires skeleton.has_rest_pose.
 double rest_body_height(const Skeleton& skeleton, const GpdMap& map);
 
 }  // namespace kata
