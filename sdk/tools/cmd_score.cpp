@@ -118,14 +118,23 @@ void run_score(const ScoreArgs& a) {
   // The teacher of a clip score is projected chunk by chunk as it is read: its features
   // (6.7 KB a frame, 550 MB for an 11-minute teacher) are never held whole.
   constexpr int kChunkFrames = 1024;
-  auto load_side = [&](const std::string& path, const std::string& layout, bool teacher_clip) {
+  // A student layout that synthesises its trunk (MediaPipe landmarks: no pelvis, spine or neck
+  // point) has the teacher's trunk made by the same rule (skeleton.hpp, trunk_as_student).
+  const std::string student_layout = a.student_layout.empty() ? a.preset : a.student_layout;
+  std::unique_ptr<GpdMap> student_trunk;
+  for (const std::string& n : layout_names())
+    if (n == student_layout && !preset_is_name_map(n))
+      student_trunk = std::make_unique<GpdMap>(resolve_layout(layout_skeleton(n), n).map);
+  auto load_side = [&](const std::string& path, const std::string& layout, bool teacher_clip,
+                       const GpdMap* trunk = nullptr) {
+    auto read_trunk = [trunk](const GpdMap& map) { return trunk ? trunk_as_student(map, *trunk) : map; };
     Side side;
     const bool bvh = path.size() > 4 && path.compare(path.size() - 4, 4, ".bvh") == 0;
     if (bvh && (!a.name_map.empty() || layout.empty() || preset_is_name_map(layout))) {
       const BvhClip clip = load_bvh(path);
       // (No frames, or --first-frame past the end: the path below says so as before.)
       if (teacher_clip && a.first >= 0 && clip.frame_count() - a.first >= 1) {
-        const GpdMap map = resolve_gpd_map(clip, layout, a.name_map);
+        const GpdMap map = read_trunk(resolve_gpd_map(clip, layout, a.name_map));
         const int frames = clip.frame_count() - a.first;
         side.clip = std::make_shared<const metric::Reference>(
             metric,
@@ -137,14 +146,15 @@ void run_score(const ScoreArgs& a) {
         side.frames = frames;
         return side;
       }
-      side.features = clip_features(clip, resolve_gpd_map(clip, layout, a.name_map), metric->stencil(), a.first);
+      side.features = clip_features(clip, read_trunk(resolve_gpd_map(clip, layout, a.name_map)), metric->stencil(), a.first);
       side.frame_time = clip.frame_time;
       side.frames = static_cast<int>(side.features.size() / gpd::kDims);
       for (int f = 0; f < side.frames; ++f) side.rows.push_back(f);
       return side;
     }
     const UpAxis up = a.up == "z" ? UpAxis::kZ : a.up == "y-down" ? UpAxis::kYDown : UpAxis::kY;
-    const MotionSource m = load_motion(path, layout, a.fps, up, a.first, parse_time_units(a.time_units));
+    MotionSource m = load_motion(path, layout, a.fps, up, a.first, parse_time_units(a.time_units));
+    m.layout.map = read_trunk(m.layout.map);
     int lost = 0;
     side.features = motion_features(m, metric->stencil(), &side.rows, &lost);
     side.frame_time = m.frame_time;
@@ -165,7 +175,8 @@ void run_score(const ScoreArgs& a) {
     if ((ends_with(path, ".npy") || ends_with(path, ".csv")) && own.empty() && a.preset.empty())
       throw Error(ErrorKind::kInvalidArgument, path + ": a landmark array needs a layout: give --layout (both "
                                                    "inputs) or " + std::string(flag) + " (mediapipe, gpd, ...)");
-  const Side ts = load_side(a.teacher, a.teacher_layout.empty() ? a.preset : a.teacher_layout, a.teacher_frame < 0);
+  const Side ts = load_side(a.teacher, a.teacher_layout.empty() ? a.preset : a.teacher_layout, a.teacher_frame < 0,
+                            student_trunk.get());
   const Side ss = load_side(a.student, a.student_layout.empty() ? a.preset : a.student_layout, false);
   const std::vector<float>& tf = ts.features;
   const std::vector<float>& sf = ss.features;

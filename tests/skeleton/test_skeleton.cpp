@@ -355,3 +355,71 @@ TEST(NameMap, ErrorsNameFileAndLine) {
   expect_error([&] { kata::load_name_map((fs::temp_directory_path() / "kata_no_such_map.json").string()); },
                ErrorKind::kIo, {"kata_no_such_map.json"});
 }
+
+// A CMU teacher read with the trunk of a MediaPipe student (trunk_as_student): Hip, Chest and Neck
+// are made from the teacher's own hip, shoulder and head joints by the rule skeleton.hpp documents
+// for the "mediapipe" layout (written out here from the documented constants, not read from the
+// map); every other joint stays the teacher's. A student that synthesises nothing, or a teacher
+// that already synthesises its trunk, leaves the teacher's map as it was, field for field.
+TEST(TrunkAsStudent, ACmuTeacherGetsTheMediaPipeTrunkFromItsOwnJoints) {
+  const kata::BvhClip clip = kata::load_bvh(std::string(KATA_DATA_DIR) + "/cmu/02_01.bvh");
+  const kata::GpdMap cmu = kata::make_gpd_map(clip.skeleton, kata::preset_joint_names("cmu"));
+  const kata::GpdMap mp = kata::resolve_layout(kata::layout_skeleton("mediapipe"), "mediapipe").map;
+  const kata::GpdMap t = kata::trunk_as_student(cmu, mp);
+  for (int g = 0; g < kGpdJoints; ++g)
+    EXPECT_EQ(t.synthesised(g), g <= 2) << kata::kGpdJointNames[static_cast<size_t>(g)];
+  for (int g = 3; g < kGpdJoints; ++g) EXPECT_EQ(t.source[static_cast<size_t>(g)], cmu.source[static_cast<size_t>(g)]);
+  EXPECT_EQ(t.floor_count, 0);
+
+  Eigen::MatrixX3d world(clip.skeleton.joint_count(), 3);
+  const int frames[] = {1, clip.frame_count() / 2, clip.frame_count() - 1};
+  for (const int f : frames) {
+    kata::world_positions(clip, f, world);
+    std::vector<float> xyz;
+    for (int j = 0; j < clip.skeleton.joint_count(); ++j)
+      for (int k = 0; k < 3; ++k) xyz.push_back(static_cast<float>(world(j, k)));
+    float got[3 * kGpdJoints];
+    kata::map_to_gpd(t, kata::UpAxis::kY, xyz.data(), got);
+    auto at = [&](const char* name) -> Eigen::Vector3d { return world.row(clip.skeleton.find(name)).transpose(); };
+    const Eigen::Vector3d lh = at("LeftUpLeg"), rh = at("RightUpLeg"), ls = at("LeftArm"), rs = at("RightArm");
+    const Eigen::Vector3d head = at("Head");
+    const Eigen::Vector3d h = 0.5 * (lh + rh), s = 0.5 * (ls + rs);
+    const Eigen::Vector3d lateral = lh - rh;
+    const Eigen::Vector3d forward = lateral.cross(s - h) / lateral.norm();
+    const Eigen::Vector3d hip = h + 0.264 * (s - h) - 0.07 * forward;
+    const Eigen::Vector3d chest = h + 0.868 * (s - h);
+    const Eigen::Vector3d neck = 0.5 * (chest + head);
+    const Eigen::Vector3d want[3] = {hip, chest, neck};
+    for (int g = 0; g < 3; ++g)
+      for (int k = 0; k < 3; ++k)
+        EXPECT_NEAR(got[3 * g + k], want[g][k], 1e-4 * clip.skeleton.offsets[0].norm() + 1e-4)
+            << "frame " << f << " " << kata::kGpdJointNames[static_cast<size_t>(g)] << " axis " << k;
+    // The other joints are the teacher's own.
+    for (int k = 0; k < 3; ++k) EXPECT_FLOAT_EQ(got[9 + k], static_cast<float>(head[k]));
+  }
+  // The teacher keeps the rest height of its own joints; without rest_joint the blends' rest
+  // positions give another, finite, within a tenth of it.
+  const double h_joints = kata::rest_body_height(clip.skeleton, cmu);
+  EXPECT_EQ(kata::rest_body_height(clip.skeleton, t), h_joints);
+  kata::GpdMap blends = t;
+  for (int g = 0; g < 3; ++g) blends.blend[static_cast<size_t>(g)].rest_joint = -1;
+  const double h_trunk = kata::rest_body_height(clip.skeleton, blends);
+  EXPECT_TRUE(std::isfinite(h_trunk));
+  EXPECT_NE(h_trunk, h_joints);
+  EXPECT_NEAR(h_trunk, h_joints, 0.1 * h_joints);
+
+  // Unchanged: a student that synthesises nothing, or a teacher of the student's own layout.
+  auto same = [](const kata::GpdMap& a, const kata::GpdMap& b) {
+    if (a.source != b.source || a.floor_count != b.floor_count || a.floor_joints != b.floor_joints) return false;
+    for (int g = 0; g < kGpdJoints; ++g) {
+      const kata::GpdBlend &x = a.blend[static_cast<size_t>(g)], &y = b.blend[static_cast<size_t>(g)];
+      if (x.count != y.count || x.joint != y.joint || x.weight != y.weight || x.offset != y.offset ||
+          x.offset_joint != y.offset_joint || x.rest_joint != y.rest_joint)
+        return false;
+    }
+    return true;
+  };
+  EXPECT_TRUE(same(kata::trunk_as_student(cmu, cmu), cmu));
+  EXPECT_TRUE(same(kata::trunk_as_student(mp, mp), mp));
+  EXPECT_TRUE(same(kata::trunk_as_student(mp, cmu), mp));
+}

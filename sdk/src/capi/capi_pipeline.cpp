@@ -69,10 +69,14 @@ std::shared_ptr<const kata::pipeline::Teacher> make_feature_teacher(const kata_t
 
 // The teacher's joint positions and skeleton from the desc (a clip, or frames given in memory).
 // ghost_side, when not null, receives how the teacher's frames are read for a ghost across layouts
-// (its layout's map, the axes its features are read in, its joint count).
+// (its layout's map, the axes its features are read in, its joint count). student_map, when not
+// null, is the map of the stream the teacher is attached to: a student layout that synthesises
+// its trunk (a webcam's landmarks) has the teacher's trunk made by the same rule
+// (kata::trunk_as_student); the ghost keeps the teacher's own joints.
 std::shared_ptr<const kata::pipeline::Teacher> make_teacher(const kata_teacher_desc& d, kata::gpd::Stencil stencil,
                                                             const char* call,
-                                                            kata::retarget::MappedSide* ghost_side = nullptr) {
+                                                            kata::retarget::MappedSide* ghost_side = nullptr,
+                                                            const kata::GpdMap* student_map = nullptr) {
   std::string layout = kata::c_string(d.layout, "kata_teacher_desc.layout");  // bounded read
   if (layout.empty()) layout = "cmu";
   if (d.features || d.joints) return make_feature_teacher(d, call);
@@ -103,7 +107,8 @@ std::shared_ptr<const kata::pipeline::Teacher> make_teacher(const kata_teacher_d
   // fixes its axes and smoothing ("mediapipe": a teacher recorded from a webcam).
   const kata::Layout resolved = kata::resolve_layout(skeleton, layout);
   const kata::GpdMap& map = resolved.map;
-  kata::StreamConfig config = kata::stream_config_for(skeleton, map, stencil);
+  kata::StreamConfig config =
+      kata::stream_config_for(skeleton, student_map ? kata::trunk_as_student(map, *student_map) : map, stencil);
   if (resolved.fixed_axes) config.up_axis = resolved.axes;
   config.smoothing = resolved.smooth;
   if (ghost_side) *ghost_side = {map, config.up_axis, skeleton.joint_count()};
@@ -174,7 +179,9 @@ kata_status attach_teacher(kata_stream stream, const kata_teacher_desc* desc, co
     kata::pipeline::TeacherOptions options = teacher_options(d, call);
     check_student(stream, options, call);
     stream->pipeline.set_teacher(
-        make_teacher(d, stream->pipeline.stream().config().stencil, call, &options.ghost_teacher), options);
+        make_teacher(d, stream->pipeline.stream().config().stencil, call, &options.ghost_teacher,
+                     &stream->pipeline.stream().config().map),
+        options);
     return KATA_OK;
   });
 }

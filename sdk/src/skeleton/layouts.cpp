@@ -206,6 +206,92 @@ Skeleton layout_skeleton(const std::string& name) {
                                         "from your source's joint names instead");
 }
 
+GpdMap trunk_as_student(const GpdMap& teacher, const GpdMap& student) {
+  GpdMap out = teacher;
+  // The GPD joint a student input joint is read as directly (-1: none).
+  auto direct = [&](int joint) {
+    for (int g = 0; g < kGpdJoints; ++g)
+      if (student.source[static_cast<size_t>(g)] == joint) return g;
+    return -1;
+  };
+  // The teacher's own joint for the student's input joint `joint`, or -1.
+  auto teacher_joint = [&](int joint) {
+    const int g = direct(joint);
+    return g >= 0 && !teacher.synthesised(g) ? teacher.source[static_cast<size_t>(g)] : -1;
+  };
+  std::array<bool, kGpdJoints> remade{};
+  // Pass 0: rules made of points the teacher has (Hip, Chest); pass 1: rules that also hold
+  // another synthesised joint's blend (the Neck: the ears of the Head), read as that joint.
+  for (int pass = 0; pass < 2; ++pass) {
+    for (int g = 0; g < kGpdJoints; ++g) {
+      const size_t gi = static_cast<size_t>(g);
+      if (!student.synthesised(g) || teacher.synthesised(g) || remade[gi]) continue;
+      const GpdBlend& b = student.blend[gi];
+      if (b.count < 1 || b.count > kMaxBlendTerms) continue;
+      GpdBlend t;
+      std::array<bool, kMaxBlendTerms> used{};
+      bool ok = true;
+      auto add = [&](int joint, float weight) {
+        if (t.count >= kMaxBlendTerms) {
+          ok = false;
+          return;
+        }
+        t.joint[static_cast<size_t>(t.count)] = joint;
+        t.weight[static_cast<size_t>(t.count)] = weight;
+        ++t.count;
+      };
+      for (int k = 0; k < b.count; ++k) {
+        const int tj = teacher_joint(b.joint[static_cast<size_t>(k)]);
+        if (tj < 0) continue;
+        add(tj, b.weight[static_cast<size_t>(k)]);
+        used[static_cast<size_t>(k)] = true;
+      }
+      for (int g2 = 0; pass == 1 && ok && g2 < kGpdJoints; ++g2) {
+        const GpdBlend& c = student.blend[static_cast<size_t>(g2)];
+        if (g2 == g || !student.synthesised(g2) || teacher.synthesised(g2) || remade[static_cast<size_t>(g2)] ||
+            c.count < 1 || c.count > kMaxBlendTerms || c.offset != 0.0f)
+          continue;
+        // Every term of c among b's unused terms, with one ratio of weights.
+        std::array<int, kMaxBlendTerms> at{};
+        float ratio = 0.0f;
+        bool group = true;
+        for (int m = 0; m < c.count && group; ++m) {
+          int found = -1;
+          for (int k = 0; k < b.count; ++k)
+            if (!used[static_cast<size_t>(k)] && b.joint[static_cast<size_t>(k)] == c.joint[static_cast<size_t>(m)])
+              found = k;
+          const float cw = c.weight[static_cast<size_t>(m)];
+          if (found < 0 || cw == 0.0f) {
+            group = false;
+            break;
+          }
+          const float r = b.weight[static_cast<size_t>(found)] / cw;
+          if (m == 0) ratio = r;
+          else if (std::fabs(r - ratio) > 1e-5f * std::fabs(ratio)) group = false;
+          at[static_cast<size_t>(m)] = found;
+        }
+        if (!group) continue;
+        for (int m = 0; m < c.count; ++m) used[static_cast<size_t>(at[static_cast<size_t>(m)])] = true;
+        add(teacher.source[static_cast<size_t>(g2)], ratio);
+      }
+      for (int k = 0; k < b.count; ++k) ok = ok && used[static_cast<size_t>(k)];
+      if (b.offset != 0.0f) {
+        for (size_t k = 0; k < t.offset_joint.size() && ok; ++k) {
+          t.offset_joint[k] = teacher_joint(b.offset_joint[k]);
+          ok = t.offset_joint[k] >= 0;
+        }
+        t.offset = b.offset;
+      }
+      if (!ok) continue;
+      t.rest_joint = teacher.source[gi];
+      out.source[gi] = -1;
+      out.blend[gi] = t;
+      remade[gi] = true;
+    }
+  }
+  return out;
+}
+
 void map_to_gpd(const GpdMap& map, UpAxis axes, const float* xyz, float* out) {
   for (int g = 0; g < kGpdJoints; ++g) map_gpd_joint(map, axes, g, xyz, out + 3 * g);
 }

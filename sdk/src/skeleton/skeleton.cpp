@@ -93,6 +93,37 @@ double body_height(const Eigen::Matrix<double, kGpdJoints, 3>& joints) {
   return trunk + 0.5 * (left_leg + right_leg);
 }
 
+namespace {
+
+// True when GPD joint g is a blend whose every point lies on a skeleton of n joints.
+bool synthesised_from(const GpdMap& map, int g, int n) {
+  const GpdBlend& b = map.blend[static_cast<size_t>(g)];
+  if (b.count < 1 || b.count > kMaxBlendTerms) return false;
+  for (int k = 0; k < b.count; ++k)
+    if (b.joint[static_cast<size_t>(k)] < 0 || b.joint[static_cast<size_t>(k)] >= n) return false;
+  if (b.offset != 0.0f)
+    for (const int j : b.offset_joint)
+      if (j < 0 || j >= n) return false;
+  return true;
+}
+
+// A blend of rest positions (map_gpd_joint's sum and offset; lengths need no axes turn).
+Eigen::RowVector3d blend_of(const GpdBlend& b, const Eigen::MatrixX3d& rest) {
+  Eigen::RowVector3d p = Eigen::RowVector3d::Zero();
+  for (int k = 0; k < b.count; ++k)
+    p += static_cast<double>(b.weight[static_cast<size_t>(k)]) * rest.row(b.joint[static_cast<size_t>(k)]);
+  if (b.offset != 0.0f) {
+    const Eigen::Vector3d a = rest.row(b.offset_joint[0]), c = rest.row(b.offset_joint[1]);
+    const Eigen::Vector3d lateral = a - c;
+    const Eigen::Vector3d up = 0.5 * (rest.row(b.offset_joint[2]) + rest.row(b.offset_joint[3])).transpose() - 0.5 * (a + c);
+    const double n = lateral.norm();
+    if (n > 0.0) p += (static_cast<double>(b.offset) / n * lateral.cross(up)).transpose();
+  }
+  return p;
+}
+
+}  // namespace
+
 double rest_body_height(const Skeleton& skeleton, const GpdMap& map) {
   if (!skeleton.has_rest_pose) {
     throw Error(ErrorKind::kInvalidArgument,
@@ -102,6 +133,15 @@ double rest_body_height(const Skeleton& skeleton, const GpdMap& map) {
   Eigen::Matrix<double, kGpdJoints, 3> joints;
   for (int g = 0; g < kGpdJoints; ++g) {
     const int src = map.source[static_cast<size_t>(g)];
+    const int rj = map.blend[static_cast<size_t>(g)].rest_joint;
+    if (src < 0 && rj >= 0 && rj < skeleton.joint_count()) {
+      joints.row(g) = rest.row(rj);
+      continue;
+    }
+    if (src < 0 && synthesised_from(map, g, skeleton.joint_count())) {
+      joints.row(g) = blend_of(map.blend[static_cast<size_t>(g)], rest);
+      continue;
+    }
     if (src < 0 || src >= skeleton.joint_count()) {
       throw Error(ErrorKind::kInvalidArgument, std::string("rest_body_height: GPD joint ") +
                                                    kGpdJointNames[static_cast<size_t>(g)] +

@@ -7,6 +7,7 @@
 #include <vector>
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 
 namespace kata {
 
@@ -50,6 +51,9 @@ struct GpdBlend {
   // landmarks it is made of (the pelvis behind the hip joints).
   float offset = 0.0f;
   std::array<int, 4> offset_joint{};            // a, b, c, d
+  // The input joint whose rest position stands for this joint in rest_body_height (-1: the
+  // blend's own): a teacher read through trunk_as_student keeps its own joints' body height.
+  int rest_joint = -1;
 };
 struct GpdMap {
   std::array<int, kGpdJoints> source{};         // input joint, or -1 when synthesised (blend)
@@ -110,6 +114,22 @@ struct Layout {
   bool fixed_axes = false;    // true when the layout defines its axes (MediaPipe)
   bool smooth = false;        // One-Euro smoothing on by default (landmark estimators jitter)
 };
+// A teacher's map read with a student layout's trunk. A layout with no pelvis, spine or neck
+// point ("mediapipe") synthesises Hip, Chest and Neck from its hip, shoulder and head points; a
+// teacher whose layout has those joints (a BVH through "cmu") would otherwise be compared on
+// another trunk, and the difference (the synthesised chest sits 0.5-4 % of the body height from
+// CMU's Spine1, by subject) adds to or dilutes the error at any one joint. Returns `teacher` with
+// every GPD joint that `student` synthesises and `teacher` reads as a joint of its own remade by
+// the student's rule from the teacher's joints: a term that is the student's source of a GPD
+// joint becomes the teacher's source of it, a group of terms in the proportions of another
+// synthesised joint's blend (the ears of MediaPipe's Head in its Neck) becomes the teacher's
+// source of that joint, and the out-of-plane offset's points are read the same way. A joint whose
+// rule cannot be read so (MediaPipe's Head: the ears) stays the teacher's own. A remade joint's
+// rest_joint is the teacher's joint it replaces, so the teacher's rest body height is unchanged
+// (measured: the synthesised trunk's H lowered same-motion pairs). When `student`
+// synthesises nothing, or `teacher` synthesises the same joints, returns `teacher` unchanged (a
+// student of the teacher's own layout is scored as before, bit for bit).
+GpdMap trunk_as_student(const GpdMap& teacher, const GpdMap& student);
 // Names of every built-in layout: the presets, then "mediapipe".
 std::vector<std::string> layout_names();
 // The layout `name` on a skeleton (its joints found by name). Throws kata::Error(kNotFound) for an
@@ -162,7 +182,9 @@ GpdMap make_gpd_map(const Skeleton& skeleton, const std::array<std::string, kGpd
 // consistent units): |Head-Neck| + |Neck-Chest| + |Chest-Hip| + mean over sides of
 // (|Hip_s-Knee_s| + |Knee_s-Foot_s|).
 double body_height(const Eigen::Matrix<double, kGpdJoints, 3>& joints);
-// H of a skeleton's rest pose under a map. Requires skeleton.has_rest_pose.
+// H of a skeleton's rest pose under a map (a synthesised joint: its rest_joint's rest position,
+// else its blend of the rest positions; a teacher read through trunk_as_student keeps the H of
+// its own joints). Requires skeleton.has_rest_pose.
 double rest_body_height(const Skeleton& skeleton, const GpdMap& map);
 
 }  // namespace kata
