@@ -373,7 +373,9 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost,
   spg.keep_curvature = report_.warm && options_.warm_curvature;
   if (report_.warm) spg.gradient_tolerance *= options_.warm_tolerance_factor;
   if (!paper_weights) report_.stress_start = stress(paper_instance(), x_.data(), nullptr);
-  SpgResult r = solver_.minimize(solve, x_.data(), spg);
+  // In a caller's workspace the solves run in its buffers too (the warm solver keeps its pairs).
+  const bool shared = &ws != &own_;
+  SpgResult r = shared ? solver_.minimize(solve, x_.data(), spg, ws.solve, false) : solver_.minimize(solve, x_.data(), spg);
   report_.iterations = r.iterations;
   report_.evaluations = r.evaluations;
   // Basin check: a warm stream can follow a local minimum that the motion slowly makes worse
@@ -385,7 +387,8 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost,
     to_soa(n, baseline_.data(), x_cold);
     SpgOptions cold = options_.solver;
     if (options_.cold_check_probe > 0) cold.max_iterations = std::min(cold.max_iterations, options_.cold_check_probe);
-    SpgResult rc = cold_solver_.minimize(solve, x_cold, cold);
+    SpgResult rc = shared ? cold_solver_.minimize(solve, x_cold, cold, ws.solve, true)
+                          : cold_solver_.minimize(solve, x_cold, cold);
     report_.iterations += rc.iterations;
     report_.evaluations += rc.evaluations;
     if (!rc.converged && rc.iterations < options_.solver.max_iterations && rc.stress < r.stress) {
@@ -394,7 +397,8 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost,
       rest.max_iterations = options_.solver.max_iterations - rc.iterations;
       rest.initial_step = rc.last_step;
       rest.keep_curvature = true;  // the probe's own pairs
-      const SpgResult more = cold_solver_.minimize(solve, x_cold, rest);
+      const SpgResult more = shared ? cold_solver_.minimize(solve, x_cold, rest, ws.solve, true)
+                                    : cold_solver_.minimize(solve, x_cold, rest);
       report_.iterations += more.iterations;
       report_.evaluations += more.evaluations;
       rc.stress = more.stress;

@@ -95,12 +95,16 @@ struct RetargetReport {
 class Retargeter {
  public:
   // A frame's scratch (the teacher's lengths and path weights, SoA copies, the basin check's
-  // start point, the prediction): read and written within one retarget() only, so one workspace
+  // start point, the prediction, the solves' work): read and written within one retarget() only, so one workspace
   // may serve every Retargeter a thread runs, one frame at a time (a worker's streams), and stay
   // in the caches across them. A Retargeter owns one for the calls without a workspace.
   // [one thread at a time]
   struct Workspace {
     std::vector<double> teacher_lengths, cumulative, tau_teacher, soa, x_cold, predicted;
+    // The solves' buffers (spg.hpp SpgScratch): the warm solve's work but its curvature pairs
+    // (the next frame's warm start), the basin check's all of it. Unused in the Retargeter's own
+    // workspace (its solvers keep their own).
+    SpgScratch solve;
     // Sizes the buffers for `joints` joints (allocates only when they are too small).
     void fit(int joints);
   };
