@@ -236,7 +236,6 @@ void Pipeline::push_burst(BurstFrame* frames, int n, Scratch* scratch) {
   for (int f = 0; f < n; ++f) {
     BurstFrame& b = frames[f];
     Pipeline& p = *b.pipeline;
-    p.scratch_ = scratch;  // until its frame is done (stage 3)
     if (b.arrival_ns == 0) b.arrival_ns = now_ns();
     int64_t before = 0;
     b.status = p.push_features(b.capture_time, b.xyz, b.confidence, b.joint_count, &before);
@@ -246,7 +245,9 @@ void Pipeline::push_burst(BurstFrame* frames, int n, Scratch* scratch) {
         !metric::tracking_lost(p.stream_.joints_of(frame))) {
       times[m] = p.stream_.time_of(frame);
       scored[m++] = f;
+      p.scratch_ = scratch;  // until its frame is done (stage 3)
     } else {
+      p.scratch_ = scratch;
       p.process_emitted(before, b.arrival_ns);
       p.scratch_ = nullptr;
     }
