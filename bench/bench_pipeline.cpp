@@ -338,9 +338,13 @@ double referenced_kb(bool clear) {
 // its last frame: the per-stream working set (stream history, aligner, scorer, ghost, result ring)
 // that no longer fits the caches. Counters: us_per_frame (thread CPU), heap_kb_per_stream (what one
 // pipeline holds on the heap once warmed up, from mallinfo2: the most a frame could touch).
+// scratch 0: each pipeline's own per-frame work (the scorer's and the ghost's workspaces, a set
+// per stream); 1: one pipeline::Scratch for all K, as a runtime worker pushes them.
 void BM_PipelinePushStreams(benchmark::State& state) {
   const Setup& s = Setup::get(false);
   const int k = static_cast<int>(state.range(0));
+  kata::pipeline::Scratch shared;
+  kata::pipeline::Scratch* const scratch = state.range(1) == 1 ? &shared : nullptr;
   const size_t heap_before = mallinfo2().uordblks;
   std::vector<std::unique_ptr<kata::pipeline::Pipeline>> streams;
   std::vector<kata::pipeline::Result> out(256);
@@ -352,7 +356,8 @@ void BM_PipelinePushStreams(benchmark::State& state) {
   int64_t i = 0;
   for (; i < 120; ++i)
     for (int j = 0; j < k; ++j) {
-      streams[static_cast<size_t>(j)]->push(static_cast<double>(i) * s.frame_time, s.frame(static_cast<int>(i) + j * stride), s.joints);
+      streams[static_cast<size_t>(j)]->push(static_cast<double>(i) * s.frame_time, s.frame(static_cast<int>(i) + j * stride),
+                                            nullptr, s.joints, 0, scratch);
       if (streams[static_cast<size_t>(j)]->pending() >= 128) streams[static_cast<size_t>(j)]->read(out.data(), nullptr, nullptr, out.size());
     }
   const double heap_per_stream = static_cast<double>(mallinfo2().uordblks - heap_before) / k;
@@ -362,7 +367,8 @@ void BM_PipelinePushStreams(benchmark::State& state) {
   // one more stream's frame touches of its own.
   const double touched_before = referenced_kb(true);
   for (int j = 0; j < k; ++j)
-    streams[static_cast<size_t>(j)]->push(static_cast<double>(i) * s.frame_time, s.frame(static_cast<int>(i) + j * stride), s.joints);
+    streams[static_cast<size_t>(j)]->push(static_cast<double>(i) * s.frame_time, s.frame(static_cast<int>(i) + j * stride),
+                                          nullptr, s.joints, 0, scratch);
   const double touched_round = referenced_kb(false) - touched_before;
   ++i;
   const double t0 = thread_cpu_seconds();
@@ -370,7 +376,8 @@ void BM_PipelinePushStreams(benchmark::State& state) {
   for (auto _ : state) {
     for (int j = 0; j < k; ++j) {
       kata::pipeline::Pipeline& p = *streams[static_cast<size_t>(j)];
-      p.push(static_cast<double>(i) * s.frame_time, s.frame(static_cast<int>(i) + j * stride), s.joints);
+      p.push(static_cast<double>(i) * s.frame_time, s.frame(static_cast<int>(i) + j * stride), nullptr, s.joints, 0,
+             scratch);
       if (p.pending() >= 128) p.read(out.data(), nullptr, nullptr, out.size());
     }
     frames += k;
@@ -381,7 +388,10 @@ void BM_PipelinePushStreams(benchmark::State& state) {
   state.counters["touched_kb_round"] = touched_round;
   state.SetItemsProcessed(frames);
 }
-BENCHMARK(BM_PipelinePushStreams)->ArgName("streams")->Arg(1)->Arg(4)->Arg(16)->Arg(64)->Arg(256)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_PipelinePushStreams)
+    ->ArgNames({"streams", "scratch"})
+    ->ArgsProduct({{1, 4, 16, 64, 256}, {0, 1}})
+    ->Unit(benchmark::kMillisecond);
 
 // A burst: one frame of each of K streams (K pipelines of the same teacher, each at its own place
 // in the student clip) drained together, as a live worker finds them after a 120 Hz tick, with the
@@ -390,12 +400,15 @@ BENCHMARK(BM_PipelinePushStreams)->ArgName("streams")->Arg(1)->Arg(4)->Arg(16)->
 // path 1 as one Pipeline::push_burst (stage by stage: features of all, the scores of all with one
 // pass over W per 8 frames, then ghosts and results). Each burst is timed alone on the wall clock;
 // counter us_per_frame is the median burst's time / K (the benchmark's own time is the mean burst),
-// cpu_us_per_frame the same on the thread's CPU clock.
+// cpu_us_per_frame the same on the thread's CPU clock. scratch 1: one pipeline::Scratch for the K
+// streams (a runtime worker's), 0: each pipeline's own.
 void BM_PipelinePushBurst(benchmark::State& state) {
   const Setup& s = Setup::get(false);
   const int k = static_cast<int>(state.range(0));
   const bool burst = state.range(1) == 1;
   const auto pacing = static_cast<Pacing>(state.range(2));
+  kata::pipeline::Scratch shared;
+  kata::pipeline::Scratch* const scratch = state.range(3) == 1 ? &shared : nullptr;
   std::vector<std::unique_ptr<kata::pipeline::Pipeline>> streams;
   std::vector<kata::pipeline::Result> out(256);
   for (int j = 0; j < k; ++j) {
@@ -408,7 +421,7 @@ void BM_PipelinePushBurst(benchmark::State& state) {
     const double t = static_cast<double>(i) * s.frame_time;
     if (!burst) {
       for (int j = 0; j < k; ++j)
-        streams[static_cast<size_t>(j)]->push(t, s.frame(static_cast<int>(i) + j * stride), s.joints);
+        streams[static_cast<size_t>(j)]->push(t, s.frame(static_cast<int>(i) + j * stride), nullptr, s.joints, 0, scratch);
       return;
     }
     for (int j = 0; j < k; ++j) {
@@ -419,7 +432,7 @@ void BM_PipelinePushBurst(benchmark::State& state) {
       f.joint_count = s.joints;
       f.arrival_ns = 0;
     }
-    kata::pipeline::Pipeline::push_burst(frames.data(), k);
+    kata::pipeline::Pipeline::push_burst(frames.data(), k, scratch);
   };
   auto drain = [&] {
     for (auto& p : streams)
@@ -455,8 +468,8 @@ void BM_PipelinePushBurst(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * k);
 }
 BENCHMARK(BM_PipelinePushBurst)
-    ->ArgNames({"K", "burst", "hot0_evict2_evictall3"})
-    ->ArgsProduct({{1, 8, 16, 32, 64}, {0, 1}, {0, 2, 3}})
+    ->ArgNames({"K", "burst", "hot0_evict2_evictall3", "scratch"})
+    ->ArgsProduct({{1, 8, 16, 32, 64}, {0, 1}, {0, 2, 3}, {0, 1}})
     ->UseManualTime()
     ->Iterations(240)
     ->Unit(benchmark::kMicrosecond);

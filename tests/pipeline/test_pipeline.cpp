@@ -353,6 +353,43 @@ TEST(Pipeline, ABurstEqualsItsFramesPushedOneByOne) {
   EXPECT_EQ(frames[2].status, Status::kOk);
 }
 
+// One Scratch for every stream a thread pushes (a runtime worker's): the scorer's and the ghost's
+// per-frame work shared across 14 streams, pushed one by one and in bursts, leaves every result
+// equal to the pipelines' own scratch's, bit for bit.
+TEST(Pipeline, OneScratchForManyStreamsChangesNoResult) {
+  constexpr int kStreams = 14;
+  BurstStreams own(kStreams), own2(kStreams), shared(kStreams), burst(kStreams);
+  pipeline::Scratch one_by_one, bursts;
+  std::vector<pipeline::Pipeline::BurstFrame> frames(kStreams);
+  std::vector<float> scratch;
+  int64_t ghosts = 0;
+  for (int i = 0; i < 2 * kFrames; ++i) {
+    for (size_t j = 0; j < kStreams; ++j) {
+      const double t = i * own.streams[j].frame_time;
+      const int64_t arrival = 1000 + i;
+      (void)own.streams[j].p->push(t, own.frame(j, i, scratch), own.joints_of(j, i), arrival);
+      (void)own2.streams[j].p->push(t, own2.frame(j, i, scratch), own2.joints_of(j, i), arrival);
+      (void)shared.streams[j].p->push(t, shared.frame(j, i, scratch), nullptr, shared.joints_of(j, i), arrival,
+                                      &one_by_one);
+      pipeline::Pipeline::BurstFrame& f = frames[j];
+      f = {};
+      f.pipeline = burst.streams[j].p.get();
+      f.capture_time = t;
+      f.xyz = burst.frame(j, i, scratch);
+      f.joint_count = burst.joints_of(j, i);
+      f.arrival_ns = arrival;
+    }
+    pipeline::Pipeline::push_burst(frames.data(), kStreams, &bursts);
+    for (size_t j = 0; j < kStreams; ++j) {
+      if (const pipeline::Result* r = own.streams[j].p->newest(); r && r->has_ghost) ++ghosts;
+      expect_same_results(*own.streams[j].p, *shared.streams[j].p, j);
+      expect_same_results(*own2.streams[j].p, *burst.streams[j].p, j);
+    }
+    if (::testing::Test::HasFailure()) return;
+  }
+  EXPECT_GT(ghosts, 100 * kStreams);
+}
+
 TEST(Pipeline, ABurstReturnsEachFramesPushStatus) {
   BurstStreams one(3), burst(3);
   std::vector<float> scratch;
@@ -398,6 +435,32 @@ TEST(Pipeline, ABurstAllocatesNothingAfterOpen) {
       frames[j].joint_count = b.streams[j].joints;
     }
     pipeline::Pipeline::push_burst(frames.data(), kStreams);
+    if (i % 3 == 0)
+      for (auto& s : b.streams) s.p->read(out.data(), ghosts.data(), features.data(), out.size());
+  }
+  EXPECT_EQ(test::disarm_alloc_counter(), 0);
+}
+
+// The same with one Scratch for every stream: after its first tick (which sizes it), nothing.
+TEST(Pipeline, ABurstWithAScratchAllocatesNothingAfterItsFirstTick) {
+  if (!test::kAllocCounting) GTEST_SKIP() << "allocation counting is off under the sanitizers";
+  constexpr int kStreams = 16;
+  BurstStreams b(kStreams);
+  pipeline::Scratch work;
+  std::vector<pipeline::Pipeline::BurstFrame> frames(kStreams);
+  std::vector<pipeline::Result> out(64);
+  std::vector<float> ghosts(64 * 3 * 64), features(64 * gpd::kDims);
+  std::vector<float> scratch(3 * 64, 0.0f);
+  for (int i = 0; i < kFrames; ++i) {
+    if (i == 1) test::arm_alloc_counter();
+    for (size_t j = 0; j < kStreams; ++j) {
+      frames[j] = {};
+      frames[j].pipeline = b.streams[j].p.get();
+      frames[j].capture_time = i * b.streams[j].frame_time;
+      frames[j].xyz = b.frame(j, i, scratch);
+      frames[j].joint_count = b.streams[j].joints;
+    }
+    pipeline::Pipeline::push_burst(frames.data(), kStreams, &work);
     if (i % 3 == 0)
       for (auto& s : b.streams) s.p->read(out.data(), ghosts.data(), features.data(), out.size());
   }

@@ -801,6 +801,44 @@ TEST(Retarget, WarmStreamIsSmoothAndCheap) {
   }
 }
 
+// One Workspace for retargeters of two joint sets (the CMU set, 21 joints, and the GPD set, 16),
+// frame by frame in turn, as a runtime worker runs its streams: every ghost and report equals
+// the retargeters' own workspaces', bit for bit, basin checks included.
+TEST(Retarget, OneWorkspaceForManyRetargetersChangesNoGhost) {
+  const CmuPair a = cmu_pair("02_01.bvh", "07_01.bvh");
+  const kata::BvhClip teacher = kata::load_bvh(std::string(KATA_DATA_DIR) + "/cmu/05_03.bvh");
+  const kata::BvhClip student = kata::load_bvh(std::string(KATA_DATA_DIR) + "/cmu/09_01.bvh");
+  const auto sel = kata::retarget::select_joints(teacher.skeleton, student.skeleton, "gpd");
+  const auto make_b = [&] {
+    return Retargeter(sel.parents, kata::retarget::selected_rest_lengths(student.skeleton, sel), RetargetOptions{},
+                      kata::retarget::selected_rest_directions(student.skeleton, sel));
+  };
+  Retargeter own_a(a.student.skeleton), shared_a(a.student.skeleton), own_b = make_b(), shared_b = make_b();
+  ASSERT_NE(own_a.joint_count(), own_b.joint_count());
+  Retargeter::Workspace ws;
+  ws.fit(std::max(own_a.joint_count(), own_b.joint_count()));
+  Pose g1(3 * own_a.joint_count()), g2(g1.size()), h1(3 * own_b.joint_count()), h2(h1.size()), tb(h1.size());
+  Eigen::MatrixX3d w(teacher.skeleton.joint_count(), 3);
+  const int frames = std::min(a.teacher_clip.frame_count(), teacher.frame_count());
+  int checks = 0;
+  for (int f = 1; f < std::min(frames, 400); ++f) {
+    const Pose ta = a.frame(f);
+    const kata::retarget::RetargetReport ra = own_a.retarget(ta.data(), g1.data());
+    const kata::retarget::RetargetReport rs = shared_a.retarget(ta.data(), g2.data(), ws);
+    ASSERT_EQ(g1, g2) << "frame " << f;
+    ASSERT_EQ(ra.iterations, rs.iterations) << "frame " << f;
+    ASSERT_EQ(ra.stress, rs.stress) << "frame " << f;
+    checks += ra.cold_checked;
+    kata::world_positions(teacher, f, w);
+    kata::retarget::gather_positions(w, sel, tb.data());
+    const kata::retarget::RetargetReport rb = own_b.retarget(tb.data(), h1.data());
+    const kata::retarget::RetargetReport rt = shared_b.retarget(tb.data(), h2.data(), ws);
+    ASSERT_EQ(h1, h2) << "frame " << f;
+    ASSERT_EQ(rb.iterations, rt.iterations) << "frame " << f;
+  }
+  EXPECT_GT(checks, 20);  // the basin check's solve ran in the shared scratch too
+}
+
 }  // namespace
 
 namespace {

@@ -19,6 +19,22 @@ void sum_parts(const float* p, int stride, float* u) {
 }
 }  // namespace
 
+void Scorer::Workspace::fit(const Metric& m) {
+  const size_t v = static_cast<size_t>(m.groups()) * m.stride();
+  const size_t p_floats = static_cast<size_t>(kProjectionRows) * m.stride();
+  if (metric.xp.size() < static_cast<size_t>(gpd::kDims) || metric.v.size() < v || p.size() < p_floats ||
+      u.size() < static_cast<size_t>(m.stride())) {
+    metric.xp = AlignedFloats(std::max(metric.xp.size(), static_cast<size_t>(gpd::kDims)));
+    metric.v = AlignedFloats(std::max(metric.v.size(), v));
+    p = AlignedFloats(std::max(p.size(), p_floats));
+    u = AlignedFloats(std::max(u.size(), static_cast<size_t>(m.stride())));
+  } else if (m.stride() != stride_ || m.groups() != groups_) {
+    for (AlignedFloats* a : {&metric.xp, &metric.v, &p, &u}) std::fill_n(a->data(), a->size(), 0.0f);
+  }
+  stride_ = m.stride();
+  groups_ = m.groups();
+}
+
 bool tracking_lost(const float* joints, int min_tracked) {
   int tracked = 0;
   for (int j = 0; j < gpd::kJoints; ++j) {
@@ -37,9 +53,7 @@ Scorer::Scorer(std::shared_ptr<const Reference> reference, AlignmentOptions opti
                 "scorer: feedback hold, calibrating, finished and smoothing times must be >= 0 (smoothing finite)");
   const Metric& m = reference_->metric();
   calibration_ = m.calibration();
-  ws_ = m.make_workspace();
-  p_ = AlignedFloats(static_cast<size_t>(kProjectionRows) * m.stride());
-  u_ = AlignedFloats(static_cast<size_t>(m.stride()));
+  own_.fit(m);
   if (reference_->kind() == ReferenceKind::kClip)
     rematch_frames_ = static_cast<int>(std::lround(options.rematch_time / reference_->frame_time()));
   rematch_rest_max_ = 12.0 * (2.0 - 2.0 * std::cos(kRematchAgreement * (3.14159265358979323846 / 180.0)));
@@ -118,27 +132,38 @@ const ScoreRecord& Scorer::score_lost(double t) {
   return record_;
 }
 
-const ScoreRecord& Scorer::score(const float* x, double t) {
-  reference_->metric().part_projections(x, ws_, p_.data());
+const ScoreRecord& Scorer::score(const float* x, double t) { return score(x, t, own_); }
+
+const ScoreRecord& Scorer::score(const float* x, double t, Workspace& ws) {
+  ws_ = &ws;
+  reference_->metric().part_projections(x, ws.metric, ws.p.data());
   finish(x, t);
   return record_;
 }
 
 const ScoreRecord& Scorer::score_matched(const float* x, double t, int matched) {
-  reference_->metric().part_projections(x, ws_, p_.data());
+  ws_ = &own_;
+  reference_->metric().part_projections(x, own_.metric, own_.p.data());
   finish(x, t, std::clamp(matched, 0, reference_->frames() - 1));
   return record_;
 }
 
 void Scorer::score_batch(Scorer* const* scorers, const float* const* x, const double* t, int n) {
+  score_batch(scorers, x, t, n, nullptr);
+}
+
+void Scorer::score_batch(Scorer* const* scorers, const float* const* x, const double* t, int n,
+                         Workspace* const* workspaces) {
   // Small fixed-size pointer tables per kBatch group: no allocation.
   for (int f0 = 0; f0 < n; f0 += detail::kBatch) {
     const int m = std::min(detail::kBatch, n - f0);
     Metric::Workspace* ws[detail::kBatch];
     float* p[detail::kBatch];
     for (int f = 0; f < m; ++f) {
-      ws[f] = &scorers[f0 + f]->ws_;
-      p[f] = scorers[f0 + f]->p_.data();
+      Scorer& s = *scorers[f0 + f];
+      s.ws_ = workspaces ? workspaces[f] : &s.own_;
+      ws[f] = &s.ws_->metric;
+      p[f] = s.ws_->p.data();
     }
     scorers[f0]->reference_->metric().part_projections_batch(x + f0, ws, p, m);
     // Stage by stage: every frame's alignment pass, then every frame's part split, angles and
@@ -158,14 +183,14 @@ void Scorer::finish(const float* x, double t, int matched) {
 
 void Scorer::align_frame(double t) {
   const int stride = reference_->metric().stride();
-  aligned_ = aligner_.align(p_.data() + static_cast<size_t>(kParts) * stride, t);
+  aligned_ = aligner_.align(ws_->p.data() + static_cast<size_t>(kParts) * stride, t);
 }
 
 void Scorer::finish_aligned(const float* x, double t, bool given) {
   const Reference& ref = *reference_;
   const Metric& m = ref.metric();
   const int stride = m.stride();
-  float* p = p_.data();
+  float* p = ws_->p.data();
   pose_frames(x, pose_);
   int j = aligned_;
   if (!given && rematch_frames_ > 0) {
@@ -179,7 +204,7 @@ void Scorer::finish_aligned(const float* x, double t, bool given) {
   // a difference within that rounding is 0, reference.hpp subtract_projection.)
   ref.subtract_projection(j, p);
   const size_t joint_rows = static_cast<size_t>(kJointRows) * stride;
-  float* u = u_.data();
+  float* u = ws_->u.data();
   sum_parts(p, stride, u);
   const double d2 = detail::dot(u, u, stride);
   const ScoreCalibration& c = calibration_;

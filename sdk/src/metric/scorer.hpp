@@ -122,11 +122,30 @@ bool tracking_lost(const float* joints, int min_tracked = 13);
 // (align.hpp). Allocates at construction only. [one thread at a time].
 class Scorer {
  public:
+  // A frame's scratch (the model's projection work, this frame's projections and u): read and
+  // written within one frame only, so one workspace may serve every scorer a thread runs, one
+  // frame at a time (a worker's streams), and stay in the caches across them. A Scorer owns one
+  // for the calls without a workspace. [one thread at a time]
+  struct Workspace {
+    Metric::Workspace metric;
+    AlignedFloats p;  // kProjectionRows x stride: a frame's projections
+    AlignedFloats u;  // stride: u = W^T (x'' - y'')
+    // Sizes the buffers for `m` (allocates only when they are too small) and, when the last
+    // model it served had another shape, zero-fills them (padding reads as 0, as when fresh).
+    void fit(const Metric& m);
+
+   private:
+    int stride_ = -1, groups_ = -1;
+  };
+
   explicit Scorer(std::shared_ptr<const Reference> reference, AlignmentOptions options = {},
                   FeedbackOptions feedback = {});
 
   // Scores features x (kDims floats) of a frame at time t (seconds, increasing). Allocation-free.
   const ScoreRecord& score(const float* x, double t);
+  // The same in the caller's workspace (fitted to this scorer's model: Workspace::fit), instead
+  // of the scorer's own: results equal score()'s bit for bit. Allocation-free once fitted.
+  const ScoreRecord& score(const float* x, double t, Workspace& ws);
   // The same against teacher frame `matched` (clamped to the clip) given by an offline alignment
   // (align_dtw.hpp), instead of the online alignment's match, which does not see the frame.
   // Allocation-free.
@@ -134,6 +153,10 @@ class Scorer {
   // Scores one frame on each of n scorers at once, sharing each pass over W (the scorers must
   // use the same Metric and be distinct). Allocation-free; results equal score()'s.
   static void score_batch(Scorer* const* scorers, const float* const* x, const double* t, int n);
+  // The same in the caller's workspaces instead of the scorers' own: ws[0 .. min(n, kBatch))
+  // (distinct, each fitted to the model), frame f0 + f of each group of kBatch frames in ws[f].
+  static void score_batch(Scorer* const* scorers, const float* const* x, const double* t, int n,
+                          Workspace* const* ws);
 
   // A frame at time t without a usable pose (tracking lost, too few joints): a kTrackingLost
   // record (distance and scores 0, part_to_fix -1); the alignment holds. Allocation-free.
@@ -195,9 +218,8 @@ class Scorer {
   FeedbackOptions feedback_;
   ScoreCalibration calibration_;
   Tolerance tolerance_;
-  Metric::Workspace ws_;
-  AlignedFloats p_;                 // kProjectionRows x stride: this frame's projections
-  AlignedFloats u_;                 // stride: u = W^T (x'' - y'')
+  Workspace own_;                   // the workspace of the calls that give none
+  Workspace* ws_ = &own_;           // this frame's workspace (set by each scoring call)
   float pose_[kPoseFloats] = {};    // this frame's student pose in the body's frames (pose_error.hpp)
   PartError error_ = {};            // this frame's per-part angles and offsets
   float bones_[3 * kBones] = {};    // this frame's student bone directions (the re-match's)

@@ -181,7 +181,7 @@ void Pipeline::restart_teacher() {
 }
 
 Status Pipeline::push(double capture_time, const float* xyz, const float* confidence, int joint_count,
-                      int64_t arrival_ns) {
+                      int64_t arrival_ns, Scratch* scratch) {
   if (arrival_ns == 0) arrival_ns = now_ns();
   int64_t before = 0;
   const Status s = push_features(capture_time, xyz, confidence, joint_count, &before);
@@ -189,8 +189,23 @@ Status Pipeline::push(double capture_time, const float* xyz, const float* confid
   // kTrackingLost: the frame ended the segment (which may emit its held vector). Either way
   // the vectors emitted with it are still processed.
   if (s != Status::kOk && s != Status::kInternal && s != Status::kTrackingLost) return s;
+  scratch_ = scratch;
   process_emitted(before, arrival_ns);
+  scratch_ = nullptr;
   return s;
+}
+
+metric::Scorer::Workspace* Pipeline::score_workspace(int k) {
+  if (!scratch_) return nullptr;
+  metric::Scorer::Workspace& ws = scratch_->score_[k];
+  ws.fit(scorer_->reference().metric());  // no allocation once it has served this model's shape
+  return &ws;
+}
+
+retarget::Retargeter::Workspace* Pipeline::ghost_workspace() {
+  if (!scratch_) return nullptr;
+  scratch_->ghost_.fit(retargeter_->joint_count());
+  return &scratch_->ghost_;
 }
 
 Status Pipeline::push_features(double capture_time, const float* xyz, const float* confidence, int joint_count,
@@ -211,14 +226,14 @@ Status Pipeline::push_features(double capture_time, const float* xyz, const floa
   return s;
 }
 
-void Pipeline::push_burst(BurstFrame* frames, int n) {
+void Pipeline::push_burst(BurstFrame* frames, int n, Scratch* scratch) {
   // Frames scored together: the pipeline and the time of its one emitted vector.
   int scored[kMaxBurst];
   double times[kMaxBurst];
   bool done[kMaxBurst];
   int m = 0;
   if (n > kMaxBurst) {  // in bursts of kMaxBurst
-    for (int f0 = 0; f0 < n; f0 += kMaxBurst) push_burst(frames + f0, std::min(kMaxBurst, n - f0));
+    for (int f0 = 0; f0 < n; f0 += kMaxBurst) push_burst(frames + f0, std::min(kMaxBurst, n - f0), scratch);
     return;
   }
   // Stage 1: every frame's features (and push()'s path for a frame the batch does not take).
@@ -234,8 +249,11 @@ void Pipeline::push_burst(BurstFrame* frames, int n) {
         !metric::tracking_lost(p.stream_.joints_of(frame))) {
       times[m] = p.stream_.time_of(frame);
       scored[m++] = f;
+      p.scratch_ = scratch;  // until its frame is done (stage 3)
     } else {
+      p.scratch_ = scratch;
       p.process_emitted(before, b.arrival_ns);
+      p.scratch_ = nullptr;
     }
   }
   // Stage 2: the scores, the frames of one model together (W read once per group of kBatch).
@@ -256,12 +274,20 @@ void Pipeline::push_burst(BurstFrame* frames, int n) {
       ++k;
       done[j] = true;
     }
-    metric::Scorer::score_batch(scorers, xs, ts, k);
+    if (scratch) {
+      // The scratch's kBatch workspaces serve each group of kBatch frames in turn.
+      metric::Scorer::Workspace* ws[metric::detail::kBatch];
+      for (int w = 0; w < std::min(k, metric::detail::kBatch); ++w) ws[w] = frames[scored[i]].pipeline->score_workspace(w);
+      metric::Scorer::score_batch(scorers, xs, ts, k, ws);
+    } else {
+      metric::Scorer::score_batch(scorers, xs, ts, k);
+    }
   }
   // Stage 3: repetitions, ghosts and results.
   for (int i = 0; i < m; ++i) {
     BurstFrame& b = frames[scored[i]];
     b.pipeline->produce(b.pipeline->stream_.feature_frame(), b.arrival_ns, true);
+    b.pipeline->scratch_ = nullptr;
   }
 }
 
@@ -324,7 +350,10 @@ void Pipeline::produce(int64_t frame, int64_t arrival_ns, bool prescored) {
           student_pose_[3 * static_cast<size_t>(j) + c] = s[src + c];
         }
       }
-      retargeter_->retarget(teacher_pose_.data(), ghost_pose_.data());
+      if (retarget::Retargeter::Workspace* ws = ghost_workspace())
+        retargeter_->retarget(teacher_pose_.data(), ghost_pose_.data(), *ws);
+      else
+        retargeter_->retarget(teacher_pose_.data(), ghost_pose_.data());
       retarget::place_over_student(ghost_joints_, student_pose_.data(), ghost_pose_.data());
       for (int i = 0; i < 3 * ghost_joints_; ++i) ghost[i] = static_cast<float>(ghost_pose_[static_cast<size_t>(i)]);
       r.has_ghost = true;
@@ -360,6 +389,7 @@ size_t Pipeline::read(Result* out, float* ghosts, float* features, size_t capaci
 
 const metric::ScoreRecord& Pipeline::score_frame(int64_t frame, double t) {
   if (metric::tracking_lost(stream_.joints_of(frame))) return scorer_->score_lost(t);
+  if (metric::Scorer::Workspace* ws = score_workspace(0)) return scorer_->score(stream_.vector_of(frame), t, *ws);
   return scorer_->score(stream_.vector_of(frame), t);
 }
 

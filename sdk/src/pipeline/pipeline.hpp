@@ -114,6 +114,26 @@ struct Result {
   bool repetition_ended = false;
 };
 
+class Pipeline;
+
+// A thread's scratch for the pipelines it pushes, one frame at a time: the scorer's and the
+// ghost's per-frame work (metric::Scorer::Workspace, retarget::Retargeter::Workspace). A runtime
+// worker holds one for all its streams, so a frame touches these buffers hot, where each stream's
+// own set would be evicted between two of its frames. Results equal the pipelines' own scratch's
+// bit for bit. Grows on use: a push allocates only when a pipeline needs more than it holds (the
+// first frame of a model or a ghost joint set larger than any before). [one thread at a time]
+class Scratch {
+ public:
+  Scratch() = default;
+  Scratch(const Scratch&) = delete;
+  Scratch& operator=(const Scratch&) = delete;
+
+ private:
+  friend class Pipeline;
+  metric::Scorer::Workspace score_[metric::detail::kBatch];  // a score batch's frames
+  retarget::Retargeter::Workspace ghost_;
+};
+
 class Pipeline {
  public:
   // Allocates the stream, the ring and its buffers. Throws kata::Error(kInvalidArgument).
@@ -144,8 +164,9 @@ class Pipeline {
   }
   // With a confidence per input joint (Stream::push with confidences; may return kTrackingLost).
   // A non-finite coordinate kept for the ghost's placement is replaced by the previous frame's.
+  // scratch: the calling thread's Scratch for the frame's work, or null for the pipeline's own.
   Status push(double capture_time, const float* xyz, const float* confidence, int joint_count,
-              int64_t arrival_ns = 0);
+              int64_t arrival_ns = 0, Scratch* scratch = nullptr);
 
   // One frame of a burst (push_burst): the arguments of push() and, after the call, its status.
   struct BurstFrame {
@@ -166,8 +187,8 @@ class Pipeline {
   // state equals what n push() calls in any order leave, bit for bit (computed_ns aside, a clock):
   // the pipelines share nothing but immutable data. A frame that emits other than one vector, is
   // tracking-lost, or has no teacher takes push()'s path. Allocation-free. Throws nothing the
-  // pushes would not; frames[f].status is push()'s.
-  static void push_burst(BurstFrame* frames, int n);
+  // pushes would not; frames[f].status is push()'s. scratch: as push()'s, for every frame.
+  static void push_burst(BurstFrame* frames, int n, Scratch* scratch = nullptr);
   // Stream::flush / reset, with any vector they emit processed like a push's. flush returns
   // Stream::flush's status (kInternal when a non-finite vector was withheld). flush is the end
   // of a take: it also ends the repetition in progress (metric::RepCounter::finish: complete if
@@ -211,12 +232,17 @@ class Pipeline {
   void produce(int64_t frame, int64_t arrival_ns, bool prescored = false);
   // Scores emitted frame `frame`; too few tracked joints give a tracking-lost record instead.
   const metric::ScoreRecord& score_frame(int64_t frame, double t);
+  // The frame's scorer workspace k (< kBatch) and ghost workspace: scratch_'s, fitted, or the
+  // scorer's and retargeter's own (null).
+  metric::Scorer::Workspace* score_workspace(int k);
+  retarget::Retargeter::Workspace* ghost_workspace();
   size_t slot(uint64_t sequence) const { return static_cast<size_t>(sequence % static_cast<uint64_t>(capacity_)); }
 
   PipelineConfig config_;
   Stream stream_;
   int history_ = 0;
   int capacity_ = 0;
+  Scratch* scratch_ = nullptr;  // the push in progress's (null: the scorer's and retargeter's own)
 
   // Teacher side (rebuilt by set_teacher).
   std::shared_ptr<const Teacher> teacher_;

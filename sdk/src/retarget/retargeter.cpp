@@ -62,23 +62,27 @@ void Retargeter::init(const std::vector<double>& rest_directions) {
     throw Error(ErrorKind::kInvalidArgument, "Retargeter: rest directions must be joints x 3");
   }
   tau_student_.resize(m);
-  cumulative_.resize(n);
-  path_weights(table_, student_lengths_.data(), cumulative_.data(), tau_student_.data());
+  own_.fit(n);
+  path_weights(table_, student_lengths_.data(), own_.cumulative.data(), tau_student_.data());
   weight_.resize(m);
   update_weights();
-  teacher_lengths_.resize(n);
-  tau_teacher_.resize(m);
   delta_.resize(m);
   x_.resize(3 * static_cast<size_t>(n));
-  soa_.resize(3 * static_cast<size_t>(n));
-  x_cold_.resize(3 * static_cast<size_t>(n));
-  predicted_.resize(3 * static_cast<size_t>(n));
   fade_.resize(3 * static_cast<size_t>(n));
   shown_.resize(3 * static_cast<size_t>(n));
   max_tau_student_ = *std::max_element(tau_student_.begin(), tau_student_.end());
   baseline_.resize(3 * static_cast<size_t>(n));
   previous_baseline_.resize(3 * static_cast<size_t>(n));
   solved_.resize(3 * static_cast<size_t>(n));
+}
+
+void Retargeter::Workspace::fit(int joints) {
+  const size_t n = static_cast<size_t>(std::max(joints, 0)), m = n * (n > 0 ? n - 1 : 0) / 2;
+  for (std::vector<double>* v : {&teacher_lengths, &cumulative})
+    if (v->size() < n) v->resize(n);
+  if (tau_teacher.size() < m) tau_teacher.resize(m);
+  for (std::vector<double>* v : {&soa, &x_cold, &predicted})
+    if (v->size() < 3 * n) v->resize(3 * n);
 }
 
 void Retargeter::update_weights() {
@@ -327,18 +331,27 @@ void from_soa(int n, const double* soa, double* rows) {
 }  // namespace
 
 double Retargeter::paper_stress(const double* rows) {
-  to_soa(table_.joints, rows, soa_.data());
-  return stress(paper_instance(), soa_.data(), nullptr);
+  to_soa(table_.joints, rows, ws_->soa.data());
+  return stress(paper_instance(), ws_->soa.data(), nullptr);
 }
 
 const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost) {
+  return retarget(teacher, ghost, own_);
+}
+
+const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost, Workspace& ws) {
   const int n = table_.joints, m = table_.pairs;
+  ws_ = &ws;
+  double* const teacher_lengths = ws.teacher_lengths.data();
+  double* const soa = ws.soa.data();
+  double* const x_cold = ws.x_cold.data();
+  double* const predicted = ws.predicted.data();
   // 1. Targets: delta = tau_student * |t_u - t_v| / tau_teacher (tau_teacher of this frame),
   // row by row over SoA teacher positions so the loop reads contiguous memory.
-  bone_lengths(table_, teacher, teacher_lengths_.data());
-  path_weights(table_, teacher_lengths_.data(), cumulative_.data(), tau_teacher_.data());
-  to_soa(n, teacher, soa_.data());
-  detail::targets(n, soa_.data(), tau_student_.data(), tau_teacher_.data(), delta_.data());
+  bone_lengths(table_, teacher, teacher_lengths);
+  path_weights(table_, teacher_lengths, ws.cumulative.data(), ws.tau_teacher.data());
+  to_soa(n, teacher, soa);
+  detail::targets(n, soa, tau_student_.data(), ws.tau_teacher.data(), delta_.data());
   const StressInstance solve{n, m, table_.u.data(), table_.v.data(), weight_.data(), delta_.data()};
   const bool paper_weights = options_.bone_weight == 1.0;
 
@@ -360,7 +373,9 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
   spg.keep_curvature = report_.warm && options_.warm_curvature;
   if (report_.warm) spg.gradient_tolerance *= options_.warm_tolerance_factor;
   if (!paper_weights) report_.stress_start = stress(paper_instance(), x_.data(), nullptr);
-  SpgResult r = solver_.minimize(solve, x_.data(), spg);
+  // In a caller's workspace the solves run in its buffers too (the warm solver keeps its pairs).
+  const bool shared = &ws != &own_;
+  SpgResult r = shared ? solver_.minimize(solve, x_.data(), spg, ws.solve, false) : solver_.minimize(solve, x_.data(), spg);
   report_.iterations = r.iterations;
   report_.evaluations = r.evaluations;
   // Basin check: a warm stream can follow a local minimum that the motion slowly makes worse
@@ -369,10 +384,11 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
   // keep whichever optimum is lower.
   if (report_.warm && options_.cold_check_interval > 0 && ++warm_frames_ >= options_.cold_check_interval) {
     warm_frames_ = 0;
-    to_soa(n, baseline_.data(), x_cold_.data());
+    to_soa(n, baseline_.data(), x_cold);
     SpgOptions cold = options_.solver;
     if (options_.cold_check_probe > 0) cold.max_iterations = std::min(cold.max_iterations, options_.cold_check_probe);
-    SpgResult rc = cold_solver_.minimize(solve, x_cold_.data(), cold);
+    SpgResult rc = shared ? cold_solver_.minimize(solve, x_cold, cold, ws.solve, true)
+                          : cold_solver_.minimize(solve, x_cold, cold);
     report_.iterations += rc.iterations;
     report_.evaluations += rc.evaluations;
     if (!rc.converged && rc.iterations < options_.solver.max_iterations && rc.stress < r.stress) {
@@ -381,7 +397,8 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
       rest.max_iterations = options_.solver.max_iterations - rc.iterations;
       rest.initial_step = rc.last_step;
       rest.keep_curvature = true;  // the probe's own pairs
-      const SpgResult more = cold_solver_.minimize(solve, x_cold_.data(), rest);
+      const SpgResult more = shared ? cold_solver_.minimize(solve, x_cold, rest, ws.solve, true)
+                                    : cold_solver_.minimize(solve, x_cold, rest);
       report_.iterations += more.iterations;
       report_.evaluations += more.evaluations;
       rc.stress = more.stress;
@@ -390,7 +407,7 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
     }
     report_.cold_checked = true;
     if (rc.stress < r.stress * (1.0 - 1e-6)) {
-      std::copy(x_cold_.begin(), x_cold_.end(), x_.begin());
+      std::copy(x_cold, x_cold + 3 * n, x_.begin());
       r.stress = rc.stress;
       r.converged = rc.converged;
       r.last_step = rc.last_step;
@@ -409,7 +426,7 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
   const bool had_previous = has_previous_;
   double jump = 0.0;
   if (had_previous) {
-    for (int i = 0; i < 3 * n; ++i) predicted_[i] = solved_[i] + baseline_[i] - previous_baseline_[i];
+    for (int i = 0; i < 3 * n; ++i) predicted[i] = solved_[i] + baseline_[i] - previous_baseline_[i];
   }
   from_soa(n, x_.data(), solved_.data());
   double map[9];
@@ -422,7 +439,7 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
   if (had_previous && report_.warm) {
     for (int j = 0; j < n; ++j) {
       double d2 = 0.0;
-      for (int k = 0; k < 3; ++k) d2 += (solved_[3 * j + k] - predicted_[3 * j + k]) * (solved_[3 * j + k] - predicted_[3 * j + k]);
+      for (int k = 0; k < 3; ++k) d2 += (solved_[3 * j + k] - predicted[3 * j + k]) * (solved_[3 * j + k] - predicted[3 * j + k]);
       jump = std::max(jump, std::sqrt(d2));
     }
   }
@@ -433,7 +450,7 @@ const RetargetReport& Retargeter::retarget(const double* teacher, double* ghost)
   const double* shown = solved_.data();
   if (options_.fade_frames > 0 && report_.warm) {
     if (jump > options_.jump_fraction * max_tau_student_) {
-      for (int i = 0; i < 3 * n; ++i) fade_[i] = predicted_[i] - solved_[i] + (fade_left_ > 0 ? fade_[i] * fade_left_ / (options_.fade_frames + 1.0) : 0.0);
+      for (int i = 0; i < 3 * n; ++i) fade_[i] = predicted[i] - solved_[i] + (fade_left_ > 0 ? fade_[i] * fade_left_ / (options_.fade_frames + 1.0) : 0.0);
       fade_left_ = options_.fade_frames;
       report_.faded = true;
     }

@@ -94,6 +94,21 @@ struct RetargetReport {
 // Per-stream retargeting state for one (teacher tree, student bone lengths) pair.
 class Retargeter {
  public:
+  // A frame's scratch (the teacher's lengths and path weights, SoA copies, the basin check's
+  // start point, the prediction, the solves' work): read and written within one retarget() only, so one workspace
+  // may serve every Retargeter a thread runs, one frame at a time (a worker's streams), and stay
+  // in the caches across them. A Retargeter owns one for the calls without a workspace.
+  // [one thread at a time]
+  struct Workspace {
+    std::vector<double> teacher_lengths, cumulative, tau_teacher, soa, x_cold, predicted;
+    // The solves' buffers (spg.hpp SpgScratch): the warm solve's work but its curvature pairs
+    // (the next frame's warm start), the basin check's all of it. Unused in the Retargeter's own
+    // workspace (its solvers keep their own).
+    SpgScratch solve;
+    // Sizes the buffers for `joints` joints (allocates only when they are too small).
+    void fit(int joints);
+  };
+
   // parents: the tree shared by teacher and student (topological, parents[0] == -1).
   // student_lengths: per joint, the student's bone length to its parent (> 0; entry 0 unused).
   // student_rest_directions (optional, joints x 3 row-major): fallback bone directions for a
@@ -107,6 +122,9 @@ class Retargeter {
   // the student's length units. The ghost's root is on the teacher's root, oriented like the
   // teacher. No allocation. Returns the report of this frame (valid until the next call).
   const RetargetReport& retarget(const double* teacher, double* ghost);
+  // The same in the caller's workspace (fitted to joint_count(): Workspace::fit) instead of the
+  // Retargeter's own: results equal retarget()'s bit for bit. No allocation once fitted.
+  const RetargetReport& retarget(const double* teacher, double* ghost, Workspace& ws);
   // Forgets the previous frame: the next retarget() starts cold from the FK baseline.
   void reset() {
     has_previous_ = false;
@@ -150,11 +168,10 @@ class Retargeter {
   std::vector<double> rest_dirs_;         // joints x 3 unit fallback directions
   std::vector<double> tau_student_;       // per pair
   std::vector<double> weight_;            // per pair: priority (x bone_weight on bones)
-  std::vector<double> teacher_lengths_, cumulative_, tau_teacher_, delta_;
+  std::vector<double> delta_;             // per pair: this frame's target distances
   std::vector<double> x_;                 // the solver's variable, SoA (3 blocks of joints)
-  std::vector<double> soa_;               // scratch for stress evaluations of row-major postures
-  std::vector<double> x_cold_;            // the basin check's solve (SoA)
-  std::vector<double> predicted_;         // this frame's optimum predicted from the previous one
+  Workspace own_;                          // the workspace of the calls that give none
+  Workspace* ws_ = &own_;                  // this frame's (set by retarget())
   std::vector<double> fade_, shown_;      // cross-fade offset and the faded optimum
   int fade_left_ = 0;                      // frames of cross-fade still to show
   double max_tau_student_ = 0.0;           // the longest student path (scale of a jump)

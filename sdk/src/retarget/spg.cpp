@@ -109,6 +109,47 @@ SpgResult SpgSolver::minimize(const StressInstance& in, double* x, const SpgOpti
   return solve(work_, in, x, opt);
 }
 
+SpgResult SpgSolver::minimize(const StressInstance& in, double* x, const SpgOptions& opt, SpgScratch& scratch,
+                              bool with_pairs) {
+  detail::SpgWork& w = work_;
+  // Sized for this solver (never below it: history's length is the line search's memory bound,
+  // so it is exactly the solver's); zero-filled when the joint count changes (padding reads 0).
+  if (scratch.size != w.size) {
+    const auto fit = [](std::vector<double>& v, std::size_t n) { v.assign(std::max(v.size(), n), 0.0); };
+    for (std::vector<double>* v : {&scratch.x, &scratch.g, &scratch.xn, &scratch.gn, &scratch.best, &scratch.d})
+      fit(*v, static_cast<std::size_t>(w.padded));
+    scratch.history.assign(w.history.size(), 0.0);
+    fit(scratch.s, w.s.size());
+    fit(scratch.y, w.y.size());
+    fit(scratch.blocked, w.blocked.storage_size());
+    scratch.size = w.size;
+  }
+  const auto exchange = [&] {
+    w.x.swap(scratch.x);
+    w.g.swap(scratch.g);
+    w.xn.swap(scratch.xn);
+    w.gn.swap(scratch.gn);
+    w.best.swap(scratch.best);
+    w.d.swap(scratch.d);
+    w.history.swap(scratch.history);
+    w.blocked.swap_storage(scratch.blocked);
+    if (with_pairs) {
+      w.s.swap(scratch.s);
+      w.y.swap(scratch.y);
+    }
+  };
+  exchange();
+  SpgResult r;
+  try {
+    r = minimize(in, x, opt);
+  } catch (...) {
+    exchange();
+    throw;
+  }
+  exchange();
+  return r;
+}
+
 void detail::rotate_pairs_portable(SpgWork& work, const double* r) { rotate_pairs(work, r); }
 
 void SpgSolver::rotate_curvature(const double* r) {

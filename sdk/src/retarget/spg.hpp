@@ -106,6 +106,11 @@ struct BlockedPairs {
   double* gradient() { return aligned() + 2 * lanes() + 48 * static_cast<std::size_t>(blocks); }
   // Copies the instance's weights and targets into the blocked order.
   void gather(const StressInstance& instance);
+  // The kernel's scratch storage (weights, targets, the doubled positions, the gradient), which
+  // every solve rewrites before it reads: exchanged with a caller's (SpgSolver::minimize with an
+  // SpgScratch). Its size, to size another one.
+  void swap_storage(std::vector<double>& other) { storage_.swap(other); }
+  std::size_t storage_size() const { return storage_.size(); }
 
  private:
   std::size_t lanes() const { return static_cast<std::size_t>(steps) * kLanes; }
@@ -147,6 +152,17 @@ void rotate_pairs_avx2(SpgWork& work, const double* r);
 void rotate_pairs_avx512(SpgWork& work, const double* r);
 }  // namespace detail
 
+// The buffers a solve writes before it reads them (the iterate, gradients, trial and best points,
+// the direction, the line search's history, the blocked kernel's copies; and the curvature pairs'
+// vectors for a solve that keeps none from an earlier one): a caller may hold one for every
+// solver a thread runs, one solve at a time, so that they stay in the caches across solvers.
+// Sized by the solvers that use it (allocates only when one needs more than it holds; zero-filled
+// when the joint count changes, as fresh buffers are). [one thread at a time]
+struct SpgScratch {
+  std::vector<double> x, g, xn, gn, best, d, history, s, y, blocked;
+  int size = -1;  // the joint count x 3 of the last solver that used it
+};
+
 // SPG minimiser with its work buffers sized for one joint count at construction.
 class SpgSolver {
  public:
@@ -156,6 +172,12 @@ class SpgSolver {
   // Minimises sigma from x (in: start point, out: the best point seen). No allocation.
   // instance.joints must equal the constructor's joint count.
   SpgResult minimize(const StressInstance& instance, double* x, const SpgOptions& options);
+  // The same in the caller's scratch instead of the solver's own buffers (with_pairs: its
+  // curvature pairs' vectors too, for a solve whose pairs live only within the caller's frame:
+  // options.keep_curvature only after a solve of the same frame). Results equal minimize()'s
+  // bit for bit. No allocation once the scratch has served this joint count.
+  SpgResult minimize(const StressInstance& instance, double* x, const SpgOptions& options, SpgScratch& scratch,
+                     bool with_pairs);
   // The kept curvature pairs (options.keep_curvature) are differences of SoA positions and of
   // gradients: when the caller moves its point rigidly (the stress is invariant under rigid
   // motions and reflections), it applies the same linear map to them. r: a 3 x 3 orthogonal

@@ -223,6 +223,9 @@ void Runtime::worker_loop(Worker& w) {
   // A burst (RuntimeConfig::drain_burst): the frames waiting in turn, of distinct streams, none
   // a practice setting or a restart, drained stage by stage in one Pipeline::push_burst.
   const int bound = std::clamp(config_.drain_burst, 1, pipeline::Pipeline::kMaxBurst);
+  // The frames' scratch (scorer and ghost work), one for all this worker's streams: it stays in
+  // the caches from one stream's frame to the next (grows on the first frame of a larger model).
+  pipeline::Scratch scratch;
   FrameCell* burst_cells[pipeline::Pipeline::kMaxBurst];
   pipeline::Pipeline::BurstFrame burst_frames[pipeline::Pipeline::kMaxBurst];
   const auto plain = [](const FrameCell& c) { return !c.practice && !(c.restart && c.stream->accepted > 0); };
@@ -352,7 +355,7 @@ void Runtime::worker_loop(Worker& w) {
           b.joint_count = c.joints;
           b.arrival_ns = c.arrival_ns;
         }
-        pipeline::Pipeline::push_burst(burst_frames, n);
+        pipeline::Pipeline::push_burst(burst_frames, n, &scratch);
         w.burst_frames.store(w.burst_frames.load(std::memory_order_relaxed) + static_cast<uint64_t>(n),
                              std::memory_order_relaxed);
         for (int f = 0; f < n; ++f) {
@@ -388,7 +391,8 @@ void Runtime::worker_loop(Worker& w) {
       s.time_offset = s.last_time + 1.0 - cell.capture_time;
     }
     const double t = cell.capture_time + s.time_offset;
-    const Status st = p.push(t, cell.xyz, cell.has_confidence ? cell.confidence : nullptr, cell.joints, cell.arrival_ns);
+    const Status st =
+        p.push(t, cell.xyz, cell.has_confidence ? cell.confidence : nullptr, cell.joints, cell.arrival_ns, &scratch);
     after_push(cell, s, st, t);
     if (++unsent >= batch || !frame_ready()) {
       unsent = 0;
