@@ -129,7 +129,11 @@ typedef struct kata_teacher_desc {
   const char* layout;        /* the teacher's layout (kata_layout_name), read as a stream of that
                                 layout reads its frames: its axes and smoothing where it fixes them
                                 ("mediapipe" positions on kata_skeleton_create_layout's skeleton,
-                                since 1.1; 1.0 refused that layout here). NULL: "cmu" */
+                                since 1.1; 1.0 refused that layout here). NULL: "cmu". Attached
+                                to a stream whose layout synthesises its trunk ("mediapipe") and
+                                given one with real trunk joints, the teacher's Hip, Chest and Neck
+                                are made by the stream layout's rule from its own hip, shoulder and
+                                head joints (1.1), so both trunks are built alike */
   uint32_t first_frame;      /* teacher frames first_frame..end (1 skips CMU's T-pose). Default 0 */
   int32_t pose_frame;        /* -1 (default): follow the whole clip; >= first_frame: that frame only */
   int32_t ghost;             /* 1 (default): make a ghost per result (the student skeleton needs rest
