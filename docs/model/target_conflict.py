@@ -23,7 +23,7 @@ mean; the clip mean of each frame's largest bone) against a threshold.
 
     /usr/bin/python3 docs/model/target_conflict.py [build/bin/kata] [../shared/data/cmu] [models/default.kata] [OUT_DIR]
 
-Work files (features, alignments, turned copies) are cached in /tmp/dominance; the report goes to
+Work files (features, alignments, turned copies) are cached in build/dominance; the report goes to
 OUT_DIR/target_conflict.md (default docs/model/eval-target-conflict).
 """
 import csv, os, subprocess, sys
@@ -35,7 +35,7 @@ KATA = os.path.abspath(ARGS[0] if len(ARGS) > 0 else "build/bin/kata")
 DATA = os.path.abspath(ARGS[1] if len(ARGS) > 1 else "../shared/data/cmu")
 MODEL = os.path.abspath(ARGS[2] if len(ARGS) > 2 else "models/default.kata")
 OUT = ARGS[3] if len(ARGS) > 3 else os.path.join(HERE, "eval-target-conflict")
-WORK = "/tmp/dominance"
+WORK = "build/dominance"
 sys.path.insert(0, HERE)
 sys.argv = sys.argv[:1] + [KATA, DATA, MODEL]
 import w_turned  # noqa: E402  (its excerpts, turned copies, joints, angles and test pairs)
@@ -160,7 +160,7 @@ def main():
     w = L.append
     w("# Item 5 against the 45-degree catch: per-bone dominance\n")
     w("`/usr/bin/python3 docs/model/target_conflict.py build/bin/kata ../shared/data/cmu models/default.kata "
-      "docs/model/eval-target-conflict` (work files cached in /tmp/dominance).\n")
+      "docs/model/eval-target-conflict` (work files cached in build/dominance).\n")
     w("Bones: the 15 the shipped worst part's joint angle takes its maximum over (pose_error.cpp part_error; "
       "parent>child, CMU names; head and arms in the chest frame, the rest in GPD's local frame). "
       "Same motion: calibrate.py's same-motion pairs, DTW-aligned scoring frames of `kata score --align dtw` "
